@@ -1,0 +1,224 @@
+"""Messages exchanged by the physics components.
+
+Frames: the world frame has z up; the undisturbed water surface is z = 0 unless a scene says
+otherwise; x is the main throwing direction. Quaternions are (w, x, y, z), rotating body-frame
+vectors into the world frame. The body frame of a disk has its symmetry axis along body z.
+All units SI.
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Annotated
+
+import numpy as np
+
+from cosim.messages import Array, Message, Quat, Vec3, message
+
+Grid = Annotated[np.ndarray, Array("float64", (None, None))]
+"""A 2D float64 array indexed [j, i] (row j along y, column i along x)."""
+
+
+class Shape(enum.IntEnum):
+    """Body shape."""
+
+    DISK = 0
+    SPHERE = 1
+
+
+@message
+class BodyState(Message):
+    """Rigid-body state at the message's log time, world frame.
+
+    position: (3,) centre of mass [m]; orientation: (4,) unit quaternion (w, x, y, z) body->world;
+    velocity: (3,) [m/s]; angular_velocity: (3,) world frame [rad/s].
+    Geometry and mass ride along so that contact components need no copy of the body's settings:
+    shape; radius [m]; thickness [m] (disk; 0 for a sphere); mass [kg]; inertia: (3,) principal
+    moments about body x, y, z [kg m^2].
+    Derived for viewers and plots: attack_angle_deg, the angle between the disk face and the
+    horizontal plane [deg] (0 for a sphere); speed [m/s]; kinetic_energy and potential_energy [J]
+    (potential relative to z = 0).
+    """
+
+    position: Vec3
+    orientation: Quat
+    velocity: Vec3
+    angular_velocity: Vec3
+    shape: Shape
+    radius: float
+    thickness: float
+    mass: float
+    inertia: Vec3
+    attack_angle_deg: float
+    speed: float
+    kinetic_energy: float
+    potential_energy: float
+
+
+@message
+class Wrench(Message):
+    """Force [N] and torque about the body's centre of mass [N m], world frame. Additive.
+
+    Wrenches are held over the receiver's step (a force acts for the whole step).
+    """
+
+    force: Vec3
+    torque: Vec3
+
+    additive = True
+
+    def __add__(self, other: Wrench) -> Wrench:  # type: ignore[override]
+        return Wrench(self.force + other.force, self.torque + other.torque)
+
+    @staticmethod
+    def zero() -> Wrench:
+        return Wrench(np.zeros(3), np.zeros(3))
+
+
+@message
+class Impulse(Message):
+    """An instantaneous change applied once at the start of the receiver's step, world frame.
+
+    linear: (3,) impulse [N s]; angular: (3,) angular impulse about the centre of mass [N m s];
+    correction: (3,) position correction [m] removing penetration (applied directly to the
+    position, not through the velocity, so it adds no energy). Additive.
+    """
+
+    linear: Vec3
+    angular: Vec3
+    correction: Vec3
+
+    additive = True
+
+    def __add__(self, other: Impulse) -> Impulse:  # type: ignore[override]
+        return Impulse(self.linear + other.linear, self.angular + other.angular,
+                       self.correction + other.correction)
+
+    @staticmethod
+    def zero() -> Impulse:
+        return Impulse(np.zeros(3), np.zeros(3), np.zeros(3))
+
+
+@message
+class GroundContact(Message):
+    """What the solid ground did this step.
+
+    in_contact: the body touches a plane; normal_force [N] (>= 0); friction_force [N];
+    sliding: kinetic (true) or static (false) friction; dissipated_energy [J]: total energy removed by
+    impacts and friction since the start (cumulative, so energy books close at any time).
+    """
+
+    in_contact: bool
+    normal_force: float
+    friction_force: float
+    sliding: bool
+    dissipated_energy: float
+
+
+@message
+class PatchRequest(Message):
+    """The water region a consumer needs next step, world frame [m]: x in [x_min, x_max],
+    y in [y_min, y_max]. An empty request (x_min > x_max) asks for nothing."""
+
+    x_min: float
+    x_max: float
+    y_min: float
+    y_max: float
+
+    @staticmethod
+    def empty() -> PatchRequest:
+        return PatchRequest(1.0, 0.0, 1.0, 0.0)
+
+
+@message
+class HeightPatch(Message):
+    """Water columns over a window of the grid.
+
+    i0, j0: grid index of the window's first column (x) and row (y); cell: cell size [m];
+    origin_x, origin_y: world position of the centre of cell (0, 0) [m], so cell (i, j) is centred at
+    (origin_x + i*cell, origin_y + j*cell); rest_level: undisturbed surface height [m];
+    height: (nj, ni) surface elevation z [m]; velocity: (nj, ni) vertical surface velocity [m/s];
+    bottom: (nj, ni) bed elevation z [m]. An empty window has shape (0, 0).
+    """
+
+    i0: int
+    j0: int
+    cell: float
+    origin_x: float
+    origin_y: float
+    rest_level: float
+    height: Grid
+    velocity: Grid
+    bottom: Grid
+
+
+@message
+class OccupiedHeight(Message):
+    """Height of each water column occupied by bodies, b_ij [m], over a window of the grid.
+
+    Absolute (not a change): the water applies h += b - b_prev itself, so a slower water component
+    sampling the latest message still conserves volume. Columns outside the window have b = 0.
+    i0, j0: first column and row; b: (nj, ni).
+    """
+
+    i0: int
+    j0: int
+    b: Grid
+
+
+@message
+class WaterField(Message):
+    """The whole surface, for viewers only (published at the visual frame rate, never to physics).
+
+    cell [m]; origin_x, origin_y: centre of cell (0, 0) [m]; height: (ny, nx) elevation z [m];
+    volume: total water volume above the bed [m^3]; energy: discrete wave energy [J].
+    """
+
+    cell: float
+    origin_x: float
+    origin_y: float
+    height: Grid
+    volume: float
+    energy: float
+
+
+@message
+class WaterContact(Message):
+    """What the water did to the body this step (for the stage monitor, plots and energy books).
+
+    wetted: the body touches water; submerged_fraction: immersed volume / body volume;
+    wetted_area [m^2]; buoyancy, pressure, friction, wave_drag: (3,) forces of each effect [N];
+    depth: depth of the body's lowest point below the local surface [m] (negative above it);
+    dissipated_energy [J], cumulative work done by the water on the body, with the sign flipped.
+    """
+
+    wetted: bool
+    submerged_fraction: float
+    wetted_area: float
+    buoyancy: Vec3
+    pressure: Vec3
+    friction: Vec3
+    wave_drag: Vec3
+    depth: float
+    dissipated_energy: float
+
+
+class StageId(enum.IntEnum):
+    """Stages of a throw (Tsai et al. 2022 names)."""
+
+    APPROACH = 0
+    HIT = 1
+    SLIDE = 2
+    FLY_AWAY = 3
+    SINK = 4
+    REST = 5
+
+
+@message
+class Stage(Message):
+    """A stage change: stage id with its label beside it, the skip count so far, and position x [m]."""
+
+    stage: StageId
+    label: str
+    skips: int
+    x: float

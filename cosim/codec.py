@@ -1,0 +1,310 @@
+"""One codec for every message type: a JSON schema plus JSON bytes, and back, bit-exact.
+
+JSON keeps the channels plottable in Foxglove. Exactness comes from Python's shortest round-trip
+float repr; non-finite floats are written as the strings ``"nan"``, ``"inf"``, ``"-inf"``. Arrays of
+at most :data:`INLINE_ARRAY_MAX` fixed elements are written as (nested) lists so they can be plotted;
+larger or free-shape arrays as ``{"dtype", "shape", "base64"}`` of their little-endian bytes, which is
+both exact and fast for water patches.
+
+Plain component state (for checkpoints) uses :func:`encode_state` / :func:`decode_state`: JSON with
+numpy arrays tagged ``{"__ndarray__": ...}``.
+"""
+
+from __future__ import annotations
+
+import base64
+import enum
+import json
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from cosim.messages import Array, FieldKind, FieldSpec, Message, fields_of
+
+INLINE_ARRAY_MAX = 16  # arrays up to this many fixed elements are written inline as JSON lists
+
+SCHEMA_ENCODING = "jsonschema"
+MESSAGE_ENCODING = "json"
+
+_NONFINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+
+
+class CodecError(ValueError):
+    """A payload that does not decode to its message type."""
+
+
+def _float_out(x: float) -> float | str:
+    x = float(x)
+    if math.isfinite(x):
+        return x
+    return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+
+
+def _float_in(x: Any) -> float:
+    if isinstance(x, str):
+        try:
+            return _NONFINITE[x]
+        except KeyError:
+            raise CodecError(f"expected a number, got string {x!r}") from None
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        raise CodecError(f"expected a number, got {type(x).__name__}")
+    return float(x)
+
+
+def _inline(spec: Array) -> bool:
+    size = spec.fixed_size
+    return size is not None and size <= INLINE_ARRAY_MAX
+
+
+def _array_out(spec: Array, name: str) -> Callable[[Any], Any]:
+    dtype = np.dtype(spec.dtype)
+
+    def check(value: Any) -> np.ndarray:
+        arr = np.asarray(value)
+        if arr.dtype != dtype:
+            arr = arr.astype(dtype) if np.can_cast(arr.dtype, dtype, "same_kind") else None
+            if arr is None:
+                raise CodecError(f"field {name!r}: dtype {np.asarray(value).dtype} is not {dtype}")
+        if len(arr.shape) != len(spec.shape) or any(
+            want is not None and want != got for want, got in zip(spec.shape, arr.shape)
+        ):
+            raise CodecError(f"field {name!r}: shape {arr.shape} does not match {spec.shape}")
+        return arr
+
+    if _inline(spec):
+        if dtype.kind == "f":
+            def enc(value: Any) -> Any:
+                arr = check(value)
+                if np.isfinite(arr).all():
+                    return arr.tolist()
+                return np.vectorize(_float_out, otypes=[object])(arr).tolist()
+            return enc
+        return lambda value: check(value).tolist()
+
+    def enc_b64(value: Any) -> Any:
+        arr = np.ascontiguousarray(check(value), dtype=dtype.newbyteorder("<"))
+        return {"dtype": dtype.str.replace(">", "<"), "shape": list(arr.shape),
+                "base64": base64.b64encode(arr.tobytes()).decode("ascii")}
+
+    return enc_b64
+
+
+def _array_in(spec: Array, name: str) -> Callable[[Any], np.ndarray]:
+    dtype = np.dtype(spec.dtype)
+
+    def finish(arr: np.ndarray) -> np.ndarray:
+        if len(arr.shape) != len(spec.shape) or any(
+            want is not None and want != got for want, got in zip(spec.shape, arr.shape)
+        ):
+            raise CodecError(f"field {name!r}: shape {arr.shape} does not match {spec.shape}")
+        return arr
+
+    if _inline(spec):
+        def dec(value: Any) -> np.ndarray:
+            if dtype.kind == "f":
+                flat = np.asarray(value, dtype=object).ravel()
+                arr = np.array([_float_in(v) for v in flat], dtype=dtype).reshape(np.shape(value))
+            else:
+                arr = np.asarray(value, dtype=dtype)
+            return finish(arr)
+        return dec
+
+    def dec_b64(value: Any) -> np.ndarray:
+        try:
+            raw = base64.b64decode(value["base64"], validate=True)
+            arr = np.frombuffer(raw, dtype=np.dtype(value["dtype"])).reshape(value["shape"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise CodecError(f"field {name!r}: bad array payload ({exc})") from None
+        return finish(arr.astype(dtype, copy=True))
+
+    return dec_b64
+
+
+def _field_coders(spec: FieldSpec) -> tuple[Callable[[Any], Any], Callable[[Any], Any]]:
+    if spec.kind is FieldKind.FLOAT:
+        return _float_out, _float_in
+    if spec.kind is FieldKind.INT:
+        def int_in(x: Any) -> int:
+            if isinstance(x, bool) or not isinstance(x, int):
+                raise CodecError(f"field {spec.name!r}: expected an integer, got {x!r}")
+            return x
+        return int, int_in
+    if spec.kind is FieldKind.BOOL:
+        def bool_in(x: Any) -> bool:
+            if not isinstance(x, bool):
+                raise CodecError(f"field {spec.name!r}: expected true/false, got {x!r}")
+            return x
+        return bool, bool_in
+    if spec.kind is FieldKind.STR:
+        return str, str
+    if spec.kind is FieldKind.ENUM:
+        enum_type = spec.enum_type
+        assert enum_type is not None
+
+        def enum_in(x: Any) -> enum.IntEnum:
+            try:
+                return enum_type(x)
+            except ValueError:
+                raise CodecError(f"field {spec.name!r}: {x!r} is not a {enum_type.__name__}") from None
+        return int, enum_in
+    assert spec.array is not None
+    return _array_out(spec.array, spec.name), _array_in(spec.array, spec.name)
+
+
+class MessageCodec:
+    """Encoder/decoder for one message type (built once per type, see :func:`codec_for`)."""
+
+    def __init__(self, message_type: type[Message]):
+        self.message_type = message_type
+        self.fields = fields_of(message_type)
+        self.schema_name = f"cosim.{message_type.__name__}"
+        coders = [_field_coders(spec) for spec in self.fields]
+        self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders)]
+        self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders)]
+
+    def to_dict(self, msg: Message) -> dict[str, Any]:
+        """The JSON-ready dict of a message."""
+        return {name: enc(getattr(msg, name)) for name, enc in self._encoders}
+
+    def encode(self, msg: Message) -> bytes:
+        """JSON bytes of a message (compact, keys in declaration order)."""
+        return json.dumps(self.to_dict(msg), separators=(",", ":"), allow_nan=False).encode()
+
+    def from_dict(self, data: Any) -> Message:
+        """Build a message from a decoded dict, checking every field; raises CodecError."""
+        if not isinstance(data, dict):
+            raise CodecError(f"{self.schema_name}: expected an object, got {type(data).__name__}")
+        names = {name for name, _ in self._decoders}
+        unknown = sorted(set(data) - names)
+        missing = [name for name, _ in self._decoders if name not in data]
+        if unknown or missing:
+            parts = []
+            if missing:
+                parts.append("missing " + ", ".join(missing))
+            if unknown:
+                parts.append("unknown " + ", ".join(unknown))
+            raise CodecError(f"{self.schema_name}: " + "; ".join(parts))
+        return self.message_type(**{name: dec(data[name]) for name, dec in self._decoders})
+
+    def decode(self, payload: bytes) -> Message:
+        """Message from JSON bytes; raises CodecError on malformed input."""
+        try:
+            data = json.loads(payload)
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise CodecError(f"{self.schema_name}: not valid JSON ({exc})") from None
+        return self.from_dict(data)
+
+    def schema(self) -> dict[str, Any]:
+        """A JSON Schema (draft 2020-12) describing the payload, with units from the docstring."""
+        props: dict[str, Any] = {}
+        number = {"oneOf": [{"type": "number"}, {"enum": ["nan", "inf", "-inf"]}]}
+        for spec in self.fields:
+            if spec.kind is FieldKind.FLOAT:
+                props[spec.name] = number
+            elif spec.kind in (FieldKind.INT, FieldKind.ENUM):
+                props[spec.name] = {"type": "integer"}
+                if spec.enum_type is not None:
+                    props[spec.name]["enum"] = [int(m) for m in spec.enum_type]
+                    props[spec.name]["description"] = ", ".join(
+                        f"{int(m)}={m.name.lower()}" for m in spec.enum_type)
+            elif spec.kind is FieldKind.BOOL:
+                props[spec.name] = {"type": "boolean"}
+            elif spec.kind is FieldKind.STR:
+                props[spec.name] = {"type": "string"}
+            else:
+                assert spec.array is not None
+                if _inline(spec.array):
+                    item: dict[str, Any] = number if spec.array.dtype.startswith("float") else {"type": "integer"}
+                    for dim in reversed(spec.array.shape):
+                        item = {"type": "array", "items": item, "minItems": dim, "maxItems": dim}
+                    props[spec.name] = item
+                else:
+                    props[spec.name] = {
+                        "type": "object",
+                        "description": f"{spec.array.dtype} array of shape {spec.array.shape}, "
+                                       "little-endian bytes in base64",
+                        "properties": {"dtype": {"type": "string"},
+                                       "shape": {"type": "array", "items": {"type": "integer"}},
+                                       "base64": {"type": "string", "contentEncoding": "base64"}},
+                    }
+        return {
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": self.schema_name,
+            "description": (self.message_type.__doc__ or "").strip(),
+            "type": "object",
+            "properties": props,
+            "required": [spec.name for spec in self.fields],
+        }
+
+    def schema_bytes(self) -> bytes:
+        return json.dumps(self.schema(), sort_keys=True, separators=(",", ":")).encode()
+
+
+_CODECS: dict[type[Message], MessageCodec] = {}
+
+
+def codec_for(message_type: type[Message]) -> MessageCodec:
+    """The (cached) codec of a message type."""
+    codec = _CODECS.get(message_type)
+    if codec is None:
+        codec = _CODECS[message_type] = MessageCodec(message_type)
+    return codec
+
+
+def encode(msg: Message) -> bytes:
+    return codec_for(type(msg)).encode(msg)
+
+
+def decode(message_type: type[Message], payload: bytes) -> Message:
+    return codec_for(message_type).decode(payload)
+
+
+# --- plain-data state (checkpoints) -------------------------------------------------------------
+
+def _state_out(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        arr = np.ascontiguousarray(value)
+        arr = arr.astype(arr.dtype.newbyteorder("<"), copy=False)
+        return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape),
+                "base64": base64.b64encode(arr.tobytes()).decode("ascii")}
+    if isinstance(value, dict):
+        return {str(k): _state_out(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_state_out(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        x = float(value)
+        # tagged, so a state string that happens to read "nan" stays a string
+        return x if math.isfinite(x) else {"__float__": _float_out(x)}
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, enum.Enum):
+        return value.value
+    if value is None or isinstance(value, (int, str, bool)):
+        return value
+    raise TypeError(f"state value of type {type(value).__name__} is not plain data")
+
+
+def _state_in(value: Any) -> Any:
+    if isinstance(value, dict):
+        if "__ndarray__" in value:
+            raw = base64.b64decode(value["base64"])
+            return np.frombuffer(raw, dtype=np.dtype(value["__ndarray__"])).reshape(value["shape"]).copy()
+        if "__float__" in value:
+            return _NONFINITE[value["__float__"]]
+        return {k: _state_in(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_state_in(v) for v in value]
+    return value
+
+
+def encode_state(state: Any) -> bytes:
+    """JSON bytes of plain state data (dicts, lists, numbers, strings, numpy arrays), bit-exact."""
+    return json.dumps(_state_out(state), separators=(",", ":"), allow_nan=False).encode()
+
+
+def decode_state(payload: bytes) -> Any:
+    """Inverse of :func:`encode_state`."""
+    return _state_in(json.loads(payload))

@@ -1,0 +1,180 @@
+"""The component contract.
+
+A component declares typed ports and parameters and implements one pure step::
+
+    class Counter(Component):
+        '''Adds its input to a running total.'''
+
+        @dataclass(frozen=True)
+        class Params:
+            gain: float = param(1.0)
+
+        inputs = {"x": Port(Scalar)}
+        outputs = {"total": Port(Scalar)}
+
+        def setup(self) -> None:
+            self.total = 0.0
+
+        def _step_impl(self, t, dt, inputs):
+            self.total += self.params.gain * (inputs["x"].value if inputs["x"] else 0.0)
+            return {"total": Scalar(self.total)}
+
+The public :meth:`Component.step` owns the bookkeeping: status and step count, the stability guard
+against :meth:`max_stable_step` (error, or substepping), checking outputs (known ports, right types,
+finite values) and turning any exception into a :class:`SimulationError` naming the component, the
+simulation time and the reason. Physics code never sees the scheduler.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+from cosim.errors import SimulationError
+from cosim.messages import Message
+from cosim.timebase import NS_PER_S
+
+OnUnstable = Literal["error", "substep"]
+
+MAX_SUBSTEPS = 10_000  # a component needing more substeps than this in one step is reported as unstable
+
+
+@dataclass(frozen=True)
+class Port:
+    """A typed port.
+
+    ``required``: an input that must be connected. ``event``: an input that receives each published
+    message at most once (impulses, stage changes) instead of holding the latest value.
+    """
+
+    type: type[Message]
+    doc: str = ""
+    required: bool = False
+    event: bool = False
+
+
+@dataclass(frozen=True)
+class NoParams:
+    """A component without parameters."""
+
+
+class Component:
+    """Base class of every component; subclasses write :meth:`_step_impl` (and usually :meth:`setup`)."""
+
+    Params: ClassVar[type] = NoParams
+    inputs: ClassVar[dict[str, Port]] = {}
+    outputs: ClassVar[dict[str, Port]] = {}
+
+    def __init__(self, name: str, params: Any = None):
+        self.name = name
+        self.params = params if params is not None else self.Params()
+        self.status = "created"
+        self.step_count = 0
+        self.last_substeps = 1
+        self.stop_reason: str | None = None
+        self.setup()
+        self.status = "initialized"
+
+    # --- to be written by components ---------------------------------------------------------
+
+    def setup(self) -> None:
+        """Build the initial state from ``self.params``."""
+
+    def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        """Advance from ``t`` to ``t + dt`` [s] given this step's inputs; return the outputs to publish.
+
+        Ports left out of the returned dict publish nothing this step.
+        """
+        raise NotImplementedError(f"{type(self).__name__} must implement _step_impl")
+
+    def get_state(self) -> dict[str, Any]:
+        """The full dynamic state as plain data (numbers, strings, lists, dicts, numpy arrays)."""
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a state produced by :meth:`get_state`."""
+
+    def max_stable_step(self) -> float:
+        """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
+        return math.inf
+
+    def summary(self) -> list[str]:
+        """Lines for the closing run summary."""
+        return []
+
+    # --- services for components -------------------------------------------------------------
+
+    def request_stop(self, reason: str) -> None:
+        """Ask the master to end the run after the current tick (e.g. 'stone at rest')."""
+        self.stop_reason = reason
+
+    @classmethod
+    def type_name(cls) -> str:
+        return cls.__name__
+
+    # --- the public step ----------------------------------------------------------------------
+
+    def step(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
+             on_unstable: OnUnstable = "error") -> dict[str, Message]:
+        """Advance one step of ``dt_ns`` from ``t_ns``; guards and bookkeeping around ``_step_impl``."""
+        if self.status not in ("initialized", "running"):
+            raise SimulationError(self.name, t_ns, f"cannot step a component whose status is {self.status!r}")
+        t = t_ns / NS_PER_S
+        dt = dt_ns / NS_PER_S
+        try:
+            bound = self.max_stable_step()
+            substeps = 1
+            if dt > bound:
+                if on_unstable == "error" or not bound > 0:
+                    raise SimulationError(
+                        self.name, t_ns,
+                        f"step {dt:.6g} s exceeds the stable step {bound:.6g} s (on_unstable: error; "
+                        f"use a base step or 'every' giving at most {bound:.6g} s, or on_unstable: substep)")
+                substeps = math.ceil(dt / bound)
+                if substeps > MAX_SUBSTEPS:
+                    raise SimulationError(
+                        self.name, t_ns, f"needs {substeps} substeps (stable step {bound:.3g} s), "
+                        f"more than the limit {MAX_SUBSTEPS}")
+            self.status = "running"
+            if substeps == 1:
+                outputs = self._step_impl(t, dt, inputs)
+            else:
+                outputs = self._substep(t, dt, substeps, inputs)
+            self.last_substeps = substeps
+        except SimulationError:
+            self.status = "failed"
+            raise
+        except Exception as exc:  # any physics failure becomes a named, timed simulation error
+            self.status = "failed"
+            raise SimulationError(self.name, t_ns, f"{type(exc).__name__}: {exc}") from exc
+        self._check_outputs(t_ns, outputs)
+        self.step_count += 1
+        return outputs
+
+    def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        """n equal substeps with held inputs; event inputs (impulses) go to the first substep only."""
+        h = dt / n
+        events = [name for name, port in self.inputs.items() if port.event]
+        later = {k: (None if k in events else v) for k, v in inputs.items()} if events else inputs
+        outputs: dict[str, Message] = {}
+        for i in range(n):
+            outputs = self._step_impl(t + i * h, h, inputs if i == 0 else later)
+        return outputs
+
+    def _check_outputs(self, t_ns: int, outputs: dict[str, Message]) -> None:
+        declared = self.outputs
+        for port, msg in outputs.items():
+            spec = declared.get(port)
+            if spec is None:
+                self.status = "failed"
+                raise SimulationError(self.name, t_ns, f"returned unknown output port {port!r} "
+                                      f"(declared: {', '.join(declared) or 'none'})")
+            if type(msg) is not spec.type:
+                self.status = "failed"
+                raise SimulationError(self.name, t_ns, f"output {port!r} must be {spec.type.__name__}, "
+                                      f"got {type(msg).__name__}")
+            bad = msg.first_nonfinite()
+            if bad is not None:
+                self.status = "failed"
+                raise SimulationError(self.name, t_ns, f"non-finite value in output {port!r} field {bad!r}")

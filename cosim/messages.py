@@ -1,0 +1,166 @@
+"""Typed messages exchanged between components.
+
+A message type is a frozen dataclass decorated with :func:`message`. Its fields are ``float``,
+``int``, ``bool``, ``str``, an ``enum.IntEnum`` subclass, or a numpy array declared with
+:class:`Array` (dtype and shape, ``None`` for a free dimension)::
+
+    Vec3 = Annotated[np.ndarray, Array("float64", (3,))]
+
+    @message
+    class Wrench(Message):
+        '''Force [N] and torque about the centre of mass [N m], world frame.'''
+        force: Vec3
+        torque: Vec3
+
+A type whose class attribute ``additive`` is true defines ``__add__``; a port fed by several edges
+of such a type receives their sum.
+
+The field layout of each type is computed once (:func:`fields_of`) and shared by the codec, the
+validation of ``initial`` values in scenes, and the finiteness guard.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+import typing
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Array:
+    """Declares a numpy array field: its dtype and shape (``None`` marks a free dimension)."""
+
+    dtype: str
+    shape: tuple[int | None, ...]
+
+    @property
+    def fixed_size(self) -> int | None:
+        """Number of elements when every dimension is fixed, else None."""
+        if any(d is None for d in self.shape):
+            return None
+        return int(np.prod(self.shape, dtype=np.int64))
+
+
+Vec3 = typing.Annotated[np.ndarray, Array("float64", (3,))]
+"""A 3-vector of float64."""
+Quat = typing.Annotated[np.ndarray, Array("float64", (4,))]
+"""A quaternion (w, x, y, z) of float64."""
+
+
+class FieldKind(enum.Enum):
+    FLOAT = "float"
+    INT = "int"
+    BOOL = "bool"
+    STR = "str"
+    ENUM = "enum"
+    ARRAY = "array"
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """One field of a message type, as the codec and validators see it."""
+
+    name: str
+    kind: FieldKind
+    array: Array | None = None
+    enum_type: type[enum.IntEnum] | None = None
+
+
+class Message:
+    """Base of all exchanged messages (use the :func:`message` decorator on subclasses)."""
+
+    additive: ClassVar[bool] = False
+    __cosim_fields__: ClassVar[tuple[FieldSpec, ...]] = ()
+
+    def __add__(self, other: Message) -> Message:  # pragma: no cover - overridden by additive types
+        raise TypeError(f"{type(self).__name__} is not additive")
+
+    def replace(self, **changes: Any) -> Message:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    def first_nonfinite(self) -> str | None:
+        """Name of the first float field (or array) holding NaN or infinity, or None."""
+        for spec in type(self).__cosim_fields__:
+            value = getattr(self, spec.name)
+            if spec.kind is FieldKind.FLOAT:
+                if not math.isfinite(value):
+                    return spec.name
+            elif spec.kind is FieldKind.ARRAY and value.dtype.kind == "f" and value.size:
+                if not np.isfinite(value).all():
+                    return spec.name
+        return None
+
+
+def _field_spec(name: str, annotation: Any, owner: str) -> FieldSpec:
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        base, *extras = typing.get_args(annotation)
+        arrays = [e for e in extras if isinstance(e, Array)]
+        if base is np.ndarray and arrays:
+            return FieldSpec(name, FieldKind.ARRAY, array=arrays[0])
+        annotation = base
+    if annotation is float:
+        return FieldSpec(name, FieldKind.FLOAT)
+    if annotation is bool:
+        return FieldSpec(name, FieldKind.BOOL)
+    if annotation is int:
+        return FieldSpec(name, FieldKind.INT)
+    if annotation is str:
+        return FieldSpec(name, FieldKind.STR)
+    if isinstance(annotation, type) and issubclass(annotation, enum.IntEnum):
+        return FieldSpec(name, FieldKind.ENUM, enum_type=annotation)
+    raise TypeError(
+        f"{owner}.{name}: unsupported message field type {annotation!r} "
+        "(use float, int, bool, str, an IntEnum, or Annotated[np.ndarray, Array(dtype, shape)])"
+    )
+
+
+_T = typing.TypeVar("_T", bound=type)
+
+
+def message(cls: _T) -> _T:
+    """Class decorator: make ``cls`` a frozen dataclass message and record its field layout."""
+    cls = dataclass(frozen=True, eq=False)(cls)
+    hints = typing.get_type_hints(cls, include_extras=True)
+    specs = tuple(
+        _field_spec(f.name, hints[f.name], cls.__name__) for f in dataclasses.fields(cls)
+    )
+    cls.__cosim_fields__ = specs
+    return cls
+
+
+def fields_of(message_type: type[Message]) -> tuple[FieldSpec, ...]:
+    """The field layout of a message type."""
+    specs = message_type.__dict__.get("__cosim_fields__")
+    if specs is None:
+        raise TypeError(f"{message_type.__name__} is not a message type (missing @message)")
+    return specs
+
+
+def messages_equal(a: Message, b: Message) -> bool:
+    """Exact equality, bit for bit on floats and arrays (NaN equals NaN of the same bits)."""
+    return first_difference(a, b) is None
+
+
+def first_difference(a: Message, b: Message) -> str | None:
+    """Name of the first field where ``a`` and ``b`` differ bit for bit, or None if identical."""
+    if type(a) is not type(b):
+        return "<type>"
+    for spec in fields_of(type(a)):
+        x, y = getattr(a, spec.name), getattr(b, spec.name)
+        if spec.kind is FieldKind.ARRAY:
+            x, y = np.asarray(x), np.asarray(y)
+            if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
+                return spec.name
+        elif spec.kind is FieldKind.FLOAT:
+            if np.float64(x).tobytes() != np.float64(y).tobytes():
+                return spec.name
+        elif x != y:
+            return spec.name
+    return None

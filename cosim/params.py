@@ -1,0 +1,180 @@
+"""Typed component parameters, validated from plain YAML data with every problem reported at once.
+
+A component declares its parameters as a dataclass; constraints and units go in field metadata
+through :func:`param`::
+
+    @dataclass(frozen=True)
+    class Params:
+        radius: float = param(0.05, unit="m", gt=0)
+        shape: Literal["disk", "sphere"] = param("disk")
+        velocity: tuple[float, float, float] = param((0.0, 0.0, 0.0), unit="m/s")
+
+Supported field types: float (ints accepted), int, bool, str, ``Literal[...]`` choices, fixed
+``tuple[float, ...]`` vectors, ``list[X]``, ``X | None``, and nested parameter dataclasses.
+A field whose name ends in ``_deg`` is an angle in degrees (a convention, stated in messages).
+A dataclass may define ``check(self) -> list[tuple[str, str]]`` for rules across fields, returning
+``(field, problem)`` pairs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from dataclasses import MISSING
+from typing import Any, Literal
+
+_REQUIRED = MISSING
+
+
+def param(default: Any = _REQUIRED, *, unit: str = "", doc: str = "", gt: float | None = None,
+          ge: float | None = None, lt: float | None = None, le: float | None = None) -> Any:
+    """A parameter field with optional bounds (gt/ge/lt/le), unit and description."""
+    meta = {"unit": unit, "doc": doc, "gt": gt, "ge": ge, "lt": lt, "le": le}
+    if default is _REQUIRED:
+        return dataclasses.field(metadata=meta)
+    if isinstance(default, (list, dict)):
+        return dataclasses.field(default_factory=lambda d=default: _copy(d), metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def _copy(value: Any) -> Any:
+    if isinstance(value, list):
+        return [_copy(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _copy(v) for k, v in value.items()}
+    return value
+
+
+def _type_name(tp: Any) -> str:
+    origin = typing.get_origin(tp)
+    if origin is Literal:
+        return "one of " + ", ".join(repr(a) for a in typing.get_args(tp))
+    if origin is tuple:
+        args = typing.get_args(tp)
+        return f"a list of {len(args)} numbers"
+    if origin is list:
+        return f"a list of {_type_name(typing.get_args(tp)[0])}"
+    if dataclasses.is_dataclass(tp):
+        return "a mapping"
+    return {float: "a number", int: "an integer", bool: "true or false", str: "a string"}.get(
+        tp, getattr(tp, "__name__", str(tp)))
+
+
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def convert(tp: Any, value: Any, path: str, problems: list[str]) -> Any:
+    """Convert plain data ``value`` to type ``tp``; append ``path: problem`` lines on failure."""
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if value is None:
+            return None
+        return convert(args[0], value, path, problems)
+    if origin is Literal:
+        choices = typing.get_args(tp)
+        if value not in choices:
+            problems.append(f"{path}: must be one of {', '.join(map(repr, choices))} (got {_show(value)})")
+        return value
+    if origin is tuple:
+        args = typing.get_args(tp)
+        if not isinstance(value, (list, tuple)) or len(value) != len(args):
+            problems.append(f"{path}: must be {_type_name(tp)} (got {_show(value)})")
+            return value
+        return tuple(convert(a, v, f"{path}[{i}]", problems) for i, (a, v) in enumerate(zip(args, value)))
+    if origin is list:
+        (item,) = typing.get_args(tp)
+        if not isinstance(value, list):
+            problems.append(f"{path}: must be {_type_name(tp)} (got {_show(value)})")
+            return value
+        return [convert(item, v, f"{path}[{i}]", problems) for i, v in enumerate(value)]
+    if dataclasses.is_dataclass(tp):
+        return build(tp, value, path, problems)
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            problems.append(f"{path}: must be a number (got {_show(value)})")
+            return value
+        if not math.isfinite(value):
+            problems.append(f"{path}: must be finite (got {value})")
+        return float(value)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            problems.append(f"{path}: must be an integer (got {_show(value)})")
+        return value
+    if tp is bool:
+        if not isinstance(value, bool):
+            problems.append(f"{path}: must be true or false (got {_show(value)})")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            problems.append(f"{path}: must be a string (got {_show(value)})")
+        return value
+    if tp is Any:
+        return value
+    raise TypeError(f"unsupported parameter type {tp!r} at {path}")
+
+
+def _bounds(meta: dict[str, Any], value: Any, path: str, problems: list[str]) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return
+    unit = f" {meta['unit']}" if meta.get("unit") else ""
+    for key, ok, word in (("gt", lambda v, b: v > b, ">"), ("ge", lambda v, b: v >= b, ">="),
+                          ("lt", lambda v, b: v < b, "<"), ("le", lambda v, b: v <= b, "<=")):
+        bound = meta.get(key)
+        if bound is not None and not ok(value, bound):
+            problems.append(f"{path}: must be {word} {bound:g}{unit} (got {value:g})")
+
+
+def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
+    """Build parameter dataclass ``cls`` from a mapping; problems are appended, never raised."""
+    prefix = f"{path}." if path else ""
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        problems.append(f"{path or '<root>'}: must be a mapping (got {_show(data)})")
+        return None
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    for key in data:
+        if key not in fields:
+            close = [n for n in fields if n.startswith(str(key)[:3])]
+            hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(fields)}"
+            problems.append(f"{prefix}{key}: unknown key{hint}")
+    values: dict[str, Any] = {}
+    before = len(problems)
+    for name, f in fields.items():
+        if name in data:
+            value = convert(hints[name], data[name], prefix + name, problems)
+            _bounds(dict(f.metadata), value, prefix + name, problems)
+            values[name] = value
+        elif f.default is MISSING and f.default_factory is MISSING:
+            problems.append(f"{prefix}{name}: missing (required, {_type_name(hints[name])})")
+    if len(problems) > before:
+        return None
+    obj = cls(**values)
+    check = getattr(obj, "check", None)
+    if check is not None:
+        for field_name, problem in check():
+            problems.append(f"{prefix}{field_name}: {problem}")
+    return obj
+
+
+def describe(cls: type) -> list[tuple[str, str, str, str]]:
+    """(name, type, default, unit + doc) rows for documentation and ``cosim components``."""
+    hints = typing.get_type_hints(cls)
+    rows = []
+    for f in dataclasses.fields(cls):
+        if f.default is not MISSING:
+            default = repr(f.default)
+        elif f.default_factory is not MISSING:
+            default = repr(f.default_factory())
+        else:
+            default = "(required)"
+        meta = dict(f.metadata)
+        note = " ".join(x for x in (f"[{meta['unit']}]" if meta.get("unit") else "", meta.get("doc", "")) if x)
+        rows.append((f.name, _type_name(hints[f.name]), default, note))
+    return rows
