@@ -95,6 +95,10 @@ class Component:
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a state produced by :meth:`get_state`."""
 
+    def initial_outputs(self) -> dict[str, Message]:
+        """What the component publishes at t = 0, before the first tick (e.g. a body's initial state)."""
+        return {}
+
     def max_stable_step(self) -> float:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
         return math.inf

@@ -1,0 +1,235 @@
+"""The MCAP recorder: an observer that writes every exchange, so a run can be watched and replayed.
+
+Layout of a recording:
+
+- ``/<component>/<port>``: every message published on that output port, JSON with a ``jsonschema``
+  schema named ``cosim.<Type>``; log_time = publish_time = simulation time [ns]; a per-channel
+  sequence number.
+- ``/cosim/events``: framework events (substepping switched on, ...), ``cosim.Event``.
+- ``/cosim/checkpoint``: full restart states every ``record.checkpoint_every`` seconds.
+- ``/cosim/status``: the final status record (ok, stopped, failed, interrupted), always written.
+- metadata ``cosim`` (version, scene name, source, overrides, command line, dt) and the scene YAML
+  as the attachment ``scene.yaml``, so a recording is self-describing and replayable.
+- extra channels from *derivers* (viewer channels, computed from the exchanged messages and never
+  fed back into the physics) and opt-in ``/perf/...`` wall-clock channels.
+
+The file is written as ``NAME.part`` and renamed when closed, so a finished path always holds a
+complete, indexed file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import os
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from mcap.writer import CompressionType, IndexType, Writer
+
+from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, encode_state
+from cosim.messages import Message, message
+from cosim.scenario import Scene
+from cosim.scheduler import BaseObserver, RunResult, Simulation
+
+STATUS_TOPIC = "/cosim/status"
+EVENTS_TOPIC = "/cosim/events"
+CHECKPOINT_TOPIC = "/cosim/checkpoint"
+PERF_TOPIC = "/perf/tick"
+METADATA_NAME = "cosim"
+SCENE_ATTACHMENT = "scene.yaml"
+
+# Chunk and message indexes for fast seeking; attachment and metadata indexes because every
+# recording has both (the mcap default also writes empty index groups that strict checkers flag).
+INDEX_TYPES = IndexType.CHUNK | IndexType.MESSAGE | IndexType.ATTACHMENT | IndexType.METADATA
+
+
+@message
+class Event(Message):
+    """A framework event: which component, what kind (e.g. ``substep``), and a sentence."""
+
+    component: str
+    kind: str
+    detail: str
+
+
+@message
+class RunStatus(Message):
+    """How the run ended: status (ok | stopped | failed | interrupted), the reason, the last tick and
+    its time [s], and component steps taken."""
+
+    status: str
+    reason: str
+    tick: int
+    time: float
+    component_steps: int
+
+
+@message
+class PerfSample(Message):
+    """Wall-clock cost of the last ``ticks`` ticks [s] and the real-time factor (non-deterministic)."""
+
+    ticks: int
+    wall: float
+    real_time_factor: float
+
+
+def topic_of(component: str, port: str) -> str:
+    """Channel name of an output port."""
+    return f"/{component}/{port}"
+
+
+@dataclass
+class DerivedMessage:
+    """A message a deriver wants written: topic, schema name/encoding/bytes, message encoding, data."""
+
+    topic: str
+    schema_name: str
+    schema_encoding: str
+    schema_data: bytes
+    message_encoding: str
+    data: bytes
+
+
+Deriver = Callable[[int, str, str, Message], Iterable[DerivedMessage]]
+"""Called with (time_ns, component, port, msg) for every exchange; yields extra messages to write."""
+
+
+class Recorder(BaseObserver):
+    """Writes a run to MCAP. Use as an observer of a :class:`Simulation`; always call :meth:`close`."""
+
+    def __init__(self, path: str | Path, scene: Scene, *, command_line: str = "", perf: bool = False,
+                 derivers: list[Any] | None = None, version: str = ""):
+        from cosim import __version__
+
+        self.path = Path(path)
+        self.part = self.path.with_name(self.path.name + ".part")
+        self.scene = scene
+        self.perf = perf
+        self.derivers = list(derivers or [])
+        self.patterns = scene.record.channels
+        self.every = scene.record.every
+        self.checkpoint_ticks = (round(scene.record.checkpoint_every * 1e9 / scene.dt_ns)
+                                 if scene.record.checkpoint_every > 0 else 0)
+        self._file: BinaryIO | None = open(self.part, "wb")  # noqa: SIM115 - closed in close()
+        self.writer = Writer(self._file, compression=CompressionType.ZSTD,
+                             index_types=INDEX_TYPES)
+        self.writer.start(profile="", library=f"cosim {version or __version__}")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._sequence: dict[int, int] = {}
+        self._counts: dict[str, int] = {}
+        self._wanted: dict[str, bool] = {}
+        self._closed = False
+        self._perf_wall = time.perf_counter()
+        self._perf_tick = 0
+        meta = {"version": version or __version__, "scene": scene.name, "source": scene.source,
+                "overrides": json.dumps(scene.overrides), "command_line": command_line,
+                "dt_ns": str(scene.dt_ns), "until_ns": str(scene.until_ns)}
+        self.writer.add_metadata(METADATA_NAME, meta)
+        data = scene.text.encode()
+        self.writer.add_attachment(create_time=0, log_time=0, name=SCENE_ATTACHMENT,
+                                   media_type="application/yaml", data=data)
+
+    # --- channels ------------------------------------------------------------------------------------
+
+    def _channel(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
+                 message_encoding: str) -> int:
+        channel = self._channels.get(topic)
+        if channel is None:
+            schema = self._schemas.get(schema_name)
+            if schema is None:
+                schema = self._schemas[schema_name] = self.writer.register_schema(
+                    schema_name, schema_encoding, schema_data)
+            channel = self._channels[topic] = self.writer.register_channel(topic, message_encoding, schema)
+            self._sequence[channel] = 0
+        return channel
+
+    def _message_channel(self, topic: str, msg_type: type[Message]) -> int:
+        channel = self._channels.get(topic)
+        if channel is None:
+            codec = codec_for(msg_type)
+            channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
+                                    MESSAGE_ENCODING)
+        return channel
+
+    def write(self, channel: int, time_ns: int, data: bytes) -> None:
+        seq = self._sequence[channel] = self._sequence[channel] + 1
+        self.writer.add_message(channel, log_time=time_ns, data=data, publish_time=time_ns, sequence=seq)
+
+    def write_message(self, topic: str, time_ns: int, msg: Message) -> None:
+        self.write(self._message_channel(topic, type(msg)), time_ns, codec_for(type(msg)).encode(msg))
+
+    def wanted(self, topic: str) -> bool:
+        ok = self._wanted.get(topic)
+        if ok is None:
+            ok = self._wanted[topic] = self.patterns is None or any(
+                fnmatch.fnmatchcase(topic, p) for p in self.patterns)
+        return ok
+
+    # --- observer interface ----------------------------------------------------------------------------
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
+        topic = f"/{component}/{port}"
+        if self.wanted(topic):
+            n = self._counts.get(topic, 0)
+            self._counts[topic] = n + 1
+            if n % self.every == 0:
+                self.write_message(topic, time_ns, msg)
+        for deriver in self.derivers:
+            for extra in deriver(time_ns, component, port, msg):
+                channel = self._channel(extra.topic, extra.schema_name, extra.schema_encoding,
+                                        extra.schema_data, extra.message_encoding)
+                self.write(channel, time_ns, extra.data)
+
+    def on_event(self, time_ns: int, component: str, kind: str, detail: str) -> None:
+        self.write_message(EVENTS_TOPIC, time_ns, Event(component, kind, detail))
+
+    def on_initialized(self, sim: Simulation) -> None:
+        if self.checkpoint_ticks:
+            self.write_checkpoint(sim)
+
+    def on_step_complete(self, sim: Simulation) -> None:
+        if self.checkpoint_ticks and sim.tick % self.checkpoint_ticks == 0:
+            self.write_checkpoint(sim)
+        if self.perf and sim.tick % 100 == 0:
+            now = time.perf_counter()
+            wall = now - self._perf_wall
+            ticks = sim.tick - self._perf_tick
+            rtf = ticks * sim.dt_ns / 1e9 / wall if wall > 0 else 0.0
+            self.write_message(PERF_TOPIC, sim.time_ns, PerfSample(ticks, wall, rtf))
+            self._perf_wall, self._perf_tick = now, sim.tick
+
+    def write_checkpoint(self, sim: Simulation) -> None:
+        channel = self._channel(CHECKPOINT_TOPIC, "cosim.Checkpoint", SCHEMA_ENCODING,
+                                json.dumps({"title": "cosim.Checkpoint", "type": "object"}).encode(),
+                                MESSAGE_ENCODING)
+        self.write(channel, sim.time_ns, encode_state(sim.checkpoint()))
+
+    def on_finished(self, sim: Simulation, result: RunResult) -> None:
+        self.write_message(STATUS_TOPIC, sim.time_ns, RunStatus(
+            result.status, result.reason, result.tick, sim.time_ns / 1e9, result.component_steps))
+
+    def close(self) -> Path:
+        """Finish the file (summary, indexes) and move it to its final name. Safe to call twice."""
+        if self._closed:
+            return self.path
+        self._closed = True
+        try:
+            self.writer.finish()
+        finally:
+            assert self._file is not None
+            self._file.close()
+            os.replace(self.part, self.path)
+        return self.path
+
+    def discard(self) -> None:
+        """Drop the file entirely (used when nothing was run)."""
+        if not self._closed:
+            self._closed = True
+            assert self._file is not None
+            self._file.close()
+            self.part.unlink(missing_ok=True)

@@ -1,0 +1,486 @@
+"""Scenes: YAML turned into typed, validated configuration before anything runs.
+
+A scene::
+
+    name: ping_pong
+    dt: 0.001                 # base step [s]
+    until: 1.0                # end time [s]
+    on_unstable: error        # or substep (per component too)
+    components:
+      a: {type: Counter, every: 1, gain: 2.0}      # type, every | step, on_unstable, then parameters
+      b: {type: tests.toys:Echo}
+    connections:
+      - a.out -> b.x                               # direct edge (Gauss-Seidel)
+      - {from: b.y, to: a.x, delay: 1, initial: {value: 0.0}}
+    record: {checkpoint_every: 0.5, channels: ["/a/*"], every: 1}
+
+:func:`load` / :func:`loads` report every problem at once, each with its YAML path, as one
+:class:`ScenarioError`. ``overrides`` (``key.path=value`` strings, the CLI's ``--set``) are applied to
+the YAML data first, so they are validated like the file itself.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from cosim.codec import CodecError, codec_for
+from cosim.component import Component, OnUnstable
+from cosim.errors import ScenarioError
+from cosim.messages import Message
+from cosim.params import build
+from cosim.registry import UnknownComponentType, resolve
+from cosim.timebase import NS_PER_S, seconds_to_ns
+
+NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+EDGE_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*->\s*(\w+)\.(\w+)\s*$")
+TOP_KEYS = {"name", "description", "dt", "until", "on_unstable", "components", "connections", "record"}
+COMPONENT_KEYS = {"type", "every", "step", "on_unstable"}
+ON_UNSTABLE = ("error", "substep")
+
+
+@dataclass
+class ComponentConfig:
+    """One component of a scene: its name, class, rate and validated parameters."""
+
+    name: str
+    type_name: str
+    cls: type[Component]
+    every: int
+    params: Any
+    on_unstable: OnUnstable
+
+    def build(self) -> Component:
+        return self.cls(self.name, self.params)
+
+
+@dataclass(frozen=True)
+class Connection:
+    """An edge ``source.source_port -> target.target_port``; ``delay`` 0 (direct) or 1."""
+
+    source: str
+    source_port: str
+    target: str
+    target_port: str
+    delay: int = 0
+    initial: Message | None = None
+
+    def __str__(self) -> str:
+        arrow = "-(delay)->" if self.delay else "->"
+        return f"{self.source}.{self.source_port} {arrow} {self.target}.{self.target_port}"
+
+
+@dataclass
+class RecordConfig:
+    """What the recorder writes: channel patterns (fnmatch, None = all), every n-th message of each
+    physics channel, and component checkpoints every ``checkpoint_every`` seconds (0 = never)."""
+
+    channels: list[str] | None = None
+    every: int = 1
+    checkpoint_every: float = 1.0
+
+
+@dataclass
+class Scene:
+    """A validated scene. ``order`` is the execution order within a tick."""
+
+    name: str
+    description: str
+    dt_ns: int
+    until_ns: int
+    components: dict[str, ComponentConfig]
+    connections: list[Connection]
+    record: RecordConfig
+    order: list[str]
+    text: str
+    data: dict[str, Any]
+    source: str = "<string>"
+    overrides: list[str] = field(default_factory=list)
+
+    def instantiate(self) -> dict[str, Component]:
+        """Fresh components, built from the parameters (in execution order)."""
+        return {name: self.components[name].build() for name in self.order}
+
+    @property
+    def dt(self) -> float:
+        return self.dt_ns / NS_PER_S
+
+
+# --- YAML with duplicate-key detection -----------------------------------------------------------
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that records duplicate mapping keys instead of silently keeping the last one."""
+
+    duplicates: list[str]
+
+
+def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            loader.duplicates.append(f"line {key_node.start_mark.line + 1}: duplicate key {key!r}")
+        seen.add(key)
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _parse_yaml(text: str, source: str) -> dict[str, Any]:
+    loader = _StrictLoader(text)
+    loader.duplicates = []
+    try:
+        data = loader.get_single_data()
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ScenarioError(f"YAML syntax error: {where}{problem}", source) from None
+    finally:
+        loader.dispose()
+    if loader.duplicates:
+        raise ScenarioError(loader.duplicates, source)
+    if data is None:
+        raise ScenarioError("the scene is empty (expected a mapping with dt, until, components)", source)
+    if not isinstance(data, dict):
+        raise ScenarioError(f"the scene must be a mapping (got {type(data).__name__})", source)
+    return data
+
+
+# --- overrides -----------------------------------------------------------------------------------
+
+def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
+    """Apply ``a.b.c=value`` overrides (value parsed as YAML) in place; returns the problems."""
+    problems = []
+    for item in overrides:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            problems.append(f"--set {item!r}: expected key.path=value")
+            continue
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            value = raw
+        parts = key.strip().split(".")
+        node: Any = data
+        for depth, part in enumerate(parts[:-1]):
+            where = ".".join(parts[: depth + 1])
+            if isinstance(node, dict) and part in node:
+                node = node[part]
+            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+                node = node[int(part)]
+            else:
+                known = ", ".join(map(str, node)) if isinstance(node, dict) else "none"
+                problems.append(f"--set {key}: no such key {where!r} (known there: {known})")
+                break
+        else:
+            last = parts[-1]
+            if isinstance(node, dict):
+                node[last] = value
+            elif isinstance(node, list) and last.isdigit() and int(last) < len(node):
+                node[int(last)] = value
+            else:
+                problems.append(f"--set {key}: cannot set {last!r} inside a {type(node).__name__}")
+    return problems
+
+
+# --- validation ----------------------------------------------------------------------------------
+
+def _seconds(data: dict, key: str, problems: list[str], *, required: bool, default: float = 0.0) -> int | None:
+    if key not in data:
+        if required:
+            problems.append(f"{key}: missing (required, seconds)")
+            return None
+        return seconds_to_ns(default)
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        problems.append(f"{key}: must be a number of seconds (got {value!r})")
+        return None
+    if value <= 0:
+        problems.append(f"{key}: must be > 0 s (got {value:g})")
+        return None
+    try:
+        return seconds_to_ns(float(value), what=key)
+    except ValueError as exc:
+        problems.append(str(exc))
+        return None
+
+
+def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
+               problems: list[str]) -> ComponentConfig | None:
+    path = f"components.{name}"
+    if not NAME_RE.match(str(name)):
+        problems.append(f"{path}: component names must be identifiers (letters, digits, _)")
+        return None
+    if not isinstance(spec, dict):
+        problems.append(f"{path}: must be a mapping with a 'type' (got {spec!r})")
+        return None
+    type_name = spec.get("type")
+    if not isinstance(type_name, str):
+        problems.append(f"{path}.type: missing (required, a component type name)" if type_name is None
+                        else f"{path}.type: must be a string (got {type_name!r})")
+        return None
+    try:
+        cls = resolve(type_name)
+    except UnknownComponentType as exc:
+        problems.append(f"{path}.type: {exc}")
+        return None
+    every = _rate(path, spec, dt_ns, problems)
+    on_unstable = spec.get("on_unstable", default_unstable)
+    if on_unstable not in ON_UNSTABLE:
+        problems.append(f"{path}.on_unstable: must be one of 'error', 'substep' (got {on_unstable!r})")
+    params_data = {k: v for k, v in spec.items() if k not in COMPONENT_KEYS}
+    params = build(cls.Params, params_data, path, problems)
+    if params is None or every is None:
+        return None
+    return ComponentConfig(name, type_name, cls, every, params, on_unstable)
+
+
+def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int | None:
+    if "every" in spec and "step" in spec:
+        problems.append(f"{path}: give either 'every' (base steps) or 'step' (seconds), not both")
+        return None
+    if "step" in spec:
+        step = spec["step"]
+        if isinstance(step, bool) or not isinstance(step, (int, float)) or not step > 0:
+            problems.append(f"{path}.step: must be a positive number of seconds (got {step!r})")
+            return None
+        if dt_ns is None:
+            return None
+        ratio = step * NS_PER_S / dt_ns
+        if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
+            problems.append(f"{path}.step: {step:g} s is not a whole multiple of dt = {dt_ns / NS_PER_S:g} s "
+                            f"(ratio {ratio:g}); rates must divide exactly")
+            return None
+        return int(round(ratio))
+    every = spec.get("every", 1)
+    if isinstance(every, bool) or not isinstance(every, int):
+        problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}); "
+                        "a non-integer rate ratio is not rounded")
+        return None
+    if every < 1:
+        problems.append(f"{path}.every: must be >= 1 (got {every})")
+        return None
+    return every
+
+
+def _connection(index: int, item: Any, components: dict[str, ComponentConfig], names: set[str],
+                problems: list[str]) -> Connection | None:
+    path = f"connections[{index}]"
+    initial_data = None
+    delay = 0
+    if isinstance(item, str):
+        match = EDGE_RE.match(item)
+        if not match:
+            problems.append(f"{path}: expected 'source.port -> target.port' (got {item!r})")
+            return None
+        src, sport, dst, dport = match.groups()
+    elif isinstance(item, dict):
+        unknown = sorted(set(item) - {"from", "to", "delay", "initial"})
+        if unknown:
+            problems.append(f"{path}: unknown key {', '.join(map(repr, unknown))} "
+                            "(known: from, to, delay, initial)")
+        ends = []
+        for key in ("from", "to"):
+            value = item.get(key)
+            match = re.match(r"^\s*(\w+)\.(\w+)\s*$", value) if isinstance(value, str) else None
+            if not match:
+                problems.append(f"{path}.{key}: expected 'component.port' (got {value!r})")
+                return None
+            ends.extend(match.groups())
+        src, sport, dst, dport = ends
+        delay = item.get("delay", 0)
+        if delay not in (0, 1) or isinstance(delay, bool):
+            problems.append(f"{path}.delay: must be 0 or 1 (got {delay!r})")
+            return None
+        initial_data = item.get("initial")
+    else:
+        problems.append(f"{path}: expected 'a.port -> b.port' or a mapping with from/to (got {item!r})")
+        return None
+
+    ok = True
+    for comp, port, side, path_key in ((src, sport, "outputs", "from"), (dst, dport, "inputs", "to")):
+        if comp not in names:
+            problems.append(f"{path}.{path_key}: unknown component {comp!r} (known: {', '.join(sorted(names))})")
+            ok = False
+        elif comp in components:
+            ports = getattr(components[comp].cls, side)
+            if port not in ports:
+                kind = "output" if side == "outputs" else "input"
+                problems.append(f"{path}.{path_key}: {comp} ({components[comp].type_name}) has no {kind} port "
+                                f"{port!r} ({side}: {', '.join(ports) or 'none'})")
+                ok = False
+    if not ok or src not in components or dst not in components:
+        return None
+    out_type = components[src].cls.outputs[sport].type
+    in_type = components[dst].cls.inputs[dport].type
+    if out_type is not in_type:
+        problems.append(f"{path}: type mismatch: {src}.{sport} sends {out_type.__name__} but {dst}.{dport} "
+                        f"takes {in_type.__name__}")
+        return None
+    initial = None
+    if delay:
+        if initial_data is None:
+            problems.append(f"{path}.initial: a delayed edge needs an initial value (fields of "
+                            f"{out_type.__name__}: {', '.join(s.name for s in codec_for(out_type).fields)})")
+            return None
+        try:
+            initial = codec_for(out_type).from_dict(initial_data)
+        except CodecError as exc:
+            problems.append(f"{path}.initial: {exc}")
+            return None
+    elif initial_data is not None:
+        problems.append(f"{path}.initial: only a delayed edge (delay: 1) takes an initial value")
+    return Connection(src, sport, dst, dport, delay, initial)
+
+
+def _check_inputs(components: dict[str, ComponentConfig], edges: list[Connection], problems: list[str]) -> None:
+    fed: dict[tuple[str, str], list[Connection]] = {}
+    for edge in edges:
+        fed.setdefault((edge.target, edge.target_port), []).append(edge)
+    for (target, port), feeding in fed.items():
+        port_type = components[target].cls.inputs[port].type
+        if len(feeding) > 1 and not port_type.additive:
+            problems.append(f"connections: input {target}.{port} is connected {len(feeding)} times "
+                            f"({'; '.join(map(str, feeding))}) but {port_type.__name__} is not additive")
+    for name, cfg in components.items():
+        for port, spec in cfg.cls.inputs.items():
+            if spec.required and (name, port) not in fed:
+                problems.append(f"components.{name}: required input {port!r} ({spec.type.__name__}) "
+                                "is not connected")
+
+
+def execution_order(names: list[str], edges: list[Connection]) -> tuple[list[str], list[str] | None]:
+    """Topological order along direct edges (ties in declaration order), or a cycle found."""
+    direct = [e for e in edges if e.delay == 0]
+    succ: dict[str, list[str]] = {n: [] for n in names}
+    indeg = dict.fromkeys(names, 0)
+    for e in direct:
+        succ[e.source].append(e.target)
+        indeg[e.target] += 1
+    order: list[str] = []
+    ready = [n for n in names if indeg[n] == 0]
+    while ready:
+        node = ready.pop(0)
+        order.append(node)
+        for nxt in succ[node]:
+            indeg[nxt] -= 1
+            if indeg[nxt] == 0:
+                ready.append(nxt)
+                ready.sort(key=names.index)
+    if len(order) == len(names):
+        return order, None
+    # walk the remaining graph to report one cycle
+    left = {n for n in names if n not in order}
+    start = next(n for n in names if n in left)
+    path, node = [start], start
+    while True:
+        node = next(t for t in succ[node] if t in left)
+        if node in path:
+            return order, [*path[path.index(node):], node]
+        path.append(node)
+
+
+def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    for name, comp in built.items():
+        cfg = scene.components[name]
+        step = scene.dt * cfg.every
+        bound = comp.max_stable_step()
+        if step > bound and cfg.on_unstable == "error":
+            problems.append(f"components.{name}: step {step:.6g} s exceeds its stable step {bound:.6g} s "
+                            f"(on_unstable: error); lower dt or every, or set on_unstable: substep")
+
+
+def loads(text: str, source: str = "<string>", overrides: list[str] | None = None) -> Scene:
+    """Parse and validate a scene from YAML text; raises ScenarioError listing every problem."""
+    overrides = list(overrides or [])
+    data = _parse_yaml(text, source)
+    problems = apply_overrides(data, overrides)
+    for key in data:
+        if key not in TOP_KEYS:
+            problems.append(f"{key}: unknown key (known: {', '.join(sorted(TOP_KEYS))})")
+    name = data.get("name", Path(source).stem)
+    if not isinstance(name, str):
+        problems.append(f"name: must be a string (got {name!r})")
+    description = data.get("description", "")
+    dt_ns = _seconds(data, "dt", problems, required=True)
+    until_ns = _seconds(data, "until", problems, required=True)
+    default_unstable = data.get("on_unstable", "error")
+    if default_unstable not in ON_UNSTABLE:
+        problems.append(f"on_unstable: must be one of 'error', 'substep' (got {default_unstable!r})")
+        default_unstable = "error"
+
+    raw_components = data.get("components")
+    components: dict[str, ComponentConfig] = {}
+    if raw_components is None:
+        problems.append("components: missing (required, a mapping of name -> {type: ..., parameters})")
+        raw_components = {}
+    elif not isinstance(raw_components, dict) or not raw_components:
+        problems.append(f"components: must be a non-empty mapping (got {raw_components!r})")
+        raw_components = {}
+    for cname, spec in raw_components.items():
+        cfg = _component(str(cname), spec, dt_ns, default_unstable, problems)
+        if cfg is not None:
+            components[str(cname)] = cfg
+
+    raw_edges = data.get("connections", []) or []
+    edges: list[Connection] = []
+    if not isinstance(raw_edges, list):
+        problems.append(f"connections: must be a list (got {raw_edges!r})")
+        raw_edges = []
+    names = {str(n) for n in raw_components}
+    for i, item in enumerate(raw_edges):
+        edge = _connection(i, item, components, names, problems)
+        if edge is not None:
+            edges.append(edge)
+    _check_inputs(components, edges, problems)
+
+    record = RecordConfig()
+    raw_record = data.get("record", {}) or {}
+    if not isinstance(raw_record, dict):
+        problems.append(f"record: must be a mapping (got {raw_record!r})")
+    else:
+        record_problems_before = len(problems)
+        built = build(RecordConfig, raw_record, "record", problems)
+        if built is not None and len(problems) == record_problems_before:
+            record = built
+            if record.every < 1:
+                problems.append(f"record.every: must be >= 1 (got {record.every})")
+            if record.checkpoint_every < 0:
+                problems.append(f"record.checkpoint_every: must be >= 0 s (got {record.checkpoint_every:g})")
+
+    order, cycle = execution_order(list(components), edges)
+    if cycle:
+        problems.append(f"connections: cycle without a delayed edge: {' -> '.join(cycle)} "
+                        "(mark one edge of the loop with delay: 1 and an initial value)")
+    if problems or dt_ns is None or until_ns is None:
+        raise ScenarioError(problems, source)
+    scene = Scene(name=name, description=str(description), dt_ns=dt_ns, until_ns=until_ns,
+                  components=components, connections=edges, record=record, order=order, text=text,
+                  data=data, source=source, overrides=overrides)
+    try:
+        built_components = scene.instantiate()
+    except Exception as exc:  # a component that cannot be built from valid-looking parameters
+        raise ScenarioError(f"components: cannot build: {type(exc).__name__}: {exc}", source) from None
+    _check_stability(scene, built_components, problems)
+    if problems:
+        raise ScenarioError(problems, source)
+    return scene
+
+
+def load(path: str | Path, overrides: list[str] | None = None) -> Scene:
+    """Parse and validate a scene file; raises ScenarioError (a missing file is bad input too)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError("no such file", str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"cannot read: {exc}", str(path)) from None
+    return loads(text, source=str(path), overrides=overrides)

@@ -1,0 +1,322 @@
+"""The master algorithm: a fixed base step, multi-rate components, Gauss-Seidel exchange.
+
+Tick k covers [t_k, t_{k+1}] with t_k = k * dt_ns. A component with ``every = m`` steps on ticks
+where k % m == 0, from t_k to t_{k+m}; its outputs are stamped t_{k+m} (the logical end of its step).
+Within a tick, components run in topological order of the direct edges. What an input receives:
+
+- a direct edge: the newest source output stamped at or before the END of the receiver's step
+  (Gauss-Seidel: a source that ran earlier in this tick is seen at its new time). If none is stamped
+  that early yet (a slower source at start-up), its oldest output is used.
+- a delayed edge (``delay: 1``): the newest output stamped at or before the START of the receiver's
+  step, ignoring the t = 0 initial outputs; before the first one, the edge's ``initial`` value.
+- an ``event`` input receives each message at most once; otherwise the value is held.
+- an additive port fed by several edges receives the sum of their values.
+
+The rule depends only on stamps, so replaying a component from a recording reconstructs exactly the
+inputs it received. Each output port keeps its last two messages, which is all the rule ever needs
+(one source publishes at most once per tick).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from cosim.codec import codec_for, decode_state
+from cosim.component import Component
+from cosim.errors import SimulationError
+from cosim.messages import Message
+from cosim.scenario import Connection, Scene
+from cosim.timebase import NS_PER_S
+
+
+class Observer(Protocol):
+    """Lifecycle callbacks; every method is optional (see :class:`BaseObserver`)."""
+
+    def on_initialized(self, sim: Simulation) -> None: ...
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None: ...
+    def on_event(self, time_ns: int, component: str, kind: str, detail: str) -> None: ...
+    def on_step_complete(self, sim: Simulation) -> None: ...
+    def on_finished(self, sim: Simulation, result: RunResult) -> None: ...
+
+
+class BaseObserver:
+    """An observer that ignores every event; subclass and override what you need."""
+
+    def on_initialized(self, sim: Simulation) -> None:
+        pass
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
+        pass
+
+    def on_event(self, time_ns: int, component: str, kind: str, detail: str) -> None:
+        pass
+
+    def on_step_complete(self, sim: Simulation) -> None:
+        pass
+
+    def on_finished(self, sim: Simulation, result: RunResult) -> None:
+        pass
+
+
+@dataclass
+class RunResult:
+    """How a run ended: status ``ok`` | ``stopped`` | ``failed`` | ``interrupted``."""
+
+    status: str
+    reason: str
+    tick: int
+    time_ns: int
+    wall_s: float
+    component_steps: int
+    error: SimulationError | None = None
+
+    @property
+    def real_time_factor(self) -> float:
+        return (self.time_ns / NS_PER_S) / self.wall_s if self.wall_s > 0 else math.inf
+
+
+class Interrupted(Exception):
+    """Raised from a signal handler to end a run cleanly (Ctrl-C, SIGTERM)."""
+
+
+class _Slot:
+    """The last two messages published on one output port, as (stamp_ns, message) pairs."""
+
+    __slots__ = ("entries",)
+
+    def __init__(self) -> None:
+        self.entries: list[tuple[int, Message]] = []
+
+    def publish(self, stamp: int, msg: Message) -> None:
+        entries = self.entries
+        entries.append((stamp, msg))
+        if len(entries) > 2:
+            del entries[0]
+
+
+class _Edge:
+    __slots__ = ("delayed", "event", "initial", "last_delivered", "slot", "spec")
+
+    def __init__(self, spec: Connection, slot: _Slot, event: bool):
+        self.spec = spec
+        self.slot = slot
+        self.delayed = spec.delay == 1
+        self.event = event
+        self.initial = spec.initial
+        self.last_delivered = -1
+
+    def pick(self, start: int, end: int) -> Message | None:
+        chosen: tuple[int, Message] | None = None
+        if self.delayed:
+            for entry in reversed(self.slot.entries):
+                if 0 < entry[0] <= start:
+                    chosen = entry
+                    break
+            if chosen is None and self.initial is not None:
+                chosen = (0, self.initial)
+        else:
+            entries = self.slot.entries
+            for entry in reversed(entries):
+                if entry[0] <= end:
+                    chosen = entry
+                    break
+            if chosen is None and entries:
+                chosen = entries[0]
+        if chosen is None:
+            return None
+        if self.event:
+            if chosen[0] <= self.last_delivered:
+                return None
+            self.last_delivered = chosen[0]
+        return chosen[1]
+
+
+class _Runner:
+    """A component with its precomputed input plan and output slots (keeps the tick loop lean)."""
+
+    __slots__ = ("comp", "every", "name", "on_unstable", "plan", "slots", "substeps_seen")
+
+    def __init__(self, comp: Component, every: int, on_unstable: str):
+        self.comp = comp
+        self.name = comp.name
+        self.every = every
+        self.on_unstable = on_unstable
+        self.plan: list[tuple[str, list[_Edge]]] = []
+        self.slots: dict[str, _Slot] = {port: _Slot() for port in comp.outputs}
+        self.substeps_seen = 1
+
+    def gather(self, start: int, end: int) -> dict[str, Message | None]:
+        inputs: dict[str, Message | None] = {}
+        for port, edges in self.plan:
+            if len(edges) == 1:
+                inputs[port] = edges[0].pick(start, end)
+                continue
+            total = None
+            for edge in edges:
+                value = edge.pick(start, end)
+                if value is not None:
+                    total = value if total is None else total + value
+            inputs[port] = total
+        return inputs
+
+
+class Simulation:
+    """Runs a validated scene's components on the master clock and tells observers what happens."""
+
+    def __init__(self, scene: Scene, components: dict[str, Component] | None = None,
+                 observers: list[Any] | None = None):
+        self.scene = scene
+        self.components = components if components is not None else scene.instantiate()
+        self.dt_ns = scene.dt_ns
+        self.tick = 0
+        self.observers: list[Any] = list(observers or [])
+        self.stop_reason: str | None = None
+        self._initialized = False
+        self.runners = [_Runner(self.components[name], scene.components[name].every,
+                                scene.components[name].on_unstable) for name in scene.order]
+        by_name = {r.name: r for r in self.runners}
+        self.edges: list[_Edge] = []
+        for runner in self.runners:
+            for port, spec in runner.comp.inputs.items():
+                feeding = [c for c in scene.connections if c.target == runner.name and c.target_port == port]
+                if not feeding:
+                    runner.plan.append((port, []))
+                    continue
+                edges = [_Edge(c, by_name[c.source].slots[c.source_port], spec.event) for c in feeding]
+                self.edges.extend(edges)
+                runner.plan.append((port, edges))
+        # edges were appended runner by runner; keep a canonical order for checkpoints
+        self.edges.sort(key=lambda e: scene.connections.index(e.spec))
+
+    # --- time -------------------------------------------------------------------------------------
+
+    @property
+    def time_ns(self) -> int:
+        return self.tick * self.dt_ns
+
+    def request_stop(self, reason: str) -> None:
+        """End the run after the current tick (observers may call this, e.g. a stop condition)."""
+        self.stop_reason = reason
+
+    # --- lifecycle --------------------------------------------------------------------------------
+
+    def initialize(self) -> None:
+        """Tell observers the run starts; at tick 0, publish the components' initial outputs at t = 0."""
+        if self._initialized:
+            return
+        self._initialized = True
+        for obs in self.observers:
+            obs.on_initialized(self)
+        if self.tick == 0:
+            for runner in self.runners:
+                for port, msg in runner.comp.initial_outputs().items():
+                    runner.slots[port].publish(0, msg)
+                    for obs in self.observers:
+                        obs.on_exchange(0, runner.name, port, msg)
+
+    def step(self) -> None:
+        """Advance one base tick."""
+        k = self.tick
+        dt_ns = self.dt_ns
+        observers = self.observers
+        for runner in self.runners:
+            every = runner.every
+            if k % every:
+                continue
+            start = k * dt_ns
+            end = start + every * dt_ns
+            comp = runner.comp
+            outputs = comp.step(start, end - start, runner.gather(start, end), runner.on_unstable)
+            slots = runner.slots
+            for port, msg in outputs.items():
+                slots[port].publish(end, msg)
+            if observers:
+                for port, msg in outputs.items():
+                    for obs in observers:
+                        obs.on_exchange(end, runner.name, port, msg)
+                if comp.last_substeps != runner.substeps_seen:
+                    runner.substeps_seen = comp.last_substeps
+                    for obs in observers:
+                        obs.on_event(start, runner.name, "substep",
+                                     f"{comp.last_substeps} substeps of {comp.name} per step "
+                                     f"(stable step {comp.max_stable_step():.6g} s)")
+            if comp.stop_reason is not None and self.stop_reason is None:
+                self.stop_reason = f"{runner.name}: {comp.stop_reason}"
+        self.tick = k + 1
+        for obs in observers:
+            obs.on_step_complete(self)
+
+    def run(self, until_ns: int | None = None) -> RunResult:
+        """Run to ``until_ns`` (default: the scene's end) or until a stop is requested.
+
+        A SimulationError ends the run with status ``failed`` (observers are told, then it is
+        re-raised); an :class:`Interrupted` or KeyboardInterrupt ends it with ``interrupted``.
+        """
+        until_ns = self.scene.until_ns if until_ns is None else until_ns
+        end_tick = -(-until_ns // self.dt_ns)
+        wall0 = time.perf_counter()
+        steps0 = self.component_steps()
+        status, reason, error = "ok", f"reached t = {until_ns / NS_PER_S:g} s", None
+        try:
+            self.initialize()
+            while self.tick < end_tick:
+                self.step()
+                if self.stop_reason is not None:
+                    status, reason = "stopped", self.stop_reason
+                    break
+        except SimulationError as exc:
+            status, reason, error = "failed", str(exc), exc
+        except (KeyboardInterrupt, Interrupted) as exc:
+            status, reason = "interrupted", f"interrupted ({type(exc).__name__})"
+        result = RunResult(status, reason, self.tick, self.time_ns, time.perf_counter() - wall0,
+                           self.component_steps() - steps0, error)
+        for obs in self.observers:
+            obs.on_finished(self, result)
+        if error is not None:
+            raise error
+        return result
+
+    def component_steps(self) -> int:
+        return sum(r.comp.step_count for r in self.runners)
+
+    # --- checkpoints --------------------------------------------------------------------------------
+
+    def checkpoint(self) -> dict[str, Any]:
+        """Everything needed to continue this run exactly: tick, component states, port histories."""
+        return {
+            "tick": self.tick,
+            "dt_ns": self.dt_ns,
+            "components": {r.name: {"state": r.comp.get_state(), "step_count": r.comp.step_count}
+                           for r in self.runners},
+            "slots": {f"{r.name}.{port}": [[stamp, codec_for(type(msg)).encode(msg).decode()]
+                                           for stamp, msg in slot.entries]
+                      for r in self.runners for port, slot in r.slots.items()},
+            "edges": [e.last_delivered for e in self.edges],
+        }
+
+    def restore(self, cp: dict[str, Any]) -> None:
+        """Continue from a checkpoint; the base step may differ if the checkpoint time is on its grid."""
+        time_ns = cp["tick"] * cp["dt_ns"]
+        if time_ns % self.dt_ns:
+            raise ValueError(f"checkpoint time {time_ns / NS_PER_S:g} s is not a multiple of dt = "
+                             f"{self.dt_ns / NS_PER_S:g} s")
+        self.tick = time_ns // self.dt_ns
+        for runner in self.runners:
+            saved = cp["components"].get(runner.name)
+            if saved is None:
+                raise ValueError(f"checkpoint has no state for component {runner.name!r}")
+            state = saved["state"]
+            runner.comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
+            runner.comp.step_count = saved["step_count"]
+            runner.comp.status = "initialized"
+            for port, slot in runner.slots.items():
+                msg_type = runner.comp.outputs[port].type
+                slot.entries = [(stamp, codec_for(msg_type).decode(payload.encode()))
+                                for stamp, payload in cp["slots"].get(f"{runner.name}.{port}", [])]
+        if len(cp["edges"]) == len(self.edges):
+            for edge, last in zip(self.edges, cp["edges"]):
+                edge.last_delivered = last
+        self._initialized = False

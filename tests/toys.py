@@ -1,0 +1,157 @@
+"""Small components for framework tests: they know nothing about stones or water.
+
+Each records the inputs it received per step in ``seen`` so scheduler tests can assert what every
+step got.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from cosim.component import Component, Port
+from cosim.messages import Message, message
+from cosim.params import param
+
+
+@message
+class Scalar(Message):
+    """A plain number (no unit)."""
+
+    value: float
+
+
+@message
+class Force(Message):
+    """An additive number [N], for summing ports."""
+
+    value: float
+
+    additive = True
+
+    def __add__(self, other: Force) -> Force:  # type: ignore[override]
+        return Force(self.value + other.value)
+
+
+@message
+class Text(Message):
+    """A string, to test type mismatches."""
+
+    text: str
+
+
+class Source(Component):
+    """Publishes value = start + rate * t_end at the end of each step (t in seconds)."""
+
+    @dataclass(frozen=True)
+    class Params:
+        start: float = param(0.0)
+        rate: float = param(1.0, unit="1/s")
+
+    outputs = {"out": Port(Scalar), "force": Port(Force)}
+
+    def setup(self) -> None:
+        self.t = 0.0
+        self.seen: list[tuple[float, dict]] = []
+
+    def _step_impl(self, t, dt, inputs):
+        self.seen.append((t, dict(inputs)))
+        self.t = t + dt
+        value = self.params.start + self.params.rate * self.t
+        return {"out": Scalar(value), "force": Force(value)}
+
+    def get_state(self):
+        return {"t": self.t}
+
+    def set_state(self, state):
+        self.t = state["t"]
+
+
+class Gain(Component):
+    """out = gain * x (+ 1 if x is missing); records its inputs."""
+
+    @dataclass(frozen=True)
+    class Params:
+        gain: float = param(2.0)
+
+    inputs = {"x": Port(Scalar)}
+    outputs = {"out": Port(Scalar)}
+
+    def setup(self) -> None:
+        self.seen: list[tuple[float, dict]] = []
+
+    def _step_impl(self, t, dt, inputs):
+        self.seen.append((t, dict(inputs)))
+        x = inputs["x"]
+        return {"out": Scalar(self.params.gain * x.value if x is not None else 1.0)}
+
+
+class Accumulator(Component):
+    """Integrates its input: total += x * dt; publishes the total. Stops at ``stop_at`` if set."""
+
+    @dataclass(frozen=True)
+    class Params:
+        stop_at: float = param(math.inf)
+        stable_step: float = param(math.inf, unit="s", gt=0)
+
+    inputs = {"x": Port(Scalar)}
+    outputs = {"total": Port(Scalar)}
+
+    def setup(self) -> None:
+        self.total = 0.0
+        self.seen: list[tuple[float, dict]] = []
+        self.calls: list[float] = []
+
+    def _step_impl(self, t, dt, inputs):
+        self.seen.append((t, dict(inputs)))
+        self.calls.append(dt)
+        x = inputs["x"]
+        self.total += (x.value if x is not None else 0.0) * dt
+        if self.total >= self.params.stop_at:
+            self.request_stop(f"total reached {self.total:g}")
+        return {"total": Scalar(self.total)}
+
+    def initial_outputs(self):
+        return {"total": Scalar(self.total)}
+
+    def get_state(self):
+        return {"total": self.total}
+
+    def set_state(self, state):
+        self.total = state["total"]
+
+    def max_stable_step(self):
+        return self.params.stable_step
+
+
+class Summer(Component):
+    """Receives an additive Force port and an event port; records both."""
+
+    inputs = {"f": Port(Force), "kick": Port(Scalar, event=True), "label": Port(Text)}
+    outputs = {"sum": Port(Force)}
+
+    def setup(self) -> None:
+        self.seen: list[tuple[float, dict]] = []
+
+    def _step_impl(self, t, dt, inputs):
+        self.seen.append((t, dict(inputs)))
+        f = inputs["f"]
+        return {"sum": Force(f.value if f is not None else 0.0)}
+
+
+class Faulty(Component):
+    """Raises (or returns NaN) once t reaches ``fail_at`` seconds."""
+
+    @dataclass(frozen=True)
+    class Params:
+        fail_at: float = param(0.0, unit="s")
+        mode: str = param("raise")
+
+    outputs = {"out": Port(Scalar)}
+
+    def _step_impl(self, t, dt, inputs):
+        if t >= self.params.fail_at:
+            if self.params.mode == "nan":
+                return {"out": Scalar(math.nan)}
+            raise RuntimeError("boom")
+        return {"out": Scalar(t)}
