@@ -28,6 +28,17 @@ class ChannelInfo:
     schema_name: str
     message_encoding: str
     count: int
+    schema_encoding: str = ""
+    schema_data: bytes = b""
+
+    def json_properties(self) -> set[str]:
+        """Property names of a JSON-schema channel (empty for other encodings)."""
+        if self.schema_encoding != "jsonschema":
+            return set()
+        try:
+            return set(json.loads(self.schema_data).get("properties", {}))
+        except ValueError:
+            return set()
 
 
 class Recording:
@@ -57,10 +68,12 @@ class Recording:
         self.scene_text = attachments[SCENE_ATTACHMENT].decode()
         self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
         counts = summary.statistics.channel_message_counts
-        self.channels = {
-            ch.topic: ChannelInfo(ch.topic, summary.schemas[ch.schema_id].name if ch.schema_id else "",
-                                  ch.message_encoding, counts.get(cid, 0))
-            for cid, ch in summary.channels.items()}
+        self.channels = {}
+        for cid, ch in summary.channels.items():
+            schema = summary.schemas.get(ch.schema_id)
+            self.channels[ch.topic] = ChannelInfo(
+                ch.topic, schema.name if schema else "", ch.message_encoding, counts.get(cid, 0),
+                schema.encoding if schema else "", schema.data if schema else b"")
         self.start_ns = summary.statistics.message_start_time
         self.end_ns = summary.statistics.message_end_time
 

@@ -174,6 +174,7 @@ class Simulation:
         self.tick = 0
         self.observers: list[Any] = list(observers or [])
         self.stop_reason: str | None = None
+        self.interrupt_reason: str | None = None
         self._initialized = False
         self.runners = [_Runner(self.components[name], scene.components[name].every,
                                 scene.components[name].on_unstable) for name in scene.order]
@@ -200,6 +201,11 @@ class Simulation:
     def request_stop(self, reason: str) -> None:
         """End the run after the current tick (observers may call this, e.g. a stop condition)."""
         self.stop_reason = reason
+
+    def interrupt(self, reason: str) -> None:
+        """End the run after the current tick with status ``interrupted`` (safe from a signal handler:
+        the tick in progress completes, so every observer sees whole ticks only)."""
+        self.interrupt_reason = reason
 
     # --- lifecycle --------------------------------------------------------------------------------
 
@@ -264,6 +270,9 @@ class Simulation:
             self.initialize()
             while self.tick < end_tick:
                 self.step()
+                if self.interrupt_reason is not None:
+                    status, reason = "interrupted", self.interrupt_reason
+                    break
                 if self.stop_reason is not None:
                     status, reason = "stopped", self.stop_reason
                     break

@@ -1,0 +1,57 @@
+"""``cosim inspect``: what a recording holds, how the run ended, and its timeline of labelled events.
+
+Any channel whose messages carry a ``label`` field (a stage monitor's, for instance) is shown as a
+timeline; the framework needs to know nothing about what the labels mean.
+"""
+
+from __future__ import annotations
+
+import json
+
+from cosim.recorder import STATUS_TOPIC
+from cosim.recording import Recording
+from cosim.timebase import NS_PER_S
+
+TIMELINE_MAX = 60  # timeline rows shown before eliding the middle
+
+
+def timeline(rec: Recording) -> list[tuple[int, str, dict]]:
+    """(time_ns, topic, message dict) of every message on a channel with a ``label`` field."""
+    topics = sorted(t for t, ch in rec.channels.items() if "label" in ch.json_properties() and t != STATUS_TOPIC)
+    if not topics:
+        return []
+    return [(stamp, topic, json.loads(data)) for topic, stamp, data in rec.raw(topics)]
+
+
+def describe_recording(rec: Recording) -> str:
+    meta = rec.metadata
+    lines = [f"{rec.path}: cosim recording of scene {meta.get('scene', '?')!r} "
+             f"(cosim {meta.get('version', '?')}, dt = {int(meta.get('dt_ns', 0)) / NS_PER_S:g} s)"]
+    if meta.get("command_line"):
+        lines.append(f"  command: {meta['command_line']}")
+    if rec.overrides:
+        lines.append(f"  overrides: {', '.join(rec.overrides)}")
+    span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
+    lines.append(f"  time span: {span:g} s, {sum(c.count for c in rec.channels.values())} messages")
+    status = rec.status()
+    if status is None:
+        lines.append("  status: missing (the run did not finish cleanly)")
+    else:
+        lines.append(f"  status: {status.status} at t = {status.time:g} s ({status.tick} steps) - {status.reason}")
+    lines.append("  channels:")
+    width = max((len(t) for t in rec.channels), default=10)
+    for topic in sorted(rec.channels):
+        ch = rec.channels[topic]
+        lines.append(f"    {topic:<{width}}  {ch.count:>8}  {ch.schema_name}")
+    events = timeline(rec)
+    if events:
+        lines.append("  timeline:")
+        rows = [f"    {stamp / NS_PER_S:9.4f} s  {topic}: {msg['label']}" +
+                "".join(f", {k} {v}" for k, v in msg.items() if k not in ("label", "stage")
+                        and isinstance(v, (int, float)) and not isinstance(v, bool))
+                for stamp, topic, msg in events]
+        if len(rows) > TIMELINE_MAX:
+            half = TIMELINE_MAX // 2
+            rows = [*rows[:half], f"    ... {len(rows) - TIMELINE_MAX} more ...", *rows[-half:]]
+        lines += rows
+    return "\n".join(lines)
