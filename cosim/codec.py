@@ -1,7 +1,7 @@
 """One codec for every message type: a JSON schema plus JSON bytes, and back, bit-exact.
 
 JSON keeps the channels plottable in Foxglove. Exactness comes from Python's shortest round-trip
-float repr; non-finite floats are written as the strings ``"nan"``, ``"inf"``, ``"-inf"``. Arrays of
+float repr; non-finite floats are written as the strings ``"nan"``, ``"inf"``, ``"-inf"`` (a NaN with another sign or payload as ``"nan:<hex bits>"``). Arrays of
 at most :data:`INLINE_ARRAY_MAX` fixed elements are written as (nested) lists so they can be plotted;
 larger or free-shape arrays as ``{"dtype", "shape", "base64"}`` of their little-endian bytes, which is
 both exact and fast for water patches.
@@ -16,6 +16,7 @@ import base64
 import enum
 import json
 import math
+import struct
 from typing import Any, Callable
 
 import numpy as np
@@ -34,15 +35,27 @@ class CodecError(ValueError):
     """A payload that does not decode to its message type."""
 
 
+_CANONICAL_NAN = struct.pack("<d", math.nan)
+
+
 def _float_out(x: float) -> float | str:
     x = float(x)
     if math.isfinite(x):
         return x
-    return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+    if math.isnan(x):
+        bits = struct.pack("<d", x)
+        # any NaN other than the canonical one keeps its sign and payload bits
+        return "nan" if bits == _CANONICAL_NAN else "nan:" + bits[::-1].hex()
+    return "inf" if x > 0 else "-inf"
 
 
 def _float_in(x: Any) -> float:
     if isinstance(x, str):
+        if x.startswith("nan:") and len(x) == 20:
+            try:
+                return struct.unpack("<d", bytes.fromhex(x[4:])[::-1])[0]
+            except ValueError:
+                pass
         try:
             return _NONFINITE[x]
         except KeyError:
@@ -73,14 +86,23 @@ def _array_out(spec: Array, name: str) -> Callable[[Any], Any]:
         return arr
 
     if _inline(spec):
-        if dtype.kind == "f":
-            def enc(value: Any) -> Any:
-                arr = check(value)
-                if np.isfinite(arr).all():
-                    return arr.tolist()
-                return np.vectorize(_float_out, otypes=[object])(arr).tolist()
-            return enc
-        return lambda value: check(value).tolist()
+        shape = tuple(spec.shape)
+        isfinite = math.isfinite
+
+        def enc(value: Any) -> Any:
+            # fast path: the right ndarray already (the common case, a few microseconds matter here)
+            if type(value) is not np.ndarray or value.dtype != dtype or value.shape != shape:
+                value = check(value)
+            out = value.tolist()
+            if dtype.kind != "f":
+                return out
+            flat = out if len(shape) == 1 else value.ravel().tolist()
+            for x in flat:
+                if not isfinite(x):
+                    return np.vectorize(_float_out, otypes=[object])(value).tolist()
+            return out
+
+        return enc
 
     def enc_b64(value: Any) -> Any:
         arr = np.ascontiguousarray(check(value), dtype=dtype.newbyteorder("<"))
@@ -198,7 +220,8 @@ class MessageCodec:
     def schema(self) -> dict[str, Any]:
         """A JSON Schema (draft 2020-12) describing the payload, with units from the docstring."""
         props: dict[str, Any] = {}
-        number = {"oneOf": [{"type": "number"}, {"enum": ["nan", "inf", "-inf"]}]}
+        number = {"oneOf": [{"type": "number"},
+                            {"type": "string", "pattern": "^(nan|inf|-inf|nan:[0-9a-f]{16})$"}]}
         for spec in self.fields:
             if spec.kind is FieldKind.FLOAT:
                 props[spec.name] = number
@@ -293,7 +316,7 @@ def _state_in(value: Any) -> Any:
             raw = base64.b64decode(value["base64"])
             return np.frombuffer(raw, dtype=np.dtype(value["__ndarray__"])).reshape(value["shape"]).copy()
         if "__float__" in value:
-            return _NONFINITE[value["__float__"]]
+            return _float_in(value["__float__"])
         return {k: _state_in(v) for k, v in value.items()}
     if isinstance(value, list):
         return [_state_in(v) for v in value]

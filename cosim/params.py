@@ -19,6 +19,7 @@ A dataclass may define ``check(self) -> list[tuple[str, str]]`` for rules across
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import types
 import typing
@@ -141,7 +142,7 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     fields = {f.name: f for f in dataclasses.fields(cls)}
     for key in data:
         if key not in fields:
-            close = [n for n in fields if n.startswith(str(key)[:3])]
+            close = difflib.get_close_matches(str(key), list(fields), n=1)
             hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(fields)}"
             problems.append(f"{prefix}{key}: unknown key{hint}")
     values: dict[str, Any] = {}

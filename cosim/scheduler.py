@@ -6,7 +6,7 @@ Within a tick, components run in topological order of the direct edges. What an 
 
 - a direct edge: the newest source output stamped at or before the END of the receiver's step
   (Gauss-Seidel: a source that ran earlier in this tick is seen at its new time). If none is stamped
-  that early yet (a slower source at start-up), its oldest output is used.
+  that early yet (a slower source at start-up), its oldest output is held (events wait instead).
 - a delayed edge (``delay: 1``): the newest output stamped at or before the START of the receiver's
   step, ignoring the t = 0 initial outputs; before the first one, the edge's ``initial`` value.
 - an ``event`` input receives each message at most once; otherwise the value is held.
@@ -123,7 +123,8 @@ class _Edge:
                 if entry[0] <= end:
                     chosen = entry
                     break
-            if chosen is None and entries:
+            # start-up of a slower source: hold its first value (but never deliver an event early)
+            if chosen is None and entries and not self.event:
                 chosen = entries[0]
         if chosen is None:
             return None

@@ -1,0 +1,105 @@
+"""The command line: exit codes 0/1/2, one-line errors without tracebacks, nothing half-written."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cosim.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SCENE = """
+name: demo
+dt: 0.001
+until: 0.05
+components:
+  src: {type: "tests.toys:Source"}
+  g: {type: "tests.toys:Gain"}
+connections:
+  - src.out -> g.x
+record: {checkpoint_every: 0.01}
+"""
+
+
+@pytest.fixture
+def scene(tmp_path):
+    path = tmp_path / "demo.yaml"
+    path.write_text(SCENE)
+    return path
+
+
+def cosim(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, "-m", "cosim.cli", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_run_writes_recording_and_summary(scene, tmp_path, capsys):
+    """`cosim run` exits 0, writes the MCAP and prints simulated time, steps, wall time and RTF."""
+    out = tmp_path / "out" / "demo.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "demo: ok - reached t = 0.05 s" in text
+    assert "simulated 0.05 s in 50 steps of 1 ms (100 component steps)" in text
+    assert "real-time factor" in text and out.exists()
+
+
+def test_validate_inspect_and_replay(scene, tmp_path, capsys):
+    """validate, inspect and replay all exit 0 on good input and say what they found."""
+    out = tmp_path / "demo.mcap"
+    assert main(["validate", str(scene)]) == 0
+    assert "order within a tick: src -> g" in capsys.readouterr().out
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "status: ok at t = 0.05 s (50 steps)" in text and "/g/out" in text
+    assert main(["replay", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "src: 50 steps replayed, 100 outputs identical bit for bit" in text
+    assert main(["replay", str(out), "--from", "0.02", "-o", str(tmp_path / "r.mcap"), "-q"]) == 0
+    assert "restarting 'demo' from the checkpoint at t = 0.02 s" in capsys.readouterr().out
+
+
+def test_bad_scene_exits_2_without_traceback_or_file(tmp_path):
+    """A malformed scene prints one error line per problem, exits 2, and writes no recording."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(SCENE.replace("type: \"tests.toys:Gain\"", "type: \"tests.toys:Gain\", gain: x"))
+    proc = cosim("run", str(bad), "-o", str(tmp_path / "x.mcap"), cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"error: {bad}: components.g.gain: must be a number (got 'x')"
+    assert "Traceback" not in proc.stderr
+    assert list(tmp_path.glob("*.mcap*")) == []
+
+
+def test_simulation_failure_exits_1_and_keeps_the_recording(tmp_path):
+    """A run that fails exits 1 with the reason and keeps a valid recording up to the failure."""
+    scene = tmp_path / "fail.yaml"
+    scene.write_text("dt: 0.001\nuntil: 1\ncomponents:\n  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n")
+    proc = cosim("run", str(scene), "-o", "f.mcap", "-q", cwd=tmp_path)
+    assert proc.returncode == 1
+    assert "error: component 'bad' failed at t = 0.01 s: RuntimeError: boom" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert (tmp_path / "f.mcap").exists() and not (tmp_path / "f.mcap.part").exists()
+
+
+def test_corrupt_recording_exits_2(tmp_path):
+    """inspect and replay of a corrupt file exit 2 with a one-line error."""
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 100)
+    for command in ("inspect", "replay"):
+        proc = cosim(command, str(junk), cwd=tmp_path)
+        assert proc.returncode == 2, proc.stderr
+        assert proc.stderr.startswith(f"error: {junk}: not a readable MCAP recording")
+        assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_bad_arguments_exit_2(tmp_path):
+    """Unknown options and bad values are bad input (exit 2)."""
+    proc = cosim("run", "x.yaml", "--until", "soon", cwd=tmp_path)
+    assert proc.returncode == 2 and "expected seconds, got 'soon'" in proc.stderr

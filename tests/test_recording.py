@@ -1,0 +1,138 @@
+"""Recording to MCAP: every exchange, determinism, survival of failures, and reading back."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+from cosim.errors import RecordingError
+from cosim.recording import Recording
+from cosim.runner import run_scene
+from cosim.scenario import loads
+
+ROOT = Path(__file__).resolve().parents[1]
+
+LOOP = """
+name: loop
+dt: 0.001
+until: 0.2
+components:
+  src: {type: "tests.toys:Source", rate: 3}
+  g: {type: "tests.toys:Gain", gain: 0.7}
+  acc: {type: "tests.toys:Accumulator", every: 4}
+connections:
+  - src.out -> g.x
+  - g.out -> acc.x
+record: {checkpoint_every: 0.05}
+"""
+
+
+def physics_messages(path: Path) -> dict[str, list[tuple[int, int, bytes]]]:
+    out: dict[str, list] = {}
+    with open(path, "rb") as f:
+        for _, channel, msg in make_reader(f).iter_messages():
+            if not channel.topic.startswith(("/cosim/", "/perf/")):
+                out.setdefault(channel.topic, []).append((msg.log_time, msg.sequence, msg.data))
+    return out
+
+
+def test_every_exchange_is_recorded_on_its_source_port_channel(tmp_path):
+    """Each output port gets a channel /<component>/<port> with one message per step at sim time."""
+    outcome = run_scene(loads(LOOP), tmp_path / "run.mcap", progress=False)
+    rec = Recording(outcome.recording)
+    assert rec.channels["/src/out"].count == 200
+    assert rec.channels["/g/out"].count == 200
+    assert rec.channels["/acc/total"].count == 51  # initial output + 50 steps of 4 ms
+    assert rec.channels["/src/out"].schema_name == "cosim.Scalar"
+    stamps = [t for t, _ in rec.messages("/src/out", __import__("tests.toys", fromlist=["Scalar"]).Scalar)]
+    assert stamps[:3] == [1_000_000, 2_000_000, 3_000_000]
+    status = rec.status()
+    assert status.status == "ok" and status.tick == 200
+    assert rec.metadata["scene"] == "loop" and "src:" in rec.scene_text
+    with open(outcome.recording, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary.chunk_indexes and all(ci.compression == "zstd" for ci in summary.chunk_indexes)
+        seqs = [m.sequence for _, ch, m in reader.iter_messages(topics=["/g/out"])]
+        assert seqs == list(range(1, 201))
+
+
+def test_same_scene_twice_gives_byte_identical_physics_channels(tmp_path):
+    """Two runs of one scene write identical physics channels (times, sequences and bytes)."""
+    a = run_scene(loads(LOOP), tmp_path / "a.mcap", progress=False).recording
+    b = run_scene(loads(LOOP), tmp_path / "b.mcap", progress=False).recording
+    assert physics_messages(a) == physics_messages(b)
+
+
+def test_record_selection_never_changes_the_physics(tmp_path):
+    """Recording only some channels, decimated, writes a subset of the full run's messages."""
+    full = physics_messages(run_scene(loads(LOOP), tmp_path / "a.mcap", progress=False).recording)
+    scene = loads(LOOP, overrides=["record.channels=['/g/*']", "record.every=10"])
+    part = physics_messages(run_scene(scene, tmp_path / "b.mcap", progress=False).recording)
+    assert set(part) == {"/g/out"}
+    assert [m[2] for m in part["/g/out"]] == [m[2] for m in full["/g/out"]][::10]
+
+
+def test_failing_run_leaves_valid_recording_with_status(tmp_path):
+    """A component failure mid-run still closes a valid MCAP holding everything up to it and a
+    final 'failed' status naming the component and time."""
+    scene = loads("""
+dt: 0.001
+until: 1.0
+components:
+  src: {type: "tests.toys:Source"}
+  bad: {type: "tests.toys:Faulty", fail_at: 0.0105}
+""")
+    outcome = run_scene(scene, tmp_path / "fail.mcap", progress=False)
+    assert outcome.failed
+    rec = Recording(tmp_path / "fail.mcap")
+    # tick 11 (t = 11 ms): src ran and published before bad failed
+    assert rec.channels["/src/out"].count == 12
+    assert rec.channels["/bad/out"].count == 11
+    status = rec.status()
+    assert status.status == "failed" and "'bad' failed at t = 0.011 s: RuntimeError: boom" in status.reason
+    assert not (tmp_path / "fail.mcap.part").exists()
+
+
+def test_sigterm_mid_run_leaves_valid_recording(tmp_path):
+    """SIGTERM during `cosim run` ends the run after the current tick with a complete recording and
+    an 'interrupted' status."""
+    scene = tmp_path / "long.yaml"
+    scene.write_text(LOOP.replace("until: 0.2", "until: 10000"))
+    out = tmp_path / "long.mcap"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(scene), "-o", str(out), "-q"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    part = out.with_name(out.name + ".part")
+    while not (part.exists() and part.stat().st_size > 50_000) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    assert "interrupted by SIGTERM" in err
+    rec = Recording(out)
+    status = rec.status()
+    assert status.status == "interrupted" and status.tick > 0
+    assert rec.channels["/g/out"].count == status.tick
+
+
+def test_truncated_and_corrupt_recordings_get_clear_errors(tmp_path):
+    """A truncated file, a non-MCAP file and a missing file each raise one clear RecordingError."""
+    good = run_scene(loads(LOOP), tmp_path / "good.mcap", progress=False).recording
+    data = good.read_bytes()
+    (tmp_path / "trunc.mcap").write_bytes(data[: len(data) // 2])
+    (tmp_path / "junk.mcap").write_bytes(b"not an mcap file at all" * 10)
+    with pytest.raises(RecordingError, match=r"trunc\.mcap: not a readable MCAP recording \(truncated or corrupt"):
+        Recording(tmp_path / "trunc.mcap")
+    with pytest.raises(RecordingError, match=r"junk\.mcap: not a readable MCAP recording"):
+        Recording(tmp_path / "junk.mcap")
+    with pytest.raises(RecordingError, match=r"missing\.mcap: no such file"):
+        Recording(tmp_path / "missing.mcap")

@@ -1,0 +1,144 @@
+"""Scene loading: valid scenes become typed config; every malformed scene gets a clear message."""
+
+from __future__ import annotations
+
+import textwrap
+
+import pytest
+
+from cosim.errors import ScenarioError
+from cosim.scenario import load, loads
+
+GOOD = """
+name: good
+dt: 0.001
+until: 0.01
+components:
+  src: {type: "tests.toys:Source"}
+  g: {type: "tests.toys:Gain", gain: 3}
+  acc: {type: "tests.toys:Accumulator"}
+connections:
+  - src.out -> g.x
+  - {from: g.out, to: acc.x}
+"""
+
+
+def test_valid_scene_is_typed():
+    """A valid scene yields integer-ns times, typed parameters and the execution order."""
+    scene = loads(GOOD)
+    assert scene.dt_ns == 1_000_000 and scene.until_ns == 10_000_000
+    assert scene.components["g"].params.gain == 3.0
+    assert isinstance(scene.components["g"].params.gain, float)
+    assert scene.order == ["src", "g", "acc"]
+
+
+def test_overrides_apply_before_validation():
+    """--set values are parsed as YAML and validated like the file."""
+    scene = loads(GOOD, overrides=["components.g.gain=5", "dt=0.002"])
+    assert scene.components["g"].params.gain == 5.0 and scene.dt_ns == 2_000_000
+    with pytest.raises(ScenarioError, match=r"--set components\.gg\.gain: no such key 'components\.gg'"):
+        loads(GOOD, overrides=["components.gg.gain=5"])
+    with pytest.raises(ScenarioError, match=r"components\.g\.gain: must be a number \(got 'abc'\)"):
+        loads(GOOD, overrides=["components.g.gain=abc"])
+
+
+def scene_with(components: str, connections: str = "[]", extra: str = "") -> str:
+    """A small scene around the given component lines (one per line) and connections."""
+    body = "\n".join(f"  {line}" for line in components.strip().splitlines())
+    return f"dt: 0.001\nuntil: 0.01\n{extra}\ncomponents:\n{body}\nconnections: {connections}\n"
+
+
+MALFORMED = {
+    "unknown key": (
+        scene_with('a: {type: "tests.toys:Gain", gian: 2}'),
+        r"components\.a\.gian: unknown key; did you mean 'gain'\?"),
+    "unknown top-level key": (
+        GOOD + "speed: 3\n", r"speed: unknown key \(known: components, connections"),
+    "wrong type": (
+        scene_with('a: {type: "tests.toys:Gain", gain: fast}'),
+        r"components\.a\.gain: must be a number \(got 'fast'\)"),
+    "missing field": (
+        "until: 1\ncomponents:\n  a: {type: \"tests.toys:Gain\"}\n", r"dt: missing \(required, seconds\)"),
+    "missing type": (
+        scene_with("a: {gain: 2}"), r"components\.a\.type: missing \(required, a component type name\)"),
+    "unknown component type": (
+        scene_with("a: {type: Rocket}"), r"components\.a\.type: unknown component type 'Rocket' \(known: "),
+    "unknown port": (
+        scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Gain"}', "[a.out -> b.y]"),
+        r"connections\[0\]\.to: b \(tests\.toys:Gain\) has no input port 'y' \(inputs: x\)"),
+    "unknown component in edge": (
+        scene_with('a: {type: "tests.toys:Source"}', "[a.out -> c.x]"),
+        r"connections\[0\]\.to: unknown component 'c' \(known: a\)"),
+    "port type mismatch": (
+        scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Summer"}', "[a.out -> b.label]"),
+        r"connections\[0\]: type mismatch: a\.out sends Scalar but b\.label takes Text"),
+    "duplicate name": (
+        scene_with('a: {type: "tests.toys:Source"}\na: {type: "tests.toys:Gain"}'),
+        r"line \d+: duplicate key 'a'"),
+    "non-integer rate ratio": (
+        scene_with('a: {type: "tests.toys:Gain", step: 0.0025}'),
+        r"components\.a\.step: 0\.0025 s is not a whole multiple of dt = 0\.001 s \(ratio 2\.5\)"),
+    "non-integer every": (
+        scene_with('a: {type: "tests.toys:Gain", every: 2.5}'),
+        r"components\.a\.every: must be a whole number of base steps \(got 2\.5\)"),
+    "zero step": (
+        GOOD.replace("dt: 0.001", "dt: 0"), r"dt: must be > 0 s \(got 0\)"),
+    "negative step": (
+        GOOD.replace("dt: 0.001", "dt: -0.001"), r"dt: must be > 0 s \(got -0\.001\)"),
+    "cycle without delay": (
+        scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
+                   "[g.out -> acc.x, acc.total -> g.x]"),
+        r"connections: cycle without a delayed edge: g -> acc -> g"),
+    "delayed edge without initial": (
+        scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
+                   "[g.out -> acc.x, {from: acc.total, to: g.x, delay: 1}]"),
+        r"connections\[1\]\.initial: a delayed edge needs an initial value \(fields of Scalar: value\)"),
+    "bad initial": (
+        scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
+                   "[g.out -> acc.x, {from: acc.total, to: g.x, delay: 1, initial: {valu: 1}}]"),
+        r"connections\[1\]\.initial: cosim\.Scalar: missing value; unknown valu"),
+    "input connected twice where not additive": (
+        scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Source"}\ng: {type: "tests.toys:Gain"}',
+                   "[a.out -> g.x, b.out -> g.x]"),
+        r"connections: input g\.x is connected 2 times .* but Scalar is not additive"),
+    "unstable step with on_unstable error": (
+        scene_with('acc: {type: "tests.toys:Accumulator", stable_step: 0.0005}'),
+        r"components\.acc: step 0\.001 s exceeds its stable step 0\.0005 s \(on_unstable: error\)"),
+    "bad bound": (
+        scene_with('acc: {type: "tests.toys:Accumulator", stable_step: 0}'),
+        r"components\.acc\.stable_step: must be > 0 s \(got 0\)"),
+    "bad on_unstable": (
+        GOOD.replace("name: good", "on_unstable: explode"),
+        r"on_unstable: must be one of 'error', 'substep' \(got 'explode'\)"),
+    "yaml syntax error": (
+        "dt: 0.001\ncomponents: {a: [\n", r"YAML syntax error: line \d+, column \d+"),
+    "empty file": ("", r"the scene is empty"),
+    "not a mapping": ("- 1\n- 2\n", r"the scene must be a mapping \(got list\)"),
+    "malformed edge": (
+        scene_with('a: {type: "tests.toys:Source"}', "[a.out => b.x]"),
+        r"connections\[0\]: expected 'source\.port -> target\.port' \(got 'a\.out => b\.x'\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MALFORMED))
+def test_malformed_scene_is_reported_with_its_path(case):
+    """Each malformed scene raises one ScenarioError whose text names the YAML path and the rule."""
+    text, pattern = MALFORMED[case]
+    with pytest.raises(ScenarioError, match=pattern):
+        loads(text, source="scene.yaml")
+
+
+def test_all_problems_are_reported_at_once():
+    """Several problems in one scene come back together, one line each."""
+    text = scene_with('a: {type: "tests.toys:Gain", gain: x}\nb: {type: Nope}', "[a.out -> z.x]",
+                      extra="on_unstable: maybe")
+    with pytest.raises(ScenarioError) as info:
+        loads(text, source="s.yaml")
+    assert len(info.value.problems) == 4
+    assert str(info.value).startswith("s.yaml: 4 problems")
+
+
+def test_missing_file_is_bad_input(tmp_path):
+    """A scene path that does not exist is a ScenarioError naming the path."""
+    with pytest.raises(ScenarioError, match=r"nope\.yaml: no such file"):
+        load(tmp_path / "nope.yaml")

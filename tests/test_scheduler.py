@@ -1,0 +1,280 @@
+"""Scheduler trace tests: execution order and the inputs each step received."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from cosim.errors import SimulationError
+from cosim.scenario import loads
+from cosim.scheduler import BaseObserver, Simulation
+
+
+def run(text: str, **kw):
+    scene = loads(text)
+    sim = Simulation(scene, **kw)
+    result = sim.run()
+    return sim, result
+
+
+def values(comp, port="x"):
+    """(step start [ms], received value) pairs of a toy component's recorded inputs."""
+    return [(round(t * 1000, 6), None if d[port] is None else round(d[port].value, 9)) for t, d in comp.seen]
+
+
+class Trace(BaseObserver):
+    def __init__(self):
+        self.exchanges = []
+        self.events = []
+        self.finished = None
+
+    def on_exchange(self, time_ns, component, port, msg):
+        self.exchanges.append((time_ns, component, port))
+
+    def on_event(self, time_ns, component, kind, detail):
+        self.events.append((time_ns, component, kind, detail))
+
+    def on_finished(self, sim, result):
+        self.finished = result
+
+
+def test_chain_runs_in_topological_order_and_sees_this_ticks_outputs():
+    """Chain src -> g -> acc:
+
+        src.out --> g.x --> g.out --> acc.x
+
+    declared in reverse order, it still runs src, g, acc each tick, and each receiver sees the value its
+    source produced for the end of the same step (Gauss-Seidel)."""
+    sim, result = run("""
+dt: 0.001
+until: 0.003
+components:
+  acc: {type: "tests.toys:Accumulator"}
+  g: {type: "tests.toys:Gain", gain: 2}
+  src: {type: "tests.toys:Source", rate: 1000}
+connections:
+  - g.out -> acc.x
+  - src.out -> g.x
+""")
+    assert sim.scene.order == ["src", "g", "acc"]
+    assert values(sim.components["g"]) == [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0)]
+    assert values(sim.components["acc"]) == [(0.0, 2.0), (1.0, 4.0), (2.0, 6.0)]
+    assert result.status == "ok" and result.tick == 3
+
+
+def test_cycle_with_delay_feeds_previous_step_value_and_initial_first():
+    """Cycle through a delayed edge:
+
+        g.out --> acc.x --> acc.total -(delay)-> g.x
+
+    g first receives the edge's initial value, then the total acc published at the end of the
+    previous step."""
+    sim, _ = run("""
+dt: 0.001
+until: 0.004
+components:
+  g: {type: "tests.toys:Gain", gain: 1000}
+  acc: {type: "tests.toys:Accumulator"}
+connections:
+  - g.out -> acc.x
+  - {from: acc.total, to: g.x, delay: 1, initial: {value: 1.0}}
+""")
+    assert sim.scene.order == ["g", "acc"]
+    # total_{k+1} = total_k + 1000 * x_k * dt with x_0 = initial = 1  ->  1, 2, 4, 8
+    assert values(sim.components["g"]) == [(0.0, 1.0), (1.0, 1.0), (2.0, 2.0), (3.0, 4.0)]
+    assert values(sim.components["acc"]) == [(0.0, 1000.0), (1.0, 1000.0), (2.0, 2000.0), (3.0, 4000.0)]
+
+
+def test_delayed_edge_ignores_initial_outputs_and_uses_its_own_initial():
+    """A t = 0 initial output of the source is not delivered through a delayed edge: the edge's own
+    initial value is, so a scene states explicitly what a loop starts from."""
+    sim, _ = run("""
+dt: 0.001
+until: 0.002
+components:
+  g: {type: "tests.toys:Gain", gain: 1}
+  acc: {type: "tests.toys:Accumulator"}
+connections:
+  - g.out -> acc.x
+  - {from: acc.total, to: g.x, delay: 1, initial: {value: 7.0}}
+""")
+    assert values(sim.components["g"])[0] == (0.0, 7.0)
+
+
+def test_multi_rate_holds_the_slow_value_and_publishes_at_the_end_of_its_step():
+    """Multi-rate, every 1 and every 4:
+
+        src (every 1) --> slow.x (every 4) --> slow.total --> g.x (every 1)
+
+    slow steps at ticks 0 and 4 and sees src's newest output up to the end of its first tick; g sees
+    slow's initial output until slow's first step ends (t = 4 ms), then the held value."""
+    sim, _ = run("""
+dt: 0.001
+until: 0.008
+components:
+  src: {type: "tests.toys:Source", rate: 1000}
+  slow: {type: "tests.toys:Accumulator", every: 4}
+  g: {type: "tests.toys:Gain", gain: 1}
+connections:
+  - src.out -> slow.x
+  - slow.total -> g.x
+""")
+    slow = sim.components["slow"]
+    assert values(slow) == [(0.0, 1.0), (4.0, 5.0)]
+    assert slow.calls == [0.004, 0.004]
+    # slow.total: 0 at t=0 (initial output), 0.004 at 4 ms, 0.004 + 0.02 at 8 ms
+    g_inputs = values(sim.components["g"])
+    assert [v for _, v in g_inputs] == [0.0, 0.0, 0.0, 0.004, 0.004, 0.004, 0.004, 0.024]
+
+
+def test_additive_port_receives_the_sum_of_its_sources():
+    """Additive port fed twice:
+
+        a.force --+
+                  +--> sum.f
+        b.force --+
+    """
+    sim, _ = run("""
+dt: 0.001
+until: 0.002
+components:
+  a: {type: "tests.toys:Source", start: 1, rate: 0}
+  b: {type: "tests.toys:Source", start: 10, rate: 0}
+  sum: {type: "tests.toys:Summer"}
+connections:
+  - a.force -> sum.f
+  - b.force -> sum.f
+""")
+    assert values(sim.components["sum"], "f") == [(0.0, 11.0), (1.0, 11.0)]
+
+
+def test_event_port_delivers_each_message_once():
+    """An event input gets a message once; a held input keeps the last value (src every 2, sum every 1)."""
+    sim, _ = run("""
+dt: 0.001
+until: 0.004
+components:
+  src: {type: "tests.toys:Source", rate: 1000, every: 2}
+  sum: {type: "tests.toys:Summer"}
+connections:
+  - src.out -> sum.kick
+  - src.force -> sum.f
+""")
+    assert values(sim.components["sum"], "kick") == [(0.0, None), (1.0, 2.0), (2.0, None), (3.0, 4.0)]
+    assert values(sim.components["sum"], "f") == [(0.0, 2.0), (1.0, 2.0), (2.0, 2.0), (3.0, 4.0)]
+
+
+def test_component_stop_request_ends_the_run():
+    """A component's request_stop ends the run after the tick, with status 'stopped' and the reason."""
+    sim, result = run("""
+dt: 0.001
+until: 1.0
+components:
+  src: {type: "tests.toys:Source", start: 1000, rate: 0}
+  acc: {type: "tests.toys:Accumulator", stop_at: 3.0}
+connections:
+  - src.out -> acc.x
+""")
+    assert result.status == "stopped"
+    assert result.tick == 3
+    assert "acc: total reached 3" in result.reason
+
+
+def test_substep_subdivides_and_is_reported():
+    """With on_unstable: substep, a step above max_stable_step is split into equal substeps, and
+    observers hear about it once."""
+    trace = Trace()
+    scene = loads("""
+dt: 0.001
+until: 0.003
+on_unstable: substep
+components:
+  acc: {type: "tests.toys:Accumulator", stable_step: 0.0003}
+""")
+    sim = Simulation(scene, observers=[trace])
+    sim.run()
+    calls = sim.components["acc"].calls
+    assert len(calls) == 12 and calls[0] == pytest.approx(0.00025)
+    assert [(e[1], e[2]) for e in trace.events] == [("acc", "substep")]
+    assert "4 substeps" in trace.events[0][3]
+
+
+def test_runtime_instability_with_error_policy_names_component_bound_and_step():
+    """A component whose stable step shrinks below the step at run time fails with a clear error."""
+    scene = loads("""
+dt: 0.001
+until: 0.003
+components:
+  acc: {type: "tests.toys:Accumulator"}
+""")
+    sim = Simulation(scene)
+    sim.components["acc"].max_stable_step = lambda: 0.0005
+    with pytest.raises(SimulationError, match=r"'acc' failed at t = 0 s: step 0.001 s exceeds the stable step 0.0005 s"):
+        sim.run()
+
+
+def test_failure_becomes_simulation_error_with_component_and_time():
+    """An exception inside a component becomes a SimulationError naming it and the time; observers
+    are told the run failed."""
+    trace = Trace()
+    scene = loads("""
+dt: 0.001
+until: 1.0
+components:
+  bad: {type: "tests.toys:Faulty", fail_at: 0.0025}
+""")
+    with pytest.raises(SimulationError, match=r"'bad' failed at t = 0.003 s: RuntimeError: boom"):
+        Simulation(scene, observers=[trace]).run()
+    assert trace.finished.status == "failed" and trace.finished.tick == 3
+
+
+def test_non_finite_output_stops_the_run_naming_the_field():
+    """A NaN in an output stops the run with an error naming the component, the port and the field."""
+    scene = loads("""
+dt: 0.001
+until: 1.0
+components:
+  bad: {type: "tests.toys:Faulty", fail_at: 0.002, mode: nan}
+""")
+    with pytest.raises(SimulationError, match=r"'bad' failed at t = 0.002 s: non-finite value in output 'out' field 'value'"):
+        Simulation(scene).run()
+
+
+def test_time_is_integer_ticks_without_drift():
+    """After a million ticks of 0.1 ms the clock reads exactly 100 s (no float accumulation)."""
+    scene = loads("""
+dt: 0.0001
+until: 100
+components:
+  g: {type: "tests.toys:Gain", every: 1000000}
+""")
+    sim = Simulation(scene)
+    sim.tick = 999_999
+    sim.step()
+    assert sim.time_ns == 100 * 10**9
+    assert math.isclose(sim.time_ns / 1e9, 100.0, rel_tol=0, abs_tol=0)
+
+
+def test_checkpoint_restore_continues_bit_for_bit():
+    """Restoring a mid-run checkpoint into a fresh simulation gives the same final state as the run
+    that never stopped."""
+    text = """
+dt: 0.001
+until: 0.010
+components:
+  g: {type: "tests.toys:Gain", gain: 1.5}
+  acc: {type: "tests.toys:Accumulator"}
+connections:
+  - g.out -> acc.x
+  - {from: acc.total, to: g.x, delay: 1, initial: {value: 1.0}}
+"""
+    full = Simulation(loads(text))
+    full.run()
+    half = Simulation(loads(text))
+    half.run(until_ns=5_000_000)
+    cp = half.checkpoint()
+    resumed = Simulation(loads(text))
+    resumed.restore(cp)
+    resumed.run()
+    assert resumed.components["acc"].total == full.components["acc"].total
