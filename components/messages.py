@@ -222,3 +222,23 @@ class Stage(Message):
     label: str
     skips: int
     x: float
+
+
+@message
+class SkipRecord(Message):
+    """Figures of one finished skip (published at fly-away).
+
+    index: 1 for the first skip; touchdown_time [s] and touchdown_x [m] where the contact began;
+    contact_time [s]; takeoff_angle_deg: angle of the velocity above the horizontal at fly-away;
+    distance [m]: touchdown x minus the previous touchdown x (or the throw's start for the first);
+    speed_in, speed_out [m/s]: speed at touchdown and at fly-away.
+    """
+
+    index: int
+    touchdown_time: float
+    touchdown_x: float
+    contact_time: float
+    takeoff_angle_deg: float
+    distance: float
+    speed_in: float
+    speed_out: float

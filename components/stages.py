@@ -1,0 +1,162 @@
+"""The stage monitor: which stage of a throw the stone is in, the skips, and when to stop.
+
+Stages (Tsai et al. 2022 names), decided from the body state and the contact reports:
+
+- approach: airborne before the first contact, or falling back after a fly-away;
+- hit: touching water and moving down (vertical velocity < 0);
+- slide: touching water and moving up or level (vertical velocity >= 0);
+- fly-away: contact lost after a contact, still rising (one skip counted);
+- sink: fully submerged, or touching water too slowly to leave (horizontal speed below
+  ``sink_speed``); final;
+- rest: on the solid ground and (nearly) still.
+
+The monitor publishes a :class:`Stage` only when the stage changes and a :class:`SkipRecord` at each
+fly-away, and can end the run a little after the stone sinks or comes to rest.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from components.messages import BodyState, GroundContact, SkipRecord, Stage, StageId, WaterContact
+from cosim.component import Component, Port
+from cosim.messages import Message
+from cosim.params import param
+
+FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
+STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
+
+
+@dataclass
+class SkipTracker:
+    """Running figures of the current contact and the skips so far (plain data for checkpoints)."""
+
+    skips: int = 0
+    start_x: float = math.nan
+    last_touchdown_x: float = math.nan
+    touchdown_time: float = math.nan
+    touchdown_x: float = math.nan
+    speed_in: float = math.nan
+    in_contact: bool = False
+
+
+def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
+             sink_speed: float, rest_speed: float) -> StageId:
+    """The stage now, from the previous stage and this step's body and contact reports."""
+    if previous is StageId.SINK:
+        return StageId.SINK
+    vz = float(body.velocity[2])
+    horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
+    if ground is not None and ground.in_contact and body.speed < rest_speed:
+        return StageId.REST
+    if water is not None and water.wetted:
+        if water.submerged_fraction >= FULLY_SUBMERGED or horizontal < sink_speed:
+            return StageId.SINK
+        return StageId.HIT if vz < 0 else StageId.SLIDE
+    if previous in (StageId.HIT, StageId.SLIDE):
+        return StageId.FLY_AWAY
+    if previous is StageId.FLY_AWAY:
+        return StageId.FLY_AWAY if vz >= 0 else StageId.APPROACH
+    return StageId.APPROACH
+
+
+class StageMonitor(Component):
+    """Publishes stage changes and per-skip figures; stops the run after sink or rest."""
+
+    @dataclass(frozen=True)
+    class Params:
+        sink_speed: float = param(0.5, unit="m/s", ge=0,
+                                  doc="touching water slower than this horizontally counts as sinking")
+        rest_speed: float = param(0.01, unit="m/s", ge=0, doc="on the ground slower than this is at rest")
+        stop_after: float = param(0.3, unit="s", ge=0,
+                                  doc="end the run this long after sink or rest (0: never stop)")
+
+    inputs = {
+        "body": Port(BodyState, "the stone's state", required=True),
+        "water": Port(WaterContact, "the coupler's contact report"),
+        "ground": Port(GroundContact, "the ground's contact report"),
+    }
+    outputs = {"stage": Port(Stage), "skip": Port(SkipRecord)}
+
+    def setup(self) -> None:
+        self.stage: StageId | None = None  # the first step always publishes
+        self.since = 0.0
+        self.track = SkipTracker()
+        self.timeline: list[tuple[float, str]] = []
+        self.records: list[SkipRecord] = []
+        self.final_x = math.nan
+
+    def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        body: BodyState = inputs["body"]  # type: ignore[assignment]
+        water: WaterContact | None = inputs["water"]  # type: ignore[assignment]
+        ground: GroundContact | None = inputs["ground"]  # type: ignore[assignment]
+        now = t + dt
+        x = float(body.position[0])
+        track = self.track
+        if math.isnan(track.start_x):
+            track.start_x = x
+        self.final_x = x
+        outputs: dict[str, Message] = {}
+
+        wetted = water is not None and water.wetted
+        if wetted and not track.in_contact:
+            track.in_contact = True
+            track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed
+        previous = StageId.APPROACH if self.stage is None else self.stage
+        stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed)
+        if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY:
+            outputs["skip"] = self._finish_skip(now, body)
+        if not wetted:
+            track.in_contact = False
+        if stage is not self.stage:
+            self.stage, self.since = stage, now
+            self.timeline.append((now, STAGE_NAMES[stage]))
+            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x)
+        if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.REST)
+                and now - self.since >= self.params.stop_after):
+            self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
+        return outputs
+
+    def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
+        track = self.track
+        track.skips += 1
+        previous = track.start_x if math.isnan(track.last_touchdown_x) else track.last_touchdown_x
+        vx, vy, vz = (float(v) for v in body.velocity)
+        record = SkipRecord(
+            index=track.skips, touchdown_time=track.touchdown_time, touchdown_x=track.touchdown_x,
+            contact_time=now - track.touchdown_time,
+            takeoff_angle_deg=math.degrees(math.atan2(vz, math.hypot(vx, vy))),
+            distance=track.touchdown_x - previous, speed_in=track.speed_in, speed_out=body.speed)
+        track.last_touchdown_x = track.touchdown_x
+        self.records.append(record)
+        return record
+
+    def get_state(self) -> dict[str, Any]:
+        return {"stage": None if self.stage is None else int(self.stage), "since": self.since, "track": vars(self.track).copy(),
+                "timeline": [list(e) for e in self.timeline], "final_x": self.final_x,
+                "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records]}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.stage = None if state["stage"] is None else StageId(state["stage"])
+        self.since = state["since"]
+        self.track = SkipTracker(**state["track"])
+        self.timeline = [(t, label) for t, label in state["timeline"]]
+        self.final_x = state["final_x"]
+        self.records = [SkipRecord(*row) for row in state["records"]]
+
+    def summary(self) -> list[str]:
+        lines = [f"stages: {' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)}"]
+        start = self.track.start_x
+        travelled = self.final_x - start if not math.isnan(start) else math.nan
+        lines.append(f"skips: {self.track.skips}; distance travelled: {travelled:.2f} m; "
+                     f"final stage: {STAGE_NAMES[self.stage] if self.stage is not None else 'none'}")
+        for r in self.records:
+            lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {r.touchdown_time:.3f} s; "
+                         f"contact {r.contact_time * 1e3:.1f} ms; take-off {r.takeoff_angle_deg:.1f} deg; "
+                         f"speed {r.speed_in:.2f} -> {r.speed_out:.2f} m/s")
+        return lines
+
+
+_SKIP_FIELDS = [f for f in SkipRecord.__dataclass_fields__]

@@ -1,0 +1,82 @@
+"""The stage monitor, driven by hand-made body and contact messages (no scheduler)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact
+from components.stages import StageMonitor
+
+MS = 1_000_000
+
+
+def body(x: float, z: float, vx: float, vz: float) -> BodyState:
+    v = np.array([vx, 0.0, vz])
+    return BodyState(np.array([x, 0.0, z]), np.array([1.0, 0, 0, 0]), v, np.zeros(3), Shape.DISK, 0.05, 0.006,
+                     0.12, np.ones(3), 20.0, float(np.linalg.norm(v)), 0.0, 0.0)
+
+
+def water(wetted: bool, fraction: float = 0.1) -> WaterContact:
+    z = np.zeros(3)
+    return WaterContact(wetted, fraction, 0.001 if wetted else 0.0, z, z, z, z, 0.0, 0.0)
+
+
+def drive(monitor, script):
+    """Step the monitor through (body, water, ground) triples at 1 ms; return what it published."""
+    published = []
+    for k, (b, w, g) in enumerate(script):
+        out = monitor.step(k * MS, MS, {"body": b, "water": w, "ground": g})
+        published.append(out)
+    return published
+
+
+def test_skip_sequence_and_figures():
+    """approach -> hit -> slide -> fly-away -> approach -> hit -> sink, one skip with its figures."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),   # approach
+        (body(0.5, 0.00, 5.0, -1.0), water(True), None),    # hit (touchdown at x = 0.5, t = 2 ms)
+        (body(0.6, -0.001, 4.8, 0.2), water(True), None),   # slide
+        (body(0.7, 0.01, 4.6, 0.8), water(False), None),    # fly-away at t = 4 ms
+        (body(0.9, 0.02, 4.6, -0.1), water(False), None),   # approach again
+        (body(1.5, 0.0, 4.0, -0.5), water(True), None),     # hit
+        (body(1.6, -0.01, 0.3, -0.5), water(True), None),   # too slow: sink
+        (body(1.6, -0.02, 0.3, -0.5), water(True, 1.0), None),
+        (body(1.6, -0.03, 0.3, -0.5), water(True, 1.0), None),
+    ]
+    out = drive(m, script)
+    labels = [o["stage"].label for o in out if "stage" in o]
+    assert labels == ["approach", "hit", "slide", "fly-away", "approach", "hit", "sink"]
+    skips = [o["skip"] for o in out if "skip" in o]
+    assert len(skips) == 1
+    s = skips[0]
+    assert s.index == 1 and s.touchdown_x == 0.5 and s.distance == 0.5
+    assert s.contact_time == pytest.approx(0.002)
+    assert s.takeoff_angle_deg == pytest.approx(math.degrees(math.atan2(0.8, 4.6)))
+    assert m.stop_reason is not None and "sink" in m.stop_reason
+    assert "skips: 1" in "\n".join(m.summary())
+
+
+def test_rest_on_ground():
+    """A still stone on the ground is at rest."""
+    m = StageMonitor("stages")
+    ground = GroundContact(True, 1.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0, 0.003, 0.0, 0.0), None, ground)])
+    assert out[0]["stage"].stage is StageId.REST
+
+
+def test_state_round_trip_continues_identically():
+    """get_state/set_state reproduces the monitor's behaviour."""
+    script = [(body(0.0, 0.1, 5.0, -1.0), water(False), None), (body(0.5, 0.0, 5.0, -1.0), water(True), None),
+              (body(0.7, 0.01, 4.6, 0.8), water(False), None)]
+    a = StageMonitor("s")
+    drive(a, script[:2])
+    b = StageMonitor("s")
+    b.set_state(a.get_state())
+    out_a = a.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2])))
+    out_b = b.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2])))
+    assert out_a["skip"].contact_time == out_b["skip"].contact_time
+    assert a.summary() == b.summary()
