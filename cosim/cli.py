@@ -7,9 +7,9 @@ arguments). Bad input is reported in plain lines on stderr, never as a traceback
 from __future__ import annotations
 
 import argparse
+from importlib.metadata import entry_points
 import shlex
 import sys
-from collections.abc import Callable
 from pathlib import Path
 
 from cosim.errors import CosimError, RecordingError, ScenarioError
@@ -158,12 +158,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_replay)
 
-    for extra in _EXTRA_COMMANDS:
-        extra(sub)
+    for ep in sorted(entry_points(group=COMMANDS_GROUP), key=lambda e: e.name):
+        ep.load()(sub)
     return parser
 
 
-_EXTRA_COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = []
+# Packages add subcommands through these entry points: each names a register(subparsers) function
+# whose module imports its heavy dependencies lazily (plotting, rendering, sweeps).
+COMMANDS_GROUP = "cosim.commands"
 
 
 def _version() -> str:

@@ -56,12 +56,8 @@ def _signals_interrupt(sim: Simulation) -> Iterator[None]:
 
 
 def default_derivers(scene: Scene) -> list[Any]:
-    """Viewer-channel derivers offered by the components package, if it provides any."""
-    try:
-        from components.viewer import derivers_for  # type: ignore[import-not-found]
-    except ImportError:
-        return []
-    return derivers_for(scene)
+    """Viewer-channel derivers for a recording of ``scene`` (none until a viewer layer provides them)."""
+    return []
 
 
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,

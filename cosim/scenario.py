@@ -78,11 +78,13 @@ class Connection:
 @dataclass
 class RecordConfig:
     """What the recorder writes: channel patterns (fnmatch, None = all), every n-th message of each
-    physics channel, and component checkpoints every ``checkpoint_every`` seconds (0 = never)."""
+    physics channel, component checkpoints every ``checkpoint_every`` seconds (0 = never), and viewer
+    channels at ``visual_rate`` frames per second (0 = none)."""
 
     channels: list[str] | None = None
     every: int = 1
     checkpoint_every: float = 1.0
+    visual_rate: float = 30.0
 
 
 @dataclass
@@ -452,6 +454,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
             record = built
             if record.every < 1:
                 problems.append(f"record.every: must be >= 1 (got {record.every})")
+            if record.visual_rate < 0:
+                problems.append(f"record.visual_rate: must be >= 0 frames/s (got {record.visual_rate:g})")
             if record.checkpoint_every < 0:
                 problems.append(f"record.checkpoint_every: must be >= 0 s (got {record.checkpoint_every:g})")
 
