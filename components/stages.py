@@ -146,6 +146,18 @@ class StageMonitor(Component):
         self.final_x = state["final_x"]
         self.records = [SkipRecord(*row) for row in state["records"]]
 
+    def metrics(self) -> dict[str, float | int | str]:
+        start = self.track.start_x
+        contact = [r.contact_time for r in self.records]
+        return {
+            "skips": self.track.skips,
+            "distance": self.final_x - start if not math.isnan(start) else math.nan,
+            "outcome": STAGE_NAMES[self.stage] if self.stage is not None else "none",
+            "first_contact_time": contact[0] if contact else math.nan,
+            "mean_contact_time": sum(contact) / len(contact) if contact else math.nan,
+            "skip_distances": " ".join(f"{r.distance:.4f}" for r in self.records),
+        }
+
     def summary(self) -> list[str]:
         lines = [f"stages: {' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)}"]
         start = self.track.start_x

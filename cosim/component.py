@@ -107,6 +107,10 @@ class Component:
         """Lines for the closing run summary."""
         return []
 
+    def metrics(self) -> dict[str, float | int | str]:
+        """Named results of the run so far (scalars), for sweeps and studies, e.g. {"skips": 4}."""
+        return {}
+
     # --- services for components -------------------------------------------------------------
 
     def request_stop(self, reason: str) -> None:

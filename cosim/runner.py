@@ -95,6 +95,11 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     return RunOutcome(result, path, summary, sim)
 
 
+def collect_metrics(sim: Simulation) -> dict[str, float | int | str]:
+    """Every component's metrics, keyed ``component.metric``."""
+    return {f"{r.name}.{key}": value for r in sim.runners for key, value in r.comp.metrics().items()}
+
+
 def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     """The closing summary printed by ``cosim run``."""
     r = outcome.result
