@@ -1,0 +1,286 @@
+"""Compiled kernels of the water step (numba), twins of :mod:`components.water.kernels_numpy`.
+
+Speed comes from doing one pass over memory: the wave step reads h and v once and writes the new
+h and v into the spare buffers (ping-pong), which is the same traffic as copying the two arrays.
+Rows are independent, so large grids split them across threads (``prange``); each cell's arithmetic
+does not depend on the split, so serial and parallel runs agree bit for bit. Small grids run the
+serial twin, since starting threads would cost more than the work.
+
+Compiled code is cached on disk (``cache=True``); the first call in a fresh checkout compiles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+NAME = "numba"
+
+PARALLEL_MIN_CELLS = 32_768  # grids with fewer cells run single-threaded (thread start-up dominates)
+COLUMN_BLOCK = 64  # columns per task in the column (y) sweeps: contiguous rows of this many doubles
+
+
+# --- the wave step, one coefficient --------------------------------------------------------------
+
+@njit(cache=True, inline="always")
+def _wave_uniform_row(h, v, h_out, v_out, j, kdt, dt, damp):  # pragma: no cover - compiled
+    ny, nx = h.shape
+    hc = h[j]
+    hs = h[j - 1] if j > 0 else hc
+    hn = h[j + 1] if j < ny - 1 else hc
+    vc = v[j]
+    ho = h_out[j]
+    vo = v_out[j]
+    if nx == 1:
+        lap = hc[0] + hc[0] + hs[0] + hn[0] - 4.0 * hc[0]
+        vn = (vc[0] + kdt * lap) * damp
+        vo[0] = vn
+        ho[0] = hc[0] + dt * vn
+        return
+    lap = hc[0] + hc[1] + hs[0] + hn[0] - 4.0 * hc[0]
+    vn = (vc[0] + kdt * lap) * damp
+    vo[0] = vn
+    ho[0] = hc[0] + dt * vn
+    for i in range(1, nx - 1):
+        lap = hc[i - 1] + hc[i + 1] + hs[i] + hn[i] - 4.0 * hc[i]
+        vn = (vc[i] + kdt * lap) * damp
+        vo[i] = vn
+        ho[i] = hc[i] + dt * vn
+    i = nx - 1
+    lap = hc[i - 1] + hc[i] + hs[i] + hn[i] - 4.0 * hc[i]
+    vn = (vc[i] + kdt * lap) * damp
+    vo[i] = vn
+    ho[i] = hc[i] + dt * vn
+
+
+@njit(cache=True, parallel=True)
+def _wave_uniform_par(h, v, h_out, v_out, kdt, dt, damp):  # pragma: no cover - compiled
+    for j in prange(h.shape[0]):
+        _wave_uniform_row(h, v, h_out, v_out, j, kdt, dt, damp)
+
+
+@njit(cache=True)
+def _wave_uniform_ser(h, v, h_out, v_out, kdt, dt, damp):  # pragma: no cover - compiled
+    for j in range(h.shape[0]):
+        _wave_uniform_row(h, v, h_out, v_out, j, kdt, dt, damp)
+
+
+def wave_uniform(h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
+                 kdt: float, dt: float, damp: float) -> None:
+    """See :func:`components.water.kernels_numpy.wave_uniform`."""
+    fn = _wave_uniform_par if h.size >= PARALLEL_MIN_CELLS else _wave_uniform_ser
+    fn(h, v, h_out, v_out, kdt, dt, damp)
+
+
+# --- the wave step, per-face coefficients ---------------------------------------------------------
+
+@njit(cache=True, inline="always")
+def _flux_row(h, ax, ay, j, i):  # pragma: no cover - compiled
+    ny, nx = h.shape
+    hc = h[j, i]
+    acc = 0.0
+    if i > 0:
+        acc += ax[j, i - 1] * (h[j, i - 1] - hc)
+    if i < nx - 1:
+        acc += ax[j, i] * (h[j, i + 1] - hc)
+    if j > 0:
+        acc += ay[j - 1, i] * (h[j - 1, i] - hc)
+    if j < ny - 1:
+        acc += ay[j, i] * (h[j + 1, i] - hc)
+    return acc
+
+
+@njit(cache=True, inline="always")
+def _wave_faces_row(h, v, h_out, v_out, ax, ay, j, dt, damp):  # pragma: no cover - compiled
+    for i in range(h.shape[1]):
+        acc = _flux_row(h, ax, ay, j, i)
+        vn = (v[j, i] + dt * acc) * damp
+        v_out[j, i] = vn
+        h_out[j, i] = h[j, i] + dt * vn
+
+
+@njit(cache=True, parallel=True)
+def _wave_faces_par(h, v, h_out, v_out, ax, ay, dt, damp):  # pragma: no cover - compiled
+    for j in prange(h.shape[0]):
+        _wave_faces_row(h, v, h_out, v_out, ax, ay, j, dt, damp)
+
+
+@njit(cache=True)
+def _wave_faces_ser(h, v, h_out, v_out, ax, ay, dt, damp):  # pragma: no cover - compiled
+    for j in range(h.shape[0]):
+        _wave_faces_row(h, v, h_out, v_out, ax, ay, j, dt, damp)
+
+
+def wave_faces(h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
+               ax: np.ndarray, ay: np.ndarray, dt: float, damp: float) -> None:
+    """See :func:`components.water.kernels_numpy.wave_faces`."""
+    fn = _wave_faces_par if h.size >= PARALLEL_MIN_CELLS else _wave_faces_ser
+    fn(h, v, h_out, v_out, ax, ay, dt, damp)
+
+
+# --- Kass-Miller alternating-direction sweeps -----------------------------------------------------
+
+@njit(cache=True, inline="always")
+def _adi_x_row(h, v, dt, out, lower, inv, upper, j):  # pragma: no cover - compiled
+    nx = h.shape[1]
+    o = out[j]
+    lo = lower[j]
+    iv = inv[j]
+    up = upper[j]
+    hr = h[j]
+    vr = v[j]
+    prev = (hr[0] + dt * vr[0]) * iv[0]
+    o[0] = prev
+    for i in range(1, nx):
+        prev = ((hr[i] + dt * vr[i]) - lo[i] * prev) * iv[i]
+        o[i] = prev
+    for i in range(nx - 2, -1, -1):
+        prev = o[i] - up[i] * prev
+        o[i] = prev
+
+
+@njit(cache=True, parallel=True)
+def _adi_x_par(h, v, dt, out, lower, inv, upper):  # pragma: no cover - compiled
+    for j in prange(h.shape[0]):
+        _adi_x_row(h, v, dt, out, lower, inv, upper, j)
+
+
+@njit(cache=True)
+def _adi_x_ser(h, v, dt, out, lower, inv, upper):  # pragma: no cover - compiled
+    for j in range(h.shape[0]):
+        _adi_x_row(h, v, dt, out, lower, inv, upper, j)
+
+
+def adi_x(h: np.ndarray, v: np.ndarray, dt: float, out: np.ndarray,
+          lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
+    """See :func:`components.water.kernels_numpy.adi_x`."""
+    fn = _adi_x_par if h.size >= PARALLEL_MIN_CELLS else _adi_x_ser
+    fn(h, v, dt, out, lower, inv, upper)
+
+
+@njit(cache=True, inline="always")
+def _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, i0, i1):  # pragma: no cover - compiled
+    # Columns i0..i1-1 solved together: the sweep runs over rows, the inner loop along a row
+    # segment is contiguous and vectorises.
+    ny = h.shape[0]
+    for i in range(i0, i1):
+        out[0, i] = out[0, i] * inv[0, i]
+    for j in range(1, ny):
+        for i in range(i0, i1):
+            out[j, i] = (out[j, i] - lower[j, i] * out[j - 1, i]) * inv[j, i]
+    for j in range(ny - 2, -1, -1):
+        for i in range(i0, i1):
+            out[j, i] -= upper[j, i] * out[j + 1, i]
+    for j in range(ny):
+        for i in range(i0, i1):
+            v_out[j, i] = ((out[j, i] - h[j, i]) / dt) * damp
+
+
+@njit(cache=True, parallel=True)
+def _adi_y_par(h, dt, damp, out, v_out, lower, inv, upper, block):  # pragma: no cover - compiled
+    nx = h.shape[1]
+    nblocks = (nx + block - 1) // block
+    for b in prange(nblocks):
+        _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, b * block, min(nx, (b + 1) * block))
+
+
+@njit(cache=True)
+def _adi_y_ser(h, dt, damp, out, v_out, lower, inv, upper, block):  # pragma: no cover - compiled
+    nx = h.shape[1]
+    nblocks = (nx + block - 1) // block
+    for b in range(nblocks):
+        _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, b * block, min(nx, (b + 1) * block))
+
+
+def adi_y(h: np.ndarray, dt: float, damp: float, out: np.ndarray, v_out: np.ndarray,
+          lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
+    """See :func:`components.water.kernels_numpy.adi_y`."""
+    fn = _adi_y_par if h.size >= PARALLEL_MIN_CELLS else _adi_y_ser
+    fn(h, dt, damp, out, v_out, lower, inv, upper, COLUMN_BLOCK)
+
+
+# --- smoothing and the absorbing layer ------------------------------------------------------------
+
+@njit(cache=True, parallel=True)
+def _smooth_par(h, h_out, wx, wy, f):  # pragma: no cover - compiled
+    g = 0.25 * f
+    for j in prange(h.shape[0]):
+        for i in range(h.shape[1]):
+            h_out[j, i] = h[j, i] + g * _flux_row(h, wx, wy, j, i)
+
+
+@njit(cache=True)
+def _smooth_ser(h, h_out, wx, wy, f):  # pragma: no cover - compiled
+    g = 0.25 * f
+    for j in range(h.shape[0]):
+        for i in range(h.shape[1]):
+            h_out[j, i] = h[j, i] + g * _flux_row(h, wx, wy, j, i)
+
+
+def smooth(h: np.ndarray, h_out: np.ndarray, wx: np.ndarray, wy: np.ndarray, f: float) -> None:
+    """See :func:`components.water.kernels_numpy.smooth`."""
+    fn = _smooth_par if h.size >= PARALLEL_MIN_CELLS else _smooth_ser
+    fn(h, h_out, wx, wy, f)
+
+
+@njit(cache=True, inline="always")
+def _sponge_cell(h, v, sx, sy, j, i, dt):  # pragma: no cover - compiled
+    q = 1.0 / (1.0 + (sx[i] + sy[j]) * dt)
+    h[j, i] *= q
+    v[j, i] *= q
+
+
+@njit(cache=True)
+def _sponge(h, v, sx, sy, width, dt):  # pragma: no cover - compiled
+    # Only the cells of the layer are visited (the interior factor is exactly 1).
+    ny, nx = h.shape
+    for j in range(ny):
+        if j < width or j >= ny - width:
+            for i in range(nx):
+                _sponge_cell(h, v, sx, sy, j, i, dt)
+        else:
+            for i in range(min(width, nx)):
+                _sponge_cell(h, v, sx, sy, j, i, dt)
+            for i in range(max(nx - width, width), nx):
+                _sponge_cell(h, v, sx, sy, j, i, dt)
+
+
+def sponge(h: np.ndarray, v: np.ndarray, sx: np.ndarray, sy: np.ndarray, width: int, dt: float) -> None:
+    """See :func:`components.water.kernels_numpy.sponge`."""
+    _sponge(h, v, sx, sy, width, dt)
+
+
+@njit(cache=True)
+def _one_way(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt):  # pragma: no cover - compiled
+    ny, nx = h.shape
+    for j in range(ny):
+        if ol[j]:
+            h[j, 0] = h_old[j, 1] + kl[j] * (h[j, 1] - h_old[j, 0])
+    for j in range(ny):
+        if orr[j]:
+            h[j, nx - 1] = h_old[j, nx - 2] + kr[j] * (h[j, nx - 2] - h_old[j, nx - 1])
+    for i in range(nx):
+        if ob[i]:
+            h[0, i] = h_old[1, i] + kb[i] * (h[1, i] - h_old[0, i])
+    for i in range(nx):
+        if ot[i]:
+            h[ny - 1, i] = h_old[ny - 2, i] + kt[i] * (h[ny - 2, i] - h_old[ny - 1, i])
+    for j in range(ny):
+        if ol[j]:
+            v[j, 0] = (h[j, 0] - h_old[j, 0]) / dt
+    for j in range(ny):
+        if orr[j]:
+            v[j, nx - 1] = (h[j, nx - 1] - h_old[j, nx - 1]) / dt
+    for i in range(nx):
+        if ob[i]:
+            v[0, i] = (h[0, i] - h_old[0, i]) / dt
+    for i in range(nx):
+        if ot[i]:
+            v[ny - 1, i] = (h[ny - 1, i] - h_old[ny - 1, i]) / dt
+
+
+def one_way(h_old: np.ndarray, h: np.ndarray, v: np.ndarray, kl: np.ndarray, kr: np.ndarray,
+            kb: np.ndarray, kt: np.ndarray, ol: np.ndarray, orr: np.ndarray, ob: np.ndarray,
+            ot: np.ndarray, dt: float) -> None:
+    """See :func:`components.water.kernels_numpy.one_way`."""
+    _one_way(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt)

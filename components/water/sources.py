@@ -1,0 +1,87 @@
+"""DropSource: a scripted body entering the water, publishing the occupied height it would cause.
+
+It stands in for a coupler in scenes about the water alone (``type:
+components.water.sources:DropSource``), through the same port and message, so the water sees
+exactly what it would see from a real body::
+
+    +------------+ occupied -> occupied +--------------+
+    | DropSource | -------------------> | WaterSurface |
+    +------------+                      +--------------+
+
+The occupied height is a smooth cap over a disk, b(r) = height * (1 + cos(pi r / radius)) / 2 for
+r < radius, scaled in time by a smoothstep from 0 (at ``start``) to 1 (at ``start + rise``); with
+``hold`` set, the body leaves again over another ``rise`` after holding for ``hold`` seconds. The
+grid settings (cell, origin, nx, ny) must be those of the water it feeds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from components.messages import OccupiedHeight
+from cosim.component import Component, Port
+from cosim.messages import Message
+from cosim.params import param
+
+
+@dataclass(frozen=True)
+class DropParams:
+    """Parameters of :class:`DropSource` (SI units)."""
+
+    x: float = param(0.0, unit="m", doc="centre x of the displacement")
+    y: float = param(0.0, unit="m", doc="centre y")
+    radius: float = param(0.03, unit="m", gt=0, doc="radius of the occupied disk")
+    height: float = param(0.01, unit="m", ge=0, doc="peak occupied height at the centre")
+    start: float = param(0.0, unit="s", ge=0, doc="time the body starts entering")
+    rise: float = param(0.02, unit="s", gt=0, doc="time to enter fully (and to leave)")
+    hold: float | None = param(None, unit="s", ge=0, doc="time spent fully in before leaving; none: stays")
+    cell: float = param(0.01, unit="m", gt=0, doc="cell size of the water grid")
+    origin_x: float = param(0.0, unit="m", doc="x of the centre of the water's cell (0, 0)")
+    origin_y: float = param(0.0, unit="m", doc="y of the centre of the water's cell (0, 0)")
+    nx: int = param(128, ge=1, doc="cells of the water grid along x")
+    ny: int = param(128, ge=1, doc="cells of the water grid along y")
+
+
+def _smoothstep(u: float) -> float:
+    u = min(max(u, 0.0), 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
+class DropSource(Component):
+    """A scripted displacement: a body entering the water at a point (and optionally leaving)."""
+
+    Params = DropParams
+    outputs = {"occupied": Port(OccupiedHeight, doc="occupied height b over the disk's window")}
+
+    def setup(self) -> None:
+        p = self.params
+        i0 = max(math.floor((p.x - p.radius - p.origin_x) / p.cell), 0)
+        i1 = min(math.ceil((p.x + p.radius - p.origin_x) / p.cell) + 1, p.nx)
+        j0 = max(math.floor((p.y - p.radius - p.origin_y) / p.cell), 0)
+        j1 = min(math.ceil((p.y + p.radius - p.origin_y) / p.cell) + 1, p.ny)
+        i0, j0 = min(i0, i1), min(j0, j1)
+        x = p.origin_x + p.cell * np.arange(i0, i1)
+        y = p.origin_y + p.cell * np.arange(j0, j1)
+        r = np.hypot(x[None, :] - p.x, y[:, None] - p.y)
+        self._i0, self._j0 = i0, j0
+        self._shape = np.where(r < p.radius, 0.5 * p.height * (1.0 + np.cos(np.pi * r / p.radius)), 0.0)
+
+    def level(self, t: float) -> float:
+        """Fraction of the full displacement at time t [s] (0..1)."""
+        p = self.params
+        up = _smoothstep((t - p.start) / p.rise)
+        if p.hold is None:
+            return up
+        return up - _smoothstep((t - p.start - p.rise - p.hold) / p.rise)
+
+    def _message(self, t: float) -> OccupiedHeight:
+        return OccupiedHeight(i0=self._i0, j0=self._j0, b=self.level(t) * self._shape)
+
+    def initial_outputs(self) -> dict[str, Message]:
+        return {"occupied": self._message(0.0)}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        return {"occupied": self._message(t + dt)}

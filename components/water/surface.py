@@ -1,0 +1,325 @@
+"""The WaterSurface component: a height field of water columns on an nx x ny grid.
+
+Ports::
+
+    occupied (OccupiedHeight) --> +--------------+ --> patch (HeightPatch), every step
+    request  (PatchRequest)   --> | WaterSurface | --> field (WaterField), at the visual frame rate
+                                  +--------------+
+
+One step, from t to t + dt:
+
+1. displacement: h += b - b_prev over the union of the previous and the new occupied windows (the
+   change optionally spread by ``displacement_smoothing`` conservative blur passes), then b_prev = b;
+   an input that did not change adds exactly nothing, so a water component stepping slower than its
+   source still sees the right total change;
+2. the model step (``wave`` or ``shallow_water``, see :mod:`components.water.models`);
+3. the boundary (``reflecting`` or ``absorbing``, see :mod:`components.water.boundaries`);
+4. optional positional smoothing (Müller): h += (mean of 4 neighbours - h) min(1/2, k_p dt);
+5. outputs: the patch over the requested window plus ``patch_margin`` cells (empty when nothing is
+   requested: then no column work is done), and the whole field when a frame is due.
+
+A step longer than the explicit model's stable step is refused by the framework
+(on_unstable: error) or split into equal substeps (on_unstable: substep); with substeps the inputs
+are applied once and the outputs built once, at the end of the whole step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
+from components.water import kernels_numba, kernels_numpy
+from components.water.boundaries import BOUNDARIES
+from components.water.diagnostics import energy, volume
+from components.water.grid import build_grid
+from components.water.models import MODELS
+from cosim.component import Component, Port
+from cosim.messages import Message
+from cosim.params import param
+from cosim.timebase import NS_PER_S
+
+KERNELS: dict[str, Any] = {k.NAME: k for k in (kernels_numba, kernels_numpy)}
+"""Kernel sets by name: the compiled one and the pure-numpy reference."""
+
+SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
+BLUR_WEIGHT = 0.125  # weight of each neighbour difference in one displacement blur pass (<= 1/8: monotone)
+
+
+def _choices(registry: dict[str, Any]) -> str:
+    return ", ".join(repr(k) for k in registry)
+
+
+@dataclass(frozen=True)
+class GaussianBump:
+    """A Gaussian bump of the surface, at rest: h += amplitude * exp(-r^2 / (2 width^2))."""
+
+    x: float = param(unit="m", doc="centre x")
+    y: float = param(unit="m", doc="centre y")
+    amplitude: float = param(unit="m", doc="peak height above the rest level")
+    width: float = param(unit="m", gt=0, doc="standard deviation of the bump")
+
+
+@dataclass(frozen=True)
+class WaterParams:
+    """Parameters of :class:`WaterSurface` (SI units)."""
+
+    nx: int = param(128, ge=2, doc="cells along x")
+    ny: int = param(128, ge=2, doc="cells along y")
+    cell: float = param(0.01, unit="m", gt=0, doc="cell size s")
+    depth: float = param(0.5, unit="m", gt=0, doc="rest depth at the centre of the grid")
+    origin_x: float = param(0.0, unit="m", doc="x of the centre of cell (0, 0)")
+    origin_y: float = param(0.0, unit="m", doc="y of the centre of cell (0, 0)")
+    rest_level: float = param(0.0, unit="m", doc="z of the undisturbed surface")
+    bottom_slope: tuple[float, float] = param(
+        (0.0, 0.0), unit="m/m", doc="bed slope (dz/dx, dz/dy); cells with the bed above rest level are dry")
+    model: str = param("wave", doc="wave (explicit) or shallow_water (implicit, Kass-Miller)")
+    wave_speed: float | None = param(None, unit="m/s", gt=0, doc="fixed wave speed c; default sqrt(g d)")
+    boundary: str = param("reflecting", doc="reflecting (closed basin) or absorbing (open water)")
+    sponge_cells: int = param(0, ge=0, doc="absorbing boundary: width of an extra sponge layer [cells]")
+    damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= max(0, 1 - k_v dt)")
+    smoothing: float = param(0.0, unit="1/s", ge=0, doc="positional smoothing rate k_p")
+    displacement_smoothing: int = param(0, ge=0, doc="blur passes spreading each displacement change")
+    initial: GaussianBump | None = param(None, doc="initial bump {x, y, amplitude, width}")  # noqa: RUF009
+    patch_margin: int = param(1, ge=0, doc="cells added around the requested window")
+    field_every: int = param(0, ge=0, doc="publish the whole field every N steps (0: never)")
+    field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
+    backend: str = param("numba", doc="numba (compiled) or numpy (reference)")
+
+    def check(self) -> list[tuple[str, str]]:
+        """Rules across fields and registry names, as (field, problem) pairs."""
+        problems = []
+        for name, registry in (("model", MODELS), ("boundary", BOUNDARIES), ("backend", KERNELS)):
+            value = getattr(self, name)
+            if value not in registry:
+                problems.append((name, f"must be one of {_choices(registry)} (got {value!r})"))
+        if self.field_every and self.field_rate:
+            problems.append(("field_rate", "give field_every or field_rate, not both (got field_every "
+                                           f"{self.field_every}, field_rate {self.field_rate:g})"))
+        if self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
+            problems.append(("sponge_cells", f"must be < min(nx, ny) / 2 = {min(self.nx, self.ny) / 2:g} "
+                                             f"for an absorbing boundary (got {self.sponge_cells})"))
+        return problems
+
+
+def _blur(d: np.ndarray) -> np.ndarray:
+    """One conservative 5-point blur pass with closed edges (the sum is kept to round-off)."""
+    acc = np.zeros_like(d)
+    dx = d[:, 1:] - d[:, :-1]
+    dy = d[1:, :] - d[:-1, :]
+    acc[:, :-1] += dx
+    acc[:, 1:] -= dx
+    acc[:-1, :] += dy
+    acc[1:, :] -= dy
+    return d + BLUR_WEIGHT * acc
+
+
+class WaterSurface(Component):
+    """Height-field water: columns of height and vertical velocity, waves, displacement by bodies."""
+
+    Params = WaterParams
+    inputs = {
+        "occupied": Port(OccupiedHeight, doc="absolute occupied height b of bodies over a window"),
+        "request": Port(PatchRequest, doc="world rectangle whose columns the consumer needs next"),
+    }
+    outputs = {
+        "patch": Port(HeightPatch, doc="columns over the requested window (+ margin), every step"),
+        "field": Port(WaterField, doc="the whole surface, at the visual frame rate (viewers only)"),
+    }
+
+    # --- construction -----------------------------------------------------------------------
+
+    def setup(self) -> None:
+        p = self.params
+        problems = p.check()
+        if problems:
+            raise ValueError("; ".join(f"{name}: {text}" for name, text in problems))
+        self.grid = g = build_grid(p.nx, p.ny, p.cell, p.depth, origin_x=p.origin_x, origin_y=p.origin_y,
+                                   rest_level=p.rest_level, bottom_slope=p.bottom_slope,
+                                   wave_speed=p.wave_speed)
+        self.kernels = KERNELS[p.backend]
+        self.model = MODELS[p.model](g, self.kernels, p.damping)
+        self.boundary = BOUNDARIES[p.boundary](g, self.kernels, p.sponge_cells)
+        self._wx = np.ascontiguousarray((g.kx > 0).astype(np.float64))
+        self._wy = np.ascontiguousarray((g.ky > 0).astype(np.float64))
+        shape = g.shape
+        self._h = np.zeros(shape)
+        self._v = np.zeros(shape)
+        self._h2 = np.empty(shape)  # spare buffers: each step writes into them, then they swap
+        self._v2 = np.empty(shape)
+        self._h3 = np.empty(shape) if p.smoothing > 0 else self._h2
+        if p.initial is not None:
+            x, y = g.centres()
+            bump = p.initial
+            r2 = (x - bump.x) ** 2 + (y - bump.y) ** 2
+            self._h += np.where(g.wet, bump.amplitude * np.exp(-r2 / (2.0 * bump.width**2)), 0.0)
+        self._b = np.zeros(shape)  # occupied height of the last input, zero outside its window
+        self._b_window: tuple[int, int, int, int] | None = None
+        self._steps = 0
+        self._next_frame = 1
+        self._empty_patch = HeightPatch(
+            i0=0, j0=0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, rest_level=g.rest_level,
+            height=np.zeros((0, 0)), velocity=np.zeros((0, 0)), bottom=np.zeros((0, 0)))
+        self.initial_volume = self.volume()
+
+    # --- diagnostics --------------------------------------------------------------------------
+
+    @property
+    def height(self) -> np.ndarray:
+        """Surface elevation z of every cell, (ny, nx) [m] (a new array)."""
+        return self.grid.surface0 + self._h
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Vertical velocity of every column, (ny, nx) [m/s] (a copy)."""
+        return self._v.copy()
+
+    def volume(self) -> float:
+        """Water volume above the bed, bodies excluded [m^3]."""
+        return volume(self.grid, self._h, self._b)
+
+    def energy(self) -> float:
+        """Lattice wave energy [J] (see :mod:`components.water.diagnostics`)."""
+        return energy(self.grid, self._h, self._v)
+
+    def max_stable_step(self) -> float:
+        return self.model.max_stable_step()
+
+    def summary(self) -> list[str]:
+        g, p = self.grid, self.params
+        change = (self.volume() - self.initial_volume) / self.initial_volume
+        return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {p.boundary} edges; "
+                f"volume change {change:+.3g} (relative), wave energy {self.energy():.6g} J"]
+
+    # --- state ----------------------------------------------------------------------------------
+
+    def get_state(self) -> dict[str, Any]:
+        w = self._b_window
+        return {
+            "h": self._h.copy(),
+            "v": self._v.copy(),
+            "b_window": list(w) if w is not None else None,
+            "b": self._b[w[2]:w[3], w[0]:w[1]].copy() if w is not None else np.zeros((0, 0)),
+            "steps": self._steps,
+            "next_frame": self._next_frame,
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        shape = self.grid.shape
+        for key in ("h", "v"):
+            arr = np.asarray(state[key])
+            if arr.shape != shape:
+                raise ValueError(f"state {key!r} has shape {arr.shape}, the grid is {shape}")
+        np.copyto(self._h, state["h"])
+        np.copyto(self._v, state["v"])
+        self._b[:] = 0.0
+        w = state["b_window"]
+        self._b_window = tuple(int(k) for k in w) if w is not None else None  # type: ignore[assignment]
+        if self._b_window is not None:
+            i0, i1, j0, j1 = self._b_window
+            self._b[j0:j1, i0:i1] = state["b"]
+        self._steps = int(state["steps"])
+        self._next_frame = int(state["next_frame"])
+
+    # --- the step -------------------------------------------------------------------------------
+
+    def initial_outputs(self) -> dict[str, Message]:
+        out: dict[str, Message] = {"patch": self._empty_patch}
+        if self.params.field_every or self.params.field_rate:
+            out["field"] = self._field()
+        return out
+
+    def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        return self._substep(t, dt, 1, inputs)
+
+    def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        occupied = inputs.get("occupied")
+        if occupied is not None:
+            self.apply_occupied(occupied)  # type: ignore[arg-type]
+        h = dt / n
+        for _ in range(n):
+            self.advance(h)
+        self._steps += 1
+        return self._outputs(t + dt, inputs.get("request"))  # type: ignore[arg-type]
+
+    def advance(self, dt: float) -> None:
+        """Advance the field by dt [s] with no input (model, boundary, smoothing)."""
+        self.model.advance(self._h, self._v, self._h2, self._v2, dt)
+        self.boundary.after_step(self._h, self._h2, self._v2, dt)
+        if self.params.smoothing > 0:
+            f = min(SMOOTHING_MAX, self.params.smoothing * dt)
+            self.kernels.smooth(self._h2, self._h3, self._wx, self._wy, f)
+            self._h2, self._h3 = self._h3, self._h2
+        self._h, self._h2 = self._h2, self._h
+        self._v, self._v2 = self._v2, self._v
+
+    def apply_occupied(self, msg: OccupiedHeight) -> None:
+        """h += b - b_prev over the union of the old and new windows (the part off the grid is ignored)."""
+        g = self.grid
+        b = np.asarray(msg.b, dtype=np.float64)
+        nj, ni = b.shape
+        i0, i1 = max(msg.i0, 0), min(msg.i0 + ni, g.nx)
+        j0, j1 = max(msg.j0, 0), min(msg.j0 + nj, g.ny)
+        new = (i0, i1, j0, j1) if i0 < i1 and j0 < j1 else None
+        old = self._b_window
+        if new is None and old is None:
+            return
+        boxes = [w for w in (old, new) if w is not None]
+        u0, u1 = min(w[0] for w in boxes), max(w[1] for w in boxes)
+        v0, v1 = min(w[2] for w in boxes), max(w[3] for w in boxes)
+        passes = self.params.displacement_smoothing
+        if passes:
+            u0, u1 = max(u0 - passes, 0), min(u1 + passes, g.nx)
+            v0, v1 = max(v0 - passes, 0), min(v1 + passes, g.ny)
+        b_new = np.zeros((v1 - v0, u1 - u0))
+        if new is not None:
+            b_new[j0 - v0:j1 - v0, i0 - u0:i1 - u0] = b[j0 - msg.j0:j1 - msg.j0, i0 - msg.i0:i1 - msg.i0]
+        delta = b_new - self._b[v0:v1, u0:u1]
+        for _ in range(passes):
+            delta = _blur(delta)
+        self._h[v0:v1, u0:u1] += delta
+        self._b[v0:v1, u0:u1] = b_new
+        self._b_window = new
+
+    # --- outputs --------------------------------------------------------------------------------
+
+    def _outputs(self, t_end: float, request: PatchRequest | None) -> dict[str, Message]:
+        out: dict[str, Message] = {"patch": self.patch(request)}
+        if self._field_due(t_end):
+            out["field"] = self._field()
+        return out
+
+    def patch(self, request: PatchRequest | None) -> HeightPatch:
+        """The columns over a requested rectangle plus the margin (empty when nothing is requested)."""
+        if request is None:
+            return self._empty_patch
+        g = self.grid
+        win = g.window(request.x_min, request.x_max, request.y_min, request.y_max, self.params.patch_margin)
+        if win is None:
+            return self._empty_patch
+        i0, i1, j0, j1 = win
+        sl = (slice(j0, j1), slice(i0, i1))
+        return HeightPatch(i0=i0, j0=j0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y,
+                           rest_level=g.rest_level, height=g.surface0[sl] + self._h[sl],
+                           velocity=self._v[sl].copy(), bottom=g.bed[sl].copy())
+
+    def _field_due(self, t_end: float) -> bool:
+        p = self.params
+        if p.field_every:
+            return self._steps % p.field_every == 0
+        if p.field_rate:
+            # frame k is due at k / field_rate; frames that fell inside one long step are merged
+            end_ns = round(t_end * NS_PER_S)
+            elapsed = math.floor(end_ns * p.field_rate / NS_PER_S + 1e-9)
+            if elapsed >= self._next_frame:
+                self._next_frame = elapsed + 1
+                return True
+        return False
+
+    def _field(self) -> WaterField:
+        g = self.grid
+        return WaterField(cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, height=self.height,
+                          volume=self.volume(), energy=self.energy())
