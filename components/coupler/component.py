@@ -1,0 +1,456 @@
+"""WaterCoupler: the two-way stone-water interaction, per water column under the body.
+
+Ports (see DESIGN.md section 3)::
+
+    body  (BodyState,   direct edge from the stone: its state at the END of its step)  --+
+    water (HeightPatch, direct edge from the water: the window requested last step)  ---+--> coupler
+    coupler --> wrench   (Wrench, to the body through a delayed edge, held over its next step)
+            --> occupied (OccupiedHeight, to the water: absolute displacement b_ij; empty when dry)
+            --> request  (PatchRequest, to the water: the body's footprint at its next position)
+            --> contact  (WaterContact, to the stage monitor, plots and energy books)
+
+One step: read the body state and the patch; if the body is far from the water, publish a zero
+wrench, an empty occupied window and an empty request at once (no column work). Otherwise evaluate
+the named effects (:mod:`components.coupler.kernel`) at the received state and publish their sum.
+
+Stability: :meth:`WaterCoupler.max_stable_step` bounds the step by the linearised stiffness and
+damping of the water forces against the body's mass and inertia. When the scheduler substeps the
+coupler (``on_unstable: substep``), the coupler advances a private copy of the body (its water
+forces plus gravity, semi-implicit Euler) through the substeps and publishes the mean wrench over
+the step: the impulse the body then receives equals the finely resolved one, so a 30 m/s entry
+neither explodes nor forces a globally tiny step. (With held inputs, repeating the same evaluation
+would be pointless, so this component overrides the base class's substep loop.)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from components.coupler import kernel
+from components.coupler.effects import (
+    COLUMN_MASK,
+    DISPLACEMENT,
+    EFFECTS,
+    ELEMENT_MASK,
+    effect_mask,
+    unknown_effects,
+)
+from components.coupler.forces import (
+    C_FRICTION,
+    C_LIFT,
+    C_MIN,
+    C_WAVE,
+    GRAVITY,
+    RHO_WATER,
+)
+from components.coupler.geometry import (
+    Elements,
+    disk_elements,
+    disk_half_extents,
+    lowest_point,
+    quat_to_matrix,
+    sphere_elements,
+)
+from components.messages import (
+    BodyState,
+    HeightPatch,
+    OccupiedHeight,
+    PatchRequest,
+    Shape,
+    WaterContact,
+    Wrench,
+)
+from cosim.component import Component, Port
+from cosim.messages import Message
+from cosim.params import param
+
+DAMPING_SAFETY = 1.0  # step <= this / damping rate: explicit relaxation never overshoots (limit is 2) [-]
+SPRING_SAFETY = 1.0  # step <= this / sqrt(stiffness / mass) (symplectic limit is 2) [-]
+MOTION_FRACTION = 0.25  # near the water a step may carry the body at most this fraction of its radius [-]
+MAX_AUTO_SUBSAMPLES = 16  # cap of the automatic sub-cells per column side [-]
+SUBSAMPLES_PER_RADIUS = 4.0  # automatic sub-cells: about this many samples per body radius [-]
+DEFAULT_MARGIN = 0.05  # request margin before the first patch tells the cell size [m]
+
+ALL_EFFECTS = list(EFFECTS)
+_EFFECTS_DOC = "effects switched on, by name: " + ", ".join(EFFECTS)
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+_ZERO3 = _ro(np.zeros(3))
+_EMPTY_GRID = _ro(np.zeros((0, 0)))
+
+
+@dataclass(frozen=True)
+class WaterCouplerParams:
+    """Parameters of the water coupler (SI units; coefficients from physics.md section 3)."""
+
+    effects: list[str] = param(ALL_EFFECTS, doc=_EFFECTS_DOC)  # noqa: RUF009 (param copies lists)
+    rho: float = param(RHO_WATER, unit="kg/m^3", gt=0, doc="water density")
+    g: float = param(GRAVITY, unit="m/s^2", ge=0, doc="gravity (buoyancy and the substep predictor)")
+    c_l: float = param(C_LIFT, ge=0, doc="pressure coefficient C_L of the Rosellini/Clanet law")
+    c_n: float = param(0.0, ge=0, doc="Newtonian coefficient C_N (0 = off; 1.4 per Nagahiro & Hayakawa)")
+    c_f: float = param(C_FRICTION, ge=0, doc="skin friction coefficient C_f")
+    c_w: float = param(C_WAVE, ge=0, doc="capillary-gravity wave drag coefficient C_W")
+    c_min: float = param(C_MIN, unit="m/s", ge=0, doc="minimum capillary-gravity wave speed")
+    displacement_mode: Literal["ring", "column"] = param(
+        "ring", doc="ring: displaced volume around the body (stable); column: Mueller's b under it")
+    ring_cells: float = param(1.5, gt=0, doc="width of the displacement band [cells]")
+    smoothing: int = param(0, ge=0, doc="volume-conserving [1,2,1] smoothing passes of the displacement")
+    column_subsamples: int = param(0, ge=0, doc="sub-cells per column side (0: automatic from R/cell)")
+    face_elements: int = param(16, ge=2, doc="disk face tiling: squares across a diameter")
+    rim_elements: int = param(48, ge=3, doc="disk rim tiling: strips around the rim")
+    sphere_bands: int = param(24, ge=2, doc="sphere tiling: equal-area latitude bands")
+    wet_ramp: float = param(5e-4, unit="m", gt=0,
+                            doc="least depth over which a level element goes from dry to wet")
+    margin_cells: int = param(4, ge=0, doc="request margin around the footprint [cells]")
+    water_level: float = param(0.0, unit="m", doc="rest level assumed until the first patch arrives")
+    wave_allowance: float = param(0.05, unit="m", ge=0,
+                                  doc="highest crest above rest level; a body above it is far")
+    lock_attitude: bool = param(False, doc="the body's attitude is locked (the substep predictor keeps it)")
+
+    def check(self) -> list[tuple[str, str]]:
+        return [("effects", p) for p in unknown_effects(self.effects)]
+
+
+class WaterCoupler(Component):
+    """Stone-water interaction per water column: displacement, buoyancy, pressure, friction, wave drag."""
+
+    Params = WaterCouplerParams
+    inputs = {
+        "body": Port(BodyState, "the body's state at the end of its step", required=True),
+        "water": Port(HeightPatch, "the water over the window requested last step"),
+    }
+    outputs = {
+        "wrench": Port(Wrench, "water force and torque on the body, held over its next step"),
+        "occupied": Port(OccupiedHeight, "displaced height b_ij (absolute); empty when dry"),
+        "request": Port(PatchRequest, "the window of water needed next step"),
+        "contact": Port(WaterContact, "what the water did this step"),
+    }
+
+    # --- lifecycle -------------------------------------------------------------------------------
+
+    def setup(self) -> None:
+        p = self.params
+        problems = unknown_effects(p.effects)
+        if problems:
+            raise ValueError("effects: " + "; ".join(problems))
+        self.flags = effect_mask(p.effects)
+        self._elements: Elements | None = None
+        self._elements_key: tuple | None = None
+        self._stats = np.zeros(kernel.N_STATS)
+        self._b_geo = np.zeros((0, 0))
+        self._zero_contact_cache: tuple[float, WaterContact] | None = None
+        self._zero_wrench = Wrench(_ZERO3, _ZERO3)
+        self._empty_occupied = OccupiedHeight(0, 0, _EMPTY_GRID)
+        self._empty_request = PatchRequest.empty()
+        self.work = {"columns": 0, "elements": 0}
+        self._reset_state()
+
+    def _reset_state(self) -> None:
+        self.rest_level = float(self.params.water_level)
+        self.cell = 0.0
+        self.dissipated = 0.0
+        self.bound = math.inf
+        self._prev: dict[str, Any] | None = None  # last published wrench and the state it acts from
+
+    def initial_outputs(self) -> dict[str, Message]:
+        """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
+
+        The body's state is not known before its first step, so the first step requests the window
+        (one step of lag, covered by the margin).
+        """
+        return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
+                "request": self._empty_request, "contact": self._dry_contact(-math.inf)}
+
+    def get_state(self) -> dict[str, Any]:
+        prev = None
+        if self._prev is not None:
+            prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
+        return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
+                "bound": self.bound, "prev": prev}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.rest_level = float(state["rest_level"])
+        self.cell = float(state["cell"])
+        self.dissipated = float(state["dissipated"])
+        self.bound = float(state["bound"])
+        prev = state.get("prev")
+        self._prev = None if prev is None else {k: np.array(v, dtype=float) for k, v in prev.items()}
+
+    def max_stable_step(self) -> float:
+        """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
+
+        min of DAMPING_SAFETY / lambda, with lambda = max(sum dF/dv / m, sum d(torque)/d(omega) / I_min)
+        (pressure: rho (C_L |u| + C_N u.n) dA per advancing element; friction: rho C_f |u| dA per wet
+        element), SPRING_SAFETY / sqrt(k / m), with k the growth of the pressure force with depth
+        plus rho g A_waterline, and MOTION_FRACTION R / (|v| + R |omega|) while near the water.
+        """
+        return self.bound
+
+    def summary(self) -> list[str]:
+        return [f"water coupler: effects {', '.join(self.params.effects) or 'none'}; "
+                f"energy taken from the body {self.dissipated:.4g} J"]
+
+    # --- stepping ---------------------------------------------------------------------------------
+
+    def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        return self._advance(dt, 1, inputs)
+
+    def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        return self._advance(dt, n, inputs)
+
+    def _advance(self, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        body = inputs.get("body")
+        patch = inputs.get("water")
+        if body is None:
+            self.bound = math.inf
+            return self._idle(-math.inf)
+        if patch is not None and patch.height.size:
+            self.rest_level = float(patch.rest_level)
+            self.cell = float(patch.cell)
+        pos = body.position
+        vel = body.velocity
+        omega = body.angular_velocity
+        self._account_work(pos, omega, dt)
+        # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest
+        radius = float(body.radius)
+        r_bound = math.hypot(radius, 0.5 * float(body.thickness))
+        z_bottom = float(pos[2]) - r_bound
+        level = self.rest_level
+        reach = min(0.0, float(vel[2])) * 2.0 * dt
+        if self.flags == 0 or z_bottom + reach > level + self.params.wave_allowance:
+            self.bound = math.inf
+            self._prev = None
+            return self._idle(level - z_bottom)
+        axes = quat_to_matrix(body.orientation)
+        is_disk = body.shape == Shape.DISK
+        axis = axes[:, 2]
+        low = lowest_point(is_disk, pos, axis, radius, float(body.thickness))
+        half = disk_half_extents(axis, radius, float(body.thickness)) if is_disk else (radius, radius)
+        request = self._request(pos + vel * dt, half, vel, dt)
+        if patch is None or patch.height.size == 0:
+            self.bound = self._motion_bound(body)
+            self._prev = {"force": np.zeros(3), "torque": np.zeros(3), "position": pos.copy(),
+                          "omega": omega.copy()}
+            return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
+                    "contact": self._dry_contact(level - low[2])}
+        elements = self._elements_for(body)
+        x0 = patch.origin_x + patch.i0 * patch.cell
+        y0 = patch.origin_y + patch.j0 * patch.cell
+        height = np.ascontiguousarray(patch.height, dtype=np.float64)
+        wvel = np.ascontiguousarray(patch.velocity, dtype=np.float64)
+        bottom = np.ascontiguousarray(patch.bottom, dtype=np.float64)
+        hmax = float(height.max())
+        if self._b_geo.shape != height.shape:
+            self._b_geo = np.zeros(height.shape)
+        nsub = self._subsamples(radius, float(patch.cell))
+        water = (x0, y0, float(patch.cell), height, wvel, bottom, hmax)
+        stats = self._evaluate(body, pos, vel, omega, axes, half, low[2], water, elements, nsub,
+                               self._b_geo, self._stats)
+        self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
+        self.bound = self._stability_bound(body, stats)
+        mean = stats[:24].copy()
+        if n > 1:
+            mean = self._predict(body, n, dt, stats, water, elements, nsub)
+        force = mean[0:3] + mean[6:9] + mean[12:15] + mean[18:21]
+        torque = mean[3:6] + mean[9:12] + mean[15:18] + mean[21:24]
+        self._prev = {"force": force.copy(), "torque": torque.copy(), "position": pos.copy(),
+                      "omega": omega.copy()}
+        depth_ok, h_low, _ = kernel.sample_surface(low[0], low[1], x0, y0, float(patch.cell), height, wvel)
+        depth = (h_low if depth_ok else level) - low[2]
+        volume = float(stats[kernel.S_VOLUME])
+        area = float(stats[kernel.S_AREA])
+        body_volume = (math.pi * radius * radius * float(body.thickness) if is_disk
+                       else 4.0 / 3.0 * math.pi * radius**3)
+        contact = WaterContact(
+            wetted=bool(volume > 0.0 or area > 0.0),
+            submerged_fraction=min(1.0, volume / body_volume) if body_volume > 0 else 0.0,
+            wetted_area=area,
+            buoyancy=mean[0:3].copy(), pressure=mean[6:9].copy(), friction=mean[12:15].copy(),
+            wave_drag=mean[18:21].copy(), depth=float(depth), dissipated_energy=self.dissipated)
+        occupied = self._occupied(patch, body, pos, axes, water, volume)
+        return {"wrench": Wrench(force, torque), "occupied": occupied, "request": request,
+                "contact": contact}
+
+    # --- pieces -----------------------------------------------------------------------------------
+
+    def _evaluate(self, body, pos, vel, omega, axes, half, z_low, water, elements, nsub, b_geo, stats):
+        p = self.params
+        x0, y0, cell, height, wvel, bottom, hmax = water
+        kernel.evaluate(
+            int(body.shape), float(body.radius), float(body.thickness),
+            np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(axes),
+            np.ascontiguousarray(vel, dtype=np.float64), np.ascontiguousarray(omega, dtype=np.float64),
+            float(half[0]), float(half[1]), z_low,
+            float(x0), float(y0), cell, height, wvel, bottom, hmax,
+            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
+            p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, self.flags, nsub,
+            b_geo, stats)
+        return stats
+
+    def _elements_for(self, body: BodyState) -> Elements:
+        p = self.params
+        key = (int(body.shape), float(body.radius), float(body.thickness))
+        if self._elements is None or self._elements_key != key:
+            if body.shape == Shape.DISK:
+                self._elements = disk_elements(key[1], key[2], p.face_elements, p.rim_elements)
+            else:
+                self._elements = sphere_elements(key[1], p.sphere_bands)
+            self._elements_key = key
+        return self._elements
+
+    def _subsamples(self, radius: float, cell: float) -> int:
+        if self.params.column_subsamples > 0:
+            return self.params.column_subsamples
+        return max(1, min(MAX_AUTO_SUBSAMPLES, math.ceil(SUBSAMPLES_PER_RADIUS * cell / radius - 1e-9)))
+
+    def _request(self, centre: np.ndarray, half: tuple[float, float], vel: np.ndarray,
+                 dt: float) -> PatchRequest:
+        p = self.params
+        if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
+            return self._empty_request
+        cells = p.margin_cells + (2.0 * p.ring_cells if self.flags & DISPLACEMENT else 0.0)
+        margin = cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
+        margin += math.hypot(float(vel[0]), float(vel[1])) * dt  # the window lags one step
+        cx, cy = float(centre[0]), float(centre[1])
+        return PatchRequest(cx - half[0] - margin, cx + half[0] + margin,
+                            cy - half[1] - margin, cy + half[1] + margin)
+
+    def _occupied(self, patch: HeightPatch, body: BodyState, pos, axes, water,
+                  volume: float) -> OccupiedHeight:
+        p = self.params
+        if not self.flags & DISPLACEMENT or volume <= 0.0:
+            return self._empty_occupied
+        x0, y0, cell, height, wvel, _, _ = water
+        if p.displacement_mode == "ring":
+            b_out = np.zeros(height.shape)
+            i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(
+                int(body.shape), float(body.radius), float(body.thickness),
+                np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(axes),
+                float(x0), float(y0), cell, height, wvel, self._b_geo, volume, p.ring_cells * cell, b_out)
+        else:
+            b_out = self._b_geo.copy()
+            nz_j, nz_i = np.nonzero(b_out)
+            if nz_i.size == 0:
+                return self._empty_occupied
+            i_lo, i_hi, j_lo, j_hi = int(nz_i.min()), int(nz_i.max()), int(nz_j.min()), int(nz_j.max())
+        if i_lo > i_hi:
+            return self._empty_occupied
+        if p.smoothing:
+            # widen the window so the smoothing has room, then smooth with no flux through its edges
+            grow = p.smoothing
+            nj, ni = b_out.shape
+            i_lo, i_hi = max(0, i_lo - grow), min(ni - 1, i_hi + grow)
+            j_lo, j_hi = max(0, j_lo - grow), min(nj - 1, j_hi + grow)
+            window = np.ascontiguousarray(b_out[j_lo:j_hi + 1, i_lo:i_hi + 1])
+            kernel.smooth_conservative(window, p.smoothing)
+        else:
+            window = b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy()
+        return OccupiedHeight(int(patch.i0) + i_lo, int(patch.j0) + j_lo, window)
+
+    def _account_work(self, pos: np.ndarray, omega: np.ndarray, dt: float) -> None:
+        """Add minus the work of the wrench published last step, held over the body's step that just
+        ended: F.(x - x_prev) exactly for a held force, torque . (omega_prev + omega)/2 dt."""
+        prev = self._prev
+        if prev is None:
+            return
+        f, x0, tq, w0 = (prev[k].tolist() for k in ("force", "position", "torque", "omega"))
+        pos, omega = pos.tolist(), omega.tolist()
+        work = (f[0] * (pos[0] - x0[0]) + f[1] * (pos[1] - x0[1]) + f[2] * (pos[2] - x0[2])
+                + 0.5 * dt * (tq[0] * (w0[0] + omega[0]) + tq[1] * (w0[1] + omega[1])
+                              + tq[2] * (w0[2] + omega[2])))
+        self.dissipated -= float(work)
+
+    def _stability_bound(self, body: BodyState, stats: np.ndarray) -> float:
+        mass = float(body.mass)
+        inertia = min(body.inertia.tolist())
+        bound = self._motion_bound(body)
+        rate = 0.0
+        if mass > 0:
+            rate = stats[kernel.S_DAMP_LIN] / mass
+        if inertia > 0:
+            rate = max(rate, stats[kernel.S_DAMP_ROT] / inertia)
+        if rate > 0:
+            bound = min(bound, DAMPING_SAFETY / rate)
+        if mass > 0 and stats[kernel.S_STIFF] > 0:
+            bound = min(bound, SPRING_SAFETY / math.sqrt(stats[kernel.S_STIFF] / mass))
+        return bound
+
+    def _motion_bound(self, body: BodyState) -> float:
+        v, w = body.velocity.tolist(), body.angular_velocity.tolist()
+        speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+        speed += float(body.radius) * math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+        if speed <= 0:
+            return math.inf
+        return MOTION_FRACTION * float(body.radius) / speed
+
+    def _predict(self, body: BodyState, n: int, dt: float, stats0: np.ndarray, water, elements,
+                 nsub: int) -> np.ndarray:
+        """Mean of the effects' forces and torques (24,) over n substeps of a private copy of the body
+        moved by them and gravity (semi-implicit Euler)."""
+        h = dt / n
+        mass = float(body.mass)
+        inertia_body = np.asarray(body.inertia, dtype=float)
+        x = np.array(body.position, dtype=float)
+        v = np.array(body.velocity, dtype=float)
+        w = np.array(body.angular_velocity, dtype=float)
+        q = np.array(body.orientation, dtype=float)
+        total = stats0[:24].copy()
+        b_scratch = np.zeros_like(self._b_geo)
+        s_scratch = np.zeros(kernel.N_STATS)
+        is_disk = body.shape == Shape.DISK
+        radius, thick = float(body.radius), float(body.thickness)
+        gravity = np.array([0.0, 0.0, -self.params.g])
+        current = stats0[:24].copy()
+        for i in range(n):
+            if i > 0:
+                axes = quat_to_matrix(q)
+                axis = axes[:, 2]
+                low = lowest_point(is_disk, x, axis, radius, thick)
+                half = disk_half_extents(axis, radius, thick) if is_disk else (radius, radius)
+                current = self._evaluate(body, x, v, w, axes, half, low[2], water, elements, nsub,
+                                         b_scratch, s_scratch)[:24].copy()
+                total += current
+            force = current[0:3] + current[6:9] + current[12:15] + current[18:21]
+            torque = current[3:6] + current[9:12] + current[15:18] + current[21:24]
+            v = v + (force / mass + gravity) * h
+            if not self.params.lock_attitude:
+                axes = quat_to_matrix(q)
+                inertia = axes @ np.diag(inertia_body) @ axes.T
+                w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h
+            x = x + v * h
+            q = _rotate(q, w * h)
+        return total / n
+
+    def _idle(self, depth: float) -> dict[str, Message]:
+        self.work = {"columns": 0, "elements": 0}
+        return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
+                "request": self._empty_request, "contact": self._dry_contact(depth)}
+
+    def _dry_contact(self, depth: float) -> WaterContact:
+        if not math.isfinite(depth):
+            depth = -1.0e9  # no body yet: far above any water (a finite stand-in)
+        return WaterContact(False, 0.0, 0.0, _ZERO3, _ZERO3, _ZERO3, _ZERO3, depth, self.dissipated)
+
+
+def _rotate(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """Quaternion q (w, x, y, z) turned by the world-frame rotation vector ``rotation`` [rad]."""
+    angle = float(np.linalg.norm(rotation))
+    if angle < 1e-300:
+        return q
+    s = math.sin(0.5 * angle) / angle
+    dw, dx, dy, dz = math.cos(0.5 * angle), rotation[0] * s, rotation[1] * s, rotation[2] * s
+    w, x, y, z = q
+    out = np.array([dw * w - dx * x - dy * y - dz * z,
+                    dw * x + dx * w + dy * z - dz * y,
+                    dw * y - dx * z + dy * w + dz * x,
+                    dw * z + dx * y - dy * x + dz * w])
+    return out / np.linalg.norm(out)

@@ -1,0 +1,85 @@
+"""Water force laws on a body, as plain functions (physics.md section 3).
+
+Sign convention: ``n`` is the element's OUTWARD normal and ``u`` its velocity relative to the water
+(body point velocity minus the water's velocity, which in a height field is the vertical surface
+velocity). A face advances into the water when ``u.n > 0``; the pressure then pushes it back along
+``-n``. (physics.md writes the same condition as ``u.n < 0`` with ``u`` the water's velocity seen
+from the face.)
+
+* Pressure (Rosellini et al. 2005, Clanet et al. 2004; Newtonian term of Nagahiro & Hayakawa 2005)::
+
+      dF = -1/2 rho_w (C_L |u| (u.n) + C_N (u.n)^2) dA n        where u.n > 0, else 0
+
+  For a flat plate at attack angle alpha moving at speed U with impact angle beta,
+  u.n = U sin(alpha + beta), so the sum is the published F = 1/2 rho_w C_L U^2 S sin(alpha + beta).
+  A disk's spin about its own axis only slides its faces and rim along themselves and pushes no
+  water, so the pressure uses the point velocity without that spin (friction uses all of it); a
+  sphere's rotation likewise moves no water and is left out of its pressure.
+* Friction (Bocquet 2003): ``dF_t = -1/2 rho_w C_f |u| u_t dA`` on every wetted element, with
+  ``u_t = u - (u.n) n``.
+* Buoyancy: ``rho_w g b s^2`` upward per column (or sub-column) at its wet interval's centroid.
+* Capillary-gravity wave drag (Raphael & de Gennes 1996: no waves, hence no wave resistance, below
+  c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section::
+
+      F_w = -1/2 rho_w C_W S_w (U^2 - c_min^2) U_hat,    S_w = V_sub / (2 R),   for U > c_min
+
+  U is the body's horizontal speed (the water has no horizontal velocity in a height field), V_sub
+  the submerged volume and 2R the body's length along the motion, so S_w is the mean immersed
+  cross-section. It vanishes continuously at c_min (Raphael & de Gennes find a jump for a point
+  disturbance; a body much larger than the capillary length, 2.7 mm, smooths it, and a continuous
+  onset keeps the dynamics step-size independent) and grows like a form drag at higher speed. It
+  acts at the submerged centroid. C_W is a calibration coefficient (default 0.3).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+RHO_WATER = 1000.0  # water density [kg/m^3]
+GRAVITY = 9.81  # gravitational acceleration [m/s^2]
+SURFACE_TENSION = 0.072  # water-air surface tension [N/m]
+C_MIN = (4.0 * GRAVITY * SURFACE_TENSION / RHO_WATER) ** 0.25  # minimum capillary-gravity wave speed [m/s]
+C_LIFT = 1.0  # C_L of the pressure law [-] (physics.md: about 1)
+C_NEWTONIAN = 1.4  # C_N of the Newtonian (u.n)^2 term when switched on [-] (Nagahiro & Hayakawa 2005)
+C_FRICTION = 0.1  # C_f of the skin friction [-]; mu = C_f / C_L acts as a solid friction coefficient
+C_WAVE = 0.3  # C_W of the capillary-gravity wave drag [-] (calibration coefficient)
+
+
+@njit(cache=True)
+def pressure_magnitude(speed: float, u_n: float, rho: float, c_l: float, c_n: float) -> float:
+    """Pressure [Pa] on a face advancing into the water at normal speed ``u_n`` > 0 (0 otherwise)."""
+    if u_n <= 0.0:
+        return 0.0
+    return 0.5 * rho * (c_l * speed * u_n + c_n * u_n * u_n)
+
+
+@njit(cache=True)
+def friction_factor(speed: float, rho: float, c_f: float) -> float:
+    """Factor k [kg/m^3 * m/s] such that the friction traction is -k u_t [Pa]."""
+    return 0.5 * rho * c_f * speed
+
+
+@njit(cache=True)
+def wave_drag_magnitude(speed: float, volume: float, length: float, rho: float, c_w: float,
+                        c_min: float) -> float:
+    """Capillary-gravity wave drag [N] against a horizontal ``speed`` [m/s] (0 below c_min)."""
+    if speed <= c_min or volume <= 0.0 or length <= 0.0:
+        return 0.0
+    return 0.5 * rho * c_w * (volume / length) * (speed * speed - c_min * c_min)
+
+
+def segment_area(radius: float, s_f: float) -> float:
+    """Wetted area [m^2] of a flat disk immersed over a depth ``s_f`` along its face (circular segment)."""
+    if s_f <= 0.0:
+        return 0.0
+    if s_f >= 2.0 * radius:
+        return math.pi * radius * radius
+    x = 1.0 - s_f / radius
+    return radius * radius * (math.acos(x) - x * math.sqrt(1.0 - x * x))
+
+
+def plate_force(rho: float, c_l: float, speed: float, area: float, alpha: float, beta: float) -> float:
+    """Rosellini et al. force [N] on a plate of wetted ``area`` at attack ``alpha``, impact ``beta`` [rad]."""
+    return 0.5 * rho * c_l * speed * speed * area * math.sin(alpha + beta)

@@ -1,0 +1,411 @@
+"""The compiled per-step work: columns under the body, wetted surface elements, displacement.
+
+:func:`evaluate` sums every switched-on effect's force and torque (about the centre of mass) for one
+body state over one water patch, writes the occupied height of each column, and fills ``stats``
+(see the ``S_*`` indices) with what the component reports and its stability bound needs. Work is
+confined to the columns under the body's bounding box and to the elements below the patch's
+highest surface; an effect not switched on is skipped entirely.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
+from components.coupler.forces import pressure_magnitude, wave_drag_magnitude
+from components.coupler.geometry import box_coverage, box_density, disk_chord, sphere_chord
+
+SHAPE_DISK = 0
+SHAPE_SPHERE = 1
+
+# stats layout (float64 vector)
+S_BUOYANCY = 0  # force (3) then torque (3)
+S_PRESSURE = 6
+S_FRICTION = 12
+S_WAVE = 18
+S_VOLUME = 24  # submerged volume [m^3] (column sum, same as sum b_ij s^2)
+S_AREA = 25  # wetted area [m^2] (element sum)
+S_DAMP_LIN = 26  # d|F|/d|v| summed over wet elements [kg/s]
+S_DAMP_ROT = 27  # d|torque|/d|omega| summed over wet elements [kg m^2/s]
+S_STIFF = 28  # d|F|/dz from the wetted area growing with depth [N/m]
+S_COLUMNS = 29  # columns evaluated
+S_ELEMENTS = 30  # wet elements evaluated
+S_CENTROID = 31  # volume-weighted sum of the wet-interval centroids (3) [m^4]
+S_WATERLINE = 34  # area of sub-columns the surface cuts through the body [m^2]
+S_ADVANCING = 35  # wetted area advancing into the water [m^2]
+N_STATS = 36
+
+RIM_PROBE = 0.85  # the displacement band reads the body's wetness this far (fraction) out to the rim
+
+
+@njit(cache=True)
+def _chord(shape, dx, dy, ax, ay, az, radius, thickness):
+    if shape == SHAPE_DISK:
+        return disk_chord(dx, dy, ax, ay, az, radius, thickness)
+    return sphere_chord(dx, dy, radius)
+
+
+@njit(cache=True)
+def sample_surface(x, y, x0, y0, cell, height, wvel):
+    """Bilinear water height and vertical velocity at (x, y); ok is False outside the patch."""
+    nj, ni = height.shape
+    fx = (x - x0) / cell
+    fy = (y - y0) / cell
+    if fx < -0.5 or fy < -0.5 or fx > ni - 0.5 or fy > nj - 0.5:
+        return False, 0.0, 0.0
+    fx = min(max(fx, 0.0), ni - 1.0)
+    fy = min(max(fy, 0.0), nj - 1.0)
+    i = min(int(fx), max(ni - 2, 0))
+    j = min(int(fy), max(nj - 2, 0))
+    tx = fx - i
+    ty = fy - j
+    i1 = min(i + 1, ni - 1)
+    j1 = min(j + 1, nj - 1)
+    w00 = (1 - tx) * (1 - ty)
+    w10 = tx * (1 - ty)
+    w01 = (1 - tx) * ty
+    w11 = tx * ty
+    h = w00 * height[j, i] + w10 * height[j, i1] + w01 * height[j1, i] + w11 * height[j1, i1]
+    v = w00 * wvel[j, i] + w10 * wvel[j, i1] + w01 * wvel[j1, i] + w11 * wvel[j1, i1]
+    return True, h, v
+
+
+@njit(cache=True)
+def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, z_low,
+             x0, y0, cell, height, wvel, bottom, hmax,
+             el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+             rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
+             b_geo, stats):
+    """Water forces on one body state over one patch; see the module docstring.
+
+    centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
+    (columns = body axes); half_x, half_y: horizontal half-extents of the body [m]; z_low: its
+    lowest z [m]; x0, y0: centre of the patch's first column [m]; height, wvel, bottom: (nj, ni)
+    patch arrays; hmax: their highest surface [m]; el_*: the body's surface elements; nsub: sub-cells
+    per column side. Writes b_geo (nj, ni) [m] (zero where dry) and stats (N_STATS,).
+    """
+    stats[:] = 0.0
+    b_geo[:, :] = 0.0
+    nj, ni = height.shape
+    if nj == 0 or ni == 0:
+        return
+    cx, cy, cz = centre[0], centre[1], centre[2]
+    ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
+
+    # --- columns: occupied height, buoyancy, submerged volume -------------------------------
+    if flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG):
+        i_lo = max(0, math.floor((cx - half_x - x0) / cell + 0.5))
+        i_hi = min(ni - 1, math.floor((cx + half_x - x0) / cell + 0.5))
+        j_lo = max(0, math.floor((cy - half_y - y0) / cell + 0.5))
+        j_hi = min(nj - 1, math.floor((cy + half_y - y0) / cell + 0.5))
+        sub = cell / nsub
+        a_sub = sub * sub
+        fz = 0.0
+        tx = 0.0
+        ty = 0.0
+        vol = 0.0
+        mx = 0.0
+        my = 0.0
+        mz = 0.0
+        wl = 0.0
+        ncol = 0
+        for j in range(j_lo, j_hi + 1):
+            yc = y0 + j * cell
+            for i in range(i_lo, i_hi + 1):
+                hcol = height[j, i]
+                if z_low >= hcol:
+                    continue
+                ncol += 1
+                bed = bottom[j, i]
+                xc = x0 + i * cell
+                bsum = 0.0
+                for sa in range(nsub):
+                    xs = xc + ((sa + 0.5) / nsub - 0.5) * cell
+                    dx = xs - cx
+                    for sb in range(nsub):
+                        ys = yc + ((sb + 0.5) / nsub - 0.5) * cell
+                        dy = ys - cy
+                        lo, hi = _chord(shape, dx, dy, ax, ay, az, radius, thickness)
+                        if lo >= hi:
+                            continue
+                        zlo = cz + lo
+                        zhi = cz + hi
+                        top = min(zhi, hcol)
+                        bot = max(zlo, bed)
+                        if top <= bot:
+                            continue
+                        w = top - bot
+                        bsum += w
+                        dv = w * a_sub
+                        vol += dv
+                        zm = 0.5 * (top + bot)
+                        mx += xs * dv
+                        my += ys * dv
+                        mz += zm * dv
+                        f = rho * g * dv
+                        fz += f
+                        tx += dy * f
+                        ty -= dx * f
+                        if zlo < hcol < zhi:
+                            wl += a_sub
+                b_geo[j, i] = bsum / (nsub * nsub)
+        stats[S_VOLUME] = vol
+        stats[S_CENTROID] = mx
+        stats[S_CENTROID + 1] = my
+        stats[S_CENTROID + 2] = mz
+        stats[S_WATERLINE] = wl
+        stats[S_COLUMNS] = ncol
+        if flags & BUOYANCY:
+            stats[S_BUOYANCY + 2] = fz
+            stats[S_BUOYANCY + 3] = tx
+            stats[S_BUOYANCY + 4] = ty
+            stats[S_STIFF] += rho * g * wl
+        if flags & WAVE_DRAG and vol > 0.0:
+            vx = velocity[0]
+            vy = velocity[1]
+            speed = math.sqrt(vx * vx + vy * vy)
+            mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min)
+            if mag > 0.0:
+                fx = -mag * vx / speed
+                fy = -mag * vy / speed
+                rx = mx / vol - cx
+                ry = my / vol - cy
+                rz = mz / vol - cz
+                stats[S_WAVE] = fx
+                stats[S_WAVE + 1] = fy
+                stats[S_WAVE + 3] = -rz * fy
+                stats[S_WAVE + 4] = rz * fx
+                stats[S_WAVE + 5] = rx * fy - ry * fx
+
+    # --- surface elements: pressure and friction --------------------------------------------
+    if flags & (PRESSURE | FRICTION):
+        wx, wy, wz = omega[0], omega[1], omega[2]
+        if shape == SHAPE_DISK:
+            spin = wx * ax + wy * ay + wz * az
+            px_, py_, pz_ = wx - spin * ax, wy - spin * ay, wz - spin * az
+        else:
+            px_, py_, pz_ = 0.0, 0.0, 0.0
+        vx, vy, vz = velocity[0], velocity[1], velocity[2]
+        n_el = el_area.shape[0]
+        do_p = (flags & PRESSURE) != 0
+        do_f = (flags & FRICTION) != 0
+        fp = np.zeros(6)
+        ff = np.zeros(6)
+        area = 0.0
+        adv = 0.0
+        d_lin = 0.0
+        d_rot = 0.0
+        stiff = 0.0
+        nel = 0
+        for k in range(n_el):
+            if world_fixed:
+                rx, ry, rz = el_pos[k, 0], el_pos[k, 1], el_pos[k, 2]
+                t1z = el_t1[k, 2]
+                t2z = el_t2[k, 2]
+            else:
+                u, v, w = el_pos[k, 0], el_pos[k, 1], el_pos[k, 2]
+                rz = axes[2, 0] * u + axes[2, 1] * v + axes[2, 2] * w
+                t1z = axes[2, 0] * el_t1[k, 0] + axes[2, 1] * el_t1[k, 1] + axes[2, 2] * el_t1[k, 2]
+                t2z = axes[2, 0] * el_t2[k, 0] + axes[2, 1] * el_t2[k, 1] + axes[2, 2] * el_t2[k, 2]
+            w1 = abs(t1z)
+            w2 = max(abs(t2z), wet_ramp)
+            half = 0.5 * (w1 + w2)
+            pz = cz + rz
+            if pz - half >= hmax:
+                continue  # above the highest surface of the patch: dry
+            if not world_fixed:
+                rx = axes[0, 0] * u + axes[0, 1] * v + axes[0, 2] * w
+                ry = axes[1, 0] * u + axes[1, 1] * v + axes[1, 2] * w
+            ok, h, wv = sample_surface(cx + rx, cy + ry, x0, y0, cell, height, wvel)
+            if not ok:
+                continue
+            t = h - pz
+            if t <= -half:
+                continue
+            frac = box_coverage(t, w1, w2)
+            nel += 1
+            a_el = el_area[k]
+            fa = frac * a_el
+            area += fa
+            if world_fixed:
+                nx, ny, nz = el_nrm[k, 0], el_nrm[k, 1], el_nrm[k, 2]
+            else:
+                n0, n1, n2 = el_nrm[k, 0], el_nrm[k, 1], el_nrm[k, 2]
+                nx = axes[0, 0] * n0 + axes[0, 1] * n1 + axes[0, 2] * n2
+                ny = axes[1, 0] * n0 + axes[1, 1] * n1 + axes[1, 2] * n2
+                nz = axes[2, 0] * n0 + axes[2, 1] * n1 + axes[2, 2] * n2
+            if do_p:
+                # point velocity without the spin that slides the surface along itself
+                ux = vx + py_ * rz - pz_ * ry
+                uy = vy + pz_ * rx - px_ * rz
+                uz = vz + px_ * ry - py_ * rx - wv
+                un = ux * nx + uy * ny + uz * nz
+                if un > 0.0:
+                    speed = math.sqrt(ux * ux + uy * uy + uz * uz)
+                    p = pressure_magnitude(speed, un, rho, c_l, c_n)
+                    dfx = -p * fa * nx
+                    dfy = -p * fa * ny
+                    dfz = -p * fa * nz
+                    fp[0] += dfx
+                    fp[1] += dfy
+                    fp[2] += dfz
+                    fp[3] += ry * dfz - rz * dfy
+                    fp[4] += rz * dfx - rx * dfz
+                    fp[5] += rx * dfy - ry * dfx
+                    adv += fa
+                    ce = rho * (c_l * speed + c_n * un) * fa
+                    cxn = ry * nz - rz * ny
+                    cyn = rz * nx - rx * nz
+                    czn = rx * ny - ry * nx
+                    d_lin += ce
+                    d_rot += ce * (cxn * cxn + cyn * cyn + czn * czn)
+                    stiff += p * a_el * box_density(t, w1, w2)
+            if do_f:
+                ux = vx + wy * rz - wz * ry
+                uy = vy + wz * rx - wx * rz
+                uz = vz + wx * ry - wy * rx - wv
+                un = ux * nx + uy * ny + uz * nz
+                utx = ux - un * nx
+                uty = uy - un * ny
+                utz = uz - un * nz
+                speed = math.sqrt(ux * ux + uy * uy + uz * uz)
+                kf = 0.5 * rho * c_f * speed * fa
+                dfx = -kf * utx
+                dfy = -kf * uty
+                dfz = -kf * utz
+                ff[0] += dfx
+                ff[1] += dfy
+                ff[2] += dfz
+                ff[3] += ry * dfz - rz * dfy
+                ff[4] += rz * dfx - rx * dfz
+                ff[5] += rx * dfy - ry * dfx
+                d_lin += 2.0 * kf
+                d_rot += 2.0 * kf * (rx * rx + ry * ry + rz * rz)
+        if do_p:
+            for q in range(6):
+                stats[S_PRESSURE + q] = fp[q]
+        if do_f:
+            for q in range(6):
+                stats[S_FRICTION + q] = ff[q]
+        stats[S_AREA] = area
+        stats[S_ADVANCING] = adv
+        stats[S_DAMP_LIN] = d_lin
+        stats[S_DAMP_ROT] = d_rot
+        stats[S_STIFF] += stiff
+        stats[S_ELEMENTS] = nel
+
+
+@njit(cache=True)
+def ring_deposit(shape, radius, thickness, centre, axes, x0, y0, cell, height, wvel, b_geo,
+                 volume, width, b_out):
+    """Spread the submerged ``volume`` [m^3] over a band of columns just outside the body's outline.
+
+    The displaced water is put where it goes in reality, around the body (as Yuksel et al.'s wave
+    particles do, along the silhouette), not under it: a height field whose surface under the body
+    included the body's own displacement would feed that displacement back into the next occupied
+    height (the surface rises, so more of the body is "below" it, so the surface rises ...), which
+    diverges for a floating body. Weights: a tent over the distance outside the outline (0 to
+    2 ``width`` [m], peak at ``width``), times how wet the body is at the nearest rim (so a skipping
+    disk pushes water from its trailing edge, not from its dry front). The sum of b_out s^2 equals
+    ``volume`` exactly; if no band column lies in the window, b_out falls back to b_geo.
+    Returns the window (i_lo, i_hi, j_lo, j_hi) of nonzero b_out, empty when i_lo > i_hi.
+    """
+    b_out[:, :] = 0.0
+    nj, ni = height.shape
+    if volume <= 0.0 or nj == 0 or ni == 0:
+        return 1, 0, 1, 0
+    cx, cy, cz = centre[0], centre[1], centre[2]
+    ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
+    tx, ty, sx, sy = 1.0, 0.0, 0.0, 1.0
+    a1 = radius
+    a2 = radius
+    if shape == SHAPE_DISK:
+        sh = math.sqrt(ax * ax + ay * ay)
+        if sh > 1e-9:
+            sx, sy = ax / sh, ay / sh  # horizontal direction of the tilt
+            tx, ty = -sy, sx  # horizontal direction along the disk
+        a2 = radius * abs(az) + 0.5 * thickness * sh
+        a2 = max(a2, 1e-6 * radius)
+    reach = 2.0 * width + cell
+    i_lo = max(0, math.floor((cx - radius - reach - x0) / cell))
+    i_hi = min(ni - 1, math.ceil((cx + radius + reach - x0) / cell))
+    j_lo = max(0, math.floor((cy - radius - reach - y0) / cell))
+    j_hi = min(nj - 1, math.ceil((cy + radius + reach - y0) / cell))
+    wsum = 0.0
+    bi_lo, bi_hi, bj_lo, bj_hi = ni, -1, nj, -1
+    floor = 1e-3 * max(thickness, 1e-3 * radius)
+    for j in range(j_lo, j_hi + 1):
+        dy = y0 + j * cell - cy
+        for i in range(i_lo, i_hi + 1):
+            dx = x0 + i * cell - cx
+            xi = dx * tx + dy * ty
+            eta = dx * sx + dy * sy
+            q = math.sqrt((xi / a1) ** 2 + (eta / a2) ** 2)
+            if q <= 1.0:
+                continue
+            grad = math.sqrt((xi / (a1 * a1)) ** 2 + (eta / (a2 * a2)) ** 2) / q
+            d = (q - 1.0) / grad
+            if d >= 2.0 * width:
+                continue
+            phi = 1.0 - abs(d - width) / width
+            if phi <= 0.0:
+                continue
+            psi = 1.0
+            if shape == SHAPE_DISK:
+                px = dx * RIM_PROBE / q
+                py = dy * RIM_PROBE / q
+                lo, hi = disk_chord(px, py, ax, ay, az, radius, thickness)
+                psi = floor
+                if lo < hi:
+                    ok, h, _ = sample_surface(cx + px, cy + py, x0, y0, cell, height, wvel)
+                    if ok:
+                        psi += max(0.0, min(cz + hi, h) - (cz + lo))
+            wgt = phi * psi
+            b_out[j, i] = wgt
+            wsum += wgt
+            bi_lo = min(bi_lo, i)
+            bi_hi = max(bi_hi, i)
+            bj_lo = min(bj_lo, j)
+            bj_hi = max(bj_hi, j)
+    if wsum <= 0.0:
+        bi_lo, bi_hi, bj_lo, bj_hi = ni, -1, nj, -1
+        for j in range(nj):
+            for i in range(ni):
+                b_out[j, i] = b_geo[j, i]
+                if b_geo[j, i] > 0.0:
+                    bi_lo = min(bi_lo, i)
+                    bi_hi = max(bi_hi, i)
+                    bj_lo = min(bj_lo, j)
+                    bj_hi = max(bj_hi, j)
+        return bi_lo, bi_hi, bj_lo, bj_hi
+    scale = volume / (wsum * cell * cell)
+    for j in range(bj_lo, bj_hi + 1):
+        for i in range(bi_lo, bi_hi + 1):
+            b_out[j, i] *= scale
+    return bi_lo, bi_hi, bj_lo, bj_hi
+
+
+@njit(cache=True)
+def smooth_conservative(b, passes):
+    """``passes`` sweeps of the [1, 2, 1]/4 filter along x then y, with no flux through the window's
+    edges, so sum(b) is unchanged (Mueller's smoothing of the displacement)."""
+    nj, ni = b.shape
+    tmp = np.empty(max(ni, nj))
+    for _ in range(passes):
+        for j in range(nj):
+            for i in range(ni):
+                left = b[j, i - 1] if i > 0 else b[j, i]
+                right = b[j, i + 1] if i < ni - 1 else b[j, i]
+                tmp[i] = 0.25 * (left - 2.0 * b[j, i] + right)
+            for i in range(ni):
+                b[j, i] += tmp[i]
+        for i in range(ni):
+            for j in range(nj):
+                down = b[j - 1, i] if j > 0 else b[j, i]
+                up = b[j + 1, i] if j < nj - 1 else b[j, i]
+                tmp[j] = 0.25 * (down - 2.0 * b[j, i] + up)
+            for j in range(nj):
+                b[j, i] += tmp[j]
