@@ -1,0 +1,94 @@
+"""Unit quaternions (w, x, y, z) on plain float tuples.
+
+Convention (as in :mod:`components.messages`): a quaternion q rotates body-frame vectors into the world
+frame, v_world = q v_body q*. Composition: ``mul(a, b)`` applies b first, then a.
+"""
+
+from __future__ import annotations
+
+import math
+
+from components.rigid.vec import Vec
+
+Quat = tuple[float, float, float, float]
+"""A quaternion (w, x, y, z)."""
+
+IDENTITY: Quat = (1.0, 0.0, 0.0, 0.0)
+
+# Below this rotation angle [rad] the exponential map uses its Taylor series: sin(a/2)/a loses no
+# accuracy there and the division by a tiny angle is avoided.
+SMALL_ANGLE = 1e-4
+
+
+def mul(a: Quat, b: Quat) -> Quat:
+    """Hamilton product a b."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+def conj(q: Quat) -> Quat:
+    """The conjugate (the inverse of a unit quaternion)."""
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def normalize(q: Quat) -> Quat:
+    """q / |q|; raises ValueError for the zero quaternion."""
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if n == 0.0:
+        raise ValueError("cannot normalise the zero quaternion")
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+def from_axis_angle(axis: Vec, angle: float) -> Quat:
+    """Rotation by ``angle`` [rad] about ``axis`` (any non-zero length; right-hand rule)."""
+    n = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    if n == 0.0:
+        raise ValueError("rotation axis must be non-zero")
+    s = math.sin(0.5 * angle) / n
+    return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
+
+
+def from_rotation_vector(rv: Vec) -> Quat:
+    """exp of a rotation vector: rotation by |rv| [rad] about rv/|rv| (identity for zero)."""
+    a2 = rv[0] * rv[0] + rv[1] * rv[1] + rv[2] * rv[2]
+    a = math.sqrt(a2)
+    if a < SMALL_ANGLE:
+        s = 0.5 - a2 / 48.0  # sin(a/2)/a to O(a^4), below round-off at this size
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
+    else:
+        s = math.sin(0.5 * a) / a
+        c = math.cos(0.5 * a)
+    return (c, rv[0] * s, rv[1] * s, rv[2] * s)
+
+
+def rotate(q: Quat, v: Vec) -> Vec:
+    """q v q*: a body-frame vector in the world frame (q need not be normalised to 1e-16)."""
+    w, x, y, z = q
+    # t = 2 q_v x v;  v' = v + w t + q_v x t
+    tx = 2.0 * (y * v[2] - z * v[1])
+    ty = 2.0 * (z * v[0] - x * v[2])
+    tz = 2.0 * (x * v[1] - y * v[0])
+    return (v[0] + w * tx + (y * tz - z * ty),
+            v[1] + w * ty + (z * tx - x * tz),
+            v[2] + w * tz + (x * ty - y * tx))
+
+
+def rotate_inv(q: Quat, v: Vec) -> Vec:
+    """q* v q: a world-frame vector in the body frame."""
+    return rotate((q[0], -q[1], -q[2], -q[3]), v)
+
+
+def body_axis(q: Quat) -> Vec:
+    """The body z axis (a disk's symmetry axis) in the world frame."""
+    w, x, y, z = q
+    return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
+
+
+def angle_between(a: Quat, b: Quat) -> float:
+    """Rotation angle [rad] taking orientation a to orientation b (0..pi), accurate near 0."""
+    d = mul(conj(a), b)
+    return 2.0 * math.atan2(math.sqrt(d[1] * d[1] + d[2] * d[2] + d[3] * d[3]), abs(d[0]))
