@@ -1,0 +1,227 @@
+"""The RigidBody component alone, driven with hand-made messages (components.rigid_body)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from components.messages import BodyState, Impulse, Shape, Wrench
+from components.rigid import quaternion as quat
+from components.rigid_body import RigidBody
+from cosim.codec import codec_for
+from cosim.messages import messages_equal
+from cosim.params import build
+
+DT_NS = 500_000  # 0.5 ms, the scenes' base step
+DT = DT_NS / 1e9
+G = 9.81
+
+
+def make(**params) -> RigidBody:
+    problems: list[str] = []
+    p = build(RigidBody.Params, params, "stone", problems)
+    assert not problems, problems
+    return RigidBody("stone", p)
+
+
+def run(body, steps, wrench=None, impulses=None, start=0):
+    """Step ``body`` with a held wrench and {step index: Impulse} events; return the last state."""
+    impulses = impulses or {}
+    out = None
+    for k in range(start, start + steps):
+        out = body.step(k * DT_NS, DT_NS, {"wrench": wrench, "impulse": impulses.get(k)})["state"]
+    return out
+
+
+def problems_of(**params) -> list[str]:
+    problems: list[str] = []
+    build(RigidBody.Params, params, "stone", problems)
+    return problems
+
+
+# --- parameters ------------------------------------------------------------------------------------
+
+def test_unknown_integrator_is_reported_with_the_choices():
+    """integrator: an unknown name is a parameter problem listing the registered choices."""
+    assert problems_of(integrator="euler") == [
+        "stone.integrator: unknown integrator 'euler' (choices: verlet, semi_implicit_euler, rk4)"]
+
+
+@pytest.mark.parametrize(("params", "problem"), [
+    ({"thickness": 0.0}, "stone.thickness: a disk needs thickness > 0 m (got 0)"),
+    ({"tilt_axis": [0, 0, 0]}, "stone.tilt_axis: must be a non-zero vector (got [0, 0, 0])"),
+    ({"lock_attitude": True, "scripted_tilt_deg": [[0, 10]]},
+     "stone.lock_attitude: cannot be combined with scripted_tilt_deg (choose one)"),
+    ({"tilt_deg": 5.0, "scripted_tilt_deg": [[0, 10]]},
+     "stone.tilt_deg: give either tilt_deg or scripted_tilt_deg, not both"),
+    ({"scripted_velocity": [[1, 0, 0], [0.5, 1, 1]]},
+     "stone.scripted_velocity: keyframe times must increase strictly (got 1 then 0.5)"),
+    ({"radius": -1.0}, "stone.radius: must be > 0 m (got -1)"),
+])
+def test_inconsistent_parameters_are_reported_with_their_path(params, problem):
+    """Each rule across fields is reported as 'path: rule (got value)'."""
+    assert problems_of(**params) == [problem]
+
+
+def test_a_sphere_accepts_zero_thickness():
+    """A sphere has no thickness: 0 is fine and is published as 0."""
+    assert problems_of(shape="sphere", thickness=0.0) == []
+    state = make(shape="sphere", thickness=0.0, radius=0.02).initial_outputs()["state"]
+    assert state.thickness == 0.0 and state.shape is Shape.SPHERE
+
+
+# --- published state -------------------------------------------------------------------------------
+
+def test_initial_state_fills_every_field():
+    """The t = 0 state carries geometry, mass from density, inertia, attack angle, speed and energies."""
+    body = make(radius=0.05, thickness=0.004, density=2500.0, position=[0, 0, 0.2], velocity=[3, 0, 4],
+                tilt_deg=20.0)
+    msg = body.initial_outputs()["state"]
+    mass = 2500.0 * math.pi * 0.05 ** 2 * 0.004
+    assert isinstance(msg, BodyState)
+    assert msg.mass == pytest.approx(mass)
+    i_d = mass * (3 * 0.05 ** 2 + 0.004 ** 2) / 12
+    assert msg.inertia == pytest.approx([i_d, i_d, mass * 0.05 ** 2 / 2])
+    assert msg.attack_angle_deg == pytest.approx(20.0)
+    assert msg.speed == pytest.approx(5.0)
+    assert msg.kinetic_energy == pytest.approx(0.5 * mass * 25.0)
+    assert msg.potential_energy == pytest.approx(mass * G * 0.2)
+    assert msg.first_nonfinite() is None
+
+
+def test_default_tilt_raises_the_leading_edge():
+    """The default tilt axis (-y) raises the +x edge: nose up for a throw along +x."""
+    q = tuple(make(tilt_deg=30.0).initial_outputs()["state"].orientation)
+    front = quat.rotate(q, (0.05, 0.0, 0.0))
+    assert front[2] == pytest.approx(0.05 * math.sin(math.radians(30.0)))
+
+
+def test_spin_is_added_about_the_tilted_axis():
+    """spin adds an angular velocity along the body's symmetry axis (world frame)."""
+    msg = make(tilt_deg=30.0, spin=100.0).initial_outputs()["state"]
+    axis = quat.body_axis(tuple(msg.orientation))
+    assert msg.angular_velocity == pytest.approx(np.multiply(axis, 100.0))
+
+
+def test_published_state_round_trips_through_the_codec():
+    """The published BodyState encodes and decodes bit for bit."""
+    body = make(velocity=[1.0, 2.0, 3.0], angular_velocity=[0.1, 0.2, 30.0], tilt_deg=12.0)
+    msg = run(body, 3)
+    codec = codec_for(BodyState)
+    assert messages_equal(codec.decode(codec.encode(msg)), msg)
+
+
+# --- dynamics through step() -----------------------------------------------------------------------
+
+def test_free_fall_through_step_is_exact():
+    """With nothing connected, 400 steps of 0.5 ms give z0 - g t^2/2 and -g t to round-off."""
+    body = make(position=[0, 0, 2.0])
+    msg = run(body, 400)
+    assert msg.position[2] == pytest.approx(2.0 - 0.5 * G * 0.2 ** 2, rel=1e-14)
+    assert msg.velocity[2] == pytest.approx(-G * 0.2, rel=1e-14)
+
+
+def test_held_wrench_adds_to_gravity():
+    """A constant wrench force F over t gives x = (F/M + g) t^2 / 2."""
+    body = make(position=[0, 0, 0], shape="sphere", radius=0.02, mass=0.5)
+    wrench = Wrench(np.array([1.0, 0.0, 0.25 * G]), np.zeros(3))  # F/M = (2, 0, g/2)
+    msg = run(body, 200, wrench=wrench)
+    t = 0.1
+    assert msg.position == pytest.approx([0.5 * 2.0 * t * t, 0.0, -0.5 * 0.5 * G * t * t], rel=1e-12)
+
+
+def test_torque_spins_up_a_sphere_at_torque_over_inertia():
+    """A constant torque about the centre of a sphere gives omega = torque t / I."""
+    body = make(shape="sphere", radius=0.02, mass=0.5, gravity=[0, 0, 0])
+    msg = run(body, 100, wrench=Wrench(np.zeros(3), np.array([0.0, 0.0, 1e-3])))
+    assert msg.angular_velocity == pytest.approx([0.0, 0.0, 1e-3 * 0.05 / (0.4 * 0.5 * 0.02 ** 2)], rel=1e-12)
+
+
+def test_impulse_is_applied_once_at_the_start_of_the_step():
+    """An impulse changes v by J/M and x by the correction before the step's integration, once."""
+    body = make(position=[0, 0, 1.0], shape="sphere", radius=0.02, mass=0.5)
+    imp = Impulse(np.array([0.0, 0.0, 1.0]), np.zeros(3), np.array([0.0, 0.0, 0.01]))
+    msg = run(body, 1, impulses={0: imp})
+    v0 = 1.0 / 0.5
+    assert msg.velocity[2] == pytest.approx(v0 - G * DT, rel=1e-14)
+    assert msg.position[2] == pytest.approx(1.01 + v0 * DT - 0.5 * G * DT * DT, rel=1e-14)
+    msg = run(body, 1, start=1)  # no impulse delivered on the next step
+    assert msg.velocity[2] == pytest.approx(v0 - 2 * G * DT, rel=1e-14)
+
+
+def test_angular_impulse_changes_angular_momentum():
+    """An angular impulse H changes the world angular momentum by H."""
+    body = make(gravity=[0, 0, 0], tilt_deg=40.0)
+    imp = Impulse(np.zeros(3), np.array([1e-5, 0.0, 0.0]), np.zeros(3))
+    msg = run(body, 1, impulses={0: imp})
+    q, w = tuple(msg.orientation), tuple(msg.angular_velocity)
+    from components.rigid.dynamics import angular_momentum
+    assert angular_momentum(body.body.inertia, q, w) == pytest.approx((1e-5, 0.0, 0.0), rel=1e-12, abs=1e-20)
+
+
+# --- options ---------------------------------------------------------------------------------------
+
+def test_locked_attitude_ignores_torques_and_angular_impulses_and_keeps_the_spin():
+    """lock_attitude holds orientation and angular velocity; the spin's energy stays in the books."""
+    body = make(tilt_deg=20.0, spin=400.0, lock_attitude=True)
+    start = body.initial_outputs()["state"]
+    msg = run(body, 50, wrench=Wrench(np.zeros(3), np.array([1.0, 2.0, 3.0])),
+              impulses={3: Impulse(np.zeros(3), np.array([1.0, 0.0, 0.0]), np.zeros(3))})
+    assert np.array_equal(msg.orientation, start.orientation)
+    assert np.array_equal(msg.angular_velocity, start.angular_velocity)
+    spin_energy = 0.5 * body.body.inertia[2] * 400.0 ** 2
+    assert msg.kinetic_energy == pytest.approx(spin_energy + 0.5 * msg.mass * msg.speed ** 2)
+
+
+def test_scripted_tilt_follows_the_keyframes():
+    """scripted_tilt_deg sets the attitude (and its rate) at every step end, whatever the torque."""
+    body = make(scripted_tilt_deg=[[0.0, 10.0], [0.1, 30.0]])
+    assert body.initial_outputs()["state"].attack_angle_deg == pytest.approx(10.0)
+    msg = run(body, 100, wrench=Wrench(np.zeros(3), np.array([0.0, 1.0, 0.0])))  # t = 0.05 s
+    assert msg.attack_angle_deg == pytest.approx(20.0)
+    assert msg.angular_velocity == pytest.approx([0.0, -math.radians(200.0), 0.0])
+    msg = run(body, 200, start=100)  # past the last keyframe: held
+    assert msg.attack_angle_deg == pytest.approx(30.0)
+    assert np.array_equal(msg.angular_velocity, np.zeros(3))
+
+
+def test_scripted_velocity_drives_the_horizontal_motion_only():
+    """scripted_velocity sets vx, vy and their exact integral; z stays free; horizontal impulses and
+    forces are ignored."""
+    body = make(position=[0, 0, 1.0], scripted_velocity=[[0.0, 2.0, 0.0], [0.1, 4.0, 1.0]])
+    imp = Impulse(np.array([5.0, 5.0, 0.0]), np.zeros(3), np.array([1.0, 1.0, 0.0]))
+    msg = run(body, 200, wrench=Wrench(np.array([3.0, 3.0, 0.0]), np.zeros(3)), impulses={7: imp})  # 0.1 s
+    assert msg.position == pytest.approx([0.3, 0.05, 1.0 - 0.5 * G * 0.01], rel=1e-12)
+    assert msg.velocity == pytest.approx([4.0, 1.0, -G * 0.1], rel=1e-12)
+
+
+# --- framework services ----------------------------------------------------------------------------
+
+def test_set_state_of_get_state_reproduces_the_run_bit_for_bit():
+    """Restoring a checkpoint and re-running gives the same messages, bit for bit."""
+    params = dict(velocity=[3.0, 0.5, 2.0], angular_velocity=[1.0, -2.0, 40.0], tilt_deg=15.0,
+                  integrator="rk4")
+    body = make(**params)
+    wrench = Wrench(np.array([0.1, 0.0, 0.0]), np.array([0.0, 1e-4, 0.0]))
+    run(body, 37, wrench=wrench)
+    saved = body.get_state()
+    first = [run(body, 1, wrench=wrench, start=k) for k in range(37, 60)]
+    other = make(**params)
+    other.set_state(saved)
+    second = [run(other, 1, wrench=wrench, start=k) for k in range(37, 60)]
+    assert all(messages_equal(a, b) for a, b in zip(first, second, strict=True))
+
+
+def test_stable_step_is_unbounded_for_exact_drift_and_bounded_for_rk4_spin():
+    """Verlet rotation is exact at any step; RK4 reports a bound shrinking with the spin rate."""
+    assert make(spin=400.0).max_stable_step() == math.inf
+    assert make(spin=400.0, integrator="rk4").max_stable_step() == pytest.approx(0.5 / 400.0)
+    assert make(integrator="rk4").max_stable_step() == math.inf
+
+
+def test_summary_names_the_body_and_its_final_state():
+    """The closing summary gives position, speed and energies."""
+    (line,) = make(position=[1, 2, 3]).summary()
+    assert line.startswith("stone: at (1, 2, 3) m, speed 0 m/s")
