@@ -72,7 +72,7 @@ DAMPING_SAFETY = 1.0  # step <= this / damping rate: explicit relaxation never o
 SPRING_SAFETY = 1.0  # step <= this / sqrt(stiffness / mass) (symplectic limit is 2) [-]
 MOTION_FRACTION = 0.25  # near the water a step may carry the body at most this fraction of its radius [-]
 MAX_AUTO_SUBSAMPLES = 16  # cap of the automatic sub-cells per column side [-]
-SUBSAMPLES_PER_RADIUS = 4.0  # automatic sub-cells: about this many samples per body radius [-]
+SUBSAMPLES_PER_RADIUS = 12.0  # automatic sub-cells: about this many samples per body radius [-]
 DEFAULT_MARGIN = 0.05  # request margin before the first patch tells the cell size [m]
 
 ALL_EFFECTS = list(EFFECTS)

@@ -112,15 +112,37 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
         mz = 0.0
         wl = 0.0
         ncol = 0
+        # lowest body point over a column, bounded from below cheaply: a disk's lower slab face is a
+        # plane (z = cz + base + gx dx + gy dy), a sphere's bottom is lowest at the column's nearest
+        # point to the centre; columns whose bound is above their surface are dry and skipped
+        if shape == SHAPE_DISK and abs(az) > 1e-3:
+            gx = -ax / az
+            gy = -ay / az
+            base = -0.5 * thickness / abs(az)
+            slack = 0.5 * cell * (abs(gx) + abs(gy))
+        else:
+            gx = 0.0
+            gy = 0.0
+            base = z_low - cz
+            slack = 0.0
         for j in range(j_lo, j_hi + 1):
             yc = y0 + j * cell
             for i in range(i_lo, i_hi + 1):
                 hcol = height[j, i]
                 if z_low >= hcol:
                     continue
+                xc = x0 + i * cell
+                if shape == SHAPE_DISK:
+                    if cz + base + gx * (xc - cx) + gy * (yc - cy) - slack >= hcol:
+                        continue
+                else:
+                    nx_ = max(abs(xc - cx) - 0.5 * cell, 0.0)
+                    ny_ = max(abs(yc - cy) - 0.5 * cell, 0.0)
+                    rn2 = nx_ * nx_ + ny_ * ny_
+                    if rn2 < radius * radius and cz - math.sqrt(radius * radius - rn2) >= hcol:
+                        continue
                 ncol += 1
                 bed = bottom[j, i]
-                xc = x0 + i * cell
                 bsum = 0.0
                 for sa in range(nsub):
                     xs = xc + ((sa + 0.5) / nsub - 0.5) * cell

@@ -1,0 +1,61 @@
+"""Water force laws (components.coupler.forces) against their closed forms."""
+
+import math
+
+import pytest
+
+from components.coupler.forces import (
+    C_MIN,
+    friction_factor,
+    plate_force,
+    pressure_magnitude,
+    segment_area,
+    wave_drag_magnitude,
+)
+
+
+def test_c_min_is_the_capillary_gravity_minimum():
+    """c_min = (4 g gamma / rho)^(1/4) is 0.23 m/s for water."""
+    assert C_MIN == pytest.approx(0.23, abs=1e-3)
+
+
+def test_pressure_only_on_faces_moving_into_the_water():
+    """The pressure is zero for u.n <= 0 and 1/2 rho (C_L |u| u.n + C_N (u.n)^2) otherwise."""
+    assert pressure_magnitude(3.0, -0.5, 1000.0, 1.0, 1.4) == 0.0
+    assert pressure_magnitude(3.0, 0.0, 1000.0, 1.0, 1.4) == 0.0
+    assert pressure_magnitude(3.0, 0.5, 1000.0, 1.0, 0.0) == pytest.approx(750.0)
+    assert pressure_magnitude(3.0, 0.5, 1000.0, 1.0, 1.4) == pytest.approx(750.0 + 175.0)
+
+
+def test_pressure_on_a_plate_is_the_rosellini_law():
+    """With u.n = U sin(alpha + beta), pressure times area is 1/2 rho C_L U^2 S sin(alpha + beta)."""
+    u, alpha, beta, area = 4.0, math.radians(20), math.radians(15), 0.003
+    p = pressure_magnitude(u, u * math.sin(alpha + beta), 1000.0, 1.0, 0.0)
+    assert p * area == pytest.approx(plate_force(1000.0, 1.0, u, area, alpha, beta))
+
+
+def test_friction_factor():
+    """The friction traction is -1/2 rho C_f |u| u_t."""
+    assert friction_factor(2.0, 1000.0, 0.1) == pytest.approx(100.0)
+
+
+def test_wave_drag_vanishes_below_c_min_and_grows_above():
+    """Wave drag is zero up to c_min, continuous there, and 1/2 rho C_W (V/L)(U^2 - c_min^2) above."""
+    assert wave_drag_magnitude(0.2, 1e-5, 0.1, 1000.0, 0.3, C_MIN) == 0.0
+    assert wave_drag_magnitude(C_MIN, 1e-5, 0.1, 1000.0, 0.3, C_MIN) == 0.0
+    assert wave_drag_magnitude(C_MIN * 1.0001, 1e-5, 0.1, 1000.0, 0.3, C_MIN) < 1e-6
+    assert wave_drag_magnitude(1.0, 1e-5, 0.1, 1000.0, 0.3, C_MIN) == pytest.approx(
+        0.5 * 1000 * 0.3 * 1e-4 * (1 - C_MIN**2))
+    assert wave_drag_magnitude(1.0, 0.0, 0.1, 1000.0, 0.3, C_MIN) == 0.0
+
+
+def test_segment_area_limits():
+    """The circular segment grows from 0 to a half disk at s_f = R and to the full disk at 2R."""
+    r = 0.05
+    assert segment_area(r, 0.0) == 0.0
+    assert segment_area(r, r) == pytest.approx(math.pi * r * r / 2)
+    assert segment_area(r, 2 * r) == pytest.approx(math.pi * r * r)
+    assert segment_area(r, 3 * r) == pytest.approx(math.pi * r * r)
+    # small immersion: S ~ (4 sqrt(2) / 3) sqrt(R) s_f^(3/2)
+    s = 1e-6
+    assert segment_area(r, s) == pytest.approx(4 * math.sqrt(2) / 3 * math.sqrt(r) * s**1.5, rel=1e-4)
