@@ -1,0 +1,234 @@
+"""Summed water forces over columns and wetted elements (components.coupler.kernel) against closed forms.
+
+All cases are hand-made: a BodyState in a given pose over a flat HeightPatch (still water at level 0).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from components.coupler import WaterCoupler, WaterCouplerParams
+from components.coupler.fixtures import body, disk_at_depth, pitched, still_water
+from components.coupler.forces import plate_force, segment_area
+from components.coupler.kernel import smooth_conservative
+from components.messages import Shape
+
+RHO_G = 1000.0 * 9.81
+R = 0.05
+E = 0.006
+
+
+def run(b, patch, **params):
+    """One coupler step (1 us, so no stability bound interferes) at state b over patch."""
+    c = WaterCoupler("c", WaterCouplerParams(**params))
+    return c, c.step(0, 1000, {"body": b, "water": patch})
+
+
+def cap_volume(radius, h):
+    h = min(max(h, 0.0), 2 * radius)
+    return math.pi * h * h * (3 * radius - h) / 3
+
+
+@pytest.mark.parametrize("depth", [0.25 * R, 0.5 * R, R, 1.5 * R, 2.5 * R])
+def test_archimedes_for_a_sphere_at_1cm(depth):
+    """The summed column buoyancy of a sphere equals rho g V_cap within 2% on 1 cm columns."""
+    b = body(Shape.SPHERE, position=(0.0013, -0.0021, R - depth), radius=R)
+    _, out = run(b, still_water(0.01), effects=["buoyancy"])
+    assert out["wrench"].force[2] == pytest.approx(RHO_G * cap_volume(R, depth), rel=0.02)
+    assert np.abs(out["wrench"].force[:2]).max() == 0.0
+
+
+def test_archimedes_converges_with_finer_columns():
+    """With one sample per column, the buoyancy error shrinks as the columns get finer."""
+    b = body(Shape.SPHERE, position=(0.0013, -0.0021, 0.3 * R), radius=R)
+    exact = RHO_G * cap_volume(R, 0.7 * R)
+    errors = []
+    for cell in (0.02, 0.01, 0.005, 0.0025):
+        _, out = run(b, still_water(cell), effects=["buoyancy"], column_subsamples=1)
+        errors.append(abs(out["wrench"].force[2] / exact - 1))
+    assert errors[-1] < 2e-3
+    assert errors[-1] < errors[0] / 4
+
+
+def test_fully_submerged_disk_buoyancy_is_rho_g_pi_r2_e():
+    """A disk deep under water, at any tilt, is pushed up by rho g pi R^2 e with no torque."""
+    for attack in (0.0, math.radians(30)):
+        b = body(position=(0.002, 0.003, -0.1), orientation=pitched(attack))
+        _, out = run(b, still_water(0.01), effects=["buoyancy"])
+        assert out["wrench"].force[2] == pytest.approx(RHO_G * math.pi * R * R * E, rel=0.01)
+        # the exact torque is zero; sampling leaves well under 1% of force x radius
+        assert np.abs(out["wrench"].torque).max() < 0.01 * out["wrench"].force[2] * R
+
+
+def test_tilted_floating_disk_gets_a_righting_torque():
+    """A floating slab tilted by theta is turned back by about rho g tan(theta) pi R^4 cos^3(theta) / 4."""
+    theta = math.radians(3)
+    thick = 0.01
+    # +x side down (rotation about +y); the water cuts both sides of the rim
+    b = body(orientation=(math.cos(theta / 2), 0.0, math.sin(theta / 2), 0.0), thickness=thick)
+    _, out = run(b, still_water(0.01), effects=["buoyancy"])
+    analytic = RHO_G * math.tan(theta) * math.pi * R**4 * math.cos(theta) ** 3 / 4
+    torque = out["wrench"].torque
+    assert torque[1] < 0  # turns +x back up
+    assert -torque[1] == pytest.approx(analytic, rel=0.08)
+    assert abs(torque[0]) < 1e-6 * analytic
+
+
+@pytest.mark.parametrize(("attack_deg", "impact_deg"), [(20, 20), (10, 15), (45, 10)])
+@pytest.mark.parametrize("s_over_r", [0.1, 0.3, 0.6, 1.0, 1.5, 1.9])
+def test_pressure_on_still_water_is_the_segment_law(attack_deg, impact_deg, s_over_r):
+    """The summed pressure is 1/2 rho C_L U^2 S(s_f) sin(alpha + beta) within 3%, along the face normal."""
+    alpha, beta, speed = math.radians(attack_deg), math.radians(impact_deg), 5.0
+    s_f = s_over_r * R
+    b = body(position=disk_at_depth(s_f * math.sin(alpha), alpha), orientation=pitched(alpha),
+             velocity=(speed * math.cos(beta), 0.0, -speed * math.sin(beta)))
+    _, out = run(b, still_water(0.01), effects=["pressure"])
+    force = out["contact"].pressure
+    expected = plate_force(1000.0, 1.0, speed, segment_area(R, s_f), alpha, beta)
+    assert np.linalg.norm(force) == pytest.approx(expected, rel=0.03)
+    normal = np.array([-math.sin(alpha), 0.0, math.cos(alpha)])  # the upper face's normal
+    # along the face normal (the wetted front rim, past s_f = R, tilts it by well under a degree)
+    assert force @ normal > math.cos(math.radians(1.0)) * np.linalg.norm(force)
+    assert out["contact"].wetted_area >= segment_area(R, s_f) * 0.97
+
+
+def test_pressure_torque_raises_the_trailing_edge():
+    """The pressure acts behind the centre on a skipping disk, so its torque pitches the nose down."""
+    alpha = math.radians(20)
+    b = body(position=disk_at_depth(0.5 * R * math.sin(alpha), alpha), orientation=pitched(alpha),
+             velocity=(5.0, 0.0, -1.0))
+    _, out = run(b, still_water(0.01), effects=["pressure"])
+    assert out["wrench"].torque[1] > 0  # about +y: front (+x) goes down
+
+
+def test_newtonian_term_adds_rho_c_n_un2():
+    """Switching C_N on adds 1/2 rho C_N (u.n)^2 S to a face pushed straight down."""
+    b = body(position=(0.0, 0.0, -0.01), velocity=(0.0, 0.0, -2.0), thickness=1e-4)
+    _, off = run(b, still_water(0.01), effects=["pressure"])
+    _, on = run(b, still_water(0.01), effects=["pressure"], c_n=1.4)
+    area = math.pi * R * R
+    assert off["contact"].pressure[2] == pytest.approx(0.5 * 1000 * 4.0 * area, rel=1e-3)
+    assert on["contact"].pressure[2] - off["contact"].pressure[2] == pytest.approx(
+        0.5 * 1000 * 1.4 * 4.0 * area, rel=1e-3)
+
+
+def test_relative_velocity_uses_the_surface_velocity():
+    """A disk at rest in water rising at V feels what a disk sinking at V in still water feels."""
+    pos = (0.0, 0.0, -0.002)
+    _, rising = run(body(position=pos), still_water(0.01, surface_velocity=0.7), effects=["pressure"])
+    _, sinking = run(body(position=pos, velocity=(0, 0, -0.7)), still_water(0.01), effects=["pressure"])
+    assert rising["contact"].pressure[2] > 0
+    assert rising["contact"].pressure == pytest.approx(sinking["contact"].pressure, rel=1e-12)
+
+
+def test_spin_changes_friction_but_not_pressure():
+    """Spin about the disk's axis slides its faces along themselves: no pressure change, a braking torque."""
+    alpha = math.radians(20)
+    kw = {"position": disk_at_depth(0.02, alpha), "orientation": pitched(alpha), "velocity": (5.0, 0, -1.0)}
+    axis = np.array([-math.sin(alpha), 0.0, math.cos(alpha)])
+    _, still = run(body(**kw), still_water(0.01))
+    _, spun = run(body(**kw, angular_velocity=tuple(400.0 * axis)), still_water(0.01))
+    assert spun["contact"].pressure == pytest.approx(still["contact"].pressure, rel=1e-12)
+    assert spun["wrench"].torque @ axis < still["wrench"].torque @ axis - 1e-3
+
+
+def test_friction_on_a_sliding_face_is_half_rho_cf_u2_s():
+    """A flat thin disk half-immersed sliding at U feels -1/2 rho C_f U^2 pi R^2 along the motion."""
+    b = body(position=(0.0, 0.0, 0.0), velocity=(3.0, 0.0, 0.0), thickness=1e-5)
+    _, out = run(b, still_water(0.01), effects=["friction"], c_f=0.1)
+    assert out["contact"].friction[0] == pytest.approx(-0.5 * 1000 * 0.1 * 9.0 * math.pi * R * R, rel=1e-3)
+    assert abs(out["contact"].friction[2]) < 1e-9
+
+
+def test_wave_drag_needs_c_min():
+    """A floating sphere pushed at 0.2 m/s makes no wave drag; at 1 m/s, the documented drag."""
+    def drag(speed):
+        b = body(Shape.SPHERE, velocity=(speed, 0.0, 0.0), radius=0.03)
+        c, out = run(b, still_water(0.01), effects=["wave_drag"], c_w=0.3)
+        return out["contact"].wave_drag, c
+    assert np.all(drag(0.2)[0] == 0.0)
+    force, _ = drag(1.0)
+    volume = 2 / 3 * math.pi * 0.03**3
+    c_min = (4 * 9.81 * 0.072 / 1000) ** 0.25
+    assert force[0] == pytest.approx(-0.5 * 1000 * 0.3 * volume / 0.06 * (1 - c_min**2), rel=0.02)
+    assert force[1] == 0.0
+
+
+def test_a_stone_smaller_than_a_cell_still_floats():
+    """A 3 mm sphere inside one 1 cm column feels its Archimedes force within 1%."""
+    b = body(Shape.SPHERE, position=(0.0043, -0.0021, 0.0), radius=0.003)
+    _, out = run(b, still_water(0.01), effects=["buoyancy"])
+    assert out["wrench"].force[2] == pytest.approx(RHO_G * 2 / 3 * math.pi * 0.003**3, rel=0.01)
+
+
+@pytest.mark.parametrize("mode", ["ring", "column"])
+def test_displacement_conserves_the_submerged_volume(mode):
+    """Sum b_ij s^2 equals the submerged volume (to round-off), which is the cap volume within 2%."""
+    cell = 0.01
+    b = body(Shape.SPHERE, position=(0.0013, -0.0021, 0.02), radius=R)
+    _, out = run(b, still_water(cell), effects=["displacement"], displacement_mode=mode)
+    occupied = out["occupied"]
+    volume = out["contact"].submerged_fraction * 4 / 3 * math.pi * R**3
+    assert occupied.b.sum() * cell * cell == pytest.approx(volume, rel=1e-12)
+    assert volume == pytest.approx(cap_volume(R, R - 0.02), rel=0.02)
+    assert occupied.b.min() >= 0
+
+
+def test_ring_displacement_lies_outside_the_body():
+    """In ring mode the displaced water goes to columns outside the body's outline, none under it."""
+    cell = 0.01
+    b = body(Shape.SPHERE, position=(0.0, 0.0, 0.0), radius=R)
+    patch = still_water(cell)
+    _, out = run(b, patch, effects=["displacement"])
+    occ = out["occupied"]
+    jj, ii = np.nonzero(occ.b)
+    x = patch.origin_x + (occ.i0 + ii) * cell
+    y = patch.origin_y + (occ.j0 + jj) * cell
+    r = np.hypot(x, y)
+    assert r.min() > R and r.max() < R + 3.5 * cell
+
+
+def test_skipping_disk_pushes_water_from_its_wet_trailing_edge():
+    """A pitched disk wet only at its trailing edge displaces water behind its centre, not ahead."""
+    cell = 0.01
+    alpha = math.radians(20)
+    patch = still_water(cell)
+    b = body(position=disk_at_depth(0.01, alpha), orientation=pitched(alpha))
+    _, out = run(b, patch, effects=["displacement"])
+    occ = out["occupied"]
+    jj, ii = np.nonzero(occ.b)
+    x = patch.origin_x + (occ.i0 + ii) * cell
+    weights = occ.b[jj, ii]
+    assert (weights * x).sum() / weights.sum() < -0.03
+
+
+def test_smoothing_keeps_the_volume():
+    """Conservative [1,2,1] smoothing spreads b without changing its sum."""
+    rng = np.random.default_rng(1)
+    b = rng.random((9, 7))
+    total = b.sum()
+    smooth_conservative(b, 3)
+    assert b.sum() == pytest.approx(total, rel=1e-14)
+
+
+@pytest.mark.parametrize(("effect", "tolerance"),
+                         [("buoyancy", 0.015), ("pressure", 0.005), ("friction", 0.005)])
+def test_forces_are_smooth_as_the_body_crosses_cells(effect, tolerance):
+    """Moving a wet disk by 0.2 mm steps across 2 cm of 1 cm columns over a wavy surface changes its
+    force by less than the tolerance per step (no jump when a rim or waterline crosses a cell)."""
+    alpha = math.radians(20)
+    z = disk_at_depth(0.5 * R * math.sin(alpha), alpha)[2]
+    patch = still_water(0.01)
+    n = patch.height.shape[0]
+    x, y = np.meshgrid(patch.origin_x + np.arange(n) * 0.01, patch.origin_y + np.arange(n) * 0.01)
+    patch = patch.replace(height=0.001 * np.sin(2 * np.pi * x / 0.07) * np.cos(2 * np.pi * y / 0.09))
+    c = WaterCoupler("c", WaterCouplerParams(effects=[effect]))
+    series = []
+    for k, xb in enumerate(np.arange(0.0, 0.02, 2e-4)):
+        b = body(position=(xb, 0.0023, z), orientation=pitched(alpha), velocity=(5.0, 0.0, -1.5))
+        out = c.step(k * 1000, 1000, {"body": b, "water": patch})
+        series.append(np.linalg.norm(out["wrench"].force))
+    series = np.array(series)
+    assert series.min() > 0
+    assert np.abs(np.diff(series)).max() < tolerance * series.mean()
