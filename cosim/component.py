@@ -107,6 +107,15 @@ class Component:
         """Lines for the closing run summary."""
         return []
 
+    def visuals(self, port: str, msg: Message) -> list[Any]:
+        """Viewer items (:mod:`cosim.visual`) showing ``msg``, just published on ``port``.
+
+        Called at the visual frame rate only, by the recorder's visual deriver, never on the physics
+        path. The default shows nothing of its own: the deriver then uses the visuals registered for
+        the message type (the ``cosim.visuals`` entry points). Override it for a look of your own.
+        """
+        return []
+
     def metrics(self) -> dict[str, float | int | str]:
         """Named results of the run so far (scalars), for sweeps and studies, e.g. {"skips": 4}."""
         return {}

@@ -7,6 +7,7 @@ call (tests, sweeps).
 from __future__ import annotations
 
 import signal
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -15,7 +16,7 @@ from typing import Any
 
 from cosim.errors import SimulationError
 from cosim.progress import ProgressBar
-from cosim.recorder import Recorder
+from cosim.recorder import CHECKPOINT_TOPIC, EVENTS_TOPIC, PERF_TOPIC, STATUS_TOPIC, Recorder
 from cosim.scenario import Scene
 from cosim.scheduler import RunResult, Simulation
 from cosim.timebase import NS_PER_S
@@ -55,34 +56,64 @@ def _signals_interrupt(sim: Simulation) -> Iterator[None]:
             signal.signal(s, h)
 
 
+def physics_topics(scene: Scene) -> frozenset[str]:
+    """Every channel the physics writes (``/<component>/<port>``) plus the framework's own."""
+    topics = {f"/{name}/{port}" for name, cfg in scene.components.items() for port in cfg.cls.outputs}
+    return frozenset(topics | {STATUS_TOPIC, EVENTS_TOPIC, CHECKPOINT_TOPIC, PERF_TOPIC})
+
+
 def default_derivers(scene: Scene) -> list[Any]:
-    """Viewer-channel derivers for a recording of ``scene`` (none until a viewer layer provides them)."""
-    return []
+    """Viewer-channel derivers for a recording of ``scene``: Foxglove scene, transform and log
+    channels at ``record.visual_rate`` frames per second (none at rate 0, or without the ``[viz]``
+    extra, which is said once as a warning)."""
+    rate = scene.record.visual_rate
+    if rate <= 0:
+        return []
+    try:
+        from cosim.foxglove import visual_deriver
+    except ImportError as exc:
+        warnings.warn(f"no viewer channels: {exc.name or exc} is not installed "
+                      "(pip install 'cosim[viz]'; or set record.visual_rate: 0)", stacklevel=2)
+        return []
+    return [visual_deriver(rate, physics_topics(scene))]
 
 
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,
               command_line: str = "", progress: bool = True, perf: bool = False,
-              derivers: list[Any] | None = None, simulation: Simulation | None = None) -> RunOutcome:
+              derivers: list[Any] | None = None, simulation: Simulation | None = None,
+              live: str | None = None, live_speed: float = 1.0) -> RunOutcome:
     """Run ``scene`` (or a prepared ``simulation`` of it), recording to ``output`` unless None.
 
     The recording is closed whatever happens, so a failed or interrupted run leaves a valid file
     holding everything up to the end plus the final status record. A SimulationError does not
-    propagate: it is in ``outcome.result``.
+    propagate: it is in ``outcome.result``. ``live`` (``[HOST:]PORT``) also streams the physics and
+    viewer channels to Foxglove over WebSocket, paced at ``live_speed`` times real time (0: unpaced);
+    it needs the optional ``foxglove-sdk`` package.
     """
+    sim = simulation if simulation is not None else Simulation(scene)
+    live_view = None
+    if live is not None:
+        from cosim.live import LiveView  # only with --live: the foxglove-sdk package is optional
+
+        live_view = LiveView(scene, live, speed=live_speed, components=sim.components)
     recorder = None
     observers: list[Any] = []
-    if output is not None:
-        output = Path(output)
-        output.parent.mkdir(parents=True, exist_ok=True)
-        recorder = Recorder(output, scene, command_line=command_line, perf=perf,
-                            derivers=default_derivers(scene) if derivers is None else derivers)
-        observers.append(recorder)
-    end_ns = scene.until_ns if until_ns is None else until_ns
-    if progress:
-        observers.append(ProgressBar(end_ns, label=scene.name))
-    sim = simulation if simulation is not None else Simulation(scene)
-    sim.observers.extend(observers)
     try:
+        if output is not None:
+            output = Path(output)
+            output.parent.mkdir(parents=True, exist_ok=True)
+            recorder = Recorder(output, scene, command_line=command_line, perf=perf,
+                                derivers=default_derivers(scene) if derivers is None else derivers)
+            for deriver in recorder.derivers:  # components may override their looks (Component.visuals)
+                if hasattr(deriver, "bind"):
+                    deriver.bind(sim.components)
+            observers.append(recorder)
+        end_ns = scene.until_ns if until_ns is None else until_ns
+        if progress:
+            observers.append(ProgressBar(end_ns, label=scene.name))
+        if live_view is not None:
+            observers.append(live_view)
+        sim.observers.extend(observers)
         with _signals_interrupt(sim):
             try:
                 result = sim.run(end_ns)
@@ -91,6 +122,8 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
                                    sim.component_steps(), exc)
     finally:
         path = recorder.close() if recorder is not None else None
+        if live_view is not None:
+            live_view.close()
     summary = [line for r in sim.runners for line in r.comp.summary()]
     return RunOutcome(result, path, summary, sim)
 
