@@ -1,0 +1,98 @@
+"""A toy with metrics for sweep tests: a ball thrown over a floor, bouncing until it rests.
+
+It knows nothing about stones or water; it gives a sweep something that depends on its parameters
+(bounces and distance over speed and angle), can be made slow (``burn``), fail (``fail_at_bounce``) or
+kill its worker process (``die``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+from cosim.component import Component, Port
+from cosim.params import param
+from tests.toys import Scalar
+
+
+class Ball(Component):
+    """A point ball thrown at ``speed`` and ``angle_deg`` above a floor at z = 0, bouncing with
+    restitution ``restitution`` until a bounce leaves slower than ``rest_speed`` (then it stops)."""
+
+    @dataclass(frozen=True)
+    class Params:
+        speed: float = param(5.0, unit="m/s", ge=0)
+        angle_deg: float = param(45.0, unit="deg")
+        restitution: float = param(0.6, ge=0, le=1)
+        gravity: float = param(9.81, unit="m/s^2", gt=0)
+        rest_speed: float = param(0.5, unit="m/s", gt=0)
+        burn: int = param(0, ge=0, doc="extra arithmetic per step, to make a run cost time")
+        fail_at_bounce: int = param(0, ge=0, doc="raise at this bounce (0: never)")
+        die: bool = param(False, doc="end the whole process at the first step")
+
+    outputs = {"height": Port(Scalar)}
+
+    def setup(self) -> None:
+        p = self.params
+        a = math.radians(p.angle_deg)
+        self.x, self.z = 0.0, 0.0
+        self.vx, self.vz = p.speed * math.cos(a), p.speed * math.sin(a)
+        self.bounces = 0
+        self.first_bounce = math.nan
+        self.resting = False
+
+    def _step_impl(self, t, dt, inputs):
+        p = self.params
+        if p.die:
+            os._exit(70)
+        acc = 0.0
+        for i in range(p.burn):
+            acc += i * 1e-9
+        self.vz -= p.gravity * dt
+        self.x += self.vx * dt
+        self.z += self.vz * dt + acc * 0.0
+        if self.z < 0.0 and self.vz < 0.0:
+            self.z = 0.0
+            self.vz = -p.restitution * self.vz
+            self.bounces += 1
+            if self.bounces == 1:
+                self.first_bounce = t + dt
+            if self.bounces == p.fail_at_bounce:
+                raise RuntimeError(f"bounce {self.bounces} is forbidden")
+            if self.vz < p.rest_speed:
+                self.resting = True
+                self.request_stop(f"at rest after {self.bounces} bounces")
+        return {"height": Scalar(self.z)}
+
+    def metrics(self):
+        return {"bounces": self.bounces, "distance": self.x, "outcome": "rest" if self.resting else "flying",
+                "first_bounce_time": self.first_bounce}
+
+
+BALL_SCENE = """
+name: ball
+dt: 0.001
+until: 3.0
+components:
+  ball: {type: "tests.sweep_toys:Ball"}
+"""
+
+
+def write_sweep(folder, body: str, scene: str = BALL_SCENE, name: str = "sweep.yaml"):
+    """Write the ball scene and a sweep file (``body``, whose ``scene: ball.yaml`` names it) into
+    ``folder``; returns the sweep file's path."""
+    (folder / "ball.yaml").write_text(scene)
+    path = folder / name
+    path.write_text(body)
+    return path
+
+
+def read_table(path, drop=("wall_s",)) -> list[list[str]]:
+    """A results table as rows of text, without the columns that may differ between equal runs."""
+    import csv
+
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    keep = [i for i, name in enumerate(rows[0]) if name not in drop]
+    return [[row[i] for i in keep] for row in rows]

@@ -1,0 +1,216 @@
+"""Sweep files: axes become points with stable ids and overrides; every bad file gets a clear message."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import yaml
+
+from cosim.errors import ScenarioError
+from cosim.sweep import Expression, load_sweep, loads_sweep, point_id, yaml_value
+from tests.sweep_toys import BALL_SCENE, write_sweep
+
+GRID = """
+scene: ball.yaml
+axes:
+  components.ball.angle_deg: {linspace: [30, 60, 3]}
+  components.ball.speed: [2, 4]
+set: {components.ball.restitution: 0.5}
+until: 2.0
+"""
+
+
+def test_grid_is_the_product_of_the_axes_in_order(tmp_path):
+    """A grid runs every combination, the first axis slowest; each point's overrides are the fixed
+    ones (set, until) followed by its axis values, exactly as --set strings."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    assert [p.values for p in sweep.points] == [{"components.ball.angle_deg": a, "components.ball.speed": s}
+                                                for a in (30.0, 45.0, 60.0) for s in (2, 4)]
+    assert [p.index for p in sweep.points] == list(range(6))
+    assert sweep.points[1].overrides == ("components.ball.restitution=0.5", "until=2.0",
+                                         "components.ball.angle_deg=30.0", "components.ball.speed=4")
+    assert sweep.describe() == ("sweep: 6 points (grid of 3 components.ball.angle_deg x "
+                                "2 components.ball.speed)")
+    assert sweep.columns == ["index", "point_id", "components.ball.angle_deg", "components.ball.speed",
+                             "status", "reason", "error_type", "sim_time_s", "ticks", "ball.bounces",
+                             "ball.distance", "ball.outcome", "ball.first_bounce_time", "wall_s"]
+
+
+@pytest.mark.parametrize(("spec", "values"), [
+    ("{linspace: [0, 1, 5]}", [0.0, 0.25, 0.5, 0.75, 1.0]),
+    ("{logspace: [0.001, 0.1, 3]}", [0.001, 0.01, 0.1]),
+    ("{range: [1, 7, 2]}", [1, 3, 5]),
+    ("[true, false]", [True, False]),
+])
+def test_grid_axis_forms(spec, values):
+    """linspace, logspace (from a to b, not exponents), range (integers, stop excluded) and lists."""
+    text = ("scene: {dt: 0.001, until: 0.01, components: {t: {type: 'tests.toys:Source'}}}\n"
+            f"axes:\n  v: {spec}\nderived: {{components.t.start: 'v * 0'}}\n")
+    got = [p.values["v"] for p in loads_sweep(text).points]
+    assert got == pytest.approx(values, rel=1e-12) and [type(v) for v in got] == [type(v) for v in values]
+
+
+def test_point_ids_depend_only_on_axis_values(tmp_path):
+    """A point's id is a hash of its axis names and values: the same whatever its index, so a longer
+    axis keeps the ids of the points it already had, and any other value gives another id."""
+    short = load_sweep(write_sweep(tmp_path, GRID))
+    longer = load_sweep(write_sweep(tmp_path, GRID.replace("[2, 4]", "[2, 3, 4]"), name="b.yaml"))
+    assert {p.point_id for p in short.points} < {p.point_id for p in longer.points}
+    assert point_id({"a": 1.0, "b": 2}) == point_id({"b": 2, "a": 1.0}) != point_id({"a": 1.0, "b": 3})
+    assert len(point_id({"a": 0.1})) == 12 and point_id({"a": 0.1}) != point_id({"a": 0.1 + 1e-16 * 2})
+
+
+def test_random_samples_repeat_with_the_seed(tmp_path):
+    """Random mode draws `samples` points from `seed`: the same seed gives the same points, more
+    samples keep the first ones, and each value lies in its range or list."""
+    body = """
+scene: ball.yaml
+mode: random
+samples: {n}
+seed: 7
+axes:
+  components.ball.angle_deg: {{uniform: [10, 80]}}
+  components.ball.speed: {{loguniform: [1, 10]}}
+  components.ball.restitution: [0.3, 0.6]
+"""
+    a = load_sweep(write_sweep(tmp_path, body.format(n=20)))
+    b = load_sweep(write_sweep(tmp_path, body.format(n=30), name="b.yaml"))
+    assert [p.values for p in a.points] == [p.values for p in b.points[:20]]
+    for p in b.points:
+        assert 10 <= p.values["components.ball.angle_deg"] <= 80
+        assert 1 <= p.values["components.ball.speed"] <= 10
+        assert p.values["components.ball.restitution"] in (0.3, 0.6)
+    c = load_sweep(write_sweep(tmp_path, body.format(n=20).replace("seed: 7", "seed: 8"), name="c.yaml"))
+    assert [p.values for p in c.points] != [p.values for p in a.points]
+
+
+def test_derived_values_come_from_variable_axes(tmp_path):
+    """An axis that is not a key of the scene is a variable: `derived` computes overrides from it."""
+    body = """
+scene: ball.yaml
+axes:
+  launch: [30, 60]
+derived:
+  components.ball.angle_deg: "launch"
+  components.ball.speed: "2 * sqrt(launch / 30) + cos(radians(90))"
+"""
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    speed = 2 * math.sqrt(2) + math.cos(math.pi / 2)
+    assert sweep.points[1].overrides == ("components.ball.angle_deg=60",
+                                         f"components.ball.speed={yaml_value(speed)}")
+    assert Expression("[s * cos(radians(b)), 0, -s * sin(radians(b))]")({"s": 2.0, "b": 90.0}) == \
+        [2.0 * math.cos(math.pi / 2), 0, -2.0]
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("__import__('os')", "unknown function '__import__'"),
+    ("x.real", "'x.real' is not allowed"),
+    ("lambda: 1", "is not allowed"),
+    ("x if x else 1", "is not allowed"),
+])
+def test_expressions_admit_arithmetic_only(text, message):
+    """Derived expressions evaluate numbers, names, arithmetic and math functions, nothing else."""
+    with pytest.raises(ValueError, match=message):
+        Expression(text)
+
+
+def test_a_derived_value_that_fails_fails_its_point_only(tmp_path):
+    """A math error at one point (sqrt of a negative) marks that point, not the sweep."""
+    body = "scene: ball.yaml\naxes: {v: [4, -4]}\nderived: {components.ball.speed: 'sqrt(v)'}\n"
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    assert sweep.points[0].problem is None
+    assert sweep.points[1].problem == ("derived.components.ball.speed: cannot evaluate 'sqrt(v)': "
+                                       "ValueError: math domain error")
+
+
+def test_every_problem_is_reported_at_once_with_its_path(tmp_path):
+    """Unknown keys, bad axis forms, grid-only and random-only settings, unused variables, unknown
+    names and metrics that match nothing all come in one ScenarioError, each with its path."""
+    body = """
+scene: ball.yaml
+colour: red
+samples: 4
+axes:
+  components.ball.speed: {uniform: [1, 2]}
+  components.ball.angle_deg: 45
+  components.bal.speed: [1]
+  speed2: [1, 2]
+  components.ball.restitution: [0.5, 0.5]
+derived: {components.ball.gravity: "g * 2", components.ball.burn: 3}
+metrics: 7
+output: results.txt
+"""
+    with pytest.raises(ScenarioError) as info:
+        load_sweep(write_sweep(tmp_path, body))
+    problems = info.value.problems
+    expected = [
+        "colour: unknown key",
+        "samples: only for mode: random",
+        "axes.components.ball.speed.uniform: is for mode: random",
+        "axes.components.ball.angle_deg: expected a list of values",
+        "axes.components.bal.speed: the scene has no key 'components.bal' (known there: ball)",
+        "axes.components.ball.restitution: repeats a value",
+        "derived.components.ball.gravity: unknown name 'g'",
+        "derived.components.ball.burn: must be an expression in quotes",
+        "axes.speed2: not a key of the scene",
+        "metrics: must be a list",
+        "output: must be a .csv or .parquet file name",
+    ]
+    for line in expected:
+        assert any(p.startswith(line) for p in problems), (line, problems)
+    assert len(problems) == len(expected)
+
+
+def test_the_first_point_is_validated_before_anything_runs(tmp_path):
+    """A parameter the component does not have, or a value it rejects, is reported with the point."""
+    with pytest.raises(ScenarioError, match=r"the first point \(components\.ball\.sped=1\): "
+                                            r"components\.ball\.sped: unknown key; did you mean 'speed'\?"):
+        load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes: {components.ball.sped: [1, 2]}\n"))
+    with pytest.raises(ScenarioError, match=r"components\.ball\.restitution: must be <= 1 \(got 1\.5\)"):
+        load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes: {components.ball.restitution: [1.5, 1]}\n"))
+
+
+def test_scene_file_and_sweep_file_problems(tmp_path):
+    """A missing scene, a missing sweep file, an empty one and a YAML error are bad input too."""
+    with pytest.raises(ScenarioError, match=r"scene: no such file 'nowhere\.yaml'"):
+        load_sweep(write_sweep(tmp_path, "scene: nowhere.yaml\naxes: {dt: [0.001]}\n"))
+    with pytest.raises(ScenarioError, match=r"missing\.yaml: no such file"):
+        load_sweep(tmp_path / "missing.yaml")
+    with pytest.raises(ScenarioError, match=r"a sweep must be a mapping with at least 'scene' and 'axes' "
+                                            r"\(got nothing\)"):
+        loads_sweep("")
+    with pytest.raises(ScenarioError, match=r"YAML syntax error: line 2, column 1"):
+        loads_sweep("axes: [\n")
+    with pytest.raises(ScenarioError, match=r"line 3: duplicate key 'axes'"):
+        loads_sweep("scene: a.yaml\naxes: {dt: [1]}\naxes: {dt: [2]}\n")
+
+
+def test_inline_scene_metrics_and_figure_defaults(tmp_path):
+    """An inline scene mapping works like a file; metrics keep the patterns' matches in order; the
+    default figure shows the first numeric metric over the first two axes."""
+    text = (f"scene: {yaml.safe_load(BALL_SCENE)}\n"
+            "axes: {components.ball.speed: [1, 2], dt: [0.001, 0.002]}\n"
+            "metrics: ['ball.d*', 'ball.bounces']\n")
+    sweep = loads_sweep(text, source="inline.yaml")
+    assert sweep.scene_source == "inline.yaml:scene"
+    assert sweep.metrics == ["ball.distance", "ball.bounces"]
+    figure = sweep.figure
+    assert (figure.metric, figure.x, figure.y) == ("ball.distance", "components.ball.speed", "dt")
+    with pytest.raises(ScenarioError, match=r"metrics: 'stages\.\*' matches no metric of the scene "
+                                            r"\(its components report: ball\.bounces, ball\.distance"):
+        loads_sweep(text.replace("'ball.d*'", "'stages.*'"))
+    with pytest.raises(ScenarioError, match=r"figure\.metric: 'ball\.outcome' is text, not a number"):
+        loads_sweep(text.replace("metrics: ['ball.d*', 'ball.bounces']", "figure: {metric: ball.outcome}"))
+    with pytest.raises(ScenarioError, match=r"figure\.y: 'speed' is not an axis "
+                                            r"\(axes: components\.ball\.speed, dt\)"):
+        loads_sweep(text + "figure: {y: speed}\n")
+
+
+@pytest.mark.parametrize("value", [0.1, 1e-05, 1e16, -2.5e-07, 5, True, "yes", "a: b", "1.0", [1.0, 0, 3e-20],
+                                   {"a": [1, 2]}, None, math.pi])
+def test_override_values_round_trip(value):
+    """Each value is written as one line of YAML that parses back to the very same value."""
+    text = yaml_value(value)
+    assert "\n" not in text and yaml.safe_load(text) == value
+    assert yaml.safe_load(yaml_value(math.nan)) != yaml.safe_load(yaml_value(math.nan))  # still a NaN
