@@ -1,0 +1,178 @@
+"""One contact resolution between a body and a plane, from the body's end-of-step state.
+
+The exchange this serves (see :mod:`components.ground`): the body publishes its state at the end of
+step k; the ground answers with an impulse and a position correction that the body applies at the
+start of step k+1, to that very state. So the response is computed on the state it is applied to and
+acts as if at the end of step k; the lag is only in *when* the contact was detected (somewhere inside
+step k). The resolution makes up for that by reconstructing the step, along the normal, with the
+normal acceleration a_n = g.n held:
+
+1. tau in [0, dt], the time since the lowest point crossed the plane:
+   gap - u_n tau + a_n tau^2 / 2 = 0 (tau = dt when it was already in contact at the step's start).
+2. The normal velocity at the crossing, u_c = u_n - a_n tau, decides the regime:
+   - *bounce* (-u_c above the bounce threshold, e > 0): the impact happened tau ago with outgoing
+     velocity -e u_c; the body has since flown tau, so the target normal velocity is -e u_c + a_n tau
+     and the correction puts the lowest point at (-e u_c) tau + a_n tau^2 / 2 above the plane. For a
+     translating body this is the exact bounce: heights fall as e^2 whatever the step.
+   - *plastic* (slow arrival, resting, sliding): target normal velocity 0 and the lowest point put
+     back on the plane. In resting contact tau = dt, so each step the impulse is M |a_n| dt (the
+     normal force M |a_n|) and the correction M-independent (|a_n| dt^2 / 2): no jitter.
+3. The tangential correction is the friction impulse's own displacement: J_t/M * tau for an impact
+   tau ago, J_t/M * tau/2 for a force acting over the last tau (exactly what velocity Verlet would have
+   done with that friction force). A sticking body therefore ends each step where it began: no creep.
+4. The dissipated energy is the body's mechanical energy before minus after the response (impulse
+   and correction), so kinetic + potential + dissipated stays constant to round-off when gravity is
+   the only other force.
+
+The bounce threshold is raised to at least BOUNCE_STEPS |g| dt so a body resting on a plane never
+bounces on the velocity it gains in one step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from components.contact.geometry import ContactGeometry, Plane, contact_geometry
+from components.contact.impulse import NO_IMPULSE, ImpulseResult, contact_matrix, face_impulse, point_impulse
+from components.rigid import quaternion as quat
+from components.rigid.dynamics import RigidState, apply_impulse, kinetic_energy, potential_energy
+from components.rigid.shapes import MassProperties
+from components.rigid.vec import ZERO, Vec, cross, dot, norm
+
+BOUNCE_STEPS = 4.0  # the bounce threshold is at least this many steps' worth of gravity [|g| dt]
+
+
+@dataclass(frozen=True)
+class Material:
+    """Contact properties of a ground plane.
+
+    restitution: e (0..1); mu_static, mu_kinetic: Coulomb coefficients (mu_kinetic <= mu_static);
+    bounce_threshold [m/s]: below this approach speed an impact is plastic (e = 0);
+    face_tolerance [m]: a disk whose bottom rim heights spread by at most this lies flat (face contact).
+    """
+
+    restitution: float = 0.5
+    mu_static: float = 0.5
+    mu_kinetic: float = 0.4
+    bounce_threshold: float = 0.02
+    face_tolerance: float = 1e-5
+
+
+class ContactResult(NamedTuple):
+    """The ground's response to one body state (world frame).
+
+    linear: (3,) impulse [N s]; angular: (3,) angular impulse about the centre of mass [N m s];
+    correction: (3,) position correction [m]; normal, friction: impulse sizes [N s]; sliding: kinetic
+    friction acted; bounced: the impact rebounded; face: face contact; painleve: friction dropped
+    (no consistent sliding solution); tau: time since the contact began within the step [s];
+    dissipated: mechanical energy removed by this response [J] (negative if it added energy).
+    """
+
+    linear: Vec
+    angular: Vec
+    correction: Vec
+    normal: float
+    friction: float
+    sliding: bool
+    bounced: bool
+    face: bool
+    painleve: bool
+    tau: float
+    dissipated: float
+
+
+def time_since_contact(gap: float, un: float, a_n: float, dt: float) -> float:
+    """tau in [0, dt] [s]: how long ago a point now at height ``gap`` (<= 0) [m] with normal velocity
+    ``un`` [m/s] under normal acceleration ``a_n`` [m/s^2] crossed the plane; dt if not in this step.
+
+    Smallest tau >= 0 with gap - un tau + a_n tau^2 / 2 = 0 (the point's height tau earlier).
+    """
+    if gap >= 0.0:
+        return 0.0
+    a, b, c = 0.5 * a_n, -un, gap
+    roots: tuple[float, ...] = ()
+    if a == 0.0:
+        if b != 0.0:
+            roots = (-c / b,)
+    else:
+        disc = b * b - 4.0 * a * c
+        if disc >= 0.0:
+            q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+            if q != 0.0:
+                roots = (q / a, c / q)
+    return min((r for r in roots if 0.0 <= r <= dt), default=dt)
+
+
+def mechanical_energy(body: MassProperties, state: RigidState, gravity: Vec) -> float:
+    """Kinetic plus gravitational potential energy [J]."""
+    kinetic = kinetic_energy(body.mass, body.inertia, state)
+    return kinetic + potential_energy(body.mass, gravity, state.position)
+
+
+def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, material: Material,
+                    gravity: Vec, dt: float, was_sliding: bool = False, rotate: bool = True,
+                    geometry: ContactGeometry | None = None) -> ContactResult | None:
+    """The impulse, correction and dissipated energy for ``state`` against ``plane``; None if apart.
+
+    ``dt`` [s] is the step that led to ``state``; ``was_sliding`` selects the coefficient deciding
+    sticking (mu_kinetic after sliding, mu_static otherwise); ``rotate`` false treats a body whose
+    attitude is held (only its translation responds).
+    """
+    x, q, v, w = state
+    if geometry is None:
+        geometry = contact_geometry(body.shape, body.radius, body.thickness, x, q, plane,
+                                    material.face_tolerance)
+    if geometry.gap > 0.0:
+        return None
+    n = plane.normal
+    a_n = dot(gravity, n)
+    face = geometry.face and rotate
+    r = geometry.r_ref if face else geometry.r_low
+    if not rotate:
+        w = ZERO  # a held attitude has no point velocity from rotation
+    wr = cross(w, r)
+    u = (v[0] + wr[0], v[1] + wr[1], v[2] + wr[2])
+    un = dot(u, n)
+    tau = time_since_contact(geometry.gap, un, a_n, dt)
+    u_cross = un - a_n * tau
+    e = material.restitution
+    bounced = False
+    if e > 0.0 and -u_cross > max(material.bounce_threshold, BOUNCE_STEPS * norm(gravity) * dt):
+        out = -e * u_cross
+        gap_end = out * tau + 0.5 * a_n * tau * tau
+        bounced = gap_end >= 0.0
+    if bounced:
+        target_un = out + a_n * tau
+        correction_n = gap_end - geometry.gap
+        lever = tau
+    else:
+        target_un = 0.0
+        correction_n = -geometry.gap
+        lever = 0.5 * tau
+    mu_stick = material.mu_kinetic if was_sliding else material.mu_static
+    axis = quat.body_axis(q)
+    res: ImpulseResult | None = None
+    if face:
+        res = face_impulse(body.mass, body.inertia, axis, body.radius, r, v, w, n, target_un,
+                           e if bounced else 0.0, mu_stick, material.mu_kinetic)
+        if res is None:  # the face cannot hold it: the lowest rim point takes the contact
+            face, r = False, geometry.r_low
+            wr = cross(w, r)
+            u = (v[0] + wr[0], v[1] + wr[1], v[2] + wr[2])
+    if res is None:
+        k = contact_matrix(body.mass, body.inertia, axis, r, rotate)
+        res = point_impulse(k, r, u, n, target_un, mu_stick, material.mu_kinetic)
+    if not rotate and res is not NO_IMPULSE:
+        res = res._replace(angular=ZERO)
+    j = res.linear
+    jn = dot(j, n)
+    s = lever / body.mass
+    correction = (correction_n * n[0] + s * (j[0] - jn * n[0]),
+                  correction_n * n[1] + s * (j[1] - jn * n[1]),
+                  correction_n * n[2] + s * (j[2] - jn * n[2]))
+    after = apply_impulse(body.mass, body.inertia, state, j, res.angular, correction, rotate=rotate)
+    dissipated = mechanical_energy(body, state, gravity) - mechanical_energy(body, after, gravity)
+    return ContactResult(j, res.angular, correction, res.normal, res.friction, res.sliding, bounced, face,
+                         res.painleve, tau, dissipated)

@@ -1,0 +1,165 @@
+"""SolidGround: a rigid plane of any slope with restitution and static/kinetic Coulomb friction.
+
+Ports:
+- ``body`` (BodyState, required): the body's state at the end of its step (a direct edge
+  ``stone.state -> ground.body``, so the ground runs after the body within a tick);
+- ``impulse`` (Impulse, out): published only while in contact; the body applies it once at the start
+  of its next step (a ``delay: 1`` edge into the body's event port ``impulse``);
+- ``contact`` (GroundContact, out): every step; normal and friction forces are this step's impulses
+  divided by dt, ``dissipated_energy`` is cumulative.
+
+Scene wiring::
+
+    connections:
+      - stone.state -> ground.body
+      - {from: ground.impulse, to: stone.impulse, delay: 1,
+         initial: {linear: [0, 0, 0], angular: [0, 0, 0], correction: [0, 0, 0]}}
+
+Why impulses and not penalty forces: a stiff spring needs a step far below the body's, while an
+impulse computed on the very state it is applied to (the body publishes state S_k at the end of step
+k; the response reaches it at the start of step k+1, still in state S_k) is stable at any step and
+exact for bounces (see :mod:`components.contact.solver` for the reconstruction of the step).
+Resting contact is a sequence of small impulses balancing gravity, with a position correction
+removing the step's penetration; sticking cancels the tangential drift the same way (no creep). A disk
+lying flat is one face contact, not a rocking pair of rim points.
+
+Assumptions: the ground steps at the body's rate (same ``every``), since dt is read as the body's
+step; one plane per SolidGround (a floor and a ramp are two grounds feeding the same impulse port,
+which sums them); ``gravity`` must match the body's (it is the acceleration the ground reconstructs
+the step with and books the potential energy of its corrections against); ``attitude_locked`` must be
+set for a body with ``lock_attitude`` or a scripted attitude, which ignores angular impulses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from components.contact.geometry import slope_plane
+from components.contact.solver import Material, resolve_contact
+from components.messages import BodyState, GroundContact, Impulse, Shape
+from components.rigid.dynamics import RigidState
+from components.rigid.shapes import MassProperties
+from components.rigid.vec import as_vec
+from cosim.component import Component, Port
+from cosim.messages import Message
+from cosim.params import param
+
+Vec3Param = tuple[float, float, float]
+# (the `noqa: RUF009` below: param() returns a dataclasses.field with an immutable default)
+
+PAINLEVE_BOUND_DISK = math.sqrt(5.0) / 2.0  # friction above this can make a thin disk's impact ill posed
+
+
+@dataclass(frozen=True)
+class SolidGroundParams:
+    """Parameters of a SolidGround plane (SI units; angles in degrees)."""
+
+    point: Vec3Param = param((0.0, 0.0, 0.0), unit="m", doc="a point of the plane (a bottom: [0, 0, -depth])")  # noqa: RUF009
+    slope_deg: float = param(0.0, unit="deg", ge=0, lt=90, doc="angle of the plane from horizontal")
+    downhill_deg: float = param(0.0, unit="deg", doc="azimuth of the downhill direction, from +x towards +y")
+    restitution: float = param(0.5, ge=0, le=1, doc="normal coefficient of restitution e")
+    mu_static: float = param(0.5, ge=0, doc="static friction coefficient")
+    mu_kinetic: float = param(0.4, ge=0, doc="kinetic friction coefficient (<= mu_static)")
+    bounce_threshold: float = param(0.02, unit="m/s", ge=0,
+                                    doc="slower impacts are plastic (raised to at least 4 |g| dt)")
+    face_tolerance: float = param(1e-5, unit="m", ge=0,
+                                  doc="a disk whose bottom rim heights spread by at most this lies flat")
+    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2", doc="must match the body's gravity")  # noqa: RUF009
+    attitude_locked: bool = param(False,
+                                  doc="the body's attitude is locked or scripted (no angular response)")
+
+    def check(self) -> list[tuple[str, str]]:
+        if self.mu_kinetic > self.mu_static:
+            return [("mu_kinetic", f"must be <= mu_static ({self.mu_static:g}) (got {self.mu_kinetic:g})")]
+        return []
+
+
+class SolidGround(Component):
+    """A plane with restitution and Coulomb friction, answering body states with contact impulses."""
+
+    Params = SolidGroundParams
+    inputs = {"body": Port(BodyState, "the body's state at the end of its step", required=True)}
+    outputs = {
+        "impulse": Port(Impulse, "contact impulse and position correction (only while in contact)"),
+        "contact": Port(GroundContact, "forces, friction regime and cumulative dissipated energy"),
+    }
+
+    def setup(self) -> None:
+        p: SolidGroundParams = self.params
+        self.plane = slope_plane(as_vec(p.point), p.slope_deg, p.downhill_deg)
+        self.material = Material(p.restitution, p.mu_static, p.mu_kinetic, p.bounce_threshold,
+                                 p.face_tolerance)
+        self.gravity = as_vec(p.gravity)
+        self.rotate = not p.attitude_locked
+        self.dissipated = 0.0
+        self.sliding = False
+        self.in_contact = False
+        self.impacts = 0
+        self.painleve = 0
+        self._body_key: tuple | None = None
+        self._body: MassProperties | None = None
+
+    def _mass_properties(self, msg: BodyState) -> MassProperties:
+        key = (int(msg.shape), msg.radius, msg.thickness, msg.mass, tuple(msg.inertia.tolist()))
+        if key != self._body_key:
+            self._body = MassProperties(Shape(msg.shape), msg.radius, msg.thickness, msg.mass,
+                                        key[4])  # type: ignore[arg-type]
+            self._body_key = key
+        return self._body  # type: ignore[return-value]
+
+    def _apart(self) -> dict[str, Message]:
+        self.in_contact = False
+        self.sliding = False
+        return {"contact": GroundContact(False, 0.0, 0.0, False, self.dissipated)}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        msg = inputs.get("body")
+        if msg is None:
+            return self._apart()
+        assert isinstance(msg, BodyState)
+        x = tuple(msg.position.tolist())
+        reach = msg.radius if msg.shape == Shape.SPHERE else math.hypot(msg.radius, 0.5 * msg.thickness)
+        if self.plane.height(x) > reach:  # the bounding sphere is clear: no contact possible
+            return self._apart()
+        state = RigidState(x, tuple(msg.orientation.tolist()), tuple(msg.velocity.tolist()),  # type: ignore[arg-type]
+                           tuple(msg.angular_velocity.tolist()))
+        res = resolve_contact(self._mass_properties(msg), state, self.plane, self.material, self.gravity, dt,
+                              self.sliding, self.rotate)
+        if res is None:
+            return self._apart()
+        self.in_contact = True
+        self.sliding = res.sliding
+        self.impacts += res.bounced
+        self.painleve += res.painleve
+        self.dissipated += res.dissipated
+        return {
+            "impulse": Impulse(np.array(res.linear), np.array(res.angular), np.array(res.correction)),
+            "contact": GroundContact(True, res.normal / dt, res.friction / dt, res.sliding, self.dissipated),
+        }
+
+    def initial_outputs(self) -> dict[str, Message]:
+        """At t = 0: no impulse yet, not in contact."""
+        return {"impulse": Impulse.zero(), "contact": GroundContact(False, 0.0, 0.0, False, 0.0)}
+
+    def get_state(self) -> dict[str, Any]:
+        return {"dissipated_energy": self.dissipated, "sliding": self.sliding, "in_contact": self.in_contact,
+                "impacts": self.impacts, "painleve": self.painleve}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.dissipated = float(state["dissipated_energy"])
+        self.sliding = bool(state["sliding"])
+        self.in_contact = bool(state["in_contact"])
+        self.impacts = int(state["impacts"])
+        self.painleve = int(state["painleve"])
+
+    def summary(self) -> list[str]:
+        lines = [f"{self.name}: {self.impacts} bounces, {self.dissipated:.4g} J dissipated"
+                 + (", body in contact" if self.in_contact else "")]
+        if self.painleve:
+            lines.append(f"{self.name}: friction dropped in {self.painleve} impulses (Painlevé: "
+                         f"mu_kinetic {self.params.mu_kinetic:g} above the consistent bound)")
+        return lines

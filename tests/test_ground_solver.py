@@ -1,0 +1,119 @@
+"""One contact resolution from an end-of-step state (components.contact.solver)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from components.contact.geometry import Plane, slope_plane
+from components.contact.solver import Material, mechanical_energy, resolve_contact, time_since_contact
+from components.messages import Shape
+from components.rigid import quaternion as quat
+from components.rigid.dynamics import RigidState, apply_impulse
+from components.rigid.shapes import mass_properties
+
+G = (0.0, 0.0, -9.81)
+DT = 5e-4
+FLOOR = Plane((0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+DISK = mass_properties(Shape.DISK, 0.05, 0.006, density=2700.0)
+H = 0.5 * DISK.thickness  # height of a flat disk's centre when touching [m]
+
+
+def flat(z, v, w=(0.0, 0.0, 0.0)):
+    return RigidState((0.0, 0.0, z), quat.IDENTITY, v, w)
+
+
+def test_time_since_contact_recovers_the_crossing():
+    """A point that crossed 0.2 ms ago at -1 m/s under gravity is found to have crossed 0.2 ms ago."""
+    tau, vc, a = 2e-4, -1.0, -9.81
+    gap, un = vc * tau + 0.5 * a * tau * tau, vc + a * tau
+    assert time_since_contact(gap, un, a, DT) == pytest.approx(tau, rel=1e-10)
+    assert time_since_contact(gap, un, 0.0, DT) == pytest.approx(gap / un, rel=1e-15)
+
+
+def test_time_since_contact_is_the_whole_step_for_a_resting_point_and_zero_when_touching():
+    """Resting (already in contact at the step's start): dt; exactly touching: 0."""
+    assert time_since_contact(-0.5 * 9.81 * DT * DT, -9.81 * DT, -9.81, DT) == pytest.approx(DT, rel=1e-6)
+    assert time_since_contact(-1e-3, 0.0, 0.0, DT) == DT
+    assert time_since_contact(0.0, -1.0, -9.81, DT) == 0.0
+
+
+def test_apart_gives_no_contact():
+    """A body above the plane gets no response."""
+    assert resolve_contact(DISK, flat(H + 1e-6, (0.0, 0.0, -1.0)), FLOOR, Material(), G, DT) is None
+
+
+def test_resting_contact_balances_weight_with_no_dissipation():
+    """A flat disk that rested at the step's start: impulse M g dt (normal force M g), correction
+    g dt^2 / 2 back onto the plane, no bounce, and no energy booked."""
+    s = flat(H - 0.5 * 9.81 * DT * DT, (0.0, 0.0, -9.81 * DT))
+    res = resolve_contact(DISK, s, FLOOR, Material(restitution=0.8), G, DT)
+    assert res is not None and res.face and not res.bounced
+    assert res.linear == pytest.approx((0.0, 0.0, DISK.mass * 9.81 * DT), rel=1e-12)
+    assert res.correction == pytest.approx((0.0, 0.0, 0.5 * 9.81 * DT * DT), rel=1e-12)
+    assert abs(res.dissipated) < 1e-15 * mechanical_energy(DISK, s, G) + 1e-18
+
+
+def test_bounce_mid_step_lands_on_the_exact_rebound_trajectory():
+    """A flat disk that hit the floor at 2 m/s 0.3 ms before the end of the step is put where the exact
+    bounce (outgoing e 2 m/s) would be, with that velocity, and the loss 1/2 M v^2 (1 - e^2) is booked."""
+    e, vc, tau, g = 0.6, -2.0, 3e-4, -9.81
+    s = flat(H + vc * tau + 0.5 * g * tau * tau, (0.0, 0.0, vc + g * tau))
+    res = resolve_contact(DISK, s, FLOOR, Material(restitution=e), G, DT)
+    assert res is not None and res.bounced
+    after = apply_impulse(DISK.mass, DISK.inertia, s, res.linear, res.angular, res.correction)
+    assert after.position[2] == pytest.approx(H - e * vc * tau + 0.5 * g * tau * tau, rel=1e-12)
+    assert after.velocity[2] == pytest.approx(-e * vc + g * tau, rel=1e-12)
+    assert res.dissipated == pytest.approx(0.5 * DISK.mass * vc * vc * (1 - e * e), rel=1e-9)
+
+
+def test_slow_arrival_is_plastic():
+    """Below the bounce threshold (raised to 4 g dt) the contact is plastic: normal velocity 0 on the
+    plane."""
+    s = flat(H - 1e-9, (0.0, 0.0, -0.015))
+    res = resolve_contact(DISK, s, FLOOR, Material(restitution=0.9, bounce_threshold=0.0), G, DT)
+    assert res is not None and not res.bounced
+    after = apply_impulse(DISK.mass, DISK.inertia, s, res.linear, res.angular, res.correction)
+    assert after.velocity[2] == pytest.approx(0.0, abs=1e-15)
+    assert after.position[2] == pytest.approx(H, abs=1e-15)
+
+
+def test_sticking_on_a_slope_returns_to_the_step_start():
+    """A disk at rest on a holding slope, after one free step, is put back exactly where it started
+    with zero velocity: no creep."""
+    phi = math.radians(20.0)
+    plane = slope_plane((0.0, 0.0, 0.0), 20.0)
+    q = quat.from_axis_angle((0.0, 1.0, 0.0), phi)
+    start = tuple(H * c for c in plane.normal)
+    s = RigidState(tuple(np.add(start, np.multiply(G, 0.5 * DT * DT))), q, tuple(np.multiply(G, DT)),
+                   (0.0, 0.0, 0.0))
+    res = resolve_contact(DISK, s, plane, Material(mu_static=0.5, mu_kinetic=0.4), G, DT)
+    assert res is not None and not res.sliding and res.face
+    after = apply_impulse(DISK.mass, DISK.inertia, s, res.linear, res.angular, res.correction)
+    assert after.position == pytest.approx(start, abs=1e-17)
+    assert after.velocity == pytest.approx((0.0, 0.0, 0.0), abs=1e-17)
+
+
+def test_dissipated_energy_is_the_mechanical_energy_removed():
+    """dissipated = (KE + PE before) - (KE + PE after the impulse and the correction)."""
+    q = quat.from_axis_angle((1.0, 0.0, 0.0), 0.5)
+    s = RigidState((0.0, 0.0, 0.0259), q, (1.0, 0.0, -2.0), (0.0, 5.0, 0.0))
+    res = resolve_contact(DISK, s, FLOOR, Material(), G, DT)
+    assert res is not None and not res.face
+    after = apply_impulse(DISK.mass, DISK.inertia, s, res.linear, res.angular, res.correction)
+    expected = mechanical_energy(DISK, s, G) - mechanical_energy(DISK, after, G)
+    assert res.dissipated == pytest.approx(expected, rel=1e-12)
+    assert res.dissipated > 0
+
+
+def test_held_attitude_gets_no_angular_impulse():
+    """With rotate=False the response is purely translational: J = -(1 + e) M v_n n at a rim corner."""
+    q = quat.from_axis_angle((1.0, 0.0, 0.0), 0.5)
+    z = 0.05 * math.sin(0.5) + H * math.cos(0.5) - 1e-12
+    s = RigidState((0.0, 0.0, z), q, (0.0, 0.0, -2.0), (0.0, 0.0, 300.0))
+    res = resolve_contact(DISK, s, FLOOR, Material(restitution=0.5, mu_static=0.0, mu_kinetic=0.0), G, DT,
+                          rotate=False)
+    assert res is not None and res.angular == (0.0, 0.0, 0.0)
+    assert res.linear == pytest.approx((0.0, 0.0, 1.5 * DISK.mass * 2.0), rel=1e-9)
