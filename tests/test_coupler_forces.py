@@ -10,6 +10,7 @@ from components.coupler.forces import (
     plate_force,
     pressure_magnitude,
     segment_area,
+    ventilation,
     wave_drag_magnitude,
 )
 
@@ -59,3 +60,13 @@ def test_segment_area_limits():
     # small immersion: S ~ (4 sqrt(2) / 3) sqrt(R) s_f^(3/2)
     s = 1e-6
     assert segment_area(r, s) == pytest.approx(4 * math.sqrt(2) / 3 * math.sqrt(r) * s**1.5, rel=1e-4)
+
+
+def test_ventilation_dries_fast_receding_faces():
+    """A face receding faster than sqrt(2 g d) is mostly in air; one sliding along itself stays wet."""
+    assert ventilation(0.5, 0.01, 9.81) == 1.0
+    assert ventilation(0.0, 0.0, 9.81) == 1.0
+    assert ventilation(-math.sqrt(2 * 9.81 * 0.05), 0.05, 9.81) == pytest.approx(0.5)
+    assert ventilation(-4.0, 0.01, 9.81) < 0.02
+    assert ventilation(-0.1, 0.05, 9.81) > 0.98
+    assert ventilation(-0.1, 0.0, 9.81) == 0.0

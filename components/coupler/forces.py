@@ -16,7 +16,15 @@ from the face.)
   water, so the pressure uses the point velocity without that spin (friction uses all of it); a
   sphere's rotation likewise moves no water and is left out of its pressure.
 * Friction (Bocquet 2003): ``dF_t = -1/2 rho_w C_f |u| u_t dA`` on every wetted element, with
-  ``u_t = u - (u.n) n``.
+  ``u_t = u - (u.n) n``. The default C_f = 0.01 is skin friction (a turbulent flat plate at
+  Re = U L / nu ~ 1e5-1e6 has C_f ~ 0.005); the pressure law already carries the plate's drag
+  (its force along -n tilts backwards by the attack angle). Larger values lump in spray losses.
+  A face receding from the water (u.n < 0) stays wetted only if the water can follow it: its
+  hydrostatic head accelerates the water at most like g, so a face leaving faster than about
+  sqrt(2 g d) at depth d opens an air cavity (ventilates). The friction of a receding element is
+  scaled by the smooth factor ``2 g d / (2 g d + (u.n)^2)`` (:func:`ventilation`): 1 for a face
+  sliding along itself or receding slowly deep down (a sinking stone's upper face), about 0 for
+  the upper face and trailing rim of a skipping stone, which are in its air cavity.
 * Buoyancy: ``rho_w g b s^2`` upward per column (or sub-column) at its wet interval's centroid.
 * Capillary-gravity wave drag (Raphael & de Gennes 1996: no waves, hence no wave resistance, below
   c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section::
@@ -43,7 +51,7 @@ SURFACE_TENSION = 0.072  # water-air surface tension [N/m]
 C_MIN = (4.0 * GRAVITY * SURFACE_TENSION / RHO_WATER) ** 0.25  # minimum capillary-gravity wave speed [m/s]
 C_LIFT = 1.0  # C_L of the pressure law [-] (physics.md: about 1)
 C_NEWTONIAN = 1.4  # C_N of the Newtonian (u.n)^2 term when switched on [-] (Nagahiro & Hayakawa 2005)
-C_FRICTION = 0.1  # C_f of the skin friction [-]; mu = C_f / C_L acts as a solid friction coefficient
+C_FRICTION = 0.01  # C_f of the skin friction [-] (turbulent flat plates at Re ~ 1e5-1e6: ~0.005)
 C_WAVE = 0.3  # C_W of the capillary-gravity wave drag [-] (calibration coefficient)
 
 
@@ -59,6 +67,18 @@ def pressure_magnitude(speed: float, u_n: float, rho: float, c_l: float, c_n: fl
 def friction_factor(speed: float, rho: float, c_f: float) -> float:
     """Factor k [kg/m^3 * m/s] such that the friction traction is -k u_t [Pa]."""
     return 0.5 * rho * c_f * speed
+
+
+@njit(cache=True)
+def ventilation(u_n: float, depth: float, g: float) -> float:
+    """Wetted share [-] of a face receding at normal speed -u_n from water at ``depth`` [m] below the
+    surface: 2 g d / (2 g d + u_n^2), smooth, 1 when not receding."""
+    if u_n >= 0.0:
+        return 1.0
+    head = 2.0 * g * depth
+    if head <= 0.0:
+        return 0.0
+    return head / (head + u_n * u_n)
 
 
 @njit(cache=True)

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
-from components.coupler.forces import pressure_magnitude, wave_drag_magnitude
+from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
 from components.coupler.geometry import box_coverage, box_density, disk_chord, sphere_chord
 
 SHAPE_DISK = 0
@@ -295,6 +295,8 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                 utz = uz - un * nz
                 speed = math.sqrt(ux * ux + uy * uy + uz * uz)
                 kf = 0.5 * rho * c_f * speed * fa
+                if un < 0.0:
+                    kf *= ventilation(un, max(t, 0.0), g)
                 dfx = -kf * utx
                 dfy = -kf * uty
                 dfz = -kf * utz

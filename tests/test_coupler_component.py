@@ -1,0 +1,281 @@
+"""The WaterCoupler component (components.coupler.component): ports, effects, far exit, stability,
+substepping, state, energy books.
+
+Topology it is built for (the scheduler is not needed here; messages are hand-made)::
+
+    stone.state --(direct)--> coupler.body        coupler.wrench   --(delay 1)--> stone.wrench
+    pond.patch  --(direct)--> coupler.water       coupler.occupied --(delay 1)--> pond.occupied
+                                                  coupler.request  --(delay 1)--> pond.request
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from components.coupler import EFFECTS, WaterCoupler, WaterCouplerParams
+from components.coupler.fixtures import body, disk_at_depth, pitched, still_water
+from components.messages import (
+    BodyState,
+    HeightPatch,
+    OccupiedHeight,
+    PatchRequest,
+    Shape,
+    WaterContact,
+    Wrench,
+)
+from cosim.errors import SimulationError
+from cosim.messages import messages_equal
+from cosim.params import build
+from cosim.registry import resolve
+
+DT_NS = 100_000  # 0.1 ms
+ALPHA = math.radians(20)
+
+
+def skipping_disk(speed=5.0, depth=0.01, **kw):
+    """A pitched disk at the given depth, moving forward and down at 15 degrees."""
+    beta = math.radians(15)
+    return body(position=disk_at_depth(depth, ALPHA), orientation=pitched(ALPHA),
+                velocity=(speed * math.cos(beta), 0.0, -speed * math.sin(beta)), **kw)
+
+
+def step(coupler, b, patch, k=0, **kw):
+    return coupler.step(k * DT_NS, DT_NS, {"body": b, "water": patch}, **kw)
+
+
+def test_ports_and_type_names():
+    """Inputs body/water and outputs wrench/occupied/request/contact carry the physics messages;
+    the type is reachable as WaterCoupler and as Coupler."""
+    assert {k: p.type for k, p in WaterCoupler.inputs.items()} == {"body": BodyState, "water": HeightPatch}
+    assert {k: p.type for k, p in WaterCoupler.outputs.items()} == {
+        "wrench": Wrench, "occupied": OccupiedHeight, "request": PatchRequest, "contact": WaterContact}
+    assert resolve("WaterCoupler") is WaterCoupler
+    assert resolve("Coupler") is WaterCoupler
+
+
+def test_scene_parameters_reject_unknown_effects_listing_the_valid_ones():
+    """An unknown effect in a scene is reported with its path and the valid names."""
+    problems: list[str] = []
+    build(WaterCouplerParams, {"effects": ["buoyancy", "lift"]}, "components.contact", problems)
+    assert problems == ["components.contact.effects: unknown effect 'lift' (valid: displacement, buoyancy, "
+                        "pressure, friction, wave_drag)"]
+
+
+def test_constructing_with_an_unknown_effect_fails():
+    """A coupler built directly with an unknown effect refuses to start."""
+    with pytest.raises(ValueError, match="unknown effect 'spray'"):
+        WaterCoupler("c", WaterCouplerParams(effects=["spray"]))
+
+
+def test_initial_outputs_are_quiet():
+    """At t = 0: zero wrench, empty occupied window, empty request, dry contact."""
+    out = WaterCoupler("c").initial_outputs()
+    assert set(out) == set(WaterCoupler.outputs)
+    assert not out["wrench"].force.any() and not out["wrench"].torque.any()
+    assert out["occupied"].b.size == 0
+    assert out["request"].x_min > out["request"].x_max
+    assert not out["contact"].wetted
+
+
+def test_far_body_costs_no_column_work():
+    """A body high above the water gets a zero wrench, an empty window and request, and no work."""
+    c = WaterCoupler("c")
+    out = step(c, body(position=(0.0, 0.0, 1.0), velocity=(5.0, 0.0, -1.0)), still_water())
+    assert set(out) == set(WaterCoupler.outputs)
+    assert c.work == {"columns": 0, "elements": 0}
+    assert not out["wrench"].force.any()
+    assert out["occupied"].b.size == 0
+    assert out["request"].x_min > out["request"].x_max
+    assert out["contact"].depth == pytest.approx(-(1.0 - math.hypot(0.05, 0.003)))
+    assert c.max_stable_step() == math.inf
+
+
+def test_body_near_water_requests_its_next_footprint():
+    """Before any patch arrives, a body near the water asks for its footprint at x + v dt plus a margin."""
+    c = WaterCoupler("c")
+    b = body(position=(1.0, 2.0, 0.04), velocity=(10.0, 0.0, -1.0))
+    out = step(c, b, None)
+    req = out["request"]
+    x_next = 1.0 + 10.0 * DT_NS * 1e-9
+    assert req.x_min < x_next - 0.05 and req.x_max > x_next + 0.05
+    assert req.y_min < 2.0 - 0.05 and req.y_max > 2.0 + 0.05
+    assert req.x_max - req.x_min < 0.3
+    assert not out["wrench"].force.any()
+
+
+def test_request_margin_follows_the_cell_size():
+    """Once a patch has told the cell size, the margin is margin_cells (+ the ring band) cells."""
+    c = WaterCoupler("c", WaterCouplerParams(effects=["buoyancy"], margin_cells=3))
+    b = body(position=(0.0, 0.0, 0.0))
+    req = step(c, b, still_water(0.02))["request"]
+    assert req.x_max == pytest.approx(0.05 + 3 * 0.02)
+
+
+def test_each_effect_can_be_switched_off_alone():
+    """Dropping one effect zeroes its force and leaves every other effect's force unchanged, bit for bit."""
+    patch = still_water(0.01)
+    b = skipping_disk(depth=0.015, angular_velocity=(0.0, 3.0, 20.0))
+    full = step(WaterCoupler("c"), b, patch)["contact"]
+    for name in EFFECTS:
+        out = step(WaterCoupler("c", WaterCouplerParams(effects=[e for e in EFFECTS if e != name])), b, patch)
+        for force in ("buoyancy", "pressure", "friction", "wave_drag"):
+            value = getattr(out["contact"], force)
+            if force == name:
+                assert not value.any()
+            else:
+                assert value.tobytes() == getattr(full, force).tobytes()
+                assert value.any()
+        total = out["contact"].buoyancy + out["contact"].pressure + out["contact"].friction + \
+            out["contact"].wave_drag
+        assert out["wrench"].force == pytest.approx(total, abs=1e-12)
+        assert (out["occupied"].b.size == 0) == (name == "displacement")
+
+
+def test_no_effects_means_no_work_but_all_outputs():
+    """With no effect named the coupler does no column or element work and still publishes every port."""
+    c = WaterCoupler("c", WaterCouplerParams(effects=[]))
+    out = step(c, skipping_disk(depth=0.02), still_water())
+    assert set(out) == set(WaterCoupler.outputs)
+    assert c.work == {"columns": 0, "elements": 0}
+    assert not out["wrench"].force.any()
+    assert out["occupied"].b.size == 0
+
+
+def test_contact_report_of_a_pitched_disk():
+    """The report gives the lowest point's depth, the wetted area and the submerged fraction."""
+    c = WaterCoupler("c")
+    contact = step(c, skipping_disk(depth=0.012), still_water())["contact"]
+    assert contact.wetted
+    assert contact.depth == pytest.approx(0.012, abs=1e-12)
+    assert 0.0 < contact.submerged_fraction < 0.5
+    assert contact.wetted_area > 0.0
+    dry = step(WaterCoupler("c"), skipping_disk(depth=-0.005), still_water())["contact"]
+    assert not dry.wetted and dry.depth == pytest.approx(-0.005)
+
+
+def test_occupied_window_is_in_grid_indices():
+    """The occupied window's i0, j0 are grid indices: the patch's offset plus the local position."""
+    b = body(Shape.SPHERE, position=(0.0, 0.0, 0.0), radius=0.03)
+    local = step(WaterCoupler("c"), b, still_water(0.01))["occupied"]
+    shifted = step(WaterCoupler("c"), b, still_water(0.01, i0=40, j0=7))["occupied"]
+    assert (shifted.i0, shifted.j0) == (local.i0 + 40, local.j0 + 7)
+    assert shifted.b == pytest.approx(local.b, rel=1e-9, abs=1e-15)
+
+
+def test_body_partly_off_the_patch_is_partly_dry():
+    """Where the patch ends (the domain edge) there is no water: the body is only partly buoyed."""
+    b = body(Shape.SPHERE, position=(0.15, 0.0, 0.0), radius=0.03)
+    inside = step(WaterCoupler("c", WaterCouplerParams(effects=["buoyancy"])), b,
+                  still_water(0.01, half_width=0.3))["wrench"].force[2]
+    edge = step(WaterCoupler("c", WaterCouplerParams(effects=["buoyancy"])), b,
+                still_water(0.01, half_width=0.15))["wrench"].force[2]
+    assert 0.3 * inside < edge < 0.7 * inside
+
+
+def test_max_stable_step_near_and_far():
+    """The bound is inf far from water, finite when wetted, and smaller at 30 m/s than at 3 m/s."""
+    patch = still_water()
+    c = WaterCoupler("c")
+    step(c, body(position=(0.0, 0.0, 1.0)), patch)
+    assert c.max_stable_step() == math.inf
+    step(c, skipping_disk(speed=3.0, depth=0.01), patch)
+    slow = c.max_stable_step()
+    step(c, skipping_disk(speed=30.0, depth=0.01), patch)
+    fast = c.max_stable_step()
+    assert 0 < fast < slow < math.inf
+    # the pressure damping sets the scale: a fraction of m / (rho C_L U S)
+    m = skipping_disk().mass
+    assert fast > 0.1 * m / (1000.0 * 30.0 * math.pi * 0.05**2)
+
+
+def test_floating_body_at_rest_has_a_finite_bound():
+    """A floating body at rest is bounded by its buoyancy stiffness sqrt(rho g A / m)."""
+    c = WaterCoupler("c")
+    b = body(Shape.SPHERE, radius=0.03, density=500.0)
+    step(c, b, still_water())
+    omega = math.sqrt(1000 * 9.81 * math.pi * 0.03**2 / b.mass)
+    assert c.max_stable_step() == pytest.approx(1.0 / omega, rel=0.05)
+
+
+def test_too_large_a_step_is_an_error_naming_the_bound():
+    """With on_unstable: error, a step above the bound fails with the bound and the step in the message."""
+    c = WaterCoupler("c")
+    step(c, skipping_disk(speed=30.0, depth=0.01), still_water())
+    with pytest.raises(SimulationError, match="exceeds the stable step"):
+        c.step(0, 10_000_000, {"body": skipping_disk(speed=30.0, depth=0.01), "water": still_water()})
+
+
+def _entry(dt, on_unstable="substep", duration=0.02, speed=30.0):
+    """A locked disk entering still water at `speed`, moved by the held wrench (semi-implicit Euler)."""
+    c = WaterCoupler("c", WaterCouplerParams(lock_attitude=True))
+    alpha, beta = math.radians(10), math.radians(10)
+    m = body().mass
+    x = np.array([0.0, 0.0, 0.05 * math.sin(alpha) + 0.004])
+    v = np.array([speed * math.cos(beta), 0.0, -speed * math.sin(beta)])
+    force = np.zeros(3)
+    dt_ns = round(dt * 1e9)
+    most = 1
+    for k in range(round(duration / dt)):
+        v = v + (force / m + np.array([0.0, 0.0, -9.81])) * dt
+        x = x + v * dt
+        patch = still_water(0.01, half_width=0.15, centre=(round(x[0] / 0.01) * 0.01, 0.0))
+        out = c.step(k * dt_ns, dt_ns, {"body": body(position=x, orientation=pitched(alpha), velocity=v),
+                                        "water": patch}, on_unstable=on_unstable)
+        most = max(most, c.last_substeps)
+        force = out["wrench"].force
+    return v, most
+
+
+def test_substepping_keeps_a_30_m_s_entry_stable_at_a_coarse_step():
+    """At a 1 ms step a 30 m/s entry substeps and leaves the water close to a 0.01 ms reference."""
+    fine, fine_subs = _entry(1e-5)
+    coarse, coarse_subs = _entry(1e-3)
+    assert fine_subs == 1 and coarse_subs > 1
+    assert coarse[2] > 0  # it bounced
+    assert coarse[0] == pytest.approx(fine[0], rel=0.01)
+    assert coarse[2] == pytest.approx(fine[2], rel=0.15)
+    with pytest.raises(SimulationError, match="stable step"):
+        _entry(1e-3, on_unstable="error")
+
+
+def test_state_round_trip_reproduces_the_run_bit_for_bit():
+    """set_state(get_state()) on a fresh coupler gives the same outputs, bit for bit, for the same inputs."""
+    patch = still_water()
+    states = [skipping_disk(depth=d, speed=6.0) for d in (-0.004, 0.002, 0.006, 0.009, 0.011, 0.012)]
+    first = WaterCoupler("c")
+    for k, b in enumerate(states[:3]):
+        step(first, b, patch, k)
+    saved = first.get_state()
+    second = WaterCoupler("c")
+    second.set_state(saved)
+    for k, b in enumerate(states[3:], start=3):
+        a = step(first, b, patch, k)
+        z = step(second, b, patch, k)
+        for port in WaterCoupler.outputs:
+            assert messages_equal(a[port], z[port]), port
+    assert first.get_state()["dissipated"] == second.get_state()["dissipated"]
+
+
+def test_dissipated_energy_is_minus_the_work_of_the_held_wrench():
+    """The energy books add -F.(x1 - x0) - tau.(w0 + w1)/2 dt for the wrench held over the body's step."""
+    c = WaterCoupler("c")
+    b0 = skipping_disk(depth=0.01, angular_velocity=(0.0, 2.0, 0.0))
+    out0 = step(c, b0, still_water())
+    b1 = skipping_disk(depth=0.0105, angular_velocity=(0.0, 3.0, 0.0))
+    b1 = b1.replace(position=b1.position + np.array([0.0004, 0.0, 0.0]))
+    out1 = step(c, b1, still_water(), 1)
+    work = out0["wrench"].force @ (b1.position - b0.position)
+    work += out0["wrench"].torque @ (0.5 * (b0.angular_velocity + b1.angular_velocity)) * DT_NS * 1e-9
+    assert out1["contact"].dissipated_energy == pytest.approx(-work, rel=1e-12)
+    assert out1["contact"].dissipated_energy > 0  # the water took energy from the body pushing into it
+
+
+def test_lock_attitude_predictor_keeps_the_orientation():
+    """With lock_attitude, substeps move the private body copy without turning it (the mean torque is
+    still reported)."""
+    c = WaterCoupler("c", WaterCouplerParams(lock_attitude=True))
+    b = skipping_disk(speed=30.0, depth=0.01)
+    out = c._substep(0.0, 1e-3, 4, {"body": b, "water": still_water()})
+    assert out["wrench"].torque.any()
+    assert c.get_state()["prev"]["position"].tolist() == b.position.tolist()
