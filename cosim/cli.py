@@ -58,7 +58,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                                           _default_output(args.scene, scene.name))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
     outcome = run_scene(scene, output, until_ns=args.until, command_line=command,
-                        progress=not args.quiet, perf=args.perf)
+                        progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed)
     print(format_summary(scene, outcome))
     if outcome.failed:
         print(f"error: {outcome.result.reason}", file=sys.stderr)
@@ -137,6 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--record-every", type=int, metavar="N", help="record every N-th message of each channel")
     p.add_argument("--perf", action="store_true", help="add wall-clock /perf channels (not deterministic)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT",
+                   help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765; needs cosim[live])")
+    p.add_argument("--live-speed", type=float, default=1.0, metavar="S",
+                   help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("validate", help="check a scene without running it")

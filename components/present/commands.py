@@ -1,0 +1,97 @@
+"""``cosim plot`` and ``cosim render``: registered through the ``cosim.commands`` entry points.
+
+This module is imported whenever the ``cosim`` parser is built, so it stays light: matplotlib and
+the figure code are imported only when one of these commands runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_BAD_INPUT = 0, 2
+
+
+def _positive(kind: type) -> object:
+    def parse(text: str) -> float | int:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a {kind.__name__}, got {text!r}") from None
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+        return value
+    return parse
+
+
+def _seconds(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+
+
+def register_plot(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "plot", help="PNG figures of a recording: trajectory by stage, speed and attack angle, energy, "
+                     "contact forces")
+    p.add_argument("recording", help="MCAP recording of a run")
+    p.add_argument("-o", "--output", metavar="DIR",
+                   help="folder for the PNGs (default: RUN-plots/ beside the recording)")
+    p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
+    p.add_argument("--dpi", type=_positive(int), default=120, help="resolution of the PNGs (default 120)")
+    p.set_defaults(func=cmd_plot)
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from components.present.plot import plot_run
+
+    out_dir = Path(args.output) if args.output else Path(args.recording).with_name(
+        Path(args.recording).stem + "-plots")
+    written, skipped = plot_run(args.recording, out_dir, body=args.body, dpi=args.dpi)
+    for path in written:
+        print(f"wrote {path}")
+    for name, reason in skipped:
+        print(f"skipped {name}: {reason}")
+    return EXIT_OK
+
+
+def register_render(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "render", help="3D animation of the stone over the shaded water surface (GIF, MP4 or one PNG frame)")
+    p.add_argument("recording", help="MCAP recording of a run")
+    p.add_argument("-o", "--output", required=True, metavar="FILE",
+                   help="skip.gif, skip.mp4 (needs ffmpeg or the [video] extra) or frame.png (one frame)")
+    p.add_argument("--fps", type=_positive(float), default=30.0, help="frames per second (default 30)")
+    p.add_argument("--width", type=_positive(int), default=800, help="width in pixels (default 800)")
+    p.add_argument("--speed", type=_positive(float), default=1.0,
+                   help="simulated seconds per second of video (default 1; 0.25 is a slow motion)")
+    p.add_argument("--view", choices=("follow", "fixed"), default="follow",
+                   help="follow: a window around the stone (default); fixed: the whole run in view")
+    p.add_argument("--span", type=_positive(float), default=1.0,
+                   help="follow view: width of the window [m] (default 1)")
+    p.add_argument("--from", dest="start", type=_seconds, metavar="T", help="start time [s]")
+    p.add_argument("--to", dest="stop", type=_seconds, metavar="T", help="end time [s]")
+    p.add_argument("--at", type=_seconds, metavar="T",
+                   help="time of the frame for a PNG [s] (default: shortly after the first touchdown)")
+    p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
+    p.add_argument("--water", metavar="TOPIC", help="WaterField channel (default: the first one)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_render)
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from components.present.render import RenderError, RenderOptions, render
+
+    options = RenderOptions(fps=args.fps, width=args.width, speed=args.speed, view=args.view, span=args.span,
+                            start=args.start, stop=args.stop, at=args.at, body=args.body, water=args.water,
+                            progress=not args.quiet)
+    try:
+        result = render(args.recording, args.output, options)
+    except RenderError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"wrote {result.path} ({result.frames} frame{'s' if result.frames != 1 else ''}, "
+          f"{result.width} x {result.height} px, t = {result.start:.3f} .. {result.stop:.3f} s)")
+    return EXIT_OK

@@ -1,0 +1,249 @@
+"""A recording's physics as numpy arrays, for figures and animations.
+
+Channels are found by their schema (``cosim.BodyState``, ``cosim.Stage``, ...), not by name, so any
+scene's recording works. Times are seconds of simulation time. Water fields are large: they are
+streamed (:func:`iter_fields`), never all held at once.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from components.messages import (
+    BodyState,
+    GroundContact,
+    HeightPatch,
+    SkipRecord,
+    Stage,
+    WaterContact,
+    WaterField,
+    Wrench,
+)
+from cosim.codec import codec_for
+from cosim.errors import RecordingError
+from cosim.messages import Message
+from cosim.recording import Recording
+from cosim.timebase import NS_PER_S
+
+
+def _schema(message_type: type[Message]) -> str:
+    return codec_for(message_type).schema_name
+
+
+def topics_of(rec: Recording, message_type: type[Message]) -> list[str]:
+    """Channels of a recording carrying ``message_type``, sorted by name."""
+    name = _schema(message_type)
+    return sorted(t for t, ch in rec.channels.items() if ch.schema_name == name and ch.count)
+
+
+def _decoded(rec: Recording, topic: str, message_type: type[Message]) -> tuple[np.ndarray, list]:
+    pairs = rec.messages(topic, message_type)
+    return np.array([t for t, _ in pairs], dtype=np.int64) / NS_PER_S, [m for _, m in pairs]
+
+
+def _stack(msgs: list, name: str, width: int | None = None) -> np.ndarray:
+    if not msgs:
+        return np.zeros((0, width)) if width else np.zeros(0)
+    return np.array([np.asarray(getattr(m, name), dtype=float) for m in msgs], dtype=float)
+
+
+@dataclass
+class BodyTrack:
+    """One body's recorded states: times t (n,) [s], position/velocity (n, 3), orientation (n, 4)
+    (w, x, y, z), speed, attack angle [deg], kinetic and potential energy [J], and its geometry."""
+
+    topic: str
+    t: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    orientation: np.ndarray
+    speed: np.ndarray
+    attack_deg: np.ndarray
+    kinetic: np.ndarray
+    potential: np.ndarray
+    shape: int
+    radius: float
+    thickness: float
+    mass: float
+
+    @property
+    def name(self) -> str:
+        return self.topic.strip("/").split("/")[0]
+
+    def index_at(self, t: float) -> int:
+        """Index of the last state at or before ``t`` (the first one before the start)."""
+        return max(0, int(np.searchsorted(self.t, t, side="right")) - 1)
+
+
+@dataclass
+class StageTrack:
+    """Stage changes: times t (m,) [s], stage ids, labels, skip counts."""
+
+    topic: str
+    t: np.ndarray
+    stage: np.ndarray
+    label: list[str]
+    skips: np.ndarray
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        """Stage id in force at each time (-1 before the first change)."""
+        idx = np.searchsorted(self.t, np.asarray(times, dtype=float), side="right") - 1
+        out = np.full(idx.shape, -1, dtype=int)
+        known = idx >= 0
+        out[known] = self.stage[idx[known]]
+        return out
+
+    def spans(self, end: float) -> list[tuple[float, float, int]]:
+        """(start, end, stage) of each stage in turn, the last one lasting to ``end``."""
+        bounds = [*self.t.tolist(), max(end, float(self.t[-1]) if len(self.t) else end)]
+        return [(bounds[i], bounds[i + 1], int(self.stage[i])) for i in range(len(self.t))]
+
+
+@dataclass
+class ContactTrack:
+    """A coupler's WaterContact reports: wetted, submerged fraction, forces (n, 3) [N] per effect,
+    depth [m], cumulative dissipated energy [J]."""
+
+    topic: str
+    t: np.ndarray
+    wetted: np.ndarray
+    submerged: np.ndarray
+    buoyancy: np.ndarray
+    pressure: np.ndarray
+    friction: np.ndarray
+    wave_drag: np.ndarray
+    depth: np.ndarray
+    dissipated: np.ndarray
+
+
+@dataclass
+class GroundTrack:
+    """A ground's GroundContact reports: in_contact, normal and friction force [N], cumulative
+    dissipated energy [J]."""
+
+    topic: str
+    t: np.ndarray
+    in_contact: np.ndarray
+    normal: np.ndarray
+    friction: np.ndarray
+    dissipated: np.ndarray
+
+
+@dataclass
+class WrenchTrack:
+    """A wrench channel: force and torque (n, 3) [N], [N m], world frame."""
+
+    topic: str
+    t: np.ndarray
+    force: np.ndarray
+    torque: np.ndarray
+
+
+@dataclass
+class RunData:
+    """Everything the figures need from one recording."""
+
+    path: Path
+    scene: str
+    body: BodyTrack
+    stages: StageTrack | None
+    contacts: list[ContactTrack] = field(default_factory=list)
+    grounds: list[GroundTrack] = field(default_factory=list)
+    wrenches: list[WrenchTrack] = field(default_factory=list)
+    skips: list[SkipRecord] = field(default_factory=list)
+    field_topics: list[str] = field(default_factory=list)
+    rest_level: float = 0.0
+    end: float = 0.0
+
+
+def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
+    """The states of body ``body`` (a component name; default: the first body in the recording)."""
+    topics = topics_of(rec, BodyState)
+    if not topics:
+        raise RecordingError(f"{rec.path}: no BodyState channel, nothing to show "
+                             f"(channels: {', '.join(sorted(rec.channels))})")
+    if body is not None:
+        wanted = [t for t in topics if t.strip("/").split("/")[0] == body]
+        if not wanted:
+            names = ", ".join(t.strip("/").split("/")[0] for t in topics)
+            raise RecordingError(f"{rec.path}: no body named {body!r} (bodies: {names})")
+        topics = wanted
+    topic = topics[0]
+    t, msgs = _decoded(rec, topic, BodyState)
+    first = msgs[0]
+    return BodyTrack(
+        topic=topic, t=t, position=_stack(msgs, "position", 3), velocity=_stack(msgs, "velocity", 3),
+        orientation=_stack(msgs, "orientation", 4), speed=_stack(msgs, "speed"),
+        attack_deg=_stack(msgs, "attack_angle_deg"), kinetic=_stack(msgs, "kinetic_energy"),
+        potential=_stack(msgs, "potential_energy"), shape=int(first.shape), radius=float(first.radius),
+        thickness=float(first.thickness), mass=float(first.mass))
+
+
+def load_run(path: str | Path, body: str | None = None) -> RunData:
+    """Read what the figures need from a recording (RecordingError if it holds no body)."""
+    rec = Recording(path)
+    track = load_body(rec, body)
+    stages = None
+    stage_topics = topics_of(rec, Stage)
+    if stage_topics:
+        t, msgs = _decoded(rec, stage_topics[0], Stage)
+        stages = StageTrack(stage_topics[0], t, np.array([int(m.stage) for m in msgs], dtype=int),
+                            [m.label for m in msgs], np.array([m.skips for m in msgs], dtype=int))
+    contacts = []
+    for topic in topics_of(rec, WaterContact):
+        t, msgs = _decoded(rec, topic, WaterContact)
+        contacts.append(ContactTrack(
+            topic, t, np.array([m.wetted for m in msgs], dtype=bool), _stack(msgs, "submerged_fraction"),
+            _stack(msgs, "buoyancy", 3), _stack(msgs, "pressure", 3), _stack(msgs, "friction", 3),
+            _stack(msgs, "wave_drag", 3), _stack(msgs, "depth"), _stack(msgs, "dissipated_energy")))
+    grounds = []
+    for topic in topics_of(rec, GroundContact):
+        t, msgs = _decoded(rec, topic, GroundContact)
+        grounds.append(GroundTrack(topic, t, np.array([m.in_contact for m in msgs], dtype=bool),
+                                   _stack(msgs, "normal_force"), _stack(msgs, "friction_force"),
+                                   _stack(msgs, "dissipated_energy")))
+    wrenches = []
+    for topic in topics_of(rec, Wrench):
+        t, msgs = _decoded(rec, topic, Wrench)
+        wrenches.append(WrenchTrack(topic, t, _stack(msgs, "force", 3), _stack(msgs, "torque", 3)))
+    skips: list[SkipRecord] = []
+    for topic in topics_of(rec, SkipRecord):
+        skips += [m for _, m in rec.messages(topic, SkipRecord)]
+    end = (rec.end_ns or 0) / NS_PER_S
+    return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
+                   wrenches, skips, topics_of(rec, WaterField), rest_level(rec), max(end, float(track.t[-1])))
+
+
+def rest_level(rec: Recording) -> float:
+    """The undisturbed water level [m]: from the first water patch if recorded, else 0."""
+    for topic in topics_of(rec, HeightPatch):
+        for _, _, data in rec.raw([topic]):
+            return float(json.loads(data)["rest_level"])
+    return 0.0
+
+
+def iter_fields(rec: Recording, topic: str) -> Iterator[tuple[float, WaterField]]:
+    """(time [s], WaterField) of one channel in time order, decoded one at a time."""
+    codec = codec_for(WaterField)
+    for _, stamp, data in rec.raw([topic]):
+        yield stamp / NS_PER_S, codec.decode(data)  # type: ignore[misc]
+
+
+def contact_spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) indices of each run of true ``flags`` (times ``t`` only give the length)."""
+    spans = []
+    start = None
+    for i, f in enumerate(np.asarray(flags, dtype=bool)):
+        if f and start is None:
+            start = i
+        elif not f and start is not None:
+            spans.append((start, i - 1))
+            start = None
+    if start is not None:
+        spans.append((start, len(t) - 1))
+    return spans

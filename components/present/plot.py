@@ -1,0 +1,228 @@
+"""``cosim plot``: PNG figures of a recorded run.
+
+- ``trajectory.png``: side view (x, z) of the body's path coloured by stage, the water line, and
+  the touchdown of each skip;
+- ``motion.png``: speed and attack angle over time, on the stage spans;
+- ``energy.png``: kinetic and potential energy, the energy dissipated by the water and the ground
+  (when those are recorded), and their sum;
+- ``contacts.png``: the forces during each contact (water effects per coupler, total wrenches,
+  ground normal and friction), over the time since touchdown.
+
+Figures are built on :class:`matplotlib.figure.Figure` directly (no pyplot state, Agg output).
+Each ``figure_*`` function returns the figure, so tests can check what was drawn.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from components.messages import StageId
+from components.present.data import RunData, contact_spans, load_run
+from components.present.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
+
+MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
+CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
+FIGSIZE = (10.0, 4.5)  # [in]
+
+
+def _stage_legend(ax, stages: list[int]) -> None:
+    handles = [Patch(color=stage_color(s), label=STAGE_LABELS[StageId(s)] if s >= 0 else "unknown")
+               for s in sorted(set(stages))]
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize="small", ncols=min(3, len(handles)))
+
+
+def _shade_stages(ax, run: RunData) -> None:
+    if run.stages is None:
+        return
+    for start, end, stage in run.stages.spans(run.end):
+        ax.axvspan(start, end, color=stage_color(stage), alpha=0.12, linewidth=0)
+
+
+def stage_per_sample(run: RunData) -> np.ndarray:
+    """The stage in force at each recorded body state (-1 where none is known)."""
+    if run.stages is None:
+        return np.full(len(run.body.t), -1)
+    return run.stages.at(run.body.t)
+
+
+def figure_trajectory(run: RunData) -> Figure:
+    """Side view x-z of the path, one segment per pair of states, coloured by the stage at its start."""
+    body = run.body
+    fig = Figure(figsize=FIGSIZE, layout="constrained")
+    ax = fig.add_subplot()
+    xz = body.position[:, [0, 2]]
+    stages = stage_per_sample(run)
+    segments = np.stack([xz[:-1], xz[1:]], axis=1)
+    lines = LineCollection(segments, colors=[stage_color(s) for s in stages[:-1]], linewidths=2.0)
+    ax.add_collection(lines)
+    ax.axhline(run.rest_level, color=WATER_LINE_COLOR, linewidth=1.0, linestyle="--", label="water level")
+    for skip in run.skips:
+        ax.axvline(skip.touchdown_x, color="0.6", linewidth=0.6, linestyle=":")
+        ax.annotate(f"skip {skip.index}", (skip.touchdown_x, run.rest_level), textcoords="offset points",
+                    xytext=(2, -12), fontsize="x-small", color="0.35")
+    ax.autoscale_view()
+    zmin, zmax = float(np.min(xz[:, 1])), float(np.max(xz[:, 1]))
+    pad = 0.08 * max(zmax - zmin, 2 * body.radius)
+    ax.set_ylim(min(zmin, run.rest_level) - pad, max(zmax, run.rest_level) + pad)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("z [m]")
+    ax.set_title(f"{run.scene}: side view of {body.name} by stage ({len(run.skips)} skips)")
+    _stage_legend(ax, stages.tolist())
+    ax.grid(True, alpha=0.3)
+    return fig
+
+
+def figure_motion(run: RunData) -> Figure:
+    """Speed and attack angle over time."""
+    body = run.body
+    fig = Figure(figsize=(FIGSIZE[0], FIGSIZE[1] * 1.3), layout="constrained")
+    ax_speed, ax_angle = fig.subplots(2, 1, sharex=True)
+    for ax in (ax_speed, ax_angle):
+        _shade_stages(ax, run)
+        ax.grid(True, alpha=0.3)
+    ax_speed.plot(body.t, body.speed, color="k", linewidth=1.2)
+    ax_speed.set_ylabel("speed [m/s]")
+    ax_speed.set_title(f"{run.scene}: {body.name}")
+    ax_angle.plot(body.t, body.attack_deg, color="k", linewidth=1.2)
+    ax_angle.set_ylabel("attack angle [deg]")
+    ax_angle.set_xlabel("time [s]")
+    if run.stages is not None:
+        _stage_legend(ax_speed, run.stages.stage.tolist())
+    return fig
+
+
+def energy_terms(run: RunData) -> dict[str, np.ndarray]:
+    """Energy terms [J] at the body's sample times: kinetic, potential, dissipated by each water
+    coupler and each ground (held between their reports), and the total."""
+    body = run.body
+    terms = {"kinetic": body.kinetic, "potential": body.potential}
+    for c in run.contacts:
+        terms[f"dissipated by water ({c.topic})"] = _hold(c.t, c.dissipated, body.t)
+    for g in run.grounds:
+        terms[f"dissipated by ground ({g.topic})"] = _hold(g.t, g.dissipated, body.t)
+    terms["total"] = np.sum(list(terms.values()), axis=0)
+    return terms
+
+
+def _hold(t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """The last value at or before each time of ``at`` (0 before the first)."""
+    idx = np.searchsorted(t, at, side="right") - 1
+    return np.where(idx >= 0, values[np.clip(idx, 0, None)], 0.0) if len(t) else np.zeros(len(at))
+
+
+def figure_energy(run: RunData) -> Figure:
+    """The energy budget over time."""
+    fig = Figure(figsize=FIGSIZE, layout="constrained")
+    ax = fig.add_subplot()
+    _shade_stages(ax, run)
+    styles = {"kinetic": ("C0", "-"), "potential": ("C2", "-"), "total": ("k", "--")}
+    for i, (name, values) in enumerate(energy_terms(run).items()):
+        color, style = styles.get(name, (f"C{3 + i}", "-"))
+        ax.plot(run.body.t, values, color=color, linestyle=style, linewidth=1.3, label=name)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("energy [J]")
+    ax.set_title(f"{run.scene}: energy budget of {run.body.name}")
+    ax.legend(loc="best", fontsize="small")
+    ax.grid(True, alpha=0.3)
+    return fig
+
+
+def contact_intervals(run: RunData) -> list[tuple[float, float]]:
+    """(start, end) [s] of each contact: wetted spans of the first water coupler, else ground
+    contact spans, else the hit/slide stage spans."""
+    if run.contacts:
+        c = run.contacts[0]
+        return [(float(c.t[a]), float(c.t[b])) for a, b in contact_spans(c.wetted, c.t)]
+    if run.grounds:
+        g = run.grounds[0]
+        return [(float(g.t[a]), float(g.t[b])) for a, b in contact_spans(g.in_contact, g.t)]
+    if run.stages is not None:
+        spans, current = [], None
+        for start, end, stage in run.stages.spans(run.end):
+            if stage in (StageId.HIT, StageId.SLIDE):
+                current = (current[0] if current else start, end)
+            elif current is not None:
+                spans.append(current)
+                current = None
+        return [*spans, current] if current else spans
+    return []
+
+
+def figure_contacts(run: RunData) -> Figure | None:
+    """Forces during each contact (the first :data:`MAX_CONTACTS`), or None without contacts."""
+    intervals = contact_intervals(run)[:MAX_CONTACTS]
+    if not intervals:
+        return None
+    cols = min(2, len(intervals))
+    rows = -(-len(intervals) // cols)
+    fig = Figure(figsize=(FIGSIZE[0], 2.8 * rows + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
+    for k, (ax, (start, end)) in enumerate(zip(axes, intervals, strict=False)):
+        pad = CONTACT_MARGIN * max(end - start, 1e-3)
+        lo, hi = start - pad, end + pad
+
+        def window(t: np.ndarray, lo: float = lo, hi: float = hi) -> np.ndarray:
+            return (t >= lo) & (t <= hi)
+
+        for c in run.contacts:
+            m = window(c.t)
+            ms = (c.t[m] - start) * 1e3
+            effects = (("pressure z", c.pressure, 2, "-"), ("buoyancy z", c.buoyancy, 2, "-"),
+                       ("friction x", c.friction, 0, "--"), ("wave drag x", c.wave_drag, 0, "--"))
+            for name, values, axis, style in effects:
+                if np.any(values[m, axis]):
+                    ax.plot(ms, values[m, axis], style, linewidth=1.2, label=name)
+        for w in run.wrenches:
+            m = window(w.t)
+            ms = (w.t[m] - start) * 1e3
+            ax.plot(ms, w.force[m, 2], color="k", linewidth=1.0, label=f"{w.topic} z")
+            ax.plot(ms, w.force[m, 0], color="k", linewidth=1.0, linestyle=":", label=f"{w.topic} x")
+        for g in run.grounds:
+            m = window(g.t)
+            ms = (g.t[m] - start) * 1e3
+            ax.plot(ms, g.normal[m], linewidth=1.2, label=f"ground normal ({g.topic})")
+            ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", label=f"ground friction ({g.topic})")
+        ax.axvspan(0.0, (end - start) * 1e3, color="0.9", zorder=0)
+        ax.axhline(0.0, color="0.5", linewidth=0.6)
+        ax.set_title(f"contact {k + 1}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms", fontsize="small")
+        ax.set_xlabel("time since touchdown [ms]")
+        ax.set_ylabel("force [N]")
+        ax.grid(True, alpha=0.3)
+        if k == 0:
+            ax.legend(fontsize="x-small", loc="best")
+    for ax in axes[len(intervals):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{run.scene}: forces during each contact")
+    return fig
+
+
+FIGURES = {
+    "trajectory.png": figure_trajectory,
+    "motion.png": figure_motion,
+    "energy.png": figure_energy,
+    "contacts.png": figure_contacts,
+}
+
+
+def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = None,
+             dpi: int = 120) -> tuple[list[Path], list[tuple[str, str]]]:
+    """Write the figures of a recording into ``out_dir``; returns (written paths, [(name, why skipped)])."""
+    run = load_run(recording, body)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written, skipped = [], []
+    for name, make in FIGURES.items():
+        fig = make(run)
+        if fig is None:
+            skipped.append((name, "no contact in this run"))
+            continue
+        path = out_dir / name
+        fig.savefig(path, dpi=dpi)
+        written.append(path)
+    return written, skipped

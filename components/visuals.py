@@ -1,0 +1,111 @@
+"""What the physics messages look like in a 3D viewer, as plain :mod:`cosim.visual` items.
+
+Registered by message type through the ``cosim.visuals`` entry points (pyproject.toml), so the
+recorder's visual deriver finds them for any component publishing these types, at the scene's
+``record.visual_rate``; nothing here knows about Foxglove or MCAP.
+
+- :class:`BodyState` on ``/<body>/state``: the transform world -> ``<body>`` on ``/tf``; the body as
+  a disk (cylinder: diameter 2R, height = thickness, a darker stripe on its top face so spin shows) or
+  a sphere, frame-locked to the body frame on ``/scene/<body>``; its trajectory as a line strip on
+  ``/scene/<body>/trail``; its velocity as an arrow on ``/scene/<body>/velocity``.
+- :class:`WaterField` on ``/<water>/field``: the surface as a triangle list over at most
+  :data:`SURFACE_SIDE` x :data:`SURFACE_SIDE` vertices (sampled cells, exact heights), shaded blue by
+  the height above the mean level (crests lighter, troughs darker), on ``/scene/<water>``.
+- :class:`Stage` and :class:`SkipRecord`: a line on ``/log`` for every stage change and every skip
+  (the integer stage itself is the physics channel ``/<monitor>/stage``, for State Transitions).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterField
+from cosim.visual import (
+    LOG_TOPIC,
+    WORLD,
+    Arrow,
+    Cube,
+    Cylinder,
+    Entity,
+    LogLine,
+    Pose,
+    Sphere,
+    Trail,
+    Transform,
+    color_ramp,
+    every_message,
+    height_field_mesh,
+)
+
+STONE_COLOR = (0.62, 0.52, 0.42, 1.0)  # sandstone
+STRIPE_COLOR = (0.30, 0.24, 0.20, 1.0)
+TRAIL_COLOR = (0.95, 0.55, 0.10, 0.9)
+TRAIL_THICKNESS = 0.004  # [m]
+VELOCITY_COLOR = (0.85, 0.15, 0.15, 1.0)
+VELOCITY_SCALE = 0.05  # [s]: the velocity arrow is the distance covered in this time
+SURFACE_SIDE = 64  # vertices per side of the drawn water surface (at most)
+WAVE_SCALE = 0.004  # [m]: heights this far from the mean level take the end colours
+COLOR_LEVELS = 32  # shades per WAVE_SCALE of height
+WATER_STOPS = (  # (height above mean / WAVE_SCALE, colour)
+    (-1.0, (0.03, 0.16, 0.38, 0.9)),
+    (0.0, (0.10, 0.38, 0.68, 0.85)),
+    (1.0, (0.88, 0.95, 1.00, 0.95)),
+)
+
+
+def body_state(component: str, port: str, msg: BodyState) -> list:
+    """The body's frame, shape, trail and velocity arrow."""
+    frame = component
+    r = float(msg.radius)
+    if msg.shape is Shape.DISK:
+        e = float(msg.thickness)
+        shape = [Cylinder((2 * r, 2 * r, e), STONE_COLOR),
+                 Cube((r, 0.15 * r, 0.1 * e), STRIPE_COLOR, Pose((0.5 * r, 0.0, 0.5 * e)))]
+    else:
+        shape = [Sphere((2 * r, 2 * r, 2 * r), STONE_COLOR),
+                 Sphere((0.3 * r,) * 3, STRIPE_COLOR, Pose((0.9 * r, 0.0, 0.0)))]
+    items: list = [
+        Transform(WORLD, frame, msg.position, msg.orientation),
+        Entity(f"/scene/{component}", "body", frame, shape, frame_locked=True),
+        Trail(f"/scene/{component}/trail", "trail", WORLD, msg.position, TRAIL_COLOR, TRAIL_THICKNESS),
+        Entity(f"/scene/{component}/velocity", "velocity", WORLD,
+               [Arrow(msg.position, np.asarray(msg.velocity) * VELOCITY_SCALE, VELOCITY_COLOR,
+                      shaft_diameter=0.2 * r, head_diameter=0.5 * r)]),
+    ]
+    return items
+
+
+def water_colors(height_above_mean: np.ndarray) -> np.ndarray:
+    """Shaded blue by height above the mean level: troughs dark, crests light (N,) -> (N, 4).
+
+    Heights are rounded to :data:`COLOR_LEVELS` steps per :data:`WAVE_SCALE` first: the eye cannot
+    tell finer shades apart, and a small palette keeps the recorded surface compressible.
+    """
+    level = np.round(np.asarray(height_above_mean) / WAVE_SCALE * COLOR_LEVELS) / COLOR_LEVELS
+    return color_ramp(level, WATER_STOPS)
+
+
+def water_field(component: str, port: str, msg: WaterField) -> list:
+    """The water surface, decimated and coloured by height."""
+    mean = float(np.mean(msg.height))
+    mesh = height_field_mesh(msg.height, msg.origin_x, msg.origin_y, msg.cell, max_side=SURFACE_SIDE,
+                             colors=lambda z: water_colors(z - mean))
+    return [Entity(f"/scene/{component}", "surface", WORLD, [mesh])]
+
+
+@every_message
+def stage(component: str, port: str, msg: Stage) -> list:
+    """One log line per stage change."""
+    level = "warning" if msg.stage is StageId.SINK else "info"
+    return [LogLine(LOG_TOPIC, level, component,
+                    f"{msg.label} (stage {int(msg.stage)}): skips {msg.skips}, x = {msg.x:.3f} m")]
+
+
+@every_message
+def skip_record(component: str, port: str, msg: SkipRecord) -> list:
+    """One log line per finished skip."""
+    return [LogLine(LOG_TOPIC, "info", component,
+                    f"skip {msg.index}: touchdown at x = {msg.touchdown_x:.3f} m, "
+                    f"t = {msg.touchdown_time:.4f} s; "
+                    f"contact {msg.contact_time * 1e3:.1f} ms; take-off {msg.takeoff_angle_deg:.1f} deg; "
+                    f"distance {msg.distance:.3f} m; speed {msg.speed_in:.2f} -> {msg.speed_out:.2f} m/s")]

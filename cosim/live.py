@@ -1,0 +1,141 @@
+"""``cosim run --live``: stream a run to Foxglove (or Lichtblick) over WebSocket while it simulates.
+
+An observer, imported only when ``--live`` is given, built on the optional ``foxglove-sdk`` package
+(``pip install 'cosim[live]'``). It publishes the same channels as a recording: every exchange on
+``/<component>/<port>`` as JSON with its ``cosim.<Type>`` JSON schema, and the viewer channels of a
+:class:`cosim.visual.VisualDeriver` (its own instance, at the scene's visual rate or
+:data:`DEFAULT_RATE`) as Foxglove protobufs, each with log time = simulation time. The server
+announces the simulation clock (the ``time`` capability), and the run is paced at ``speed`` times
+real time so it can be watched (``speed`` 0: as fast as it goes). Like the recorder, it only reads
+messages: the physics is the same with or without it. Messages are encoded only for channels a
+client subscribes to.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any
+
+from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for
+from cosim.errors import CosimError
+from cosim.messages import Message
+from cosim.scenario import Scene
+from cosim.scheduler import BaseObserver, RunResult, Simulation
+from cosim.timebase import NS_PER_S
+
+DEFAULT_ADDRESS = "127.0.0.1:8765"
+DEFAULT_RATE = 30.0  # [frames/s] of viewer channels when the scene records none
+CLOCK_PERIOD_S = 1 / 60  # [s of wall time] between clock broadcasts
+MIN_SLEEP_S = 0.002  # [s] pacing sleeps shorter than this are skipped (timer resolution)
+
+
+class LiveViewError(CosimError):
+    """The live view cannot start (package missing, bad address, port in use)."""
+
+
+def parse_address(address: str) -> tuple[str, int]:
+    """``PORT``, ``HOST:PORT`` or ``HOST`` -> (host, port); the default host is loopback."""
+    default_host, default_port = DEFAULT_ADDRESS.rsplit(":", 1)
+    text = address.strip()
+    host, sep, port_text = text.rpartition(":")
+    if not sep:
+        host, port_text = (default_host, text) if text.isdigit() else (text, default_port)
+    host = host or default_host
+    if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
+        raise LiveViewError(f"--live {address!r}: expected PORT or HOST:PORT with a port in 0..65535")
+    return host, int(port_text)
+
+
+class LiveView(BaseObserver):
+    """Streams exchanges and viewer channels to a Foxglove WebSocket server; call :meth:`close`."""
+
+    def __init__(self, scene: Scene, address: str = DEFAULT_ADDRESS, *, speed: float = 1.0,
+                 components: dict[str, Any] | None = None, announce: bool = True):
+        try:
+            import foxglove
+        except ImportError:
+            raise LiveViewError("--live needs the foxglove-sdk package: pip install 'cosim[live]'") from None
+        from cosim.foxglove import visual_deriver
+        from cosim.runner import physics_topics
+
+        if not speed >= 0:
+            raise LiveViewError(f"live speed must be >= 0 (got {speed})")
+        host, port = parse_address(address)
+        self._foxglove = foxglove
+        self.context = foxglove.Context()
+        try:
+            self.server = foxglove.start_server(
+                name=f"cosim: {scene.name}", host=host, port=port, context=self.context,
+                capabilities=[foxglove.Capability.Time])
+        except Exception as exc:  # the SDK reports bind failures as plain runtime errors
+            raise LiveViewError(f"--live {address}: cannot start the WebSocket server ({exc})") from None
+        self.host, self.port = host, self.server.port
+        self.speed = speed
+        self.deriver = visual_deriver(scene.record.visual_rate or DEFAULT_RATE, physics_topics(scene))
+        if components:
+            self.deriver.bind(components)
+        self._channels: dict[str, Any] = {}
+        self._wall0 = 0.0
+        self._sim0 = 0
+        self._last_clock = 0.0
+        self._closed = False
+        if announce:
+            print(f"live view: ws://{self.host}:{self.port} (Foxglove: Open connection > Foxglove WebSocket)",
+                  file=sys.stderr)
+
+    @property
+    def url(self) -> str:
+        return f"ws://{self.host}:{self.port}"
+
+    def _channel(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
+                 message_encoding: str) -> Any:
+        channel = self._channels.get(topic)
+        if channel is None:
+            fg = self._foxglove
+            channel = self._channels[topic] = fg.Channel(
+                topic, schema=fg.Schema(name=schema_name, encoding=schema_encoding, data=schema_data),
+                message_encoding=message_encoding, context=self.context)
+        return channel
+
+    # --- observer interface ---------------------------------------------------------------------
+
+    def on_initialized(self, sim: Simulation) -> None:
+        self._wall0 = time.perf_counter()
+        self._sim0 = sim.time_ns
+        self.server.broadcast_time(sim.time_ns)
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
+        topic = f"/{component}/{port}"
+        channel = self._channels.get(topic)
+        if channel is None:
+            codec = codec_for(type(msg))
+            channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
+                                    MESSAGE_ENCODING)
+        if channel.has_sinks():
+            channel.log(codec_for(type(msg)).encode(msg), log_time=time_ns)
+        for extra in self.deriver(time_ns, component, port, msg):
+            self._channel(extra.topic, extra.schema_name, extra.schema_encoding, extra.schema_data,
+                          extra.message_encoding).log(extra.data, log_time=time_ns)
+
+    def on_step_complete(self, sim: Simulation) -> None:
+        now = time.perf_counter()
+        if self.speed > 0:
+            due = self._wall0 + (sim.time_ns - self._sim0) / NS_PER_S / self.speed
+            if due - now > MIN_SLEEP_S:
+                time.sleep(due - now)
+                now = time.perf_counter()
+        if now - self._last_clock >= CLOCK_PERIOD_S:
+            self._last_clock = now
+            self.server.broadcast_time(sim.time_ns)
+
+    def on_finished(self, sim: Simulation, result: RunResult) -> None:
+        self.server.broadcast_time(sim.time_ns)
+
+    def close(self) -> None:
+        """Stop the server (safe to call twice)."""
+        if not self._closed:
+            self._closed = True
+            for channel in self._channels.values():
+                channel.close()
+            self.server.stop()
