@@ -1,0 +1,294 @@
+"""Where the runs of a sweep execute: a local process pool, or a Dask cluster.
+
+Both run the same function, :func:`run_task`, on the same :class:`Task` (the base scene's text and the
+point's overrides), so a point gives the same row whatever the backend or the worker count; only
+``wall_s`` differs. :func:`run_task` never raises: a scene that does not validate, a run that fails
+and any other exception all become a row with status ``failed``.
+
+A backend offers ``start``, ``submit(task) -> future``, ``wait(futures) -> done``, ``outcome(future)
+-> row`` (or :class:`WorkerLost`), ``restart``, ``close`` and ``abort``. Dask is imported only by
+:class:`DaskBackend`.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import multiprocessing
+import os
+import platform
+import signal
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from cosim.errors import CosimError, ScenarioError
+from cosim.timebase import NS_PER_S
+
+DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
+WORKER_JOIN_TIMEOUT_S = 10  # how long an aborted pool's workers get to exit
+
+
+@dataclass(frozen=True)
+class Task:
+    """Everything a worker needs to run one point (plain data, cheap to pickle)."""
+
+    index: int
+    point_id: str
+    scene_text: str
+    scene_source: str
+    overrides: tuple[str, ...]
+    metrics: tuple[str, ...]
+    recording: str | None = None
+    command_line: str = ""
+    problem: str | None = None
+
+
+class WorkerLost(Exception):
+    """The process running a task died. ``isolate``: the backend cannot tell which of the tasks in
+    flight killed it, so each should be retried alone before it is blamed."""
+
+    def __init__(self, reason: str, isolate: bool):
+        super().__init__(reason)
+        self.isolate = isolate
+
+
+class BackendError(CosimError):
+    """A backend that cannot be used (Dask missing, a scheduler out of reach, workers without cosim)."""
+
+
+def _cell(value: Any) -> Any:
+    """A metric value as plain data (numpy scalars become Python numbers)."""
+    item = getattr(value, "item", None)
+    return item() if callable(item) and not isinstance(value, (str, bytes)) else value
+
+
+def run_task(task: Task) -> dict[str, Any]:
+    """Run one point and return its row (never raises, except KeyboardInterrupt)."""
+    from cosim.runner import collect_metrics, run_scene
+    from cosim.scenario import loads
+
+    start = time.perf_counter()
+    row: dict[str, Any] = {"index": task.index, "point_id": task.point_id, "status": "failed", "reason": "",
+                           "error_type": "", "sim_time_s": math.nan, "ticks": 0}
+    row.update(dict.fromkeys(task.metrics))
+    try:
+        if task.problem is not None:
+            row.update(reason=task.problem, error_type="ScenarioError")
+        else:
+            scene = loads(task.scene_text, task.scene_source, list(task.overrides))
+            outcome = run_scene(scene, task.recording, progress=False, command_line=task.command_line)
+            result = outcome.result
+            row.update(status=result.status, reason=result.reason, sim_time_s=result.time_ns / NS_PER_S,
+                       ticks=result.tick, error_type=type(result.error).__name__ if result.error else "")
+            if outcome.simulation is not None:
+                metrics = collect_metrics(outcome.simulation)
+                row.update({key: _cell(metrics.get(key)) for key in task.metrics})
+    except ScenarioError as exc:
+        row.update(reason="invalid scene: " + "; ".join(exc.problems), error_type="ScenarioError")
+    except Exception as exc:  # a sweep goes on whatever one run does: the row says what happened
+        row.update(status="failed", reason=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
+    if task.recording is not None:
+        row["recording"] = task.recording
+    row["wall_s"] = time.perf_counter() - start
+    return row
+
+
+def versions() -> dict[str, str]:
+    """The versions that shape a run's results, as recorded with a sweep's table."""
+    import numpy
+
+    from cosim import __version__
+
+    return {"cosim": __version__, "python": platform.python_version(), "numpy": numpy.__version__,
+            "platform": platform.platform()}
+
+
+def _warm(seconds: float) -> int:
+    """A task that only occupies a worker for a moment (to start every worker of a pool)."""
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def _worker_init() -> None:
+    # Ctrl-C reaches the whole process group: the parent decides what to do. A run in progress
+    # still ends cleanly (run_scene installs its own handler for the run's duration).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import cosim.runner  # noqa: F401  (import once per worker, not once per run)
+
+
+class ProcessBackend:
+    """A local pool of ``workers`` processes (spawned, so no state leaks from the parent), kept alive
+    across runs; the default backend."""
+
+    def __init__(self, workers: int | None = None):
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        self.pool: cf.ProcessPoolExecutor | None = None
+
+    @property
+    def slots(self) -> int:
+        return self.workers
+
+    def describe(self) -> str:
+        return f"process pool of {self.workers} worker{'s' * (self.workers != 1)}"
+
+    def info(self) -> dict[str, Any]:
+        return {"backend": "process", "workers": self.workers}
+
+    def start(self) -> None:
+        if self.pool is None:
+            self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                               initializer=_worker_init)
+
+    def warm_up(self) -> None:
+        """Start every worker now (benchmarks time the runs, not the start-up)."""
+        self.start()
+        assert self.pool is not None
+        list(self.pool.map(_warm, [0.2] * self.workers))
+
+    def submit(self, task: Task) -> cf.Future:
+        assert self.pool is not None, "start() the backend first"
+        return self.pool.submit(run_task, task)
+
+    def wait(self, futures: Iterable[cf.Future]) -> set[cf.Future]:
+        return cf.wait(list(futures), return_when=cf.FIRST_COMPLETED).done
+
+    def outcome(self, future: cf.Future) -> dict[str, Any]:
+        try:
+            return future.result()
+        except (cf.process.BrokenProcessPool, cf.CancelledError) as exc:
+            raise WorkerLost(f"a worker process died ({type(exc).__name__})", isolate=True) from None
+
+    def restart(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
+        self.start()
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+            self.pool = None
+
+    def abort(self, futures: Iterable[cf.Future]) -> None:
+        """Stop at once: drop queued runs and end the workers (an interrupted sweep)."""
+        if self.pool is None:
+            return
+        processes = list(getattr(self.pool, "_processes", {}).values())  # no public handle on them
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        for proc in processes:
+            if proc.is_alive():
+                proc.terminate()  # a run in progress ends at its next tick (run_scene's SIGTERM handler)
+        for proc in processes:
+            proc.join(WORKER_JOIN_TIMEOUT_S)
+            if proc.is_alive():
+                proc.kill()
+        self.pool = None
+
+
+class DaskBackend:
+    """Runs on a Dask cluster: ``address`` ``tcp://HOST:PORT`` of a running scheduler, or ``local``
+    for a LocalCluster of ``workers`` single-threaded workers on 127.0.0.1 (``processes=False``:
+    threads of this process, for tests). Every worker must have this project installed."""
+
+    def __init__(self, address: str = "local", workers: int | None = None, *, processes: bool = True,
+                 timeout_s: float | None = None):
+        self.address = address
+        self.timeout_s = timeout_s
+        self.workers = max(1, workers or os.cpu_count() or 1)
+        self.processes = processes
+        self.client: Any = None
+        self.cluster: Any = None
+        self.worker_versions: dict[str, dict[str, str]] = {}
+        self._slots = 0
+
+    @property
+    def slots(self) -> int:
+        return self._slots
+
+    def describe(self) -> str:
+        where = (f"a local Dask cluster of {self.workers} workers" if self.address == "local"
+                 else f"the Dask cluster at {self.address}")
+        return f"{where} ({self._slots} threads)" if self._slots else where
+
+    def info(self) -> dict[str, Any]:
+        return {"backend": "dask", "address": self.address, "threads": self._slots,
+                "worker_versions": self.worker_versions}
+
+    def start(self) -> None:
+        if self.client is not None:
+            return
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:
+            raise BackendError("--dask needs dask and distributed: pip install 'cosim[dask]' "
+                               "(or pip install dask distributed)") from None
+        try:
+            if self.address == "local":
+                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
+                                            processes=self.processes, host="127.0.0.1",
+                                            protocol="tcp://", dashboard_address=None)
+                self.client = Client(self.cluster)
+            else:
+                self.client = Client(self.address, timeout=f"{self.timeout_s or DASK_CONNECT_TIMEOUT_S}s")
+        except (OSError, TimeoutError, ValueError) as exc:  # unreachable, or not an address
+            self.close()
+            raise BackendError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
+        try:
+            self.worker_versions = self.client.run(versions)
+        except Exception as exc:  # e.g. a worker that cannot import cosim cannot even unpickle the call
+            self.close()
+            raise BackendError(f"the Dask workers at {self.address} cannot run cosim ({type(exc).__name__}: "
+                               f"{exc}); install this project on every worker") from None
+        self._slots = sum(self.client.nthreads().values())
+        if not self._slots:
+            self.close()
+            raise BackendError(f"the Dask cluster at {self.address} has no workers")
+
+    def mismatched_versions(self) -> list[str]:
+        """Workers whose cosim, Python or numpy version differs from this process's."""
+        here = versions()
+        return [f"{worker}: {key} {theirs[key]} (here {here[key]})"
+                for worker, theirs in sorted(self.worker_versions.items())
+                for key in ("cosim", "python", "numpy") if theirs.get(key) != here[key]]
+
+    def submit(self, task: Task) -> Any:
+        return self.client.submit(run_task, task, pure=False)
+
+    def wait(self, futures: Iterable[Any]) -> set[Any]:
+        from distributed import wait
+
+        return set(wait(list(futures), return_when="FIRST_COMPLETED").done)
+
+    def outcome(self, future: Any) -> dict[str, Any]:
+        from distributed import KilledWorker
+
+        try:
+            return future.result()
+        except KilledWorker as exc:
+            # Dask already retried the task on other workers; it is this task that kills them.
+            raise WorkerLost(f"the task killed its Dask workers ({exc})", isolate=False) from None
+
+    def restart(self) -> None:
+        pass  # Dask replaces lost workers itself
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self.cluster is not None:
+            self.cluster.close()
+            self.cluster = None
+
+    def abort(self, futures: Iterable[Any]) -> None:
+        if self.client is not None:
+            self.client.cancel(list(futures))
+        self.close()
+
+
+def make_backend(dask: str | None = None, workers: int | None = None) -> ProcessBackend | DaskBackend:
+    """The backend the CLI flags ask for: a process pool, or Dask at ``dask`` (``local`` or an address)."""
+    if dask is None:
+        return ProcessBackend(workers)
+    return DaskBackend(dask, workers)

@@ -1,0 +1,104 @@
+"""``cosim sweep SWEEP.yaml``: many runs of a scene in parallel, one row each in a results table.
+
+Registered through the ``cosim.commands`` entry point. Exit codes as for every command: 0 the sweep
+is complete (failed runs are rows of the table, not a failure of the sweep, unless ``--strict``),
+1 interrupted (run the command again to resume) or failed points with ``--strict``, 2 bad input
+(the sweep file, its first point's scene, an existing table of another sweep, an unusable backend).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+SHOWN_POINTS = 10  # --dry-run lists this many points
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from cosim.errors import ScenarioError
+    from cosim.sweep import load_sweep
+    from cosim.sweep_backends import BackendError, DaskBackend, make_backend
+    from cosim.sweep_run import run_sweep
+    from cosim.sweep_table import journal_path
+
+    try:
+        sweep = load_sweep(args.sweep, overrides=args.set or [], output=args.output)
+        if args.record:
+            sweep.record = True
+        if args.dry_run:
+            print(f"{args.sweep}: ok - {sweep.describe()}")
+            print(f"  scene: {sweep.scene_source}; table: {sweep.output} ({len(sweep.columns)} columns)")
+            print(f"  metrics: {', '.join(sweep.metrics) or 'none'}")
+            for point in sweep.points[:SHOWN_POINTS]:
+                print(f"  #{point.index} {point.point_id}: {' '.join(point.overrides)}")
+            if len(sweep.points) > SHOWN_POINTS:
+                print(f"  ... {len(sweep.points) - SHOWN_POINTS} more")
+            return EXIT_OK
+        backend = make_backend(args.dask, args.workers)
+        backend.start()
+    except (ScenarioError, BackendError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        if isinstance(backend, DaskBackend):
+            for line in backend.mismatched_versions():
+                print(f"warning: Dask worker {line}; results may differ from a local run", file=sys.stderr)
+        command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else f"cosim sweep {args.sweep}"
+        table = journal_path(sweep.output)
+        if table.exists() and not args.fresh:
+            print(f"resuming {table}: points already there are skipped (--fresh starts over)",
+                  file=sys.stderr)
+        outcome = run_sweep(sweep, backend=backend, fresh=args.fresh, progress=not args.quiet,
+                            figure=not args.no_figure, command_line=command)
+    except ScenarioError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    finally:
+        backend.close()
+    print(outcome.summary())
+    if outcome.complete and sweep.figure is not None and outcome.figure is None and not args.no_figure:
+        print("  no figure: matplotlib is not installed (pip install 'cosim[viz]')")
+    if not outcome.complete:
+        return EXIT_FAILED
+    if args.strict and outcome.failures:
+        print(f"error: {len(outcome.failures)} points failed (--strict)", file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``cosim sweep`` to the CLI."""
+    p = subparsers.add_parser(
+        "sweep", help="run a scene over a grid or random samples of its parameters, in parallel",
+        description="Run a scene over parameter axes (a sweep file), on all cores or a Dask cluster; one "
+                    "row per run in a CSV (or Parquet) table, resumed if it exists, plus a summary figure.")
+    p.add_argument("sweep", help="sweep YAML file (base scene + axes)")
+    p.add_argument("-o", "--output", type=Path, help="results table, .csv or .parquet (default: the file's "
+                   "output:, else runs/<name>.csv)")
+    p.add_argument("--workers", type=_positive, metavar="N",
+                   help="worker processes (default: all cores; with --dask local: the cluster's workers)")
+    p.add_argument("--dask", metavar="ADDRESS",
+                   help="run on a Dask cluster: tcp://HOST:PORT of its scheduler, or 'local' for a "
+                        "LocalCluster on this machine (needs the dask extra)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a value of the base scene for every run (repeatable)")
+    p.add_argument("--fresh", action="store_true", help="discard an existing table instead of resuming it")
+    p.add_argument("--record", action="store_true", help="write an MCAP per run into <output stem>_runs/")
+    p.add_argument("--no-figure", action="store_true", help="do not draw the summary figure")
+    p.add_argument("--strict", action="store_true", help="exit 1 if any run failed")
+    p.add_argument("--dry-run", action="store_true", help="validate and list the points; run nothing")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)

@@ -1,0 +1,168 @@
+"""The summary figure of a sweep (PNG beside the table): one metric over one or two axes.
+
+- two axes of a grid: a heat map (mean over any further axes), each cell labelled with its value;
+  with a ``threshold``, the lowest y whose metric reaches it, for each x (e.g. the least speed that
+  gives a skip at each attack angle: the magic-angle curve);
+- one axis: the metric against it;
+- random samples: the points, coloured by the metric.
+
+Failed runs have no value: their cells are grey. matplotlib (the ``viz`` extra) is imported here only;
+without it there is no figure, and the sweep says so.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from cosim.sweep import Sweep
+
+MAX_LABELLED_CELLS = 400  # above this many cells, the heat map's values are not written in them
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def _positions(values: list[str]) -> tuple[list[str], list[float], bool]:
+    """Distinct axis values in order, their plot positions, and whether the axis is numeric."""
+    distinct = list(dict.fromkeys(values))
+    numbers = [_number(v) for v in distinct]
+    if all(math.isfinite(n) for n in numbers):
+        pairs = sorted(zip(numbers, distinct, strict=True))
+        return [d for _, d in pairs], [n for n, _ in pairs], True
+    return distinct, [float(i) for i in range(len(distinct))], False
+
+
+def _edges(centres: list[float]) -> list[float]:
+    if len(centres) == 1:
+        return [centres[0] - 0.5, centres[0] + 0.5]
+    mids = [(a + b) / 2 for a, b in itertools.pairwise(centres)]
+    return [2 * centres[0] - mids[0], *mids, 2 * centres[-1] - mids[-1]]
+
+
+def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
+    """Draw the figure of ``sweep.figure`` from the table's rows into ``path``; None without matplotlib."""
+    spec = sweep.figure
+    if spec is None or not rows:
+        return None
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
+    try:
+        if sweep.mode == "random":
+            _scatter(ax, fig, rows, spec)
+        elif spec.y is None:
+            _line(ax, rows, spec)
+        else:
+            _heat_map(ax, fig, rows, spec)
+        if spec.reference_points:
+            xs, ys = zip(*spec.reference_points, strict=True)
+            ax.plot(xs, ys, "*", color="tab:red", markersize=13, markeredgecolor="k",
+                    label=spec.reference_label, zorder=5)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="best", fontsize=8)
+        failed = sum(r["status"] == "failed" for r in rows)
+        note = f"; {failed} failed{' (grey)' if spec.y is not None else ''}" if failed else ""
+        ax.set_title(f"{sweep.name}: {spec.metric} ({len(rows)} runs{note})", fontsize=10)
+        fig.tight_layout()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path)
+    finally:
+        plt.close(fig)
+    return path
+
+
+def _value(row: dict[str, str], metric: str) -> float:
+    return _number(row[metric]) if row["status"] != "failed" else math.nan
+
+
+def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> None:
+    import numpy as np
+
+    xs, xpos, xnum = _positions([r[spec.x] for r in rows])
+    ys, ypos, ynum = _positions([r[spec.y] for r in rows])
+    cells: dict[tuple[str, str], list[float]] = defaultdict(list)
+    for r in rows:
+        value = _value(r, spec.metric)
+        if math.isfinite(value):
+            cells[(r[spec.x], r[spec.y])].append(value)
+    grid = np.full((len(ys), len(xs)), np.nan)
+    for (x, y), values in cells.items():
+        grid[ys.index(y), xs.index(x)] = sum(values) / len(values)
+    cmap = __import__("matplotlib").colormaps["viridis"].with_extremes(bad="0.85")
+    mesh = ax.pcolormesh(_edges(xpos), _edges(ypos), np.ma.masked_invalid(grid), cmap=cmap, shading="flat")
+    fig.colorbar(mesh, ax=ax, label=spec.metric)
+    if grid.size <= MAX_LABELLED_CELLS:
+        finite = grid[np.isfinite(grid)]
+        middle = (finite.min() + finite.max()) / 2 if finite.size else 0.0
+        for i, y in enumerate(ypos):
+            for j, x in enumerate(xpos):
+                v = grid[i, j]
+                if math.isfinite(v):
+                    ax.text(x, y, f"{v:.3g}", ha="center", va="center", fontsize=7,
+                            color="white" if v < middle else "black")
+    if spec.threshold is not None:
+        line_x, line_y = [], []
+        for j, x in enumerate(xpos):
+            reached = [ypos[i] for i in range(len(ypos))
+                       if math.isfinite(grid[i, j]) and grid[i, j] >= spec.threshold]
+            if reached:
+                line_x.append(x)
+                line_y.append(min(reached))
+        ax.plot(line_x, line_y, "o-", color="tab:orange", markeredgecolor="k",
+                label=f"lowest {spec.y} with {spec.metric} >= {spec.threshold:g}")
+    ax.set_xlabel(spec.x)
+    ax.set_ylabel(spec.y)
+    if not xnum:
+        ax.set_xticks(xpos, xs, rotation=30)
+    if not ynum:
+        ax.set_yticks(ypos, ys)
+
+
+def _line(ax: Any, rows: list[dict[str, str]], spec: Any) -> None:
+    xs, xpos, xnum = _positions([r[spec.x] for r in rows])
+    sums: dict[str, list[float]] = defaultdict(list)
+    for r in rows:
+        value = _value(r, spec.metric)
+        if math.isfinite(value):
+            sums[r[spec.x]].append(value)
+    points = [(p, sum(sums[x]) / len(sums[x])) for x, p in zip(xs, xpos, strict=True) if sums[x]]
+    if points:
+        ax.plot(*zip(*points, strict=True), "o-")
+    ax.set_xlabel(spec.x)
+    ax.set_ylabel(spec.metric)
+    if not xnum:
+        ax.set_xticks(xpos, xs, rotation=30)
+    ax.grid(alpha=0.3)
+
+
+def _scatter(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> None:
+    x = [_number(r[spec.x]) for r in rows]
+    values = [_value(r, spec.metric) for r in rows]
+    if spec.y is None:
+        ax.plot(x, values, "o", alpha=0.7)
+        ax.set_ylabel(spec.metric)
+    else:
+        y = [_number(r[spec.y]) for r in rows]
+        ok = [i for i, v in enumerate(values) if math.isfinite(v)]
+        bad = [i for i, v in enumerate(values) if not math.isfinite(v)]
+        if bad:
+            ax.plot([x[i] for i in bad], [y[i] for i in bad], "x", color="0.6", label="failed / no value")
+        sc = ax.scatter([x[i] for i in ok], [y[i] for i in ok], c=[values[i] for i in ok],
+                        cmap="viridis", s=22)
+        fig.colorbar(sc, ax=ax, label=spec.metric)
+        ax.set_ylabel(spec.y)
+    ax.set_xlabel(spec.x)
+    ax.grid(alpha=0.3)

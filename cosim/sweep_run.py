@@ -1,0 +1,207 @@
+"""Running a sweep: every point not yet in the table, on a backend, row by row into the table.
+
+Nothing is lost: a run that fails is a row with status ``failed`` and the sweep goes on; a worker
+process that dies is replaced, and the points it may have taken down are retried one at a time, so
+only the point that kills a worker is recorded as failed (``error_type`` WorkerLost). An interrupted
+sweep (Ctrl-C, SIGTERM, a kill) keeps every row written so far; running it again resumes: points
+already in the table are skipped. When every point has a row, the table is sorted by point index and
+the summary figure is drawn.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import sys
+import time
+from collections import Counter, deque
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from cosim.sweep import Point, Sweep
+from cosim.sweep_backends import DaskBackend, ProcessBackend, Task, WorkerLost, versions
+from cosim.sweep_table import ResultTable
+
+IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
+
+
+@dataclass
+class SweepOutcome:
+    """What a sweep did: the table, how many points ran now or were already there, by status."""
+
+    sweep: Sweep
+    output: Path
+    backend: str
+    total: int
+    already: int = 0
+    ran: int = 0
+    counts: Counter = field(default_factory=Counter)
+    interrupted: bool = False
+    unfinished: int = 0
+    wall_s: float = 0.0
+    rows: list[dict[str, str]] = field(default_factory=list)
+    figure: Path | None = None
+    failures: list[tuple[int, str, str]] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        return not self.interrupted and self.unfinished == 0
+
+    def summary(self) -> str:
+        """The closing lines printed by ``cosim sweep``."""
+        statuses = ", ".join(f"{n} {s}" for s, n in sorted(self.counts.items())) or "nothing"
+        lines = [f"{self.sweep.describe()} on {self.backend}"]
+        per_run = f" ({self.wall_s / self.ran:.3g} s per run)" if self.ran else ""
+        lines.append(f"  ran {self.ran}, {self.already} already in the table; {statuses}; "
+                     f"wall {self.wall_s:.3g} s{per_run}")
+        if not self.complete:
+            left = self.total - sum(self.counts.values())
+            why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
+            lines.append(f"  {why}: {left} of {self.total} points left; run the same command again to resume")
+        lines.append(f"  table: {self.output}")
+        if self.figure is not None:
+            lines.append(f"  figure: {self.figure}")
+        for index, label, reason in self.failures[:5]:
+            lines.append(f"  failed #{index} ({label}): {reason}")
+        if len(self.failures) > 5:
+            lines.append(f"  ... and {len(self.failures) - 5} more failed points (status column)")
+        return "\n".join(lines)
+
+
+@contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM ends the sweep like Ctrl-C: rows written so far are kept, queued runs are dropped."""
+    def handler(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    try:
+        old = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _failed_row(point: Point, reason: str, error_type: str) -> dict[str, Any]:
+    return {"index": point.index, "point_id": point.point_id, "status": "failed", "reason": reason,
+            "error_type": error_type, "sim_time_s": math.nan, "ticks": 0, "wall_s": 0.0}
+
+
+def run_sweep(sweep: Sweep, output: str | Path | None = None,
+              backend: ProcessBackend | DaskBackend | None = None, *, fresh: bool = False,
+              progress: bool = True, figure: bool = True, command_line: str = "") -> SweepOutcome:
+    """Run every point of ``sweep`` not yet in the table at ``output`` (default: the sweep's).
+
+    ``backend``: a process pool of all cores unless given; a backend passed in is started if needed
+    and left open (a caller may run several sweeps on it). ``fresh``: discard an existing table
+    instead of resuming it. Raises ScenarioError if the existing table belongs to another sweep.
+    """
+    output = Path(output) if output is not None else sweep.output
+    own = backend is None
+    backend = backend if backend is not None else ProcessBackend()
+    order = {p.point_id: p.index for p in sweep.points}
+    meta: dict[str, Any] = {
+        "sweep": sweep.name, "source": sweep.source, "fingerprint": sweep.fingerprint(),
+        "command": command_line, "points": len(sweep.points), "columns": sweep.columns,
+        "sweep_file": sweep.text, "scene_source": sweep.scene_source, "scene": sweep.scene_text,
+        "fixed_overrides": sweep.fixed, "versions": versions()}
+    table = ResultTable(output, sweep.columns, meta)
+    done = table.open(set(order), fresh=fresh)
+    outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done))
+    outcome.counts.update(row["status"] for row in done.values())
+    todo = deque(p for p in sweep.points if p.point_id not in done)
+    runs_dir = output.with_name(output.stem + "_runs")
+    label = {p.point_id: p for p in sweep.points}
+
+    def task(point: Point) -> Task:
+        recording = str(runs_dir / f"{point.point_id}.mcap") if sweep.record else None
+        return Task(point.index, point.point_id, sweep.scene_text, sweep.scene_source, point.overrides,
+                    tuple(sweep.metrics), recording, f"{command_line} (point {point.point_id})".strip(),
+                    point.problem)
+
+    def record(point: Point, row: dict[str, Any]) -> None:
+        if row.get("status") == "interrupted":  # not a result: the point runs again on resume
+            outcome.unfinished += 1
+            return
+        row.update({a.name: point.values[a.name] for a in sweep.axes})
+        row["index"] = point.index
+        table.append(row)
+        outcome.ran += 1
+        outcome.counts[row["status"]] += 1
+        if row["status"] == "failed":
+            outcome.failures.append((point.index, point.label(), str(row.get("reason", ""))))
+        bar.update(1)
+        if outcome.failures:
+            bar.set_postfix(failed=len(outcome.failures), refresh=False)
+
+    wall0 = time.perf_counter()
+    bar = tqdm(total=len(sweep.points), initial=len(done), desc=sweep.name, unit="run", file=sys.stderr,
+               disable=not progress or not todo, dynamic_ncols=True, smoothing=0.1)
+    pending: dict[Any, Point] = {}
+    try:
+        with _sigterm_interrupts():
+            if todo:
+                backend.start()
+                outcome.backend = backend.describe()
+            limit = max(1, IN_FLIGHT_PER_SLOT * backend.slots)
+            suspects: deque[Point] = deque()  # in flight when a worker died: retried one at a time
+            alone: str | None = None  # the suspect running alone, if any
+            broken = False
+            while todo or pending or suspects:
+                if not broken:
+                    if suspects:
+                        if not pending:
+                            point = suspects.popleft()
+                            alone = point.point_id
+                            pending[backend.submit(task(point))] = point
+                    else:
+                        while todo and len(pending) < limit:
+                            point = todo.popleft()
+                            pending[backend.submit(task(point))] = point
+                for future in backend.wait(list(pending)):
+                    point = pending.pop(future)
+                    try:
+                        row = backend.outcome(future)
+                    except WorkerLost as exc:
+                        if exc.isolate and point.point_id != alone:
+                            suspects.append(point)
+                            broken = True
+                            continue
+                        row = _failed_row(point, f"the worker running this point died: {exc}", "WorkerLost")
+                    except Exception as exc:  # the backend could not run the task at all
+                        row = _failed_row(point, f"{type(exc).__name__}: {exc}", type(exc).__name__)
+                    if point.point_id == alone:
+                        alone = None
+                        broken = broken or row["error_type"] == "WorkerLost"
+                    record(point, row)
+                if broken and not pending:
+                    backend.restart()
+                    broken = False
+    except KeyboardInterrupt:
+        outcome.interrupted = True
+        backend.abort(list(pending))
+    finally:
+        bar.close()
+        table.close()
+        if own:
+            backend.close()
+        outcome.wall_s = time.perf_counter() - wall0
+    outcome.failures.sort()
+    if outcome.complete:
+        summary = {"counts": dict(outcome.counts), "backend": backend.info()}
+        outcome.rows = table.finish(order, summary)
+        outcome.failures = [(int(r["index"]), label[r["point_id"]].label(), r["reason"])
+                            for r in outcome.rows if r["status"] == "failed"]
+        if figure and sweep.figure is not None:
+            from cosim.sweep_plot import draw
+
+            outcome.figure = draw(sweep, outcome.rows, output.with_suffix(".png"))
+    return outcome

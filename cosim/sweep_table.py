@@ -1,0 +1,192 @@
+"""The results table of a sweep: a CSV appended row by row, and a record of what produced it.
+
+Each finished run is appended and flushed at once, so a sweep that is killed loses at most the runs
+in flight (a half-written last line is dropped when the table is opened again). When every point has
+a row, the table is rewritten sorted by point index, so equal sweeps give equal tables whatever the
+order the runs finished in; only ``wall_s`` differs. Beside the table, ``<stem>.meta.json`` records
+the sweep file, the base scene, the fingerprint of the runs' settings, the versions and the backend.
+A ``.parquet`` output is written from the finished CSV (``<stem>.csv`` beside it) with pyarrow.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from cosim.errors import ScenarioError
+from cosim.sweep import yaml_value
+
+
+def cell(value: Any) -> str:
+    """A value as CSV text: floats by their exact repr (nan, inf), lists in YAML flow style."""
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, (list, tuple, dict)):
+        return yaml_value(value)
+    return str(value)
+
+
+def meta_path(output: Path) -> Path:
+    return output.with_name(output.stem + ".meta.json")
+
+
+def journal_path(output: Path) -> Path:
+    return output if output.suffix == ".csv" else output.with_suffix(".csv")
+
+
+class ResultTable:
+    """The CSV journal of one sweep; ``open`` it (fresh or resumed), ``append`` rows, ``finish``."""
+
+    def __init__(self, output: Path, columns: list[str], meta: dict[str, Any]):
+        self.output = output
+        self.path = journal_path(output)
+        self.meta_path = meta_path(output)
+        self.columns = columns
+        self.meta = meta
+        self._file: io.TextIOWrapper | None = None
+        self._writer: Any = None
+
+    def open(self, known_ids: set[str], fresh: bool = False) -> dict[str, dict[str, str]]:
+        """Start the table, or resume it; returns the rows already there, by point id.
+
+        Resuming needs the same fingerprint (the runs' settings) and columns; rows of points that are
+        not in this sweep are an error (a different sweep wrote them).
+        """
+        rows: dict[str, dict[str, str]] = {}
+        if self.path.exists() and not fresh:
+            rows = self._read_existing(known_ids)
+            self.meta["resumed_with"] = len(rows)
+        else:
+            for path in (self.path, self.output):
+                path.unlink(missing_ok=True)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.meta["started"] = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        self._write_meta()
+        new = not self.path.exists()
+        self._file = open(self.path, "a", newline="", encoding="utf-8")  # closed in close()
+        self._writer = csv.writer(self._file, lineterminator="\n")
+        if new:
+            self._writer.writerow(self.columns)
+            self._file.flush()
+        return rows
+
+    def _read_existing(self, known_ids: set[str]) -> dict[str, dict[str, str]]:
+        where = str(self.path)
+        try:
+            meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            raise ScenarioError(f"exists but {self.meta_path.name} beside it is missing or unreadable, so "
+                                "it cannot be resumed; use --fresh to start over or -o for another file",
+                                where) from None
+        if meta.get("fingerprint") != self.meta["fingerprint"]:
+            raise ScenarioError("holds the results of a different sweep (its scene, set, derived, metrics or "
+                                "columns differ); use --fresh to start over or -o for another file", where)
+        raw = self.path.read_bytes()
+        if raw and not raw.endswith(b"\n"):  # a row cut short by a kill: drop it
+            raw = raw[: raw.rfind(b"\n") + 1]
+            with open(self.path, "r+b") as f:
+                f.truncate(len(raw))
+        reader = csv.reader(io.StringIO(raw.decode("utf-8")))
+        header = next(reader, None)
+        if header is None:  # killed before the header was written
+            self.path.unlink()
+            return {}
+        if header != self.columns:
+            raise ScenarioError("has other columns than this sweep writes; use --fresh to start over or -o "
+                                "for another file", where)
+        rows: dict[str, dict[str, str]] = {}
+        strangers = []
+        for values in reader:
+            if len(values) != len(header):
+                continue
+            row = dict(zip(header, values, strict=True))
+            if row["point_id"] not in known_ids:
+                strangers.append(row["point_id"])
+            rows.setdefault(row["point_id"], row)
+        if strangers:
+            raise ScenarioError(f"holds {len(strangers)} points that are not in this sweep (e.g. "
+                                f"{strangers[0]}); use --fresh to start over or -o for another file", where)
+        return rows
+
+    def append(self, row: dict[str, Any]) -> None:
+        assert self._writer is not None and self._file is not None, "open() the table first"
+        self._writer.writerow([cell(row.get(c)) for c in self.columns])
+        self._file.flush()
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+            self._writer = None
+
+    def finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
+        """Rewrite the table sorted by point index (and the Parquet file if asked); returns the rows."""
+        self.close()
+        with open(self.path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            by_id: dict[str, dict[str, str]] = {}
+            for row in reader:
+                if None not in row and row["point_id"] in order:
+                    by_id.setdefault(row["point_id"], row)
+        rows = sorted(by_id.values(), key=lambda r: order[r["point_id"]])
+        for row in rows:
+            row["index"] = str(order[row["point_id"]])
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, self.columns, lineterminator="\n")
+            writer.writeheader()
+            writer.writerows(rows)
+        os.replace(tmp, self.path)
+        self.meta.update(summary, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+        self._write_meta()
+        if self.output.suffix == ".parquet":
+            write_parquet(self.output, rows, self.columns, self.meta)
+        return rows
+
+    def _write_meta(self) -> None:
+        tmp = self.meta_path.with_name(self.meta_path.name + ".tmp")
+        tmp.write_text(json.dumps(self.meta, indent=2, default=str) + "\n", encoding="utf-8")
+        os.replace(tmp, self.meta_path)
+
+
+def _parses(values: list[str], kind: type) -> bool:
+    try:
+        for v in values:
+            kind(v)
+    except ValueError:
+        return False
+    return True
+
+
+def _typed(values: list[str]) -> tuple[str, list[Any]]:
+    """A column's type (int64, float64 or string) and its values, from the CSV text."""
+    present = [v for v in values if v != ""]
+    if present and _parses(present, int):
+        return "int64", [int(v) if v != "" else None for v in values]
+    if present and _parses(present, float):
+        return "float64", [float(v) if v != "" else math.nan for v in values]
+    return "string", values
+
+
+def write_parquet(path: Path, rows: list[dict[str, str]], columns: list[str], meta: dict[str, Any]) -> None:
+    """The finished table as Parquet, typed per column, with the sweep's record in its metadata."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    arrays, fields = [], []
+    for name in columns:
+        kind, values = _typed([row[name] for row in rows])
+        arrays.append(pa.array(values, type=getattr(pa, kind)()))
+        fields.append(pa.field(name, getattr(pa, kind)()))
+    schema = pa.schema(fields, metadata={"cosim.sweep": json.dumps(meta, default=str)})
+    pq.write_table(pa.Table.from_arrays(arrays, schema=schema), path)

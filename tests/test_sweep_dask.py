@@ -1,0 +1,95 @@
+"""The Dask backend: the same rows as the process pool, on a cluster reached over loopback TCP."""
+
+from __future__ import annotations
+
+import pytest
+
+from cosim.sweep import load_sweep
+from cosim.sweep_backends import BackendError, DaskBackend, ProcessBackend
+from cosim.sweep_run import run_sweep
+from tests.sweep_toys import read_table, write_sweep
+
+distributed = pytest.importorskip("distributed")
+
+SWEEP = """
+scene: ball.yaml
+axes:
+  components.ball.angle_deg: {linspace: [20, 70, 3]}
+  components.ball.speed: [2, 3, 5]
+  components.ball.fail_at_bounce: [0, 3]
+"""
+
+
+@pytest.fixture
+def cluster():
+    """A Dask LocalCluster on 127.0.0.1 over TCP, its two workers threads of this process."""
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, host="127.0.0.1",
+                                  protocol="tcp://", dashboard_address=None) as local:
+        yield local
+
+
+def test_dask_cluster_gives_the_process_pool_table(tmp_path, cluster):
+    """A sweep run on a Dask scheduler at tcp://127.0.0.1:PORT writes the very table the process pool
+    writes (failed points included), wall time aside."""
+    sweep = load_sweep(write_sweep(tmp_path, SWEEP))
+    assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+    dask = DaskBackend(cluster.scheduler_address, timeout_s=10)
+    try:
+        on_dask = run_sweep(sweep, tmp_path / "dask.csv", dask, progress=False, figure=False)
+        assert dask.slots == 2 and dask.mismatched_versions() == []
+    finally:
+        dask.close()
+    pool = ProcessBackend(2)
+    try:
+        run_sweep(sweep, tmp_path / "pool.csv", pool, progress=False, figure=False)
+    finally:
+        pool.close()
+    assert on_dask.complete and on_dask.counts["failed"] > 0
+    assert read_table(tmp_path / "dask.csv") == read_table(tmp_path / "pool.csv")
+    assert on_dask.backend == f"the Dask cluster at {cluster.scheduler_address} (2 threads)"
+
+
+def test_a_local_dask_cluster_resumes_a_pool_table(tmp_path):
+    """`--dask local` starts its own LocalCluster on loopback; it resumes a table the process pool
+    began, and the result equals a table written by one backend alone."""
+    sweep = load_sweep(write_sweep(tmp_path, SWEEP))
+    pool = ProcessBackend(1)
+    try:
+        run_sweep(sweep, tmp_path / "whole.csv", pool, progress=False, figure=False)
+    finally:
+        pool.close()
+    lines = (tmp_path / "whole.csv").read_text().splitlines(keepends=True)
+    (tmp_path / "half.csv").write_text("".join(lines[:10]))
+    (tmp_path / "half.meta.json").write_text((tmp_path / "whole.meta.json").read_text())
+    dask = DaskBackend("local", 2, processes=False)
+    try:
+        outcome = run_sweep(sweep, tmp_path / "half.csv", dask, progress=False, figure=False)
+    finally:
+        dask.close()
+    assert (outcome.already, outcome.ran) == (9, 9)
+    assert read_table(tmp_path / "half.csv") == read_table(tmp_path / "whole.csv")
+
+
+def test_an_unreachable_scheduler_is_reported(tmp_path):
+    """A scheduler that does not answer, or an address that is not one, is a BackendError."""
+    with pytest.raises(BackendError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9: "
+                                           r"Timed out"):
+        DaskBackend("tcp://127.0.0.1:9", timeout_s=1).start()
+    with pytest.raises(BackendError, match=r"cannot reach the Dask scheduler at nowhere: .*port"):
+        DaskBackend("nowhere", timeout_s=1).start()
+
+
+def test_dask_local_with_worker_processes(tmp_path):
+    """A LocalCluster of worker processes (loopback TCP) gives the same table as the process pool."""
+    sweep = load_sweep(write_sweep(tmp_path, SWEEP))
+    dask = DaskBackend("local", 2, processes=True)
+    try:
+        run_sweep(sweep, tmp_path / "dask.csv", dask, progress=False, figure=False)
+    finally:
+        dask.close()
+    pool = ProcessBackend(2)
+    try:
+        run_sweep(sweep, tmp_path / "pool.csv", pool, progress=False, figure=False)
+    finally:
+        pool.close()
+    assert read_table(tmp_path / "dask.csv") == read_table(tmp_path / "pool.csv")

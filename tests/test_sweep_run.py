@@ -1,0 +1,225 @@
+"""Running sweeps on the process pool: one row per point, nothing lost, resumable, deterministic."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from cosim.errors import ScenarioError
+from cosim.recording import Recording
+from cosim.runner import collect_metrics, run_scene
+from cosim.scenario import loads
+from cosim.sweep import load_sweep
+from cosim.sweep_backends import ProcessBackend
+from cosim.sweep_run import run_sweep
+from tests.sweep_toys import BALL_SCENE, read_table, write_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+
+GRID = """
+scene: ball.yaml
+axes:
+  components.ball.angle_deg: {linspace: [20, 70, 3]}
+  components.ball.speed: [2, 3, 5]
+"""
+
+
+@pytest.fixture(scope="module")
+def pool():
+    """Two worker processes, shared by the tests of this file (spawning costs about a second)."""
+    backend = ProcessBackend(2)
+    backend.start()
+    yield backend
+    backend.close()
+
+
+def rows_of(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_each_point_gets_the_row_a_direct_run_gives(tmp_path, pool):
+    """The table has one row per point, sorted by index, with the status and metrics that running the
+    point's scene directly gives."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    outcome = run_sweep(sweep, tmp_path / "out.csv", pool, progress=False, figure=False)
+    assert outcome.complete and outcome.ran == 9 and outcome.counts == {"stopped": 9}
+    rows = rows_of(tmp_path / "out.csv")
+    assert [int(r["index"]) for r in rows] == list(range(9))
+    assert [r["point_id"] for r in rows] == [p.point_id for p in sweep.points]
+    for point, row in zip(sweep.points, rows, strict=True):
+        direct = run_scene(loads(BALL_SCENE, overrides=list(point.overrides)), None, progress=False)
+        metrics = collect_metrics(direct.simulation)
+        assert row["status"] == direct.result.status and row["reason"] == direct.result.reason
+        assert row["ball.bounces"] == str(metrics["ball.bounces"])
+        assert row["ball.distance"] == repr(metrics["ball.distance"])  # floats exactly
+        assert row["components.ball.speed"] == str(point.values["components.ball.speed"])
+        assert float(row["wall_s"]) > 0
+
+
+def test_results_do_not_depend_on_the_worker_count(tmp_path, pool):
+    """One worker or two, the same sweep gives the same table, wall time aside."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    run_sweep(sweep, tmp_path / "two.csv", pool, progress=False, figure=False)
+    one = ProcessBackend(1)
+    try:
+        run_sweep(sweep, tmp_path / "one.csv", one, progress=False, figure=False)
+    finally:
+        one.close()
+    assert read_table(tmp_path / "one.csv") == read_table(tmp_path / "two.csv")
+
+
+def test_a_failing_point_does_not_stop_the_others(tmp_path, pool):
+    """A run that raises, and a point whose scene is invalid, become failed rows saying why; every
+    other point still runs."""
+    body = GRID + "  components.ball.fail_at_bounce: [0, 2]\n  components.ball.restitution: [0.6, 1.5]\n"
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    outcome = run_sweep(sweep, tmp_path / "out.csv", pool, progress=False, figure=False)
+    rows = rows_of(tmp_path / "out.csv")
+    assert len(rows) == 36 and outcome.complete
+    for row in rows:
+        if row["components.ball.restitution"] == "1.5":
+            assert (row["status"], row["error_type"]) == ("failed", "ScenarioError")
+            assert row["reason"] == "invalid scene: components.ball.restitution: must be <= 1 (got 1.5)"
+            assert row["ball.bounces"] == ""
+        elif row["components.ball.fail_at_bounce"] == "2" and int(row["ball.bounces"]) >= 2:
+            assert (row["status"], row["error_type"]) == ("failed", "SimulationError")
+            assert "component 'ball' failed at t = " in row["reason"]
+            assert "RuntimeError: bounce 2 is forbidden" in row["reason"]
+        else:
+            assert row["status"] == "stopped" and row["error_type"] == ""
+    failed = [r for r in rows if r["status"] == "failed"]
+    assert outcome.counts["failed"] == len(outcome.failures) == len(failed)
+    assert {r["error_type"] for r in failed} == {"ScenarioError", "SimulationError"}
+    assert "failed #" in outcome.summary()
+
+
+def test_a_point_that_kills_its_worker_is_the_only_one_lost(tmp_path):
+    """When a worker process dies, the points in flight are retried one at a time, so only the point
+    that kills its worker becomes a failed row (WorkerLost), and the sweep goes on."""
+    body = ("scene: ball.yaml\naxes:\n  components.ball.speed: [2, 3, 4, 5, 6]\n"
+            "  components.ball.die: [false, true]\n")
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    backend = ProcessBackend(2)
+    try:
+        outcome = run_sweep(sweep, tmp_path / "out.csv", backend, progress=False, figure=False)
+    finally:
+        backend.close()
+    rows = rows_of(tmp_path / "out.csv")
+    assert outcome.complete and len(rows) == 10
+    for row in rows:
+        if row["components.ball.die"] == "true":
+            assert (row["status"], row["error_type"]) == ("failed", "WorkerLost")
+            assert row["reason"].startswith("the worker running this point died")
+        else:
+            assert row["status"] == "stopped"
+
+
+def test_an_interrupted_table_resumes_to_the_same_table(tmp_path, pool):
+    """Resuming a table cut short (rows in completion order, a half-written last row) runs only the
+    missing points and ends with the table an uninterrupted sweep writes."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    run_sweep(sweep, tmp_path / "full.csv", pool, progress=False, figure=False)
+    full = (tmp_path / "full.csv").read_text().splitlines(keepends=True)
+    (tmp_path / "cut.meta.json").write_text((tmp_path / "full.meta.json").read_text())
+    (tmp_path / "cut.csv").write_text("".join([full[0], full[5], full[2], full[7][:20]]))
+    outcome = run_sweep(sweep, tmp_path / "cut.csv", pool, progress=False, figure=False)
+    assert (outcome.already, outcome.ran) == (2, 7)
+    assert read_table(tmp_path / "cut.csv") == read_table(tmp_path / "full.csv")
+    again = run_sweep(sweep, tmp_path / "cut.csv", pool, progress=False, figure=False)
+    assert (again.already, again.ran) == (9, 0)
+
+
+def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
+    """`cosim sweep` killed with SIGKILL (workers and all) keeps the rows it wrote; running it again
+    finishes the rest, and the table equals that of a sweep never interrupted."""
+    body = GRID.replace("[2, 3, 5]", "[2, 3, 4, 5]") + "set: {components.ball.burn: 3000}\n"
+    path = write_sweep(tmp_path, body)
+    out = tmp_path / "killed.csv"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-o", str(out), "-q",
+                             "--workers", "1"], cwd=tmp_path, env=env, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.exists() and len(out.read_text().splitlines()) >= 4:  # header + 3 rows
+            break
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(10)
+    proc.stderr.close()
+    written = len(out.read_text().splitlines()) - 1
+    assert 3 <= written < 12, "the sweep should have been killed halfway"
+    sweep = load_sweep(path)
+    outcome = run_sweep(sweep, out, pool, progress=False, figure=False)
+    assert outcome.already == written and outcome.ran == 12 - written
+    run_sweep(sweep, tmp_path / "whole.csv", pool, progress=False, figure=False)
+    assert read_table(out) == read_table(tmp_path / "whole.csv")
+
+
+def test_a_table_of_another_sweep_is_not_resumed(tmp_path, pool):
+    """A table written with other settings is refused (use --fresh or another output); a longer axis
+    keeps the rows already there and runs only the new points."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    run_sweep(sweep, tmp_path / "out.csv", pool, progress=False, figure=False)
+    other = load_sweep(write_sweep(tmp_path, GRID + "set: {components.ball.restitution: 0.5}\n",
+                                   name="b.yaml"))
+    with pytest.raises(ScenarioError, match=r"out\.csv: holds the results of a different sweep .* --fresh"):
+        run_sweep(other, tmp_path / "out.csv", pool, progress=False, figure=False)
+    fresh = run_sweep(other, tmp_path / "out.csv", pool, fresh=True, progress=False, figure=False)
+    assert (fresh.already, fresh.ran) == (0, 9)
+    run_sweep(sweep, tmp_path / "ext.csv", pool, progress=False, figure=False)
+    longer = load_sweep(write_sweep(tmp_path, GRID.replace("[2, 3, 5]", "[2, 3, 4, 5]"), name="c.yaml"))
+    extended = run_sweep(longer, tmp_path / "ext.csv", pool, progress=False, figure=False)
+    assert (extended.already, extended.ran) == (9, 3)
+    assert [r["index"] for r in rows_of(tmp_path / "ext.csv")] == [str(i) for i in range(12)]
+    shorter = load_sweep(write_sweep(tmp_path, GRID.replace("[2, 3, 5]", "[2, 3]"), name="d.yaml"))
+    with pytest.raises(ScenarioError, match=r"holds 6 points that are not in this sweep"):
+        run_sweep(shorter, tmp_path / "ext.csv", pool, progress=False, figure=False)
+
+
+def test_record_writes_an_mcap_per_run_and_the_meta_names_the_scene(tmp_path, pool):
+    """With record: true each point's run is recorded beside the table (its path in the row); the
+    meta file holds the sweep, the base scene, the fingerprint and the versions."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID.replace("[2, 3, 5]", "[2]") + "record: true\n"))
+    run_sweep(sweep, tmp_path / "rec.csv", pool, progress=False, figure=False, command_line="cosim sweep x")
+    rows = rows_of(tmp_path / "rec.csv")
+    for point, row in zip(sweep.points, rows, strict=True):
+        assert row["recording"] == str(tmp_path / "rec_runs" / f"{point.point_id}.mcap")
+        assert Recording(row["recording"]).scene().data["components"]["ball"]["speed"] == 2
+    meta = json.loads((tmp_path / "rec.meta.json").read_text())
+    assert meta["scene"] == BALL_SCENE and meta["fingerprint"] == sweep.fingerprint()
+    assert meta["versions"]["cosim"] and meta["counts"] == {"stopped": 3}
+    assert meta["command"] == "cosim sweep x"
+
+
+def test_random_sweep_and_summary_figure(tmp_path, pool):
+    """A random sweep runs its samples like a grid; the summary figure is a PNG beside the table."""
+    pytest.importorskip("matplotlib")
+    body = ("scene: ball.yaml\nmode: random\nsamples: 8\nseed: 3\naxes:\n"
+            "  components.ball.angle_deg: {uniform: [10, 80]}\n  components.ball.speed: {uniform: [1, 6]}\n")
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    outcome = run_sweep(sweep, tmp_path / "r.csv", pool, progress=False)
+    assert outcome.figure == tmp_path / "r.png" and (tmp_path / "r.png").read_bytes()[:4] == b"\x89PNG"
+    grid = run_sweep(load_sweep(write_sweep(tmp_path, GRID, name="g.yaml")), tmp_path / "g.csv", pool,
+                     progress=False)
+    assert grid.figure is not None and grid.figure.stat().st_size > 10_000
+
+
+def test_parquet_output_is_typed(tmp_path, pool):
+    """A .parquet output holds the sorted table with typed columns and the sweep's record."""
+    pq = pytest.importorskip("pyarrow.parquet")
+    sweep = load_sweep(write_sweep(tmp_path, GRID), output=tmp_path / "out.parquet")
+    run_sweep(sweep, None, pool, progress=False, figure=False)
+    table = pq.read_table(tmp_path / "out.parquet")
+    assert table.num_rows == 9 and str(table.schema.field("ball.bounces").type) == "int64"
+    assert str(table.schema.field("ball.distance").type) == "double"
+    assert b"cosim.sweep" in table.schema.metadata
