@@ -51,9 +51,6 @@ from cosim.params import param
 Vec3Param = tuple[float, float, float]
 # (the `noqa: RUF009` below: param() returns a dataclasses.field with an immutable default)
 
-PAINLEVE_BOUND_DISK = math.sqrt(5.0) / 2.0  # friction above this can make a thin disk's impact ill posed
-
-
 @dataclass(frozen=True)
 class SolidGroundParams:
     """Parameters of a SolidGround plane (SI units; angles in degrees)."""

@@ -187,19 +187,21 @@ def test_energy_books_close_through_bounces():
     assert np.ptp(e) < 1e-12 * abs(e[0])
 
 
-def test_tilted_drop_settles_flat_with_closed_books():
-    """A disk dropped at 30 degrees hits its rim, rocks and comes to rest lying flat in face contact;
-    the energy books close to 1e-9 relative."""
+@pytest.mark.parametrize("restitution", [0.0, 0.5, 0.9])
+def test_tilted_drop_settles_flat_with_closed_books(restitution):
+    """A disk dropped at 30 degrees hits its rim, rocks and comes to rest lying flat in face contact
+    within 2 s (the rocking is not kept alive by the position corrections); the energy books close to
+    1e-12 relative."""
     stone = body(position=[0, 0, 0.1], tilt_deg=30.0, tilt_axis=[1, 0, 0])
-    floor = ground(restitution=0.5)
-    trace = simulate(stone, floor, 2000)
+    floor = ground(restitution=restitution)
+    trace = simulate(stone, floor, 4000)
     last, contact = trace[-1]
-    assert floor.impacts > 3
+    assert floor.impacts >= (0 if restitution == 0 else 5)
     assert last.attack_angle_deg < 0.01
     assert contact.in_contact and contact.normal_force == pytest.approx(last.mass * G, rel=1e-6)
     assert np.linalg.norm(last.angular_velocity) < 1e-9
     e = books(trace)
-    assert np.ptp(e) < 1e-9 * abs(e[0])
+    assert np.ptp(e) < 1e-12 * abs(e[0])
 
 
 # --- the loop: resting and sliding -------------------------------------------------------------------

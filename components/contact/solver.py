@@ -10,13 +10,18 @@ normal acceleration a_n = g.n held:
 1. tau in [0, dt], the time since the lowest point crossed the plane:
    gap - u_n tau + a_n tau^2 / 2 = 0 (tau = dt when it was already in contact at the step's start).
 2. The normal velocity at the crossing, u_c = u_n - a_n tau, decides the regime:
-   - *bounce* (-u_c above the bounce threshold, e > 0): the impact happened tau ago with outgoing
-     velocity -e u_c; the body has since flown tau, so the target normal velocity is -e u_c + a_n tau
-     and the correction puts the lowest point at (-e u_c) tau + a_n tau^2 / 2 above the plane. For a
-     translating body this is the exact bounce: heights fall as e^2 whatever the step.
+   - *bounce* (-u_c above the bounce threshold, e > 0): the impact happened tau ago, with outgoing
+     normal velocity -e u_c; the target normal velocity is what that leaves after tau of flight,
+     -e u_c + a_n tau, and the correction J/M tau moves the centre onto the trajectory it would have
+     followed since the impact. For a translating body this is the exact bounce: heights fall as e^2
+     whatever the step. (The attitude's share of that tau is not corrected: an Impulse carries no
+     rotation. Lifting the rim point itself out by translation instead would raise the centre further
+     than the impulse did and, at every rim impact of a rocking disk, pump in potential energy that
+     can exceed what the impact dissipates: a disk that never settles.)
    - *plastic* (slow arrival, resting, sliding): target normal velocity 0 and the lowest point put
      back on the plane. In resting contact tau = dt, so each step the impulse is M |a_n| dt (the
-     normal force M |a_n|) and the correction M-independent (|a_n| dt^2 / 2): no jitter.
+     normal force M |a_n|) and the correction |a_n| dt^2 / 2: no jitter. A point already separating
+     is left to leave by itself (no correction).
 3. The tangential correction is the friction impulse's own displacement: J_t/M * tau for an impact
    tau ago, J_t/M * tau/2 for a force acting over the last tau (exactly what velocity Verlet would have
    done with that friction force). A sticking body therefore ends each step where it began: no creep.
@@ -141,15 +146,14 @@ def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, mater
     bounced = False
     if e > 0.0 and -u_cross > max(material.bounce_threshold, BOUNCE_STEPS * norm(gravity) * dt):
         out = -e * u_cross
-        gap_end = out * tau + 0.5 * a_n * tau * tau
-        bounced = gap_end >= 0.0
+        bounced = out * tau + 0.5 * a_n * tau * tau >= 0.0
     if bounced:
         target_un = out + a_n * tau
-        correction_n = gap_end - geometry.gap
+        correction_n = None  # the whole linear impulse moved the centre for tau: J/M tau
         lever = tau
     else:
         target_un = 0.0
-        correction_n = -geometry.gap
+        correction_n = -geometry.gap if un <= 0.0 else 0.0  # a separating point leaves by itself
         lever = 0.5 * tau
     mu_stick = material.mu_kinetic if was_sliding else material.mu_static
     axis = quat.body_axis(q)
@@ -169,9 +173,12 @@ def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, mater
     j = res.linear
     jn = dot(j, n)
     s = lever / body.mass
-    correction = (correction_n * n[0] + s * (j[0] - jn * n[0]),
-                  correction_n * n[1] + s * (j[1] - jn * n[1]),
-                  correction_n * n[2] + s * (j[2] - jn * n[2]))
+    if correction_n is None:
+        correction = (s * j[0], s * j[1], s * j[2])
+    else:
+        correction = (correction_n * n[0] + s * (j[0] - jn * n[0]),
+                      correction_n * n[1] + s * (j[1] - jn * n[1]),
+                      correction_n * n[2] + s * (j[2] - jn * n[2]))
     after = apply_impulse(body.mass, body.inertia, state, j, res.angular, correction, rotate=rotate)
     dissipated = mechanical_energy(body, state, gravity) - mechanical_energy(body, after, gravity)
     return ContactResult(j, res.angular, correction, res.normal, res.friction, res.sliding, bounced, face,
