@@ -230,7 +230,7 @@ class WaterCoupler(Component):
             self.bound = math.inf
             self._prev = None
             return self._idle(level - z_bottom)
-        axes = quat_to_matrix(body.orientation)
+        axes = quat_to_matrix(np.asarray(body.orientation, dtype=np.float64))
         is_disk = body.shape == Shape.DISK
         axis = axes[:, 2]
         low = lowest_point(is_disk, pos, axis, radius, float(body.thickness))
@@ -287,9 +287,7 @@ class WaterCoupler(Component):
         x0, y0, cell, height, wvel, bottom, hmax = water
         kernel.evaluate(
             int(body.shape), float(body.radius), float(body.thickness),
-            np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(axes),
-            np.ascontiguousarray(vel, dtype=np.float64), np.ascontiguousarray(omega, dtype=np.float64),
-            float(half[0]), float(half[1]), z_low,
+            pos, axes, vel, omega, float(half[0]), float(half[1]), z_low,
             float(x0), float(y0), cell, height, wvel, bottom, hmax,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, self.flags, nsub,
@@ -334,8 +332,8 @@ class WaterCoupler(Component):
             b_out = np.zeros(height.shape)
             i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(
                 int(body.shape), float(body.radius), float(body.thickness),
-                np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(axes),
-                float(x0), float(y0), cell, height, wvel, self._b_geo, volume, p.ring_cells * cell, b_out)
+                pos, axes, float(x0), float(y0), cell, height, wvel, self._b_geo, volume,
+                p.ring_cells * cell, b_out)
         else:
             b_out = self._b_geo.copy()
             nz_j, nz_i = np.nonzero(b_out)

@@ -251,13 +251,20 @@ def sphere_elements(radius: float, bands: int = 24) -> Elements:
                     world_fixed=True)
 
 
+@njit(cache=True)
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrix (body -> world) of a unit quaternion (w, x, y, z); its columns are the body axes."""
-    w, x, y, z = (float(c) for c in q)
+    w, x, y, z = q[0], q[1], q[2], q[3]
     n = w * w + x * x + y * y + z * z
     s = 2.0 / n if n > 0 else 0.0
-    return np.array([
-        [1 - s * (y * y + z * z), s * (x * y - w * z), s * (x * z + w * y)],
-        [s * (x * y + w * z), 1 - s * (x * x + z * z), s * (y * z - w * x)],
-        [s * (x * z - w * y), s * (y * z + w * x), 1 - s * (x * x + y * y)],
-    ])
+    m = np.empty((3, 3))
+    m[0, 0] = 1 - s * (y * y + z * z)
+    m[0, 1] = s * (x * y - w * z)
+    m[0, 2] = s * (x * z + w * y)
+    m[1, 0] = s * (x * y + w * z)
+    m[1, 1] = 1 - s * (x * x + z * z)
+    m[1, 2] = s * (y * z - w * x)
+    m[2, 0] = s * (x * z - w * y)
+    m[2, 1] = s * (y * z + w * x)
+    m[2, 2] = 1 - s * (x * x + y * y)
+    return m
