@@ -26,7 +26,8 @@ lying flat is one face contact, not a rocking pair of rim points.
 Assumptions: the ground steps at the body's rate (same ``every``), since dt is read as the body's
 step; one plane per SolidGround (a floor and a ramp are two grounds feeding the same impulse port,
 which sums them); ``gravity`` must match the body's (it is the acceleration the ground reconstructs
-the step with and books the potential energy of its corrections against); ``attitude_locked`` must be
+the step with and books the potential energy of its corrections against; a mismatch is reported at
+the first contact, from the body's published potential energy); ``attitude_locked`` must be
 set for a body with ``lock_attitude`` or a scripted attitude, which ignores angular impulses.
 """
 
@@ -48,8 +49,11 @@ from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
 
+GRAVITY_MISMATCH = 1e-9  # relative potential-energy difference that reveals another gravity field
+
 Vec3Param = tuple[float, float, float]
 # (the `noqa: RUF009` below: param() returns a dataclasses.field with an immutable default)
+
 
 @dataclass(frozen=True)
 class SolidGroundParams:
@@ -99,6 +103,7 @@ class SolidGround(Component):
         self.painleve = 0
         self._body_key: tuple | None = None
         self._body: MassProperties | None = None
+        self._gravity_checked = False
 
     def _mass_properties(self, msg: BodyState) -> MassProperties:
         key = (int(msg.shape), msg.radius, msg.thickness, msg.mass, tuple(msg.inertia.tolist()))
@@ -107,6 +112,21 @@ class SolidGround(Component):
                                         key[4])  # type: ignore[arg-type]
             self._body_key = key
         return self._body  # type: ignore[return-value]
+
+    def _check_gravity(self, msg: BodyState, x: tuple[float, float, float]) -> None:
+        """Fail early when the body falls in another gravity field than the ground assumes: its
+        published potential energy -M g.x tells (checked once, where the position makes it tell)."""
+        g = self.gravity
+        scale = msg.mass * math.hypot(*g) * math.hypot(*x)
+        if scale == 0.0:
+            return
+        expected = -msg.mass * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2])
+        if abs(expected - msg.potential_energy) > GRAVITY_MISMATCH * scale:
+            raise ValueError(
+                f"gravity {list(g)} m/s^2 does not match the body's: its potential energy "
+                f"{msg.potential_energy:.6g} J at {[round(c, 6) for c in x]} m would be {expected:.6g} J; "
+                "give the ground the body's gravity")
+        self._gravity_checked = True
 
     def _apart(self) -> dict[str, Message]:
         self.in_contact = False
@@ -122,6 +142,8 @@ class SolidGround(Component):
         reach = msg.radius if msg.shape == Shape.SPHERE else math.hypot(msg.radius, 0.5 * msg.thickness)
         if self.plane.height(x) > reach:  # the bounding sphere is clear: no contact possible
             return self._apart()
+        if not self._gravity_checked:
+            self._check_gravity(msg, x)
         state = RigidState(x, tuple(msg.orientation.tolist()), tuple(msg.velocity.tolist()),  # type: ignore[arg-type]
                            tuple(msg.angular_velocity.tolist()))
         res = resolve_contact(self._mass_properties(msg), state, self.plane, self.material, self.gravity, dt,

@@ -13,6 +13,7 @@ from components.messages import BodyState, GroundContact, Impulse, Shape
 from components.rigid import quaternion as quat
 from components.rigid.dynamics import inertia_solve
 from components.rigid_body import RigidBody
+from cosim.errors import SimulationError
 from cosim.messages import messages_equal
 from cosim.params import build
 
@@ -124,6 +125,14 @@ def test_tilted_rim_impact_matches_the_impulse_formula(tilt_deg):
     rot1 = np.array([quat.rotate(q1, e) for e in np.eye(3)]).T
     momentum_after = rot1 @ np.diag(stone.body.inertia) @ rot1.T @ after.angular_velocity
     assert np.linalg.norm(momentum_after - momentum) <= 1e-9 * np.linalg.norm(momentum)
+
+
+def test_a_gravity_other_than_the_bodys_is_reported():
+    """A ground assuming another gravity than the body's fails on contact, naming both energies."""
+    stone = body(position=[0, 0, H - 1e-6], gravity=[0, 0, -3.71])
+    floor = ground()
+    with pytest.raises(SimulationError, match=r"gravity \[0.0, 0.0, -9.81\] m/s\^2 does not match"):
+        floor.step(0, DT_NS, {"body": stone.initial_outputs()["state"]})
 
 
 def test_ground_checkpoint_reproduces_the_run_bit_for_bit():
