@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from components.contact.geometry import Plane, slope_plane
 from components.contact.solver import Material, mechanical_energy, resolve_contact, time_since_contact
@@ -117,3 +119,29 @@ def test_held_attitude_gets_no_angular_impulse():
                           rotate=False)
     assert res is not None and res.angular == (0.0, 0.0, 0.0)
     assert res.linear == pytest.approx((0.0, 0.0, 1.5 * DISK.mass * 2.0), rel=1e-9)
+
+
+small = st.floats(-5.0, 5.0, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(axis=st.tuples(small, small, small).filter(lambda v: math.hypot(*v) > 0.1),
+       angle=st.floats(0.0, math.pi), depth=st.floats(0.0, 1e-4), v=st.tuples(small, small, small),
+       w=st.tuples(small, small, small).map(lambda x: tuple(10 * c for c in x)),
+       mu=st.floats(0.0, 0.999 * math.sqrt(5.0) / 2), e=st.floats(0.0, 1.0), sliding=st.booleans())
+def test_contact_solve_always_returns_a_finite_non_negative_normal_force(axis, angle, depth, v, w, mu, e,
+                                                                         sliding):
+    """For any disk state touching the floor and mu below sqrt(5)/2 the resolution is finite, with a
+    non-negative normal impulse and no Painlevé fallback."""
+    q = quat.from_axis_angle(axis, angle)
+    a = quat.body_axis(q)
+    sin_tilt = math.sqrt(max(0.0, 1.0 - a[2] * a[2]))
+    z = DISK.radius * sin_tilt + H * abs(a[2]) - depth
+    s = RigidState((0.0, 0.0, z), q, v, w)
+    res = resolve_contact(DISK, s, FLOOR, Material(e, mu, mu), G, DT, was_sliding=sliding)
+    if res is None:
+        return
+    assert math.isfinite(res.normal) and res.normal >= 0.0
+    assert all(math.isfinite(c) for c in res.linear + res.angular + res.correction)
+    assert math.isfinite(res.dissipated)
+    assert not res.painleve
