@@ -50,7 +50,8 @@ def wave_faces(h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarra
 
 def adi_x(h: np.ndarray, v: np.ndarray, dt: float, out: np.ndarray,
           lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
-    """Solve A_x out = h + dt v along every row (Thomas, with the factors of :func:`thomas_factors`)."""
+    """Solve A_x out = h + dt v along every row (Thomas, with the factors of
+    :func:`components.water.models.thomas_factors`, (ny, nx) or one row (1, nx) shared by all)."""
     nx = h.shape[1]
     rhs = h + dt * v
     out[:, 0] = rhs[:, 0] * inv[:, 0]
@@ -62,7 +63,10 @@ def adi_x(h: np.ndarray, v: np.ndarray, dt: float, out: np.ndarray,
 
 def adi_y(h: np.ndarray, dt: float, damp: float, out: np.ndarray, v_out: np.ndarray,
           lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
-    """Solve A_y x = out along every column, in place in ``out``; then v_out = (x - h) / dt * damp."""
+    """Solve A_y x = out along every column, in place in ``out``; then v_out = (x - h) / dt * damp.
+
+    Factors (ny, nx), or one column (ny, 1) shared by all columns.
+    """
     ny = h.shape[0]
     out[0] *= inv[0]
     for j in range(1, ny):

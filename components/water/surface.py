@@ -141,8 +141,8 @@ class WaterSurface(Component):
                                    rest_level=p.rest_level, bottom_slope=p.bottom_slope,
                                    wave_speed=p.wave_speed)
         self.kernels = KERNELS[p.backend]
-        self.model = MODELS[p.model](g, self.kernels, p.damping)
         self.boundary = BOUNDARIES[p.boundary](g, self.kernels, p.sponge_cells)
+        self.model = MODELS[p.model](g, self.kernels, p.damping, closed=self.boundary.conserves_volume)
         self._wx = np.ascontiguousarray((g.kx > 0).astype(np.float64))
         self._wy = np.ascontiguousarray((g.ky > 0).astype(np.float64))
         shape = g.shape
@@ -156,6 +156,7 @@ class WaterSurface(Component):
             bump = p.initial
             r2 = (x - bump.x) ** 2 + (y - bump.y) ** 2
             self._h += np.where(g.wet, bump.amplitude * np.exp(-r2 / (2.0 * bump.width**2)), 0.0)
+        self.model.reset(self._h, self._v)
         self._b = np.zeros(shape)  # occupied height of the last input, zero outside its window
         self._b_window: tuple[int, int, int, int] | None = None
         self._steps = 0
@@ -205,6 +206,7 @@ class WaterSurface(Component):
             "b": self._b[w[2]:w[3], w[0]:w[1]].copy() if w is not None else np.zeros((0, 0)),
             "steps": self._steps,
             "next_frame": self._next_frame,
+            "model": self.model.get_state(),
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -223,6 +225,10 @@ class WaterSurface(Component):
             self._b[j0:j1, i0:i1] = state["b"]
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
+        if "model" in state:
+            self.model.set_state(state["model"])
+        else:  # a state built by hand: the model starts from it
+            self.model.reset(self._h, self._v)
 
     # --- the step -------------------------------------------------------------------------------
 
