@@ -147,14 +147,7 @@ def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, mater
     if e > 0.0 and -u_cross > max(material.bounce_threshold, BOUNCE_STEPS * norm(gravity) * dt):
         out = -e * u_cross
         bounced = out * tau + 0.5 * a_n * tau * tau >= 0.0
-    if bounced:
-        target_un = out + a_n * tau
-        correction_n = None  # the whole linear impulse moved the centre for tau: J/M tau
-        lever = tau
-    else:
-        target_un = 0.0
-        correction_n = -geometry.gap if un <= 0.0 else 0.0  # a separating point leaves by itself
-        lever = 0.5 * tau
+    target_un = out + a_n * tau if bounced else 0.0
     mu_stick = material.mu_kinetic if was_sliding else material.mu_static
     axis = quat.body_axis(q)
     res: ImpulseResult | None = None
@@ -172,13 +165,15 @@ def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, mater
         res = res._replace(angular=ZERO)
     j = res.linear
     jn = dot(j, n)
-    s = lever / body.mass
-    if correction_n is None:
+    if bounced:  # the centre has moved with the whole impulse since the impact, tau ago
+        s = tau / body.mass
         correction = (s * j[0], s * j[1], s * j[2])
-    else:
-        correction = (correction_n * n[0] + s * (j[0] - jn * n[0]),
-                      correction_n * n[1] + s * (j[1] - jn * n[1]),
-                      correction_n * n[2] + s * (j[2] - jn * n[2]))
+    else:  # normal: back onto the plane (unless leaving); tangential: the friction force's own share
+        s = 0.5 * tau / body.mass
+        c_n = -geometry.gap if un <= 0.0 else 0.0
+        correction = (c_n * n[0] + s * (j[0] - jn * n[0]),
+                      c_n * n[1] + s * (j[1] - jn * n[1]),
+                      c_n * n[2] + s * (j[2] - jn * n[2]))
     after = apply_impulse(body.mass, body.inertia, state, j, res.angular, correction, rotate=rotate)
     dissipated = mechanical_energy(body, state, gravity) - mechanical_energy(body, after, gravity)
     return ContactResult(j, res.angular, correction, res.normal, res.friction, res.sliding, bounced, face,
