@@ -16,7 +16,8 @@ Options:
   published skipping experiments: a disk spun at 65 rev/s hardly changes attitude during contact).
   Torques and angular impulses are ignored; a spin about the axis is kept as angular velocity.
 - ``scripted_tilt_deg``: the attitude follows keyframes [t, tilt_deg] (rotation about ``tilt_axis``,
-  linearly interpolated, held outside), with the matching angular velocity; torques are ignored.
+  linearly interpolated, held outside), with the matching angular velocity (plus ``spin`` about the
+  axis, which does not turn the symmetric shape); torques and angular impulses are ignored.
 - ``scripted_velocity``: the horizontal velocity follows keyframes [t, vx, vy]; x and y are their
   exact integral, horizontal forces, impulses and corrections are ignored, z stays free (the
   proposal's objective 5: the water tested with pre-scripted orientation and horizontal velocity).
@@ -87,6 +88,8 @@ class RigidBodyParams:
             problems.append(("lock_attitude", "cannot be combined with scripted_tilt_deg (choose one)"))
         if self.scripted_tilt_deg and self.tilt_deg != 0.0:
             problems.append(("tilt_deg", "give either tilt_deg or scripted_tilt_deg, not both"))
+        if self.scripted_tilt_deg and any(self.angular_velocity):
+            problems.append(("angular_velocity", "is set by scripted_tilt_deg (with spin); leave it 0"))
         for name in ("scripted_tilt_deg", "scripted_velocity"):
             problems += [(name, p) for p in keyframe_problems(getattr(self, name))]
         return problems
@@ -126,19 +129,21 @@ class RigidBody(Component):
         p: RigidBodyParams = self.params
         tilt = p.tilt_deg if self.tilt_script is None else self.tilt_script.value(0.0)[0]
         q = quat.from_axis_angle(self.tilt_axis, math.radians(tilt))
-        w = add(as_vec(p.angular_velocity), scale(quat.body_axis(q), p.spin))
-        if self.tilt_script is not None:
-            w = add(w, self._script_rate(0.0))
+        if self.tilt_script is None:
+            w = add(as_vec(p.angular_velocity), scale(quat.body_axis(q), p.spin))
+        else:
+            w = self._scripted_omega(0.0, q)
         v = as_vec(p.velocity)
         if self.velocity_script is not None:
             vx, vy = self.velocity_script.value(0.0)
             v = (vx, vy, v[2])
         return RigidState(as_vec(p.position), q, v, w)
 
-    def _script_rate(self, t: float) -> Vec:
+    def _scripted_omega(self, t: float, q: quat.Quat) -> Vec:
+        """Angular velocity of the scripted attitude: the tilt rate about tilt_axis plus the spin."""
         assert self.tilt_script is not None
         rate = math.radians(self.tilt_script.rate(t)[0]) / norm(self.tilt_axis)
-        return scale(self.tilt_axis, rate)
+        return add(scale(self.tilt_axis, rate), scale(quat.body_axis(q), self.params.spin))
 
     # --- stepping -------------------------------------------------------------------------------
 
@@ -159,7 +164,7 @@ class RigidBody(Component):
         s = self.integrate(self.body, s, forces, t, dt, self.rotate)
         if self.tilt_script is not None:
             q = quat.from_axis_angle(self.tilt_axis, math.radians(self.tilt_script.value(t + dt)[0]))
-            s = s._replace(orientation=q, angular_velocity=self._script_rate(t + dt))
+            s = s._replace(orientation=q, angular_velocity=self._scripted_omega(t + dt, q))
         if self.velocity_script is not None:
             x0, y0 = self.velocity_script.integral(t)
             x1, y1 = self.velocity_script.integral(t + dt)

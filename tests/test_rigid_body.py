@@ -56,6 +56,8 @@ def test_unknown_integrator_is_reported_with_the_choices():
      "stone.lock_attitude: cannot be combined with scripted_tilt_deg (choose one)"),
     ({"tilt_deg": 5.0, "scripted_tilt_deg": [[0, 10]]},
      "stone.tilt_deg: give either tilt_deg or scripted_tilt_deg, not both"),
+    ({"scripted_tilt_deg": [[0, 10]], "angular_velocity": [1, 0, 0]},
+     "stone.angular_velocity: is set by scripted_tilt_deg (with spin); leave it 0"),
     ({"scripted_velocity": [[1, 0, 0], [0.5, 1, 1]]},
      "stone.scripted_velocity: keyframe times must increase strictly (got 1 then 0.5)"),
     ({"radius": -1.0}, "stone.radius: must be > 0 m (got -1)"),
@@ -176,15 +178,18 @@ def test_locked_attitude_ignores_torques_and_angular_impulses_and_keeps_the_spin
 
 
 def test_scripted_tilt_follows_the_keyframes():
-    """scripted_tilt_deg sets the attitude (and its rate) at every step end, whatever the torque."""
-    body = make(scripted_tilt_deg=[[0.0, 10.0], [0.1, 30.0]])
+    """scripted_tilt_deg sets the attitude at every step end, whatever the torque; the angular velocity
+    is the tilt rate about tilt_axis plus the spin about the body axis."""
+    body = make(scripted_tilt_deg=[[0.0, 10.0], [0.1, 30.0]], spin=50.0)
     assert body.initial_outputs()["state"].attack_angle_deg == pytest.approx(10.0)
     msg = run(body, 100, wrench=Wrench(np.zeros(3), np.array([0.0, 1.0, 0.0])))  # t = 0.05 s
     assert msg.attack_angle_deg == pytest.approx(20.0)
-    assert msg.angular_velocity == pytest.approx([0.0, -math.radians(200.0), 0.0])
+    axis = np.array(quat.body_axis(tuple(msg.orientation)))
+    expected = np.array([0.0, -math.radians(200.0), 0.0]) + 50.0 * axis
+    assert msg.angular_velocity == pytest.approx(expected)
     msg = run(body, 200, start=100)  # past the last keyframe: held
     assert msg.attack_angle_deg == pytest.approx(30.0)
-    assert np.array_equal(msg.angular_velocity, np.zeros(3))
+    assert msg.angular_velocity == pytest.approx(50.0 * np.array(quat.body_axis(tuple(msg.orientation))))
 
 
 def test_scripted_velocity_drives_the_horizontal_motion_only():
