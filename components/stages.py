@@ -5,7 +5,9 @@ Stages (Tsai et al. 2022 names), decided from the body state and the contact rep
 - approach: airborne before the first contact, or falling back after a fly-away;
 - hit: touching water and moving down (vertical velocity < 0);
 - slide: touching water and moving up or level (vertical velocity >= 0);
-- fly-away: contact lost after a contact, still rising (one skip counted);
+- fly-away: contact lost after a contact and the lowest point clear of the local surface by at
+  least ``takeoff_clearance`` (one skip counted); a contact that flickers while the stone still grazes
+  the surface is the same contact, not a new skip;
 - sink: fully submerged, or touching water too slowly to leave (horizontal speed below
   ``sink_speed``); final;
 - rest: on the solid ground and (nearly) still.
@@ -43,7 +45,7 @@ class SkipTracker:
 
 
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
-             sink_speed: float, rest_speed: float) -> StageId:
+             sink_speed: float, rest_speed: float, clearance: float = 0.0) -> StageId:
     """The stage now, from the previous stage and this step's body and contact reports."""
     if previous is StageId.SINK:
         return StageId.SINK
@@ -56,6 +58,9 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             return StageId.SINK
         return StageId.HIT if vz < 0 else StageId.SLIDE
     if previous in (StageId.HIT, StageId.SLIDE):
+        grazing = water is not None and water.depth > -clearance
+        if grazing:  # dry this step but still skimming the surface: the same contact goes on
+            return StageId.HIT if vz < 0 else StageId.SLIDE
         return StageId.FLY_AWAY
     if previous is StageId.FLY_AWAY:
         return StageId.FLY_AWAY if vz >= 0 else StageId.APPROACH
@@ -72,6 +77,8 @@ class StageMonitor(Component):
         rest_speed: float = param(0.01, unit="m/s", ge=0, doc="on the ground slower than this is at rest")
         stop_after: float = param(0.3, unit="s", ge=0,
                                   doc="end the run this long after sink or rest (0: never stop)")
+        takeoff_clearance: float = param(0.002, unit="m", ge=0,
+                                         doc="a contact ends when the lowest point is this far above the surface")
 
     inputs = {
         "body": Port(BodyState, "the stone's state", required=True),
@@ -101,14 +108,17 @@ class StageMonitor(Component):
         outputs: dict[str, Message] = {}
 
         wetted = water is not None and water.wetted
+        touching = wetted or (track.in_contact and water is not None
+                              and water.depth > -self.params.takeoff_clearance)
         if wetted and not track.in_contact:
             track.in_contact = True
             track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed
         previous = StageId.APPROACH if self.stage is None else self.stage
-        stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed)
+        stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
+                         self.params.takeoff_clearance)
         if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY:
             outputs["skip"] = self._finish_skip(now, body)
-        if not wetted:
+        if not touching:
             track.in_contact = False
         if stage is not self.stage:
             self.stage, self.since = stage, now

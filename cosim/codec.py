@@ -133,6 +133,12 @@ def _array_in(spec: Array, name: str) -> Callable[[Any], np.ndarray]:
         return dec
 
     def dec_b64(value: Any) -> np.ndarray:
+        if isinstance(value, list):  # plain nested lists, as written by hand in a scene's `initial`
+            try:
+                return finish(np.array(value, dtype=dtype).reshape(
+                    [0] * len(spec.shape) if not value or value == [[]] else np.shape(value)))
+            except ValueError as exc:
+                raise CodecError(f"field {name!r}: bad array ({exc})") from None
         try:
             raw = base64.b64decode(value["base64"], validate=True)
             arr = np.frombuffer(raw, dtype=np.dtype(value["dtype"])).reshape(value["shape"])

@@ -28,6 +28,7 @@ class ProgressBar(BaseObserver):
         self.shown_ns = sim.time_ns
         self.bar = tqdm(total=round(self.until_ns / NS_PER_S, 6), initial=round(sim.time_ns / NS_PER_S, 6),
                         unit="sim s", desc=self.label, delay=1.0, file=sys.stderr, leave=False,
+                        disable=not sys.stderr.isatty(),
                         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.3f}/{total:.3f} sim s "
                                    "[{elapsed}<{remaining}, {rate_fmt}]", dynamic_ncols=True)
 

@@ -19,9 +19,11 @@ def body(x: float, z: float, vx: float, vz: float) -> BodyState:
                      0.12, np.ones(3), 20.0, float(np.linalg.norm(v)), 0.0, 0.0)
 
 
-def water(wetted: bool, fraction: float = 0.1) -> WaterContact:
+def water(wetted: bool, fraction: float = 0.1, depth: float | None = None) -> WaterContact:
     z = np.zeros(3)
-    return WaterContact(wetted, fraction, 0.001 if wetted else 0.0, z, z, z, z, 0.0, 0.0)
+    if depth is None:
+        depth = 0.001 if wetted else -0.05
+    return WaterContact(wetted, fraction, 0.001 if wetted else 0.0, z, z, z, z, depth, 0.0)
 
 
 def drive(monitor, script):
@@ -80,3 +82,20 @@ def test_state_round_trip_continues_identically():
     out_b = b.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2])))
     assert out_a["skip"].contact_time == out_b["skip"].contact_time
     assert a.summary() == b.summary()
+
+
+def test_grazing_flicker_is_one_contact():
+    """Losing contact for a step while the stone still skims within the clearance is not a skip."""
+    m = StageMonitor("stages", StageMonitor.Params(takeoff_clearance=0.002))
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
+        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
+        (body(0.6, 0.0, 5.0, 0.1), water(False, depth=-0.001), None),   # dry but within 2 mm
+        (body(0.7, 0.0, 5.0, 0.2), water(True), None),
+        (body(0.8, 0.01, 5.0, 0.5), water(False, depth=-0.003), None),  # clear: fly-away
+    ]
+    out = drive(m, script)
+    labels = [o["stage"].label for o in out if "stage" in o]
+    assert labels == ["approach", "hit", "slide", "fly-away"]
+    skips = [o["skip"] for o in out if "skip" in o]
+    assert len(skips) == 1 and skips[0].contact_time == pytest.approx(0.003)
