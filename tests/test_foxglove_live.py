@@ -1,0 +1,218 @@
+"""`cosim run --live`: the Foxglove WebSocket server streams the run's channels to a real client.
+
+The client below speaks just enough of RFC 6455 and the Foxglove WebSocket protocol: handshake,
+``serverInfo`` and ``advertise`` (JSON text frames), ``subscribe``, then binary ``messageData``
+frames (opcode 1, subscription id u32, log time u64, payload) and ``time`` frames (opcode 2).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import socket
+import struct
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("foxglove", reason="the optional foxglove-sdk package (cosim[live]) is not installed")
+
+from components.messages import BodyState
+from cosim.codec import codec_for
+from cosim.live import LiveView, LiveViewError, parse_address
+from cosim.scenario import loads
+from cosim.scheduler import Simulation
+from tests.viewer_toys import SKIP_SCENE, record_skip
+
+PROTOCOL = "foxglove.sdk.v1"
+
+
+class WsClient:
+    """A minimal WebSocket client: handshake with a subprotocol, read frames, send masked text."""
+
+    def __init__(self, host: str, port: int, protocol: str = PROTOCOL, timeout: float = 10.0):
+        self.sock = socket.create_connection((host, port), timeout=timeout)
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.sock.sendall((f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
+                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
+                           f"Sec-WebSocket-Protocol: {protocol}\r\n\r\n").encode())
+        self.buf = b""
+        while b"\r\n\r\n" not in self.buf:
+            self.buf += self.sock.recv(4096)
+        head, self.buf = self.buf.split(b"\r\n\r\n", 1)
+        self.status = head.split(b"\r\n", 1)[0].decode()
+
+    def _read(self, n: int) -> bytes:
+        while len(self.buf) < n:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise ConnectionError("closed by the server")
+            self.buf += chunk
+        out, self.buf = self.buf[:n], self.buf[n:]
+        return out
+
+    def recv(self) -> tuple[int, bytes]:
+        b0, b1 = self._read(2)
+        n = b1 & 0x7F
+        if n == 126:
+            n = struct.unpack(">H", self._read(2))[0]
+        elif n == 127:
+            n = struct.unpack(">Q", self._read(8))[0]
+        return b0 & 0x0F, self._read(n)
+
+    def send_json(self, obj: dict) -> None:
+        data = json.dumps(obj).encode()
+        mask = os.urandom(4)
+        if len(data) < 126:
+            head = bytes([0x81, 0x80 | len(data)])
+        else:
+            head = bytes([0x81, 0x80 | 126]) + struct.pack(">H", len(data))
+        self.sock.sendall(head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(data)))
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+def test_addresses_parse_to_host_and_port():
+    """--live takes PORT, HOST:PORT or HOST; loopback and 8765 are the defaults."""
+    assert parse_address("9000") == ("127.0.0.1", 9000)
+    assert parse_address("0.0.0.0:1234") == ("0.0.0.0", 1234)
+    assert parse_address("localhost") == ("localhost", 8765)
+    with pytest.raises(LiveViewError, match=r"port in 0\.\.65535"):
+        parse_address("host:99999")
+
+
+def test_the_server_starts_on_a_loopback_port_and_stops():
+    """The live view listens on loopback (port 0: any free one) and refuses connections once closed."""
+    view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
+    try:
+        assert view.host == "127.0.0.1" and view.port > 0 and view.url == f"ws://127.0.0.1:{view.port}"
+        client = WsClient("127.0.0.1", view.port)
+        assert client.status.endswith("101 Switching Protocols")
+        op, data = client.recv()
+        info = json.loads(data)
+        assert op == 1 and info["op"] == "serverInfo" and "time" in info["capabilities"]
+        client.close()
+    finally:
+        view.close()
+    assert refused("127.0.0.1", view.port)
+
+
+def refused(host: str, port: int, within: float = 5.0) -> bool:
+    """True once connecting is refused (a server's shutdown completes asynchronously)."""
+    deadline = time.monotonic() + within
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection((host, port), timeout=1).close()
+        except OSError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def stream(scene, wanted: set[str]) -> tuple[dict[str, dict], dict[str, list[tuple[int, bytes]]], list[int]]:
+    """Run ``scene`` live (paced at real time) with a client subscribed to ``wanted`` topics; return
+    the advertised channels by topic, the (log time, payload) pairs received per topic, and the
+    clock broadcasts."""
+    sim = Simulation(scene)
+    view = LiveView(scene, "127.0.0.1:0", speed=1.0, components=sim.components, announce=False)
+    client = WsClient("127.0.0.1", view.port)
+    channels: dict[str, dict] = {}
+    topics: dict[int, str] = {}  # subscription id -> topic
+    got: dict[str, list[tuple[int, bytes]]] = {}
+    clock: list[int] = []
+    sim.observers.append(view)
+    runner = threading.Thread(target=sim.run)
+
+    def subscribe(topic: str) -> None:
+        sub_id = next((k for k, t in topics.items() if t == topic), len(topics) + 1)
+        topics[sub_id] = topic
+        subscription = {"id": sub_id, "channelId": channels[topic]["id"]}
+        client.send_json({"op": "subscribe", "subscriptions": [subscription]})
+
+    try:
+        runner.start()
+        while not (not runner.is_alive() and clock and clock[-1] == scene.until_ns):
+            try:
+                op, data = client.recv()
+            except (TimeoutError, ConnectionError):
+                break
+            if op == 1:
+                msg = json.loads(data)
+                if msg["op"] == "advertise":
+                    for ch in msg["channels"]:
+                        channels[ch["topic"]] = ch
+                        if ch["topic"] in wanted:
+                            subscribe(ch["topic"])
+                elif msg["op"] == "status" and msg["message"].startswith("Unknown channel ID"):
+                    # a subscription sent right after an advertisement can reach the server before it
+                    # has finished registering that channel: ask again
+                    channel_id = int(msg["message"].rsplit(" ", 1)[1])
+                    time.sleep(0.01)
+                    subscribe(next(t for t, ch in channels.items() if ch["id"] == channel_id))
+            elif op == 2 and data[0] == 1:  # messageData
+                sub_id, log_time = struct.unpack("<IQ", data[1:13])
+                got.setdefault(topics[sub_id], []).append((log_time, data[13:]))
+            elif op == 2 and data[0] == 2:  # time
+                clock.append(struct.unpack("<Q", data[1:9])[0])
+    finally:
+        runner.join(timeout=30)
+        client.close()
+        view.close()
+    return channels, got, clock
+
+
+def test_a_client_receives_the_physics_and_viewer_channels_with_sim_time():
+    """A subscribed client gets /stone/state as JSON and /tf as foxglove.FrameTransforms, each with
+    log time = simulation time, and the server's clock follows the simulation to its end."""
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+
+    scene = loads(SKIP_SCENE, overrides=["until=0.3"])
+    channels, got, clock = stream(scene, {"/stone/state", "/tf"})
+    described = {t: (ch["schemaName"], ch["encoding"]) for t, ch in channels.items()}
+    assert described["/tf"] == ("foxglove.FrameTransforms", "protobuf")
+    assert described["/stone/state"] == ("cosim.BodyState", "json")
+    states = [(t, codec_for(BodyState).decode(d)) for t, d in got["/stone/state"]]
+    assert len(states) > 50 and all(t % 1_000_000 == 0 for t, _ in states)
+    assert all(abs(s.position[0] - 4.0 * t / 1e9) < 1e-9 for t, s in states)  # x = speed * t
+    tfs = [(t, FrameTransforms.FromString(d)) for t, d in got["/tf"]]
+    assert len(tfs) >= 3
+    for t, msg in tfs:
+        tf = msg.transforms[0]
+        assert tf.timestamp.seconds * 1_000_000_000 + tf.timestamp.nanos == t
+        assert abs(tf.translation.x - 4.0 * t / 1e9) < 1e-9
+    assert clock == sorted(clock) and clock[-1] == 300_000_000
+
+
+def test_a_live_run_records_the_same_physics(tmp_path):
+    """Streaming live (unpaced) leaves the recorded physics channels identical."""
+    from tests.test_foxglove_recording import physics
+
+    record_skip(tmp_path / "live.mcap", live="127.0.0.1:0", live_speed=0.0)
+    record_skip(tmp_path / "plain.mcap")
+    assert physics(tmp_path / "live.mcap") == physics(tmp_path / "plain.mcap")
+
+
+def test_cosim_run_live_serves_while_running(tmp_path, capsys):
+    """`cosim run --live HOST:PORT` announces the WebSocket address and finishes normally."""
+    from cosim.cli import main
+
+    scene = tmp_path / "skip.yaml"
+    scene.write_text(SKIP_SCENE)
+    assert main(["run", str(scene), "--no-record", "-q", "--live", "127.0.0.1:0", "--live-speed", "0"]) == 0
+    out = capsys.readouterr()
+    assert "live view: ws://127.0.0.1:" in out.err and "toy_skip: ok" in out.out
+
+
+def test_without_the_sdk_live_fails_with_a_hint(tmp_path, capsys, monkeypatch):
+    """Without foxglove-sdk, --live exits 1 naming the extra to install, and writes no recording."""
+    from cosim.cli import main
+
+    monkeypatch.setitem(__import__("sys").modules, "foxglove", None)
+    scene = tmp_path / "skip.yaml"
+    scene.write_text(SKIP_SCENE)
+    assert main(["run", str(scene), "-o", str(tmp_path / "r.mcap"), "-q", "--live"]) == 1
+    assert "pip install 'cosim[live]'" in capsys.readouterr().err
+    assert list(tmp_path.glob("r.mcap*")) == []
