@@ -248,24 +248,22 @@ class WaterCoupler(Component):
         height = np.ascontiguousarray(patch.height, dtype=np.float64)
         wvel = np.ascontiguousarray(patch.velocity, dtype=np.float64)
         bottom = np.ascontiguousarray(patch.bottom, dtype=np.float64)
-        hmax = float(height.max())
         if self._b_geo.shape != height.shape:
             self._b_geo = np.zeros(height.shape)
         nsub = self._subsamples(radius, float(patch.cell))
-        water = (x0, y0, float(patch.cell), height, wvel, bottom, hmax)
-        stats = self._evaluate(body, pos, vel, omega, axes, half, low[2], water, elements, nsub,
+        water = (x0, y0, float(patch.cell), height, wvel, bottom)
+        stats = self._evaluate(body, pos, vel, omega, axes, half, low, water, elements, nsub,
                                self._b_geo, self._stats)
         self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
         self.bound = self._stability_bound(body, stats)
-        mean = stats[:24].copy()
+        mean = stats[:kernel.S_TOTAL + 6]
         if n > 1:
             mean = self._predict(body, n, dt, stats, water, elements, nsub)
-        force = mean[0:3] + mean[6:9] + mean[12:15] + mean[18:21]
-        torque = mean[3:6] + mean[9:12] + mean[15:18] + mean[21:24]
-        self._prev = {"force": force.copy(), "torque": torque.copy(), "position": pos.copy(),
-                      "omega": omega.copy()}
-        depth_ok, h_low, _ = kernel.sample_surface(low[0], low[1], x0, y0, float(patch.cell), height, wvel)
-        depth = (h_low if depth_ok else level) - low[2]
+        force = mean[kernel.S_TOTAL:kernel.S_TOTAL + 3].copy()
+        torque = mean[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6].copy()
+        self._prev = {"force": force, "torque": torque, "position": pos.copy(), "omega": omega.copy()}
+        h_low = stats[kernel.S_SURFACE_LOW]
+        depth = (level if math.isnan(h_low) else float(h_low)) - low[2]
         volume = float(stats[kernel.S_VOLUME])
         area = float(stats[kernel.S_AREA])
         body_volume = (math.pi * radius * radius * float(body.thickness) if is_disk
@@ -282,13 +280,13 @@ class WaterCoupler(Component):
 
     # --- pieces -----------------------------------------------------------------------------------
 
-    def _evaluate(self, body, pos, vel, omega, axes, half, z_low, water, elements, nsub, b_geo, stats):
+    def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats):
         p = self.params
-        x0, y0, cell, height, wvel, bottom, hmax = water
+        x0, y0, cell, height, wvel, bottom = water
         kernel.evaluate(
             int(body.shape), float(body.radius), float(body.thickness),
-            pos, axes, vel, omega, float(half[0]), float(half[1]), z_low,
-            float(x0), float(y0), cell, height, wvel, bottom, hmax,
+            pos, axes, vel, omega, float(half[0]), float(half[1]), low[0], low[1], low[2],
+            float(x0), float(y0), cell, height, wvel, bottom,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, self.flags, nsub,
             b_geo, stats)
@@ -327,7 +325,7 @@ class WaterCoupler(Component):
         p = self.params
         if not self.flags & DISPLACEMENT or volume <= 0.0:
             return self._empty_occupied
-        x0, y0, cell, height, wvel, _, _ = water
+        x0, y0, cell, height, wvel, _ = water
         if p.displacement_mode == "ring":
             b_out = np.zeros(height.shape)
             i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(
@@ -392,8 +390,8 @@ class WaterCoupler(Component):
 
     def _predict(self, body: BodyState, n: int, dt: float, stats0: np.ndarray, water, elements,
                  nsub: int) -> np.ndarray:
-        """Mean of the effects' forces and torques (24,) over n substeps of a private copy of the body
-        moved by them and gravity (semi-implicit Euler)."""
+        """Mean of the effects' forces and torques and their sum (S_TOTAL + 6,) over n substeps of a
+        private copy of the body moved by them and gravity (semi-implicit Euler)."""
         h = dt / n
         mass = float(body.mass)
         inertia_body = np.asarray(body.inertia, dtype=float)
@@ -401,24 +399,25 @@ class WaterCoupler(Component):
         v = np.array(body.velocity, dtype=float)
         w = np.array(body.angular_velocity, dtype=float)
         q = np.array(body.orientation, dtype=float)
-        total = stats0[:24].copy()
+        size = kernel.S_TOTAL + 6
+        total = stats0[:size].copy()
         b_scratch = np.zeros_like(self._b_geo)
         s_scratch = np.zeros(kernel.N_STATS)
         is_disk = body.shape == Shape.DISK
         radius, thick = float(body.radius), float(body.thickness)
         gravity = np.array([0.0, 0.0, -self.params.g])
-        current = stats0[:24].copy()
+        current = stats0[:size].copy()
         for i in range(n):
             if i > 0:
                 axes = quat_to_matrix(q)
                 axis = axes[:, 2]
                 low = lowest_point(is_disk, x, axis, radius, thick)
                 half = disk_half_extents(axis, radius, thick) if is_disk else (radius, radius)
-                current = self._evaluate(body, x, v, w, axes, half, low[2], water, elements, nsub,
-                                         b_scratch, s_scratch)[:24].copy()
+                current = self._evaluate(body, x, v, w, axes, half, low, water, elements, nsub,
+                                         b_scratch, s_scratch)[:size].copy()
                 total += current
-            force = current[0:3] + current[6:9] + current[12:15] + current[18:21]
-            torque = current[3:6] + current[9:12] + current[15:18] + current[21:24]
+            force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
+            torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
             v = v + (force / mass + gravity) * h
             if not self.params.lock_attitude:
                 axes = quat_to_matrix(q)

@@ -36,7 +36,10 @@ S_ELEMENTS = 30  # wet elements evaluated
 S_CENTROID = 31  # volume-weighted sum of the wet-interval centroids (3) [m^4]
 S_WATERLINE = 34  # area of sub-columns the surface cuts through the body [m^2]
 S_ADVANCING = 35  # wetted area advancing into the water [m^2]
-N_STATS = 36
+S_TOTAL = 36  # sum of the switched-on effects: force (3) then torque (3)
+S_SURFACE_LOW = 42  # water height at the body's lowest point [m] (NaN off the patch)
+S_HMAX = 43  # highest surface of the patch [m]
+N_STATS = 44
 
 RIM_PROBE = 0.85  # the displacement band reads the body's wetness this far (fraction) out to the rim
 
@@ -74,8 +77,8 @@ def sample_surface(x, y, x0, y0, cell, height, wvel):
 
 
 @njit(cache=True)
-def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, z_low,
-             x0, y0, cell, height, wvel, bottom, hmax,
+def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
+             x0, y0, cell, height, wvel, bottom,
              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
              rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
              b_geo, stats):
@@ -83,15 +86,24 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
 
     centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
     (columns = body axes); half_x, half_y: horizontal half-extents of the body [m]; z_low: its
-    lowest z [m]; x0, y0: centre of the patch's first column [m]; height, wvel, bottom: (nj, ni)
-    patch arrays; hmax: their highest surface [m]; el_*: the body's surface elements; nsub: sub-cells
-    per column side. Writes b_geo (nj, ni) [m] (zero where dry) and stats (N_STATS,).
+    lowest point (x_low, y_low, z_low) [m]; x0, y0: centre of the patch's first column [m]; height,
+    wvel, bottom: (nj, ni) patch arrays; el_*: the body's surface elements; nsub: sub-cells per
+    column side. Writes b_geo (nj, ni) [m] (zero where dry) and stats (N_STATS,).
     """
     stats[:] = 0.0
     b_geo[:, :] = 0.0
     nj, ni = height.shape
+    stats[S_SURFACE_LOW] = np.nan
     if nj == 0 or ni == 0:
         return
+    hmax = -np.inf
+    for j in range(nj):
+        for i in range(ni):
+            hmax = max(hmax, height[j, i])
+    stats[S_HMAX] = hmax
+    ok, h_low, _ = sample_surface(x_low, y_low, x0, y0, cell, height, wvel)
+    if ok:
+        stats[S_SURFACE_LOW] = h_low
     cx, cy, cz = centre[0], centre[1], centre[2]
     ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
 
@@ -320,6 +332,9 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
         stats[S_DAMP_ROT] = d_rot
         stats[S_STIFF] += stiff
         stats[S_ELEMENTS] = nel
+    for q in range(6):
+        stats[S_TOTAL + q] = stats[S_BUOYANCY + q] + stats[S_PRESSURE + q] + stats[S_FRICTION + q] \
+            + stats[S_WAVE + q]
 
 
 @njit(cache=True)
