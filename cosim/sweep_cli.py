@@ -42,8 +42,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             print(f"{args.sweep}: ok - {sweep.describe()}")
             print(f"  scene: {sweep.scene_source}; table: {sweep.output} ({len(sweep.columns)} columns)")
             print(f"  metrics: {', '.join(sweep.metrics) or 'none'}")
+            print(f"  every run: {' '.join(sweep.fixed) or 'the scene as it is'}")
             for point in sweep.points[:SHOWN_POINTS]:
-                print(f"  #{point.index} {point.point_id}: {' '.join(point.overrides)}")
+                own = " ".join(point.overrides[len(sweep.fixed):])
+                print(f"  #{point.index} {point.point_id}: {point.problem or own}")
             if len(sweep.points) > SHOWN_POINTS:
                 print(f"  ... {len(sweep.points) - SHOWN_POINTS} more")
             return EXIT_OK

@@ -53,7 +53,8 @@ def test_dry_run_lists_points_and_runs_nothing(tmp_path, capsys):
                  "--set", "components.ball.restitution=0.5"]) == 0
     out = capsys.readouterr().out
     assert f"{path}: ok - sweep: 6 points" in out
-    assert "components.ball.restitution=0.5 components.ball.angle_deg=30 components.ball.speed=2" in out
+    assert "  every run: components.ball.restitution=0.5\n" in out
+    assert ": components.ball.angle_deg=30 components.ball.speed=2\n" in out
     assert "metrics: ball.bounces, ball.distance, ball.outcome, ball.first_bounce_time" in out
     assert not (tmp_path / "x.csv").exists()
 
