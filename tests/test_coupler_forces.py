@@ -41,13 +41,21 @@ def test_friction_factor():
 
 
 def test_wave_drag_vanishes_below_c_min_and_grows_above():
-    """Wave drag is zero up to c_min, continuous there, and 1/2 rho C_W (V/L)(U^2 - c_min^2) above."""
-    assert wave_drag_magnitude(0.2, 1e-5, 0.1, 1000.0, 0.3, C_MIN) == 0.0
-    assert wave_drag_magnitude(C_MIN, 1e-5, 0.1, 1000.0, 0.3, C_MIN) == 0.0
-    assert wave_drag_magnitude(C_MIN * 1.0001, 1e-5, 0.1, 1000.0, 0.3, C_MIN) < 1e-6
-    assert wave_drag_magnitude(1.0, 1e-5, 0.1, 1000.0, 0.3, C_MIN) == pytest.approx(
-        0.5 * 1000 * 0.3 * 1e-4 * (1 - C_MIN**2))
-    assert wave_drag_magnitude(1.0, 0.0, 0.1, 1000.0, 0.3, C_MIN) == 0.0
+    """Wave drag is zero up to c_min, continuous there, and 1/2 rho C_W (V/L)(U^2 - c_min^2) / (1 + Fr^2)."""
+    args = (1e-5, 0.1, 1000.0, 0.3, C_MIN, 9.81)
+    assert wave_drag_magnitude(0.2, *args) == 0.0
+    assert wave_drag_magnitude(C_MIN, *args) == 0.0
+    assert wave_drag_magnitude(C_MIN * 1.0001, *args) < 1e-6
+    assert wave_drag_magnitude(1.0, *args) == pytest.approx(
+        0.5 * 1000 * 0.3 * 1e-4 * (1 - C_MIN**2) / (1 + 1 / 0.981))
+    assert wave_drag_magnitude(1.0, 0.0, 0.1, 1000.0, 0.3, C_MIN, 9.81) == 0.0
+
+
+def test_wave_drag_saturates_past_the_hull_speed():
+    """Far above sqrt(g L) the wave drag tends to 1/2 C_W rho g V_sub, a share of the displaced weight."""
+    far = wave_drag_magnitude(200.0, 1e-5, 0.1, 1000.0, 0.3, C_MIN, 9.81)
+    assert far == pytest.approx(0.5 * 0.3 * 1000 * 9.81 * 1e-5, rel=1e-3)
+    assert wave_drag_magnitude(8.0, 1e-5, 0.1, 1000.0, 0.3, C_MIN, 9.81) < far
 
 
 def test_segment_area_limits():

@@ -27,16 +27,21 @@ from the face.)
   the upper face and trailing rim of a skipping stone, which are in its air cavity.
 * Buoyancy: ``rho_w g b s^2`` upward per column (or sub-column) at its wet interval's centroid.
 * Capillary-gravity wave drag (Raphael & de Gennes 1996: no waves, hence no wave resistance, below
-  c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section::
+  c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section
+  that saturates past the hull speed::
 
-      F_w = -1/2 rho_w C_W S_w (U^2 - c_min^2) U_hat,    S_w = V_sub / (2 R),   for U > c_min
+      F_w = -1/2 rho_w C_W S_w (U^2 - c_min^2) / (1 + U^2 / (g L)) U_hat,    for U > c_min
+      S_w = V_sub / L,   L = 2 R
 
   U is the body's horizontal speed (the water has no horizontal velocity in a height field), V_sub
-  the submerged volume and 2R the body's length along the motion, so S_w is the mean immersed
+  the submerged volume and L the body's length along the motion, so S_w is the mean immersed
   cross-section. It vanishes continuously at c_min (Raphael & de Gennes find a jump for a point
   disturbance; a body much larger than the capillary length, 2.7 mm, smooths it, and a continuous
-  onset keeps the dynamics step-size independent) and grows like a form drag at higher speed. It
-  acts at the submerged centroid. C_W is a calibration coefficient (default 0.3).
+  onset keeps the dynamics step-size independent). Slow, it grows like a form drag; past the hull
+  speed sqrt(g L) the wave resistance of a body stops growing (Havelock), so F_w tends to
+  1/2 C_W rho_w g V_sub, a fixed share of the displaced weight: a floating ball pushed at 0.5 m/s
+  feels it fully, a stone skimming at 8 m/s (Froude number ~10) hardly at all. It acts at the
+  submerged centroid. C_W is a calibration coefficient (default 0.3).
 """
 
 from __future__ import annotations
@@ -83,11 +88,12 @@ def ventilation(u_n: float, depth: float, g: float) -> float:
 
 @njit(cache=True)
 def wave_drag_magnitude(speed: float, volume: float, length: float, rho: float, c_w: float,
-                        c_min: float) -> float:
+                        c_min: float, g: float) -> float:
     """Capillary-gravity wave drag [N] against a horizontal ``speed`` [m/s] (0 below c_min)."""
     if speed <= c_min or volume <= 0.0 or length <= 0.0:
         return 0.0
-    return 0.5 * rho * c_w * (volume / length) * (speed * speed - c_min * c_min)
+    froude2 = speed * speed / (g * length) if g > 0.0 else 0.0
+    return 0.5 * rho * c_w * (volume / length) * (speed * speed - c_min * c_min) / (1.0 + froude2)
 
 
 def segment_area(radius: float, s_f: float) -> float:

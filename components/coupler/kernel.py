@@ -201,7 +201,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
             vx = velocity[0]
             vy = velocity[1]
             speed = math.sqrt(vx * vx + vy * vy)
-            mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min)
+            mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min, g)
             if mag > 0.0:
                 fx = -mag * vx / speed
                 fy = -mag * vy / speed
