@@ -37,7 +37,7 @@ from cosim.visual import (
     height_field_mesh,
 )
 
-STONE_COLOR = (0.62, 0.52, 0.42, 1.0)  # sandstone
+STONE_COLOR = (0.72, 0.53, 0.36, 1.0)  # sandstone
 STRIPE_COLOR = (0.30, 0.24, 0.20, 1.0)
 TRAIL_COLOR = (0.95, 0.55, 0.10, 0.9)
 TRAIL_THICKNESS = 0.004  # [m]

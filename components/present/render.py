@@ -47,6 +47,7 @@ WATER_SHADE_EXAGGERATION = 30.0  # hill-shading slopes are exaggerated this much
 FIXED_MIN_ZRATIO = 0.25  # fixed view: the box is at least this tall relative to its length
 BOX_ZOOM = 1.3  # the 3D box fills more of the frame than matplotlib's default
 REST_COLOR = tuple(water_colors(np.zeros(1))[0])
+MARKER_COLOR = (0.95, 0.45, 0.05)  # fixed view: the dot marking the stone, which is small there
 
 
 class RenderError(Exception):
@@ -252,7 +253,7 @@ class FrameRenderer:
         (spin,) = ax.plot(mark[:, 0], mark[:, 1], mark[:, 2], color="0.2", linewidth=1.2, zorder=4)
         self._artists.append(spin)
         if self.fixed is not None:
-            dot = ax.scatter([pos[0]], [pos[1]], [pos[2]], s=30, color=[STONE_RGB], edgecolors="0.2",
+            dot = ax.scatter([pos[0]], [pos[1]], [pos[2]], s=40, color=[MARKER_COLOR], edgecolors="0.2",
                              depthshade=False, zorder=5)
             self._artists.append(dot)
 

@@ -1,0 +1,120 @@
+"""`cosim plot`: figures drawn from a recording, checked against what was recorded."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np
+import pytest
+from matplotlib.collections import LineCollection
+from matplotlib.colors import to_rgb
+from matplotlib.image import imread
+
+from components.messages import BodyState, StageId, WaterContact
+from components.present.data import load_run
+from components.present.plot import (
+    contact_intervals,
+    energy_terms,
+    figure_contacts,
+    figure_motion,
+    figure_trajectory,
+    plot_run,
+)
+from components.present.style import STAGE_COLORS
+from cosim.cli import main
+from cosim.recording import Recording
+from tests.viewer_toys import record_skip
+
+
+@pytest.fixture(scope="module")
+def skip_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("plot") / "skip.mcap"
+    record_skip(path, ["record.visual_rate=0"])
+    return path
+
+
+@pytest.fixture(scope="module")
+def run(skip_path):
+    return load_run(skip_path)
+
+
+def test_trajectory_segments_are_the_recorded_positions_coloured_by_stage(run, skip_path):
+    """The side view draws x-z of every recorded state, each segment in the colour of its stage."""
+    fig = figure_trajectory(run)
+    (lines,) = [c for c in fig.axes[0].collections if isinstance(c, LineCollection)]
+    segments = lines.get_segments()
+    states = Recording(skip_path).messages("/stone/state", BodyState)
+    xz = np.array([[s.position[0], s.position[2]] for _, s in states])
+    assert len(segments) == len(xz) - 1
+    assert np.array_equal(np.array([seg[0] for seg in segments]), xz[:-1])
+    colors = lines.get_colors()[:, :3]
+    stages = run.stages.at(run.body.t[:-1])
+    for stage in (StageId.APPROACH, StageId.HIT, StageId.SLIDE, StageId.FLY_AWAY):
+        assert np.allclose(colors[stages == stage], to_rgb(STAGE_COLORS[stage]))
+    assert any(line.get_ydata()[0] == 0.0 for line in fig.axes[0].lines)  # the water line
+
+
+def test_motion_plots_speed_and_attack_angle_over_time(run):
+    """Speed and attack angle are plotted against the recorded times."""
+    fig = figure_motion(run)
+    speed, angle = (ax.lines[0] for ax in fig.axes[:2])
+    assert np.array_equal(speed.get_xdata(), run.body.t) and np.array_equal(speed.get_ydata(), run.body.speed)
+    assert np.array_equal(angle.get_ydata(), run.body.attack_deg)
+
+
+def test_energy_budget_sums_body_energy_and_what_the_water_dissipated(run, skip_path):
+    """Total = kinetic + potential + energy dissipated by the water, held between its reports."""
+    terms = energy_terms(run)
+    water = [k for k in terms if k.startswith("dissipated by water")]
+    assert water == ["dissipated by water (/coupler/contact)"]
+    assert np.allclose(terms["total"], terms["kinetic"] + terms["potential"] + terms[water[0]])
+    contacts = Recording(skip_path).messages("/coupler/contact", WaterContact)
+    last_t, last = contacts[-1]
+    assert terms[water[0]][-1] == last.dissipated_energy and run.body.t[-1] == last_t / 1e9
+
+
+def test_one_force_panel_per_contact(run):
+    """Each wetted span is one contact panel, with the water's forces over the time since touchdown."""
+    spans = contact_intervals(run)
+    assert len(spans) == 3 and all(0.02 < end - start < 0.06 for start, end in spans)
+    fig = figure_contacts(run)
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(visible) == 3
+    labels = {line.get_label() for line in visible[0].lines}
+    assert {"pressure z", "friction x", "/coupler/wrench z"} <= labels
+
+
+def test_plot_writes_non_empty_pngs_showing_the_stages(skip_path, tmp_path, capsys):
+    """`cosim plot` writes four PNGs; the side view contains the colour of every stage met."""
+    assert main(["plot", str(skip_path), "-o", str(tmp_path / "figs"), "--dpi", "60"]) == 0
+    out = capsys.readouterr().out
+    names = sorted(p.name for p in (tmp_path / "figs").glob("*.png"))
+    assert names == ["contacts.png", "energy.png", "motion.png", "trajectory.png"]
+    assert out.count("wrote ") == 4
+    image = imread(tmp_path / "figs" / "trajectory.png")[..., :3]
+    assert image.shape[0] > 100 and image.std() > 0.05
+    pixels = image.reshape(-1, 3)
+    for stage in (StageId.APPROACH, StageId.HIT, StageId.SLIDE, StageId.FLY_AWAY):
+        close = np.abs(pixels - np.array(to_rgb(STAGE_COLORS[stage]))).max(axis=1) < 0.03
+        assert close.sum() > 20, stage
+
+
+def test_plot_without_a_body_is_bad_input(tmp_path, capsys):
+    """A recording without a BodyState channel exits 2 with a one-line reason."""
+    from cosim.runner import run_scene
+    from cosim.scenario import loads
+
+    scene = loads("dt: 0.001\nuntil: 0.01\ncomponents:\n  src: {type: 'tests.toys:Source'}\n")
+    path = run_scene(scene, tmp_path / "toy.mcap", progress=False).recording
+    assert main(["plot", str(path), "-o", str(tmp_path / "figs")]) == 2
+    assert "no BodyState channel" in capsys.readouterr().err
+
+
+def test_plot_skips_the_contact_figure_without_contacts(tmp_path, capsys):
+    """A run without any contact writes three figures and says why the fourth is missing."""
+    path = tmp_path / "flight.mcap"
+    record_skip(path, ["until=0.05", "record.visual_rate=0"])
+    written, skipped = plot_run(path, tmp_path / "figs", dpi=40)
+    assert len(written) == 3 and skipped == [("contacts.png", "no contact in this run")]

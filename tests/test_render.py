@@ -1,0 +1,143 @@
+"""`cosim render`: frames of the stone over the water, checked by where the stone is drawn."""
+
+from __future__ import annotations
+
+import itertools
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from components.present.render import (
+    RenderOptions,
+    _ffmpeg,
+    body_polygons,
+    crop_field,
+    frame_times,
+    render,
+    rotation_matrix,
+)
+from cosim.cli import main
+from tests.viewer_toys import record_skip
+
+WIDTH = 320
+
+
+@pytest.fixture(scope="module")
+def skip_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("render") / "skip.mcap"
+    record_skip(path, ["record.visual_rate=0"])
+    return path
+
+
+def gif_frames(path) -> list[np.ndarray]:
+    frames = []
+    with Image.open(path) as im:
+        for i in range(im.n_frames):
+            im.seek(i)
+            frames.append(np.asarray(im.convert("RGB"), dtype=float) / 255)
+    return frames
+
+
+def stone_column(frame: np.ndarray) -> float:
+    """Mean column of the stone's warm pixels (red well above blue), below the title line."""
+    body = frame[int(0.12 * frame.shape[0]):]
+    warm = (body[..., 0] - body[..., 2]) > 0.1
+    assert warm.sum() >= 3, "no stone drawn"
+    return float(np.nonzero(warm)[1].mean())
+
+
+def test_the_stone_moves_along_x_between_frames_in_the_fixed_view(skip_path, tmp_path):
+    """In the fixed view, the drawn stone moves right (+x) from frame to frame."""
+    out = tmp_path / "skip.gif"
+    result = render(skip_path, out, RenderOptions(fps=10, width=WIDTH, view="fixed", progress=False))
+    frames = gif_frames(out)
+    assert result.frames == len(frames) == 7  # t = 0, 0.1, ..., 0.6 s
+    assert frames[0].shape == (result.height, WIDTH, 3) and frames[0].std() > 0.05
+    columns = [stone_column(f) for f in frames]
+    assert all(b > a + 5 for a, b in itertools.pairwise(columns)), columns
+
+
+def test_the_follow_view_keeps_the_stone_centred_while_the_water_changes(skip_path, tmp_path):
+    """In the follow view the stone stays near the middle and the surface around it changes."""
+    out = tmp_path / "follow.gif"
+    render(skip_path, out, RenderOptions(fps=10, width=WIDTH, view="follow", start=0.1, stop=0.4,
+                                         progress=False))
+    frames = gif_frames(out)
+    assert len(frames) == 4
+    for f in frames:
+        assert abs(stone_column(f) - WIDTH / 2) < 0.15 * WIDTH
+    assert np.abs(frames[0] - frames[-1]).mean() > 0.01
+
+
+def test_one_png_frame_at_a_chosen_time(skip_path, tmp_path, capsys):
+    """`cosim render -o frame.png --at T` writes one non-empty frame of the requested size."""
+    out = tmp_path / "frame.png"
+    assert main(["render", str(skip_path), "-o", str(out), "--at", "0.3", "--width", "400", "-q"]) == 0
+    assert "1 frame, 400 x 224 px, t = 0.300" in capsys.readouterr().out
+    image = np.asarray(Image.open(out).convert("RGB"), dtype=float) / 255
+    assert image.shape == (224, 400, 3) and image.std() > 0.05
+    blue = (image[..., 2] - image[..., 0]) > 0.2
+    assert blue.mean() > 0.05  # the water surface fills part of the frame
+
+
+def test_unknown_formats_and_times_are_bad_input(skip_path, tmp_path, capsys):
+    """An unknown extension or times outside the recording exit 2 with a one-line reason, no file."""
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.avi"), "-q"]) == 2
+    assert "unknown format '.avi'" in capsys.readouterr().err
+    late = ["--from", "2", "--to", "3"]
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.gif"), *late, "-q"]) == 2
+    assert "outside the recorded" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(_ffmpeg() is None, reason="no ffmpeg (pip install 'cosim[video]')")
+def test_mp4_when_an_encoder_is_installed(skip_path, tmp_path):
+    """With ffmpeg available, .mp4 output is an MP4 file."""
+    out = tmp_path / "skip.mp4"
+    render(skip_path, out, RenderOptions(fps=10, width=WIDTH, stop=0.2, progress=False))
+    assert out.stat().st_size > 1000 and out.read_bytes()[4:8] == b"ftyp"
+
+
+def test_frame_times_step_by_speed_over_fps():
+    """Frames are speed/fps seconds of simulation apart, ending on the last whole step."""
+    assert np.allclose(frame_times(0.0, 1.0, 10, 1.0), np.arange(11) / 10)
+    assert np.allclose(frame_times(0.0, 0.1, 10, 0.25), np.arange(5) * 0.025)
+
+
+def test_the_disk_is_drawn_turned_by_its_quaternion():
+    """Body polygons are the disk's faces rotated by the recorded quaternion and moved to its position."""
+    from tests.viewer_toys import ScriptedStone
+
+    stone = ScriptedStone("s", ScriptedStone.Params(attack_deg=30.0, spin=0.0))
+    state = stone.state_at(0.0)
+    from components.present.data import BodyTrack
+
+    body = BodyTrack("/s/state", np.zeros(1), state.position[None], state.velocity[None],
+                     state.orientation[None], np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+                     int(state.shape), state.radius, state.thickness, state.mass)
+    top = body_polygons(body, state.position, state.orientation)[0]
+    normal = np.cross(top[1] - top[0], top[2] - top[0])
+    normal /= np.linalg.norm(normal)
+    assert np.isclose(np.degrees(np.arccos(abs(normal[2]))), 30.0)
+    axis = rotation_matrix(state.orientation)[:, 2]
+    assert np.allclose(top.mean(axis=0), state.position + axis * state.thickness / 2)
+
+
+def test_the_surface_is_cropped_to_the_view_and_decimated():
+    """Cropping keeps the cells inside the view (plus one) with their exact heights, at most 64 a side."""
+    from components.messages import WaterField
+
+    h = np.arange(300 * 200, dtype=float).reshape(200, 300)
+    field = WaterField(0.01, 0.0, 0.0, h, 0.0, 0.0)
+    gx, gy, gz = crop_field(field, (0.5, 1.0), (0.2, 0.4))
+    assert gz.shape == (23, 53)  # rows 19..41 and columns 49..101: the view plus one cell
+    i, j = np.rint(gx / 0.01).astype(int), np.rint(gy / 0.01).astype(int)
+    assert np.array_equal(gz, h[j, i])
+    assert crop_field(field, (5.0, 6.0), (0.0, 1.0)) is None
+    gx, gy, gz = crop_field(field, (0.0, 3.0), (0.0, 2.0))
+    assert gz.shape == (64, 64)
