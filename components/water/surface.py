@@ -225,9 +225,9 @@ class WaterSurface(Component):
             self._b[j0:j1, i0:i1] = state["b"]
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
-        if "model" in state:
+        if state.get("model") is not None:
             self.model.set_state(state["model"])
-        else:  # a state built by hand: the model starts from it
+        else:  # a state built by hand (no "model" entry, or None): the model starts from it
             self.model.reset(self._h, self._v)
 
     # --- the step -------------------------------------------------------------------------------
