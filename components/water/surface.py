@@ -83,7 +83,7 @@ class WaterParams:
     damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= max(0, 1 - k_v dt)")
     smoothing: float = param(0.0, unit="1/s", ge=0, doc="positional smoothing rate k_p")
     displacement_smoothing: int = param(0, ge=0, doc="blur passes spreading each displacement change")
-    initial: GaussianBump | None = param(None, doc="initial bump {x, y, amplitude, width}")  # noqa: RUF009
+    initial: GaussianBump | None = param(None, doc="initial bump {x, y, amplitude, width}")
     patch_margin: int = param(1, ge=0, doc="cells added around the requested window")
     field_every: int = param(0, ge=0, doc="publish the whole field every N steps (0: never)")
     field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
@@ -266,6 +266,10 @@ class WaterSurface(Component):
         """h += b - b_prev over the union of the old and new windows (the part off the grid is ignored)."""
         g = self.grid
         b = np.asarray(msg.b, dtype=np.float64)
+        if b.size == 0:
+            b = b.reshape(0, 0)
+        elif b.ndim != 2:
+            raise ValueError(f"occupied height b must be a 2D (nj, ni) array (got shape {b.shape})")
         nj, ni = b.shape
         i0, i1 = max(msg.i0, 0), min(msg.i0 + ni, g.nx)
         j0, j1 = max(msg.j0, 0), min(msg.j0 + nj, g.ny)

@@ -1,0 +1,55 @@
+"""DropSource: a scripted body entering the water, seen through the occupied-height port."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.messages import OccupiedHeight
+from components.water.sources import DropParams, DropSource
+
+MS = 1_000_000
+
+
+def drop(**kw) -> DropSource:
+    defaults = dict(x=0.0, y=0.0, radius=0.03, height=0.01, start=0.01, rise=0.02,
+                    cell=0.01, origin_x=-0.1, origin_y=-0.1, nx=21, ny=21)
+    return DropSource("drop", DropParams(**{**defaults, **kw}))
+
+
+def test_publishes_occupied_height_over_the_disk():
+    """The window covers the disk; b is a smooth cap peaking at ``height`` in the centre column."""
+    d = drop(start=0.0)
+    msg = d.step(0, 30 * MS, {})["occupied"]
+    assert isinstance(msg, OccupiedHeight)
+    assert (msg.i0, msg.j0) == (7, 7)
+    assert msg.b.shape == (7, 7)
+    assert msg.b.max() == pytest.approx(0.01) and msg.b[3, 3] == msg.b.max()
+    assert np.all(msg.b[0, :] == 0.0)  # the corners of the window lie outside the disk
+
+
+def test_level_rises_smoothly_and_holds():
+    """The displacement is 0 before start, rises over ``rise`` and stays when no hold is given."""
+    d = drop()
+    assert [d.level(t) for t in (0.0, 0.01, 0.02, 0.03, 1.0)] == pytest.approx([0, 0, 0.5, 1, 1])
+
+
+def test_body_leaves_after_holding():
+    """With ``hold`` the body leaves again over another ``rise``: the displacement returns to 0."""
+    d = drop(hold=0.05)
+    assert d.level(0.06) == 1.0
+    assert d.level(0.09) == pytest.approx(0.5)
+    assert d.level(0.2) == 0.0
+
+
+def test_initial_output_is_the_state_at_t0():
+    """At t = 0 (before start) the source publishes an all-zero occupied height."""
+    msg = drop().initial_outputs()["occupied"]
+    assert not msg.b.any()
+
+
+def test_window_is_clipped_to_the_grid():
+    """A drop near the edge publishes only the columns on the grid."""
+    msg = drop(x=-0.1, y=0.1, start=0.0).step(0, 30 * MS, {})["occupied"]
+    assert (msg.i0, msg.j0) == (0, 17)
+    assert msg.b.shape == (4, 4)

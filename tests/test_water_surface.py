@@ -1,0 +1,262 @@
+"""The WaterSurface component: ports, parameters, patches, displacement input, field frames, state."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
+from components.water import GaussianBump, WaterParams, WaterSurface
+from cosim.codec import codec_for, decode_state, encode_state
+from cosim.messages import messages_equal
+from cosim.params import build
+
+MS = 1_000_000  # one millisecond in ns
+
+
+def pond(**kw) -> WaterSurface:
+    defaults = dict(nx=20, ny=16, cell=0.01, depth=0.2, origin_x=-0.1, origin_y=-0.05,
+                    initial=GaussianBump(x=0.0, y=0.02, amplitude=0.005, width=0.02))
+    return WaterSurface("pond", WaterParams(**{**defaults, **kw}))
+
+
+def problems_of(data: dict) -> list[str]:
+    problems: list[str] = []
+    build(WaterParams, data, "components.pond", problems)
+    return problems
+
+
+# --- ports and parameters --------------------------------------------------------------------------
+
+def test_ports_are_declared_with_their_message_types():
+    """Inputs occupied/request and outputs patch/field carry the shared physics messages."""
+    assert WaterSurface.inputs["occupied"].type is OccupiedHeight
+    assert WaterSurface.inputs["request"].type is PatchRequest
+    assert WaterSurface.outputs["patch"].type is HeightPatch
+    assert WaterSurface.outputs["field"].type is WaterField
+
+
+def test_unknown_model_and_boundary_list_the_choices():
+    """An unknown model or boundary name is reported with the valid names and the YAML path."""
+    problems = problems_of({"model": "navier_stokes", "boundary": "periodic"})
+    assert "components.pond.model: must be one of 'wave', 'shallow_water' (got 'navier_stokes')" in problems
+    assert "components.pond.boundary: must be one of 'reflecting', 'absorbing' (got 'periodic')" in problems
+
+
+def test_parameter_rules_are_all_reported():
+    """Bounds, both field rates at once and a sponge wider than the pond are each reported."""
+    problems = problems_of({"cell": 0.0, "nx": 10, "ny": 10})
+    assert problems == ["components.pond.cell: must be > 0 m (got 0)"]
+    problems = problems_of({"nx": 10, "ny": 10, "boundary": "absorbing", "sponge_cells": 5,
+                            "field_every": 2, "field_rate": 30.0})
+    assert any("field_rate: give field_every or field_rate, not both" in p for p in problems)
+    assert any("sponge_cells: must be < min(nx, ny) / 2 = 5" in p for p in problems)
+
+
+def test_initial_bump_is_a_nested_mapping():
+    """initial: {x, y, amplitude, width} builds a Gaussian bump; a missing width is reported."""
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 0.01, "width": 0.02}}) == []
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 0.01}}) == [
+        "components.pond.initial.width: missing (required, a number)"]
+
+
+def test_direct_construction_checks_the_parameters():
+    """Building the component in code with a bad name fails with the same message."""
+    with pytest.raises(ValueError, match="model: must be one of 'wave', 'shallow_water'"):
+        WaterSurface("pond", WaterParams(model="lattice_boltzmann"))
+
+
+def test_initial_bump_has_its_amplitude_and_volume():
+    """The Gaussian bump peaks at its amplitude above the rest level; volume includes it."""
+    p = pond(rest_level=1.0)
+    assert p.height.max() == pytest.approx(1.005, abs=1e-4)
+    bump = 0.005 * 2 * np.pi * 0.02**2  # integral of the Gaussian over the plane
+    assert p.volume() == pytest.approx(20 * 16 * 0.01**2 * 0.2 + bump, rel=1e-3)
+
+
+# --- outputs ---------------------------------------------------------------------------------------
+
+def test_initial_outputs_hold_an_empty_patch_and_the_field_when_enabled():
+    """At t = 0 the water publishes an empty patch, plus the field only if frames are enabled."""
+    assert set(pond().initial_outputs()) == {"patch"}
+    out = pond(field_every=5).initial_outputs()
+    assert out["patch"].height.shape == (0, 0)
+    field = out["field"]
+    assert field.height.shape == (16, 20)
+    assert field.volume == pytest.approx(pond().volume(), rel=1e-15)
+    assert field.energy == pytest.approx(pond().energy(), rel=1e-15)
+
+
+def test_patch_covers_the_requested_rectangle_plus_margin():
+    """The patch holds the columns touching the request plus patch_margin cells, with their geometry."""
+    p = pond(patch_margin=2)
+    out = p.step(0, MS, {"request": PatchRequest(-0.021, 0.004, 0.0, 0.01)})
+    patch = out["patch"]
+    # cells overlapping x in [-0.021, 0.004]: i = 8..10; y in [0, 0.01]: j = 5..6; plus 2 each side
+    assert (patch.i0, patch.j0) == (6, 3)
+    assert patch.height.shape == (6, 7)
+    sl = (slice(3, 9), slice(6, 13))
+    assert np.array_equal(patch.height, p.height[sl])
+    assert np.array_equal(patch.velocity, p.velocity[sl])
+    assert np.array_equal(patch.bottom, p.grid.bed[sl])
+    assert (patch.cell, patch.origin_x, patch.origin_y, patch.rest_level) == (0.01, -0.1, -0.05, 0.0)
+
+
+def test_patch_is_clipped_to_the_grid():
+    """A request reaching past the edge is clipped: the patch starts at cell 0."""
+    patch = pond().step(0, MS, {"request": PatchRequest(-5.0, -0.097, -5.0, 5.0)})["patch"]
+    assert (patch.i0, patch.j0) == (0, 0)
+    assert patch.height.shape == (16, 2)
+
+
+@pytest.mark.parametrize("request_msg", [None, PatchRequest.empty(), PatchRequest(3.0, 4.0, 3.0, 4.0)],
+                         ids=["unconnected", "empty", "off-grid"])
+def test_no_request_gives_an_empty_patch(request_msg):
+    """No request, an empty request or one off the grid gives a (0, 0) patch every step."""
+    out = pond().step(0, MS, {"request": request_msg})
+    assert out["patch"].height.shape == (0, 0)
+    assert out["patch"].velocity.shape == (0, 0) and out["patch"].bottom.shape == (0, 0)
+
+
+def test_patch_is_a_snapshot():
+    """A published patch does not change when the water moves on."""
+    p = pond()
+    req = PatchRequest(-0.02, 0.02, 0.0, 0.04)
+    first = p.step(0, MS, {"request": req})["patch"]
+    kept = first.height.copy()
+    for k in range(1, 5):
+        p.step(k * MS, MS, {"request": req})
+    assert np.array_equal(first.height, kept)
+
+
+def test_dry_cells_report_the_bed_as_surface():
+    """Over dry land the patch's surface is the bed itself (no water column)."""
+    p = pond(bottom_slope=(3.0, 0.0), initial=None)
+    patch = p.step(0, MS, {"request": PatchRequest(-1.0, 1.0, -1.0, 1.0)})["patch"]
+    dry = ~p.grid.wet
+    assert dry.any()
+    assert np.array_equal(patch.height[dry], patch.bottom[dry])
+    assert np.all(patch.height[~dry] == 0.0)
+
+
+@pytest.mark.parametrize("every", [1, 3])
+def test_field_is_published_every_n_steps(every):
+    """field_every: N publishes the whole field on steps N, 2N, ... and only then."""
+    p = pond(field_every=every)
+    published = [k + 1 for k in range(9) if "field" in p.step(k * MS, MS, {})]
+    assert published == list(range(every, 10, every))
+
+
+def test_field_rate_is_converted_to_frames_in_time():
+    """field_rate: 100 Hz with 3 ms steps publishes on the first step ending at or after each 10 ms."""
+    p = pond(field_rate=100.0)
+    ends = [(k + 1) * 3 for k in range(12) if "field" in p.step(k * 3 * MS, 3 * MS, {})]
+    assert ends == [12, 21, 30]
+
+
+def test_field_reports_volume_and_energy():
+    """The field carries the surface, the water volume and the lattice energy of the same instant."""
+    p = pond(field_every=1)
+    field = p.step(0, MS, {})["field"]
+    assert np.array_equal(field.height, p.height)
+    assert field.volume == p.volume() and field.energy == p.energy()
+
+
+def test_messages_round_trip_through_the_codec():
+    """Patch and field encode to JSON and back bit for bit."""
+    p = pond(field_every=1)
+    out = p.step(0, MS, {"request": PatchRequest(-0.03, 0.03, 0.0, 0.03)})
+    for msg in out.values():
+        codec = codec_for(type(msg))
+        assert messages_equal(codec.decode(codec.encode(msg)), msg)
+
+
+# --- the displacement input ------------------------------------------------------------------------
+
+def test_displacement_adds_the_change_of_occupied_height():
+    """Under a body the surface rises by b - b_prev: the whole b first, then only its change."""
+    p = pond(initial=None)
+    p.apply_occupied(OccupiedHeight(i0=4, j0=5, b=np.full((2, 3), 0.002)))
+    h = p.get_state()["h"]
+    assert np.all(h[5:7, 4:7] == 0.002) and h.sum() == pytest.approx(6 * 0.002)
+    p.apply_occupied(OccupiedHeight(i0=4, j0=5, b=np.full((2, 3), 0.003)))
+    assert np.allclose(p.get_state()["h"][5:7, 4:7], 0.003, rtol=1e-15)
+
+
+def test_repeated_occupied_message_adds_nothing():
+    """The same absolute b delivered again (a slower water component) changes nothing."""
+    p = pond()
+    body = OccupiedHeight(i0=4, j0=5, b=np.full((2, 3), 0.002))
+    p.apply_occupied(body)
+    before = p.get_state()["h"]
+    p.apply_occupied(body)
+    assert np.array_equal(p.get_state()["h"], before)
+
+
+def test_moving_window_gives_back_the_old_columns():
+    """When the body moves on, its old columns get their occupied height back (union of windows)."""
+    p = pond(initial=None)
+    p.apply_occupied(OccupiedHeight(i0=2, j0=2, b=np.full((2, 2), 0.004)))
+    p.apply_occupied(OccupiedHeight(i0=10, j0=8, b=np.full((3, 1), 0.001)))
+    h = p.get_state()["h"]
+    assert np.all(h[2:4, 2:4] == 0.0)
+    assert np.all(h[8:11, 10] == 0.001)
+    p.apply_occupied(OccupiedHeight(i0=0, j0=0, b=np.zeros((0, 0))))
+    assert np.all(p.get_state()["h"] == 0.0)
+
+
+def test_occupied_window_off_the_grid_is_clipped():
+    """Columns of an occupied window lying off the grid are ignored; the rest applies."""
+    p = pond(initial=None)
+    p.apply_occupied(OccupiedHeight(i0=-2, j0=14, b=np.full((4, 4), 0.001)))
+    h = p.get_state()["h"]
+    assert h.sum() == pytest.approx(2 * 2 * 0.001)
+    assert np.all(h[14:16, 0:2] == 0.001)
+
+
+def test_displacement_smoothing_spreads_the_change_conservatively():
+    """Blur passes spread a displacement over neighbours without changing its volume."""
+    p = pond(initial=None, displacement_smoothing=2)
+    p.apply_occupied(OccupiedHeight(i0=8, j0=8, b=np.full((1, 1), 0.004)))
+    h = p.get_state()["h"]
+    assert h[8, 8] < 0.004 and h[8, 10] > 0.0 and h[8, 11] == 0.0
+    assert h.sum() == pytest.approx(0.004, rel=1e-14)
+
+
+# --- state -----------------------------------------------------------------------------------------
+
+def _drive(p: WaterSurface, k0: int, n: int) -> list:
+    outs = []
+    for k in range(k0, k0 + n):
+        body = OccupiedHeight(i0=3 + k % 5, j0=4, b=np.full((3, 3), 0.001 * (k % 7)))
+        outs.append(p.step(k * MS, MS, {"occupied": body, "request": PatchRequest(-0.05, 0.0, 0.0, 0.05)}))
+    return outs
+
+
+@pytest.mark.parametrize("model", ["wave", "shallow_water"])
+def test_state_round_trip_reproduces_the_run_bit_for_bit(model):
+    """set_state(get_state()), even through the JSON checkpoint codec, continues the run bit for bit."""
+    a = pond(model=model, field_every=4)
+    _drive(a, 0, 30)
+    saved = encode_state(a.get_state())
+    expected = _drive(a, 30, 30)
+    b = pond(model=model, field_every=4)
+    b.set_state(decode_state(saved))
+    got = _drive(b, 30, 30)
+    for x, y in zip(expected, got, strict=True):
+        assert x.keys() == y.keys()
+        assert all(messages_equal(x[port], y[port]) for port in x)
+    assert np.array_equal(a.get_state()["h"], b.get_state()["h"])
+
+
+def test_set_state_checks_the_grid_shape():
+    """A state of another grid size is refused, naming the shapes."""
+    p = pond()
+    with pytest.raises(ValueError, match=r"state 'h' has shape \(3, 3\), the grid is \(16, 20\)"):
+        p.set_state({**p.get_state(), "h": np.zeros((3, 3))})
+
+
+def test_summary_names_model_grid_and_volume_change():
+    """The closing summary line names the model, grid, edges, volume change and energy."""
+    (line,) = pond().summary()
+    assert line.startswith("pond: wave on 20 x 16 cells of 0.01 m, reflecting edges; volume change")
