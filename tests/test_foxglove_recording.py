@@ -2,7 +2,7 @@
 
 The scripted skip (tests/viewer_toys.py)::
 
-    stone --state--> coupler --contact--> monitor      pond --field-->   (every 10 ms)
+    stone --state--> coupler --contact--> stages       pond --field-->   (every 10 ms)
       '----state-------------------------->'
 
 is recorded with viewer channels at 30 frames/s; the checks compare each viewer message with the
@@ -61,7 +61,7 @@ def test_viewer_channels_have_the_exact_foxglove_schema_names(skip_run):
         ch = skip_run.channels[topic]
         assert (ch.schema_name, ch.message_encoding, ch.schema_encoding) == (schema, "protobuf", "protobuf")
     assert skip_run.channels["/stone/state"].schema_name == "cosim.BodyState"
-    assert skip_run.channels["/monitor/stage"].schema_name == "cosim.Stage"
+    assert skip_run.channels["/stages/stage"].schema_name == "cosim.Stage"
 
 
 def test_frames_are_drawn_at_the_visual_rate_of_simulation_time(skip_run):
@@ -137,13 +137,13 @@ def test_surface_vertex_heights_equal_the_water_field(skip_run):
 
 
 def test_stage_log_matches_the_stage_channel(skip_run):
-    """Every message on /monitor/stage has one foxglove.Log line at the same time naming the stage."""
-    stages = skip_run.messages("/monitor/stage", Stage)
+    """Every message on /stages/stage has one foxglove.Log line at the same time naming the stage."""
+    stages = skip_run.messages("/stages/stage", Stage)
     logs = [(t, m) for t, m in viewer(skip_run, "/log", Log) if m.message.split(" ")[0] != "skip"]
     assert len(stages) >= 10 and len(logs) == len(stages)
     for (t_stage, stage), (t_log, log) in zip(stages, logs, strict=True):
         assert t_log == t_stage == stamp_ns(log.timestamp)
-        assert log.name == "monitor"
+        assert log.name == "stages"
         assert log.message.startswith(f"{stage.label} (stage {int(stage.stage)}): skips {stage.skips}")
 
 

@@ -8,7 +8,8 @@ channels, figures and frames show with exactly what was published:
 - ScriptedCoupler: WaterContact and Wrench reports while the stone's lowest point is under water;
 - ScriptedPond: a WaterField with a travelling wave, larger than the drawn surface (decimation).
 
-``SKIP_SCENE`` wires them with the real StageMonitor.
+``SKIP_SCENE`` wires them with the real StageMonitor, with the reference scene's component names
+(stone, pond, coupler, stages), so the shipped Foxglove layout applies to its recordings.
 """
 
 from __future__ import annotations
@@ -33,12 +34,12 @@ until: 0.6
 components:
   stone: {type: "tests.viewer_toys:ScriptedStone"}
   coupler: {type: "tests.viewer_toys:ScriptedCoupler"}
-  monitor: {type: StageMonitor, stop_after: 0}
+  stages: {type: StageMonitor, stop_after: 0}
   pond: {type: "tests.viewer_toys:ScriptedPond", every: 10}
 connections:
   - stone.state -> coupler.body
-  - stone.state -> monitor.body
-  - coupler.contact -> monitor.water
+  - stone.state -> stages.body
+  - coupler.contact -> stages.water
 record: {visual_rate: 30, checkpoint_every: 0}
 """
 
