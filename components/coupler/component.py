@@ -92,7 +92,7 @@ _EMPTY_GRID = _ro(np.zeros((0, 0)))
 class WaterCouplerParams:
     """Parameters of the water coupler (SI units; coefficients from physics.md section 3)."""
 
-    effects: list[str] = param(ALL_EFFECTS, doc=_EFFECTS_DOC)  # noqa: RUF009 (param copies lists)
+    effects: list[str] = param(ALL_EFFECTS, doc=_EFFECTS_DOC)
     rho: float = param(RHO_WATER, unit="kg/m^3", gt=0, doc="water density")
     g: float = param(GRAVITY, unit="m/s^2", ge=0, doc="gravity (buoyancy and the substep predictor)")
     c_l: float = param(C_LIFT, ge=0, doc="pressure coefficient C_L of the Rosellini/Clanet law")
