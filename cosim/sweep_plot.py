@@ -71,8 +71,8 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
             xs, ys = zip(*spec.reference_points, strict=True)
             ax.plot(xs, ys, "*", color="tab:red", markersize=13, markeredgecolor="k",
                     label=spec.reference_label, zorder=5)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="best", fontsize=8)
+        if ax.get_legend_handles_labels()[0]:  # below the axes, so no cell is hidden
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8, frameon=False)
         failed = sum(r["status"] == "failed" for r in rows)
         note = f"; {failed} failed{' (grey)' if spec.y is not None else ''}" if failed else ""
         ax.set_title(f"{sweep.name}: {spec.metric} ({len(rows)} runs{note})", fontsize=10)
