@@ -30,12 +30,13 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from PIL import Image
 from tqdm import tqdm
 
-from components.messages import Shape, SkipRecord, Stage, WaterField
+from components.messages import Shape, SkipRecord, Stage, StageId, WaterField
 from components.present.data import BodyTrack, iter_fields, load_body, rest_level, topics_of
 from components.present.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
 from cosim.recording import Recording
+from cosim.timebase import NS_PER_S
 from cosim.visual import decimation
 
 FORMATS = (".gif", ".mp4", ".png")
@@ -381,11 +382,19 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
     return t0 + step * np.arange(max(n, 1))
 
 
+SPLASH_DELAY = 0.025  # [s] after a first hit that never becomes a skip: the splash is forming
+
+
 def _default_at(rec: Recording, body: BodyTrack) -> float:
-    """Just as the stone leaves the water after its first skip, or mid-run without one."""
+    """Just as the stone leaves the water after its first skip; without a skip, a moment after the
+    first hit; without a hit, mid-run."""
     for topic in topics_of(rec, SkipRecord):
         for _, skip in rec.messages(topic, SkipRecord)[:1]:
             return float(skip.touchdown_time + skip.contact_time)
+    for topic in topics_of(rec, Stage):
+        for stamp, stage in rec.messages(topic, Stage):
+            if stage.stage is StageId.HIT:
+                return min(float(body.t[-1]), stamp / NS_PER_S + SPLASH_DELAY)
     return float(0.5 * (body.t[0] + body.t[-1]))
 
 
@@ -405,8 +414,14 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     water = options.water or (fields[0] if fields else None)
     begin, end = float(body.t[0]), float(body.t[-1])
     if output.suffix.lower() == ".png":
-        at = _default_at(rec, body) if options.at is None else options.at
-        times = np.array([at])
+        if options.at is None:
+            at = _default_at(rec, body)
+            if water is not None:  # the first water field from then on, so the surface is current
+                stamps = (stamp / NS_PER_S for _, stamp, _ in rec.raw([water]))
+                at = next((t for t in stamps if t >= at), at)
+        else:
+            at = options.at
+        times = np.array([min(at, end)])
     else:
         t0 = begin if options.start is None else options.start
         t1 = end if options.stop is None else options.stop
