@@ -27,8 +27,8 @@ Assumptions: the ground steps at the body's rate (same ``every``), since dt is r
 step; one plane per SolidGround (a floor and a ramp are two grounds feeding the same impulse port,
 which sums them); ``gravity`` must match the body's (it is the acceleration the ground reconstructs
 the step with and books the potential energy of its corrections against; a mismatch is reported at
-the first contact, from the body's published potential energy); ``attitude_locked`` must be
-set for a body with ``lock_attitude`` or a scripted attitude, which ignores angular impulses.
+the first contact, from the body's published potential energy). A body whose attitude is locked or
+scripted says so in its state (``BodyState.attitude_locked``) and gets no angular response.
 """
 
 from __future__ import annotations
@@ -70,8 +70,6 @@ class SolidGroundParams:
     face_tolerance: float = param(1e-5, unit="m", ge=0,
                                   doc="a disk whose bottom rim heights spread by at most this lies flat")
     gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2", doc="must match the body's gravity")  # noqa: RUF009
-    attitude_locked: bool = param(False,
-                                  doc="the body's attitude is locked or scripted (no angular response)")
 
     def check(self) -> list[tuple[str, str]]:
         if self.mu_kinetic > self.mu_static:
@@ -95,7 +93,6 @@ class SolidGround(Component):
         self.material = Material(p.restitution, p.mu_static, p.mu_kinetic, p.bounce_threshold,
                                  p.face_tolerance)
         self.gravity = as_vec(p.gravity)
-        self.rotate = not p.attitude_locked
         self.dissipated = 0.0
         self.sliding = False
         self.in_contact = False
@@ -147,7 +144,7 @@ class SolidGround(Component):
         state = RigidState(x, tuple(msg.orientation.tolist()), tuple(msg.velocity.tolist()),  # type: ignore[arg-type]
                            tuple(msg.angular_velocity.tolist()))
         res = resolve_contact(self._mass_properties(msg), state, self.plane, self.material, self.gravity, dt,
-                              self.sliding, self.rotate)
+                              self.sliding, not msg.attitude_locked)
         if res is None:
             return self._apart()
         self.in_contact = True

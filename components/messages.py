@@ -38,6 +38,8 @@ class BodyState(Message):
     Derived for viewers and plots: attack_angle_deg, the angle between the disk face and the
     horizontal plane [deg] (0 for a sphere); speed [m/s]; kinetic_energy and potential_energy [J]
     (potential relative to z = 0).
+    attitude_locked: the body ignores torques and angular impulses (locked or scripted attitude), so
+    contact components must not expect it to turn.
     """
 
     position: Vec3
@@ -53,6 +55,7 @@ class BodyState(Message):
     speed: float
     kinetic_energy: float
     potential_energy: float
+    attitude_locked: bool = False
 
 
 @message

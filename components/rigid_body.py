@@ -188,7 +188,7 @@ class RigidBody(Component):
             _array(x), _array(q), _array(v), _array(w), self.shape, body.radius, body.thickness,
             body.mass, self._inertia, attack, norm(v),
             kinetic_energy(body.mass, body.inertia, self.state),
-            potential_energy(body.mass, self.gravity, x))
+            potential_energy(body.mass, self.gravity, x), not self.rotate)
 
     def initial_outputs(self) -> dict[str, Message]:
         """What the body publishes at t = 0: its initial state."""

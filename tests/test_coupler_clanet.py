@@ -25,7 +25,7 @@ ALUMINIUM = 2700.0
 
 def bounces(speed, attack_deg, impact_deg=20.0, dt=5e-5):
     """True when the locked disk leaves the water moving up after its first contact."""
-    coupler = WaterCoupler("c", WaterCouplerParams(lock_attitude=True))
+    coupler = WaterCoupler("c", WaterCouplerParams())
     alpha, beta = math.radians(attack_deg), math.radians(impact_deg)
     q = pitched(alpha)
     mass = body(radius=RADIUS, thickness=THICKNESS, density=ALUMINIUM).mass
@@ -38,7 +38,7 @@ def bounces(speed, attack_deg, impact_deg=20.0, dt=5e-5):
         v = v + (force / mass + np.array([0.0, 0.0, -9.81])) * dt
         x = x + v * dt
         state = body(position=x, orientation=q, velocity=v, radius=RADIUS, thickness=THICKNESS,
-                     density=ALUMINIUM)
+                     density=ALUMINIUM, attitude_locked=True)
         patch = still_water(0.005, half_width=0.06, centre=(round(x[0] / 0.005) * 0.005, 0.0))
         out = coupler.step(k * dt_ns, dt_ns, {"body": state, "water": patch}, on_unstable="substep")
         force = out["wrench"].force

@@ -208,7 +208,7 @@ def test_too_large_a_step_is_an_error_naming_the_bound():
 
 def _entry(dt, on_unstable="substep", duration=0.02, speed=30.0):
     """A locked disk entering still water at `speed`, moved by the held wrench (semi-implicit Euler)."""
-    c = WaterCoupler("c", WaterCouplerParams(lock_attitude=True))
+    c = WaterCoupler("c", WaterCouplerParams())
     alpha, beta = math.radians(10), math.radians(10)
     m = body().mass
     x = np.array([0.0, 0.0, 0.05 * math.sin(alpha) + 0.004])
@@ -220,7 +220,8 @@ def _entry(dt, on_unstable="substep", duration=0.02, speed=30.0):
         v = v + (force / m + np.array([0.0, 0.0, -9.81])) * dt
         x = x + v * dt
         patch = still_water(0.01, half_width=0.15, centre=(round(x[0] / 0.01) * 0.01, 0.0))
-        out = c.step(k * dt_ns, dt_ns, {"body": body(position=x, orientation=pitched(alpha), velocity=v),
+        out = c.step(k * dt_ns, dt_ns, {"body": body(position=x, orientation=pitched(alpha), velocity=v,
+                                                         attitude_locked=True),
                                         "water": patch}, on_unstable=on_unstable)
         most = max(most, c.last_substeps)
         force = out["wrench"].force
@@ -272,10 +273,10 @@ def test_dissipated_energy_is_minus_the_work_of_the_held_wrench():
 
 
 def test_lock_attitude_predictor_keeps_the_orientation():
-    """With lock_attitude, substeps move the private body copy without turning it (the mean torque is
-    still reported)."""
-    c = WaterCoupler("c", WaterCouplerParams(lock_attitude=True))
-    b = skipping_disk(speed=30.0, depth=0.01)
+    """For a body whose attitude is locked, substeps move the private body copy without turning it
+    (the mean torque is still reported)."""
+    c = WaterCoupler("c", WaterCouplerParams())
+    b = skipping_disk(speed=30.0, depth=0.01, attitude_locked=True)
     out = c._substep(0.0, 1e-3, 4, {"body": b, "water": still_water()})
     assert out["wrench"].torque.any()
     assert c.get_state()["prev"]["position"].tolist() == b.position.tolist()

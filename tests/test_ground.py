@@ -315,7 +315,7 @@ def test_locked_attitude_bounces_on_translation_alone():
     """A spinning body with a locked attitude (ground told so) bounces with the translational impulse
     only: the rebound is -e v_n of its centre and the spin is untouched."""
     stone = body(position=[0, 0, 0.1], tilt_deg=20.0, spin=400.0, lock_attitude=True)
-    floor = ground(restitution=0.5, attitude_locked=True, mu_static=0.0, mu_kinetic=0.0)
+    floor = ground(restitution=0.5, mu_static=0.0, mu_kinetic=0.0)
     trace = simulate(stone, floor, 400)
     first_up = next(s for s, _ in trace if s.velocity[2] > 0)
     drop = 0.1 - (R * math.sin(math.radians(20.0)) + H * math.cos(math.radians(20.0)))

@@ -114,7 +114,6 @@ class WaterCouplerParams:
     water_level: float = param(0.0, unit="m", doc="rest level assumed until the first patch arrives")
     wave_allowance: float = param(0.05, unit="m", ge=0,
                                   doc="highest crest above rest level; a body above it is far")
-    lock_attitude: bool = param(False, doc="the body's attitude is locked (the substep predictor keeps it)")
 
     def check(self) -> list[tuple[str, str]]:
         return [("effects", p) for p in unknown_effects(self.effects)]
@@ -419,7 +418,7 @@ class WaterCoupler(Component):
             force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
             torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
             v = v + (force / mass + gravity) * h
-            if not self.params.lock_attitude:
+            if not body.attitude_locked:
                 axes = quat_to_matrix(q)
                 inertia = axes @ np.diag(inertia_body) @ axes.T
                 w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h

@@ -28,7 +28,7 @@ def pitched(attack: float) -> np.ndarray:
 
 def body(shape: Shape = Shape.DISK, position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0),
          velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0), radius: float = 0.05,
-         thickness: float = 0.006, density: float = SLATE_DENSITY) -> BodyState:
+         thickness: float = 0.006, density: float = SLATE_DENSITY, attitude_locked: bool = False) -> BodyState:
     """A BodyState of a uniform disk or sphere."""
     if shape == Shape.DISK:
         mass = density * math.pi * radius * radius * thickness
@@ -43,7 +43,7 @@ def body(shape: Shape = Shape.DISK, position=(0.0, 0.0, 0.0), orientation=(1.0, 
     ke = 0.5 * mass * float(v @ v)
     return BodyState(np.array(position, dtype=float), np.array(orientation, dtype=float), v, w, shape,
                      float(radius), float(thickness), float(mass), np.array(inertia, dtype=float), 0.0,
-                     float(np.linalg.norm(v)), ke, mass * 9.81 * float(position[2]))
+                     float(np.linalg.norm(v)), ke, mass * 9.81 * float(position[2]), attitude_locked)
 
 
 def still_water(cell: float = 0.01, half_width: float = 0.15, level: float = 0.0,
