@@ -17,7 +17,8 @@ import enum
 import json
 import math
 import struct
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -180,6 +181,64 @@ def _field_coders(spec: FieldSpec) -> tuple[Callable[[Any], Any], Callable[[Any]
     return _array_out(spec.array, spec.name), _array_in(spec.array, spec.name)
 
 
+def _num(x: float) -> str:
+    """JSON text of a float: the shortest round-trip repr, or the tagged string of a non-finite."""
+    text = repr(x)
+    if "n" in text:  # 'nan', 'inf', '-inf': a finite repr has only digits, '.', 'e', '+', '-'
+        return json.dumps(_float_out(x))
+    return text
+
+
+def _vector(arr: np.ndarray) -> str:
+    text = ",".join(map(repr, arr.tolist()))
+    if "n" in text:
+        return "[" + ",".join([_num(x) for x in arr.tolist()]) + "]"
+    return "[" + text + "]"
+
+
+def _compile_encoder(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]],
+                     fallback: Callable[[Message], bytes]) -> Callable[[Message], bytes]:
+    """A generated function writing a message's JSON directly, equal byte for byte to
+    ``json.dumps(to_dict(msg), separators=(",", ":"))`` but several times faster (recording every
+    exchange of a run hinges on this). Values it does not expect go through ``fallback``."""
+    env: dict[str, Any] = {"_num": _num, "_vector": _vector, "_json": json.dumps, "np": np,
+                           "_fallback": fallback}
+    lines = ["def encode(m):"]
+    pieces = []
+    checks = []
+    for i, spec in enumerate(fields):
+        key = json.dumps(spec.name)
+        value = f"m.{spec.name}"
+        if spec.kind is FieldKind.FLOAT:
+            expr = f"_num({value})"
+            checks.append(f"type({value}) is float")
+        elif spec.kind in (FieldKind.INT, FieldKind.ENUM):
+            expr = f"str(int({value}))"
+        elif spec.kind is FieldKind.BOOL:
+            expr = f"('true' if {value} else 'false')"
+        elif spec.kind is FieldKind.STR:
+            expr = f"_json({value})"
+        else:
+            assert spec.array is not None
+            env[f"_enc{i}"] = encoders[spec.name]
+            if _inline(spec.array) and len(spec.array.shape) == 1 and spec.array.dtype.startswith("float"):
+                env[f"_shape{i}"] = tuple(spec.array.shape)
+                env[f"_dtype{i}"] = np.dtype(spec.array.dtype)
+                checks.append(f"type({value}) is np.ndarray and {value}.shape == _shape{i} "
+                              f"and {value}.dtype == _dtype{i}")
+                expr = f"_vector({value})"
+            else:
+                expr = f"_json(_enc{i}({value}), separators=(',', ':'))"
+        pieces.append(f"'{',' if pieces else '{'}{key}:' + {expr}")
+    body = " + ".join(pieces) + " + '}'" if pieces else "'{}'"
+    if checks:
+        lines.append(f"    if not ({' and '.join(checks)}):")
+        lines.append("        return _fallback(m)")
+    lines.append(f"    return ({body}).encode()")
+    exec("\n".join(lines), env)  # noqa: S102 - generated from the field layout above, no user input
+    return env["encode"]
+
+
 class MessageCodec:
     """Encoder/decoder for one message type (built once per type, see :func:`codec_for`)."""
 
@@ -190,6 +249,7 @@ class MessageCodec:
         coders = [_field_coders(spec) for spec in self.fields]
         self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders)]
         self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders)]
+        self._fast_encode = _compile_encoder(self.fields, dict(self._encoders), self._slow_encode)
 
     def to_dict(self, msg: Message) -> dict[str, Any]:
         """The JSON-ready dict of a message."""
@@ -197,6 +257,9 @@ class MessageCodec:
 
     def encode(self, msg: Message) -> bytes:
         """JSON bytes of a message (compact, keys in declaration order)."""
+        return self._fast_encode(msg)
+
+    def _slow_encode(self, msg: Message) -> bytes:
         return json.dumps(self.to_dict(msg), separators=(",", ":"), allow_nan=False).encode()
 
     def from_dict(self, data: Any) -> Message:

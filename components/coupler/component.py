@@ -159,6 +159,9 @@ class WaterCoupler(Component):
         self.dissipated = 0.0
         self.bound = math.inf
         self._prev: dict[str, Any] | None = None  # last published wrench and the state it acts from
+        # idle outputs were published and still hold: publish nothing until the body comes near
+        self.quiet = False
+        self._went_idle = False
 
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
@@ -174,10 +177,11 @@ class WaterCoupler(Component):
         if self._prev is not None:
             prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
         return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
-                "bound": self.bound, "prev": prev}
+                "bound": self.bound, "prev": prev, "quiet": self.quiet}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.rest_level = float(state["rest_level"])
+        self.quiet = bool(state.get("quiet", False))
         self.cell = float(state["cell"])
         self.dissipated = float(state["dissipated"])
         self.bound = float(state["bound"])
@@ -201,10 +205,23 @@ class WaterCoupler(Component):
     # --- stepping ---------------------------------------------------------------------------------
 
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        return self._advance(dt, 1, inputs)
+        return self._publishable(self._advance(dt, 1, inputs))
 
     def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        return self._advance(dt, n, inputs)
+        return self._publishable(self._advance(dt, n, inputs))
+
+    def _publishable(self, outputs: dict[str, Message]) -> dict[str, Message]:
+        """Idle outputs (zero wrench, empty windows, a dry report) are published once when the body
+        moves away from the water and then held by the receivers: a stone in flight costs neither
+        column work nor recorded messages."""
+        if not self._went_idle:
+            self.quiet = False
+            return outputs
+        self._went_idle = False
+        if self.quiet:
+            return {}
+        self.quiet = True
+        return outputs
 
     def _advance(self, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
         body = inputs.get("body")
@@ -428,6 +445,7 @@ class WaterCoupler(Component):
 
     def _idle(self, depth: float) -> dict[str, Message]:
         self.work = {"columns": 0, "elements": 0}
+        self._went_idle = True
         return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
                 "request": self._empty_request, "contact": self._dry_contact(depth)}
 
