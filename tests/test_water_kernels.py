@@ -7,14 +7,20 @@ import pytest
 from scipy.linalg import solve_banded
 
 from components.messages import OccupiedHeight
-from components.water import GaussianBump, WaterParams, WaterSurface
-from components.water import kernels_numba as nb
+from components.water import GaussianBump, WaterParams, WaterSurface, kernels_numba
 from components.water import kernels_numpy as ref
 from components.water.models import thomas_factors
 
 EPS = np.finfo(float).eps
-# one serial and one multi-threaded size (see kernels_numba.PARALLEL_MIN_CELLS)
+# a small and a large grid (the parallel set splits the large one across threads)
 SHAPES = [(7, 5), (190, 200)]
+COMPILED = [kernels_numba.SERIAL, kernels_numba.PARALLEL]
+
+
+@pytest.fixture(params=COMPILED, ids=["serial", "parallel"])
+def nb(request):
+    """Each compiled kernel set in turn."""
+    return request.param
 
 
 def assert_roundoff(a: np.ndarray, b: np.ndarray, ulps: float = 8) -> None:
@@ -28,7 +34,7 @@ def _random(shape, seed=0):
 
 
 @pytest.mark.parametrize("shape", SHAPES)
-def test_wave_uniform_matches_reference(shape):
+def test_wave_uniform_matches_reference(nb, shape):
     """The fused one-coefficient wave step equals the numpy step (padded-edge Laplacian)."""
     h, v = _random(shape)
     out = [np.empty(shape) for _ in range(4)]
@@ -39,7 +45,7 @@ def test_wave_uniform_matches_reference(shape):
 
 
 @pytest.mark.parametrize("shape", SHAPES)
-def test_wave_faces_matches_reference(shape):
+def test_wave_faces_matches_reference(nb, shape):
     """The per-face wave step equals the numpy step, with walls (zero faces) inside."""
     h, v = _random(shape)
     rng = np.random.default_rng(1)
@@ -65,7 +71,7 @@ def test_uniform_and_face_kernels_agree():
 
 @pytest.mark.parametrize("shape", SHAPES)
 @pytest.mark.parametrize("shared", [False, True])
-def test_adi_sweeps_match_reference(shape, shared):
+def test_adi_sweeps_match_reference(nb, shape, shared):
     """Both Kass-Miller sweeps (per-line or shared factors) equal the numpy sweeps."""
     h, v = _random(shape)
     rng = np.random.default_rng(2)
@@ -103,7 +109,7 @@ def test_thomas_factors_solve_the_kass_miller_system():
 
 
 @pytest.mark.parametrize("shape", SHAPES)
-def test_smoothing_sponge_and_one_way_match_reference(shape):
+def test_smoothing_sponge_and_one_way_match_reference(nb, shape):
     """Smoothing, the sponge layer and the one-way edge condition equal their numpy twins."""
     h, v = _random(shape)
     h_old, _ = _random(shape, seed=5)
@@ -143,17 +149,19 @@ CONFIGS = [
 @pytest.mark.parametrize("n", [24, 190])
 @pytest.mark.parametrize("config", CONFIGS, ids=lambda c: "-".join(f"{k}={v}" for k, v in c.items()))
 def test_component_runs_agree_across_kernels(n, config):
-    """A whole run (displacement, model, boundary, smoothing) is the same with either kernel set."""
+    """A whole run (displacement, model, boundary, smoothing) is the same with every kernel set."""
     runs = {}
-    for backend in ("numba", "numpy"):
+    for backend, parallel in (("numba", False), ("numba", True), ("numpy", False)):
         pond = WaterSurface("pond", WaterParams(
-            nx=n, ny=n - 3, cell=0.01, depth=0.2, backend=backend,
+            nx=n, ny=n - 3, cell=0.01, depth=0.2, backend=backend, parallel=parallel,
             initial=GaussianBump(x=0.08, y=0.1, amplitude=0.01, width=0.03), **config))
         dt_ns = round(0.6 * min(pond.max_stable_step(), 0.004) * 1e9)
         for k in range(60):
             b = np.full((3, 4), 1e-4 * k)
             body = OccupiedHeight(i0=4 + k % 3, j0=5, b=b)
             pond.step(k * dt_ns, dt_ns, {"occupied": body, "request": None})
-        runs[backend] = pond.get_state()
-    assert_roundoff(runs["numba"]["h"], runs["numpy"]["h"], ulps=64)
-    assert_roundoff(runs["numba"]["v"], runs["numpy"]["v"], ulps=64)
+        runs[backend, parallel] = pond.get_state()
+    serial, threads, reference = runs.values()
+    assert np.array_equal(serial["h"], threads["h"]) and np.array_equal(serial["v"], threads["v"])
+    assert_roundoff(serial["h"], reference["h"], ulps=64)
+    assert_roundoff(serial["v"], reference["v"], ulps=64)

@@ -55,9 +55,14 @@ def _per_call(fn: Callable[[], None], reps: int) -> float:
     return (time.perf_counter() - t0) / reps
 
 
+KERNEL_SETS = {"numba": dict(backend="numba"), "numba-parallel": dict(backend="numba", parallel=True),
+               "numpy": dict(backend="numpy")}
+
+
 def measure(n: int, model: str, boundary: str, backend: str, *, rounds: int, min_time: float) -> Row:
     """Best seconds per step and per copy of an n x n grid (interleaved rounds)."""
-    params = WaterParams(nx=n, ny=n, cell=0.01, depth=0.5, model=model, boundary=boundary, backend=backend)
+    params = WaterParams(nx=n, ny=n, cell=0.01, depth=0.5, model=model, boundary=boundary,
+                         **KERNEL_SETS[backend])
     pond = WaterSurface("pond", params)
     dt = 0.5 * min(pond.max_stable_step(), 0.01 / np.sqrt(9.81 * 0.5))
     dt_ns = round(dt * NS)
@@ -102,7 +107,7 @@ def markdown(rows: list[Row], command: str) -> str:
     import numba
 
     target = [r for r in rows if r.n == 512 and r.model == "wave" and r.boundary == "reflecting"
-              and r.backend == "numba"]
+              and r.backend == "numba"]  # the default kernels
     verdict = ""
     if target:
         ok = "meets" if target[0].ratio >= 0.40 else "misses"
@@ -119,10 +124,13 @@ def markdown(rows: list[Row], command: str) -> str:
         *table(rows),
         "",
         verdict + "How: the `wave` kernel is one fused pass over memory (read h and v once, write the new "
-        "h and v into spare buffers that then swap), compiled with numba and split by rows over the "
-        f"cores for grids of {PARALLEL_MIN_CELLS} cells or more; it moves the same bytes as the copy. "
-        "`shallow_water` does two tridiagonal sweeps (rows, then columns), each a dependent recurrence, "
-        "so it runs at a fraction of the copy. The `numpy` rows are the reference kernels.",
+        "h and v into spare buffers that then swap), compiled with numba on one thread (`numba`, the "
+        "default): it moves the same bytes as the copy. `numba-parallel` (parameter `parallel: true`) "
+        f"splits the rows of grids of {PARALLEL_MIN_CELLS} cells or more across the cores; it is faster "
+        "on an idle machine but waits for its slowest thread, so on a loaded one a step can stall for "
+        "a scheduler time slice. `shallow_water` does two tridiagonal sweeps (rows, then columns), "
+        "each a dependent recurrence, so it runs at a fraction of the copy. The `numpy` rows are the "
+        "reference kernels (numpy expressions over whole arrays).",
         "",
         f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
         f"numpy {np.__version__}, numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} threads.",
@@ -152,12 +160,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512], help="grid sizes n (n x n)")
     ap.add_argument("--models", nargs="+", default=["wave", "shallow_water"])
     ap.add_argument("--boundaries", nargs="+", default=["reflecting", "absorbing"])
+    ap.add_argument("--parallel", action="store_true", help="also time the multi-threaded compiled kernels")
     ap.add_argument("--numpy", action="store_true", help="also time the numpy reference kernels")
-    ap.add_argument("--rounds", type=int, default=7, help="interleaved rounds (best of)")
-    ap.add_argument("--min-time", type=float, default=0.2, help="seconds per timed batch")
+    ap.add_argument("--rounds", type=int, default=25, help="interleaved rounds (best of)")
+    ap.add_argument("--min-time", type=float, default=0.03, help="seconds per timed batch")
     ap.add_argument("--markdown", type=Path, help="write the results section into this markdown file")
     args = ap.parse_args(argv)
-    backends = ["numba", "numpy"] if args.numpy else ["numba"]
+    backends = ["numba"] + ["numba-parallel"] * args.parallel + ["numpy"] * args.numpy
     rows = []
     for n in args.sizes:
         for model in args.models:

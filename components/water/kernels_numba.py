@@ -2,9 +2,13 @@
 
 Speed comes from doing one pass over memory: the wave step reads h and v once and writes the new
 h and v into the spare buffers (ping-pong), which is the same traffic as copying the two arrays.
-Rows are independent, so large grids split them across threads (``prange``); each cell's arithmetic
-does not depend on the split, so serial and parallel runs agree bit for bit. Small grids run the
-serial twin, since starting threads would cost more than the work.
+
+Two kernel sets share the compiled code: :data:`SERIAL` (one thread, the default) and
+:data:`PARALLEL`, which splits the rows of large grids across threads (``prange``). Each cell's
+arithmetic does not depend on the split, so both agree bit for bit. The parallel set is opt-in:
+on a loaded machine a step waits for its slowest thread, and a descheduled worker can cost a whole
+scheduler time slice (milliseconds), whereas the single-threaded kernel degrades only as much as
+anything else running there.
 
 Compiled code is cached on disk (``cache=True``); the first call in a fresh checkout compiles.
 """
@@ -14,9 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-NAME = "numba"
-
-PARALLEL_MIN_CELLS = 32_768  # grids with fewer cells run single-threaded (thread start-up dominates)
+PARALLEL_MIN_CELLS = 32_768  # smaller grids run single-threaded even in PARALLEL (thread start-up dominates)
 COLUMN_BLOCK = 64  # columns per task in the column (y) sweeps: contiguous rows of this many doubles
 
 
@@ -65,11 +67,6 @@ def _wave_uniform_ser(h, v, h_out, v_out, kdt, dt, damp):  # pragma: no cover - 
         _wave_uniform_row(h, v, h_out, v_out, j, kdt, dt, damp)
 
 
-def wave_uniform(h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
-                 kdt: float, dt: float, damp: float) -> None:
-    """See :func:`components.water.kernels_numpy.wave_uniform`."""
-    fn = _wave_uniform_par if h.size >= PARALLEL_MIN_CELLS else _wave_uniform_ser
-    fn(h, v, h_out, v_out, kdt, dt, damp)
 
 
 # --- the wave step, per-face coefficients ---------------------------------------------------------
@@ -111,11 +108,6 @@ def _wave_faces_ser(h, v, h_out, v_out, ax, ay, dt, damp):  # pragma: no cover -
         _wave_faces_row(h, v, h_out, v_out, ax, ay, j, dt, damp)
 
 
-def wave_faces(h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
-               ax: np.ndarray, ay: np.ndarray, dt: float, damp: float) -> None:
-    """See :func:`components.water.kernels_numpy.wave_faces`."""
-    fn = _wave_faces_par if h.size >= PARALLEL_MIN_CELLS else _wave_faces_ser
-    fn(h, v, h_out, v_out, ax, ay, dt, damp)
 
 
 # --- Kass-Miller alternating-direction sweeps -----------------------------------------------------
@@ -152,11 +144,6 @@ def _adi_x_ser(h, v, dt, out, lower, inv, upper):  # pragma: no cover - compiled
         _adi_x_row(h, v, dt, out, lower, inv, upper, j)
 
 
-def adi_x(h: np.ndarray, v: np.ndarray, dt: float, out: np.ndarray,
-          lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
-    """See :func:`components.water.kernels_numpy.adi_x`."""
-    fn = _adi_x_par if h.size >= PARALLEL_MIN_CELLS else _adi_x_ser
-    fn(h, v, dt, out, lower, inv, upper)
 
 
 @njit(cache=True, inline="always")
@@ -212,11 +199,6 @@ def _adi_y_ser(h, dt, damp, out, v_out, lower, inv, upper, block):  # pragma: no
         _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, b * block, min(nx, (b + 1) * block))
 
 
-def adi_y(h: np.ndarray, dt: float, damp: float, out: np.ndarray, v_out: np.ndarray,
-          lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
-    """See :func:`components.water.kernels_numpy.adi_y`."""
-    fn = _adi_y_par if h.size >= PARALLEL_MIN_CELLS else _adi_y_ser
-    fn(h, dt, damp, out, v_out, lower, inv, upper, COLUMN_BLOCK)
 
 
 # --- smoothing and the absorbing layer ------------------------------------------------------------
@@ -237,10 +219,6 @@ def _smooth_ser(h, h_out, wx, wy, f):  # pragma: no cover - compiled
             h_out[j, i] = h[j, i] + g * _flux_row(h, wx, wy, j, i)
 
 
-def smooth(h: np.ndarray, h_out: np.ndarray, wx: np.ndarray, wy: np.ndarray, f: float) -> None:
-    """See :func:`components.water.kernels_numpy.smooth`."""
-    fn = _smooth_par if h.size >= PARALLEL_MIN_CELLS else _smooth_ser
-    fn(h, h_out, wx, wy, f)
 
 
 @njit(cache=True, inline="always")
@@ -265,9 +243,6 @@ def _sponge(h, v, sx, sy, width, dt):  # pragma: no cover - compiled
                 _sponge_cell(h, v, sx, sy, j, i, dt)
 
 
-def sponge(h: np.ndarray, v: np.ndarray, sx: np.ndarray, sy: np.ndarray, width: int, dt: float) -> None:
-    """See :func:`components.water.kernels_numpy.sponge`."""
-    _sponge(h, v, sx, sy, width, dt)
 
 
 @njit(cache=True)
@@ -298,8 +273,58 @@ def _one_way(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt):  # pragma: no co
             v[ny - 1, i] = (h[ny - 1, i] - h_old[ny - 1, i]) / dt
 
 
-def one_way(h_old: np.ndarray, h: np.ndarray, v: np.ndarray, kl: np.ndarray, kr: np.ndarray,
-            kb: np.ndarray, kt: np.ndarray, ol: np.ndarray, orr: np.ndarray, ob: np.ndarray,
-            ot: np.ndarray, dt: float) -> None:
-    """See :func:`components.water.kernels_numpy.one_way`."""
-    _one_way(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt)
+class NumbaKernels:
+    """The compiled kernel set (same functions as :mod:`components.water.kernels_numpy`)."""
+
+    def __init__(self, name: str, parallel: bool):
+        self.NAME = name
+        self.parallel = parallel
+
+    def _threads(self, h: np.ndarray) -> bool:
+        return self.parallel and h.size >= PARALLEL_MIN_CELLS
+
+    def wave_uniform(self, h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
+                     kdt: float, dt: float, damp: float) -> None:
+        """See :func:`components.water.kernels_numpy.wave_uniform`."""
+        fn = _wave_uniform_par if self._threads(h) else _wave_uniform_ser
+        fn(h, v, h_out, v_out, kdt, dt, damp)
+
+    def wave_faces(self, h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
+                   ax: np.ndarray, ay: np.ndarray, dt: float, damp: float) -> None:
+        """See :func:`components.water.kernels_numpy.wave_faces`."""
+        fn = _wave_faces_par if self._threads(h) else _wave_faces_ser
+        fn(h, v, h_out, v_out, ax, ay, dt, damp)
+
+    def adi_x(self, h: np.ndarray, v: np.ndarray, dt: float, out: np.ndarray,
+              lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
+        """See :func:`components.water.kernels_numpy.adi_x`."""
+        fn = _adi_x_par if self._threads(h) else _adi_x_ser
+        fn(h, v, dt, out, lower, inv, upper)
+
+    def adi_y(self, h: np.ndarray, dt: float, damp: float, out: np.ndarray, v_out: np.ndarray,
+              lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
+        """See :func:`components.water.kernels_numpy.adi_y`."""
+        fn = _adi_y_par if self._threads(h) else _adi_y_ser
+        fn(h, dt, damp, out, v_out, lower, inv, upper, COLUMN_BLOCK)
+
+    def smooth(self, h: np.ndarray, h_out: np.ndarray, wx: np.ndarray, wy: np.ndarray, f: float) -> None:
+        """See :func:`components.water.kernels_numpy.smooth`."""
+        fn = _smooth_par if self._threads(h) else _smooth_ser
+        fn(h, h_out, wx, wy, f)
+
+    def sponge(self, h: np.ndarray, v: np.ndarray, sx: np.ndarray, sy: np.ndarray, width: int,
+               dt: float) -> None:
+        """See :func:`components.water.kernels_numpy.sponge`."""
+        _sponge(h, v, sx, sy, width, dt)
+
+    def one_way(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, kl: np.ndarray, kr: np.ndarray,
+                kb: np.ndarray, kt: np.ndarray, ol: np.ndarray, orr: np.ndarray, ob: np.ndarray,
+                ot: np.ndarray, dt: float) -> None:
+        """See :func:`components.water.kernels_numpy.one_way`."""
+        _one_way(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt)
+
+
+SERIAL = NumbaKernels("numba", parallel=False)
+"""Compiled kernels on one thread (the default)."""
+PARALLEL = NumbaKernels("numba", parallel=True)
+"""Compiled kernels splitting large grids across threads (``parallel: true``)."""

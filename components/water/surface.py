@@ -42,7 +42,7 @@ from cosim.messages import Message
 from cosim.params import param
 from cosim.timebase import NS_PER_S
 
-KERNELS: dict[str, Any] = {k.NAME: k for k in (kernels_numba, kernels_numpy)}
+KERNELS: dict[str, Any] = {"numba": kernels_numba.SERIAL, "numpy": kernels_numpy}
 """Kernel sets by name: the compiled one and the pure-numpy reference."""
 
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
@@ -88,6 +88,7 @@ class WaterParams:
     field_every: int = param(0, ge=0, doc="publish the whole field every N steps (0: never)")
     field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
     backend: str = param("numba", doc="numba (compiled) or numpy (reference)")
+    parallel: bool = param(False, doc="compiled kernels split large grids across threads")
 
     def check(self) -> list[tuple[str, str]]:
         """Rules across fields and registry names, as (field, problem) pairs."""
@@ -140,7 +141,7 @@ class WaterSurface(Component):
         self.grid = g = build_grid(p.nx, p.ny, p.cell, p.depth, origin_x=p.origin_x, origin_y=p.origin_y,
                                    rest_level=p.rest_level, bottom_slope=p.bottom_slope,
                                    wave_speed=p.wave_speed)
-        self.kernels = KERNELS[p.backend]
+        self.kernels = kernels_numba.PARALLEL if p.parallel and p.backend == "numba" else KERNELS[p.backend]
         self.boundary = BOUNDARIES[p.boundary](g, self.kernels, p.sponge_cells)
         self.model = MODELS[p.model](g, self.kernels, p.damping, closed=self.boundary.conserves_volume)
         self._wx = np.ascontiguousarray((g.kx > 0).astype(np.float64))

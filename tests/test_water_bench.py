@@ -1,0 +1,46 @@
+"""The water benchmark script runs and writes its own section of docs/performance.md."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+TOOL = Path(__file__).resolve().parent.parent / "tools" / "bench_water.py"
+
+
+def load_tool():
+    spec = importlib.util.spec_from_file_location("bench_water", TOOL)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_benchmark_prints_and_writes_its_section(tmp_path, capsys):
+    """A tiny run prints the table and writes the section with the reproducing command."""
+    bench = load_tool()
+    doc = tmp_path / "performance.md"
+    args = ["--sizes", "16", "--models", "wave", "shallow_water", "--boundaries", "reflecting",
+            "--rounds", "1", "--min-time", "0.001", "--numpy", "--markdown", str(doc)]
+    assert bench.main(args) == 0
+    out = capsys.readouterr().out
+    assert "| 16 x 16 | wave | reflecting | numba |" in out
+    text = doc.read_text()
+    assert text.startswith(bench.SECTION + "\n")
+    assert "| 16 x 16 | shallow_water | reflecting | numpy |" in text
+    assert "Reproduce: `python tools/bench_water.py --sizes 16" in text
+
+
+def test_section_is_replaced_in_place(tmp_path):
+    """Rewriting keeps the other sections of the file, before and after, untouched."""
+    bench = load_tool()
+    doc = tmp_path / "performance.md"
+    doc.write_text("# Performance\n\n## Framework overhead\n\nold a\n\n"
+                   f"{bench.SECTION}\n\nold table\n\n## Reference skip\n\nold b\n")
+    bench.write_section(doc, f"{bench.SECTION}\n\nnew table\n")
+    text = doc.read_text()
+    assert text == ("# Performance\n\n## Framework overhead\n\nold a\n\n"
+                    f"{bench.SECTION}\n\nnew table\n\n## Reference skip\n\nold b\n")
+    bench.write_section(tmp_path / "new.md", f"{bench.SECTION}\n\nx\n")
+    assert (tmp_path / "new.md").read_text() == f"{bench.SECTION}\n\nx\n"
