@@ -48,7 +48,7 @@ WAVE_SCALE = 0.004  # [m]: heights this far from the mean level take the end col
 COLOR_LEVELS = 32  # shades per WAVE_SCALE of height
 WATER_STOPS = (  # (height above mean / WAVE_SCALE, colour)
     (-1.0, (0.03, 0.16, 0.38, 0.9)),
-    (0.0, (0.10, 0.38, 0.68, 0.85)),
+    (0.0, (0.16, 0.46, 0.76, 0.85)),
     (1.0, (0.88, 0.95, 1.00, 0.95)),
 )
 

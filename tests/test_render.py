@@ -120,8 +120,10 @@ def test_the_disk_is_drawn_turned_by_its_quaternion():
     body = BodyTrack("/s/state", np.zeros(1), state.position[None], state.velocity[None],
                      state.orientation[None], np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
                      int(state.shape), state.radius, state.thickness, state.mass)
-    top = body_polygons(body, state.position, state.orientation)[0]
-    normal = np.cross(top[1] - top[0], top[2] - top[0])
+    polys = body_polygons(body, state.position, state.orientation)
+    assert {len(poly) for poly in polys} == {3}
+    top = np.concatenate(polys[0::4])  # the top face's triangles
+    normal = np.cross(polys[0][1] - polys[0][0], polys[0][2] - polys[0][0])
     normal /= np.linalg.norm(normal)
     assert np.isclose(np.degrees(np.arccos(abs(normal[2]))), 30.0)
     axis = rotation_matrix(state.orientation)[:, 2]

@@ -43,9 +43,12 @@ FORMATS = (".gif", ".mp4", ".png")
 ASPECT = 9 / 16  # frame height / width
 DPI = 100
 DISK_SEGMENTS = 36  # polygon sides of a drawn disk
-LIGHT = LightSource(azdeg=315, altdeg=50)
+LIGHT_AZIMUTH_DEG, LIGHT_ALTITUDE_DEG = 315.0, 50.0  # [deg] light from the north-west, 50 deg up
+LIGHT = LightSource(azdeg=LIGHT_AZIMUTH_DEG, altdeg=LIGHT_ALTITUDE_DEG)
+SHADE_STRENGTH = 0.5  # how much slopes darken or brighten the water (0: flat colours)
 WATER_SHADE_EXAGGERATION = 30.0  # hill-shading slopes are exaggerated this much (shading only)
 FIXED_MIN_ZRATIO = 0.25  # fixed view: the box is at least this tall relative to its length
+FOLLOW_HEIGHT = 0.3  # follow view: height of the box relative to its length
 BOX_ZOOM = 1.3  # the 3D box fills more of the frame than matplotlib's default
 REST_COLOR = tuple(water_colors(np.zeros(1))[0])
 MARKER_COLOR = (0.95, 0.45, 0.05)  # fixed view: the dot marking the stone, which is small there
@@ -104,8 +107,12 @@ def body_polygons(body: BodyTrack, position: np.ndarray, orientation: np.ndarray
         ring = np.column_stack([r * np.cos(a), r * np.sin(a), np.zeros_like(a)])
         lift = np.array([0.0, 0.0, h])
         top, bottom = ring + lift, ring - lift
-        polys = [top, bottom[::-1]]
-        polys += [np.array([bottom[i], bottom[i - 1], top[i - 1], top[i]]) for i in range(DISK_SEGMENTS)]
+        # triangles only: polygons of mixed sizes make matplotlib pad them with uninitialised memory
+        polys = []
+        for i in range(DISK_SEGMENTS):
+            j = i - 1
+            polys += [np.array([lift, top[j], top[i]]), np.array([-lift, bottom[i], bottom[j]]),
+                      np.array([bottom[j], bottom[i], top[i]]), np.array([bottom[j], top[i], top[j]])]
     else:
         lat = np.linspace(-math.pi / 2, math.pi / 2, 10)
         lon = np.linspace(0, 2 * math.pi, 19)
@@ -140,6 +147,22 @@ def crop_field(field: WaterField, x: tuple[float, float], y: tuple[float, float]
     return gx, gy, field.height[np.ix_(rj, ci)]
 
 
+def hill_shade(gx: np.ndarray, gy: np.ndarray, gz: np.ndarray) -> np.ndarray:
+    """Brightness factors (ny, nx) of a surface lit from the north-west: 1 where it is level, lower on
+    slopes facing away from the light, higher facing it. Slopes are exaggerated
+    :data:`WATER_SHADE_EXAGGERATION` times so millimetre waves show; the scale is absolute (a still
+    surface is evenly lit), unlike a hill shade normalised per image."""
+    if min(gz.shape) < 2:
+        return np.ones(gz.shape)
+    dzdy, dzdx = np.gradient(gz * WATER_SHADE_EXAGGERATION, gy[:, 0], gx[0, :])
+    normal = np.stack([-dzdx, -dzdy, np.ones_like(gz)], axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    az, alt = np.radians(LIGHT_AZIMUTH_DEG), np.radians(LIGHT_ALTITUDE_DEG)
+    light = np.array([np.cos(alt) * np.sin(az), np.cos(alt) * np.cos(az), np.sin(alt)])
+    lit = np.clip(normal @ light, 0.0, 1.0) / np.sin(alt)
+    return 1.0 + SHADE_STRENGTH * (lit - 1.0)
+
+
 # --- frames ---------------------------------------------------------------------------------------
 
 class _FieldCursor:
@@ -164,6 +187,12 @@ class _View:
     x: tuple[float, float]
     y: tuple[float, float]
     z: tuple[float, float]
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Which points (N, 3) lie inside the view box."""
+        lo = np.array([self.x[0], self.y[0], self.z[0]])
+        hi = np.array([self.x[1], self.y[1], self.z[1]])
+        return np.all((points >= lo) & (points <= hi), axis=1)
 
     @property
     def box(self) -> tuple[float, float, float]:
@@ -212,11 +241,14 @@ class FrameRenderer:
         return _View((x0 - pad, x1 + pad), (yc - yhalf, yc + yhalf), (z0, z1))
 
     def _follow_view(self, centre: np.ndarray) -> _View:
-        span, r = self.options.span, self.body.radius
-        z0 = min(self.rest, self._zmin) - 0.1 * span
-        z1 = max(self.rest + 0.2 * span, self._zmax + 2 * r)
+        """A span x 0.6 span x 0.3 span box around the stone: the water level a third of the way up
+        while the stone is near it, shifted with the stone when it flies higher or sinks deeper."""
+        span = self.options.span
+        height, margin = FOLLOW_HEIGHT * span, 0.05 * span
+        z0 = min(self.rest - height / 3, centre[2] - margin)
+        z0 = max(z0, centre[2] + margin - height)
         return _View((centre[0] - span / 2, centre[0] + span / 2),
-                     (centre[1] - 0.3 * span, centre[1] + 0.3 * span), (z0, z1))
+                     (centre[1] - 0.3 * span, centre[1] + 0.3 * span), (z0, z0 + height))
 
     def stage_at(self, t: float) -> int:
         if self.stages is None or not len(self.stages[0]):
@@ -242,7 +274,8 @@ class FrameRenderer:
         ax.set_box_aspect(box, zoom=BOX_ZOOM)
 
         self._draw_water(field, field_mean, view)
-        trail = body.position[: i + 1]
+        trail = body.position[: i + 1].copy()
+        trail[~view.contains(trail)] = np.nan  # mplot3d does not clip lines to the box
         (line,) = ax.plot(trail[:, 0], trail[:, 1], trail[:, 2], color=TRAIL_COLOR, linewidth=0.9, zorder=2)
         self._artists.append(line)
         stone = Poly3DCollection(body_polygons(body, pos, quat), facecolors=[STONE_RGB],
@@ -269,18 +302,20 @@ class FrameRenderer:
 
     def _draw_water(self, field: WaterField | None, field_mean: float, view: _View) -> None:
         grid = crop_field(field, view.x, view.y) if field is not None else None
+        if grid is not None and (grid[2].max() < view.z[0] or grid[2].min() > view.z[1]):
+            return  # the view is wholly above or below the water
         if grid is None:
+            if not view.z[0] <= self.rest <= view.z[1]:
+                return
             gx, gy = np.meshgrid(np.linspace(*view.x, 2), np.linspace(*view.y, 2))
             gz = np.full(gx.shape, self.rest)
             colors = np.broadcast_to(np.array(REST_COLOR), (*gx.shape, 4))
         else:
             gx, gy, gz = grid
             colors = water_colors(gz.ravel() - field_mean).reshape(*gz.shape, 4)
-            if min(gz.shape) >= 3:
-                dx = float(gx[0, 1] - gx[0, 0]) if gx.shape[1] > 1 else 1.0
-                rgb = LIGHT.shade_rgb(colors[..., :3], gz, vert_exag=WATER_SHADE_EXAGGERATION, dx=dx, dy=dx,
-                                      blend_mode="soft")
-                colors = np.concatenate([rgb, colors[..., 3:]], axis=-1)
+            shade = hill_shade(gx, gy, gz)
+            rgb = np.clip(colors[..., :3] * shade[..., None], 0.0, 1.0)
+            colors = np.concatenate([rgb, colors[..., 3:]], axis=-1)
         surface = self.ax.plot_surface(gx, gy, gz, facecolors=colors, rstride=1, cstride=1, linewidth=0,
                                        antialiased=False, shade=False, zorder=1)
         self._artists.append(surface)
@@ -319,7 +354,7 @@ class _GifWriter(_Writer):
         self.frames: list[Image.Image] = []
 
     def add(self, rgb: np.ndarray) -> None:
-        self.frames.append(Image.fromarray(rgb).quantize(colors=256, method=Image.Quantize.MEDIANCUT))
+        self.frames.append(Image.fromarray(rgb).quantize(colors=256, method=Image.Quantize.FASTOCTREE))
 
     def finish(self) -> None:
         first, *rest = self.frames
