@@ -7,13 +7,16 @@ For each grid size and model, the script times ``WaterSurface.step`` (the whole 
 scheduler calls: model, boundary, an empty patch; no field) and, interleaved with it, copying the
 state arrays h and v into two other arrays of the same shape (``np.copyto``). Throughput is cells
 per second; the ratio step / copy is what the design target is about (the `wave` step at 512 x 512
-at >= 40% of the copy). Each figure is the best of several rounds, the rounds alternating between
-the step and the copy, so both see the same machine load. Compiled kernels are warmed up first.
+at >= 40% of the copy). The rounds alternate a short batch of copies and a short batch of steps;
+the ratio reported is the median over rounds of copy time / step time within the round (adjacent
+batches see the same machine load, so the ratio survives a shared, noisy machine), the absolute
+figures are the best batch of each. Compiled kernels are warmed up first.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import sys
 import time
@@ -38,14 +41,11 @@ class Row:
     backend: str
     step_s: float
     copy_s: float
+    ratio: float
 
     @property
     def cells(self) -> int:
         return self.n * self.n
-
-    @property
-    def ratio(self) -> float:
-        return self.copy_s / self.step_s
 
 
 def _per_call(fn: Callable[[], None], reps: int) -> float:
@@ -86,16 +86,17 @@ def measure(n: int, model: str, boundary: str, backend: str, *, rounds: int, min
         copy()
     reps_step = max(1, int(min_time / max(_per_call(step, 1), 1e-7)))
     reps_copy = max(1, int(min_time / max(_per_call(copy, 1), 1e-7)))
-    best_step = best_copy = float("inf")
+    copies, steps = [], []
     for _ in range(rounds):
-        best_copy = min(best_copy, _per_call(copy, reps_copy))
-        best_step = min(best_step, _per_call(step, reps_step))
-    return Row(n, model, boundary, backend, best_step, best_copy)
+        copies.append(_per_call(copy, reps_copy))
+        steps.append(_per_call(step, reps_step))
+    ratio = float(np.median(np.array(copies) / np.array(steps)))
+    return Row(n, model, boundary, backend, min(steps), min(copies), ratio)
 
 
 def table(rows: list[Row]) -> list[str]:
     lines = ["| grid | model | boundary | kernels | step [us] | step [Mcells/s] | copy h, v [Mcells/s] "
-             "| step / copy |",
+             "| step / copy (median) |",
              "|---|---|---|---|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r.n} x {r.n} | {r.model} | {r.boundary} | {r.backend} | {r.step_s * 1e6:.0f} "
@@ -103,7 +104,7 @@ def table(rows: list[Row]) -> list[str]:
     return lines
 
 
-def markdown(rows: list[Row], command: str) -> str:
+def markdown(rows: list[Row], command: str, load: tuple[float, float]) -> str:
     import numba
 
     target = [r for r in rows if r.n == 512 and r.model == "wave" and r.boundary == "reflecting"
@@ -118,8 +119,10 @@ def markdown(rows: list[Row], command: str) -> str:
         "",
         "Throughput of one `WaterSurface.step` (model, boundary, an empty patch; no field published) "
         "beside the throughput of copying the same two arrays h and v (`np.copyto`), measured in the "
-        "same run, rounds interleaved, best of each. Cells per second = nx * ny / (seconds per step). "
-        "Ratios are the figure to compare across machines; absolute numbers vary with load.",
+        "same run: short batches of copies and of steps alternate, the ratio is the median over the "
+        "rounds of (copy time / step time) within a round, the absolute figures the best batch of "
+        "each. Cells per second = nx * ny / (seconds per step). The ratio is the figure to compare; "
+        "absolute numbers vary with the machine and its load.",
         "",
         *table(rows),
         "",
@@ -132,8 +135,9 @@ def markdown(rows: list[Row], command: str) -> str:
         "each a dependent recurrence, so it runs at a fraction of the copy. The `numpy` rows are the "
         "reference kernels (numpy expressions over whole arrays).",
         "",
-        f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-        f"numpy {np.__version__}, numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} threads.",
+        f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}; "
+        f"load average {load[0]:.1f} at the start, {load[1]:.1f} at the end (other jobs were running).",
         "",
         f"Reproduce: `{command}`",
         "",
@@ -162,11 +166,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--boundaries", nargs="+", default=["reflecting", "absorbing"])
     ap.add_argument("--parallel", action="store_true", help="also time the multi-threaded compiled kernels")
     ap.add_argument("--numpy", action="store_true", help="also time the numpy reference kernels")
-    ap.add_argument("--rounds", type=int, default=25, help="interleaved rounds (best of)")
-    ap.add_argument("--min-time", type=float, default=0.03, help="seconds per timed batch")
+    ap.add_argument("--rounds", type=int, default=41, help="interleaved rounds (median ratio, best times)")
+    ap.add_argument("--min-time", type=float, default=0.01, help="seconds per timed batch")
     ap.add_argument("--markdown", type=Path, help="write the results section into this markdown file")
     args = ap.parse_args(argv)
     backends = ["numba"] + ["numba-parallel"] * args.parallel + ["numpy"] * args.numpy
+    load_start = os.getloadavg()[0]
     rows = []
     for n in args.sizes:
         for model in args.models:
@@ -180,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.markdown is not None:
         given = argv if argv is not None else sys.argv[1:]
         command = "python tools/bench_water.py " + " ".join(given)
-        write_section(args.markdown, markdown(rows, command.strip()))
+        write_section(args.markdown, markdown(rows, command.strip(), (load_start, os.getloadavg()[0])))
         print(f"\nwrote {args.markdown}")
     return 0
 

@@ -246,9 +246,9 @@ class WaterSurface(Component):
         occupied = inputs.get("occupied")
         if occupied is not None:
             self.apply_occupied(occupied)  # type: ignore[arg-type]
-        h = dt / n
+        sub = dt / n
         for _ in range(n):
-            self.advance(h)
+            self.advance(sub)
         self._steps += 1
         return self._outputs(t + dt, inputs.get("request"))  # type: ignore[arg-type]
 
