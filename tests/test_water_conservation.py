@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from components.messages import OccupiedHeight
 from components.water import GaussianBump, WaterParams, WaterSurface
@@ -91,3 +93,23 @@ def test_smoothing_and_damping_keep_the_volume():
         p.step(k * dt_ns, dt_ns, {})
     assert abs(p.volume() - v0) <= 1e-12 * v0
     assert p.energy() < 1e-3 * pond().energy()
+
+
+window = st.tuples(st.integers(-6, 30), st.integers(-6, 26), st.integers(0, 7), st.integers(0, 7),
+                   st.floats(0.0, 0.02))
+
+
+@settings(max_examples=60, deadline=None)
+@given(windows=st.lists(window, min_size=1, max_size=12), passes=st.integers(0, 2),
+       model=st.sampled_from(list(MODELS)))
+def test_any_sequence_of_occupied_windows_keeps_the_volume(windows, passes, model):
+    """Whatever windows bodies occupy (moving, resizing, partly off the grid), the volume is kept."""
+    p = WaterSurface("pond", WaterParams(nx=24, ny=20, cell=0.01, depth=0.1, model=model,
+                                         displacement_smoothing=passes))
+    v0 = p.volume()
+    dt_ns = dt_ns_of(p)
+    rng = np.random.default_rng(len(windows))
+    for k, (i0, j0, ni, nj, top) in enumerate(windows):
+        b = top * rng.random((nj, ni))
+        p.step(k * dt_ns, dt_ns, {"occupied": OccupiedHeight(i0=i0, j0=j0, b=b)})
+        assert abs(p.volume() - v0) <= 1e-12 * v0
