@@ -9,11 +9,16 @@ Stages (Tsai et al. 2022 names), decided from the body state and the contact rep
   least ``takeoff_clearance`` (one skip counted); a contact that flickers while the stone still grazes
   the surface is the same contact, not a new skip;
 - sink: fully submerged, or touching water too slowly to leave (horizontal speed below
-  ``sink_speed``); final;
+  ``sink_speed``); final, except that a sunk stone can come to rest on the bottom;
 - rest: on the solid ground and (nearly) still.
 
+Leaving the pond is an outcome, not a stage: the coupler exerts nothing where the water's grid has
+no columns and then reports the depth of the lowest point below the rest level, so a stone that is
+dry while below the water level has nothing under it. After ``outside_after`` of that the monitor
+ends the run ("left the pond") instead of letting the stone fall forever.
+
 The monitor publishes a :class:`Stage` only when the stage changes and a :class:`SkipRecord` at each
-fly-away, and can end the run a little after the stone sinks or comes to rest.
+fly-away, and can end the run a little after the stone sinks, comes to rest or leaves the pond.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from cosim.params import param
 
 FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
 STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
+LEFT_POND = "left-pond"  # the outcome (and timeline label) of a stone that left the water's grid
 
 
 @dataclass
@@ -47,12 +53,16 @@ class SkipTracker:
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
              sink_speed: float, rest_speed: float, clearance: float = 0.0) -> StageId:
     """The stage now, from the previous stage and this step's body and contact reports."""
-    if previous is StageId.SINK:
-        return StageId.SINK
-    vz = float(body.velocity[2])
-    horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if ground is not None and ground.in_contact and body.speed < rest_speed:
         return StageId.REST
+    # sinking is final, but a sunk stone can come to rest on the bottom; in the water that is final
+    # too (a stone settling on the bottom rocks a little faster than rest_speed now and then)
+    if previous is StageId.SINK:
+        return StageId.SINK
+    if previous is StageId.REST and water is not None and water.wetted:
+        return StageId.REST
+    vz = float(body.velocity[2])
+    horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if water is not None and water.wetted:
         if water.submerged_fraction >= FULLY_SUBMERGED or horizontal < sink_speed:
             return StageId.SINK
@@ -79,6 +89,9 @@ class StageMonitor(Component):
                                   doc="end the run this long after sink or rest (0: never stop)")
         takeoff_clearance: float = param(0.002, unit="m", ge=0,
                                          doc="a contact ends when the lowest point is this far above the surface")
+        outside_after: float = param(0.05, unit="s", ge=0,
+                                     doc="dry while below the water level this long: the stone left the pond "
+                                         "(longer than the water's start-up lag; 0: never decided)")
 
     inputs = {
         "body": Port(BodyState, "the stone's state", required=True),
@@ -94,6 +107,8 @@ class StageMonitor(Component):
         self.timeline: list[tuple[float, str]] = []
         self.records: list[SkipRecord] = []
         self.final_x = math.nan
+        self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
+        self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
         body: BodyState = inputs["body"]  # type: ignore[assignment]
@@ -127,7 +142,25 @@ class StageMonitor(Component):
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.REST)
                 and now - self.since >= self.params.stop_after):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
+        self._check_outside(now, body, water)
         return outputs
+
+    def _check_outside(self, now: float, body: BodyState, water: WaterContact | None) -> None:
+        """Decide that the stone left the pond: dry with its lowest point below the water level for
+        ``outside_after`` (inside the grid such a point is under water, hence wetted)."""
+        if self.params.outside_after <= 0 or not math.isnan(self.left_at):
+            return
+        if water is None or water.wetted or not water.depth > 0.0:
+            self.outside_since = math.nan
+            return
+        if math.isnan(self.outside_since):
+            self.outside_since = now
+        if now - self.outside_since >= self.params.outside_after:
+            self.left_at = now
+            self.timeline.append((now, LEFT_POND))
+            x, y = float(body.position[0]), float(body.position[1])
+            self.request_stop(f"stone left the pond at x = {x:.3g} m, y = {y:.3g} m (no water under it "
+                              f"since t = {self.outside_since:.4g} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
         track = self.track
@@ -144,9 +177,11 @@ class StageMonitor(Component):
         return record
 
     def get_state(self) -> dict[str, Any]:
-        return {"stage": None if self.stage is None else int(self.stage), "since": self.since, "track": vars(self.track).copy(),
+        return {"stage": None if self.stage is None else int(self.stage), "since": self.since,
+                "track": vars(self.track).copy(),
                 "timeline": [list(e) for e in self.timeline], "final_x": self.final_x,
-                "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records]}
+                "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
+                "outside_since": self.outside_since, "left_at": self.left_at}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.stage = None if state["stage"] is None else StageId(state["stage"])
@@ -155,6 +190,8 @@ class StageMonitor(Component):
         self.timeline = [(t, label) for t, label in state["timeline"]]
         self.final_x = state["final_x"]
         self.records = [SkipRecord(*row) for row in state["records"]]
+        self.outside_since = float(state.get("outside_since", math.nan))
+        self.left_at = float(state.get("left_at", math.nan))
 
     def metrics(self) -> dict[str, float | int | str]:
         start = self.track.start_x
@@ -162,18 +199,23 @@ class StageMonitor(Component):
         return {
             "skips": self.track.skips,
             "distance": self.final_x - start if not math.isnan(start) else math.nan,
-            "outcome": STAGE_NAMES[self.stage] if self.stage is not None else "none",
+            "outcome": self._outcome(),
             "first_contact_time": contact[0] if contact else math.nan,
             "mean_contact_time": sum(contact) / len(contact) if contact else math.nan,
             "skip_distances": " ".join(f"{r.distance:.4f}" for r in self.records),
         }
+
+    def _outcome(self) -> str:
+        if not math.isnan(self.left_at):
+            return LEFT_POND
+        return STAGE_NAMES[self.stage] if self.stage is not None else "none"
 
     def summary(self) -> list[str]:
         lines = [f"stages: {' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)}"]
         start = self.track.start_x
         travelled = self.final_x - start if not math.isnan(start) else math.nan
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled:.2f} m; "
-                     f"final stage: {STAGE_NAMES[self.stage] if self.stage is not None else 'none'}")
+                     f"final stage: {self._outcome()}")
         for r in self.records:
             lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {r.touchdown_time:.3f} s; "
                          f"contact {r.contact_time * 1e3:.1f} ms; take-off {r.takeoff_angle_deg:.1f} deg; "

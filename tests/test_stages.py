@@ -99,3 +99,51 @@ def test_grazing_flicker_is_one_contact():
     assert labels == ["approach", "hit", "slide", "fly-away"]
     skips = [o["skip"] for o in out if "skip" in o]
     assert len(skips) == 1 and skips[0].contact_time == pytest.approx(0.003)
+
+
+def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
+    """Dry while the lowest point is below the water level for outside_after: the stone left the pond,
+    the run stops and the outcome says so (the skips so far are kept)."""
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003))
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
+        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
+        (body(0.6, 0.01, 5.0, 0.5), water(False, depth=-0.01), None),  # fly-away: one skip
+        (body(0.8, -0.01, 5.0, -0.5), water(False, depth=0.004), None),  # off the grid, below the level
+        (body(0.9, -0.02, 5.0, -0.6), water(False, depth=0.014), None),
+        (body(1.0, -0.03, 5.0, -0.7), water(False, depth=0.024), None),
+        (body(1.1, -0.04, 5.0, -0.8), water(False, depth=0.034), None),
+    ]
+    drive(m, script)
+    assert m.stop_reason is not None and "left the pond at x = 1.1 m" in m.stop_reason
+    metrics = m.metrics()
+    assert metrics["outcome"] == "left-pond" and metrics["skips"] == 1
+    assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
+
+
+def test_a_short_dry_spell_below_the_level_is_not_leaving():
+    """A body that starts under water is dry until the water's first patch arrives: shorter than
+    outside_after, so nothing is decided."""
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003))
+    script = [(body(0.0, -0.2, 0.0, 0.0), water(False, depth=0.2), None)] * 2
+    script += [(body(0.0, -0.2, 0.0, -0.1), water(True, 1.0, depth=0.2), None)] * 4
+    drive(m, script)
+    assert m.stop_reason is None or "left" not in m.stop_reason
+    assert m.metrics()["outcome"] == "sink"
+
+
+def test_a_sunk_stone_comes_to_rest_on_the_bottom():
+    """sink -> rest once the stone is still on the ground; a settling wobble under water stays at rest."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0))
+    touching = GroundContact(True, 1.0, 0.0, False, 0.0)
+    script = [
+        (body(0.0, 0.01, 0.0, -0.5), water(True, 0.5), None),
+        (body(0.0, -0.2, 0.0, -0.4), water(True, 1.0), None),
+        (body(0.0, -0.497, 0.0, -0.001), water(True, 1.0), touching),
+        (body(0.0, -0.497, 0.0, -0.02), water(True, 1.0), touching),  # a wobble while settling
+        (body(0.0, -0.497, 0.0, -0.001), water(True, 1.0), touching),
+    ]
+    out = drive(m, script)
+    labels = [o["stage"].label for o in out if "stage" in o]
+    assert labels == ["sink", "rest"]
+    assert m.metrics()["outcome"] == "rest"
