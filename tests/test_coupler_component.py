@@ -280,3 +280,27 @@ def test_lock_attitude_predictor_keeps_the_orientation():
     out = c._substep(0.0, 1e-3, 4, {"body": b, "water": still_water()})
     assert out["wrench"].torque.any()
     assert c.get_state()["prev"]["position"].tolist() == b.position.tolist()
+
+
+def test_a_body_held_still_in_the_water_makes_no_waves_after_it_is_put_in():
+    """The ring carries the volume below the rest level, so waves running under a body held half
+    in the water do not change what it displaces: the water's energy stays at what the insertion
+    gave it (measured against the local surface, the loop pumped it up twofold every half second)."""
+    from components.water import WaterParams, WaterSurface
+
+    pond = WaterSurface("pond", WaterParams(nx=40, ny=40, cell=0.01, depth=0.2,
+                                            origin_x=-0.195, origin_y=-0.195))
+    coupler = WaterCoupler("c", WaterCouplerParams(effects=["displacement", "buoyancy"]))
+    disk = body(position=(0.0, 0.0, 0.0), thickness=0.02, density=500.0)
+    dt_ns = 1_000_000
+    patch = pond.step(0, dt_ns, {})["patch"]
+    held = coupler.initial_outputs()  # a port that did not change publishes nothing: hold its value
+    energy = []
+    for k in range(1, 1500):
+        held.update(coupler.step(k * dt_ns, dt_ns, {"body": disk, "water": patch}))
+        inputs = {"occupied": held["occupied"], "request": held["request"]}
+        patch = pond.step(k * dt_ns, dt_ns, inputs)["patch"]
+        if k % 500 == 0:
+            energy.append(pond.energy())
+    assert energy[0] > 0.0
+    assert max(energy) < 1.2 * energy[0]

@@ -146,6 +146,7 @@ class WaterCoupler(Component):
         self._elements_key: tuple | None = None
         self._stats = np.zeros(kernel.N_STATS)
         self._b_geo = np.zeros((0, 0))
+        self._still: tuple[np.ndarray, np.ndarray] | None = None  # flat patch at the rest level
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
         self._zero_wrench = Wrench(_ZERO3, _ZERO3)
         self._empty_occupied = OccupiedHeight(0, 0, _EMPTY_GRID)
@@ -290,7 +291,7 @@ class WaterCoupler(Component):
             wetted_area=area,
             buoyancy=mean[0:3].copy(), pressure=mean[6:9].copy(), friction=mean[12:15].copy(),
             wave_drag=mean[18:21].copy(), depth=float(depth), dissipated_energy=self.dissipated)
-        occupied = self._occupied(patch, body, pos, axes, water, volume)
+        occupied = self._occupied(patch, body, pos, axes, half, low, water, elements, nsub, volume)
         return {"wrench": Wrench(force, torque), "occupied": occupied, "request": request,
                 "contact": contact}
 
@@ -336,19 +337,43 @@ class WaterCoupler(Component):
         return PatchRequest(cx - half[0] - margin, cx + half[0] + margin,
                             cy - half[1] - margin, cy + half[1] + margin)
 
-    def _occupied(self, patch: HeightPatch, body: BodyState, pos, axes, water,
-                  volume: float) -> OccupiedHeight:
+    def _occupied(self, patch: HeightPatch, body: BodyState, pos, axes, half, low, water, elements,
+                  nsub: int, volume: float) -> OccupiedHeight:
         p = self.params
-        if not self.flags & DISPLACEMENT or volume <= 0.0:
+        if not self.flags & DISPLACEMENT:
             return self._empty_occupied
-        x0, y0, cell, height, wvel, _ = water
+        x0, y0, cell, height, _, bottom = water
         if p.displacement_mode == "ring":
+            # The ring carries the volume the body holds below the REST level (its shape under a
+            # flat surface), not below the local surface. The height field does not see the body,
+            # so waves run under it; measured against the local surface, every wave crossing the
+            # body would change the displaced volume, which the ring would re-emit as a new wave:
+            # a loop that amplifies (a body held still in the water pumps up the waves without
+            # bound, a floating disk rocks ever harder). Against the rest level, the displacement
+            # follows the body's motion only (a source, as in thin-ship wave theory): a body held
+            # still makes no waves after it is put in, a heaving or rocking one radiates. The forces
+            # still use the local surface.
+            flat, still = self._still_water(height.shape)
+            b_rest = np.zeros(height.shape)
+            stats = np.zeros(kernel.N_STATS)
+            kernel.evaluate(
+                int(body.shape), float(body.radius), float(body.thickness),
+                pos, axes, body.velocity, body.angular_velocity, float(half[0]), float(half[1]),
+                low[0], low[1], low[2], float(x0), float(y0), cell, flat, still, bottom,
+                elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
+                p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, DISPLACEMENT, nsub,
+                b_rest, stats)
+            displaced = float(stats[kernel.S_VOLUME])
+            if displaced <= 0.0:
+                return self._empty_occupied
             b_out = np.zeros(height.shape)
             i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(
                 int(body.shape), float(body.radius), float(body.thickness),
-                pos, axes, float(x0), float(y0), cell, height, wvel, self._b_geo, volume,
+                pos, axes, float(x0), float(y0), cell, flat, still, b_rest, displaced,
                 p.ring_cells * cell, b_out)
         else:
+            if volume <= 0.0:
+                return self._empty_occupied
             b_out = self._b_geo.copy()
             nz_j, nz_i = np.nonzero(b_out)
             if nz_i.size == 0:
@@ -367,6 +392,14 @@ class WaterCoupler(Component):
         else:
             window = b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy()
         return OccupiedHeight(int(patch.i0) + i_lo, int(patch.j0) + j_lo, window)
+
+    def _still_water(self, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """A flat surface at the rest level and zero surface velocity over a patch of ``shape``."""
+        cached = self._still
+        if cached is None or cached[0].shape != shape or cached[0][0, 0] != self.rest_level:
+            cached = (np.full(shape, self.rest_level), np.zeros(shape))
+            self._still = cached
+        return cached
 
     def _account_work(self, pos: np.ndarray, omega: np.ndarray, dt: float) -> None:
         """Add minus the work of the wrench published last step, held over the body's step that just
