@@ -7,9 +7,9 @@ arguments). Bad input is reported in plain lines on stderr, never as a traceback
 from __future__ import annotations
 
 import argparse
-from importlib.metadata import entry_points
 import shlex
 import sys
+from importlib.metadata import entry_points
 from pathlib import Path
 
 from cosim.errors import CosimError, RecordingError, ScenarioError
@@ -83,7 +83,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
-    from cosim.inspect import describe_recording
+    from cosim.inspection import describe_recording
     from cosim.recording import Recording
 
     print(describe_recording(Recording(args.recording)))
@@ -107,7 +107,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from cosim.runner import format_summary, run_scene
 
     sim, stamp = restart_simulation(rec, args.from_time, args.set or [])
-    output = Path(args.output) if args.output else rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s.mcap")
+    default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s.mcap")
+    output = Path(args.output) if args.output else default
     if output.resolve() == rec.path.resolve():
         raise RecordingError(f"{output}: the restarted run cannot overwrite the recording it starts from")
     print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s")

@@ -1,7 +1,8 @@
 """One codec for every message type: a JSON schema plus JSON bytes, and back, bit-exact.
 
 JSON keeps the channels plottable in Foxglove. Exactness comes from Python's shortest round-trip
-float repr; non-finite floats are written as the strings ``"nan"``, ``"inf"``, ``"-inf"`` (a NaN with another sign or payload as ``"nan:<hex bits>"``). Arrays of
+float repr; non-finite floats are written as the strings ``"nan"``, ``"inf"``, ``"-inf"`` (a NaN with
+another sign or payload as ``"nan:<hex bits>"``). Arrays of
 at most :data:`INLINE_ARRAY_MAX` fixed elements are written as (nested) lists so they can be plotted;
 larger or free-shape arrays as ``{"dtype", "shape", "base64"}`` of their little-endian bytes, which is
 both exact and fast for water patches.
@@ -81,7 +82,7 @@ def _array_out(spec: Array, name: str) -> Callable[[Any], Any]:
             if arr is None:
                 raise CodecError(f"field {name!r}: dtype {np.asarray(value).dtype} is not {dtype}")
         if len(arr.shape) != len(spec.shape) or any(
-            want is not None and want != got for want, got in zip(spec.shape, arr.shape)
+            want is not None and want != got for want, got in zip(spec.shape, arr.shape, strict=True)
         ):
             raise CodecError(f"field {name!r}: shape {arr.shape} does not match {spec.shape}")
         return arr
@@ -118,7 +119,7 @@ def _array_in(spec: Array, name: str) -> Callable[[Any], np.ndarray]:
 
     def finish(arr: np.ndarray) -> np.ndarray:
         if len(arr.shape) != len(spec.shape) or any(
-            want is not None and want != got for want, got in zip(spec.shape, arr.shape)
+            want is not None and want != got for want, got in zip(spec.shape, arr.shape, strict=True)
         ):
             raise CodecError(f"field {name!r}: shape {arr.shape} does not match {spec.shape}")
         return arr
@@ -196,12 +197,19 @@ def _vector(arr: np.ndarray) -> str:
     return "[" + text + "]"
 
 
+def _b64(head: str, arr: np.ndarray) -> str:
+    """``{"dtype":..,"shape":[..],"base64":".."}`` of an array (little-endian bytes), as JSON text."""
+    data = base64.b64encode(np.ascontiguousarray(arr, dtype=arr.dtype.newbyteorder("<")).tobytes())
+    return (head + ',"shape":[' + ",".join(map(str, arr.shape)) + '],"base64":"' + data.decode("ascii")
+            + '"}')
+
+
 def _compile_encoder(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]],
                      fallback: Callable[[Message], bytes]) -> Callable[[Message], bytes]:
     """A generated function writing a message's JSON directly, equal byte for byte to
     ``json.dumps(to_dict(msg), separators=(",", ":"))`` but several times faster (recording every
     exchange of a run hinges on this). Values it does not expect go through ``fallback``."""
-    env: dict[str, Any] = {"_num": _num, "_vector": _vector, "_json": json.dumps, "np": np,
+    env: dict[str, Any] = {"_num": _num, "_vector": _vector, "_json": json.dumps, "np": np, "_b64": _b64,
                            "_fallback": fallback}
     lines = ["def encode(m):"]
     pieces = []
@@ -227,6 +235,13 @@ def _compile_encoder(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable
                 checks.append(f"type({value}) is np.ndarray and {value}.shape == _shape{i} "
                               f"and {value}.dtype == _dtype{i}")
                 expr = f"_vector({value})"
+            elif not _inline(spec.array):
+                env[f"_b64head{i}"] = '{"dtype":' + json.dumps(np.dtype(spec.array.dtype).str.replace(">", "<"))
+                env[f"_dtype{i}"] = np.dtype(spec.array.dtype)
+                env[f"_ndim{i}"] = len(spec.array.shape)
+                checks.append(f"type({value}) is np.ndarray and {value}.dtype == _dtype{i} "
+                              f"and {value}.ndim == _ndim{i}")
+                expr = f"_b64(_b64head{i}, {value})"
             else:
                 expr = f"_json(_enc{i}({value}), separators=(',', ':'))"
         pieces.append(f"'{',' if pieces else '{'}{key}:' + {expr}")
@@ -235,7 +250,7 @@ def _compile_encoder(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable
         lines.append(f"    if not ({' and '.join(checks)}):")
         lines.append("        return _fallback(m)")
     lines.append(f"    return ({body}).encode()")
-    exec("\n".join(lines), env)  # noqa: S102 - generated from the field layout above, no user input
+    exec("\n".join(lines), env)
     return env["encode"]
 
 
@@ -247,8 +262,8 @@ class MessageCodec:
         self.fields = fields_of(message_type)
         self.schema_name = f"cosim.{message_type.__name__}"
         coders = [_field_coders(spec) for spec in self.fields]
-        self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders)]
-        self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders)]
+        self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders, strict=True)]
+        self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders, strict=True)]
         self._fast_encode = _compile_encoder(self.fields, dict(self._encoders), self._slow_encode)
 
     def to_dict(self, msg: Message) -> dict[str, Any]:

@@ -86,7 +86,7 @@ def convert(tp: Any, value: Any, path: str, problems: list[str]) -> Any:
         if not isinstance(value, (list, tuple)) or len(value) != len(args):
             problems.append(f"{path}: must be {_type_name(tp)} (got {_show(value)})")
             return value
-        return tuple(convert(a, v, f"{path}[{i}]", problems) for i, (a, v) in enumerate(zip(args, value)))
+        return tuple(convert(a, v, f"{path}[{i}]", problems) for i, (a, v) in enumerate(zip(args, value, strict=False)))
     if origin is list:
         (item,) = typing.get_args(tp)
         if not isinstance(value, list):

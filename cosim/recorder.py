@@ -15,22 +15,22 @@ Layout of a recording:
 
 The file is written as ``NAME.part`` and renamed when closed, so a finished path always holds a
 complete, indexed file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`.
+The MCAP writing itself happens in a writer process (:mod:`cosim.mcapsink`), which finishes the file
+even if the simulating process dies.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import json
-import os
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO
-
-from mcap.writer import CompressionType, IndexType, Writer
+from typing import Any
 
 from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, encode_state
+from cosim.mcapsink import open_sink
 from cosim.messages import Message, message
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
@@ -42,9 +42,6 @@ PERF_TOPIC = "/perf/tick"
 METADATA_NAME = "cosim"
 SCENE_ATTACHMENT = "scene.yaml"
 
-# Chunk and message indexes for fast seeking; attachment and metadata indexes because every
-# recording has both (the mcap default also writes empty index groups that strict checkers flag).
-INDEX_TYPES = IndexType.CHUNK | IndexType.MESSAGE | IndexType.ATTACHMENT | IndexType.METADATA
 
 
 @message
@@ -102,7 +99,7 @@ class Recorder(BaseObserver):
     """Writes a run to MCAP. Use as an observer of a :class:`Simulation`; always call :meth:`close`."""
 
     def __init__(self, path: str | Path, scene: Scene, *, command_line: str = "", perf: bool = False,
-                 derivers: list[Any] | None = None, version: str = ""):
+                 derivers: list[Any] | None = None, version: str = "", background: bool = True):
         from cosim import __version__
 
         self.path = Path(path)
@@ -114,10 +111,7 @@ class Recorder(BaseObserver):
         self.every = scene.record.every
         self.checkpoint_ticks = (round(scene.record.checkpoint_every * 1e9 / scene.dt_ns)
                                  if scene.record.checkpoint_every > 0 else 0)
-        self._file: BinaryIO | None = open(self.part, "wb")  # noqa: SIM115 - closed in close()
-        self.writer = Writer(self._file, compression=CompressionType.ZSTD,
-                             index_types=INDEX_TYPES)
-        self.writer.start(profile="", library=f"cosim {version or __version__}")
+        self.sink = open_sink(self.path, f"cosim {version or __version__}", background)
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
@@ -129,10 +123,8 @@ class Recorder(BaseObserver):
         meta = {"version": version or __version__, "scene": scene.name, "source": scene.source,
                 "overrides": json.dumps(scene.overrides), "command_line": command_line,
                 "dt_ns": str(scene.dt_ns), "until_ns": str(scene.until_ns)}
-        self.writer.add_metadata(METADATA_NAME, meta)
-        data = scene.text.encode()
-        self.writer.add_attachment(create_time=0, log_time=0, name=SCENE_ATTACHMENT,
-                                   media_type="application/yaml", data=data)
+        self.sink.add_metadata(METADATA_NAME, meta)
+        self.sink.add_attachment(SCENE_ATTACHMENT, 0, "application/yaml", scene.text.encode())
 
     # --- channels ------------------------------------------------------------------------------------
 
@@ -142,9 +134,9 @@ class Recorder(BaseObserver):
         if channel is None:
             schema = self._schemas.get(schema_name)
             if schema is None:
-                schema = self._schemas[schema_name] = self.writer.register_schema(
+                schema = self._schemas[schema_name] = self.sink.register_schema(
                     schema_name, schema_encoding, schema_data)
-            channel = self._channels[topic] = self.writer.register_channel(topic, message_encoding, schema)
+            channel = self._channels[topic] = self.sink.register_channel(topic, message_encoding, schema)
             self._sequence[channel] = 0
         return channel
 
@@ -158,7 +150,7 @@ class Recorder(BaseObserver):
 
     def write(self, channel: int, time_ns: int, data: bytes) -> None:
         seq = self._sequence[channel] = self._sequence[channel] + 1
-        self.writer.add_message(channel, log_time=time_ns, data=data, publish_time=time_ns, sequence=seq)
+        self.sink.add_message(channel, time_ns, data, seq)
 
     def write_message(self, topic: str, time_ns: int, msg: Message) -> None:
         self.write(self._message_channel(topic, type(msg)), time_ns, codec_for(type(msg)).encode(msg))
@@ -214,22 +206,14 @@ class Recorder(BaseObserver):
             result.status, result.reason, result.tick, sim.time_ns / 1e9, result.component_steps))
 
     def close(self) -> Path:
-        """Finish the file (summary, indexes) and move it to its final name. Safe to call twice."""
-        if self._closed:
-            return self.path
-        self._closed = True
-        try:
-            self.writer.finish()
-        finally:
-            assert self._file is not None
-            self._file.close()
-            os.replace(self.part, self.path)
+        """Finish the file (summary, indexes) under its final name. Safe to call twice."""
+        if not self._closed:
+            self._closed = True
+            self.sink.close()
         return self.path
 
     def discard(self) -> None:
         """Drop the file entirely (used when nothing was run)."""
         if not self._closed:
             self._closed = True
-            assert self._file is not None
-            self._file.close()
-            self.part.unlink(missing_ok=True)
+            self.sink.discard()

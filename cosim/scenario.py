@@ -260,7 +260,7 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
             problems.append(f"{path}.step: {step:g} s is not a whole multiple of dt = {dt_ns / NS_PER_S:g} s "
                             f"(ratio {ratio:g}); rates must divide exactly")
             return None
-        return int(round(ratio))
+        return round(ratio)
     every = spec.get("every", 1)
     if isinstance(every, bool) or not isinstance(every, int):
         problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}); "

@@ -327,6 +327,6 @@ class Simulation:
                 slot.entries = [(stamp, codec_for(msg_type).decode(payload.encode()))
                                 for stamp, payload in cp["slots"].get(f"{runner.name}.{port}", [])]
         if len(cp["edges"]) == len(self.edges):
-            for edge, last in zip(self.edges, cp["edges"]):
+            for edge, last in zip(self.edges, cp["edges"], strict=False):
                 edge.last_delivered = last
         self._initialized = False

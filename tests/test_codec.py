@@ -45,7 +45,8 @@ def same(a: Message, b: Message) -> bool:
 @given(x=floats, n=st.integers(-2**62, 2**62), flag=st.booleans(), name=st.text(),
        mode=st.sampled_from(Mode),
        v=hnp.arrays(np.float64, 3, elements=floats),
-       grid=hnp.arrays(np.float64, hnp.array_shapes(min_dims=2, max_dims=2, min_side=0, max_side=5), elements=floats),
+       grid=hnp.arrays(np.float64, hnp.array_shapes(min_dims=2, max_dims=2, min_side=0, max_side=5),
+                       elements=floats),
        ids=hnp.arrays(np.int32, 4))
 def test_round_trip_is_bit_exact(x, n, flag, name, mode, v, grid, ids):
     """Any value of every field kind, NaN and infinities included, comes back bit for bit."""
@@ -84,7 +85,8 @@ def test_schema_names_and_describes_fields():
     (b'{"x":1,"n":1,"flag":true,"name":"","mode":7,"v":[1,2,3],'
      b'"grid":{"dtype":"<f8","shape":[0,0],"base64":""},"ids":[1,2,3,4]}', r"7 is not a Mode"),
     (b'{"x":1,"n":1,"flag":true,"name":"","mode":0,"v":[1,2],'
-     b'"grid":{"dtype":"<f8","shape":[0,0],"base64":""},"ids":[1,2,3,4]}', r"field 'v': shape \(2,\) does not match \(3,\)"),
+     b'"grid":{"dtype":"<f8","shape":[0,0],"base64":""},"ids":[1,2,3,4]}',
+     r"field 'v': shape \(2,\) does not match \(3,\)"),
 ])
 def test_bad_payloads_raise_codec_error(payload, pattern):
     """Malformed payloads are rejected with a message naming what is wrong."""
@@ -145,3 +147,16 @@ def test_state_arrays_round_trip():
     back = decode_state(encode_state(state))
     assert back["h"].tobytes() == state["h"].tobytes() and back["h"].shape == (3, 4)
     assert back["n"].dtype == np.int64 and back["s"] == "nan"
+
+
+@given(x=floats, n=st.integers(-2**62, 2**62), flag=st.booleans(), name=st.text(),
+       mode=st.sampled_from(Mode),
+       v=hnp.arrays(np.float64, 3, elements=floats),
+       grid=hnp.arrays(np.float64, hnp.array_shapes(min_dims=2, max_dims=2, min_side=0, max_side=5),
+                       elements=floats),
+       ids=hnp.arrays(np.int32, 4))
+def test_generated_encoder_writes_exactly_what_json_dumps_writes(x, n, flag, name, mode, v, grid, ids):
+    """The generated fast encoder's bytes equal those of json.dumps over the field dict."""
+    msg = Everything(x, n, flag, name, mode, v, grid, ids)
+    codec = codec_for(Everything)
+    assert codec.encode(msg) == codec._slow_encode(msg)

@@ -253,9 +253,25 @@ def test_state_round_trip_reproduces_the_run_bit_for_bit():
     for k, b in enumerate(states[3:], start=3):
         a = step(first, b, patch, k)
         z = step(second, b, patch, k)
-        for port in WaterCoupler.outputs:
+        assert a.keys() == z.keys()
+        for port in a:
             assert messages_equal(a[port], z[port]), port
     assert first.get_state()["dissipated"] == second.get_state()["dissipated"]
+
+
+def test_request_is_published_only_when_the_held_window_no_longer_covers_the_body():
+    """A body moving a little stays inside the window the water holds: no new request; one that
+    moves past half the margin gets a new window."""
+    c = WaterCoupler("c")
+    patch = still_water()
+    first = step(c, skipping_disk(depth=0.005), patch, 0)
+    assert "request" in first
+    nudged = skipping_disk(depth=0.005)
+    nudged = nudged.replace(position=nudged.position + np.array([0.001, 0.0, 0.0]))
+    assert "request" not in step(c, nudged, patch, 1)
+    moved = nudged.replace(position=nudged.position + np.array([0.05, 0.0, 0.0]))
+    out = step(c, moved, patch, 2)
+    assert out["request"].x_max > first["request"].x_max + 0.04
 
 
 def test_dissipated_energy_is_minus_the_work_of_the_held_wrench():

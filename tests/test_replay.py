@@ -82,7 +82,7 @@ def test_restart_from_checkpoint_reproduces_the_original_run(recording, tmp_path
 
 def test_restart_with_changed_settings(recording, tmp_path):
     """A restart can change settings, e.g. a finer base step, when the checkpoint time lies on it."""
-    sim, stamp = restart_simulation(recording, 60_000_000, overrides=["dt=0.0005"])
+    sim, _ = restart_simulation(recording, 60_000_000, overrides=["dt=0.0005"])
     assert sim.tick == 120
     outcome = run_scene(sim.scene, None, progress=False, simulation=sim)
     assert outcome.result.status == "ok" and outcome.result.tick == 200

@@ -167,7 +167,7 @@ connections:
 
 def test_component_stop_request_ends_the_run():
     """A component's request_stop ends the run after the tick, with status 'stopped' and the reason."""
-    sim, result = run("""
+    _, result = run("""
 dt: 0.001
 until: 1.0
 components:
@@ -210,7 +210,8 @@ components:
 """)
     sim = Simulation(scene)
     sim.components["acc"].max_stable_step = lambda: 0.0005
-    with pytest.raises(SimulationError, match=r"'acc' failed at t = 0 s: step 0.001 s exceeds the stable step 0.0005 s"):
+    with pytest.raises(SimulationError,
+                       match=r"'acc' failed at t = 0 s: step 0.001 s exceeds the stable step 0.0005 s"):
         sim.run()
 
 
@@ -237,7 +238,8 @@ until: 1.0
 components:
   bad: {type: "tests.toys:Faulty", fail_at: 0.002, mode: nan}
 """)
-    with pytest.raises(SimulationError, match=r"'bad' failed at t = 0.002 s: non-finite value in output 'out' field 'value'"):
+    with pytest.raises(SimulationError,
+                       match=r"'bad' failed at t = 0.002 s: non-finite value in output 'out' field 'value'"):
         Simulation(scene).run()
 
 

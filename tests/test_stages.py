@@ -78,8 +78,8 @@ def test_state_round_trip_continues_identically():
     drive(a, script[:2])
     b = StageMonitor("s")
     b.set_state(a.get_state())
-    out_a = a.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2])))
-    out_b = b.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2])))
+    out_a = a.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2], strict=True)))
+    out_b = b.step(2 * MS, MS, dict(zip(("body", "water", "ground"), script[2], strict=True)))
     assert out_a["skip"].contact_time == out_b["skip"].contact_time
     assert a.summary() == b.summary()
 

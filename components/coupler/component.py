@@ -163,6 +163,7 @@ class WaterCoupler(Component):
         # idle outputs were published and still hold: publish nothing until the body comes near
         self.quiet = False
         self._went_idle = False
+        self._held_request: PatchRequest | None = None  # the window the water holds from us
 
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
@@ -178,11 +179,16 @@ class WaterCoupler(Component):
         if self._prev is not None:
             prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
         return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
-                "bound": self.bound, "prev": prev, "quiet": self.quiet}
+                "bound": self.bound, "prev": prev, "quiet": self.quiet,
+                "held_request": None if self._held_request is None else [
+                    self._held_request.x_min, self._held_request.x_max,
+                    self._held_request.y_min, self._held_request.y_max]}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.rest_level = float(state["rest_level"])
         self.quiet = bool(state.get("quiet", False))
+        held = state.get("held_request")
+        self._held_request = None if held is None else PatchRequest(*map(float, held))
         self.cell = float(state["cell"])
         self.dissipated = float(state["dissipated"])
         self.bound = float(state["bound"])
@@ -214,7 +220,14 @@ class WaterCoupler(Component):
     def _publishable(self, outputs: dict[str, Message]) -> dict[str, Message]:
         """Idle outputs (zero wrench, empty windows, a dry report) are published once when the body
         moves away from the water and then held by the receivers: a stone in flight costs neither
-        column work nor recorded messages."""
+        column work nor recorded messages. Likewise a request is published only when the window the
+        water holds no longer covers the body with half its margin."""
+        request = outputs.get("request")
+        if request is not None:
+            if request is self._held_request:
+                del outputs["request"]
+            else:
+                self._held_request = request
         if not self._went_idle:
             self.quiet = False
             return outputs
@@ -334,6 +347,13 @@ class WaterCoupler(Component):
         margin = cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
         margin += math.hypot(float(vel[0]), float(vel[1])) * dt  # the window lags one step
         cx, cy = float(centre[0]), float(centre[1])
+        held = self._held_request
+        if held is not None and held.x_min <= held.x_max:
+            # the held window still covers the body with at least half the cell margin: keep it
+            need = margin - 0.5 * (cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
+            if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
+                    and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
+                return held
         return PatchRequest(cx - half[0] - margin, cx + half[0] + margin,
                             cy - half[1] - margin, cy + half[1] + margin)
 
