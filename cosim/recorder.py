@@ -173,6 +173,8 @@ class Recorder(BaseObserver):
                 self.write_message(topic, time_ns, msg)
         for deriver in self.derivers:
             for extra in deriver(time_ns, component, port, msg):
+                if not self.wanted(extra.topic):
+                    continue
                 channel = self._channel(extra.topic, extra.schema_name, extra.schema_encoding,
                                         extra.schema_data, extra.message_encoding)
                 self.write(channel, time_ns, extra.data)

@@ -136,3 +136,17 @@ def test_truncated_and_corrupt_recordings_get_clear_errors(tmp_path):
         Recording(tmp_path / "junk.mcap")
     with pytest.raises(RecordingError, match=r"missing\.mcap: no such file"):
         Recording(tmp_path / "missing.mcap")
+
+
+def test_record_selection_applies_to_viewer_channels(tmp_path):
+    """record.channels patterns select viewer channels too: none are written unless they match."""
+    from cosim.recorder import DerivedMessage
+
+    def deriver(time_ns, component, port, msg):
+        yield DerivedMessage("/scene/x", "demo.X", "jsonschema", b"{}", "json", b"{}")
+
+    scene = loads(LOOP, overrides=["record.channels=['/g/*']"])
+    path = run_scene(scene, tmp_path / "sel.mcap", progress=False, derivers=[deriver]).recording
+    assert "/scene/x" not in Recording(path).channels
+    path = run_scene(loads(LOOP), tmp_path / "all.mcap", progress=False, derivers=[deriver]).recording
+    assert Recording(path).channels["/scene/x"].count > 0
