@@ -150,3 +150,25 @@ def test_record_selection_applies_to_viewer_channels(tmp_path):
     assert "/scene/x" not in Recording(path).channels
     path = run_scene(loads(LOOP), tmp_path / "all.mcap", progress=False, derivers=[deriver]).recording
     assert Recording(path).channels["/scene/x"].count > 0
+
+
+def test_killed_run_still_leaves_a_complete_file(tmp_path):
+    """Even SIGKILL of the simulating process leaves a valid, indexed recording: the writer process
+    sees its pipe close and finishes the file (only the final status record is missing)."""
+    scene = tmp_path / "long.yaml"
+    scene.write_text(LOOP.replace("until: 0.2", "until: 10000"))
+    out = tmp_path / "killed.mcap"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(scene), "-o", str(out), "-q"],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    part = out.with_name(out.name + ".part")
+    deadline = time.monotonic() + 60
+    while not (part.exists() and part.stat().st_size > 50_000) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.kill()
+    proc.wait(30)
+    while not out.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    rec = Recording(out)
+    assert rec.status() is None
+    assert rec.channels["/g/out"].count > 100
