@@ -202,7 +202,8 @@ def test_record_writes_an_mcap_per_run_and_the_meta_names_the_scene(tmp_path, po
 
 
 def test_random_sweep_and_summary_figure(tmp_path, pool):
-    """A random sweep runs its samples like a grid; the summary figure is a PNG beside the table."""
+    """A random sweep runs its samples like a grid; the summary figure (scatter, heat map or line) is a
+    PNG beside the table."""
     pytest.importorskip("matplotlib")
     body = ("scene: ball.yaml\nmode: random\nsamples: 8\nseed: 3\naxes:\n"
             "  components.ball.angle_deg: {uniform: [10, 80]}\n  components.ball.speed: {uniform: [1, 6]}\n")
@@ -212,6 +213,10 @@ def test_random_sweep_and_summary_figure(tmp_path, pool):
     grid = run_sweep(load_sweep(write_sweep(tmp_path, GRID, name="g.yaml")), tmp_path / "g.csv", pool,
                      progress=False)
     assert grid.figure is not None and grid.figure.stat().st_size > 10_000
+    line = load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes: {components.ball.speed: [1, 2, 3]}\n",
+                                  name="l.yaml"))
+    assert (line.figure.x, line.figure.y) == ("components.ball.speed", None)
+    assert run_sweep(line, tmp_path / "l.csv", pool, progress=False).figure == tmp_path / "l.png"
 
 
 def test_parquet_output_is_typed(tmp_path, pool):
