@@ -320,3 +320,14 @@ def test_a_body_held_still_in_the_water_makes_no_waves_after_it_is_put_in():
             energy.append(pond.energy())
     assert energy[0] > 0.0
     assert max(energy) < 1.2 * energy[0]
+
+
+def test_a_body_wholly_under_water_reports_a_submerged_fraction_of_one():
+    """A pitched disk whose top is under the surface is wholly submerged (fraction exactly 1), though
+    its sampled column volume sums to a little less; one whose top breaks the surface is not."""
+    c = WaterCoupler("c")
+    _, _, z = disk_at_depth(0.08, ALPHA)
+    deep = body(position=(0.0, 0.005, z), orientation=pitched(ALPHA))  # here the columns sum to 0.993
+    assert step(c, deep, still_water())["contact"].submerged_fraction == 1.0
+    breaking = step(c, body(position=(0.0, 0.0, -0.0025)), still_water(), 1)["contact"]
+    assert 0.9 < breaking.submerged_fraction < 1.0

@@ -298,9 +298,19 @@ class WaterCoupler(Component):
         area = float(stats[kernel.S_AREA])
         body_volume = (math.pi * radius * radius * float(body.thickness) if is_disk
                        else 4.0 / 3.0 * math.pi * radius**3)
+        fraction = min(1.0, volume / body_volume) if body_volume > 0 else 0.0
+        if volume > 0.0:
+            # The column sum samples the body, so a body wholly under water sums to a little less
+            # than its volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point
+            # opposite its lowest one) is under the surface there is wholly submerged.
+            top = 2.0 * pos - np.asarray(low)
+            ok, h_top, _ = kernel.sample_surface(float(top[0]), float(top[1]), x0, y0, float(patch.cell),
+                                                 height, wvel)
+            if ok and top[2] < h_top:
+                fraction = 1.0
         contact = WaterContact(
             wetted=bool(volume > 0.0 or area > 0.0),
-            submerged_fraction=min(1.0, volume / body_volume) if body_volume > 0 else 0.0,
+            submerged_fraction=fraction,
             wetted_area=area,
             buoyancy=mean[0:3].copy(), pressure=mean[6:9].copy(), friction=mean[12:15].copy(),
             wave_drag=mean[18:21].copy(), depth=float(depth), dissipated_energy=self.dissipated)
