@@ -141,6 +141,12 @@ def _line(ax: Any, rows: list[dict[str, str]], spec: Any) -> None:
     points = [(p, sum(sums[x]) / len(sums[x])) for x, p in zip(xs, xpos, strict=True) if sums[x]]
     if points:
         ax.plot(*zip(*points, strict=True), "o-")
+    failed = sorted({xpos[xs.index(r[spec.x])] for r in rows if r["status"] == "failed"})
+    if failed:  # along the bottom edge: they have no value to plot
+        from matplotlib.transforms import blended_transform_factory
+
+        ax.plot(failed, [0.03] * len(failed), "x", color="tab:red", markersize=9, label="failed",
+                transform=blended_transform_factory(ax.transData, ax.transAxes))
     ax.set_xlabel(spec.x)
     ax.set_ylabel(spec.metric)
     if not xnum:
