@@ -27,20 +27,30 @@ def test_benchmark_prints_and_writes_its_section(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "| 16 x 16 | wave | reflecting | numba |" in out
     text = doc.read_text()
-    assert text.startswith(bench.SECTION + "\n")
+    assert text.startswith(f"{bench.BEGIN}\n{bench.SECTION}\n")
     assert "| 16 x 16 | shallow_water | reflecting | numpy |" in text
     assert "Reproduce: `python tools/bench_water.py --sizes 16" in text
 
 
 def test_section_is_replaced_in_place(tmp_path):
-    """Rewriting keeps the other sections of the file, before and after, untouched."""
+    """Rewriting replaces only the water section; other sections and their markers stay byte for byte."""
     bench = load_tool()
     doc = tmp_path / "performance.md"
-    doc.write_text("# Performance\n\n## Framework overhead\n\nold a\n\n"
-                   f"{bench.SECTION}\n\nold table\n\n## Reference skip\n\nold b\n")
+    other = "<!-- sweeps:begin -->\n## Sweeps\n\nsweep table\n<!-- sweeps:end -->\n"
+    doc.write_text(f"# Performance\n\n{bench.SECTION}\n\nold table\n\n{other}")
     bench.write_section(doc, f"{bench.SECTION}\n\nnew table\n")
-    text = doc.read_text()
-    assert text == ("# Performance\n\n## Framework overhead\n\nold a\n\n"
-                    f"{bench.SECTION}\n\nnew table\n\n## Reference skip\n\nold b\n")
+    block = f"{bench.BEGIN}\n{bench.SECTION}\n\nnew table\n{bench.END}\n"
+    assert doc.read_text() == f"# Performance\n\n{block}\n{other}"
+    bench.write_section(doc, f"{bench.SECTION}\n\nnewer table\n")
+    assert doc.read_text() == f"# Performance\n\n{block.replace('new table', 'newer table')}\n{other}"
+
+
+def test_section_is_appended_to_other_sections(tmp_path):
+    """A file without the water section keeps its content and gets the section at the end."""
+    bench = load_tool()
+    doc = tmp_path / "performance.md"
+    doc.write_text("## Sweeps\n\nsweep table\n")
+    bench.write_section(doc, f"{bench.SECTION}\n\nx\n")
+    assert doc.read_text() == f"## Sweeps\n\nsweep table\n\n{bench.BEGIN}\n{bench.SECTION}\n\nx\n{bench.END}\n"
     bench.write_section(tmp_path / "new.md", f"{bench.SECTION}\n\nx\n")
-    assert (tmp_path / "new.md").read_text() == f"{bench.SECTION}\n\nx\n"
+    assert (tmp_path / "new.md").read_text() == f"{bench.BEGIN}\n{bench.SECTION}\n\nx\n{bench.END}\n"

@@ -30,6 +30,8 @@ from components.water import WaterParams, WaterSurface
 from components.water.kernels_numba import PARALLEL_MIN_CELLS
 
 SECTION = "## Water step throughput"
+BEGIN = "<!-- water-throughput:begin -->"
+END = "<!-- water-throughput:end -->"
 NS = 1_000_000_000
 
 
@@ -129,9 +131,10 @@ def markdown(rows: list[Row], command: str, load: tuple[float, float]) -> str:
         verdict + "How: the `wave` kernel is one fused pass over memory (read h and v once, write the new "
         "h and v into spare buffers that then swap), compiled with numba on one thread (`numba`, the "
         "default): it moves the same bytes as the copy. `numba-parallel` (parameter `parallel: true`) "
-        f"splits the rows of grids of {PARALLEL_MIN_CELLS} cells or more across the cores; it is faster "
-        "on an idle machine but waits for its slowest thread, so on a loaded one a step can stall for "
-        "a scheduler time slice. `shallow_water` does two tridiagonal sweeps (rows, then columns), "
+        f"splits the rows of grids of {PARALLEL_MIN_CELLS} cells or more across the cores: on an idle "
+        "machine it is the fastest, but a step waits for its slowest thread, so while other jobs share "
+        "the cores a step can stall for a whole scheduler time slice and its rows scatter (that is why "
+        "it is opt-in). `shallow_water` does two tridiagonal sweeps (rows, then columns), "
         "each a dependent recurrence, so it runs at a fraction of the copy. The `numpy` rows are the "
         "reference kernels (numpy expressions over whole arrays).",
         "",
@@ -145,17 +148,29 @@ def markdown(rows: list[Row], command: str, load: tuple[float, float]) -> str:
 
 
 def write_section(path: Path, text: str) -> None:
-    """Replace (or append) the water section of a markdown file, leaving other sections alone."""
+    """Put the water section into a markdown file, leaving everything else in it byte for byte.
+
+    The section sits between ``BEGIN`` and ``END`` marker comments: a marked section is replaced, an
+    unmarked one (from its heading to the next heading or marker comment) is replaced and marked, and
+    a file without it gets it appended.
+    """
+    block = f"{BEGIN}\n{text.rstrip()}\n{END}\n"
     old = path.read_text() if path.exists() else ""
-    lines = old.splitlines(keepends=True)
-    start = next((k for k, line in enumerate(lines) if line.rstrip() == SECTION), None)
-    if start is None:
-        body = old.rstrip("\n")
-        new = (body + "\n\n" if body else "") + text
+    if BEGIN in old and END in old:
+        head, rest = old.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1].lstrip("\n")
+        new = head + block + ("\n" + tail if tail else "")
     else:
-        end = next((k for k in range(start + 1, len(lines)) if lines[k].startswith("## ")), len(lines))
-        rest = "".join(lines[end:])
-        new = "".join(lines[:start]) + text + ("\n" + rest if rest else "")
+        lines = old.splitlines(keepends=True)
+        start = next((k for k, line in enumerate(lines) if line.rstrip() == SECTION), None)
+        if start is None:
+            body = old.rstrip("\n")
+            new = (body + "\n\n" if body else "") + block
+        else:
+            end = next((k for k in range(start + 1, len(lines))
+                        if lines[k].startswith(("## ", "<!--"))), len(lines))
+            rest = "".join(lines[end:])
+            new = "".join(lines[:start]) + block + ("\n" + rest if rest else "")
     path.write_text(new)
 
 
