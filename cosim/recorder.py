@@ -115,7 +115,7 @@ class Recorder(BaseObserver):
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
-        self._counts: dict[str, int] = {}
+        self._routes: dict[tuple[str, str], list | None] = {}
         self._wanted: dict[str, bool] = {}
         self._closed = False
         self._perf_wall = time.perf_counter()
@@ -164,13 +164,26 @@ class Recorder(BaseObserver):
 
     # --- observer interface ----------------------------------------------------------------------------
 
-    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
+    def _route(self, component: str, port: str, msg: Message) -> list | None:
+        """[channel, encode, count] of an output port, or None when its channel is not recorded."""
         topic = f"/{component}/{port}"
-        if self.wanted(topic):
-            n = self._counts.get(topic, 0)
-            self._counts[topic] = n + 1
+        if not self.wanted(topic):
+            return None
+        return [self._message_channel(topic, type(msg)), codec_for(type(msg)).encode, 0]
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
+        # one dict lookup per exchange: the port's channel and encoder are resolved once
+        key = (component, port)
+        route = self._routes.get(key, False)
+        if route is False:
+            route = self._routes[key] = self._route(component, port, msg)
+        if route is not None:
+            n = route[2]
+            route[2] = n + 1
             if n % self.every == 0:
-                self.write_message(topic, time_ns, msg)
+                channel = route[0]
+                seq = self._sequence[channel] = self._sequence[channel] + 1
+                self.sink.add_message(channel, time_ns, route[1](msg), seq)
         for deriver in self.derivers:
             for extra in deriver(time_ns, component, port, msg):
                 if not self.wanted(extra.topic):
