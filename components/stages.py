@@ -8,8 +8,9 @@ Stages (Tsai et al. 2022 names), decided from the body state and the contact rep
 - fly-away: contact lost after a contact and the lowest point clear of the local surface by at
   least ``takeoff_clearance`` (one skip counted); a contact that flickers while the stone still grazes
   the surface is the same contact, not a new skip;
-- sink: fully submerged, or touching water too slowly to leave (horizontal speed below
-  ``sink_speed``); final, except that a sunk stone can come to rest on the bottom;
+- sink: fully submerged with the water pushing it up less than its weight, or touching water too
+  slowly to leave (horizontal speed below ``sink_speed``); final, except that a sunk stone can come
+  to rest on the bottom;
 - rest: on the solid ground and (nearly) still.
 
 Leaving the pond is an outcome, not a stage: the coupler exerts nothing where the water's grid has
@@ -51,7 +52,7 @@ class SkipTracker:
 
 
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
-             sink_speed: float, rest_speed: float, clearance: float = 0.0) -> StageId:
+             sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81) -> StageId:
     """The stage now, from the previous stage and this step's body and contact reports."""
     if ground is not None and ground.in_contact and body.speed < rest_speed:
         return StageId.REST
@@ -64,8 +65,15 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if water is not None and water.wetted:
-        if water.submerged_fraction >= FULLY_SUBMERGED or horizontal < sink_speed:
+        if horizontal < sink_speed:
             return StageId.SINK
+        if water.submerged_fraction >= FULLY_SUBMERGED:
+            # under water, the stone has sunk unless the water pushes it back up: a thin stone thrown
+            # fast dips wholly under the surface for a few milliseconds while the pressure on it
+            # (tens of times its weight) throws it back out
+            push = float(water.buoyancy[2] + water.pressure[2] + water.friction[2])
+            if push <= body.mass * gravity:
+                return StageId.SINK
         return StageId.HIT if vz < 0 else StageId.SLIDE
     if previous in (StageId.HIT, StageId.SLIDE):
         grazing = water is not None and water.depth > -clearance
@@ -89,6 +97,9 @@ class StageMonitor(Component):
                                   doc="end the run this long after sink or rest (0: never stop)")
         takeoff_clearance: float = param(0.002, unit="m", ge=0,
                                          doc="a contact ends when the lowest point is this far above the surface")
+        gravity: float = param(9.81, unit="m/s^2", gt=0,
+                               doc="magnitude of the body's gravity: a stone under water sinks unless the "
+                                   "water pushes it up harder than its weight")
         outside_after: float = param(0.05, unit="s", ge=0,
                                      doc="dry while below the water level this long: the stone left the pond "
                                          "(longer than the water's start-up lag; 0: never decided)")
@@ -130,7 +141,7 @@ class StageMonitor(Component):
             track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
-                         self.params.takeoff_clearance)
+                         self.params.takeoff_clearance, self.params.gravity)
         if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY:
             outputs["skip"] = self._finish_skip(now, body)
         if not touching:
