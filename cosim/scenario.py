@@ -215,7 +215,7 @@ def _seconds(data: dict, key: str, problems: list[str], *, required: bool, defau
 
 
 def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
-               problems: list[str]) -> ComponentConfig | None:
+               problems: list[str], classes: dict[str, type[Component]]) -> ComponentConfig | None:
     path = f"components.{name}"
     if not NAME_RE.match(str(name)):
         problems.append(f"{path}: component names must be identifiers (letters, digits, _)")
@@ -233,6 +233,7 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
     except UnknownComponentType as exc:
         problems.append(f"{path}.type: {exc}")
         return None
+    classes[name] = cls  # its ports are known even if its parameters turn out invalid
     every = _rate(path, spec, dt_ns, problems)
     on_unstable = spec.get("on_unstable", default_unstable)
     if on_unstable not in ON_UNSTABLE:
@@ -272,8 +273,10 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
     return every
 
 
-def _connection(index: int, item: Any, components: dict[str, ComponentConfig], names: set[str],
-                problems: list[str]) -> Connection | None:
+def _connection(index: int, item: Any, components: dict[str, type[Component]], names: set[str],
+                problems: list[str], types: dict[str, str]) -> Connection | None:
+    """One edge, checked against the component classes (``components``: name -> class; ``types``:
+    name -> the type name as the scene spells it)."""
     path = f"connections[{index}]"
     initial_data = None
     delay = 0
@@ -312,16 +315,17 @@ def _connection(index: int, item: Any, components: dict[str, ComponentConfig], n
             problems.append(f"{path}.{path_key}: unknown component {comp!r} (known: {', '.join(sorted(names))})")
             ok = False
         elif comp in components:
-            ports = getattr(components[comp].cls, side)
+            ports = getattr(components[comp], side)
             if port not in ports:
                 kind = "output" if side == "outputs" else "input"
-                problems.append(f"{path}.{path_key}: {comp} ({components[comp].type_name}) has no {kind} port "
+                spelled = types.get(comp, components[comp].__name__)
+                problems.append(f"{path}.{path_key}: {comp} ({spelled}) has no {kind} port "
                                 f"{port!r} ({side}: {', '.join(ports) or 'none'})")
                 ok = False
     if not ok or src not in components or dst not in components:
         return None
-    out_type = components[src].cls.outputs[sport].type
-    in_type = components[dst].cls.inputs[dport].type
+    out_type = components[src].outputs[sport].type
+    in_type = components[dst].inputs[dport].type
     if out_type is not in_type:
         problems.append(f"{path}: type mismatch: {src}.{sport} sends {out_type.__name__} but {dst}.{dport} "
                         f"takes {in_type.__name__}")
@@ -342,17 +346,17 @@ def _connection(index: int, item: Any, components: dict[str, ComponentConfig], n
     return Connection(src, sport, dst, dport, delay, initial)
 
 
-def _check_inputs(components: dict[str, ComponentConfig], edges: list[Connection], problems: list[str]) -> None:
+def _check_inputs(components: dict[str, type[Component]], edges: list[Connection], problems: list[str]) -> None:
     fed: dict[tuple[str, str], list[Connection]] = {}
     for edge in edges:
         fed.setdefault((edge.target, edge.target_port), []).append(edge)
     for (target, port), feeding in fed.items():
-        port_type = components[target].cls.inputs[port].type
+        port_type = components[target].inputs[port].type
         if len(feeding) > 1 and not port_type.additive:
             problems.append(f"connections: input {target}.{port} is connected {len(feeding)} times "
                             f"({'; '.join(map(str, feeding))}) but {port_type.__name__} is not additive")
-    for name, cfg in components.items():
-        for port, spec in cfg.cls.inputs.items():
+    for name, cls in components.items():
+        for port, spec in cls.inputs.items():
             if spec.required and (name, port) not in fed:
                 problems.append(f"components.{name}: required input {port!r} ({spec.type.__name__}) "
                                 "is not connected")
@@ -420,6 +424,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
 
     raw_components = data.get("components")
     components: dict[str, ComponentConfig] = {}
+    classes: dict[str, type[Component]] = {}
     if raw_components is None:
         problems.append("components: missing (required, a mapping of name -> {type: ..., parameters})")
         raw_components = {}
@@ -427,7 +432,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         problems.append(f"components: must be a non-empty mapping (got {raw_components!r})")
         raw_components = {}
     for cname, spec in raw_components.items():
-        cfg = _component(str(cname), spec, dt_ns, default_unstable, problems)
+        cfg = _component(str(cname), spec, dt_ns, default_unstable, problems, classes)
         if cfg is not None:
             components[str(cname)] = cfg
 
@@ -438,10 +443,11 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         raw_edges = []
     names = {str(n) for n in raw_components}
     for i, item in enumerate(raw_edges):
-        edge = _connection(i, item, components, names, problems)
+        spelled = {n: str(spec.get("type")) for n, spec in raw_components.items() if isinstance(spec, dict)}
+        edge = _connection(i, item, classes, names, problems, spelled)
         if edge is not None:
             edges.append(edge)
-    _check_inputs(components, edges, problems)
+    _check_inputs(classes, edges, problems)
 
     record = RecordConfig()
     raw_record = data.get("record", {}) or {}
@@ -459,7 +465,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
             if record.checkpoint_every < 0:
                 problems.append(f"record.checkpoint_every: must be >= 0 s (got {record.checkpoint_every:g})")
 
-    order, cycle = execution_order(list(components), edges)
+    order, cycle = execution_order(list(classes), edges)
     if cycle:
         problems.append(f"connections: cycle without a delayed edge: {' -> '.join(cycle)} "
                         "(mark one edge of the loop with delay: 1 and an initial value)")

@@ -219,7 +219,9 @@ class Simulation:
             obs.on_initialized(self)
         if self.tick == 0:
             for runner in self.runners:
-                for port, msg in runner.comp.initial_outputs().items():
+                outputs = runner.comp.initial_outputs()
+                runner.comp._check_outputs(0, outputs)  # t = 0 values obey the same rules as step outputs
+                for port, msg in outputs.items():
                     runner.slots[port].publish(0, msg)
                     for obs in self.observers:
                         obs.on_exchange(0, runner.name, port, msg)

@@ -51,10 +51,6 @@ def test_a_nan_in_the_scene_is_refused_at_load_time():
         scene("components.stone.velocity=[.nan, 0.0, 0.0]")
 
 
-@pytest.mark.xfail(strict=True, reason="framework: when a component's parameters are invalid it is not built, "
-                                       "and every edge from it is then reported as missing ('required input "
-                                       "body is not connected' for the coupler and the monitor), although the "
-                                       "scene connects them")
 def test_a_bad_parameter_is_the_only_problem_reported():
     """A scene whose only mistake is the stone's NaN velocity reports that one problem, not edges
     that are in fact connected."""
@@ -64,10 +60,6 @@ def test_a_bad_parameter_is_the_only_problem_reported():
 
 
 @pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
-@pytest.mark.xfail(strict=True, reason="framework: the outputs a component publishes at t = 0 "
-                                       "(initial_outputs) are not checked for non-finite values like step "
-                                       "outputs are, so an infinite initial water energy is recorded at t = 0 "
-                                       "and only reported at the water's next frame (t = 0.032 s)")
 def test_a_non_finite_initial_output_stops_the_run_at_t_0():
     """A water bump so high that its energy overflows fails at t = 0, where the value first appears,
     naming the water's field output."""
