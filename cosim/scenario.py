@@ -442,8 +442,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         problems.append(f"connections: must be a list (got {raw_edges!r})")
         raw_edges = []
     names = {str(n) for n in raw_components}
+    spelled = {str(n): str(spec.get("type")) for n, spec in raw_components.items() if isinstance(spec, dict)}
     for i, item in enumerate(raw_edges):
-        spelled = {n: str(spec.get("type")) for n, spec in raw_components.items() if isinstance(spec, dict)}
         edge = _connection(i, item, classes, names, problems, spelled)
         if edge is not None:
             edges.append(edge)
