@@ -18,7 +18,7 @@ from cosim.errors import RecordingError
 from cosim.messages import Message, first_difference
 from cosim.recorder import topic_of
 from cosim.recording import Recording
-from cosim.scheduler import Simulation, _Edge, _Slot
+from cosim.scheduler import Simulation, _Edge, _Slot, gather
 from cosim.timebase import NS_PER_S
 
 
@@ -157,15 +157,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         start, end = tick * dt_ns, (tick + every) * dt_ns
         for src in sources:
             src.advance(tick)
-        inputs: dict[str, Message | None] = {}
-        for port, edges in plan:
-            total = None
-            for edge in edges:
-                value = edge.pick(start, end)
-                if value is not None:
-                    total = value if total is None else total + value
-            inputs[port] = total
-        outputs = comp.step(start, end - start, inputs, cfg.on_unstable)
+        outputs = comp.step(start, end - start, gather(plan, start, end), cfg.on_unstable)
         steps += 1
         bad = compare(end, outputs, steps)
         if bad:

@@ -134,7 +134,8 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
-def _parse_yaml(text: str, source: str) -> dict[str, Any]:
+def read_yaml(text: str, source: str) -> Any:
+    """YAML text to plain data, refusing duplicate keys; errors as one ScenarioError with the line."""
     loader = _StrictLoader(text)
     loader.duplicates = []
     try:
@@ -148,6 +149,11 @@ def _parse_yaml(text: str, source: str) -> dict[str, Any]:
         loader.dispose()
     if loader.duplicates:
         raise ScenarioError(loader.duplicates, source)
+    return data
+
+
+def _parse_yaml(text: str, source: str) -> dict[str, Any]:
+    data = read_yaml(text, source)
     if data is None:
         raise ScenarioError("the scene is empty (expected a mapping with dt, until, components)", source)
     if not isinstance(data, dict):

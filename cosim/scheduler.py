@@ -150,18 +150,24 @@ class _Runner:
         self.substeps_seen = 1
 
     def gather(self, start: int, end: int) -> dict[str, Message | None]:
-        inputs: dict[str, Message | None] = {}
-        for port, edges in self.plan:
-            if len(edges) == 1:
-                inputs[port] = edges[0].pick(start, end)
-                continue
-            total = None
-            for edge in edges:
-                value = edge.pick(start, end)
-                if value is not None:
-                    total = value if total is None else total + value
-            inputs[port] = total
-        return inputs
+        return gather(self.plan, start, end)
+
+
+def gather(plan: list[tuple[str, list[_Edge]]], start: int, end: int) -> dict[str, Message | None]:
+    """The inputs of a step from ``start`` to ``end`` [ns]: each port's edge value, summed over
+    several edges (additive ports), None where nothing is delivered."""
+    inputs: dict[str, Message | None] = {}
+    for port, edges in plan:
+        if len(edges) == 1:
+            inputs[port] = edges[0].pick(start, end)
+            continue
+        total = None
+        for edge in edges:
+            value = edge.pick(start, end)
+            if value is not None:
+                total = value if total is None else total + value
+        inputs[port] = total
+    return inputs
 
 
 class Simulation:

@@ -51,7 +51,7 @@ import numpy as np
 import yaml
 
 from cosim.errors import ScenarioError
-from cosim.scenario import _StrictLoader, loads
+from cosim.scenario import loads, read_yaml
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
             "metrics", "record", "output", "figure")
@@ -258,19 +258,7 @@ class Sweep:
 # --- parsing and validation ---------------------------------------------------------------------
 
 def _parse_yaml(text: str, source: str) -> dict[str, Any]:
-    loader = _StrictLoader(text)
-    loader.duplicates = []
-    try:
-        data = loader.get_single_data()
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        problem = getattr(exc, "problem", None) or exc
-        raise ScenarioError(f"YAML syntax error: {where}{problem}", source) from None
-    finally:
-        loader.dispose()
-    if loader.duplicates:
-        raise ScenarioError(loader.duplicates, source)
+    data = read_yaml(text, source)
     if not isinstance(data, dict):
         raise ScenarioError("a sweep must be a mapping with at least 'scene' and 'axes' "
                             f"(got {'nothing' if data is None else type(data).__name__})", source)
