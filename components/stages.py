@@ -8,8 +8,8 @@ Stages (Tsai et al. 2022 names), decided from the body state and the contact rep
 - fly-away: contact lost after a contact and the lowest point clear of the local surface by at
   least ``takeoff_clearance`` (one skip counted); a contact that flickers while the stone still grazes
   the surface is the same contact, not a new skip;
-- sink: fully submerged with the water pushing it up less than its weight, or touching water too
-  slowly to leave (horizontal speed below ``sink_speed``); final, except that a sunk stone can come
+- sink: fully submerged, not rising and pushed up by the water less than its weight, or touching
+  water too slowly to leave (horizontal speed below ``sink_speed``); final, except that a sunk stone can come
   to rest on the bottom;
 - rest: on the solid ground and (nearly) still.
 
@@ -67,10 +67,10 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     if water is not None and water.wetted:
         if horizontal < sink_speed:
             return StageId.SINK
-        if water.submerged_fraction >= FULLY_SUBMERGED:
-            # under water, the stone has sunk unless the water pushes it back up: a thin stone thrown
-            # fast dips wholly under the surface for a few milliseconds while the pressure on it
-            # (tens of times its weight) throws it back out
+        if water.submerged_fraction >= FULLY_SUBMERGED and vz <= 0.0:
+            # under water, the stone has sunk unless it is rising or the water pushes it back up: a
+            # thin stone thrown fast dips wholly under the surface for a few milliseconds while the
+            # pressure on it (tens of times its weight) throws it back out
             push = float(water.buoyancy[2] + water.pressure[2] + water.friction[2])
             if push <= body.mass * gravity:
                 return StageId.SINK

@@ -151,7 +151,8 @@ def test_a_sunk_stone_comes_to_rest_on_the_bottom():
 
 def test_a_stone_under_water_sinks_only_when_the_water_no_longer_pushes_it_out():
     """Wholly under the surface, a stone the water pushes up harder than its weight (a thin stone
-    dipping under while the pressure throws it back) is still hitting; with less push it sinks."""
+    dipping under while the pressure throws it back) or one still rising has not sunk; one moving
+    down with less push has."""
     z = np.zeros(3)
     weight = 0.12 * 9.81
 
@@ -163,7 +164,8 @@ def test_a_stone_under_water_sinks_only_when_the_water_no_longer_pushes_it_out()
     script = [
         (body(0.0, 0.10, 5.0, -1.0), water(False), None),
         (body(0.5, -0.01, 5.0, -1.0), under(30 * weight), None),  # thrown back out: still a hit
-        (body(0.6, -0.01, 4.0, -0.5), under(0.9 * weight), None),  # nothing holds it up: sinks
+        (body(0.6, -0.01, 4.0, 0.3), under(0.9 * weight), None),  # still rising: a slide
+        (body(0.7, -0.01, 4.0, -0.5), under(0.9 * weight), None),  # nothing holds it up: sinks
     ]
     labels = [o["stage"].label for o in drive(m, script) if "stage" in o]
-    assert labels == ["approach", "hit", "sink"]
+    assert labels == ["approach", "hit", "slide", "sink"]
