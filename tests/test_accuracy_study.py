@@ -1,0 +1,143 @@
+"""``cosim bench accuracy``: the work-precision study (components/present/accuracy.py), on its --quick
+setting against the reference skip, plus the plan's overrides and the table's bookkeeping."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from components.present.accuracy import (
+    SECTION,
+    Trace,
+    compare,
+    plan,
+    replace_section,
+)
+from cosim.cli import main
+from cosim.scenario import load
+
+ROOT = Path(__file__).resolve().parent.parent
+SKIP = ROOT / "scenarios" / "skip.yaml"
+COLUMNS = ["group", "variant", "wall (x fastest)", "trajectory error, skips [mm]",
+           "trajectory error, whole run [mm]", "skips (ref", "skip distance error [mm]",
+           "energy error [% of E0]", "end", "settings"]
+
+
+def rows_of(page: str) -> tuple[list[str], list[list[str]]]:
+    """The header and the rows of the generated markdown table."""
+    section = page.split(f"<!-- {SECTION}:begin -->", 1)[1].split(f"<!-- {SECTION}:end -->", 1)[0]
+    lines = [line for line in section.splitlines() if line.startswith("|")]
+    cells = [[c.strip() for c in line.strip("|").split(" | ")] for line in lines]
+    return cells[0], cells[2:]
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    """One quick study of the reference skip through the command line: (exit code, output folder)."""
+    out = tmp_path_factory.mktemp("accuracy")
+    (out / "accuracy.md").write_text("# Accuracy\n\nHand-written text stays.\n", encoding="utf-8")
+    code = main(["bench", "accuracy", str(SKIP), "--quick", "-o", str(out), "-q"])
+    return code, out
+
+
+def test_the_command_writes_the_table_section_and_a_small_figure(quick):
+    """Exit 0; the table goes between its markers in accuracy.md (the page's own text kept) and the
+    figure is a PNG under 2 MB in figures/."""
+    code, out = quick
+    assert code == 0
+    page = (out / "accuracy.md").read_text(encoding="utf-8")
+    assert page.startswith("# Accuracy\n\nHand-written text stays.\n")
+    assert f"<!-- {SECTION}:begin -->" in page and f"<!-- {SECTION}:end -->" in page
+    png = out / "figures" / "accuracy.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.stat().st_size < 2_000_000
+    assert "![Error against wall time](figures/accuracy.png)" in page
+
+
+def test_the_table_has_one_row_per_run_with_the_reference_first_at_zero_error(quick):
+    """Columns as documented; the reference row first with every error 0 and wall ratio >= 1; every
+    group of the study present; one row has the fastest wall time (ratio 1.00)."""
+    _, out = quick
+    header, rows = rows_of((out / "accuracy.md").read_text(encoding="utf-8"))
+    assert header[:5] + header[6:] == COLUMNS[:5] + COLUMNS[6:] and header[5].startswith("skips (ref ")
+    assert all(len(r) == len(COLUMNS) for r in rows)
+    ref = rows[0]
+    assert ref[0] == "reference"
+    assert ref[3] == ref[4] == ref[6] == ref[7] == "0"
+    assert float(ref[2]) >= 1.0
+    assert {r[0] for r in rows} == {"reference", "base step", "integrator", "water", "coupling", "effects"}
+    assert min(float(r[2]) for r in rows) == 1.0
+
+
+def test_errors_shrink_as_the_base_step_shrinks(quick):
+    """Along the base-step series (0.1 .. 1 ms), the trajectory, skip distance and energy errors grow
+    with dt, and the run gets cheaper."""
+    _, out = quick
+    _, rows = rows_of((out / "accuracy.md").read_text(encoding="utf-8"))
+    series = [r for r in rows if r[0] == "base step"]
+    dts = [float(r[1].split("dt = ")[1].split(" ms")[0]) for r in series]
+    assert dts == sorted(dts) and len(dts) >= 3
+    for column in (3, 6, 7):
+        errors = [float(r[column]) for r in series]
+        assert all(a < b for a, b in pairwise(errors)), (column, errors)
+    assert float(series[0][2]) > float(series[-1][2])
+
+
+def test_the_plan_holds_the_water_step_and_the_domain():
+    """Every base-step variant keeps the water stepping every 2 ms; the coarse-water variant covers the
+    same 8 m x 1 m; the Jacobi variant makes the body and water edges into the coupler delayed, and the
+    reference is a quarter step (quick) or a sixteenth with finer water (full)."""
+    scene = load(SKIP)
+    reference, variants = plan(scene, quick=False)
+    assert "dt=1.25e-05" in reference.overrides and "components.pond.cell=0.005" in reference.overrides
+    for v in variants:
+        if v.group == "base step" and v.overrides:
+            s = load(SKIP, overrides=list(v.overrides))
+            assert s.dt_ns * s.components["pond"].every == 2_000_000
+    coarse = next(v for v in variants if v.name == "wave, 2 cm cells")
+    p = load(SKIP, overrides=list(coarse.overrides)).components["pond"].params
+    assert p.origin_x - p.cell / 2 == pytest.approx(-0.005) and p.nx * p.cell == pytest.approx(8.0)
+    jacobi = next(v for v in variants if v.group == "coupling")
+    edges = load(SKIP, overrides=list(jacobi.overrides)).connections
+    delayed = {(e.source, e.target, e.target_port) for e in edges if e.delay}
+    assert {("stone", "coupler", "body"), ("pond", "coupler", "water")} <= delayed
+    quick_ref, _ = plan(scene, quick=True)
+    assert quick_ref.overrides == ("dt=5.0e-05", "components.pond.every=40")
+
+
+def trace(x: np.ndarray, distances: list[float]) -> Trace:
+    t = np.linspace(0.0, 1.0, len(x))
+    position = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    takeoffs = [0.1 * (k + 1) for k in range(len(distances))]
+    return Trace(t, position, 10.0 - x, len(distances), distances, "sink", "stopped", "", 1.0, takeoffs, [1.0])
+
+
+def test_compare_measures_positions_at_equal_times_and_skips_both_runs_made():
+    """Identical runs differ by 0; a run 1 cm ahead everywhere is 1 cm off, its energy by 0.1% of 10 J;
+    skip distances compare over the skips both made, the count separately."""
+    base = trace(np.linspace(0.0, 5.0, 11), [1.0, 0.5])
+    same = compare(base, base)
+    assert same["trajectory"] == same["trajectory_skips"] == same["distance"] == same["energy"] == 0.0
+    ahead = compare(trace(np.linspace(0.0, 5.0, 11) + 0.01, [1.02, 0.5, 0.2]), base)
+    assert ahead["trajectory"] == pytest.approx(0.01) and ahead["energy"] == pytest.approx(0.1)
+    assert ahead["distance"] == pytest.approx(0.02) and ahead["skip_diff"] == 1
+
+
+def test_replace_section_keeps_the_rest_of_the_page(tmp_path):
+    """The generated block replaces the old one between its markers; text before and after stays."""
+    page = tmp_path / "a.md"
+    page.write_text(f"intro\n<!-- {SECTION}:begin -->\nold\n<!-- {SECTION}:end -->\noutro\n", encoding="utf-8")
+    replace_section(page, SECTION, "new table")
+    assert page.read_text(encoding="utf-8") == (f"intro\n<!-- {SECTION}:begin -->\nnew table\n"
+                                                f"<!-- {SECTION}:end -->\noutro\n")
+
+
+def test_a_scene_without_a_stone_is_bad_input(tmp_path, capsys):
+    """The study follows a stone: a water-only scene exits 2 saying so, writing nothing."""
+    code = main(["bench", "accuracy", str(ROOT / "scenarios" / "wave_pulse.yaml"), "-o", str(tmp_path), "-q"])
+    assert code == 2
+    assert "no RigidBody" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
