@@ -220,7 +220,10 @@ def test_reference_skip_skips_three_times_then_sinks(reference_skip):
 def test_reference_skip_count_holds_at_half_the_step(reference_skip):
     """skip at dt / 2 (the stone and coupler step twice as often, the water at the same 2 ms): the
     skip count changes by at most one."""
-    sim, _ = run("skip", overrides=["dt=0.0001", "components.pond.every=20"])
+    scene = load(SCENES / "skip.yaml")
+    every = scene.components["pond"].every
+    sim, _ = run("skip", overrides=[f"dt={scene.dt / 2!r}", f"components.pond.every={2 * every}"])
+    assert sim.scene.components["pond"].every * sim.scene.dt == pytest.approx(every * scene.dt)
     halved = sim.components["stages"]
     assert abs(halved.track.skips - reference_skip.track.skips) <= 1
     assert [label for _, label in halved.timeline][-1] == "sink"
