@@ -114,6 +114,9 @@ class WaterCouplerParams:
     water_level: float = param(0.0, unit="m", doc="rest level assumed until the first patch arrives")
     wave_allowance: float = param(0.05, unit="m", ge=0,
                                   doc="highest crest above rest level; a body above it is far")
+    quiet_above: float = param(0.01, unit="m", ge=0,
+                               doc="a dry body whose lowest point is this far above the local surface "
+                                   "publishes its unchanged outputs once, then holds them")
 
     def check(self) -> list[tuple[str, str]]:
         return [("effects", p) for p in unknown_effects(self.effects)]
@@ -296,6 +299,13 @@ class WaterCoupler(Component):
         depth = (level if math.isnan(h_low) else float(h_low)) - low[2]
         volume = float(stats[kernel.S_VOLUME])
         area = float(stats[kernel.S_AREA])
+        if volume == 0.0 and area == 0.0 and depth < -self.params.quiet_above:
+            # dry and clear of the surface: the same outputs as far away (published once, then held),
+            # but the window stays requested, since the body is still near the water
+            self._prev = None
+            quiet = self._idle(depth)
+            quiet["request"] = request
+            return quiet
         body_volume = (math.pi * radius * radius * float(body.thickness) if is_disk
                        else 4.0 / 3.0 * math.pi * radius**3)
         fraction = min(1.0, volume / body_volume) if body_volume > 0 else 0.0
