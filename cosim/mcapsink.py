@@ -14,11 +14,13 @@ from __future__ import annotations
 
 import os
 import pickle
+import queue
 import signal
 import struct
 import subprocess
 import sys
 import tempfile
+import threading
 from pathlib import Path
 from typing import BinaryIO
 
@@ -179,6 +181,22 @@ class ProcessSink:
             start_new_session=True)
         self._batch: list[tuple] = []
         self._ids = _Ids()
+        # A feeder thread does the pipe writes (which release the GIL), so the simulation never waits
+        # for the writer: not while it starts up, nor while it compresses a chunk.
+        self._frames: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._feed_error: BaseException | None = None
+        self._feeder = threading.Thread(target=self._feed, name=f"cosim-feed:{path.name}", daemon=True)
+        self._feeder.start()
+
+    def _feed(self) -> None:
+        stdin = self._proc.stdin
+        assert stdin is not None
+        try:
+            while (frame := self._frames.get()) is not None:
+                stdin.write(frame)
+            stdin.close()
+        except (BrokenPipeError, OSError) as exc:
+            self._feed_error = exc
 
     def _push(self, record: tuple) -> None:
         self._batch.append(record)
@@ -186,14 +204,11 @@ class ProcessSink:
             self.flush()
 
     def flush(self) -> None:
+        if self._feed_error is not None:
+            raise SinkError(f"{self.path}: the recording writer stopped ({self._feed_error}){self._stderr()}")
         if self._batch:
             body = pickle.dumps(self._batch, protocol=pickle.HIGHEST_PROTOCOL)
-            try:
-                assert self._proc.stdin is not None
-                self._proc.stdin.write(_FRAME.pack(len(body)) + body)
-            except (BrokenPipeError, OSError) as exc:
-                raise SinkError(
-                    f"{self.path}: the recording writer stopped ({exc}){self._stderr()}") from None
+            self._frames.put(_FRAME.pack(len(body)) + body)
             self._batch = []
 
     def _stderr(self) -> str:
@@ -232,11 +247,8 @@ class ProcessSink:
         try:
             self.flush()
         finally:
-            if self._proc.stdin is not None:
-                try:
-                    self._proc.stdin.close()
-                except OSError:
-                    pass
+            self._frames.put(None)
+            self._feeder.join(WRITER_TIMEOUT_S)
             code = self._proc.wait(WRITER_TIMEOUT_S)
         try:
             if code != 0 or not self.path.exists():
@@ -247,10 +259,10 @@ class ProcessSink:
     def discard(self) -> None:
         """Stop the writer and remove the partial file."""
         self._proc.kill()
+        self._frames.put(None)
+        self._feeder.join(WRITER_TIMEOUT_S)
         self._proc.wait(WRITER_TIMEOUT_S)
         self._errors.close()
-        if self._proc.stdin is not None:
-            self._proc.stdin.close()
         for p in (self.path, self.path.with_name(self.path.name + ".part")):
             p.unlink(missing_ok=True)
 
