@@ -88,11 +88,14 @@ def test_errors_shrink_as_the_base_step_shrinks(quick):
 
 def test_the_plan_holds_the_water_step_and_the_domain():
     """Every base-step variant keeps the water stepping every 2 ms; the coarse-water variant covers the
-    same 8 m x 1 m; the Jacobi variant makes the body and water edges into the coupler delayed, and the
-    reference is a quarter step (quick) or a sixteenth with finer water (full)."""
+    same 8 m x 1 m; the Jacobi variant makes the body and water edges into the coupler delayed; the
+    reference takes a sixteenth of the step with cells and water step halved (full) or a quarter of
+    the step with the scene's water (quick)."""
     scene = load(SKIP)
     reference, variants = plan(scene, quick=False)
-    assert "dt=1.25e-05" in reference.overrides and "components.pond.cell=0.005" in reference.overrides
+    fine = load(SKIP, overrides=list(reference.overrides))
+    assert fine.dt_ns * 16 == scene.dt_ns and fine.components["pond"].params.cell == 0.005
+    assert fine.dt_ns * fine.components["pond"].every == 1_000_000  # half the water step
     for v in variants:
         if v.group == "base step" and v.overrides:
             s = load(SKIP, overrides=list(v.overrides))
@@ -105,7 +108,9 @@ def test_the_plan_holds_the_water_step_and_the_domain():
     delayed = {(e.source, e.target, e.target_port) for e in edges if e.delay}
     assert {("stone", "coupler", "body"), ("pond", "coupler", "water")} <= delayed
     quick_ref, _ = plan(scene, quick=True)
-    assert quick_ref.overrides == ("dt=5.0e-05", "components.pond.every=40")
+    coarse_ref = load(SKIP, overrides=list(quick_ref.overrides))
+    assert coarse_ref.dt_ns * 4 == scene.dt_ns
+    assert coarse_ref.components["pond"].params == scene.components["pond"].params
 
 
 def trace(x: np.ndarray, distances: list[float]) -> Trace:
