@@ -331,3 +331,17 @@ def test_a_body_wholly_under_water_reports_a_submerged_fraction_of_one():
     assert step(c, deep, still_water())["contact"].submerged_fraction == 1.0
     breaking = step(c, body(position=(0.0, 0.0, -0.0025)), still_water(), 1)["contact"]
     assert 0.9 < breaking.submerged_fraction < 1.0
+
+
+def test_a_quiet_coupler_still_moves_its_window_with_the_body():
+    """In flight near the water the coupler publishes nothing, except a new window request when the
+    body moves past the one the water holds, so the patch is ready when the body comes down."""
+    c = WaterCoupler("c")
+    patch = still_water(half_width=0.5)
+    flying = skipping_disk(depth=-0.03)  # dry, 3 cm above the surface
+    step(c, flying, patch, 0)
+    assert step(c, flying, patch, 1) == {}  # quiet: everything held
+    far_along = flying.replace(position=flying.position + np.array([0.2, 0.0, 0.0]))
+    out = step(c, far_along, patch, 2)
+    assert set(out) == {"request"}
+    assert out["request"].x_min > flying.position[0]

@@ -226,17 +226,19 @@ class WaterCoupler(Component):
         column work nor recorded messages. Likewise a request is published only when the window the
         water holds no longer covers the body with half its margin."""
         request = outputs.get("request")
+        new_request = None
         if request is not None:
             if request is self._held_request:
                 del outputs["request"]
             else:
-                self._held_request = request
+                self._held_request = new_request = request
         if not self._went_idle:
             self.quiet = False
             return outputs
         self._went_idle = False
         if self.quiet:
-            return {}
+            # the window still follows the body in flight, so the water is ready when it comes down
+            return {} if new_request is None else {"request": new_request}
         self.quiet = True
         return outputs
 
@@ -369,8 +371,9 @@ class WaterCoupler(Component):
         cx, cy = float(centre[0]), float(centre[1])
         held = self._held_request
         if held is not None and held.x_min <= held.x_max:
-            # the held window still covers the body with at least half the cell margin: keep it
-            need = margin - 0.5 * (cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
+            # the held window still covers the body, its displacement ring and at least half the
+            # margin cells (which absorb a slower water's lag): keep it
+            need = margin - 0.5 * (p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
             if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
                     and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
                 return held
