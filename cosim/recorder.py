@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, encode_state
+from cosim.errors import RecordingError
 from cosim.mcapsink import open_sink
 from cosim.messages import Message, message
 from cosim.scenario import Scene
@@ -111,7 +112,10 @@ class Recorder(BaseObserver):
         self.every = scene.record.every
         self.checkpoint_ticks = (round(scene.record.checkpoint_every * 1e9 / scene.dt_ns)
                                  if scene.record.checkpoint_every > 0 else 0)
-        self.sink = open_sink(self.path, f"cosim {version or __version__}", background)
+        try:
+            self.sink = open_sink(self.path, f"cosim {version or __version__}", background)
+        except OSError as exc:  # an output path that cannot be written is bad input, said plainly
+            raise RecordingError(f"{self.path}: cannot write the recording ({exc.strerror or exc})") from None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}

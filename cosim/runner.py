@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import SimulationError
+from cosim.errors import RecordingError, SimulationError
 from cosim.progress import ProgressBar
 from cosim.recorder import CHECKPOINT_TOPIC, EVENTS_TOPIC, PERF_TOPIC, STATUS_TOPIC, Recorder
 from cosim.scenario import Scene
@@ -101,7 +101,10 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     try:
         if output is not None:
             output = Path(output)
-            output.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                output.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise RecordingError(f"{output}: cannot create its folder ({exc.strerror or exc})") from None
             recorder = Recorder(output, scene, command_line=command_line, perf=perf,
                                 derivers=default_derivers(scene) if derivers is None else derivers)
             for deriver in recorder.derivers:  # components may override their looks (Component.visuals)

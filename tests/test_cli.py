@@ -103,3 +103,13 @@ def test_bad_arguments_exit_2(tmp_path):
     """Unknown options and bad values are bad input (exit 2)."""
     proc = cosim("run", "x.yaml", "--until", "soon", cwd=tmp_path)
     assert proc.returncode == 2 and "expected seconds, got 'soon'" in proc.stderr
+
+
+def test_unwritable_output_is_bad_input(scene, tmp_path):
+    """An output path that cannot be written is reported in one line with exit 2, before running."""
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    proc = cosim("run", str(scene), "-o", str(blocker / "sub" / "x.mcap"), cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith(f"error: {blocker / 'sub' / 'x.mcap'}: cannot create its folder")
+    assert "Traceback" not in proc.stderr
