@@ -174,7 +174,9 @@ class WaterField(Message):
     """The whole surface, for viewers only (published at the visual frame rate, never to physics).
 
     cell [m]; origin_x, origin_y: centre of cell (0, 0) [m]; height: (ny, nx) elevation z [m];
-    volume: total water volume above the bed [m^3]; energy: discrete wave energy [J].
+    volume: total water volume above the bed [m^3]; energy: the wave model's lattice energy [J], its
+    exact invariant (bounded when the model is stable), which for short waves is far above the waves'
+    physical energy (see components.water.diagnostics).
     """
 
     cell: float

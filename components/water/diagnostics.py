@@ -9,6 +9,12 @@ the face springs of the spatial operator::
 
     E = m [ 1/2 sum_ij v_ij^2 + 1/2 sum_faces a_f (h_a - h_b)^2 ]      a_f = K_f / s^2 [1/s^2]
 
+It is the wave model's own invariant, not the physical energy of the waves: a column of the
+height field carries the mass of its whole depth moving vertically, so for a wave of wavenumber k it
+exceeds the physical wave energy by about (k d)^2 (some 4000 times for 5 cm waves on 0.5 m of
+water). :func:`surface_energy` gives the physical potential energy of the surface, 1/2 rho_w g
+sum eta^2 s^2, for energy books that compare the water with a body.
+
 This is the quantity the undamped semi-discrete model conserves exactly (v_t = -S h with S the
 symmetric operator of the faces); it is zero at rest. The explicit `wave` step conserves instead the
 shadow energy E + m dt/2 sum_ij v_ij a_ij (a the acceleration of h), to round-off, so E itself
@@ -19,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from components.water.grid import Grid
+from components.water.grid import GRAVITY, WATER_DENSITY, Grid
 
 
 def volume(grid: Grid, h: np.ndarray, b: np.ndarray | None = None) -> float:
@@ -52,6 +58,12 @@ def energy(grid: Grid, h: np.ndarray, v: np.ndarray) -> float:
     dy = h[1:, :] - h[:-1, :]
     potential = 0.5 * (float(np.sum(grid.kx * dx * dx)) + float(np.sum(grid.ky * dy * dy))) / s2
     return grid.column_mass * (kinetic + potential)
+
+
+def surface_energy(grid: Grid, h: np.ndarray) -> float:
+    """Physical potential energy of the surface deviation, 1/2 rho_w g sum eta^2 s^2 [J] (about half
+    the waves' energy: kinetic and potential are equal on average in a travelling wave)."""
+    return 0.5 * WATER_DENSITY * GRAVITY * float(np.sum(h * h)) * grid.cell**2
 
 
 def shadow_energy(grid: Grid, h: np.ndarray, v: np.ndarray, dt: float) -> float:

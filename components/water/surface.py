@@ -34,7 +34,7 @@ import numpy as np
 from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
-from components.water.diagnostics import energy, volume
+from components.water.diagnostics import energy, surface_energy, volume
 from components.water.grid import build_grid
 from components.water.models import MODELS
 from cosim.component import Component, Port
@@ -194,7 +194,9 @@ class WaterSurface(Component):
         g, p = self.grid, self.params
         change = (self.volume() - self.initial_volume) / self.initial_volume
         return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {p.boundary} edges; "
-                f"volume change {change:+.3g} (relative), wave energy {self.energy():.6g} J"]
+                f"volume change {change:+.3g} (relative); surface energy "
+                f"{surface_energy(self.grid, self._h):.3g} J (1/2 rho g sum eta^2 s^2; the model's lattice "
+                f"invariant {self.energy():.3g} J)"]
 
     # --- state ----------------------------------------------------------------------------------
 
