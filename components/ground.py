@@ -59,7 +59,7 @@ Vec3Param = tuple[float, float, float]
 class SolidGroundParams:
     """Parameters of a SolidGround plane (SI units; angles in degrees)."""
 
-    point: Vec3Param = param((0.0, 0.0, 0.0), unit="m", doc="a point of the plane (a bottom: [0, 0, -depth])")  # noqa: RUF009
+    point: Vec3Param = param((0.0, 0.0, 0.0), unit="m", doc="a point of the plane (a bottom: [0, 0, -depth])")
     slope_deg: float = param(0.0, unit="deg", ge=0, lt=90, doc="angle of the plane from horizontal")
     downhill_deg: float = param(0.0, unit="deg", doc="azimuth of the downhill direction, from +x towards +y")
     restitution: float = param(0.5, ge=0, le=1, doc="normal coefficient of restitution e")
@@ -69,7 +69,7 @@ class SolidGroundParams:
                                     doc="slower impacts are plastic (raised to at least 4 |g| dt)")
     face_tolerance: float = param(1e-5, unit="m", ge=0,
                                   doc="a disk whose bottom rim heights spread by at most this lies flat")
-    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2", doc="must match the body's gravity")  # noqa: RUF009
+    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2", doc="must match the body's gravity")
 
     def check(self) -> list[tuple[str, str]]:
         if self.mu_kinetic > self.mu_static:

@@ -59,20 +59,20 @@ class RigidBodyParams:
     thickness: float = param(0.005, unit="m", ge=0, doc="disk thickness (ignored for a sphere)")
     density: float = param(2700.0, unit="kg/m^3", gt=0, doc="sets the mass unless mass is given")
     mass: float | None = param(None, unit="kg", gt=0, doc="overrides the density")
-    position: Vec3Param = param((0.0, 0.0, 0.1), unit="m", doc="initial centre of mass")  # noqa: RUF009
-    velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="m/s", doc="initial velocity")  # noqa: RUF009
-    angular_velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="rad/s", doc="initial, world frame")  # noqa: RUF009
+    position: Vec3Param = param((0.0, 0.0, 0.1), unit="m", doc="initial centre of mass")
+    velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="m/s", doc="initial velocity")
+    angular_velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="rad/s", doc="initial, world frame")
     spin: float = param(0.0, unit="rad/s",
                         doc="initial spin about the symmetry axis, added to angular_velocity")
     tilt_deg: float = param(0.0, unit="deg", doc="initial rotation about tilt_axis")
-    tilt_axis: Vec3Param = param(  # noqa: RUF009
+    tilt_axis: Vec3Param = param(
         (0.0, -1.0, 0.0), doc="world axis of the tilt; the default raises the +x edge (nose up along +x)")
-    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2")  # noqa: RUF009
+    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2")
     integrator: str = param("verlet", doc="verlet | semi_implicit_euler | rk4")
     lock_attitude: bool = param(False, doc="hold orientation and angular velocity (high-spin limit)")
-    scripted_tilt_deg: list[tuple[float, float]] = param(  # noqa: RUF009
+    scripted_tilt_deg: list[tuple[float, float]] = param(
         [], doc="keyframes [t [s], tilt [deg]] about tilt_axis; empty: free attitude")
-    scripted_velocity: list[tuple[float, float, float]] = param(  # noqa: RUF009
+    scripted_velocity: list[tuple[float, float, float]] = param(
         [], doc="keyframes [t [s], vx [m/s], vy [m/s]]; empty: free horizontal motion")
 
     def check(self) -> list[tuple[str, str]]:

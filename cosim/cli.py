@@ -25,6 +25,17 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"error: {self.prog}: {message}\n")
 
 
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1 (shared by the subcommands)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
 def _seconds_arg(text: str) -> int:
     try:
         value = float(text)

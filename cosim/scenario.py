@@ -490,13 +490,17 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     return scene
 
 
-def load(path: str | Path, overrides: list[str] | None = None) -> Scene:
-    """Parse and validate a scene file; raises ScenarioError (a missing file is bad input too)."""
+def read_input(path: str | Path) -> str:
+    """The text of an input file; a missing or unreadable file is bad input (ScenarioError)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ScenarioError("no such file", str(path)) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"cannot read: {exc}", str(path)) from None
-    return loads(text, source=str(path), overrides=overrides)
+
+
+def load(path: str | Path, overrides: list[str] | None = None) -> Scene:
+    """Parse and validate a scene file; raises ScenarioError (a missing file is bad input too)."""
+    return loads(read_input(path), source=str(path), overrides=overrides)

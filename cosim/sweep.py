@@ -51,7 +51,7 @@ import numpy as np
 import yaml
 
 from cosim.errors import ScenarioError
-from cosim.scenario import loads, read_yaml
+from cosim.scenario import loads, read_input, read_yaml
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
             "metrics", "record", "output", "figure")
@@ -696,10 +696,4 @@ def load_sweep(path: str | Path, overrides: list[str] | None = None,
                output: str | Path | None = None) -> Sweep:
     """Parse and validate a sweep file (its ``scene:`` is looked up beside it); raises ScenarioError."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioError("no such file", str(path)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"cannot read: {exc}", str(path)) from None
-    return loads_sweep(text, str(path), path.parent, overrides, output)
+    return loads_sweep(read_input(path), str(path), path.parent, overrides, output)

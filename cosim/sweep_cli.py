@@ -13,18 +13,9 @@ import shlex
 import sys
 from pathlib import Path
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int
+
 SHOWN_POINTS = 10  # --dry-run lists this many points
-
-
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -90,7 +81,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("sweep", help="sweep YAML file (base scene + axes)")
     p.add_argument("-o", "--output", type=Path, help="results table, .csv or .parquet (default: the file's "
                    "output:, else runs/<name>.csv)")
-    p.add_argument("--workers", type=_positive, metavar="N",
+    p.add_argument("--workers", type=positive_int, metavar="N",
                    help="worker processes (default: all cores; with --dask local: the cluster's workers)")
     p.add_argument("--dask", metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://HOST:PORT of its scheduler, or 'local' for a "

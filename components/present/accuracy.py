@@ -41,6 +41,8 @@ from typing import Any
 
 import numpy as np
 
+from cosim.cli import positive_int
+
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 SECTION = "accuracy-table"
 FIGURE = Path("figures") / "accuracy.png"
@@ -576,16 +578,6 @@ def write(study: Study, out_dir: str | Path) -> tuple[Path, Path]:
 
 # --- the command --------------------------------------------------------------------------------------
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
 def _positive_seconds(text: str) -> float:
     try:
         value = float(text)
@@ -610,7 +602,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", metavar="DIR", default="runs/accuracy",
                    help="writes DIR/figures/accuracy.png and the table section of DIR/accuracy.md "
                         "(default runs/accuracy; docs/ for the documentation)")
-    p.add_argument("--repeats", type=_positive_int, help="timed rounds per variant (default 2; 1 with --quick)")
+    p.add_argument("--repeats", type=positive_int, help="timed rounds per variant (default 2; 1 with --quick)")
     p.add_argument("--until", type=_positive_seconds, metavar="T",
                    help="end time of every run [s] (default: the scene's, or 0.4 s with --quick)")
     p.add_argument("-q", "--quiet", action="store_true", help="no line per run on stderr")
