@@ -14,9 +14,9 @@ from components.present.accuracy import (
     Trace,
     compare,
     plan,
-    replace_section,
 )
 from cosim.cli import main
+from cosim.docsection import replace_section
 from cosim.scenario import load
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -19,10 +19,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from cosim.docsection import replace_section  # noqa: E402
 from cosim.recorder import Recorder  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
-from tools.docsection import replace_section  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 

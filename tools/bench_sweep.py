@@ -25,12 +25,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from cosim.docsection import replace_section  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.sweep import loads_sweep  # noqa: E402
 from cosim.sweep_backends import DaskBackend, ProcessBackend  # noqa: E402
 from cosim.sweep_run import run_sweep  # noqa: E402
-from tools.docsection import replace_section  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 

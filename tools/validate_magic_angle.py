@@ -42,9 +42,9 @@ if str(ROOT) not in sys.path:
 
 from components.coupler import WaterCoupler, WaterCouplerParams  # noqa: E402
 from components.coupler.fixtures import body, pitched, still_water  # noqa: E402
+from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import loads  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
-from tools.docsection import replace_section  # noqa: E402
 
 RADIUS = 0.025  # [m] Clanet et al.'s aluminium disk
 THICKNESS = 0.00275  # [m]

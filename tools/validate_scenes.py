@@ -27,9 +27,9 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from components.coupler.forces import C_FRICTION, C_LIFT  # noqa: E402
+from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
-from tools.docsection import replace_section  # noqa: E402
 
 SCENES = ROOT / "scenarios"
 

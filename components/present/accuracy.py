@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from cosim.cli import positive_int
+from cosim.docsection import replace_section
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 SECTION = "accuracy-table"
@@ -548,23 +549,6 @@ def figure(study: Study, path: str | Path, dpi: int = 100) -> Path:
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
-
-
-def replace_section(path: str | Path, name: str, body: str) -> None:
-    """Put ``body`` between ``<!-- name:begin -->`` and ``<!-- name:end -->`` in the markdown file
-    (appended, with the markers, when they are not there yet; the rest of the file is kept)."""
-    path = Path(path)
-    begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
-    block = f"{begin}\n{body.rstrip()}\n{end}"
-    text = path.read_text(encoding="utf-8") if path.exists() else ""
-    if begin in text and end in text:
-        head, rest = text.split(begin, 1)
-        _, tail = rest.split(end, 1)
-        text = head + block + tail
-    else:
-        text = (text.rstrip() + "\n\n" if text.strip() else "") + block + "\n"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
 
 
 def write(study: Study, out_dir: str | Path) -> tuple[Path, Path]:
