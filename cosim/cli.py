@@ -9,8 +9,10 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from collections.abc import Callable
 from importlib.metadata import entry_points
 from pathlib import Path
+from typing import Any
 
 from cosim.errors import CosimError, RecordingError, ScenarioError
 from cosim.timebase import NS_PER_S
@@ -25,25 +27,33 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"error: {self.prog}: {message}\n")
 
 
-def positive_int(text: str) -> int:
-    """argparse type: a whole number >= 1 (shared by the subcommands)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+def number_arg(kind: type[int] | type[float], what: str, *, above: float | None = None,
+               at_least: float | None = None, unit: str = "") -> Callable[[str], Any]:
+    """An argparse type reading ``kind`` with an optional bound, for every subcommand's options;
+    a bad value is a one-line error naming what was expected and what was given."""
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if above is not None and not value > above:
+            raise argparse.ArgumentTypeError(f"must be > {above:g}{unit}, got {text}")
+        if at_least is not None and not value >= at_least:
+            raise argparse.ArgumentTypeError(f"must be >= {at_least:g}{unit}, got {text}")
+        return value
+    return parse
+
+
+positive_int = number_arg(int, "a whole number", at_least=1)
+positive_number = number_arg(float, "a number", above=0)
+seconds = number_arg(float, "seconds")
+positive_seconds = number_arg(float, "seconds", above=0, unit=" s")
+_time_since_start = number_arg(float, "seconds", at_least=0, unit=" s")
 
 
 def _seconds_arg(text: str) -> int:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0 s, got {text}")
-    return round(value * NS_PER_S)
+    """A time [s] >= 0 as integer nanoseconds."""
+    return round(_time_since_start(text) * NS_PER_S)
 
 
 def _default_output(scene_path: str, name: str) -> Path:

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.cli import positive_int
+from cosim.cli import positive_int, positive_seconds
 from cosim.docsection import replace_section
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -562,16 +562,6 @@ def write(study: Study, out_dir: str | Path) -> tuple[Path, Path]:
 
 # --- the command --------------------------------------------------------------------------------------
 
-def _positive_seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0 s, got {text}")
-    return value
-
-
 def register(subparsers: argparse._SubParsersAction) -> None:
     """``cosim bench MODE ...``; the ``accuracy`` mode is this module's."""
     bench = subparsers.add_parser("bench", help="benchmarks and studies (accuracy: work-precision of a scene)")
@@ -587,7 +577,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="writes DIR/figures/accuracy.png and the table section of DIR/accuracy.md "
                         "(default runs/accuracy; docs/ for the documentation)")
     p.add_argument("--repeats", type=positive_int, help="timed rounds per variant (default 2; 1 with --quick)")
-    p.add_argument("--until", type=_positive_seconds, metavar="T",
+    p.add_argument("--until", type=positive_seconds, metavar="T",
                    help="end time of every run [s] (default: the scene's, or 0.4 s with --quick)")
     p.add_argument("-q", "--quiet", action="store_true", help="no line per run on stderr")
     p.set_defaults(func=cmd_accuracy)

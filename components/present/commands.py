@@ -10,26 +10,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from cosim.cli import positive_int, positive_number, seconds
+
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
-
-
-def _positive(kind: type) -> object:
-    def parse(text: str) -> float | int:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a {kind.__name__}, got {text!r}") from None
-        if not value > 0:
-            raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-        return value
-    return parse
-
-
-def _seconds(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
 
 
 def register_plot(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +23,7 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", metavar="DIR",
                    help="folder for the PNGs (default: RUN-plots/ beside the recording)")
     p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
-    p.add_argument("--dpi", type=_positive(int), default=120, help="resolution of the PNGs (default 120)")
+    p.add_argument("--dpi", type=positive_int, default=120, help="resolution of the PNGs (default 120)")
     p.set_defaults(func=cmd_plot)
 
 
@@ -63,17 +46,17 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="skip.gif, skip.mp4 (needs ffmpeg or the [video] extra) or frame.png (one frame)")
-    p.add_argument("--fps", type=_positive(float), default=30.0, help="frames per second (default 30)")
-    p.add_argument("--width", type=_positive(int), default=800, help="width in pixels (default 800)")
-    p.add_argument("--speed", type=_positive(float), default=1.0,
+    p.add_argument("--fps", type=positive_number, default=30.0, help="frames per second (default 30)")
+    p.add_argument("--width", type=positive_int, default=800, help="width in pixels (default 800)")
+    p.add_argument("--speed", type=positive_number, default=1.0,
                    help="simulated seconds per second of video (default 1; 0.25 is a slow motion)")
     p.add_argument("--view", choices=("follow", "fixed"), default="follow",
                    help="follow: a window around the stone (default); fixed: the whole run in view")
-    p.add_argument("--span", type=_positive(float), default=1.0,
+    p.add_argument("--span", type=positive_number, default=1.0,
                    help="follow view: width of the window [m] (default 1)")
-    p.add_argument("--from", dest="start", type=_seconds, metavar="T", help="start time [s]")
-    p.add_argument("--to", dest="stop", type=_seconds, metavar="T", help="end time [s]")
-    p.add_argument("--at", type=_seconds, metavar="T",
+    p.add_argument("--from", dest="start", type=seconds, metavar="T", help="start time [s]")
+    p.add_argument("--to", dest="stop", type=seconds, metavar="T", help="end time [s]")
+    p.add_argument("--at", type=seconds, metavar="T",
                    help="time of the frame for a PNG [s] (default: shortly after the first touchdown)")
     p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
     p.add_argument("--water", metavar="TOPIC", help="WaterField channel (default: the first one)")
