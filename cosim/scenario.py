@@ -163,6 +163,21 @@ def _parse_yaml(text: str, source: str) -> dict[str, Any]:
 
 # --- overrides -----------------------------------------------------------------------------------
 
+def find_parent(data: Any, parts: list[str]) -> tuple[Any, str | None]:
+    """The node holding the last of the key ``parts`` (mapping keys, or list indices as digits), or
+    (None, problem) naming the first missing part and the keys known there."""
+    node = data
+    for depth, part in enumerate(parts[:-1]):
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            known = ", ".join(map(str, node)) if isinstance(node, dict) else "none"
+            return None, f"{'.'.join(parts[: depth + 1])!r} (known there: {known})"
+    return node, None
+
+
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
     """Apply ``a.b.c=value`` overrides (value parsed as YAML) in place; returns the problems."""
     problems = []
@@ -176,25 +191,17 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
         except yaml.YAMLError:
             value = raw
         parts = key.strip().split(".")
-        node: Any = data
-        for depth, part in enumerate(parts[:-1]):
-            where = ".".join(parts[: depth + 1])
-            if isinstance(node, dict) and part in node:
-                node = node[part]
-            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-                node = node[int(part)]
-            else:
-                known = ", ".join(map(str, node)) if isinstance(node, dict) else "none"
-                problems.append(f"--set {key}: no such key {where!r} (known there: {known})")
-                break
+        node, missing = find_parent(data, parts)
+        if missing is not None:
+            problems.append(f"--set {key}: no such key {missing}")
+            continue
+        last = parts[-1]
+        if isinstance(node, dict):
+            node[last] = value
+        elif isinstance(node, list) and last.isdigit() and int(last) < len(node):
+            node[int(last)] = value
         else:
-            last = parts[-1]
-            if isinstance(node, dict):
-                node[last] = value
-            elif isinstance(node, list) and last.isdigit() and int(last) < len(node):
-                node[int(last)] = value
-            else:
-                problems.append(f"--set {key}: cannot set {last!r} inside a {type(node).__name__}")
+            problems.append(f"--set {key}: cannot set {last!r} inside a {type(node).__name__}")
     return problems
 
 

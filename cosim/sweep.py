@@ -51,7 +51,7 @@ import numpy as np
 import yaml
 
 from cosim.errors import ScenarioError
-from cosim.scenario import loads, read_input, read_yaml
+from cosim.scenario import find_parent, loads, read_input, read_yaml
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
             "metrics", "record", "output", "figure")
@@ -359,17 +359,10 @@ def _check_key_path(data: Any, key: str, path: str, problems: list[str]) -> None
     """Every part of ``key`` but the last must exist in the base scene (the last may be a parameter
     left at its default; the scene's own validation judges it)."""
     parts = key.split(".")
-    node = data
-    for depth, part in enumerate(parts[:-1]):
-        if isinstance(node, dict) and part in node:
-            node = node[part]
-        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-            node = node[int(part)]
-        else:
-            known = ", ".join(map(str, node)) if isinstance(node, dict) else "none"
-            missing = ".".join(parts[: depth + 1])
-            problems.append(f"{path}: the scene has no key {missing!r} (known there: {known})")
-            return
+    node, missing = find_parent(data, parts)
+    if missing is not None:
+        problems.append(f"{path}: the scene has no key {missing}")
+        return
     if not isinstance(node, (dict, list)):
         parent = ".".join(parts[:-1])
         problems.append(f"{path}: {parent!r} is a {type(node).__name__} in the scene, not a mapping")
