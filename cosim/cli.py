@@ -160,7 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--perf", action="store_true", help="add wall-clock /perf channels (not deterministic)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT",
-                   help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765; needs cosim[live])")
+                   help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
     p.add_argument("--live-speed", type=float, default=1.0, metavar="S",
                    help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
     p.set_defaults(func=cmd_run)

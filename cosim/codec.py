@@ -17,12 +17,14 @@ import base64
 import enum
 import json
 import math
+import pickle
 import struct
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from cosim.jsontext import TextFormat, render, state_text
 from cosim.messages import Array, FieldKind, FieldSpec, Message, fields_of
 
 INLINE_ARRAY_MAX = 16  # arrays up to this many fixed elements are written inline as JSON lists
@@ -182,25 +184,27 @@ def _field_coders(spec: FieldSpec) -> tuple[Callable[[Any], Any], Callable[[Any]
     return _array_out(spec.array, spec.name), _array_in(spec.array, spec.name)
 
 
-def _b64(head: str, arr: np.ndarray) -> str:
-    """``{"dtype":..,"shape":[..],"base64":".."}`` of an array (little-endian bytes), as JSON text."""
-    data = base64.b64encode(np.ascontiguousarray(arr, dtype=arr.dtype.newbyteorder("<")).tobytes())
-    return (head + ',"shape":[' + ",".join(map(str, arr.shape)) + '],"base64":"' + data.decode("ascii")
-            + '"}')
+def _raw_bytes(arr: np.ndarray) -> pickle.PickleBuffer:
+    """A copy of an array's little-endian bytes (so the message may be written later), wrapped so
+    that pickle hands them to a recording's writer process out of band, without copying them again."""
+    return pickle.PickleBuffer(np.ascontiguousarray(arr, dtype=arr.dtype.newbyteorder("<")).tobytes())
 
 
-def _compile_encoder(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]],
-                     fallback: Callable[[Message], bytes]) -> Callable[[Message], bytes]:
-    """A generated function writing a message's JSON directly, equal byte for byte to
-    ``json.dumps(to_dict(msg), separators=(",", ":"))`` but several times faster: one ``%``-format
-    with every float as ``%r`` (Python's shortest round-trip repr, as json writes it) and a single
-    sum telling whether every float is finite. Anything unexpected (a NaN, a list where an array
-    was declared, a wrong shape) goes through ``fallback``. Recording every exchange hinges on this."""
-    env: dict[str, Any] = {"_json": json.dumps, "_b64": _b64, "_fallback": fallback, "_isfinite": math.isfinite}
+def _compile_flatten(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]]
+                     ) -> tuple[Callable[[Message], tuple | None], TextFormat]:
+    """A generated function reading a message into the arguments of its :class:`TextFormat`, so that
+    ``render(text_format, flatten(msg))`` equals ``json.dumps(to_dict(msg), separators=(",", ":"))``
+    byte for byte, but several times faster: every float is written with ``%r`` (Python's shortest
+    round-trip repr, as json writes it) and a single sum tells whether every float is finite.
+    Anything unexpected (a NaN, a list where an array was declared, a wrong shape) gives None, and
+    the caller takes the slow path. Recording every exchange hinges on this."""
+    env: dict[str, Any] = {"_json": json.dumps, "_raw": _raw_bytes, "_isfinite": math.isfinite}
     pre: list[str] = []      # statements computing locals
     floats: list[str] = []   # expressions whose sum must be finite
     fmt: list[str] = []      # format pieces, in field order
     args: list[str] = []     # format arguments, in field order
+    base64_slots: list[int] = []
+    slot = 0                 # index of the next format argument
     for i, spec in enumerate(fields):
         key = json.dumps(spec.name)
         value = f"m.{spec.name}"
@@ -225,35 +229,45 @@ def _compile_encoder(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable
             if _inline(array) and len(array.shape) == 1 and array.dtype.startswith("float"):
                 n = array.shape[0]
                 pre.append(f"v{i} = {value}.tolist()")
-                pre.append(f"if len(v{i}) != {n}: return _fallback(m)")
+                pre.append(f"if len(v{i}) != {n}: return None")
                 floats.append(f"sum(v{i})")
                 fmt.append(f"{sep}{key}:[" + ",".join(["%r"] * n) + "]")
                 args.append(f"*v{i}")
+                slot += n - 1
             elif not _inline(array):
-                env[f"_head{i}"] = '{"dtype":' + json.dumps(np.dtype(array.dtype).str.replace(">", "<"))
-                env[f"_dtype{i}"] = np.dtype(array.dtype)
-                pre.append(f"if {value}.dtype != _dtype{i} or {value}.ndim != {len(array.shape)}: "
-                           "return _fallback(m)")
-                fmt.append(f"{sep}{key}:%s")
-                args.append(f"_b64(_head{i}, {value})")
+                dtype = np.dtype(array.dtype)
+                env[f"_dtype{i}"] = dtype
+                pre.append(f"if {value}.dtype != _dtype{i} or {value}.ndim != {len(array.shape)}: return None")
+                # the dtype is fixed by the declaration; the shape and the bytes are arguments
+                fmt.append(f"{sep}{key}:" + "{" + '"dtype":' + json.dumps(dtype.str.replace(">", "<"))
+                           + ',"shape":[%s],"base64":"%s"}')
+                args.append(f"','.join(map(str, {value}.shape))")
+                args.append(f"_raw({value})")
+                base64_slots.append(slot + 1)
+                slot += 1
             else:
                 env[f"_enc{i}"] = encoders[spec.name]
                 fmt.append(f"{sep}{key}:%s")
                 args.append(f"_json(_enc{i}({value}), separators=(',', ':'))")
-    env["_FMT"] = "".join(fmt) + "}" if fmt else "{}"
-    lines = ["def encode(m):", "    try:"]
+        slot += 1
+    lines = ["def flatten(m):", "    try:"]
     lines += [f"        {line}" for line in pre]
     if floats:
-        lines.append(f"        if not _isfinite({' + '.join(floats)}): return _fallback(m)")
-    lines.append(f"        return (_FMT % ({', '.join(args)}{',' if len(args) == 1 else ''})).encode()")
+        lines.append(f"        if not _isfinite({' + '.join(floats)}): return None")
+    lines.append(f"        return ({', '.join(args)}{',' if len(args) == 1 else ''})")
     lines.append("    except (AttributeError, TypeError, ValueError, OverflowError):")
-    lines.append("        return _fallback(m)")
+    lines.append("        return None")
     exec("\n".join(lines), env)
-    return env["encode"]
+    return env["flatten"], TextFormat("".join(fmt) + "}" if fmt else "{}", tuple(base64_slots))
 
 
 class MessageCodec:
-    """Encoder/decoder for one message type (built once per type, see :func:`codec_for`)."""
+    """Encoder/decoder for one message type (built once per type, see :func:`codec_for`).
+
+    ``flatten(msg)`` reads a message into the arguments of ``text_format`` (None when the message
+    needs the slow path: a non-finite float, a wrong shape); ``render(text_format, args)`` writes
+    them. :meth:`encode` does both.
+    """
 
     def __init__(self, message_type: type[Message]):
         self.message_type = message_type
@@ -262,7 +276,7 @@ class MessageCodec:
         coders = [_field_coders(spec) for spec in self.fields]
         self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders, strict=True)]
         self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders, strict=True)]
-        self._fast_encode = _compile_encoder(self.fields, dict(self._encoders), self._slow_encode)
+        self.flatten, self.text_format = _compile_flatten(self.fields, dict(self._encoders))
 
     def to_dict(self, msg: Message) -> dict[str, Any]:
         """The JSON-ready dict of a message."""
@@ -270,7 +284,8 @@ class MessageCodec:
 
     def encode(self, msg: Message) -> bytes:
         """JSON bytes of a message (compact, keys in declaration order)."""
-        return self._fast_encode(msg)
+        args = self.flatten(msg)
+        return self._slow_encode(msg) if args is None else render(self.text_format, args)
 
     def _slow_encode(self, msg: Message) -> bytes:
         return json.dumps(self.to_dict(msg), separators=(",", ":"), allow_nan=False).encode()
@@ -367,16 +382,18 @@ def decode(message_type: type[Message], payload: bytes) -> Message:
 
 # --- plain-data state (checkpoints) -------------------------------------------------------------
 
-def _state_out(value: Any) -> Any:
+def plain_state(value: Any) -> Any:
+    """State data (dicts, lists, numbers, strings, numpy arrays) as JSON values, every array as a
+    tagged dict holding a copy of its little-endian bytes (written as base64 by
+    :func:`cosim.jsontext.state_text`)."""
     if isinstance(value, np.ndarray):
         arr = np.ascontiguousarray(value)
         arr = arr.astype(arr.dtype.newbyteorder("<"), copy=False)
-        return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape),
-                "base64": base64.b64encode(arr.tobytes()).decode("ascii")}
+        return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape), "base64": arr.tobytes()}
     if isinstance(value, dict):
-        return {str(k): _state_out(v) for k, v in value.items()}
+        return {str(k): plain_state(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_state_out(v) for v in value]
+        return [plain_state(v) for v in value]
     if isinstance(value, (np.floating, float)):
         x = float(value)
         # tagged, so a state string that happens to read "nan" stays a string
@@ -407,7 +424,7 @@ def _state_in(value: Any) -> Any:
 
 def encode_state(state: Any) -> bytes:
     """JSON bytes of plain state data (dicts, lists, numbers, strings, numpy arrays), bit-exact."""
-    return json.dumps(_state_out(state), separators=(",", ":"), allow_nan=False).encode()
+    return state_text(plain_state(state))
 
 
 def decode_state(payload: bytes) -> Any:

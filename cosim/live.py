@@ -1,7 +1,7 @@
 """``cosim run --live``: stream a run to Foxglove (or Lichtblick) over WebSocket while it simulates.
 
-An observer, imported only when ``--live`` is given, built on the optional ``foxglove-sdk`` package
-(``pip install 'cosim[live]'``). It publishes the same channels as a recording: every exchange on
+An observer, imported only when ``--live`` is given, built on the ``foxglove-sdk`` package (which
+also writes every recording). It publishes the same channels as a recording: every exchange on
 ``/<component>/<port>`` as JSON with its ``cosim.<Type>`` JSON schema, and the viewer channels of a
 :class:`cosim.visual.VisualDeriver` (its own instance, at the scene's visual rate or
 :data:`DEFAULT_RATE`) as Foxglove protobufs, each with log time = simulation time. The server
@@ -55,7 +55,8 @@ class LiveView(BaseObserver):
         try:
             import foxglove
         except ImportError:
-            raise LiveViewError("--live needs the foxglove-sdk package: pip install 'cosim[live]'") from None
+            raise LiveViewError("--live needs the foxglove-sdk package (a dependency of cosim): "
+                               "pip install foxglove-sdk") from None
         from cosim.foxglove import visual_deriver
         from cosim.runner import physics_topics
 

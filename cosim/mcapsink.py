@@ -1,13 +1,19 @@
 """Where a recording's records go: an MCAP writer in a separate process, fed in batches.
 
-The mcap writer is pure Python and costs about as much per message as a physics step; writing in a
-second process lets it run on another core while the simulation goes on, so recording every
-exchange costs little more than encoding it. It also makes recordings sturdier: if the simulating
-process dies, the writer sees its pipe close and still finishes a valid, indexed file.
+Writing a message's JSON text (every float's repr, the base64 of every large array) and compressing
+it cost more than the physics that made it. Both happen in a second process, on another core, while
+the simulation goes on: the simulating process only reads each message into a tuple of plain values
+(:meth:`cosim.codec.MessageCodec.flatten`; a checkpoint into plain data, :func:`cosim.codec.plain_state`)
+and sends it in batches through a pipe; the writer writes the text with :mod:`cosim.jsontext` (the
+same functions :func:`cosim.codec.encode` uses, so the bytes do not depend on where they are made)
+and the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message,
+attachment and metadata indexes). The writer imports nothing else of cosim, so it starts in a few
+tens of milliseconds. It also makes recordings sturdier: if the simulating process dies, the writer
+sees its pipe close and still finishes a valid, indexed file.
 
-Schema and channel ids are assigned here in registration order, exactly as the mcap writer assigns
-them, so the bytes written do not depend on where the writer runs. :class:`InProcessSink` does the
-same work in the calling process (used where a second process is not wanted).
+Each channel's messages are numbered from 1 in the order they are written (the MCAP sequence).
+:class:`InProcessSink` does the same work in the calling process (used where a second process is
+not wanted).
 """
 
 from __future__ import annotations
@@ -21,16 +27,16 @@ import subprocess
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
-from mcap.writer import CompressionType, IndexType, Writer
+from cosim.jsontext import TextFormat, render, state_text
 
-# Chunk and message indexes for fast seeking; attachment and metadata indexes because every
-# recording has both (the mcap default also writes empty index groups that strict checkers flag).
-INDEX_TYPES = IndexType.CHUNK | IndexType.MESSAGE | IndexType.ATTACHMENT | IndexType.METADATA
-BATCH = 2048  # records per batch sent to the writer process
+BATCH = 256  # records per batch sent to the writer process: small, so the writer keeps up closely
+OUT_OF_BAND_BYTES = 65536  # arrays this large go to the pipe as they are, not copied into a pickle
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
+ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
 
 
 class SinkError(RuntimeError):
@@ -38,45 +44,58 @@ class SinkError(RuntimeError):
 
 
 class _Apply:
-    """Applies records to an mcap Writer over an open file, then finishes it and renames it."""
+    """Applies records to an MCAP writer over ``part``, then finishes the file and renames it."""
 
-    def __init__(self, part: str, final: str, library: str):
+    def __init__(self, part: str, final: str):
+        import foxglove  # the SDK's compiled MCAP writer: several times faster than a pure-Python one
+        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+
         self.part, self.final = part, final
-        self.file: BinaryIO = open(part, "wb")
-        self.writer = Writer(self.file, compression=CompressionType.ZSTD, index_types=INDEX_TYPES)
-        self.writer.start(profile="", library=library)
+        self._foxglove = foxglove
+        self.context = foxglove.Context()  # this file's own channels, apart from any live view
+        self.writer = foxglove.open_mcap(
+            part, allow_overwrite=True, context=self.context,
+            writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd, compression_level=ZSTD_LEVEL,
+                                            compression_threads=0, profile=""))
+        self.schemas: dict[int, Any] = {}
+        self.channels: dict[int, Any] = {}
+        self.formats: dict[int, TextFormat] = {}  # channel id -> how its flattened messages are written
 
     def apply(self, record: tuple) -> None:
         op = record[0]
-        w = self.writer
-        if op == "m":
-            w.add_message(record[1], log_time=record[2], data=record[3], publish_time=record[2],
-                          sequence=record[4])
+        if op == "f":
+            self.channels[record[1]].log(render(self.formats[record[1]], record[3]), log_time=record[2])
+        elif op == "m":
+            self.channels[record[1]].log(record[3], log_time=record[2])
+        elif op == "state":
+            self.channels[record[1]].log(state_text(record[3]), log_time=record[2])
         elif op == "schema":
-            got = w.register_schema(record[2], record[3], record[4])
-            if got != record[1]:
-                raise SinkError(f"schema id {got} != {record[1]}")
+            self.schemas[record[1]] = self._foxglove.Schema(name=record[2], encoding=record[3], data=record[4])
         elif op == "channel":
-            got = w.register_channel(record[2], record[3], record[4])
-            if got != record[1]:
-                raise SinkError(f"channel id {got} != {record[1]}")
+            _, cid, topic, encoding, schema_id, text_format = record
+            self.channels[cid] = self._foxglove.Channel(topic, message_encoding=encoding,
+                                                        schema=self.schemas[schema_id], context=self.context)
+            if text_format is not None:
+                self.formats[cid] = TextFormat(*text_format)
         elif op == "metadata":
-            w.add_metadata(record[1], record[2])
+            self.writer.write_metadata(record[1], record[2])
         elif op == "attachment":
-            w.add_attachment(create_time=0, log_time=record[2], name=record[1], media_type=record[3],
-                             data=record[4])
+            self.writer.attach(log_time=record[2], create_time=0, name=record[1], media_type=record[3],
+                               data=record[4])
         else:
             raise SinkError(f"unknown record {op!r}")
 
     def finish(self) -> None:
-        try:
-            self.writer.finish()
-        finally:
-            self.file.close()
+        self.writer.close()
         os.replace(self.part, self.final)
 
 
-_FRAME = struct.Struct("<Q")  # length prefix of each pickled batch on the writer's stdin
+_PACKAGE_ROOT = str(Path(__file__).resolve().parents[1])  # the folder holding the cosim package
+# Each batch on the writer's stdin: its pickle's length and how many out-of-band buffers follow,
+# then each buffer's length, the pickle, and the buffers (protocol 5: array bytes are not copied
+# into the pickle but written to the pipe as they are).
+_FRAME = struct.Struct("<QI")
+_LENGTH = struct.Struct("<Q")
 
 
 def _read_exact(stream: BinaryIO, n: int) -> bytes | None:
@@ -98,18 +117,23 @@ def writer_main(argv: list[str]) -> int:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    part, final, library = argv
-    sink = _Apply(part, final, library)
+    part, final = argv
+    sink = _Apply(part, final)
     stream = sys.stdin.buffer
     try:
         while True:
             head = _read_exact(stream, _FRAME.size)
             if head is None:
                 break
-            body = _read_exact(stream, _FRAME.unpack(head)[0])
-            if body is None:
+            size, count = _FRAME.unpack(head)
+            lengths = _read_exact(stream, _LENGTH.size * count) if count else b""
+            body = _read_exact(stream, size)
+            if lengths is None or body is None:
                 break
-            for record in pickle.loads(body):
+            buffers = [_read_exact(stream, n) for (n,) in _LENGTH.iter_unpack(lengths)]
+            if any(b is None for b in buffers):
+                break
+            for record in pickle.loads(body, buffers=buffers):
                 sink.apply(record)
     finally:
         sink.finish()
@@ -117,7 +141,7 @@ def writer_main(argv: list[str]) -> int:
 
 
 class _Ids:
-    """Schema and channel ids in the order the mcap writer gives them (both counting from 1)."""
+    """Schema and channel ids, counting from 1 in registration order."""
 
     def __init__(self) -> None:
         self.schemas = 0
@@ -132,58 +156,95 @@ class _Ids:
         return self.channels
 
 
-class InProcessSink:
-    """Writes records directly, in this process."""
+class _Sink:
+    """What both sinks share: ids counted here, and every record passed on as a tuple to
+    :meth:`_record` (applied by :class:`_Apply`, here or in the writer process).
 
-    def __init__(self, path: Path, library: str):
-        self.path = path
-        self._apply = _Apply(str(path.with_name(path.name + ".part")), str(path), library)
+    Records: ``("f", channel, time_ns, args)`` a message as its text format's arguments;
+    ``("m", channel, time_ns, data)`` a message's bytes; ``("state", channel, time_ns, plain)`` a
+    checkpoint as plain data; ``schema``, ``channel``, ``metadata`` and ``attachment``.
+    """
+
+    def __init__(self) -> None:
         self._ids = _Ids()
+
+    def _record(self, record: tuple) -> None:
+        raise NotImplementedError
 
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         sid = self._ids.schema()
-        self._apply.apply(("schema", sid, name, encoding, data))
+        self._record(("schema", sid, name, encoding, data))
         return sid
 
-    def register_channel(self, topic: str, encoding: str, schema_id: int) -> int:
+    def register_channel(self, topic: str, encoding: str, schema_id: int,
+                         text_format: TextFormat | None = None) -> int:
+        """A channel id; ``text_format`` is how :meth:`add_flat` messages on it are written."""
         cid = self._ids.channel()
-        self._apply.apply(("channel", cid, topic, encoding, schema_id))
+        self._record(("channel", cid, topic, encoding, schema_id,
+                      None if text_format is None else tuple(text_format)))
         return cid
 
-    def add_message(self, channel: int, time_ns: int, data: bytes, sequence: int) -> None:
-        self._apply.writer.add_message(channel, log_time=time_ns, data=data, publish_time=time_ns,
-                                       sequence=sequence)
+    def add_message(self, channel: int, time_ns: int, data: bytes) -> None:
+        """A message's bytes, at log time = publish time = ``time_ns``."""
+        self._record(("m", channel, time_ns, data))
+
+    def add_flat(self, channel: int, time_ns: int, args: tuple) -> None:
+        """A message given as the arguments of its channel's text format (rendered by the writer)."""
+        self._record(("f", channel, time_ns, args))
+
+    def add_state(self, channel: int, time_ns: int, plain: Any) -> None:
+        """A checkpoint, as :func:`cosim.codec.plain_state` gives it (its arrays already copied)."""
+        self._record(("state", channel, time_ns, plain))
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        self._apply.apply(("metadata", name, data))
+        self._record(("metadata", name, dict(data)))
 
     def add_attachment(self, name: str, time_ns: int, media_type: str, data: bytes) -> None:
-        self._apply.apply(("attachment", name, time_ns, media_type, data))
+        self._record(("attachment", name, time_ns, media_type, data))
+
+
+class InProcessSink(_Sink):
+    """Writes records directly, in this process."""
+
+    def __init__(self, path: Path):
+        super().__init__()
+        self.path = path
+        self._apply = _Apply(str(path.with_name(path.name + ".part")), str(path))
+        self._record = self._apply.apply  # type: ignore[method-assign]
 
     def close(self) -> None:
         self._apply.finish()
 
+    def discard(self) -> None:
+        """Finish and remove the file."""
+        self._apply.writer.close()
+        for p in (self.path, self.path.with_name(self.path.name + ".part")):
+            p.unlink(missing_ok=True)
 
-class ProcessSink:
-    """Sends records in batches to a writer process (this file run as a script: it imports only mcap,
-    so it starts fast and shares no threads or locks with the simulation)."""
 
-    def __init__(self, path: Path, library: str):
+class ProcessSink(_Sink):
+    """Sends records in batches to a writer process (this module run with ``python -m``: it shares no
+    threads or locks with the simulation, and starts while the simulation does)."""
+
+    def __init__(self, path: Path):
+        super().__init__()
         self.path = path
         part = path.with_name(path.name + ".part")
         part.touch()  # a path that cannot be written fails at once, in this process
         # the writer's own errors go to a file, read back only if it fails (a pipe could fill and block it)
         self._errors = tempfile.TemporaryFile()
+        # the writer imports this package from where this process found it
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
         self._proc = subprocess.Popen(
-            # -P: this file's folder must not shadow the standard library on the writer's path
-            [sys.executable, "-P", str(Path(__file__).resolve()), str(part), str(path), library],
+            # -P: the working folder must not shadow anything on the writer's path
+            [sys.executable, "-P", "-m", "cosim.mcapsink", str(part), str(path)],
             stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self._errors,
-            start_new_session=True)
+            start_new_session=True, env=env)
         self._batch: list[tuple] = []
-        self._ids = _Ids()
         # A feeder thread does the pipe writes (which release the GIL), so the simulation never waits
         # for the writer: not while it starts up, nor while it compresses a chunk.
-        self._frames: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._frames: queue.SimpleQueue[list[Any] | None] = queue.SimpleQueue()
         self._feed_error: BaseException | None = None
         self._feeder = threading.Thread(target=self._feed, name=f"cosim-feed:{path.name}", daemon=True)
         self._feeder.start()
@@ -192,14 +253,27 @@ class ProcessSink:
         stdin = self._proc.stdin
         assert stdin is not None
         try:
-            while (frame := self._frames.get()) is not None:
-                stdin.write(frame)
+            while (parts := self._frames.get()) is not None:
+                for part in parts:
+                    stdin.write(part)
             stdin.close()
         except (BrokenPipeError, OSError) as exc:
             self._feed_error = exc
 
-    def _push(self, record: tuple) -> None:
-        self._batch.append(record)
+    def _record(self, record: tuple) -> None:
+        batch = self._batch
+        batch.append(record)
+        if len(batch) >= BATCH:
+            self.flush()
+
+    # the two per-message calls, without the extra call through _record
+    def add_message(self, channel: int, time_ns: int, data: bytes) -> None:
+        self._batch.append(("m", channel, time_ns, data))
+        if len(self._batch) >= BATCH:
+            self.flush()
+
+    def add_flat(self, channel: int, time_ns: int, args: tuple) -> None:
+        self._batch.append(("f", channel, time_ns, args))
         if len(self._batch) >= BATCH:
             self.flush()
 
@@ -207,9 +281,23 @@ class ProcessSink:
         if self._feed_error is not None:
             raise SinkError(f"{self.path}: the recording writer stopped ({self._feed_error}){self._stderr()}")
         if self._batch:
-            body = pickle.dumps(self._batch, protocol=pickle.HIGHEST_PROTOCOL)
-            self._frames.put(_FRAME.pack(len(body)) + body)
+            raws: list[memoryview] = []
+            body = pickle.dumps(self._batch, protocol=5, buffer_callback=self._out_of_band(raws))
+            head = _FRAME.pack(len(body), len(raws)) + b"".join(_LENGTH.pack(r.nbytes) for r in raws)
+            self._frames.put([head, body, *raws])
             self._batch = []
+
+    @staticmethod
+    def _out_of_band(raws: list[memoryview]) -> Callable[[pickle.PickleBuffer], bool]:
+        """A pickle buffer callback keeping large buffers out of the pickle (collected in ``raws``);
+        small ones stay in it, where one copy costs less than one more write to the pipe."""
+        def callback(buffer: pickle.PickleBuffer) -> bool:
+            raw = buffer.raw()
+            if raw.nbytes < OUT_OF_BAND_BYTES:
+                return True
+            raws.append(raw)
+            return False
+        return callback
 
     def _stderr(self) -> str:
         """The writer's last error line, if it wrote one."""
@@ -220,27 +308,6 @@ class ProcessSink:
         except (subprocess.TimeoutExpired, OSError, ValueError):
             return ""
         return f": {text.splitlines()[-1]}" if text else ""
-
-    def register_schema(self, name: str, encoding: str, data: bytes) -> int:
-        sid = self._ids.schema()
-        self._push(("schema", sid, name, encoding, data))
-        return sid
-
-    def register_channel(self, topic: str, encoding: str, schema_id: int) -> int:
-        cid = self._ids.channel()
-        self._push(("channel", cid, topic, encoding, schema_id))
-        return cid
-
-    def add_message(self, channel: int, time_ns: int, data: bytes, sequence: int) -> None:
-        self._batch.append(("m", channel, time_ns, data, sequence))
-        if len(self._batch) >= BATCH:
-            self.flush()
-
-    def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        self._push(("metadata", name, dict(data)))
-
-    def add_attachment(self, name: str, time_ns: int, media_type: str, data: bytes) -> None:
-        self._push(("attachment", name, time_ns, media_type, data))
 
     def close(self) -> None:
         """Send what is left, close the pipe, and wait until the writer has finished the file."""
@@ -267,10 +334,14 @@ class ProcessSink:
             p.unlink(missing_ok=True)
 
 
-def open_sink(path: Path, library: str, background: bool = True) -> InProcessSink | ProcessSink:
+def open_sink(path: Path, background: bool = True) -> InProcessSink | ProcessSink:
     """A sink writing ``path`` (via ``path.part``, renamed when finished)."""
-    return ProcessSink(path, library) if background else InProcessSink(path, library)
+    return ProcessSink(path) if background else InProcessSink(path)
 
 
 if __name__ == "__main__":
-    sys.exit(writer_main(sys.argv[1:]))
+    status = writer_main(sys.argv[1:])
+    # the file is finished: exit at once (tearing down the interpreter costs tens of milliseconds
+    # that the simulating process would spend waiting)
+    sys.stderr.flush()
+    os._exit(status)

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, encode_state
+from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
+from cosim.jsontext import TextFormat
 from cosim.errors import RecordingError
 from cosim.mcapsink import open_sink
 from cosim.messages import Message, message
@@ -113,12 +114,11 @@ class Recorder(BaseObserver):
         self.checkpoint_ticks = (round(scene.record.checkpoint_every * 1e9 / scene.dt_ns)
                                  if scene.record.checkpoint_every > 0 else 0)
         try:
-            self.sink = open_sink(self.path, f"cosim {version or __version__}", background)
+            self.sink = open_sink(self.path, background)
         except OSError as exc:  # an output path that cannot be written is bad input, said plainly
             raise RecordingError(f"{self.path}: cannot write the recording ({exc.strerror or exc})") from None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
-        self._sequence: dict[int, int] = {}
         self._routes: dict[tuple[str, str], list | None] = {}
         self._wanted: dict[str, bool] = {}
         self._closed = False
@@ -133,15 +133,15 @@ class Recorder(BaseObserver):
     # --- channels ------------------------------------------------------------------------------------
 
     def _channel(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
-                 message_encoding: str) -> int:
+                 message_encoding: str, text_format: TextFormat | None = None) -> int:
         channel = self._channels.get(topic)
         if channel is None:
             schema = self._schemas.get(schema_name)
             if schema is None:
                 schema = self._schemas[schema_name] = self.sink.register_schema(
                     schema_name, schema_encoding, schema_data)
-            channel = self._channels[topic] = self.sink.register_channel(topic, message_encoding, schema)
-            self._sequence[channel] = 0
+            channel = self._channels[topic] = self.sink.register_channel(
+                topic, message_encoding, schema, text_format)
         return channel
 
     def _message_channel(self, topic: str, msg_type: type[Message]) -> int:
@@ -149,15 +149,11 @@ class Recorder(BaseObserver):
         if channel is None:
             codec = codec_for(msg_type)
             channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
-                                    MESSAGE_ENCODING)
+                                    MESSAGE_ENCODING, codec.text_format)
         return channel
 
-    def write(self, channel: int, time_ns: int, data: bytes) -> None:
-        seq = self._sequence[channel] = self._sequence[channel] + 1
-        self.sink.add_message(channel, time_ns, data, seq)
-
     def write_message(self, topic: str, time_ns: int, msg: Message) -> None:
-        self.write(self._message_channel(topic, type(msg)), time_ns, codec_for(type(msg)).encode(msg))
+        self.sink.add_message(self._message_channel(topic, type(msg)), time_ns, codec_for(type(msg)).encode(msg))
 
     def wanted(self, topic: str) -> bool:
         ok = self._wanted.get(topic)
@@ -169,14 +165,17 @@ class Recorder(BaseObserver):
     # --- observer interface ----------------------------------------------------------------------------
 
     def _route(self, component: str, port: str, msg: Message) -> list | None:
-        """[channel, encode, count] of an output port, or None when its channel is not recorded."""
+        """[channel, flatten, count, encode] of an output port, or None when its channel is not
+        recorded."""
         topic = f"/{component}/{port}"
         if not self.wanted(topic):
             return None
-        return [self._message_channel(topic, type(msg)), codec_for(type(msg)).encode, 0]
+        codec = codec_for(type(msg))
+        return [self._message_channel(topic, type(msg)), codec.flatten, 0, codec.encode]
 
     def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
-        # one dict lookup per exchange: the port's channel and encoder are resolved once
+        # one dict lookup per exchange: the port's channel and encoder are resolved once; the JSON
+        # text itself is written by the sink (in the writer process), from the flattened message
         key = (component, port)
         route = self._routes.get(key, False)
         if route is False:
@@ -185,16 +184,18 @@ class Recorder(BaseObserver):
             n = route[2]
             route[2] = n + 1
             if n % self.every == 0:
-                channel = route[0]
-                seq = self._sequence[channel] = self._sequence[channel] + 1
-                self.sink.add_message(channel, time_ns, route[1](msg), seq)
+                args = route[1](msg)
+                if args is not None:
+                    self.sink.add_flat(route[0], time_ns, args)
+                else:  # a non-finite value or an odd field: the exact slow path, here
+                    self.sink.add_message(route[0], time_ns, route[3](msg))
         for deriver in self.derivers:
             for extra in deriver(time_ns, component, port, msg):
                 if not self.wanted(extra.topic):
                     continue
                 channel = self._channel(extra.topic, extra.schema_name, extra.schema_encoding,
                                         extra.schema_data, extra.message_encoding)
-                self.write(channel, time_ns, extra.data)
+                self.sink.add_message(channel, time_ns, extra.data)
 
     def on_event(self, time_ns: int, component: str, kind: str, detail: str) -> None:
         self.write_message(EVENTS_TOPIC, time_ns, Event(component, kind, detail))
@@ -218,7 +219,7 @@ class Recorder(BaseObserver):
         channel = self._channel(CHECKPOINT_TOPIC, "cosim.Checkpoint", SCHEMA_ENCODING,
                                 json.dumps({"title": "cosim.Checkpoint", "type": "object"}).encode(),
                                 MESSAGE_ENCODING)
-        self.write(channel, sim.time_ns, encode_state(sim.checkpoint()))
+        self.sink.add_state(channel, sim.time_ns, plain_state(sim.checkpoint()))
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
         self.write_message(STATUS_TOPIC, sim.time_ns, RunStatus(

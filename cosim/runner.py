@@ -88,12 +88,12 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     holding everything up to the end plus the final status record. A SimulationError does not
     propagate: it is in ``outcome.result``. ``live`` (``[HOST:]PORT``) also streams the physics and
     viewer channels to Foxglove over WebSocket, paced at ``live_speed`` times real time (0: unpaced);
-    it needs the optional ``foxglove-sdk`` package.
+    it uses the ``foxglove-sdk`` package's WebSocket server.
     """
     sim = simulation if simulation is not None else Simulation(scene)
     live_view = None
     if live is not None:
-        from cosim.live import LiveView  # only with --live: the foxglove-sdk package is optional
+        from cosim.live import LiveView  # only with --live
 
         live_view = LiveView(scene, live, speed=live_speed, components=sim.components)
     recorder = None
