@@ -20,21 +20,20 @@ from __future__ import annotations
 
 import os
 import pickle
-import queue
 import signal
-import struct
 import subprocess
 import sys
 import tempfile
-import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 from cosim.jsontext import TextFormat, render, state_text
+from cosim.ring import RingConsumer, RingError, RingProducer
 
 BATCH = 256  # records per batch sent to the writer process: small, so the writer keeps up closely
-OUT_OF_BAND_BYTES = 65536  # arrays this large go to the pipe as they are, not copied into a pickle
+RING_BYTES = 8 << 20  # shared memory between the simulating and the writer process: reused, so its pages stay mapped
+OUT_OF_BAND_BYTES = 65536  # arrays this large go into the ring as they are, not copied into a pickle
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
 
@@ -91,48 +90,22 @@ class _Apply:
 
 
 _PACKAGE_ROOT = str(Path(__file__).resolve().parents[1])  # the folder holding the cosim package
-# Each batch on the writer's stdin: its pickle's length and how many out-of-band buffers follow,
-# then each buffer's length, the pickle, and the buffers (protocol 5: array bytes are not copied
-# into the pickle but written to the pipe as they are).
-_FRAME = struct.Struct("<QI")
-_LENGTH = struct.Struct("<Q")
-
-
-def _read_exact(stream: BinaryIO, n: int) -> bytes | None:
-    chunks = []
-    while n:
-        chunk = stream.read(n)
-        if not chunk:
-            return None
-        chunks.append(chunk)
-        n -= len(chunk)
-    return b"".join(chunks)
 
 
 def writer_main(argv: list[str]) -> int:
-    """Body of the writer process: apply batches from stdin until it closes, then finish the file.
+    """Body of the writer process: apply batches from the ring until the simulating process closes
+    the control pipe, then finish the file.
 
     The simulating process closing the pipe, on purpose or by dying, is the signal to finish, so the
     writer ignores Ctrl-C and SIGTERM meant for the simulation.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    part, final = argv
+    part, final, ring_fd, ring_size, control_fd, ack_fd = argv
+    ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
-    stream = sys.stdin.buffer
     try:
-        while True:
-            head = _read_exact(stream, _FRAME.size)
-            if head is None:
-                break
-            size, count = _FRAME.unpack(head)
-            lengths = _read_exact(stream, _LENGTH.size * count) if count else b""
-            body = _read_exact(stream, size)
-            if lengths is None or body is None:
-                break
-            buffers = [_read_exact(stream, n) for (n,) in _LENGTH.iter_unpack(lengths)]
-            if any(b is None for b in buffers):
-                break
+        for body, *buffers in ring.batches():
             for record in pickle.loads(body, buffers=buffers):
                 sink.apply(record)
     finally:
@@ -224,7 +197,8 @@ class InProcessSink(_Sink):
 
 class ProcessSink(_Sink):
     """Sends records in batches to a writer process (this module run with ``python -m``: it shares no
-    threads or locks with the simulation, and starts while the simulation does)."""
+    threads or locks with the simulation, and starts while the simulation does), through a ring in
+    shared memory (:mod:`cosim.ring`)."""
 
     def __init__(self, path: Path):
         super().__init__()
@@ -236,29 +210,22 @@ class ProcessSink(_Sink):
         # the writer imports this package from where this process found it
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
-        self._proc = subprocess.Popen(
-            # -P: the working folder must not shadow anything on the writer's path
-            [sys.executable, "-P", "-m", "cosim.mcapsink", str(part), str(path)],
-            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self._errors,
-            start_new_session=True, env=env)
-        self._batch: list[tuple] = []
-        # A feeder thread does the pipe writes (which release the GIL), so the simulation never waits
-        # for the writer: not while it starts up, nor while it compresses a chunk.
-        self._frames: queue.SimpleQueue[list[Any] | None] = queue.SimpleQueue()
-        self._feed_error: BaseException | None = None
-        self._feeder = threading.Thread(target=self._feed, name=f"cosim-feed:{path.name}", daemon=True)
-        self._feeder.start()
-
-    def _feed(self) -> None:
-        stdin = self._proc.stdin
-        assert stdin is not None
+        self._ring = RingProducer(RING_BYTES)
+        control_r, control_w = os.pipe()
+        ack_r, ack_w = os.pipe()
         try:
-            while (parts := self._frames.get()) is not None:
-                for part in parts:
-                    stdin.write(part)
-            stdin.close()
-        except (BrokenPipeError, OSError) as exc:
-            self._feed_error = exc
+            self._proc = subprocess.Popen(
+                # -P: the working folder must not shadow anything on the writer's path
+                [sys.executable, "-P", "-m", "cosim.mcapsink", str(part), str(path), str(self._ring.fd),
+                 str(RING_BYTES), str(control_r), str(ack_w)],
+                pass_fds=(self._ring.fd, control_r, ack_w), stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL, stderr=self._errors, start_new_session=True, env=env)
+        finally:
+            os.close(control_r)
+            os.close(ack_w)
+        self._ack_r = ack_r
+        self._ring.connect(control_w, ack_r)
+        self._batch: list[tuple] = []
 
     def _record(self, record: tuple) -> None:
         batch = self._batch
@@ -278,19 +245,21 @@ class ProcessSink(_Sink):
             self.flush()
 
     def flush(self) -> None:
-        if self._feed_error is not None:
-            raise SinkError(f"{self.path}: the recording writer stopped ({self._feed_error}){self._stderr()}")
-        if self._batch:
-            raws: list[memoryview] = []
-            body = pickle.dumps(self._batch, protocol=5, buffer_callback=self._out_of_band(raws))
-            head = _FRAME.pack(len(body), len(raws)) + b"".join(_LENGTH.pack(r.nbytes) for r in raws)
-            self._frames.put([head, body, *raws])
-            self._batch = []
+        """Send the records gathered so far."""
+        if not self._batch:
+            return
+        raws: list[memoryview] = []
+        body = pickle.dumps(self._batch, protocol=5, buffer_callback=self._out_of_band(raws))
+        self._batch = []
+        try:
+            self._ring.put([body, *raws])
+        except (RingError, OSError) as exc:
+            raise SinkError(f"{self.path}: the recording writer stopped ({exc}){self._stderr()}") from None
 
     @staticmethod
     def _out_of_band(raws: list[memoryview]) -> Callable[[pickle.PickleBuffer], bool]:
-        """A pickle buffer callback keeping large buffers out of the pickle (collected in ``raws``);
-        small ones stay in it, where one copy costs less than one more write to the pipe."""
+        """A pickle buffer callback keeping large buffers out of the pickle (collected in ``raws``, and
+        copied into the ring as they are); small ones stay in it, where they cost less."""
         def callback(buffer: pickle.PickleBuffer) -> bool:
             raw = buffer.raw()
             if raw.nbytes < OUT_OF_BAND_BYTES:
@@ -309,13 +278,23 @@ class ProcessSink(_Sink):
             return ""
         return f": {text.splitlines()[-1]}" if text else ""
 
+    def _hang_up(self) -> None:
+        """Close the ring (the writer then finishes) and read the writer's last acknowledgements until
+        it exits, so it never waits on a full pipe."""
+        self._ring.close()
+        os.set_blocking(self._ack_r, True)
+        try:
+            while os.read(self._ack_r, 1 << 16):
+                pass
+        finally:
+            os.close(self._ack_r)
+
     def close(self) -> None:
-        """Send what is left, close the pipe, and wait until the writer has finished the file."""
+        """Send what is left, close the ring, and wait until the writer has finished the file."""
         try:
             self.flush()
         finally:
-            self._frames.put(None)
-            self._feeder.join(WRITER_TIMEOUT_S)
+            self._hang_up()
             code = self._proc.wait(WRITER_TIMEOUT_S)
         try:
             if code != 0 or not self.path.exists():
@@ -326,8 +305,7 @@ class ProcessSink(_Sink):
     def discard(self) -> None:
         """Stop the writer and remove the partial file."""
         self._proc.kill()
-        self._frames.put(None)
-        self._feeder.join(WRITER_TIMEOUT_S)
+        self._hang_up()
         self._proc.wait(WRITER_TIMEOUT_S)
         self._errors.close()
         for p in (self.path, self.path.with_name(self.path.name + ".part")):

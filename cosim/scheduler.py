@@ -198,6 +198,7 @@ class Simulation:
                 runner.plan.append((port, edges))
         # edges were appended runner by runner; keep a canonical order for checkpoints
         self.edges.sort(key=lambda e: scene.connections.index(e.spec))
+        self._read_ports = {(e.spec.source, e.spec.source_port) for e in self.edges}
 
     # --- time -------------------------------------------------------------------------------------
 
@@ -309,9 +310,10 @@ class Simulation:
             "dt_ns": self.dt_ns,
             "components": {r.name: {"state": r.comp.get_state(), "step_count": r.comp.step_count}
                            for r in self.runners},
+            # only the ports some edge reads: the others' past messages cannot change what follows
             "slots": {f"{r.name}.{port}": [[stamp, codec_for(type(msg)).encode(msg).decode()]
                                            for stamp, msg in slot.entries]
-                      for r in self.runners for port, slot in r.slots.items()},
+                      for r in self.runners for port, slot in r.slots.items() if (r.name, port) in self._read_ports},
             "edges": [e.last_delivered for e in self.edges],
         }
 

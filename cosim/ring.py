@@ -1,0 +1,176 @@
+"""Batches of bytes from one process to another through a ring in shared memory. Standard library only.
+
+The producer copies each batch (a list of byte buffers) into the ring and sends its place on a
+control pipe; the consumer reads it in place and acknowledges how far it has read on a second pipe.
+Compared with writing the bytes down a pipe, this saves the kernel's copy and most of the turns
+between the two processes: a recording streams tens of megabytes a second this way while the
+simulation goes on.
+
+Control records (producer -> consumer): ``<QI`` offset in the ring and number of parts, then each
+part's length as ``<Q``. An offset of :data:`INLINE` means the parts follow on the pipe itself (a
+batch larger than the ring). Acknowledgements (consumer -> producer): ``<Q``, the stream position
+read up to. When the ring is full the producer waits for the consumer; when the producer's end of
+the control pipe closes (on purpose or because the process died) the consumer's iteration ends.
+"""
+
+from __future__ import annotations
+
+import mmap
+import os
+import select
+import struct
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+INLINE = (1 << 64) - 1  # control offset: the batch's parts follow on the pipe
+_HEAD = struct.Struct("<QI")
+_LENGTH = struct.Struct("<Q")
+
+
+class RingError(RuntimeError):
+    """The other side of the ring is gone."""
+
+
+def shared_memory_fd(size: int) -> int:
+    """A file descriptor of ``size`` bytes of anonymous shared memory (no name in any file system, so
+    nothing is left behind when both processes end, however they end)."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("cosim-ring")
+    else:  # an unlinked temporary file elsewhere
+        import tempfile
+
+        with tempfile.TemporaryFile() as f:
+            fd = os.dup(f.fileno())
+    os.ftruncate(fd, size)
+    return fd
+
+
+def _size_of(part: Any) -> int:
+    return part.nbytes if isinstance(part, memoryview) else len(part)
+
+
+def _read_exact(fd: int, n: int) -> bytes | None:
+    chunks = []
+    while n:
+        chunk = os.read(fd, n)
+        if not chunk:
+            return None
+        chunks.append(chunk)
+        n -= len(chunk)
+    return b"".join(chunks)
+
+
+def _write_all(fd: int, data: Any) -> None:
+    view = memoryview(data).cast("B")
+    while view:
+        view = view[os.write(fd, view):]
+
+
+class RingProducer:
+    """The sending side: :meth:`put` a batch; ``fd`` and ``size`` go to the consumer process."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self.fd = shared_memory_fd(size)
+        self._map = mmap.mmap(self.fd, size)
+        self._view = memoryview(self._map)
+        self._head = 0  # stream position of the next byte written
+        self._tail = 0  # stream position the consumer has acknowledged
+        self._acks = b""
+        self.control_fd = -1
+        self.ack_fd = -1
+
+    def connect(self, control_fd: int, ack_fd: int) -> None:
+        """Start talking to the consumer: its control pipe (write end) and acknowledgement pipe (read end)."""
+        self.control_fd, self.ack_fd = control_fd, ack_fd
+        os.set_blocking(ack_fd, False)
+
+    def put(self, parts: Sequence[Any]) -> None:
+        """Send one batch (bytes-like parts); waits while the consumer is a ring's length behind."""
+        sizes = [_size_of(p) for p in parts]
+        total = sum(sizes)
+        lengths = b"".join(_LENGTH.pack(n) for n in sizes)
+        if total > self.size:
+            _write_all(self.control_fd, _HEAD.pack(INLINE, len(parts)) + lengths)
+            for part in parts:
+                _write_all(self.control_fd, part)
+            return
+        start = self._head
+        if start % self.size + total > self.size:  # no room before the ring's end: start over at 0
+            start += self.size - start % self.size
+        end = start + total
+        self._read_acks(wait=False)
+        while end - self._tail > self.size:
+            self._read_acks(wait=True)
+        offset = at = start % self.size
+        for part, n in zip(parts, sizes, strict=True):
+            self._view[at:at + n] = part
+            at += n
+        self._head = end
+        # only now that the bytes are in place may the consumer hear of them
+        _write_all(self.control_fd, _HEAD.pack(offset, len(parts)) + lengths)
+
+    def _read_acks(self, wait: bool) -> None:
+        if wait:
+            select.select([self.ack_fd], [], [])
+        try:
+            data = os.read(self.ack_fd, 1 << 16)
+        except BlockingIOError:
+            return
+        if not data:
+            raise RingError("the consumer has gone")
+        data = self._acks + data
+        whole = len(data) - len(data) % _LENGTH.size
+        if whole:
+            self._tail = _LENGTH.unpack_from(data, whole - _LENGTH.size)[0]
+        self._acks = data[whole:]
+
+    def close(self) -> None:
+        """Close the control pipe (the consumer then finishes) and the producer's mapping."""
+        if self.control_fd >= 0:
+            os.close(self.control_fd)
+            self.control_fd = -1
+        self._view.release()
+        self._map.close()
+        os.close(self.fd)
+
+
+class RingConsumer:
+    """The receiving side, over the producer's ``fd`` of ``size`` bytes and the two pipes."""
+
+    def __init__(self, fd: int, size: int, control_fd: int, ack_fd: int):
+        self.size = size
+        self._map = mmap.mmap(fd, size)
+        self._view = memoryview(self._map)
+        self.control_fd, self.ack_fd = control_fd, ack_fd
+        self._position = 0  # stream position read up to (mirrors the producer's head)
+
+    def batches(self) -> Iterator[list[Any]]:
+        """Each batch's parts (memoryviews into the ring, valid until the next batch is asked for),
+        until the producer closes the control pipe."""
+        while True:
+            head = _read_exact(self.control_fd, _HEAD.size)
+            if head is None:
+                return
+            offset, count = _HEAD.unpack(head)
+            lengths = _read_exact(self.control_fd, _LENGTH.size * count) if count else b""
+            if lengths is None:
+                return
+            sizes = [n for (n,) in _LENGTH.iter_unpack(lengths)]
+            if offset == INLINE:
+                parts = [_read_exact(self.control_fd, n) for n in sizes]
+                if any(p is None for p in parts):
+                    return
+                yield parts
+                continue
+            # where the producer put it: after the last batch, or at the ring's start
+            start = self._position
+            if start % self.size != offset:
+                start += self.size - start % self.size
+            parts, at = [], offset
+            for n in sizes:
+                parts.append(self._view[at:at + n])
+                at += n
+            yield parts
+            self._position = start + sum(sizes)
+            _write_all(self.ack_fd, _LENGTH.pack(self._position))
