@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from functools import cache
+from functools import cache, lru_cache
 from typing import Any
 
 import numpy as np
@@ -111,6 +111,7 @@ def _double_fields(message_class: type[ProtoMessage], names: Sequence[str]) -> l
 
 _POINT_FIELDS = _double_fields(Point3, ("x", "y", "z"))
 _COLOR_FIELDS = _double_fields(Color, ("r", "g", "b", "a"))
+_INDICES_FIELD = TriangleListPrimitive.DESCRIPTOR.fields_by_name["indices"].number
 
 
 def repeated_vectors(field_number: int, sub_fields: Sequence[int], values: np.ndarray) -> bytes:
@@ -129,6 +130,20 @@ def repeated_vectors(field_number: int, sub_fields: Sequence[int], values: np.nd
         rec[:, at] = number << 3 | 1  # wire type 1: 64-bit
         rec[:, at + 1: at + 9] = arr[:, j:j + 1].view(np.uint8).reshape(n, 8)
     return rec.tobytes()
+
+
+def packed_fixed32(field_number: int, values: np.ndarray) -> bytes:
+    """Wire-format bytes of a packed repeated ``fixed32`` field: its tag, its length, and the values'
+    little-endian bytes."""
+    data = np.ascontiguousarray(values, dtype="<u4").tobytes()
+    return _varint(field_number << 3 | 2) + _varint(len(data)) + data
+
+
+@lru_cache(maxsize=8)
+def _triangle_indices(data: bytes) -> bytes:
+    """TriangleListPrimitive.indices as wire bytes; cached, because a water surface's triangles are
+    the same every frame (keyed by the indices' own bytes)."""
+    return packed_fixed32(_INDICES_FIELD, np.frombuffer(data, dtype="<u4"))
 
 
 def _merge_points(out: ProtoMessage, name: str, points: np.ndarray) -> None:
@@ -190,7 +205,7 @@ def _add_primitive(entity: SceneEntity, prim: v.Primitive) -> None:
         if prim.colors is not None:
             _merge_colors(tri, "colors", prim.colors)
         if prim.indices is not None:
-            tri.indices.extend(np.asarray(prim.indices, dtype=np.int64).tolist())
+            tri.MergeFromString(_triangle_indices(np.ascontiguousarray(prim.indices, dtype="<u4").tobytes()))
     else:
         raise TypeError(f"not a visual primitive: {type(prim).__name__}")
 
