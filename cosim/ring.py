@@ -99,8 +99,12 @@ class RingProducer:
         if start % self.size + total > self.size:  # no room before the ring's end: start over at 0
             start += self.size - start % self.size
         end = start + total
+        # the bytes to overwrite were written a lap earlier (or, after a skip to the ring's start,
+        # may include this lap's): wait until the consumer has read them; it can never get past
+        # the head, and once there the whole ring is free
+        free_from = min(end - self.size, self._head)
         self._read_acks(wait=False)
-        while end - self._tail > self.size:
+        while self._tail < free_from:
             self._read_acks(wait=True)
         offset = at = start % self.size
         for part, n in zip(parts, sizes, strict=True):
@@ -173,4 +177,8 @@ class RingConsumer:
                 at += n
             yield parts
             self._position = start + sum(sizes)
-            _write_all(self.ack_fd, _LENGTH.pack(self._position))
+            if self.ack_fd >= 0:
+                try:
+                    _write_all(self.ack_fd, _LENGTH.pack(self._position))
+                except OSError:  # the producer has gone: read on to the batches it has already sent
+                    self.ack_fd = -1
