@@ -23,7 +23,8 @@ _EXPORTS = {
     "param": "cosim.params",
 }
 
-__all__ = sorted([*_EXPORTS, "__version__"])
+__all__ = ["Array", "Component", "Message", "Port", "Quat", "RecordingError", "ScenarioError",
+           "SimulationError", "Vec3", "__version__", "message", "param"]
 
 if TYPE_CHECKING:
     from cosim.component import Component, Port

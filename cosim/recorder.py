@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import Any
 
 from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
-from cosim.jsontext import TextFormat
 from cosim.errors import RecordingError
+from cosim.jsontext import TextFormat
 from cosim.mcapsink import open_sink
 from cosim.messages import Message, message
 from cosim.scenario import Scene
