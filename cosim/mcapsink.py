@@ -4,11 +4,12 @@ Writing a message's JSON text (every float's repr, the base64 of every large arr
 it cost more than the physics that made it. Both happen in a second process, on another core, while
 the simulation goes on: the simulating process only reads each message into a tuple of plain values
 (:meth:`cosim.codec.MessageCodec.flatten`; a checkpoint into plain data,
-:func:`cosim.codec.plain_state`) and sends it in batches through a ring in shared memory (:mod:`cosim.ring`); the writer writes the
-text with :mod:`cosim.jsontext` (the same functions :func:`cosim.codec.encode` uses, so the bytes do
-not depend on where they are made) and the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message,
-attachment and metadata indexes). The writer imports nothing else of cosim, so it starts in a few
-tens of milliseconds. It also makes recordings sturdier: if the simulating process dies, the writer
+:func:`cosim.codec.plain_state`) and sends it in batches through a ring in shared memory
+(:mod:`cosim.ring`); the writer writes the text with :mod:`cosim.jsontext` (the same functions
+:func:`cosim.codec.encode` uses, so the bytes do not depend on where they are made) and the file with
+the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment and metadata
+indexes). The writer imports nothing else of cosim, so it starts in a few tens of milliseconds. It
+also makes recordings sturdier: if the simulating process dies, the writer
 sees its control pipe close and still finishes a valid, indexed file.
 
 Each channel's messages are numbered from 1 in the order they are written (the MCAP sequence).
