@@ -46,7 +46,8 @@ def shared_memory_fd(size: int) -> int:
 
 
 def _size_of(part: Any) -> int:
-    return part.nbytes if isinstance(part, memoryview) else len(part)
+    """Bytes in a part, whatever its item format (a float64 memoryview, a numpy array, bytes)."""
+    return memoryview(part).nbytes
 
 
 def _read_exact(fd: int, n: int) -> bytes | None:
@@ -108,7 +109,7 @@ class RingProducer:
             self._read_acks(wait=True)
         offset = at = start % self.size
         for part, n in zip(parts, sizes, strict=True):
-            self._view[at:at + n] = part
+            self._view[at:at + n] = memoryview(part).cast("B")
             at += n
         self._head = end
         # only now that the bytes are in place may the consumer hear of them
@@ -134,9 +135,11 @@ class RingProducer:
         if self.control_fd >= 0:
             os.close(self.control_fd)
             self.control_fd = -1
-        self._view.release()
-        self._map.close()
-        os.close(self.fd)
+        if self.fd >= 0:  # safe to call twice: never closes a number another file may have reused
+            self._view.release()
+            self._map.close()
+            os.close(self.fd)
+            self.fd = -1
 
 
 class RingConsumer:

@@ -457,3 +457,18 @@ def test_a_batch_that_must_start_over_at_the_rings_beginning_does_not_hang(local
     thread.join(WATCHDOG_S)
     assert not stuck, "put of a batch starting over at the ring's beginning waited forever"
     assert got == [[b"a" * first], [b"b" * second]]
+
+
+
+def test_parts_of_any_item_format_arrive_as_their_bytes_and_close_is_idempotent(child):
+    """A float64 memoryview and a numpy array go through the ring, and inline past it, as their raw
+    bytes; closing the producer twice is harmless."""
+    values = np.arange(6, dtype=np.float64)
+    big = np.zeros(RING // 8 + 1)  # larger than the ring: inline
+    producer = RingProducer(RING)
+    consumer = child(producer)
+    producer.put([memoryview(values), values])
+    producer.put([big])
+    assert consumer.finish() == [digest([values.tobytes(), values.tobytes()]), digest([big.tobytes()])]
+    producer.close()
+    producer.close()
