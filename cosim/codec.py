@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.jsontext import TextFormat, render, state_text
+from cosim.jsontext import TextFormat, base64_text, render, state_text
 from cosim.messages import Array, FieldKind, FieldSpec, Message, fields_of
 
 INLINE_ARRAY_MAX = 16  # arrays up to this many fixed elements are written inline as JSON lists
@@ -111,7 +111,7 @@ def _array_out(spec: Array, name: str) -> Callable[[Any], Any]:
     def enc_b64(value: Any) -> Any:
         arr = np.ascontiguousarray(check(value), dtype=dtype.newbyteorder("<"))
         return {"dtype": dtype.str.replace(">", "<"), "shape": list(arr.shape),
-                "base64": base64.b64encode(arr.tobytes()).decode("ascii")}
+                "base64": base64_text(arr.tobytes())}
 
     return enc_b64
 

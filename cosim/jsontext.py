@@ -23,7 +23,8 @@ class TextFormat(NamedTuple):
     base64_slots: tuple[int, ...]
 
 
-def _base64(data: bytes) -> str:
+def base64_text(data: Any) -> str:
+    """The base64 text of bytes (or any byte buffer), as every array in a recording is written."""
     return binascii.b2a_base64(data, newline=False).decode("ascii")
 
 
@@ -32,14 +33,14 @@ def render(text_format: TextFormat, args: tuple) -> bytes:
     if text_format.base64_slots:
         values = list(args)
         for i in text_format.base64_slots:
-            values[i] = _base64(values[i])
+            values[i] = base64_text(values[i])
         args = tuple(values)
     return (text_format.fmt % args).encode()
 
 
 def _with_base64(value: Any) -> Any:
     if type(value) is bytes:
-        return _base64(value)
+        return base64_text(value)
     if type(value) is dict:
         return {k: _with_base64(v) for k, v in value.items()}
     if type(value) is list:
