@@ -17,15 +17,16 @@ import base64
 import enum
 import json
 import math
-import pickle
 import struct
+import sys
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from cosim.jsontext import TextFormat, base64_text, render, state_text
+from cosim.jsontext import TEXT_LENGTH, RecordLayout, base64_text, nonfinite_text, renderer, state_text
 from cosim.messages import Array, FieldKind, FieldSpec, Message, fields_of
+from cosim.records import HEADER, MESSAGE, Write
 
 INLINE_ARRAY_MAX = 16  # arrays up to this many fixed elements are written inline as JSON lists
 
@@ -39,18 +40,9 @@ class CodecError(ValueError):
     """A payload that does not decode to its message type."""
 
 
-_CANONICAL_NAN = struct.pack("<d", math.nan)
-
-
 def _float_out(x: float) -> float | str:
     x = float(x)
-    if math.isfinite(x):
-        return x
-    if math.isnan(x):
-        bits = struct.pack("<d", x)
-        # any NaN other than the canonical one keeps its sign and payload bits
-        return "nan" if bits == _CANONICAL_NAN else "nan:" + bits[::-1].hex()
-    return "inf" if x > 0 else "-inf"
+    return x if math.isfinite(x) else nonfinite_text(x)
 
 
 def _float_in(x: Any) -> float:
@@ -184,89 +176,149 @@ def _field_coders(spec: FieldSpec) -> tuple[Callable[[Any], Any], Callable[[Any]
     return _array_out(spec.array, spec.name), _array_in(spec.array, spec.name)
 
 
-def _raw_bytes(arr: np.ndarray) -> pickle.PickleBuffer:
-    """A copy of an array's little-endian bytes (so the message may be written later), wrapped so
-    that pickle hands them to a recording's writer process out of band, without copying them again."""
-    return pickle.PickleBuffer(np.ascontiguousarray(arr, dtype=arr.dtype.newbyteorder("<")).tobytes())
+_STRUCT_CODES = {"f": "d", "i": "q", "u": "q", "b": "?"}  # inline array element kinds -> struct codes
+_LITTLE_ENDIAN = sys.byteorder == "little"
 
 
-def _compile_flatten(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]]
-                     ) -> tuple[Callable[[Message], tuple | None], TextFormat]:
-    """A generated function reading a message into the arguments of its :class:`TextFormat`, so that
-    ``render(text_format, flatten(msg))`` equals ``json.dumps(to_dict(msg), separators=(",", ":"))``
-    byte for byte, but several times faster: every float is written with ``%r`` (Python's shortest
-    round-trip repr, as json writes it) and a single sum tells whether every float is finite.
-    Anything unexpected (a NaN, a list where an array was declared, a wrong shape) gives None, and
+def _nested(shape: tuple[int, ...], item: str) -> str:
+    """The format of a fixed-shape inline array: nested JSON lists of ``item``."""
+    if not shape:
+        return item
+    return "[" + ",".join([_nested(shape[1:], item)] * shape[0]) + "]"
+
+
+def _compile_writer(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]]
+                    ) -> tuple[Write, RecordLayout]:
+    """A generated function packing a message into a record (see :mod:`cosim.records`), and the
+    record's layout, so that ``renderer(layout)`` of the record equals
+    ``json.dumps(to_dict(msg), separators=(",", ":"))`` byte for byte: every number is packed as it
+    is (one ``struct`` call for them all), every large array copied once as raw bytes; the text
+    (floats' shortest round-trip reprs, non-finite floats as strings, base64) is written later, by
+    :func:`cosim.jsontext.renderer`, usually in a recording's writer process. Anything unexpected
+    (a list where an array was declared, a wrong shape or dtype, an int beyond 64 bits) gives -1 and
     the caller takes the slow path. Recording every exchange hinges on this."""
-    env: dict[str, Any] = {"_json": json.dumps, "_raw": _raw_bytes, "_isfinite": math.isfinite}
-    pre: list[str] = []      # statements computing locals
-    floats: list[str] = []   # expressions whose sum must be finite
-    fmt: list[str] = []      # format pieces, in field order
-    args: list[str] = []     # format arguments, in field order
-    base64_slots: list[int] = []
-    slot = 0                 # index of the next format argument
+    env: dict[str, Any] = {"_json": json.dumps, "_ndarray": np.ndarray, "_contiguous": np.ascontiguousarray,
+                           "_error": struct.error, "_text_length": TEXT_LENGTH.pack_into}
+    pre: list[str] = []       # statements reading and checking the fields
+    codes: list[str] = []     # struct codes of the fixed part
+    packed: list[str] = []    # the fixed part's values
+    sizes: list[str] = []     # sizes of the variable parts
+    tail: list[str] = []      # statements copying the variable parts
+    fmt: list[str] = []
+    order: list[int] = []     # per format argument: ("f", fixed index) or ("v", variable index)
+    variable: list[tuple[int, tuple[int, ...]]] = []
+    bools: list[int] = []
+    floats: list[int] = []
+
+    def argument(source: str, index: int, kind: str = "") -> None:
+        if kind == "bool":
+            bools.append(len(order))
+        elif kind == "float":
+            floats.append(len(order))
+        order.append((source, index))
+
+    def fixed(code: str, value: str, kind: str = "") -> None:
+        argument("f", len(codes), kind)
+        codes.append(code)
+        packed.append(value)
+
+    def text(expression: str, i: int) -> None:
+        pre.append(f"t{i} = {expression}.encode()")
+        sizes.append(f"{TEXT_LENGTH.size} + len(t{i})")
+        tail.extend([f"_text_length(buf, p, len(t{i}))", f"p += {TEXT_LENGTH.size}",
+                     f"buf[p:p + len(t{i})] = t{i}", f"p += len(t{i})"])
+        argument("v", len(variable))
+        variable.append((0, ()))
+
     for i, spec in enumerate(fields):
         key = json.dumps(spec.name)
         value = f"m.{spec.name}"
         sep = "," if fmt else "{"
         if spec.kind is FieldKind.FLOAT:
-            pre.append(f"v{i} = float({value})")
-            floats.append(f"v{i}")
             fmt.append(f"{sep}{key}:%r")
-            args.append(f"v{i}")
+            fixed("d", value, "float")
         elif spec.kind in (FieldKind.INT, FieldKind.ENUM):
             fmt.append(f"{sep}{key}:%d")
-            args.append(f"int({value})")
+            fixed("q", value)
         elif spec.kind is FieldKind.BOOL:
             fmt.append(f"{sep}{key}:%s")
-            args.append(f"('true' if {value} else 'false')")
+            fixed("?", value, "bool")
         elif spec.kind is FieldKind.STR:
             fmt.append(f"{sep}{key}:%s")
-            args.append(f"_json({value})")
+            text(f"_json({value})", i)
         else:
             assert spec.array is not None
             array = spec.array
-            if _inline(array) and len(array.shape) == 1 and array.dtype.startswith("float"):
-                n = array.shape[0]
-                pre.append(f"v{i} = {value}.tolist()")
-                pre.append(f"if len(v{i}) != {n}: return None")
-                floats.append(f"sum(v{i})")
-                fmt.append(f"{sep}{key}:[" + ",".join(["%r"] * n) + "]")
-                args.append(f"*v{i}")
-                slot += n - 1
+            dtype = np.dtype(array.dtype)
+            shape = tuple(array.shape)
+            if _inline(array) and dtype.kind in _STRUCT_CODES:
+                code = _STRUCT_CODES[dtype.kind]
+                kind = {"d": "float", "?": "bool"}.get(code, "")
+                item = {"d": "%r", "?": "%s"}.get(code, "%d")
+                n = array.fixed_size
+                if len(shape) == 1:
+                    pre += [f"v{i} = {value}.tolist()", f"if len(v{i}) != {n}: return -1"]
+                else:
+                    pre += [f"a{i} = {value}", f"if a{i}.shape != {shape!r}: return -1",
+                            f"v{i} = a{i}.ravel().tolist()"]
+                fmt.append(f"{sep}{key}:" + _nested(shape, item))
+                for j in range(n):
+                    fixed(code, f"v{i}[{j}]", kind)
+                packed[-n:] = [f"*v{i}"] + [""] * (n - 1)
             elif not _inline(array):
-                dtype = np.dtype(array.dtype)
                 env[f"_dtype{i}"] = dtype
-                pre.append(f"if {value}.dtype != _dtype{i} or {value}.ndim != {len(array.shape)}: return None")
-                # the dtype is fixed by the declaration; the shape and the bytes are arguments
+                ndim = len(shape)
+                pre += [f"a{i} = {value}",
+                        f"if type(a{i}) is not _ndarray or a{i}.dtype != _dtype{i} or a{i}.ndim != {ndim}: return -1",
+                        f"if not a{i}.flags.c_contiguous: a{i} = _contiguous(a{i})"]
+                if not _LITTLE_ENDIAN:  # records hold little-endian bytes
+                    env[f"_little{i}"] = dtype.newbyteorder("<")
+                    pre.append(f"a{i} = a{i}.astype(_little{i})")
+                pre.append(f"n{i} = a{i}.nbytes")
                 fmt.append(f"{sep}{key}:" + "{" + '"dtype":' + json.dumps(dtype.str.replace(">", "<"))
-                           + ',"shape":[%s],"base64":"%s"}')
-                args.append(f"','.join(map(str, {value}.shape))")
-                args.append(f"_raw({value})")
-                base64_slots.append(slot + 1)
-                slot += 1
-            else:
+                           + ',"shape":[' + ",".join(["%d"] * ndim) + '],"base64":"%s"}')
+                dims = []
+                for d in range(ndim):
+                    dims.append(len(codes))
+                    fixed("q", f"a{i}.shape[{d}]")
+                packed[-ndim:] = [f"*a{i}.shape"] + [""] * (ndim - 1)
+                sizes.append(f"n{i}")
+                tail += [f"if n{i}: buf[p:p + n{i}] = memoryview(a{i}).cast('B')", f"p += n{i}"]
+                argument("v", len(variable))
+                variable.append((dtype.itemsize, tuple(dims)))
+            else:  # a small inline array of another dtype: its JSON text as it is
                 env[f"_enc{i}"] = encoders[spec.name]
                 fmt.append(f"{sep}{key}:%s")
-                args.append(f"_json(_enc{i}({value}), separators=(',', ':'))")
-        slot += 1
-    lines = ["def flatten(m):", "    try:"]
+                text(f"_json(_enc{i}({value}), separators=(',', ':'))", i)
+    record = struct.Struct(HEADER.format + "".join(codes))
+    env["_pack"] = record.pack_into
+    size = " + ".join([str(record.size), *sizes])
+    lines = ["def write(m, buf, offset, channel, time_ns):", "    try:"]
     lines += [f"        {line}" for line in pre]
-    if floats:
-        lines.append(f"        if not _isfinite({' + '.join(floats)}): return None")
-    lines.append(f"        return ({', '.join(args)}{',' if len(args) == 1 else ''})")
-    lines.append("    except (AttributeError, TypeError, ValueError, OverflowError):")
-    lines.append("        return None")
+    lines += [f"        end = offset + {size}",
+              "        if end > len(buf): return offset - end",
+              f"        _pack(buf, offset, {MESSAGE}, channel, time_ns{''.join(', ' + v for v in packed if v)})"]
+    if tail:
+        lines.append(f"        p = offset + {record.size}")
+        lines += [f"        {line}" for line in tail]
+    lines.append("        return end")
+    lines.append("    except (AttributeError, TypeError, ValueError, OverflowError, _error):")
+    lines.append("        return -1")
     exec("\n".join(lines), env)
-    return env["flatten"], TextFormat("".join(fmt) + "}" if fmt else "{}", tuple(base64_slots))
+    nfixed = len(codes)
+    layout = RecordLayout(
+        fmt="".join(fmt) + "}" if fmt else "{}", fixed="".join(codes), variable=tuple(variable),
+        order=tuple(index if source == "f" else nfixed + index for source, index in order),
+        bools=tuple(bools), floats=tuple(floats))
+    return env["write"], layout
 
 
 class MessageCodec:
     """Encoder/decoder for one message type (built once per type, see :func:`codec_for`).
 
-    ``flatten(msg)`` reads a message into the arguments of ``text_format`` (None when the message
-    needs the slow path: a non-finite float, a wrong shape); ``render(text_format, args)`` writes
-    them. :meth:`encode` does both.
+    ``write(msg, buffer, offset, channel, time_ns)`` packs a message into a record (see
+    :mod:`cosim.records`; -1 when the message needs the slow path: a wrong shape or dtype);
+    ``renderer(layout)`` writes a record's JSON text. :meth:`encode` does both.
     """
 
     def __init__(self, message_type: type[Message]):
@@ -276,7 +328,8 @@ class MessageCodec:
         coders = [_field_coders(spec) for spec in self.fields]
         self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders, strict=True)]
         self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders, strict=True)]
-        self.flatten, self.text_format = _compile_flatten(self.fields, dict(self._encoders))
+        self.write, self.layout = _compile_writer(self.fields, dict(self._encoders))
+        self._render = renderer(self.layout)
 
     def to_dict(self, msg: Message) -> dict[str, Any]:
         """The JSON-ready dict of a message."""
@@ -284,8 +337,12 @@ class MessageCodec:
 
     def encode(self, msg: Message) -> bytes:
         """JSON bytes of a message (compact, keys in declaration order)."""
-        args = self.flatten(msg)
-        return self._slow_encode(msg) if args is None else render(self.text_format, args)
+        needed = self.write(msg, memoryview(b""), 0, 0, 0)  # asks how large the record is
+        if needed == -1:
+            return self._slow_encode(msg)
+        record = memoryview(bytearray(-needed))
+        self.write(msg, record, 0, 0, 0)
+        return self._render(record, HEADER.size)[0]
 
     def _slow_encode(self, msg: Message) -> bytes:
         return json.dumps(self.to_dict(msg), separators=(",", ":"), allow_nan=False).encode()

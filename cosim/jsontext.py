@@ -1,26 +1,64 @@
-"""The last step of encoding: plain values to JSON bytes. Standard library only.
+"""The last step of encoding: a message's packed record to JSON bytes. Standard library only.
 
-Encoding a message or a checkpoint happens in two halves. The first reads the message into plain
-values (:meth:`cosim.codec.MessageCodec.flatten`, :func:`cosim.codec.plain_state`); it is cheap and
-runs where the message is made. The second, here, writes the text: every float's shortest
-round-trip repr and the base64 of every large array, which is most of the cost. A recording's
-writer process runs it, on another core, importing nothing but this module; :func:`cosim.codec.encode`
-runs both halves in turn, so the bytes are the same wherever they are made.
+Encoding a message or a checkpoint happens in two halves. The first packs the message into a record
+of binary values (:meth:`cosim.codec.MessageCodec.write`: every number as it is, every large array's
+raw bytes) or a checkpoint into plain data (:func:`cosim.codec.plain_state`); it is cheap and runs
+where the message is made. The second, here, writes the text: every float's shortest round-trip
+repr and the base64 of every large array, which is most of the cost. A recording's writer process
+runs it, on another core, importing nothing but this module; :func:`cosim.codec.encode` runs both
+halves in turn, so the bytes are the same wherever they are made.
 """
 
 from __future__ import annotations
 
 import binascii
 import json
+import math
+import struct
+from collections.abc import Callable
+from operator import itemgetter
 from typing import Any, NamedTuple
 
+TEXT_LENGTH = struct.Struct("<I")  # the length prefix of a text piece in a record [bytes]
+_CANONICAL_NAN = struct.pack("<d", math.nan)
 
-class TextFormat(NamedTuple):
-    """A message type's JSON text as one ``%``-format: ``fmt % args``, where the arguments at
-    ``base64_slots`` are raw bytes, written as base64 text."""
+
+class RecordLayout(NamedTuple):
+    """How a message type's record is laid out, and how it is written as JSON text.
+
+    A record's fixed part is ``struct.Struct("<" + fixed)``: every float, int, enum and bool field,
+    every element of a small inline array, and the shape of every large array, in field order. The
+    variable parts follow, in field order, one per entry of ``variable``: ``(itemsize, dims)`` is a
+    large array's raw little-endian bytes (``itemsize`` times the product of the fixed values at
+    ``dims``, written as base64); ``(0, ())`` is a UTF-8 JSON text prefixed by its length
+    (:data:`TEXT_LENGTH`). The text is ``fmt % args``, where ``args`` are the fixed values followed by
+    the variable pieces, picked in the order ``order``; the arguments at ``bools`` are written as
+    true/false, and those at ``floats`` that are not finite as the strings :func:`nonfinite_text`
+    gives.
+    """
 
     fmt: str
-    base64_slots: tuple[int, ...]
+    fixed: str
+    variable: tuple[tuple[int, tuple[int, ...]], ...]
+    order: tuple[int, ...]
+    bools: tuple[int, ...]
+    floats: tuple[int, ...]
+
+
+def nonfinite_text(x: float) -> str:
+    """How a non-finite float is written: ``nan``, ``inf``, ``-inf``, or ``nan:<16 hex digits>`` for
+    a NaN with another sign or payload than the canonical one (so its bits survive)."""
+    if math.isnan(x):
+        bits = struct.pack("<d", x)
+        return "nan" if bits == _CANONICAL_NAN else "nan:" + bits[::-1].hex()
+    return "inf" if x > 0 else "-inf"
+
+
+class _JsonString(str):
+    """A string that a ``%r`` writes as a JSON string (a non-finite float in a float's slot)."""
+
+    def __repr__(self) -> str:
+        return json.dumps(str(self))
 
 
 def base64_text(data: Any) -> str:
@@ -28,14 +66,52 @@ def base64_text(data: Any) -> str:
     return binascii.b2a_base64(data, newline=False).decode("ascii")
 
 
-def render(text_format: TextFormat, args: tuple) -> bytes:
-    """The JSON bytes of a flattened message (see :meth:`cosim.codec.MessageCodec.flatten`)."""
-    if text_format.base64_slots:
-        values = list(args)
-        for i in text_format.base64_slots:
-            values[i] = base64_text(values[i])
-        args = tuple(values)
-    return (text_format.fmt % args).encode()
+Renderer = Callable[[Any, int], tuple[bytes, int]]
+"""``render(buffer, offset)`` -> (JSON bytes of the record's message, offset just past the record)."""
+
+
+def renderer(layout: RecordLayout) -> Renderer:
+    """The function writing the JSON text of records laid out as ``layout``, read from a buffer
+    (bytes or a memoryview) at an offset just past the record's header."""
+    fixed = struct.Struct("<" + layout.fixed)
+    unpack, size = fixed.unpack_from, fixed.size
+    fmt, variable, bools, floats = layout.fmt, layout.variable, layout.bools, layout.floats
+    order = layout.order
+    pick: Callable[[tuple], tuple] = (
+        itemgetter(*order) if len(order) > 1 else (lambda values: (values[order[0]],)) if order
+        else (lambda values: ()))
+    isfinite, unpack_length = math.isfinite, TEXT_LENGTH.unpack_from
+
+    def render(buffer: Any, offset: int) -> tuple[bytes, int]:
+        values = unpack(buffer, offset)
+        offset += size
+        if variable:
+            pieces = []
+            for itemsize, dims in variable:
+                if itemsize:
+                    n = itemsize
+                    for d in dims:
+                        n *= values[d]
+                    pieces.append(base64_text(buffer[offset:offset + n]))
+                else:
+                    (n,) = unpack_length(buffer, offset)
+                    offset += TEXT_LENGTH.size
+                    pieces.append(str(buffer[offset:offset + n], "utf-8"))
+                offset += n
+            args = pick(values + tuple(pieces))
+        else:
+            args = pick(values)
+        if bools or not isfinite(sum(values)):  # one sum tells whether every number is finite
+            edited = list(args)
+            for i in bools:
+                edited[i] = "true" if edited[i] else "false"
+            for i in floats:
+                if not isfinite(edited[i]):
+                    edited[i] = _JsonString(nonfinite_text(edited[i]))
+            args = tuple(edited)
+        return (fmt % args).encode(), offset
+
+    return render
 
 
 def _with_base64(value: Any) -> Any:

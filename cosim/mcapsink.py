@@ -2,11 +2,12 @@
 
 Writing a message's JSON text (every float's repr, the base64 of every large array) and compressing
 it cost more than the physics that made it. Both happen in a second process, on another core, while
-the simulation goes on: the simulating process only reads each message into a tuple of plain values
-(:meth:`cosim.codec.MessageCodec.flatten`; a checkpoint into plain data,
-:func:`cosim.codec.plain_state`) and sends it in batches through a ring in shared memory
-(:mod:`cosim.ring`); the writer writes the text with :mod:`cosim.jsontext` (the same functions
-:func:`cosim.codec.encode` uses, so the bytes do not depend on where they are made) and the file with
+the simulation goes on: the simulating process only packs each message into a binary record
+(:meth:`cosim.codec.MessageCodec.write`; a checkpoint into plain data,
+:func:`cosim.codec.plain_state`), gathers records in a buffer (:class:`cosim.records.Stage`) and sends
+them in batches through a ring in shared memory (:mod:`cosim.ring`); the writer writes the text with
+:mod:`cosim.jsontext` (the same functions :func:`cosim.codec.encode` uses, so the bytes do not depend
+on where they are made) and the file with
 the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment and metadata
 indexes). The writer imports nothing else of cosim, so it starts in a few tens of milliseconds. It
 also makes recordings sturdier: if the simulating process dies, the writer
@@ -25,16 +26,16 @@ import signal
 import subprocess
 import sys
 import tempfile
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from cosim.jsontext import TextFormat, render, state_text
+from cosim.jsontext import RecordLayout, Renderer, renderer, state_text
+from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write
 from cosim.ring import RingConsumer, RingError, RingProducer
 
-BATCH = 256  # records per batch sent to the writer process: small, so the writer keeps up closely
+BATCH = 256  # records per batch sent to the writer process: few, so the writer keeps up closely
+STAGE_BYTES = 1 << 20  # the buffer a batch is gathered in: at most this many bytes a batch (fits in L2)
 RING_BYTES = 8 << 20  # shared memory between the simulating and the writer process: reused, so its pages stay mapped
-OUT_OF_BAND_BYTES = 65536  # arrays this large go into the ring as they are, not copied into a pickle
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
 
@@ -59,24 +60,44 @@ class _Apply:
                                             compression_threads=0, profile=""))
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
-        self.formats: dict[int, TextFormat] = {}  # channel id -> how its flattened messages are written
+        self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
+
+    def apply_batch(self, batch: memoryview) -> None:
+        """Write every record of a batch (see :mod:`cosim.records`)."""
+        offset, end = 0, len(batch)
+        channels, renderers = self.channels, self.renderers
+        while offset < end:
+            kind, channel, time_ns = HEADER.unpack_from(batch, offset)
+            offset += HEADER.size
+            if kind == MESSAGE:
+                data, offset = renderers[channel](batch, offset)
+                channels[channel].log(data, log_time=time_ns)
+                continue
+            (n,) = LENGTH.unpack_from(batch, offset)
+            offset += LENGTH.size
+            body = batch[offset:offset + n]
+            offset += n
+            if kind == BYTES:
+                channels[channel].log(bytes(body), log_time=time_ns)
+            elif kind == OTHER:
+                self.apply(pickle.loads(body))
+            else:
+                raise SinkError(f"unknown record kind {kind}")
 
     def apply(self, record: tuple) -> None:
+        """Write a record other than a message: a schema, a channel, metadata, an attachment, a
+        checkpoint."""
         op = record[0]
-        if op == "f":
-            self.channels[record[1]].log(render(self.formats[record[1]], record[3]), log_time=record[2])
-        elif op == "m":
-            self.channels[record[1]].log(record[3], log_time=record[2])
-        elif op == "state":
+        if op == "state":
             self.channels[record[1]].log(state_text(record[3]), log_time=record[2])
         elif op == "schema":
             self.schemas[record[1]] = self._foxglove.Schema(name=record[2], encoding=record[3], data=record[4])
         elif op == "channel":
-            _, cid, topic, encoding, schema_id, text_format = record
+            _, cid, topic, encoding, schema_id, layout = record
             self.channels[cid] = self._foxglove.Channel(topic, message_encoding=encoding,
                                                         schema=self.schemas[schema_id], context=self.context)
-            if text_format is not None:
-                self.formats[cid] = TextFormat(*text_format)
+            if layout is not None:
+                self.renderers[cid] = renderer(RecordLayout(*layout))
         elif op == "metadata":
             self.writer.write_metadata(record[1], record[2])
         elif op == "attachment":
@@ -106,9 +127,8 @@ def writer_main(argv: list[str]) -> int:
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
     try:
-        for body, *buffers in ring.batches():
-            for record in pickle.loads(body, buffers=buffers):
-                sink.apply(record)
+        for (batch,) in ring.batches():
+            sink.apply_batch(batch)
     finally:
         sink.finish()
     return 0
@@ -131,63 +151,74 @@ class _Ids:
 
 
 class _Sink:
-    """What both sinks share: ids counted here, and every record passed on as a tuple to
-    :meth:`_record` (applied by :class:`_Apply`, here or in the writer process).
+    """What both sinks share: ids counted here, and every record gathered in a
+    :class:`cosim.records.Stage` whose batches go to :meth:`_send` (applied by :class:`_Apply`, here or
+    in the writer process).
 
-    Records: ``("f", channel, time_ns, args)`` a message as its text format's arguments;
-    ``("m", channel, time_ns, data)`` a message's bytes; ``("state", channel, time_ns, plain)`` a
-    checkpoint as plain data; ``schema``, ``channel``, ``metadata`` and ``attachment``.
+    Messages are packed by their codec (:meth:`add_message_record`) or given as bytes
+    (:meth:`add_message`); everything else (schemas, channels, checkpoints as plain data, metadata,
+    attachments) travels pickled.
     """
 
     def __init__(self) -> None:
         self._ids = _Ids()
+        self.stage = Stage(STAGE_BYTES, BATCH, self._send)
 
-    def _record(self, record: tuple) -> None:
+    def _send(self, batch: memoryview) -> None:
         raise NotImplementedError
 
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         sid = self._ids.schema()
-        self._record(("schema", sid, name, encoding, data))
+        self.stage.add_other(("schema", sid, name, encoding, data))
         return sid
 
     def register_channel(self, topic: str, encoding: str, schema_id: int,
-                         text_format: TextFormat | None = None) -> int:
-        """A channel id; ``text_format`` is how :meth:`add_flat` messages on it are written."""
+                         layout: RecordLayout | None = None) -> int:
+        """A channel id; ``layout`` is how :meth:`add_message_record` records on it are laid out."""
         cid = self._ids.channel()
-        self._record(("channel", cid, topic, encoding, schema_id,
-                      None if text_format is None else tuple(text_format)))
+        self.stage.add_other(("channel", cid, topic, encoding, schema_id, None if layout is None else tuple(layout)))
         return cid
 
     def add_message(self, channel: int, time_ns: int, data: bytes) -> None:
         """A message's bytes, at log time = publish time = ``time_ns``."""
-        self._record(("m", channel, time_ns, data))
+        self.stage.add_bytes(BYTES, channel, time_ns, data)
 
-    def add_flat(self, channel: int, time_ns: int, args: tuple) -> None:
-        """A message given as the arguments of its channel's text format (rendered by the writer)."""
-        self._record(("f", channel, time_ns, args))
+    def add_message_record(self, write: Write, channel: int, time_ns: int, msg: Any) -> bool:
+        """A message packed by its codec's ``write`` (the channel's layout); False, with nothing
+        written, when the message needs the slow path (:meth:`add_message` of its bytes)."""
+        return self.stage.add_message(write, channel, time_ns, msg)
 
     def add_state(self, channel: int, time_ns: int, plain: Any) -> None:
         """A checkpoint, as :func:`cosim.codec.plain_state` gives it (its arrays already copied)."""
-        self._record(("state", channel, time_ns, plain))
+        self.stage.add_other(("state", channel, time_ns, plain))
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        self._record(("metadata", name, dict(data)))
+        self.stage.add_other(("metadata", name, dict(data)))
 
     def add_attachment(self, name: str, time_ns: int, media_type: str, data: bytes) -> None:
-        self._record(("attachment", name, time_ns, media_type, data))
+        self.stage.add_other(("attachment", name, time_ns, media_type, data))
+
+    def flush(self) -> None:
+        """Send the records gathered so far."""
+        self.stage.flush()
 
 
 class InProcessSink(_Sink):
-    """Writes records directly, in this process."""
+    """Writes records in this process, a batch at a time."""
 
     def __init__(self, path: Path):
-        super().__init__()
         self.path = path
         self._apply = _Apply(str(path.with_name(path.name + ".part")), str(path))
-        self._record = self._apply.apply  # type: ignore[method-assign]
+        super().__init__()
+
+    def _send(self, batch: memoryview) -> None:
+        self._apply.apply_batch(batch)
 
     def close(self) -> None:
-        self._apply.finish()
+        try:
+            self.flush()
+        finally:
+            self._apply.finish()
 
     def discard(self) -> None:
         """Finish and remove the file."""
@@ -226,48 +257,12 @@ class ProcessSink(_Sink):
             os.close(ack_w)
         self._ack_r = ack_r
         self._ring.connect(control_w, ack_r)
-        self._batch: list[tuple] = []
 
-    def _record(self, record: tuple) -> None:
-        batch = self._batch
-        batch.append(record)
-        if len(batch) >= BATCH:
-            self.flush()
-
-    # the two per-message calls, without the extra call through _record
-    def add_message(self, channel: int, time_ns: int, data: bytes) -> None:
-        self._batch.append(("m", channel, time_ns, data))
-        if len(self._batch) >= BATCH:
-            self.flush()
-
-    def add_flat(self, channel: int, time_ns: int, args: tuple) -> None:
-        self._batch.append(("f", channel, time_ns, args))
-        if len(self._batch) >= BATCH:
-            self.flush()
-
-    def flush(self) -> None:
-        """Send the records gathered so far."""
-        if not self._batch:
-            return
-        raws: list[memoryview] = []
-        body = pickle.dumps(self._batch, protocol=5, buffer_callback=self._out_of_band(raws))
-        self._batch = []
+    def _send(self, batch: memoryview) -> None:
         try:
-            self._ring.put([body, *raws])
+            self._ring.put([batch])
         except (RingError, OSError) as exc:
             raise SinkError(f"{self.path}: the recording writer stopped ({exc}){self._stderr()}") from None
-
-    @staticmethod
-    def _out_of_band(raws: list[memoryview]) -> Callable[[pickle.PickleBuffer], bool]:
-        """A pickle buffer callback keeping large buffers out of the pickle (collected in ``raws``, and
-        copied into the ring as they are); small ones stay in it, where they cost less."""
-        def callback(buffer: pickle.PickleBuffer) -> bool:
-            raw = buffer.raw()
-            if raw.nbytes < OUT_OF_BAND_BYTES:
-                return True
-            raws.append(raw)
-            return False
-        return callback
 
     def _stderr(self) -> str:
         """The writer's last error line, if it wrote one."""

@@ -31,7 +31,7 @@ from typing import Any
 
 from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
 from cosim.errors import RecordingError
-from cosim.jsontext import TextFormat
+from cosim.jsontext import RecordLayout
 from cosim.mcapsink import open_sink
 from cosim.messages import Message, message
 from cosim.scenario import Scene
@@ -133,7 +133,7 @@ class Recorder(BaseObserver):
     # --- channels ------------------------------------------------------------------------------------
 
     def _channel(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
-                 message_encoding: str, text_format: TextFormat | None = None) -> int:
+                 message_encoding: str, layout: RecordLayout | None = None) -> int:
         channel = self._channels.get(topic)
         if channel is None:
             schema = self._schemas.get(schema_name)
@@ -141,7 +141,7 @@ class Recorder(BaseObserver):
                 schema = self._schemas[schema_name] = self.sink.register_schema(
                     schema_name, schema_encoding, schema_data)
             channel = self._channels[topic] = self.sink.register_channel(
-                topic, message_encoding, schema, text_format)
+                topic, message_encoding, schema, layout)
         return channel
 
     def _message_channel(self, topic: str, msg_type: type[Message]) -> int:
@@ -149,7 +149,7 @@ class Recorder(BaseObserver):
         if channel is None:
             codec = codec_for(msg_type)
             channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
-                                    MESSAGE_ENCODING, codec.text_format)
+                                    MESSAGE_ENCODING, codec.layout)
         return channel
 
     def write_message(self, topic: str, time_ns: int, msg: Message) -> None:
@@ -165,17 +165,17 @@ class Recorder(BaseObserver):
     # --- observer interface ----------------------------------------------------------------------------
 
     def _route(self, component: str, port: str, msg: Message) -> list | None:
-        """[channel, flatten, count, encode] of an output port, or None when its channel is not
+        """[channel, write, count, encode] of an output port, or None when its channel is not
         recorded."""
         topic = f"/{component}/{port}"
         if not self.wanted(topic):
             return None
         codec = codec_for(type(msg))
-        return [self._message_channel(topic, type(msg)), codec.flatten, 0, codec.encode]
+        return [self._message_channel(topic, type(msg)), codec.write, 0, codec.encode]
 
     def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
-        # one dict lookup per exchange: the port's channel and encoder are resolved once; the JSON
-        # text itself is written by the sink (in the writer process), from the flattened message
+        # one dict lookup per exchange: the port's channel and codec are resolved once; the message
+        # is packed into the sink's batch, and its JSON text written by the writer process
         key = (component, port)
         route = self._routes.get(key, False)
         if route is False:
@@ -183,12 +183,9 @@ class Recorder(BaseObserver):
         if route is not None:
             n = route[2]
             route[2] = n + 1
-            if n % self.every == 0:
-                args = route[1](msg)
-                if args is not None:
-                    self.sink.add_flat(route[0], time_ns, args)
-                else:  # a non-finite value or an odd field: the exact slow path, here
-                    self.sink.add_message(route[0], time_ns, route[3](msg))
+            if n % self.every == 0 and not self.sink.add_message_record(route[1], route[0], time_ns, msg):
+                # an odd field (a list for an array, another dtype): the exact slow path, here
+                self.sink.add_message(route[0], time_ns, route[3](msg))
         for deriver in self.derivers:
             for extra in deriver(time_ns, component, port, msg):
                 if not self.wanted(extra.topic):

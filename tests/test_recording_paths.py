@@ -1,10 +1,10 @@
 """The two ways a recording is written give the same bytes: the writer process (ProcessSink, fed
-flattened messages through the ring and pickle) and the in-process sink (InProcessSink).
+packed records through the ring) and the in-process sink (InProcessSink).
 
 The scene::
 
-    src.out --> g.x --> g.out --> acc.x          paint.frame (every field kind; a grid of over
-                                                  64 KiB every 10th step, float32 every 7th)
+    src.out --> g.x --> g.out --> acc.x          paint.frame (every field kind; a grid larger than
+                                                  a whole batch every 10th step, float32 every 7th)
 
 is recorded both ways, with checkpoints and a deriver's extra channel; every channel must hold the
 same (log time, sequence, bytes), and each physics payload must be the codec's bytes of the message
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import pickle
 from pathlib import Path
 from typing import Annotated
 
@@ -26,16 +25,17 @@ from mcap.reader import make_reader
 
 from cosim.codec import codec_for
 from cosim.component import Component, Port
-from cosim.jsontext import render
-from cosim.mcapsink import OUT_OF_BAND_BYTES, InProcessSink, ProcessSink
+from cosim.jsontext import renderer
+from cosim.mcapsink import STAGE_BYTES, InProcessSink, ProcessSink
 from cosim.messages import Array, Message, Vec3, first_difference, message
 from cosim.recorder import DerivedMessage, Recorder
+from cosim.records import HEADER, MESSAGE
 from cosim.scenario import loads
 from cosim.scheduler import BaseObserver, Simulation
 from tests.test_codec import Everything, everything, floats
 from tests.toys import Force, Scalar
 
-LARGE = (100, 100)  # grid shape every 10th step: 80 000 bytes, sent out of band to the writer process
+LARGE = (400, 400)  # grid shape every 10th step: 1.28 MB, more than a batch holds, so sent in a batch of its own
 
 
 class Sea(enum.IntEnum):
@@ -59,7 +59,7 @@ class Frame(Message):
 
 class Painter(Component):
     """Publishes a Frame every step; its grid is large every 10th step and float32 every 7th (which
-    the fast flatten refuses, so the recorder writes that message's bytes itself)."""
+    the codec's packed record refuses, so the recorder writes that message's bytes itself)."""
 
     outputs = {"frame": Port(Frame)}
 
@@ -163,17 +163,17 @@ def test_writer_process_and_in_process_sink_write_the_same_bytes(tmp_path):
         assert a["channels"][topic] == b["channels"][topic], topic
     assert a == b
     frames = [data for *_, data in a["channels"]["/paint/frame"]]
-    assert len(frames) == 60 and max(map(len, frames)) > OUT_OF_BAND_BYTES  # large grids went out of band
+    assert len(frames) == 60 and max(map(len, frames)) > STAGE_BYTES  # large grids went in batches of their own
 
 
 def test_recorded_payloads_are_the_codecs_bytes_of_the_published_messages(tmp_path):
     """Through the writer process, each physics payload is ``codec.encode`` of the message published
     at that time, and re-encoding the message decoded from it gives the same bytes; the scene has
-    messages on both the fast (flattened) and the slow (float32 grid) path."""
+    messages on both the fast (packed) and the slow (float32 grid) path."""
     published = record(tmp_path / "run.mcap", background=True)
     frame = codec_for(Frame)
-    assert frame.flatten(published.messages["/paint/frame"][6][1]) is None  # step 7: the slow path
-    assert frame.flatten(published.messages["/paint/frame"][9][1]) is not None  # step 10: large grid, fast
+    assert frame.write(published.messages["/paint/frame"][6][1], memoryview(b""), 0, 0, 0) == -1  # step 7: slow
+    assert frame.write(published.messages["/paint/frame"][9][1], memoryview(b""), 0, 0, 0) < -1  # 10: packed
     recorded = contents(tmp_path / "run.mcap")
     checked = 0
     for topic, sent in published.messages.items():
@@ -191,8 +191,8 @@ def test_recorded_payloads_are_the_codecs_bytes_of_the_published_messages(tmp_pa
 
 
 def large_grid(draw, msg: Everything) -> Everything:
-    """``msg`` with a grid of over 64 KiB (so pickled out of band), seeded values plus a few NaN,
-    infinities and signed zeros, sometimes transposed (not C-contiguous)."""
+    """``msg`` with a grid of over 64 KiB, seeded values plus a few NaN, infinities and signed zeros,
+    sometimes transposed (not C-contiguous)."""
     rows, cols = draw(st.integers(91, 130)), draw(st.integers(91, 130))
     grid = np.random.default_rng(draw(st.integers(0, 2**32 - 1))).normal(size=(rows, cols))
     for i, j, x in draw(st.lists(st.tuples(st.integers(0, rows - 1), st.integers(0, cols - 1), floats), max_size=5)):
@@ -208,22 +208,25 @@ def messages(draw) -> Everything:
 
 
 @settings(max_examples=60, deadline=None)
-@given(messages())
-def test_flattened_messages_render_the_same_bytes_after_pickling(msg):
-    """A flattened message, pickled as ProcessSink pickles a batch (protocol 5, large arrays out of
-    band) and loaded from copies of the buffers, as the writer process loads them from the ring,
-    renders to exactly ``codec.encode(msg)``."""
+@given(st.lists(messages(), min_size=1, max_size=4), st.integers(0, 7))
+def test_packed_records_render_the_same_bytes_from_a_copy_of_the_batch(msgs, gap):
+    """Messages packed one after another into a batch (from an odd offset, non-finite floats and
+    transposed grids included), read back from a copy of the batch as the writer process reads it
+    from the ring, render to exactly ``codec.encode`` of each, and each record ends where the next
+    begins."""
     codec = codec_for(Everything)
-    args = codec.flatten(msg)
-    if args is None:  # a non-finite float field: the recorder writes such a message's bytes itself
-        assert not all(np.isfinite([msg.x, *msg.v]))
-        event("not flattened")
-        return
-    raws: list[memoryview] = []
-    body = pickle.dumps([("f", 1, 0, args)], protocol=5, buffer_callback=ProcessSink._out_of_band(raws))
-    assert len(raws) == (msg.grid.nbytes >= OUT_OF_BAND_BYTES)
-    event("grid out of band" if raws else "grid in the pickle")
-    buffers = [memoryview(bytearray(raw)) for raw in raws]  # the writer's views into the ring
-    ((op, channel, time_ns, back),) = pickle.loads(body, buffers=buffers)
-    assert (op, channel, time_ns) == ("f", 1, 0)
-    assert render(codec.text_format, back) == codec.encode(msg)
+    batch = memoryview(bytearray(gap + sum(-codec.write(m, memoryview(b""), 0, 0, 0) for m in msgs)))
+    offset = gap
+    for k, msg in enumerate(msgs):
+        offset = codec.write(msg, batch, offset, 3, 1000 + k)
+        assert offset > 0
+    assert offset == len(batch)
+    copy = memoryview(bytes(batch))  # the writer's view into the ring
+    render, offset = renderer(codec.layout), gap
+    for k, msg in enumerate(msgs):
+        assert HEADER.unpack_from(copy, offset) == (MESSAGE, 3, 1000 + k)
+        text, offset = render(copy, offset + HEADER.size)
+        assert text == codec.encode(msg) == codec._slow_encode(msg)
+    assert offset == len(copy)
+    event("non-finite floats" if not all(np.isfinite([m.x, *m.v, *m.grid.ravel()]).all() for m in msgs)
+          else "finite")
