@@ -341,7 +341,8 @@ class MessageCodec:
         if needed == -1:
             return self._slow_encode(msg)
         record = memoryview(bytearray(-needed))
-        self.write(msg, record, 0, 0, 0)
+        if self.write(msg, record, 0, 0, 0) == -1:  # refused while its numbers were packed
+            return self._slow_encode(msg)
         return self._render(record, HEADER.size)[0]
 
     def _slow_encode(self, msg: Message) -> bytes:

@@ -8,9 +8,10 @@ FrameTransform.timestamp, Log.timestamp) equals the frame's time, which the reco
 log time; the recorder numbers each channel's messages.
 
 Quaternions are (w, x, y, z) in cosim and (x, y, z, w) in Foxglove. Large vertex arrays (a water
-surface, a long trail) are merged into their messages from wire-format bytes built with numpy: the
-protobuf library parses them (so the result is checked), at a tenth of the cost of adding thousands
-of Point3/Color messages one by one.
+surface, a long trail) are written as wire-format bytes built with numpy and spliced into the
+serialized message (protobuf fields may come in any order, and a message's bytes are the
+concatenation of its fields'), far cheaper than adding thousands of Point3/Color messages one by one
+or than parsing and re-serializing them; the tests parse the result back with the protobuf library.
 """
 
 from __future__ import annotations
@@ -121,15 +122,25 @@ def repeated_vectors(field_number: int, sub_fields: Sequence[int], values: np.nd
     n, k = arr.shape
     if k != len(sub_fields):
         raise ValueError(f"expected {len(sub_fields)} columns, got {k}")
-    body = 9 * k  # per double: a one-byte tag and 8 bytes
+    rec = _vector_template(field_number, tuple(sub_fields), n).copy()
+    at = rec.shape[1] - 9 * k + 1  # the first double, after its one-byte tag
+    for j in range(k):
+        rec[:, at + 9 * j: at + 9 * j + 8] = arr[:, j:j + 1].view(np.uint8).reshape(n, 8)
+    return rec.tobytes()
+
+
+@lru_cache(maxsize=16)
+def _vector_template(field_number: int, sub_fields: tuple[int, ...], n: int) -> np.ndarray:
+    """The bytes of :func:`repeated_vectors` but for the doubles themselves, one row per message:
+    the field's tag, the message length and each double's tag (the same every frame)."""
+    body = 9 * len(sub_fields)  # per double: a one-byte tag and 8 bytes
     head = _varint(field_number << 3 | 2) + _varint(body)
-    rec = np.empty((n, len(head) + body), dtype=np.uint8)
+    rec = np.zeros((n, len(head) + body), dtype=np.uint8)
     rec[:, : len(head)] = np.frombuffer(head, dtype=np.uint8)
     for j, number in enumerate(sub_fields):
-        at = len(head) + 9 * j
-        rec[:, at] = number << 3 | 1  # wire type 1: 64-bit
-        rec[:, at + 1: at + 9] = arr[:, j:j + 1].view(np.uint8).reshape(n, 8)
-    return rec.tobytes()
+        rec[:, len(head) + 9 * j] = number << 3 | 1  # wire type 1: 64-bit
+    rec.flags.writeable = False
+    return rec
 
 
 def packed_fixed32(field_number: int, values: np.ndarray) -> bytes:
@@ -146,21 +157,27 @@ def _triangle_indices(data: bytes) -> bytes:
     return packed_fixed32(_INDICES_FIELD, np.frombuffer(data, dtype="<u4"))
 
 
-def _merge_points(out: ProtoMessage, name: str, points: np.ndarray) -> None:
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    number = out.DESCRIPTOR.fields_by_name[name].number
-    out.MergeFromString(repeated_vectors(number, _POINT_FIELDS, pts))
+def _field(field_number: int, data: bytes) -> bytes:
+    """Wire-format bytes of a length-delimited field (a sub-message, given as its bytes)."""
+    return _varint(field_number << 3 | 2) + _varint(len(data)) + data
 
 
-def _merge_colors(out: ProtoMessage, name: str, colors: np.ndarray) -> None:
-    cols = np.asarray(colors, dtype=np.float64).reshape(-1, 4)
-    number = out.DESCRIPTOR.fields_by_name[name].number
-    out.MergeFromString(repeated_vectors(number, _COLOR_FIELDS, cols))
+def _vertices(message_class: type[ProtoMessage], name: str, columns: Sequence[int], values: np.ndarray) -> bytes:
+    """A repeated Point3 (3 columns) or Color (4 columns) field of ``message_class`` as wire bytes."""
+    number = message_class.DESCRIPTOR.fields_by_name[name].number
+    return repeated_vectors(number, columns, np.asarray(values, dtype=np.float64).reshape(-1, len(columns)))
+
+
+_LINES_FIELD = SceneEntity.DESCRIPTOR.fields_by_name["lines"].number
+_TRIANGLES_FIELD = SceneEntity.DESCRIPTOR.fields_by_name["triangles"].number
+_ENTITIES_FIELD = SceneUpdate.DESCRIPTOR.fields_by_name["entities"].number
 
 
 # --- items --------------------------------------------------------------------------------------
 
-def _add_primitive(entity: SceneEntity, prim: v.Primitive) -> None:
+def _add_primitive(entity: SceneEntity, prim: v.Primitive, spliced: list[bytes]) -> None:
+    """Add ``prim`` to ``entity``; a line strip or triangle list goes to ``spliced`` instead, as the
+    wire bytes of its field in the entity."""
     if isinstance(prim, v.Sphere):
         out = entity.spheres.add()
         _pose(out.pose, prim.pose.position, prim.pose.orientation)
@@ -189,39 +206,45 @@ def _add_primitive(entity: SceneEntity, prim: v.Primitive) -> None:
         arrow.shaft_diameter, arrow.head_diameter = float(prim.shaft_diameter), float(prim.head_diameter)
         _color(arrow.color, prim.color)
     elif isinstance(prim, v.LineStrip):
-        line: LinePrimitive = entity.lines.add()
-        line.type = LinePrimitive.LINE_STRIP
+        line = LinePrimitive(type=LinePrimitive.LINE_STRIP, thickness=float(prim.thickness))
         _pose(line.pose, (0.0, 0.0, 0.0))
-        line.thickness = float(prim.thickness)
         _color(line.color, prim.color)
-        _merge_points(line, "points", prim.points)
+        parts = [line.SerializeToString(), _vertices(LinePrimitive, "points", _POINT_FIELDS, prim.points)]
         if prim.colors is not None:
-            _merge_colors(line, "colors", prim.colors)
+            parts.append(_vertices(LinePrimitive, "colors", _COLOR_FIELDS, prim.colors))
+        spliced.append(_field(_LINES_FIELD, b"".join(parts)))
     elif isinstance(prim, v.TriangleList):
-        tri: TriangleListPrimitive = entity.triangles.add()
+        tri = TriangleListPrimitive()
         _pose(tri.pose, (0.0, 0.0, 0.0))
         _color(tri.color, prim.color)
-        _merge_points(tri, "points", prim.points)
+        parts = [tri.SerializeToString(), _vertices(TriangleListPrimitive, "points", _POINT_FIELDS, prim.points)]
         if prim.colors is not None:
-            _merge_colors(tri, "colors", prim.colors)
+            parts.append(_vertices(TriangleListPrimitive, "colors", _COLOR_FIELDS, prim.colors))
         if prim.indices is not None:
-            tri.MergeFromString(_triangle_indices(np.ascontiguousarray(prim.indices, dtype="<u4").tobytes()))
+            parts.append(_triangle_indices(np.ascontiguousarray(prim.indices, dtype="<u4").tobytes()))
+        spliced.append(_field(_TRIANGLES_FIELD, b"".join(parts)))
     else:
         raise TypeError(f"not a visual primitive: {type(prim).__name__}")
 
 
-def scene_update(time_ns: int, entities: Sequence[v.Entity]) -> SceneUpdate:
-    """One SceneUpdate holding ``entities``, each stamped ``time_ns``, lasting until replaced."""
-    update = SceneUpdate()
+def scene_update_bytes(time_ns: int, entities: Sequence[v.Entity]) -> bytes:
+    """The wire bytes of one SceneUpdate holding ``entities``, each stamped ``time_ns``, lasting
+    until replaced."""
+    out = []
+    stamp = timestamp(time_ns)
     for item in entities:
-        entity = update.entities.add()
-        entity.timestamp.CopyFrom(timestamp(time_ns))
-        entity.frame_id = item.frame_id
-        entity.id = item.id
-        entity.frame_locked = bool(item.frame_locked)
+        entity = SceneEntity(frame_id=item.frame_id, id=item.id, frame_locked=bool(item.frame_locked))
+        entity.timestamp.CopyFrom(stamp)
+        spliced: list[bytes] = []
         for prim in item.primitives:
-            _add_primitive(entity, prim)
-    return update
+            _add_primitive(entity, prim, spliced)
+        out.append(_field(_ENTITIES_FIELD, entity.SerializeToString() + b"".join(spliced)))
+    return b"".join(out)
+
+
+def scene_update(time_ns: int, entities: Sequence[v.Entity]) -> SceneUpdate:
+    """One SceneUpdate holding ``entities`` (:func:`scene_update_bytes`, parsed)."""
+    return SceneUpdate.FromString(scene_update_bytes(time_ns, entities))
 
 
 def frame_transforms(time_ns: int, transforms: Sequence[v.Transform]) -> FrameTransforms:
@@ -242,32 +265,39 @@ def log(time_ns: int, line: v.LogLine) -> Log:
     return Log(timestamp=timestamp(time_ns), level=LOG_LEVEL[line.level], message=line.text, name=line.name)
 
 
-def to_protobuf(time_ns: int, items: Sequence[v.Item]) -> list[tuple[str, ProtoMessage]]:
-    """(topic, protobuf message) pairs for one frame's items (trails must already be entities)."""
+def to_wire(time_ns: int, items: Sequence[v.Item]) -> list[tuple[str, type[ProtoMessage], bytes]]:
+    """(topic, protobuf message class, wire bytes) for one frame's items (trails must already be
+    entities): one FrameTransforms per topic, one SceneUpdate per topic, one Log per line."""
     entities: dict[str, list[v.Entity]] = {}
     transforms: dict[str, list[v.Transform]] = {}
-    out: list[tuple[str, ProtoMessage]] = []
+    logs: list[tuple[str, type[ProtoMessage], bytes]] = []
     for item in items:
         if isinstance(item, v.Entity):
             entities.setdefault(item.topic, []).append(item)
         elif isinstance(item, v.Transform):
             transforms.setdefault(item.topic, []).append(item)
         elif isinstance(item, v.LogLine):
-            out.append((item.topic, log(time_ns, item)))
+            logs.append((item.topic, Log, log(time_ns, item).SerializeToString()))
         else:
             raise TypeError(f"cannot convert {type(item).__name__} (trails become entities in the deriver)")
-    out = [(topic, frame_transforms(time_ns, tfs)) for topic, tfs in transforms.items()] + \
-        [(topic, scene_update(time_ns, ents)) for topic, ents in entities.items()] + out
-    return out
+    return ([(topic, FrameTransforms, frame_transforms(time_ns, tfs).SerializeToString())
+             for topic, tfs in transforms.items()]
+            + [(topic, SceneUpdate, scene_update_bytes(time_ns, ents)) for topic, ents in entities.items()]
+            + logs)
+
+
+def to_protobuf(time_ns: int, items: Sequence[v.Item]) -> list[tuple[str, ProtoMessage]]:
+    """(topic, protobuf message) pairs for one frame's items: :func:`to_wire`, parsed."""
+    return [(topic, cls.FromString(data)) for topic, cls, data in to_wire(time_ns, items)]
 
 
 class FoxgloveEncoder:
     """Encoder for :class:`cosim.visual.VisualDeriver`: items -> recorder :class:`DerivedMessage`s."""
 
     def encode(self, time_ns: int, items: list[v.Item]) -> list[DerivedMessage]:
-        return [DerivedMessage(topic, msg.DESCRIPTOR.full_name, SCHEMA_ENCODING, schema_data(type(msg)),
-                               MESSAGE_ENCODING, msg.SerializeToString())
-                for topic, msg in to_protobuf(time_ns, items)]
+        return [DerivedMessage(topic, cls.DESCRIPTOR.full_name, SCHEMA_ENCODING, schema_data(cls),
+                               MESSAGE_ENCODING, data)
+                for topic, cls, data in to_wire(time_ns, items)]
 
 
 def visual_deriver(rate: float, reserved_topics: frozenset[str] = frozenset()) -> v.VisualDeriver:

@@ -44,28 +44,33 @@ class Stage:
         self.send = send
 
     def add_message(self, write: Write, channel: int, time_ns: int, msg: Any) -> bool:
-        """Pack ``msg`` with its codec's ``write``; False when it must take the slow path instead."""
+        """Pack ``msg`` with its codec's ``write``; False, with nothing changed, when it must take the
+        slow path instead."""
         end = write(msg, self.view, self.offset, channel, time_ns)
         if end < 0:
-            if end == -1:
-                return False
-            self._add_large(write, channel, time_ns, msg, -end)
-            return True
+            return end != -1 and self._add_large(write, channel, time_ns, msg, -end)
         self.offset = end
         self.count += 1
         if self.count >= self.batch:
             self.flush()
         return True
 
-    def _add_large(self, write: Write, channel: int, time_ns: int, msg: Any, needed: int) -> None:
-        self.flush()
-        if needed <= len(self.view):
-            self.offset = write(msg, self.view, 0, channel, time_ns)
-            self.count = 1
-            return
+    def _add_large(self, write: Write, channel: int, time_ns: int, msg: Any, needed: int) -> bool:
+        """A record that does not fit in the space left: packed into a buffer of its own first (a
+        message can still be refused while its numbers are packed), then sent after the records
+        gathered so far, at the start of the next batch or, larger than the stage, alone."""
         own = memoryview(bytearray(needed))
-        write(msg, own, 0, channel, time_ns)
-        self.send(own)
+        if write(msg, own, 0, channel, time_ns) == -1:
+            return False
+        self.flush()
+        if needed > len(self.view):
+            self.send(own)
+            return True
+        self.view[:needed] = own
+        self.offset, self.count = needed, 1
+        if self.count >= self.batch:
+            self.flush()
+        return True
 
     def add_bytes(self, kind: int, channel: int, time_ns: int, data: Any) -> None:
         """A BYTES record of ``data`` (bytes-like), or an OTHER record."""

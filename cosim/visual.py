@@ -39,7 +39,7 @@ import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
-from functools import cache
+from functools import cache, lru_cache
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any, Protocol
 
@@ -231,19 +231,29 @@ def height_field_mesh(height: np.ndarray, origin_x: float, origin_y: float, cell
     height = np.asarray(height)
     if height.ndim != 2 or min(height.shape) < 2:
         raise ValueError(f"height field must be 2D with at least 2 x 2 cells (got shape {height.shape})")
-    rows = decimation(height.shape[0], max_side)
-    cols = decimation(height.shape[1], max_side)
-    z = height[np.ix_(rows, cols)].astype(np.float64)
-    ny, nx = z.shape
-    xs = origin_x + cols * cell
-    ys = origin_y + rows * cell
-    gx, gy = np.meshgrid(xs, ys)
-    points = np.column_stack([gx.ravel(), gy.ravel(), z.ravel()])
-    v = np.arange(ny * nx, dtype=np.uint32).reshape(ny, nx)
+    rows, cols, xy, indices = _mesh_grid(height.shape, max_side, float(origin_x), float(origin_y), float(cell))
+    z = height[np.ix_(rows, cols)].astype(np.float64).ravel()
+    points = np.empty((len(z), 3))
+    points[:, :2] = xy
+    points[:, 2] = z
+    return TriangleList(points, color=color, colors=None if colors is None else colors(z), indices=indices)
+
+
+@lru_cache(maxsize=8)
+def _mesh_grid(shape: tuple[int, int], max_side: int, origin_x: float, origin_y: float, cell: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What a height field's mesh keeps from frame to frame: the sampled rows and columns, the
+    vertices' (x, y) (N, 2) [m] and the triangles' vertex indices (read-only, shared by every frame)."""
+    rows = decimation(shape[0], max_side)
+    cols = decimation(shape[1], max_side)
+    gx, gy = np.meshgrid(origin_x + cols * cell, origin_y + rows * cell)
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    v = np.arange(len(rows) * len(cols), dtype=np.uint32).reshape(len(rows), len(cols))
     a, b, c, d = v[:-1, :-1], v[:-1, 1:], v[1:, :-1], v[1:, 1:]
     indices = np.stack([a, b, d, a, d, c], axis=-1).ravel()  # counter-clockwise seen from above
-    return TriangleList(points, color=color, colors=None if colors is None else colors(z.ravel()),
-                        indices=indices)
+    for arr in (rows, cols, xy, indices):
+        arr.flags.writeable = False
+    return rows, cols, xy, indices
 
 
 # --- the registry -------------------------------------------------------------------------------
@@ -437,12 +447,22 @@ class VisualDeriver:
 
 def same(a: Any, b: Any) -> bool:
     """Value equality of visual items (arrays compared element by element)."""
-    if type(a) is not type(b):
+    if a is b:
+        return True
+    kind = type(a)
+    if kind is not type(b):
         return False
-    if dataclasses.is_dataclass(a):
-        return all(same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b))
-    if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
+    if kind is np.ndarray:
+        return a.shape == b.shape and bool(np.array_equal(a, b))
+    if kind is tuple or kind is list:
+        return len(a) == len(b) and all(map(same, a, b))
+    names = _field_names(kind)
+    if names is not None:
+        return all(same(getattr(a, name), getattr(b, name)) for name in names)
     return bool(a == b)
+
+
+@cache
+def _field_names(kind: type) -> tuple[str, ...] | None:
+    """The field names of a dataclass type, or None for any other type."""
+    return tuple(f.name for f in dataclasses.fields(kind)) if dataclasses.is_dataclass(kind) else None

@@ -156,3 +156,14 @@ def test_generated_encoder_writes_exactly_what_json_dumps_writes(msg):
     """The generated fast encoder's bytes equal those of json.dumps over the field dict."""
     codec = codec_for(Everything)
     assert codec.encode(msg) == codec._slow_encode(msg)
+
+
+@pytest.mark.parametrize("n", [2**70, -2**63 - 1])
+def test_an_int_beyond_64_bits_is_encoded_the_slow_way(n):
+    """An int field beyond 64 bits cannot be packed into a record (refused while packing, after the
+    size check); encode then writes it the slow way, exactly, rather than a half-packed record."""
+    msg = Everything(1.0, n, True, "a", Mode.ON, np.zeros(3), np.zeros((1, 1)), np.arange(4, dtype=np.int32))
+    codec = codec_for(Everything)
+    assert codec.write(msg, memoryview(bytearray(4096)), 0, 0, 0) == -1
+    assert codec.encode(msg) == codec._slow_encode(msg)
+    assert json.loads(codec.encode(msg))["n"] == n

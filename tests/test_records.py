@@ -145,7 +145,6 @@ def test_a_refused_message_leaves_the_stage_as_it_was(bad):
     assert [parse(b) for b in batches] == [[expected(op) for op in ops]]
 
 
-@pytest.mark.xfail(strict=True, reason="bug: _add_large flushes, then ignores write's -1")
 def test_a_message_refused_only_when_packed_is_refused_when_it_does_not_fit():
     """A message refused while packing (an int beyond 64 bits) is refused too when it does not fit in the space
     left: add_message returns False and the stage keeps its records, with nothing sent."""
