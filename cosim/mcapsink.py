@@ -26,6 +26,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -33,8 +34,8 @@ from cosim.jsontext import RecordLayout, Renderer, renderer, state_text
 from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write
 from cosim.ring import RingConsumer, RingError, RingProducer
 
-BATCH = 256  # records per batch sent to the writer process: few, so the writer keeps up closely
-STAGE_BYTES = 1 << 20  # the buffer a batch is gathered in: at most this many bytes a batch (fits in L2)
+BATCH = 128  # records per batch sent to the writer process: few, so the writer keeps up closely
+STAGE_BYTES = 128 << 10  # the buffer a batch is gathered in: at most this many bytes a batch (fits in L2)
 RING_BYTES = 8 << 20  # shared memory between the simulating and the writer process: reused, so its pages stay mapped
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
@@ -57,7 +58,7 @@ class _Apply:
         self.writer = foxglove.open_mcap(
             part, allow_overwrite=True, context=self.context,
             writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd, compression_level=ZSTD_LEVEL,
-                                            compression_threads=0, profile=""))
+                                            compression_threads=0, profile="", chunk_size=262144))
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
         self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
@@ -131,6 +132,7 @@ def writer_main(argv: list[str]) -> int:
             sink.apply_batch(batch)
     finally:
         sink.finish()
+    ring.finish()  # the file is complete under its final name: the simulating process need not wait for the exit
     return 0
 
 
@@ -236,7 +238,10 @@ class ProcessSink(_Sink):
         super().__init__()
         self.path = path
         part = path.with_name(path.name + ".part")
-        part.touch()  # a path that cannot be written fails at once, in this process
+        # a path that cannot be written fails at once, in this process; the writer then creates the
+        # file afresh (on ext4, truncating an existing file makes its close wait for block allocation)
+        part.touch()
+        part.unlink()
         # the writer's own errors go to a file, read back only if it fails (a pipe could fill and block it)
         self._errors = tempfile.TemporaryFile()
         # the writer imports this package from where this process found it
@@ -255,7 +260,6 @@ class ProcessSink(_Sink):
         finally:
             os.close(control_r)
             os.close(ack_w)
-        self._ack_r = ack_r
         self._ring.connect(control_w, ack_r)
 
     def _send(self, batch: memoryview) -> None:
@@ -274,27 +278,27 @@ class ProcessSink(_Sink):
             return ""
         return f": {text.splitlines()[-1]}" if text else ""
 
-    def _hang_up(self) -> None:
-        """Close the ring (the writer then finishes) and read the writer's last acknowledgements until
-        it exits, so it never waits on a full pipe."""
-        self._ring.close()
-        os.set_blocking(self._ack_r, True)
+    def _hang_up(self) -> bool:
+        """Close the ring (the writer then finishes) and wait until the writer is done; True when it
+        finished the file."""
         try:
-            while os.read(self._ack_r, 1 << 16):
-                pass
+            return self._ring.hang_up()
         finally:
-            os.close(self._ack_r)
+            self._ring.close()
 
     def close(self) -> None:
         """Send what is left, close the ring, and wait until the writer has finished the file."""
         try:
             self.flush()
         finally:
-            self._hang_up()
-            code = self._proc.wait(WRITER_TIMEOUT_S)
+            finished = self._hang_up()
+        if finished:  # the file is complete; the writer's exit is reaped in the background
+            threading.Thread(target=self._proc.wait, daemon=True).start()
+            self._errors.close()
+            return
+        code = self._proc.wait(WRITER_TIMEOUT_S)
         try:
-            if code != 0 or not self.path.exists():
-                raise SinkError(f"{self.path}: the recording writer failed (exit code {code}){self._stderr()}")
+            raise SinkError(f"{self.path}: the recording writer failed (exit code {code}){self._stderr()}")
         finally:
             self._errors.close()
 

@@ -9,8 +9,9 @@ simulation goes on.
 Control records (producer -> consumer): ``<QI`` offset in the ring and number of parts, then each
 part's length as ``<Q``. An offset of :data:`INLINE` means the parts follow on the pipe itself (a
 batch larger than the ring). Acknowledgements (consumer -> producer): ``<Q``, the stream position
-read up to. When the ring is full the producer waits for the consumer; when the producer's end of
-the control pipe closes (on purpose or because the process died) the consumer's iteration ends.
+read up to, or :data:`FINISHED` as the consumer's last word. When the ring is full the producer waits
+for the consumer; when the producer's end of the control pipe closes (on purpose or because the
+process died) the consumer's iteration ends.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 INLINE = (1 << 64) - 1  # control offset: the batch's parts follow on the pipe
+FINISHED = (1 << 64) - 1  # acknowledgement: the consumer has done all it had to (e.g. finished a file)
 _HEAD = struct.Struct("<QI")
 _LENGTH = struct.Struct("<Q")
 
@@ -80,6 +82,7 @@ class RingProducer:
         self._acks = b""
         self.control_fd = -1
         self.ack_fd = -1
+        self.finished = False  # the consumer said FINISHED
 
     def connect(self, control_fd: int, ack_fd: int) -> None:
         """Start talking to the consumer: its control pipe (write end) and acknowledgement pipe (read end)."""
@@ -127,11 +130,36 @@ class RingProducer:
         data = self._acks + data
         whole = len(data) - len(data) % _LENGTH.size
         if whole:
-            self._tail = _LENGTH.unpack_from(data, whole - _LENGTH.size)[0]
+            last = _LENGTH.unpack_from(data, whole - _LENGTH.size)[0]
+            if last == FINISHED:
+                self.finished = True
+            else:
+                self._tail = last
         self._acks = data[whole:]
 
+    def hang_up(self) -> bool:
+        """Close the control pipe (the consumer then finishes) and read the consumer's last
+        acknowledgements until it closes its end (so it never waits on a full pipe). True when its
+        last word was :data:`FINISHED`."""
+        if self.control_fd >= 0:
+            os.close(self.control_fd)
+            self.control_fd = -1
+        if self.ack_fd >= 0:
+            os.set_blocking(self.ack_fd, True)
+            try:
+                while True:
+                    try:
+                        self._read_acks(wait=False)
+                    except RingError:  # the consumer has closed its end
+                        break
+            finally:
+                os.close(self.ack_fd)
+                self.ack_fd = -1
+        return self.finished
+
     def close(self) -> None:
-        """Close the control pipe (the consumer then finishes) and the producer's mapping."""
+        """Close the control pipe (the consumer then finishes) and the producer's mapping (the
+        acknowledgement pipe stays open: see :meth:`hang_up`)."""
         if self.control_fd >= 0:
             os.close(self.control_fd)
             self.control_fd = -1
@@ -185,3 +213,14 @@ class RingConsumer:
                     _write_all(self.ack_fd, _LENGTH.pack(self._position))
                 except OSError:  # the producer has gone: read on to the batches it has already sent
                     self.ack_fd = -1
+
+    def finish(self) -> None:
+        """Tell the producer this side has done all it had to (see :meth:`RingProducer.hang_up`), and
+        close the acknowledgement pipe."""
+        if self.ack_fd >= 0:
+            try:
+                _write_all(self.ack_fd, _LENGTH.pack(FINISHED))
+            except OSError:  # the producer has gone: nobody to tell
+                pass
+            os.close(self.ack_fd)
+            self.ack_fd = -1

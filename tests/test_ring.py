@@ -472,3 +472,28 @@ def test_parts_of_any_item_format_arrive_as_their_bytes_and_close_is_idempotent(
     assert consumer.finish() == [digest([values.tobytes(), values.tobytes()]), digest([big.tobytes()])]
     producer.close()
     producer.close()
+
+
+@pytest.mark.parametrize("finishes", [True, False])
+def test_hang_up_says_whether_the_consumer_finished(local, finishes):
+    """hang_up closes the control pipe, then waits until the consumer closes its acknowledgement pipe;
+    it returns True only when the consumer's last word was FINISHED (a recording's writer says so
+    once its file is complete), False when the consumer just went away."""
+    local.producer.put([b"x" * 100])
+
+    def consume() -> None:
+        for _ in local.consumer.batches():
+            pass
+        if finishes:
+            local.open.remove(local.ack_w)  # finish() closes it
+            local.consumer.finish()
+        else:
+            local.close_consumer()
+
+    worker = in_thread(consume)
+    assert local.producer.hang_up() is finishes
+    local.open.remove(local.ack_r)  # hang_up closed it
+    worker.join(WATCHDOG_S)
+    assert worker.error is None and local.producer.ack_fd == -1 and local.producer.control_fd == -1
+    local.producer_open = False
+    local.producer.close()  # after hang_up: releases the mapping, safe to call again
