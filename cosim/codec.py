@@ -17,6 +17,7 @@ import base64
 import enum
 import json
 import math
+import pickle
 import struct
 import sys
 from collections.abc import Callable
@@ -442,12 +443,13 @@ def decode(message_type: type[Message], payload: bytes) -> Message:
 
 def plain_state(value: Any) -> Any:
     """State data (dicts, lists, numbers, strings, numpy arrays) as JSON values, every array as a
-    tagged dict holding a copy of its little-endian bytes (written as base64 by
-    :func:`cosim.jsontext.state_text`)."""
+    tagged dict holding its little-endian bytes as a :class:`pickle.PickleBuffer` (written as base64
+    by :func:`cosim.jsontext.state_text`; pickled out of band). The buffers share the state's arrays:
+    use them before the state changes."""
     if isinstance(value, np.ndarray):
         arr = np.ascontiguousarray(value)
         arr = arr.astype(arr.dtype.newbyteorder("<"), copy=False)
-        return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape), "base64": arr.tobytes()}
+        return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape), "base64": pickle.PickleBuffer(arr)}
     if isinstance(value, dict):
         return {str(k): plain_state(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):

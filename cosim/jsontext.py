@@ -14,6 +14,7 @@ from __future__ import annotations
 import binascii
 import json
 import math
+import pickle
 import struct
 from collections.abc import Callable
 from operator import itemgetter
@@ -114,8 +115,11 @@ def renderer(layout: RecordLayout) -> Renderer:
     return render
 
 
+_RAW = (bytes, memoryview, pickle.PickleBuffer)  # an array's bytes in plain state, wherever it is read
+
+
 def _with_base64(value: Any) -> Any:
-    if type(value) is bytes:
+    if type(value) in _RAW:
         return base64_text(value)
     if type(value) is dict:
         return {k: _with_base64(v) for k, v in value.items()}

@@ -21,7 +21,6 @@ not wanted).
 from __future__ import annotations
 
 import os
-import pickle
 import signal
 import subprocess
 import sys
@@ -31,11 +30,12 @@ from pathlib import Path
 from typing import Any
 
 from cosim.jsontext import RecordLayout, Renderer, renderer, state_text
-from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write
+from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write, read_other
 from cosim.ring import RingConsumer, RingError, RingProducer
 
-BATCH = 128  # records per batch sent to the writer process: few, so the writer keeps up closely
-STAGE_BYTES = 128 << 10  # the buffer a batch is gathered in: at most this many bytes a batch (fits in L2)
+BATCH = 128  # a batch is sent at this many records...
+BATCH_BYTES = 128 << 10  # ...or this many bytes: small, so the writer stays close behind (and the last batch is quick)
+STAGE_BYTES = 4 << 20  # the buffer batches are gathered in, allocated once: a water field or a checkpoint fits whole
 RING_BYTES = 8 << 20  # shared memory between the simulating and the writer process: reused, so its pages stay mapped
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
@@ -81,7 +81,7 @@ class _Apply:
             if kind == BYTES:
                 channels[channel].log(bytes(body), log_time=time_ns)
             elif kind == OTHER:
-                self.apply(pickle.loads(body))
+                self.apply(read_other(body))
             else:
                 raise SinkError(f"unknown record kind {kind}")
 
@@ -164,7 +164,7 @@ class _Sink:
 
     def __init__(self) -> None:
         self._ids = _Ids()
-        self.stage = Stage(STAGE_BYTES, BATCH, self._send)
+        self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES)
 
     def _send(self, batch: memoryview) -> None:
         raise NotImplementedError

@@ -7,7 +7,8 @@ body:
   as its channel's :class:`cosim.jsontext.RecordLayout`;
 - :data:`BYTES`: a length (:data:`LENGTH`), then a message's bytes as they are to be written;
 - :data:`OTHER`: a length, then a pickled tuple: a schema, a channel, metadata, an attachment or a
-  checkpoint (a few per run).
+  checkpoint (a few per run); the pickle's out-of-band buffers (a checkpoint's arrays) follow it,
+  their number and lengths before it (:data:`OTHER_HEAD`, :func:`read_other`).
 
 Records are written into a :class:`Stage`, a buffer allocated once (so its pages stay mapped and
 warm in the cache), and sent a batch at a time: numbers go in as they are and arrays as raw bytes,
@@ -23,6 +24,7 @@ from typing import Any
 
 HEADER = struct.Struct("<BIq")  # kind, channel id, log time [ns]
 LENGTH = struct.Struct("<Q")  # the length of a BYTES or OTHER body [bytes]
+OTHER_HEAD = struct.Struct("<I")  # an OTHER body: the number of out-of-band buffers, then each one's LENGTH
 MESSAGE, BYTES, OTHER = 0, 1, 2
 
 Write = Callable[[Any, memoryview, int, int, int], int]
@@ -32,15 +34,17 @@ bytes and fewer are left (nothing written)."""
 
 
 class Stage:
-    """Records gathered into a fixed buffer of ``size`` bytes and handed to ``send`` (a memoryview,
-    valid only during the call) when the buffer is full, after ``batch`` records, or on
-    :meth:`flush`. A record larger than the buffer is sent alone, from a buffer of its own."""
+    """Records gathered into a buffer of ``size`` bytes, allocated once, and handed to ``send`` (a
+    memoryview, valid only during the call) once ``batch`` records or ``batch_bytes`` bytes are in it
+    (so the receiver stays close behind), when the next record does not fit, or on :meth:`flush`. A
+    record larger than the buffer is sent alone, from a buffer of its own."""
 
-    def __init__(self, size: int, batch: int, send: Callable[[memoryview], None]):
+    def __init__(self, size: int, batch: int, send: Callable[[memoryview], None], batch_bytes: int | None = None):
         self.view = memoryview(bytearray(size))
         self.offset = 0
         self.count = 0
         self.batch = batch
+        self.batch_bytes = size if batch_bytes is None else min(batch_bytes, size)
         self.send = send
 
     def add_message(self, write: Write, channel: int, time_ns: int, msg: Any) -> bool:
@@ -51,7 +55,7 @@ class Stage:
             return end != -1 and self._add_large(write, channel, time_ns, msg, -end)
         self.offset = end
         self.count += 1
-        if self.count >= self.batch:
+        if self.count >= self.batch or end >= self.batch_bytes:
             self.flush()
         return True
 
@@ -67,15 +71,19 @@ class Stage:
             self.send(own)
             return True
         self.view[:needed] = own
-        self.offset, self.count = needed, 1
-        if self.count >= self.batch:
-            self.flush()
+        self._added(needed)
         return True
 
-    def add_bytes(self, kind: int, channel: int, time_ns: int, data: Any) -> None:
-        """A BYTES record of ``data`` (bytes-like), or an OTHER record."""
-        raw = memoryview(data).cast("B")
-        n = raw.nbytes
+    def _added(self, end: int) -> None:
+        self.offset = end
+        self.count += 1
+        if self.count >= self.batch or end >= self.batch_bytes:
+            self.flush()
+
+    def add_bytes(self, kind: int, channel: int, time_ns: int, *parts: Any) -> None:
+        """A BYTES or OTHER record whose body is the concatenation of ``parts`` (bytes-like)."""
+        raws = [memoryview(part).cast("B") for part in parts]
+        n = sum(raw.nbytes for raw in raws)
         needed = HEADER.size + LENGTH.size + n
         if self.offset + needed > len(self.view):
             self.flush()
@@ -84,21 +92,38 @@ class Stage:
         at = start + HEADER.size
         LENGTH.pack_into(view, at, n)
         at += LENGTH.size
-        view[at:at + n] = raw
+        for raw in raws:
+            view[at:at + raw.nbytes] = raw
+            at += raw.nbytes
         if view is self.view:
-            self.offset = at + n
-            self.count += 1
-            if self.count >= self.batch:
-                self.flush()
+            self._added(at)
         else:
             self.send(view)
 
     def add_other(self, record: tuple) -> None:
-        """An OTHER record: ``record`` pickled."""
-        self.add_bytes(OTHER, 0, 0, pickle.dumps(record, protocol=pickle.HIGHEST_PROTOCOL))
+        """An OTHER record: ``record`` pickled, its pickle buffers (the arrays of a checkpoint, see
+        :func:`cosim.codec.plain_state`) copied out of band, straight from the arrays."""
+        buffers: list[memoryview] = []
+        data = pickle.dumps(record, protocol=5, buffer_callback=lambda b: buffers.append(b.raw()))
+        head = OTHER_HEAD.pack(len(buffers)) + b"".join(LENGTH.pack(b.nbytes) for b in buffers)
+        self.add_bytes(OTHER, 0, 0, head, data, *buffers)
 
     def flush(self) -> None:
         """Send the records gathered so far."""
         if self.offset:
             offset, self.offset, self.count = self.offset, 0, 0
             self.send(self.view[:offset])
+
+
+def read_other(body: memoryview) -> tuple:
+    """The tuple an OTHER record's body holds (its out-of-band buffers are views into ``body``)."""
+    (count,) = OTHER_HEAD.unpack_from(body, 0)
+    at = OTHER_HEAD.size
+    sizes = [n for (n,) in LENGTH.iter_unpack(body[at:at + LENGTH.size * count])]
+    at += LENGTH.size * count
+    end = len(body) - sum(sizes)
+    buffers = []
+    for n in [end - at, *sizes]:
+        buffers.append(body[at:at + n])
+        at += n
+    return pickle.loads(buffers[0], buffers=buffers[1:])

@@ -23,10 +23,11 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
 
+from cosim import mcapsink
 from cosim.codec import codec_for
 from cosim.component import Component, Port
 from cosim.jsontext import renderer
-from cosim.mcapsink import STAGE_BYTES, InProcessSink, ProcessSink
+from cosim.mcapsink import InProcessSink, ProcessSink
 from cosim.messages import Array, Message, Vec3, first_difference, message
 from cosim.recorder import DerivedMessage, Recorder
 from cosim.records import HEADER, MESSAGE
@@ -35,7 +36,8 @@ from cosim.scheduler import BaseObserver, Simulation
 from tests.test_codec import Everything, everything, floats
 from tests.toys import Force, Scalar
 
-LARGE = (400, 400)  # grid shape every 10th step: 1.28 MB, more than a batch holds, so sent in a batch of its own
+LARGE = (400, 400)  # grid shape every 10th step: 1.28 MB
+SMALL_STAGE = 1 << 20  # a stage smaller than a large grid's record: those go in batches of their own
 
 
 class Sea(enum.IntEnum):
@@ -150,10 +152,11 @@ def contents(path: Path) -> dict:
     return {"channels": channels, "schemas": schemas, "metadata": metadata, "attachments": attachments}
 
 
-def test_writer_process_and_in_process_sink_write_the_same_bytes(tmp_path):
+def test_writer_process_and_in_process_sink_write_the_same_bytes(tmp_path, monkeypatch):
     """Recorded in a writer process and in this process, the scene gives identical channels (times,
     sequences and bytes of every message, the checkpoints and the deriver's channel included), schemas,
-    metadata and attachments."""
+    metadata and attachments. The stage is made smaller than the large grids, so those go alone."""
+    monkeypatch.setattr(mcapsink, "STAGE_BYTES", SMALL_STAGE)
     record(tmp_path / "process.mcap", background=True)
     record(tmp_path / "inproc.mcap", background=False)
     a, b = contents(tmp_path / "process.mcap"), contents(tmp_path / "inproc.mcap")
@@ -163,7 +166,7 @@ def test_writer_process_and_in_process_sink_write_the_same_bytes(tmp_path):
         assert a["channels"][topic] == b["channels"][topic], topic
     assert a == b
     frames = [data for *_, data in a["channels"]["/paint/frame"]]
-    assert len(frames) == 60 and max(map(len, frames)) > STAGE_BYTES  # large grids went in batches of their own
+    assert len(frames) == 60 and max(map(len, frames)) > SMALL_STAGE  # large grids went in batches of their own
 
 
 def test_recorded_payloads_are_the_codecs_bytes_of_the_published_messages(tmp_path):

@@ -12,10 +12,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cosim.codec import codec_for
-from cosim.jsontext import renderer
+from cosim.codec import codec_for, plain_state
+from cosim.jsontext import renderer, state_text
 from cosim.messages import Array, Message, message
-from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage
+from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, OTHER_HEAD, Stage, read_other
 from tests.test_codec import Everything, Mode, everything
 
 
@@ -45,8 +45,9 @@ def size_of(op: tuple) -> int:
     kind, channel, time_ns, value = op
     if kind == MESSAGE:
         return -CODECS[channel].write(value, memoryview(b""), 0, channel, time_ns)
-    data = value if kind == BYTES else pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-    return HEADER.size + LENGTH.size + len(data)
+    if kind == BYTES:
+        return HEADER.size + LENGTH.size + len(value)
+    return HEADER.size + LENGTH.size + OTHER_HEAD.size + len(pickle.dumps(value, protocol=5))
 
 
 def add(stage: Stage, op: tuple) -> None:
@@ -77,7 +78,7 @@ def parse(batch: bytes) -> list[tuple]:
             (n,) = LENGTH.unpack_from(batch, at)
             at += LENGTH.size
             body, at = batch[at:at + n], at + n
-            body = pickle.loads(body) if kind == OTHER else body
+            body = read_other(memoryview(body)) if kind == OTHER else body
         records.append((kind, channel, time_ns, body))
     assert at == len(batch)
     return records
@@ -108,16 +109,16 @@ def test_batches_are_bounded_in_count_and_size_and_parse_back_in_order():
                          ids=["message", "bytes"])
 def test_a_record_that_does_not_fit_starts_the_next_batch_and_a_larger_one_goes_alone(make):
     """A record that does not fit in the space left flushes the batch and starts the next one; a record that
-    just fills it stays; one larger than the stage is sent alone, in a batch of exactly its size, after those
-    before it."""
+    just fills it completes the batch, sent at once; one larger than the stage is sent alone, in a batch of
+    exactly its size, after those before it."""
     first, second, third, huge, after = make(605), make(605), make(397), make(2501), make(101)
     stage, batches = staged(1002, 10)
     add(stage, first)
     add(stage, second)
     assert [parse(b) for b in batches] == [[expected(first)]]
     assert (stage.offset, stage.count) == (size_of(second), 1)
-    add(stage, third)  # 605 + 397 = 1002: exactly full, kept
-    assert len(batches) == 1 and stage.offset == 1002
+    add(stage, third)  # 605 + 397 = 1002: exactly full, sent
+    assert len(batches) == 2 and stage.offset == 0
     add(stage, huge)
     assert [len(b) for b in batches] == [605, 1002, 2501] and size_of(huge) == 2501
     assert [parse(b) for b in batches[1:]] == [[expected(second), expected(third)], [expected(huge)]]
@@ -202,3 +203,33 @@ def test_any_operations_come_back_in_order(ops, size, batch):
         assert 1 <= len(records) <= batch
         assert len(b) <= size or len(records) == 1
     assert [r for records in parsed for r in records] == [expected(op) for op in ops]
+
+
+def test_a_batch_is_sent_once_it_holds_batch_bytes_and_larger_records_still_fit_the_stage():
+    """With batch_bytes below the stage's size, a batch goes as soon as it holds that many bytes, and a
+    record larger than batch_bytes (but not than the stage) is gathered in the stage like any other."""
+    batches: list[bytes] = []
+    stage = Stage(10_000, 100, lambda view: batches.append(bytes(view)), batch_bytes=1000)
+    small, large = blob(50), blob(500)  # 429 and 4029 bytes
+    add(stage, small)
+    add(stage, small)
+    assert batches == [] and stage.offset == 2 * size_of(small)
+    add(stage, small)  # 1287 bytes >= 1000: sent
+    add(stage, large)  # alone past batch_bytes: sent at once, from the stage
+    assert [len(b) for b in batches] == [3 * size_of(small), size_of(large)]
+    assert [r for b in batches for r in parse(b)] == [expected(op) for op in (small, small, small, large)]
+
+
+def test_a_checkpoints_arrays_go_out_of_band_and_come_back_as_their_bytes():
+    """An OTHER record of plain state carries the arrays' bytes after the pickle, not inside it; read back
+    (views into the batch), the state writes the same JSON text as the state itself."""
+    state = {"h": np.linspace(0, 1, 300).reshape(20, 15), "v": np.arange(7, dtype=np.int32)[::2], "k": 3}
+    record = ("state", 4, 10, plain_state(state))
+    stage, batches = staged(100_000, 10)
+    stage.add_other(record)
+    stage.flush()
+    ((kind, channel, time_ns, back),) = parse(batches[0])
+    assert (kind, channel, time_ns) == (OTHER, 0, 0)
+    assert back[:3] == ("state", 4, 10) and isinstance(back[3]["h"]["base64"], memoryview)
+    assert len(batches[0]) < 300 * 8 + 4 * 4 + 400  # each array's bytes once, the pickle small
+    assert state_text(back[3]) == state_text(plain_state(state))
