@@ -94,7 +94,9 @@ class DerivedMessage:
 
 
 Deriver = Callable[[int, str, str, Message], Iterable[DerivedMessage]]
-"""Called with (time_ns, component, port, msg) for every exchange; yields extra messages to write."""
+"""Called with (time_ns, component, port, msg) for every exchange; yields extra messages to write.
+A deriver may also have ``watches(component, port, message_type) -> bool``: False when it never
+derives anything from that port's messages, which are then not shown to it at all."""
 
 
 class Recorder(BaseObserver):
@@ -119,7 +121,7 @@ class Recorder(BaseObserver):
             raise RecordingError(f"{self.path}: cannot write the recording ({exc.strerror or exc})") from None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
-        self._routes: dict[tuple[str, str], list | None] = {}
+        self._routes: dict[tuple[str, str], list] = {}
         self._wanted: dict[str, bool] = {}
         self._closed = False
         self._perf_wall = time.perf_counter()
@@ -164,29 +166,29 @@ class Recorder(BaseObserver):
 
     # --- observer interface ----------------------------------------------------------------------------
 
-    def _route(self, component: str, port: str, msg: Message) -> list | None:
-        """[channel, write, count, encode] of an output port, or None when its channel is not
-        recorded."""
+    def _route(self, component: str, port: str, msg: Message) -> list:
+        """[channel (None when not recorded), write, count, encode, the derivers watching] of an
+        output port."""
         topic = f"/{component}/{port}"
-        if not self.wanted(topic):
-            return None
         codec = codec_for(type(msg))
-        return [self._message_channel(topic, type(msg)), codec.write, 0, codec.encode]
+        channel = self._message_channel(topic, type(msg)) if self.wanted(topic) else None
+        watching = tuple(d for d in self.derivers
+                         if getattr(d, "watches", None) is None or d.watches(component, port, type(msg)))
+        return [channel, codec.write, 0, codec.encode, watching]
 
     def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
-        # one dict lookup per exchange: the port's channel and codec are resolved once; the message
-        # is packed into the sink's batch, and its JSON text written by the writer process
-        key = (component, port)
-        route = self._routes.get(key, False)
-        if route is False:
-            route = self._routes[key] = self._route(component, port, msg)
-        if route is not None:
+        # one dict lookup per exchange: the port's channel, codec and derivers are resolved once;
+        # the message is packed into the sink's batch, and its JSON text written by the writer process
+        route = self._routes.get((component, port))
+        if route is None:
+            route = self._routes[(component, port)] = self._route(component, port, msg)
+        if route[0] is not None:
             n = route[2]
             route[2] = n + 1
             if n % self.every == 0 and not self.sink.add_message_record(route[1], route[0], time_ns, msg):
                 # an odd field (a list for an array, another dtype): the exact slow path, here
                 self.sink.add_message(route[0], time_ns, route[3](msg))
-        for deriver in self.derivers:
+        for deriver in route[4]:
             for extra in deriver(time_ns, component, port, msg):
                 if not self.wanted(extra.topic):
                     continue

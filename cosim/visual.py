@@ -363,6 +363,13 @@ class VisualDeriver:
         """Time of the first frame strictly after ``time_ns``."""
         return self.frame_time_ns(time_ns * self._num // (self._den * NS_PER_S) + 1)
 
+    def watches(self, component: str, port: str, message_type: type) -> bool:
+        """Whether messages of this port have any visuals (if not, they need not be shown at all)."""
+        slot = self._slots.get((component, port), _UNRESOLVED)
+        if slot is _UNRESOLVED:
+            slot = self._slots[(component, port)] = self._resolve(component, message_type)
+        return slot is not None
+
     def __call__(self, time_ns: int, component: str, port: str, msg: Message) -> list[Any] | tuple:
         slot = self._slots.get((component, port), _UNRESOLVED)
         if slot is _UNRESOLVED:

@@ -152,6 +152,37 @@ def test_record_selection_applies_to_viewer_channels(tmp_path):
     assert Recording(path).channels["/scene/x"].count > 0
 
 
+def test_a_deriver_sees_only_the_ports_it_watches(tmp_path):
+    """A deriver with ``watches`` is shown the messages of the ports it watches and no others (and is
+    asked once per port); one without ``watches`` sees every exchange."""
+    from cosim.recorder import DerivedMessage
+
+    class Picky:
+        def __init__(self):
+            self.asked, self.seen = [], set()
+
+        def watches(self, component, port, message_type):
+            self.asked.append((component, port))
+            return component == "g"
+
+        def __call__(self, time_ns, component, port, msg):
+            self.seen.add((component, port))
+            yield DerivedMessage("/scene/g", "demo.G", "jsonschema", b"{}", "json", b"{}")
+
+    seen_by_all = set()
+
+    def everything(time_ns, component, port, msg):
+        seen_by_all.add((component, port))
+        return ()
+
+    picky = Picky()
+    path = run_scene(loads(LOOP), tmp_path / "picky.mcap", progress=False, derivers=[picky, everything]).recording
+    ports = {(c, p) for c, p in seen_by_all}
+    assert {c for c, _ in ports} > {"g"} and sorted(picky.asked) == sorted(ports)
+    assert picky.seen == {(c, p) for c, p in ports if c == "g"}
+    assert Recording(path).channels["/scene/g"].count > 0
+
+
 def test_killed_run_still_leaves_a_complete_file(tmp_path):
     """Even SIGKILL of the simulating process leaves a valid, indexed recording: the writer process
     sees its pipe close and finishes the file (only the final status record is missing)."""
