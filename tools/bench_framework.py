@@ -81,8 +81,8 @@ def main() -> None:
         "",
         f"Framework overhead with recording off: **{us['off']:.2f} us per component-step** ({verdict} the "
         f"5 us target). Recording every exchange costs {us['on'] - us['off']:.2f} us more per "
-        "component-step here (two messages per tick, flattened here and written as JSON, zstd-chunked, "
-        "by the writer process).",
+        "component-step here (two messages per tick, packed into records here, written as JSON and "
+        "zstd-chunked by the writer process).",
     ])
     print(text)
     if args.write:
