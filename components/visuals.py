@@ -17,6 +17,8 @@ recorder's visual deriver finds them for any component publishing these types, a
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterField
@@ -53,17 +55,23 @@ WATER_STOPS = (  # (height above mean / WAVE_SCALE, colour)
 )
 
 
+@lru_cache(maxsize=64)
+def body_shape(shape: Shape, r: float, e: float) -> tuple:
+    """The primitives of a body in its own frame: a disk of radius ``r`` and thickness ``e`` [m] with a
+    stripe on its top face, or a sphere with a spot (the same objects every frame, so the deriver sees
+    at once that they have not changed)."""
+    if shape is Shape.DISK:
+        return (Cylinder((2 * r, 2 * r, e), STONE_COLOR),
+                Cube((r, 0.15 * r, 0.1 * e), STRIPE_COLOR, Pose((0.5 * r, 0.0, 0.5 * e))))
+    return (Sphere((2 * r, 2 * r, 2 * r), STONE_COLOR),
+            Sphere((0.3 * r,) * 3, STRIPE_COLOR, Pose((0.9 * r, 0.0, 0.0))))
+
+
 def body_state(component: str, port: str, msg: BodyState) -> list:
     """The body's frame, shape, trail and velocity arrow."""
     frame = component
     r = float(msg.radius)
-    if msg.shape is Shape.DISK:
-        e = float(msg.thickness)
-        shape = [Cylinder((2 * r, 2 * r, e), STONE_COLOR),
-                 Cube((r, 0.15 * r, 0.1 * e), STRIPE_COLOR, Pose((0.5 * r, 0.0, 0.5 * e)))]
-    else:
-        shape = [Sphere((2 * r, 2 * r, 2 * r), STONE_COLOR),
-                 Sphere((0.3 * r,) * 3, STRIPE_COLOR, Pose((0.9 * r, 0.0, 0.0)))]
+    shape = body_shape(msg.shape, r, float(msg.thickness) if msg.shape is Shape.DISK else 0.0)
     items: list = [
         Transform(WORLD, frame, msg.position, msg.orientation),
         Entity(f"/scene/{component}", "body", frame, shape, frame_locked=True),
