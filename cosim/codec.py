@@ -206,7 +206,7 @@ def _compile_writer(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[
     sizes: list[str] = []     # sizes of the variable parts
     tail: list[str] = []      # statements copying the variable parts
     fmt: list[str] = []
-    order: list[int] = []     # per format argument: ("f", fixed index) or ("v", variable index)
+    order: list[tuple[str, int]] = []  # per format argument: ("f", fixed index) or ("v", variable index)
     variable: list[tuple[int, tuple[int, ...]]] = []
     bools: list[int] = []
     floats: list[int] = []
