@@ -8,6 +8,7 @@ All units SI.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 from typing import Annotated
 
@@ -142,6 +143,10 @@ class HeightPatch(Message):
     (origin_x + i*cell, origin_y + j*cell); rest_level: undisturbed surface height [m];
     height: (nj, ni) surface elevation z [m]; velocity: (nj, ni) vertical surface velocity [m/s];
     bottom: (nj, ni) bed elevation z [m]. An empty window has shape (0, 0).
+    occupied: (nj, ni) the occupied height b [m] the water had applied when it computed this window
+    (the last OccupiedHeight it received, already part of ``height``), so that the body that sent it
+    knows how much of its own displacement the water holds; (0, 0) when the source does not say
+    (hand-made still water).
     """
 
     i0: int
@@ -153,6 +158,7 @@ class HeightPatch(Message):
     height: Grid
     velocity: Grid
     bottom: Grid
+    occupied: Grid = dataclasses.field(default_factory=lambda: np.zeros((0, 0)))
 
 
 @message

@@ -205,6 +205,22 @@ def test_moving_window_gives_back_the_old_columns():
     assert np.all(p.get_state()["h"] == 0.0)
 
 
+def test_patch_reports_the_occupied_height_the_water_holds():
+    """The patch carries, column by column, the occupied height the water applied before computing
+    it (part of its height), so the body that sent it knows what the water already holds."""
+    p = pond(initial=None)
+    req = PatchRequest(-0.08, 0.0, 0.0, 0.05)
+    first = p.step(0, MS, {"request": req})["patch"]
+    assert np.array_equal(first.occupied, np.zeros_like(first.height))
+    b = np.full((2, 3), 0.002)
+    patch = p.step(MS, MS, {"occupied": OccupiedHeight(i0=4, j0=5, b=b), "request": req})["patch"]
+    held = np.zeros((16, 20))
+    held[5:7, 4:7] = b
+    assert np.array_equal(patch.occupied, held[patch.j0:patch.j0 + patch.height.shape[0],
+                                                patch.i0:patch.i0 + patch.height.shape[1]])
+    assert patch.occupied.sum() == pytest.approx(6 * 0.002)
+
+
 def test_occupied_window_off_the_grid_is_clipped():
     """Columns of an occupied window lying off the grid are ignored; the rest applies."""
     p = pond(initial=None)

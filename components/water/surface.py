@@ -15,8 +15,10 @@ One step, from t to t + dt:
 2. the model step (``wave`` or ``shallow_water``, see :mod:`components.water.models`);
 3. the boundary (``reflecting`` or ``absorbing``, see :mod:`components.water.boundaries`);
 4. optional positional smoothing (Müller): h += (mean of 4 neighbours - h) min(1/2, k_p dt);
-5. outputs: the patch over the requested window plus ``patch_margin`` cells (empty when nothing is
-   requested: then no column work is done), and the whole field when a frame is due.
+5. outputs: the patch over the requested window plus ``patch_margin`` cells, with the occupied
+   height applied in step 1 over it (so the body that sent it knows what the water already holds;
+   empty when nothing is requested: then no column work is done), and the whole field when a frame
+   is due.
 
 A step longer than the explicit model's stable step is refused by the framework
 (on_unstable: error) or split into equal substeps (on_unstable: substep); with substeps the inputs
@@ -317,7 +319,7 @@ class WaterSurface(Component):
         sl = (slice(j0, j1), slice(i0, i1))
         return HeightPatch(i0=i0, j0=j0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y,
                            rest_level=g.rest_level, height=g.surface0[sl] + self._h[sl],
-                           velocity=self._v[sl].copy(), bottom=g.bed[sl].copy())
+                           velocity=self._v[sl].copy(), bottom=g.bed[sl].copy(), occupied=self._b[sl].copy())
 
     def _field_due(self, t_end: float) -> bool:
         p = self.params
