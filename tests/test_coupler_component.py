@@ -322,6 +322,25 @@ def test_a_body_held_still_in_the_water_makes_no_waves_after_it_is_put_in():
     assert max(energy) < 1.2 * energy[0]
 
 
+def test_the_ring_buoyancy_counts_the_displacement_the_water_has_not_applied_yet():
+    """A patch saying its water holds no displacement (``occupied`` all zero) lifts a floating disk
+    by the mound its ring is about to raise, as much as a patch whose water holds that mound already
+    (it is not counted twice); a patch that does not say (hand-made still water) is read as it is,
+    and the disk feels Archimedes' force alone."""
+    b = body(position=(0.0, 0.0, 0.0))  # 6 mm disk, half immersed
+    patch = still_water()
+    c = WaterCoupler("c", WaterCouplerParams(effects=["displacement", "buoyancy"]))
+    archimedes = step(c, b, patch)["wrench"].force[2]
+    fresh = step(c, b, patch.replace(occupied=np.zeros_like(patch.height)), 1)
+    mound = np.zeros_like(patch.height)
+    ring = fresh["occupied"]
+    mound[ring.j0:ring.j0 + ring.b.shape[0], ring.i0:ring.i0 + ring.b.shape[1]] = ring.b
+    applied = step(c, b, patch.replace(height=patch.height + mound, occupied=mound), 2)
+    assert archimedes == pytest.approx(1000.0 * 9.81 * math.pi * 0.05**2 * 0.003, rel=0.02)  # 1 cm columns
+    assert fresh["wrench"].force[2] > 1.5 * archimedes
+    assert applied["wrench"].force[2] == pytest.approx(fresh["wrench"].force[2], rel=1e-12)
+
+
 def test_a_body_wholly_under_water_reports_a_submerged_fraction_of_one():
     """A pitched disk whose top is under the surface is wholly submerged (fraction exactly 1), though
     its sampled column volume sums to a little less; one whose top breaks the surface is not."""

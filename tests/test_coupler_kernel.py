@@ -177,6 +177,23 @@ def test_displacement_conserves_the_submerged_volume(mode):
     assert occupied.b.min() >= 0
 
 
+@pytest.mark.parametrize("rise", [-5e-4, 2e-4, 5e-4])
+def test_ring_buoyancy_reads_the_level_of_the_water_around_the_body(rise):
+    """With the ring displacement, a flat disk half immersed (3 mm) in water raised uniformly by
+    ``rise`` is pushed up by rho g (V_rest + A_w rise): Archimedes' force against the rest level
+    plus the rise over its waterline area, the same as under the raised surface itself."""
+    b = body(position=(0.0013, -0.0021, 0.0))
+    patch = still_water(0.01)
+    raised = patch.replace(height=patch.height + rise)
+    _, flat = run(b, patch, effects=["displacement", "buoyancy"])
+    _, ring = run(b, raised, effects=["displacement", "buoyancy"])
+    _, local = run(b, raised, effects=["buoyancy"])  # no displacement: the surface under the body
+    area = math.pi * R * R
+    assert flat["wrench"].force[2] == pytest.approx(RHO_G * area * 0.5 * E, rel=0.01)
+    assert ring["wrench"].force[2] - flat["wrench"].force[2] == pytest.approx(RHO_G * area * rise, rel=0.01)
+    assert ring["wrench"].force[2] == pytest.approx(local["wrench"].force[2], rel=1e-12)
+
+
 def test_ring_displacement_lies_outside_the_body():
     """In ring mode the displaced water goes to columns outside the body's outline, none under it."""
     cell = 0.01

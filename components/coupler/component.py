@@ -13,6 +13,14 @@ One step: read the body state and the patch; if the body is far from the water, 
 wrench, an empty occupied window and an empty request at once (no column work). Otherwise evaluate
 the named effects (:mod:`components.coupler.kernel`) at the received state and publish their sum.
 
+Displacement and buoyancy (``displacement_mode: ring``, the default): the volume the body holds
+under the rest level is pushed out into a ring of columns around it, and the buoyancy is Archimedes'
+force against the rest level plus rho g times the water's height where that volume went, on each
+waterline column (:meth:`WaterCoupler._add_hydrostatics`). The work the buoyancy does on a heaving
+or rocking body is then what the displacement gives the water, so the two together gain no energy
+and the body is damped by the waves it radiates. With ``column`` (Mueller's b under the body) the
+buoyancy uses the surface under the body.
+
 Stability: :meth:`WaterCoupler.max_stable_step` bounds the step by the linearised stiffness and
 damping of the water forces against the body's mass and inertia. When the scheduler substeps the
 coupler (``on_unstable: substep``), the coupler advances a private copy of the body (its water
@@ -26,12 +34,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
 from components.coupler import kernel
 from components.coupler.effects import (
+    BUOYANCY,
     COLUMN_MASK,
     DISPLACEMENT,
     EFFECTS,
@@ -86,6 +95,15 @@ def _ro(a: np.ndarray) -> np.ndarray:
 
 _ZERO3 = _ro(np.zeros(3))
 _EMPTY_GRID = _ro(np.zeros((0, 0)))
+_NO_WATERLINE = np.zeros((0, 0, 0))  # evaluate: no per-column waterline wanted (empty, never written)
+
+
+class _Ring(NamedTuple):
+    """One step's ring displacement (see :meth:`WaterCoupler._ring`)."""
+
+    rest: np.ndarray  # stats of the body under a flat surface at the rest level (kernel.S_* layout)
+    lifted: np.ndarray  # sum_k level_k (A_k, moment_y_k, -moment_x_k) [m^3] (kernel.ring_lift)
+    window: tuple[int, int, np.ndarray] | None  # (i_lo, j_lo, b) in patch indices [m]; None: nothing
 
 
 @dataclass(frozen=True)
@@ -101,7 +119,8 @@ class WaterCouplerParams:
     c_w: float = param(C_WAVE, ge=0, doc="capillary-gravity wave drag coefficient C_W")
     c_min: float = param(C_MIN, unit="m/s", ge=0, doc="minimum capillary-gravity wave speed")
     displacement_mode: Literal["ring", "column"] = param(
-        "ring", doc="ring: displaced volume around the body (stable); column: Mueller's b under it")
+        "ring", doc="ring: displaced volume around the body, buoyancy at the water's level there "
+                    "(energy-consistent); column: Mueller's b under it, buoyancy at the surface there")
     ring_cells: float = param(1.5, gt=0, doc="width of the displacement band [cells]")
     smoothing: int = param(0, ge=0, doc="volume-conserving [1,2,1] smoothing passes of the displacement")
     column_subsamples: int = param(0, ge=0, doc="sub-cells per column side (0: automatic from R/cell)")
@@ -149,6 +168,7 @@ class WaterCoupler(Component):
         self._elements_key: tuple | None = None
         self._stats = np.zeros(kernel.N_STATS)
         self._b_geo = np.zeros((0, 0))
+        self._ring_work: dict[str, np.ndarray] | None = None  # work arrays of the ring (_ring_arrays)
         self._still: tuple[np.ndarray, np.ndarray] | None = None  # flat patch at the rest level
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
         self._zero_wrench = Wrench(_ZERO3, _ZERO3)
@@ -286,9 +306,13 @@ class WaterCoupler(Component):
         if self._b_geo.shape != height.shape:
             self._b_geo = np.zeros(height.shape)
         nsub = self._subsamples(radius, float(patch.cell))
-        water = (x0, y0, float(patch.cell), height, wvel, bottom)
+        held = np.asarray(patch.occupied, dtype=np.float64)
+        water = (x0, y0, float(patch.cell), height, wvel, bottom, held if held.shape == height.shape else None)
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, water, elements, nsub,
-                               self._b_geo, self._stats)
+                               self._b_geo, self._stats, self._local_flags())
+        ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
+        if ring is not None:
+            self._add_hydrostatics(stats, ring)
         self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
         self.bound = self._stability_bound(body, stats)
         mean = stats[:kernel.S_TOTAL + 6]
@@ -301,7 +325,8 @@ class WaterCoupler(Component):
         depth = (level if math.isnan(h_low) else float(h_low)) - low[2]
         volume = float(stats[kernel.S_VOLUME])
         area = float(stats[kernel.S_AREA])
-        if volume == 0.0 and area == 0.0 and depth < -self.params.quiet_above:
+        displaced = 0.0 if ring is None else float(ring.rest[kernel.S_VOLUME])
+        if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
             # dry and clear of the surface: the same outputs as far away (published once, then held),
             # but the window stays requested, since the body is still near the water
             self._prev = None
@@ -326,22 +351,26 @@ class WaterCoupler(Component):
             wetted_area=area,
             buoyancy=mean[0:3].copy(), pressure=mean[6:9].copy(), friction=mean[12:15].copy(),
             wave_drag=mean[18:21].copy(), depth=float(depth), dissipated_energy=self.dissipated)
-        occupied = self._occupied(patch, body, pos, axes, half, low, water, elements, nsub, volume)
+        if ring is not None:
+            occupied = self._empty_occupied if ring.window is None else OccupiedHeight(
+                int(patch.i0) + ring.window[0], int(patch.j0) + ring.window[1], ring.window[2])
+        else:
+            occupied = self._occupied(patch, volume)
         return {"wrench": Wrench(force, torque), "occupied": occupied, "request": request,
                 "contact": contact}
 
     # --- pieces -----------------------------------------------------------------------------------
 
-    def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats):
+    def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
         p = self.params
-        x0, y0, cell, height, wvel, bottom = water
+        x0, y0, cell, height, wvel, bottom, _ = water
         kernel.evaluate(
             int(body.shape), float(body.radius), float(body.thickness),
             pos, axes, vel, omega, float(half[0]), float(half[1]), low[0], low[1], low[2],
             float(x0), float(y0), cell, height, wvel, bottom,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
-            p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, self.flags, nsub,
-            b_geo, stats)
+            p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, flags, nsub,
+            b_geo, _NO_WATERLINE, stats)
         return stats
 
     def _elements_for(self, body: BodyState) -> Elements:
@@ -380,60 +409,160 @@ class WaterCoupler(Component):
         return PatchRequest(cx - half[0] - margin, cx + half[0] + margin,
                             cy - half[1] - margin, cy + half[1] + margin)
 
-    def _occupied(self, patch: HeightPatch, body: BodyState, pos, axes, half, low, water, elements,
-                  nsub: int, volume: float) -> OccupiedHeight:
+    def _local_flags(self) -> int:
+        """The effects evaluated against the local surface: all of them, except the buoyancy when the
+        ring displacement is on (it is then evaluated against the rest level, see :meth:`_ring`)."""
+        return self.flags & ~BUOYANCY if self._ring_mode() else self.flags
+
+    def _ring_mode(self) -> bool:
+        return bool(self.flags & DISPLACEMENT) and self.params.displacement_mode == "ring"
+
+    def _rest_pass(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
+                   b_rest: np.ndarray, waterline: np.ndarray, stats: np.ndarray) -> np.ndarray:
+        """The columns of the body under a flat surface at the rest level: the occupied height b_rest
+        [m] and the waterline (3, nj, ni) of each column (area [m^2] and first moments [m^3] of the
+        sub-columns the rest level cuts); in ``stats`` the displaced volume V_rest [m^3] and, when the
+        buoyancy is on, Archimedes' force rho g V_rest [N] and torque [N m] about the centre of mass."""
         p = self.params
-        if not self.flags & DISPLACEMENT:
-            return self._empty_occupied
-        x0, y0, cell, height, _, bottom = water
-        if p.displacement_mode == "ring":
-            # The ring carries the volume the body holds below the REST level (its shape under a
-            # flat surface), not below the local surface. The height field does not see the body,
-            # so waves run under it; measured against the local surface, every wave crossing the
-            # body would change the displaced volume, which the ring would re-emit as a new wave:
-            # a loop that amplifies (a body held still in the water pumps up the waves without
-            # bound, a floating disk rocks ever harder). Against the rest level, the displacement
-            # follows the body's motion only (a source, as in thin-ship wave theory): a body held
-            # still makes no waves after it is put in, a heaving or rocking one radiates. The forces
-            # still use the local surface.
-            flat, still = self._still_water(height.shape)
-            b_rest = np.zeros(height.shape)
-            stats = np.zeros(kernel.N_STATS)
-            kernel.evaluate(
-                int(body.shape), float(body.radius), float(body.thickness),
-                pos, axes, body.velocity, body.angular_velocity, float(half[0]), float(half[1]),
-                low[0], low[1], low[2], float(x0), float(y0), cell, flat, still, bottom,
-                elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
-                p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, DISPLACEMENT, nsub,
-                b_rest, stats)
-            displaced = float(stats[kernel.S_VOLUME])
-            if displaced <= 0.0:
-                return self._empty_occupied
-            b_out = np.zeros(height.shape)
-            i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(
-                int(body.shape), float(body.radius), float(body.thickness),
-                pos, axes, float(x0), float(y0), cell, flat, still, b_rest, displaced,
-                p.ring_cells * cell, b_out)
-        else:
-            if volume <= 0.0:
-                return self._empty_occupied
-            b_out = self._b_geo.copy()
-            nz_j, nz_i = np.nonzero(b_out)
-            if nz_i.size == 0:
-                return self._empty_occupied
-            i_lo, i_hi, j_lo, j_hi = int(nz_i.min()), int(nz_i.max()), int(nz_j.min()), int(nz_j.max())
+        x0, y0, cell, height, _, bottom, _ = water
+        flat, still = self._still_water(height.shape)
+        kernel.evaluate(
+            int(body.shape), float(body.radius), float(body.thickness),
+            pos, axes, _ZERO3, _ZERO3, float(half[0]), float(half[1]),
+            low[0], low[1], low[2], float(x0), float(y0), cell, flat, still, bottom,
+            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
+            p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp,
+            DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats)
+        return stats
+
+    def _ring(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
+              scratch: dict[str, np.ndarray] | None = None) -> _Ring:
+        """This step's ring displacement and the buoyancy that goes with it.
+
+        The ring carries the volume the body holds below the REST level (its shape under a flat
+        surface), not below the local surface. The height field does not see the body, so waves run
+        under it; measured against the local surface, every wave crossing the body would change the
+        displaced volume, which the ring would re-emit as a new wave: a loop that amplifies (a body
+        held still in the water pumps up the waves without bound, a floating disk rocks ever
+        harder). Against the rest level, the displacement follows the body's motion only (a source,
+        as in thin-ship wave theory): a body held still makes no waves after it is put in, a heaving
+        or rocking one radiates. :func:`kernel.ring_deposit` pushes each column's volume out into the
+        band next to it, :func:`kernel.ring_lift` reads back the water's level there (see
+        :meth:`_add_hydrostatics`). ``scratch`` holds the arrays of a predictor's substeps (else the
+        component's own are used).
+        """
+        p = self.params
+        x0, y0, cell, height, _, _, held = water
+        work = self._ring_arrays(height.shape) if scratch is None else scratch
+        rest = self._rest_pass(body, pos, axes, half, low, water, elements, nsub, work["b_rest"],
+                               work["waterline"], work["stats"])
+        if rest[kernel.S_VOLUME] <= 0.0:
+            return _Ring(rest, np.zeros(3), None)
+        geometry = (int(body.shape), float(body.radius), float(body.thickness), pos, axes, float(x0),
+                    float(y0), cell, work["b_rest"])
+        width = p.ring_cells * cell
+        i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(*geometry, width, work["b_out"])
         if i_lo > i_hi:
-            return self._empty_occupied
+            return _Ring(rest, np.zeros(3), None)
+        i_lo, i_hi, j_lo, j_hi, window = self._smoothed(work["b_out"], i_lo, i_hi, j_lo, j_hi)
+        region = (slice(j_lo, j_hi + 1), slice(i_lo, i_hi + 1))
+        field = self._ring_field(height, held, region, window)
         if p.smoothing:
-            # widen the window so the smoothing has room, then smooth with no flux through its edges
-            grow = p.smoothing
-            nj, ni = b_out.shape
-            i_lo, i_hi = max(0, i_lo - grow), min(ni - 1, i_hi + grow)
-            j_lo, j_hi = max(0, j_lo - grow), min(nj - 1, j_hi + grow)
-            window = np.ascontiguousarray(b_out[j_lo:j_hi + 1, i_lo:i_hi + 1])
-            kernel.smooth_conservative(window, p.smoothing)
-        else:
-            window = b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy()
+            # the water receives the smoothed deposit S b, so the levels are read through the same
+            # filter (S is symmetric: sum eta (S b) = sum (S eta) b)
+            part = field[region].copy()
+            kernel.smooth_conservative(part, p.smoothing)
+            field[region] = part
+        kernel.ring_lift(*geometry, work["waterline"], field, width, work["lifted"])
+        return _Ring(rest, work["lifted"].copy(), (i_lo, j_lo, window))
+
+    def _ring_field(self, height: np.ndarray, held: np.ndarray | None, region: tuple[slice, slice],
+                    window: np.ndarray) -> np.ndarray:
+        """The water above the rest level [m] as this step's displacement will leave it: the patch,
+        minus the occupied height it already holds (``held``, None when the patch does not say),
+        plus the one published now (``window`` over ``region``).
+
+        The water applies a displacement only at its next step, and a slower water component
+        (``every`` > 1) holds one patch over several of ours. Read straight from the patch, the
+        level would miss the body's own latest displacement, the mound it has just raised: the body
+        would push the water up without paying for it (a cork disk heaving with only displacement
+        and buoyancy on a 2 ms water step: its coupled energy quadrupled in 2 s).
+        """
+        field = height - self.rest_level
+        if held is not None:
+            field -= held
+            field[region] += window
+        return field
+
+    def _ring_arrays(self, shape: tuple[int, int]) -> dict[str, np.ndarray]:
+        """Work arrays of :meth:`_ring` for a patch of ``shape`` (reused while the shape holds)."""
+        work = self._ring_work
+        if work is None or work["b_rest"].shape != shape:
+            work = self._ring_work = _ring_scratch(shape)
+        return work
+
+    def _add_hydrostatics(self, stats: np.ndarray, ring: _Ring) -> None:
+        """Put the buoyancy that goes with the ring displacement into ``stats`` (its force, torque
+        and the total).
+
+        The water receives column k's displaced volume where the ring puts it, at a mean height
+        level_k above the rest level (the shares' mean of the water there, :func:`kernel.ring_lift`).
+        Moving the body by dq therefore changes the water's potential energy by
+        rho g s^2 sum_k level_k db_k (b_k: the column's occupied height under the rest level). The
+        buoyancy that does the opposite work on the body, so that what the water gains the body
+        loses, is Archimedes' force against the rest level (its potential the body's) plus
+        rho g level_k on every waterline sub-column of column k, at the sub-column (-db_k/dz is its
+        waterline area, -db_k/dtheta that area's lever arm)::
+
+            F = rho g V_rest(q) + rho g sum_k level_k A_k(q)         (up; A_k: waterline area)
+
+        It is the buoyancy under the rest level raised, column by column, to where the body's water
+        went, to first order in that rise; in still water it is Archimedes' force. The heave and
+        the rocking then radiate: the level of the mound a body raises pushes it back, and the
+        mound's waves carry the energy away. (The deposit also moves with the body across the
+        water; that part of the exchange, Froude-Krylov's force of the water's slope on the
+        displaced volume, is left out: a body crossing the water still raises its wake for free.)
+
+        Measured against the surface right under the body instead, the buoyancy lagged the waves
+        its heave radiates: a floating cork disk took energy from them and gave it back through the
+        ring, so it heaved for ever and the water's energy grew without bound (the coupled energy
+        fivefold in 3 s; tests/stability/test_floating_energy.py).
+        """
+        f = self.params.rho * self.params.g
+        b = kernel.S_BUOYANCY
+        rest = ring.rest
+        stats[b:b + 6] = rest[b:b + 6]
+        if self.flags & BUOYANCY:
+            stats[b + 2] += f * ring.lifted[0]
+            stats[b + 3] += f * ring.lifted[1]
+            stats[b + 4] += f * ring.lifted[2]
+            stats[kernel.S_STIFF] += f * rest[kernel.S_WATERLINE]
+        stats[kernel.S_TOTAL:kernel.S_TOTAL + 6] += stats[b:b + 6]
+
+    def _smoothed(self, b_out: np.ndarray, i_lo: int, i_hi: int, j_lo: int, j_hi: int):
+        """The nonzero window of b_out, after the conservative smoothing passes if any (the window
+        widened so the smoothing has room, with no flux through its edges)."""
+        passes = self.params.smoothing
+        if not passes:
+            return i_lo, i_hi, j_lo, j_hi, b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy()
+        nj, ni = b_out.shape
+        i_lo, i_hi = max(0, i_lo - passes), min(ni - 1, i_hi + passes)
+        j_lo, j_hi = max(0, j_lo - passes), min(nj - 1, j_hi + passes)
+        window = b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy()
+        kernel.smooth_conservative(window, passes)
+        return i_lo, i_hi, j_lo, j_hi, window
+
+    def _occupied(self, patch: HeightPatch, volume: float) -> OccupiedHeight:
+        """Mueller's column displacement: the occupied height b under the body (this step's columns
+        against the local surface)."""
+        if not self.flags & DISPLACEMENT or volume <= 0.0:
+            return self._empty_occupied
+        b_out = self._b_geo
+        nz_j, nz_i = np.nonzero(b_out)
+        if nz_i.size == 0:
+            return self._empty_occupied
+        i_lo, i_hi, j_lo, j_hi = int(nz_i.min()), int(nz_i.max()), int(nz_j.min()), int(nz_j.max())
+        i_lo, i_hi, j_lo, j_hi, window = self._smoothed(b_out, i_lo, i_hi, j_lo, j_hi)
         return OccupiedHeight(int(patch.i0) + i_lo, int(patch.j0) + j_lo, window)
 
     def _still_water(self, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -495,9 +624,12 @@ class WaterCoupler(Component):
         total = stats0[:size].copy()
         b_scratch = np.zeros_like(self._b_geo)
         s_scratch = np.zeros(kernel.N_STATS)
+        ring_mode = self._ring_mode()
+        ring_scratch = _ring_scratch(b_scratch.shape) if ring_mode else None
         is_disk = body.shape == Shape.DISK
         radius, thick = float(body.radius), float(body.thickness)
         gravity = np.array([0.0, 0.0, -self.params.g])
+        flags = self._local_flags()
         current = stats0[:size].copy()
         for i in range(n):
             if i > 0:
@@ -505,8 +637,12 @@ class WaterCoupler(Component):
                 axis = axes[:, 2]
                 low = lowest_point(is_disk, x, axis, radius, thick)
                 half = disk_half_extents(axis, radius, thick) if is_disk else (radius, radius)
-                current = self._evaluate(body, x, v, w, axes, half, low, water, elements, nsub,
-                                         b_scratch, s_scratch)[:size].copy()
+                stats = self._evaluate(body, x, v, w, axes, half, low, water, elements, nsub,
+                                       b_scratch, s_scratch, flags)
+                if ring_mode:
+                    self._add_hydrostatics(stats, self._ring(body, x, axes, half, low, water, elements,
+                                                             nsub, ring_scratch))
+                current = stats[:size].copy()
                 total += current
             force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
             torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
@@ -529,6 +665,12 @@ class WaterCoupler(Component):
         if not math.isfinite(depth):
             depth = -1.0e9  # no body yet: far above any water (a finite stand-in)
         return WaterContact(False, 0.0, 0.0, _ZERO3, _ZERO3, _ZERO3, _ZERO3, depth, self.dissipated)
+
+
+def _ring_scratch(shape: tuple[int, int]) -> dict[str, np.ndarray]:
+    """Work arrays of WaterCoupler._ring over a patch of ``shape``."""
+    return {"b_rest": np.zeros(shape), "waterline": np.zeros((3, *shape)), "b_out": np.zeros(shape),
+            "stats": np.zeros(kernel.N_STATS), "lifted": np.zeros(3)}
 
 
 def _rotate(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:

@@ -41,7 +41,8 @@ S_SURFACE_LOW = 42  # water height at the body's lowest point [m] (NaN off the p
 S_HMAX = 43  # highest surface of the patch [m]
 N_STATS = 44
 
-RIM_PROBE = 0.85  # the displacement band reads the body's wetness this far (fraction) out to the rim
+RING_FOCUS = 4  # power of the share (1 + q cos) a column gives each band column: a rim column puts half
+# its volume within +-27 deg of its own direction [-]
 
 
 @njit(cache=True)
@@ -81,17 +82,22 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
              x0, y0, cell, height, wvel, bottom,
              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
              rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
-             b_geo, stats):
+             b_geo, waterline, stats):
     """Water forces on one body state over one patch; see the module docstring.
 
     centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
     (columns = body axes); half_x, half_y: horizontal half-extents of the body [m]; z_low: its
     lowest point (x_low, y_low, z_low) [m]; x0, y0: centre of the patch's first column [m]; height,
     wvel, bottom: (nj, ni) patch arrays; el_*: the body's surface elements; nsub: sub-cells per
-    column side. Writes b_geo (nj, ni) [m] (zero where dry) and stats (N_STATS,).
+    column side. Writes b_geo (nj, ni) [m] (zero where dry) and stats (N_STATS,); and, unless it is
+    empty, waterline (3, nj, ni): per column, the area [m^2] of its sub-columns the surface cuts
+    through the body and that area's first moments about the centre, sum dx a and sum dy a [m^3].
     """
     stats[:] = 0.0
     b_geo[:, :] = 0.0
+    by_column = waterline.size > 0
+    if by_column:
+        waterline[:, :, :] = 0.0
     nj, ni = height.shape
     stats[S_SURFACE_LOW] = np.nan
     if nj == 0 or ni == 0:
@@ -185,6 +191,10 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                         ty -= dx * f
                         if zlo < hcol < zhi:
                             wl += a_sub
+                            if by_column:
+                                waterline[0, j, i] += a_sub
+                                waterline[1, j, i] += dx * a_sub
+                                waterline[2, j, i] += dy * a_sub
                 b_geo[j, i] = bsum / (nsub * nsub)
         stats[S_VOLUME] = vol
         stats[S_CENTROID] = mx
@@ -338,25 +348,10 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
 
 
 @njit(cache=True)
-def ring_deposit(shape, radius, thickness, centre, axes, x0, y0, cell, height, wvel, b_geo,
-                 volume, width, b_out):
-    """Spread the submerged ``volume`` [m^3] over a band of columns just outside the body's outline.
-
-    The displaced water is put where it goes in reality, around the body (as Yuksel et al.'s wave
-    particles do, along the silhouette), not under it: a height field whose surface under the body
-    included the body's own displacement would feed that displacement back into the next occupied
-    height (the surface rises, so more of the body is "below" it, so the surface rises ...), which
-    diverges for a floating body. Weights: a tent over the distance outside the outline (0 to
-    2 ``width`` [m], peak at ``width``), times how wet the body is at the nearest rim (so a skipping
-    disk pushes water from its trailing edge, not from its dry front). The sum of b_out s^2 equals
-    ``volume`` exactly; if no band column lies in the window, b_out falls back to b_geo.
-    Returns the window (i_lo, i_hi, j_lo, j_hi) of nonzero b_out, empty when i_lo > i_hi.
-    """
-    b_out[:, :] = 0.0
-    nj, ni = height.shape
-    if volume <= 0.0 or nj == 0 or ni == 0:
-        return 1, 0, 1, 0
-    cx, cy, cz = centre[0], centre[1], centre[2]
+def _outline(shape, radius, thickness, axes):
+    """The body's horizontal outline, an ellipse: unit vectors (tx, ty) along the disk and (sx, sy)
+    across it (the tilt direction), and its half-axes a1, a2 [m] along them (a circle of the radius
+    for a sphere or a flat disk)."""
     ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
     tx, ty, sx, sy = 1.0, 0.0, 0.0, 1.0
     a1 = radius
@@ -364,67 +359,162 @@ def ring_deposit(shape, radius, thickness, centre, axes, x0, y0, cell, height, w
     if shape == SHAPE_DISK:
         sh = math.sqrt(ax * ax + ay * ay)
         if sh > 1e-9:
-            sx, sy = ax / sh, ay / sh  # horizontal direction of the tilt
-            tx, ty = -sy, sx  # horizontal direction along the disk
-        a2 = radius * abs(az) + 0.5 * thickness * sh
-        a2 = max(a2, 1e-6 * radius)
+            sx, sy = ax / sh, ay / sh
+            tx, ty = -sy, sx
+        a2 = max(radius * abs(az) + 0.5 * thickness * sh, 1e-6 * radius)
+    return tx, ty, sx, sy, a1, a2
+
+
+@njit(cache=True)
+def _polar(dx, dy, tx, ty, sx, sy, a1, a2):
+    """Where (dx, dy) [m] from the centre lies against the outline: q, the outline's scale through
+    the point (1 on it, < 1 inside), and the unit direction (c, s) of the point in the outline's
+    normalised frame."""
+    u = (dx * tx + dy * ty) / a1
+    v = (dx * sx + dy * sy) / a2
+    q = math.sqrt(u * u + v * v)
+    if q < 1e-12:
+        return 0.0, 1.0, 0.0
+    return q, u / q, v / q
+
+
+@njit(cache=True)
+def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width):
+    """The band of columns just outside the body's outline: tent weights phi over the distance d
+    outside it (0 to 2 ``width`` [m], peak at ``width``), with each column's direction (c, s) in the
+    outline's frame. Returns (n, index j, index i, phi, c, s), arrays of which the first n are used."""
+    cx, cy = centre[0], centre[1]
+    tx, ty, sx, sy, a1, a2 = _outline(shape, radius, thickness, axes)
     reach = 2.0 * width + cell
     i_lo = max(0, math.floor((cx - radius - reach - x0) / cell))
     i_hi = min(ni - 1, math.ceil((cx + radius + reach - x0) / cell))
     j_lo = max(0, math.floor((cy - radius - reach - y0) / cell))
     j_hi = min(nj - 1, math.ceil((cy + radius + reach - y0) / cell))
-    wsum = 0.0
-    bi_lo, bi_hi, bj_lo, bj_hi = ni, -1, nj, -1
-    floor = 1e-3 * max(thickness, 1e-3 * radius)
+    size = max(0, (i_hi - i_lo + 1) * (j_hi - j_lo + 1))
+    jj = np.empty(size, np.int64)
+    ii = np.empty(size, np.int64)
+    phi = np.empty(size)
+    cs = np.empty(size)
+    sn = np.empty(size)
+    n = 0
     for j in range(j_lo, j_hi + 1):
         dy = y0 + j * cell - cy
         for i in range(i_lo, i_hi + 1):
             dx = x0 + i * cell - cx
-            xi = dx * tx + dy * ty
-            eta = dx * sx + dy * sy
-            q = math.sqrt((xi / a1) ** 2 + (eta / a2) ** 2)
+            q, c, s = _polar(dx, dy, tx, ty, sx, sy, a1, a2)
             if q <= 1.0:
                 continue
-            grad = math.sqrt((xi / (a1 * a1)) ** 2 + (eta / (a2 * a2)) ** 2) / q
-            d = (q - 1.0) / grad
+            u = (dx * tx + dy * ty) / (a1 * a1)
+            v = (dx * sx + dy * sy) / (a2 * a2)
+            d = (q - 1.0) / (math.sqrt(u * u + v * v) / q)  # distance outside the outline, to first order
             if d >= 2.0 * width:
                 continue
-            phi = 1.0 - abs(d - width) / width
-            if phi <= 0.0:
+            w = 1.0 - abs(d - width) / width
+            if w <= 0.0:
                 continue
-            psi = 1.0
-            if shape == SHAPE_DISK:
-                px = dx * RIM_PROBE / q
-                py = dy * RIM_PROBE / q
-                lo, hi = disk_chord(px, py, ax, ay, az, radius, thickness)
-                psi = floor
-                if lo < hi:
-                    ok, h, _ = sample_surface(cx + px, cy + py, x0, y0, cell, height, wvel)
-                    if ok:
-                        psi += max(0.0, min(cz + hi, h) - (cz + lo))
-            wgt = phi * psi
-            b_out[j, i] = wgt
-            wsum += wgt
-            bi_lo = min(bi_lo, i)
-            bi_hi = max(bi_hi, i)
-            bj_lo = min(bj_lo, j)
-            bj_hi = max(bj_hi, j)
-    if wsum <= 0.0:
-        bi_lo, bi_hi, bj_lo, bj_hi = ni, -1, nj, -1
-        for j in range(nj):
-            for i in range(ni):
-                b_out[j, i] = b_geo[j, i]
-                if b_geo[j, i] > 0.0:
-                    bi_lo = min(bi_lo, i)
-                    bi_hi = max(bi_hi, i)
-                    bj_lo = min(bj_lo, j)
-                    bj_hi = max(bj_hi, j)
-        return bi_lo, bi_hi, bj_lo, bj_hi
-    scale = volume / (wsum * cell * cell)
-    for j in range(bj_lo, bj_hi + 1):
-        for i in range(bi_lo, bi_hi + 1):
-            b_out[j, i] *= scale
-    return bi_lo, bi_hi, bj_lo, bj_hi
+            jj[n] = j
+            ii[n] = i
+            phi[n] = w
+            cs[n] = c
+            sn[n] = s
+            n += 1
+    return n, jj, ii, phi, cs, sn
+
+
+@njit(cache=True)
+def _shares(dx, dy, outline, n, phi, cs, sn, share):
+    """Fill share[:n] with the fractions of the volume of the column at (dx, dy) [m] from the centre
+    that go to each band column (tent weight phi, direction cs, sn): phi (1 + q cos(angle between
+    them))^RING_FOCUS, normalised, with q the column's scale in the outline (clipped to 1). A column
+    at the centre spreads its volume evenly around the band; one at the rim pushes it out across the
+    nearest part of the outline."""
+    tx, ty, sx, sy, a1, a2 = outline
+    q, c, s = _polar(dx, dy, tx, ty, sx, sy, a1, a2)
+    q = min(q, 1.0)
+    total = 0.0
+    for k in range(n):
+        w = phi[k] * (1.0 + q * (c * cs[k] + s * sn[k])) ** RING_FOCUS
+        share[k] = w
+        total += w
+    for k in range(n):
+        share[k] /= total
+
+
+@njit(cache=True)
+def ring_deposit(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, b_out):
+    """Push each column's displaced volume (occupied height b_geo [m]) out into a band of columns
+    around the body: b_out (nj, ni) [m].
+
+    The displaced water is put where it goes in reality, around the body (as Yuksel et al.'s wave
+    particles do, along the silhouette), not under it: a height field whose surface under the body
+    included the body's own displacement would feed that displacement back into the next occupied
+    height (the surface rises, so more of the body is "below" it, so the surface rises ...), which
+    diverges for a floating body. The band: tent weights over the distance outside the outline (0 to
+    2 ``width`` [m], peak at ``width``). The map is linear, column by column (:func:`_shares`), so
+    sum(b_out) s^2 = sum(b_geo) s^2 exactly, a skipping disk pushes water from its wet trailing edge
+    (the only columns it occupies) and a rocking one from the side going down. When no band column
+    lies in the window, the volume stays where it is (b_out = b_geo).
+    Returns the window (i_lo, i_hi, j_lo, j_hi) of nonzero b_out, empty when i_lo > i_hi.
+    """
+    b_out[:, :] = 0.0
+    nj, ni = b_geo.shape
+    if nj == 0 or ni == 0:
+        return 1, 0, 1, 0
+    n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
+    outline = _outline(shape, radius, thickness, axes)
+    share = np.empty(n)
+    for j in range(nj):
+        for i in range(ni):
+            b = b_geo[j, i]
+            if b <= 0.0:
+                continue
+            if n == 0:
+                b_out[j, i] = b
+                continue
+            _shares(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, n, phi, cs, sn, share)
+            for k in range(n):
+                b_out[jj[k], ii[k]] += b * share[k]
+    i_lo, i_hi, j_lo, j_hi = ni, -1, nj, -1
+    for j in range(nj):
+        for i in range(ni):
+            if b_out[j, i] > 0.0:
+                i_lo, i_hi = min(i_lo, i), max(i_hi, i)
+                j_lo, j_hi = min(j_lo, j), max(j_hi, j)
+    return i_lo, i_hi, j_lo, j_hi
+
+
+@njit(cache=True)
+def ring_lift(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, waterline, field, width, lifted):
+    """The level at which each column's displaced volume enters the water, summed over the waterline:
+    lifted (3,) = sum_k level_k (area_k, moment_y_k, -moment_x_k) [m^3].
+
+    level_k [m] is the mean of ``field`` (nj, ni) [m] (the water above the rest level) over the band
+    columns, weighted by the shares :func:`ring_deposit` gives them of column k's volume (its own
+    ``field`` when no band column lies in the window); ``waterline`` (3, nj, ni) holds the columns'
+    waterline areas and moments (:func:`evaluate`). Times rho g, lifted is the force and torque
+    (x, y) that go with the displacement (see the component's _add_hydrostatics).
+    """
+    lifted[:] = 0.0
+    nj, ni = b_geo.shape
+    if nj == 0 or ni == 0:
+        return
+    n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
+    outline = _outline(shape, radius, thickness, axes)
+    share = np.empty(n)
+    for j in range(nj):
+        for i in range(ni):
+            area = waterline[0, j, i]
+            if b_geo[j, i] <= 0.0 or area <= 0.0:
+                continue
+            level = field[j, i]
+            if n > 0:
+                _shares(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, n, phi, cs, sn, share)
+                level = 0.0
+                for k in range(n):
+                    level += field[jj[k], ii[k]] * share[k]
+            lifted[0] += level * area
+            lifted[1] += level * waterline[2, j, i]
+            lifted[2] -= level * waterline[1, j, i]
 
 
 @njit(cache=True)

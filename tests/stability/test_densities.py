@@ -79,20 +79,11 @@ CORK = {
 }
 
 
-HEAVING_DISK = pytest.mark.xfail(
-    strict=True, reason="a floating flat disk heaving on the explicit wave model keeps feeding the waves: "
-                        "the displacement ring radiates its heave but the body feels no radiation damping, "
-                        "so it never settles and the water's energy grows without bound (lattice energy "
-                        "x3.4 from 0.3 s to 2 s; the physical surface energy too, x20 by 6 s, at the same "
-                        "rate for steps 4x finer: a missing effect, not an instability); the implicit "
-                        "model's numerical damping hides it")
-
-
 @pytest.mark.parametrize(("shape", "model"), [
     ("sphere", "shallow_water"),
     ("sphere", "wave"),
     ("disk", "shallow_water"),
-    pytest.param("disk", "wave", marks=HEAVING_DISK),
+    ("disk", "wave"),
 ])
 def test_cork_floats_at_its_archimedes_height(shape, model):
     """A cork sphere (R = 3 cm) or flat disk dropped from 1 cm floats: over its last second the centre
