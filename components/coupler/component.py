@@ -454,14 +454,16 @@ class WaterCoupler(Component):
         p = self.params
         x0, y0, cell, height, _, _, held = water
         work = self._ring_arrays(height.shape) if scratch is None else scratch
+        if low[2] >= self.rest_level:  # nothing of the body below the rest level: no displacement
+            work["stats"][:] = 0.0
+            return _Ring(work["stats"], np.zeros(3), None)
         rest = self._rest_pass(body, pos, axes, half, low, water, elements, nsub, work["b_rest"],
                                work["waterline"], work["stats"])
         if rest[kernel.S_VOLUME] <= 0.0:
             return _Ring(rest, np.zeros(3), None)
-        geometry = (int(body.shape), float(body.radius), float(body.thickness), pos, axes, float(x0),
-                    float(y0), cell, work["b_rest"])
-        width = p.ring_cells * cell
-        i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(*geometry, width, work["b_out"])
+        ring = kernel.ring_map(int(body.shape), float(body.radius), float(body.thickness), pos, axes,
+                               float(x0), float(y0), cell, work["b_rest"], p.ring_cells * cell)
+        i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(work["b_rest"], *ring, work["b_out"])
         if i_lo > i_hi:
             return _Ring(rest, np.zeros(3), None)
         i_lo, i_hi, j_lo, j_hi, window = self._smoothed(work["b_out"], i_lo, i_hi, j_lo, j_hi)
@@ -473,7 +475,7 @@ class WaterCoupler(Component):
             part = field[region].copy()
             kernel.smooth_conservative(part, p.smoothing)
             field[region] = part
-        kernel.ring_lift(*geometry, work["waterline"], field, width, work["lifted"])
+        kernel.ring_lift(work["waterline"], field, *ring, work["lifted"])
         return _Ring(rest, work["lifted"].copy(), (i_lo, j_lo, window))
 
     def _ring_field(self, height: np.ndarray, held: np.ndarray | None, region: tuple[slice, slice],

@@ -441,80 +441,99 @@ def _shares(dx, dy, outline, n, phi, cs, sn, share):
 
 
 @njit(cache=True)
-def ring_deposit(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, b_out):
-    """Push each column's displaced volume (occupied height b_geo [m]) out into a band of columns
-    around the body: b_out (nj, ni) [m].
+def ring_map(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width):
+    """Where each column's displaced volume goes: the linear map of :func:`ring_deposit` and
+    :func:`ring_lift`, computed once a step for both.
+
+    The band: columns just outside the body's outline, tent weights over the distance outside it (0
+    to 2 ``width`` [m], peak at ``width``). Each column holding volume (occupied height b_geo > 0)
+    gives band column k the share phi_k (1 + q cos)^RING_FOCUS, normalised (:func:`_shares`), so a
+    skipping disk pushes water from its wet trailing edge (the only columns it occupies) and a rocking
+    one from the side going down. Returns (band j, band i, column j, column i, shares), shares
+    (columns, band) with rows summing to 1; no band column in the window: an empty band (each column
+    then keeps its volume).
+    """
+    nj, ni = b_geo.shape
+    n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
+    outline = _outline(shape, radius, thickness, axes)
+    count = 0
+    for j in range(nj):
+        for i in range(ni):
+            if b_geo[j, i] > 0.0:
+                count += 1
+    cj = np.empty(count, np.int64)
+    ci = np.empty(count, np.int64)
+    shares = np.empty((count, n))
+    c = 0
+    for j in range(nj):
+        for i in range(ni):
+            if b_geo[j, i] > 0.0:
+                cj[c], ci[c] = j, i
+                _shares(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, n, phi, cs, sn, shares[c])
+                c += 1
+    return jj[:n], ii[:n], cj, ci, shares
+
+
+@njit(cache=True)
+def ring_deposit(b_geo, band_j, band_i, col_j, col_i, shares, b_out):
+    """Push each column's displaced volume (occupied height b_geo [m]) out into the band around the
+    body (:func:`ring_map`): b_out (nj, ni) [m].
 
     The displaced water is put where it goes in reality, around the body (as Yuksel et al.'s wave
     particles do, along the silhouette), not under it: a height field whose surface under the body
     included the body's own displacement would feed that displacement back into the next occupied
     height (the surface rises, so more of the body is "below" it, so the surface rises ...), which
-    diverges for a floating body. The band: tent weights over the distance outside the outline (0 to
-    2 ``width`` [m], peak at ``width``). The map is linear, column by column (:func:`_shares`), so
-    sum(b_out) s^2 = sum(b_geo) s^2 exactly, a skipping disk pushes water from its wet trailing edge
-    (the only columns it occupies) and a rocking one from the side going down. When no band column
-    lies in the window, the volume stays where it is (b_out = b_geo).
-    Returns the window (i_lo, i_hi, j_lo, j_hi) of nonzero b_out, empty when i_lo > i_hi.
+    diverges for a floating body. The map is linear, column by column, so
+    sum(b_out) s^2 = sum(b_geo) s^2 exactly. When no band column lies in the window, the volume stays
+    where it is (b_out = b_geo). Returns the window (i_lo, i_hi, j_lo, j_hi) of nonzero b_out, empty
+    when i_lo > i_hi.
     """
     b_out[:, :] = 0.0
-    nj, ni = b_geo.shape
-    if nj == 0 or ni == 0:
-        return 1, 0, 1, 0
-    n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
-    outline = _outline(shape, radius, thickness, axes)
-    share = np.empty(n)
-    for j in range(nj):
-        for i in range(ni):
-            b = b_geo[j, i]
-            if b <= 0.0:
-                continue
-            if n == 0:
-                b_out[j, i] = b
-                continue
-            _shares(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, n, phi, cs, sn, share)
-            for k in range(n):
-                b_out[jj[k], ii[k]] += b * share[k]
+    n = band_j.size
+    for c in range(col_j.size):
+        b = b_geo[col_j[c], col_i[c]]
+        if n == 0:
+            b_out[col_j[c], col_i[c]] = b
+            continue
+        for k in range(n):
+            b_out[band_j[k], band_i[k]] += b * shares[c, k]
+    nj, ni = b_out.shape
     i_lo, i_hi, j_lo, j_hi = ni, -1, nj, -1
-    for j in range(nj):
-        for i in range(ni):
-            if b_out[j, i] > 0.0:
-                i_lo, i_hi = min(i_lo, i), max(i_hi, i)
-                j_lo, j_hi = min(j_lo, j), max(j_hi, j)
+    touched_j, touched_i = (band_j, band_i) if n > 0 else (col_j, col_i)
+    for k in range(touched_j.size):
+        j, i = touched_j[k], touched_i[k]
+        if b_out[j, i] > 0.0:
+            i_lo, i_hi = min(i_lo, i), max(i_hi, i)
+            j_lo, j_hi = min(j_lo, j), max(j_hi, j)
     return i_lo, i_hi, j_lo, j_hi
 
 
 @njit(cache=True)
-def ring_lift(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, waterline, field, width, lifted):
+def ring_lift(waterline, field, band_j, band_i, col_j, col_i, shares, lifted):
     """The level at which each column's displaced volume enters the water, summed over the waterline:
     lifted (3,) = sum_k level_k (area_k, moment_y_k, -moment_x_k) [m^3].
 
     level_k [m] is the mean of ``field`` (nj, ni) [m] (the water above the rest level) over the band
     columns, weighted by the shares :func:`ring_deposit` gives them of column k's volume (its own
-    ``field`` when no band column lies in the window); ``waterline`` (3, nj, ni) holds the columns'
-    waterline areas and moments (:func:`evaluate`). Times rho g, lifted is the force and torque
-    (x, y) that go with the displacement (see the component's _add_hydrostatics).
+    ``field`` when the band is empty); ``waterline`` (3, nj, ni) holds the columns' waterline areas
+    and moments (:func:`evaluate`). Times rho g, lifted is the force and torque (x, y) that go with
+    the displacement (see the component's _add_hydrostatics).
     """
     lifted[:] = 0.0
-    nj, ni = b_geo.shape
-    if nj == 0 or ni == 0:
-        return
-    n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
-    outline = _outline(shape, radius, thickness, axes)
-    share = np.empty(n)
-    for j in range(nj):
-        for i in range(ni):
-            area = waterline[0, j, i]
-            if b_geo[j, i] <= 0.0 or area <= 0.0:
-                continue
-            level = field[j, i]
-            if n > 0:
-                _shares(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, n, phi, cs, sn, share)
-                level = 0.0
-                for k in range(n):
-                    level += field[jj[k], ii[k]] * share[k]
-            lifted[0] += level * area
-            lifted[1] += level * waterline[2, j, i]
-            lifted[2] -= level * waterline[1, j, i]
+    n = band_j.size
+    for c in range(col_j.size):
+        j, i = col_j[c], col_i[c]
+        area = waterline[0, j, i]
+        if area <= 0.0:
+            continue
+        level = field[j, i]
+        if n > 0:
+            level = 0.0
+            for k in range(n):
+                level += field[band_j[k], band_i[k]] * shares[c, k]
+        lifted[0] += level * area
+        lifted[1] += level * waterline[2, j, i]
+        lifted[2] -= level * waterline[1, j, i]
 
 
 @njit(cache=True)
