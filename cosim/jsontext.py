@@ -78,6 +78,7 @@ def renderer(layout: RecordLayout) -> Renderer:
     unpack, size = fixed.unpack_from, fixed.size
     fmt, variable, bools, floats = layout.fmt, layout.variable, layout.bools, layout.floats
     order = layout.order
+    in_order = not variable and order == tuple(range(len(order)))  # the arguments are the values as they are
     pick: Callable[[tuple], tuple] = (
         itemgetter(*order) if len(order) > 1 else (lambda values: (values[order[0]],)) if order
         else (lambda values: ()))
@@ -101,7 +102,7 @@ def renderer(layout: RecordLayout) -> Renderer:
                 offset += n
             args = pick(values + tuple(pieces))
         else:
-            args = pick(values)
+            args = values if in_order else pick(values)
         if bools or not isfinite(sum(values)):  # one sum tells whether every number is finite
             edited = list(args)
             for i in bools:

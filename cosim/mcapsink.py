@@ -26,6 +26,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,25 +62,28 @@ class _Apply:
                                             compression_threads=0, profile="", chunk_size=262144))
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
+        # channel id -> its log(data, log_time): the SDK's compiled channel's own, without the Python
+        # wrapper's checks (a microsecond a message, which the writer pays for every exchange)
+        self.logs: dict[int, Callable[[bytes, int], None]] = {}
         self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
 
     def apply_batch(self, batch: memoryview) -> None:
         """Write every record of a batch (see :mod:`cosim.records`)."""
         offset, end = 0, len(batch)
-        channels, renderers = self.channels, self.renderers
+        logs, renderers = self.logs, self.renderers
         while offset < end:
             kind, channel, time_ns = HEADER.unpack_from(batch, offset)
             offset += HEADER.size
             if kind == MESSAGE:
                 data, offset = renderers[channel](batch, offset)
-                channels[channel].log(data, log_time=time_ns)
+                logs[channel](data, time_ns)
                 continue
             (n,) = LENGTH.unpack_from(batch, offset)
             offset += LENGTH.size
             body = batch[offset:offset + n]
             offset += n
             if kind == BYTES:
-                channels[channel].log(bytes(body), log_time=time_ns)
+                logs[channel](bytes(body), time_ns)
             elif kind == OTHER:
                 self.apply(read_other(body))
             else:
@@ -90,13 +94,14 @@ class _Apply:
         checkpoint."""
         op = record[0]
         if op == "state":
-            self.channels[record[1]].log(state_text(record[3]), log_time=record[2])
+            self.logs[record[1]](state_text(record[3]), record[2])
         elif op == "schema":
             self.schemas[record[1]] = self._foxglove.Schema(name=record[2], encoding=record[3], data=record[4])
         elif op == "channel":
             _, cid, topic, encoding, schema_id, layout = record
             self.channels[cid] = self._foxglove.Channel(topic, message_encoding=encoding,
                                                         schema=self.schemas[schema_id], context=self.context)
+            self.logs[cid] = self.channels[cid].base.log
             if layout is not None:
                 self.renderers[cid] = renderer(RecordLayout(*layout))
         elif op == "metadata":
@@ -165,6 +170,7 @@ class _Sink:
     def __init__(self) -> None:
         self._ids = _Ids()
         self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES)
+        self.add_message_record = self.stage.add_message  # type: ignore[method-assign]
 
     def _send(self, batch: memoryview) -> None:
         raise NotImplementedError
@@ -187,7 +193,8 @@ class _Sink:
 
     def add_message_record(self, write: Write, channel: int, time_ns: int, msg: Any) -> bool:
         """A message packed by its codec's ``write`` (the channel's layout); False, with nothing
-        written, when the message needs the slow path (:meth:`add_message` of its bytes)."""
+        written, when the message needs the slow path (:meth:`add_message` of its bytes). (Each sink
+        binds this name to its stage's method directly: it is called for every exchange.)"""
         return self.stage.add_message(write, channel, time_ns, msg)
 
     def add_state(self, channel: int, time_ns: int, plain: Any) -> None:
