@@ -276,3 +276,19 @@ def test_summary_names_model_grid_and_volume_change():
     """The closing summary line names the model, grid, edges, volume change and energy."""
     (line,) = pond().summary()
     assert line.startswith("pond: wave on 20 x 16 cells of 0.01 m, reflecting edges; volume change")
+
+
+def test_components_with_compiled_kernels_start_numba_when_built(monkeypatch):
+    """Building a water surface on the numba backend, or a water coupler, starts numba's compiler
+    (components.compiled.start), so that its half-second start-up is not counted in a run's wall
+    time; the numpy backend does not."""
+    from components import compiled
+    from components.coupler import WaterCoupler
+
+    started = []
+    monkeypatch.setattr(compiled, "start", lambda: started.append(True))
+    pond(backend="numpy")
+    assert started == []
+    pond(backend="numba")
+    WaterCoupler("c")
+    assert started == [True, True]

@@ -38,6 +38,7 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
+from components import compiled
 from components.coupler import kernel
 from components.coupler.effects import (
     BUOYANCY,
@@ -164,6 +165,7 @@ class WaterCoupler(Component):
         if problems:
             raise ValueError("effects: " + "; ".join(problems))
         self.flags = effect_mask(p.effects)
+        compiled.start()
         self._elements: Elements | None = None
         self._elements_key: tuple | None = None
         self._stats = np.zeros(kernel.N_STATS)

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from components import compiled
 from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
@@ -144,6 +145,8 @@ class WaterSurface(Component):
                                    rest_level=p.rest_level, bottom_slope=p.bottom_slope,
                                    wave_speed=p.wave_speed)
         self.kernels = kernels_numba.PARALLEL if p.parallel and p.backend == "numba" else KERNELS[p.backend]
+        if p.backend == "numba":
+            compiled.start()
         self.boundary = BOUNDARIES[p.boundary](g, self.kernels, p.sponge_cells)
         self.model = MODELS[p.model](g, self.kernels, p.damping, closed=self.boundary.conserves_volume)
         self._wx = np.ascontiguousarray((g.kx > 0).astype(np.float64))
