@@ -53,7 +53,7 @@ class Stage:
         end = write(msg, self.view, self.offset, channel, time_ns)
         if end < 0:
             return end != -1 and self._add_large(write, channel, time_ns, msg, -end)
-        self.offset = end
+        self.offset = end  # _added, written out: this runs for every exchange
         self.count += 1
         if self.count >= self.batch or end >= self.batch_bytes:
             self.flush()
