@@ -6,8 +6,8 @@ point's overrides), so a point gives the same row whatever the backend or the wo
 and any other exception all become a row with status ``failed``.
 
 A backend offers ``start``, ``submit(task) -> future``, ``wait(futures) -> done``, ``outcome(future)
--> row`` (or :class:`WorkerLost`), ``restart``, ``close`` and ``abort``. Dask is imported only by
-:class:`DaskBackend`.
+-> row``, ``restart``, ``close`` and ``abort``; ``submit`` and ``outcome`` raise :class:`WorkerLost`
+when a worker died. Dask is imported only by :class:`DaskBackend`.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from cosim.errors import CosimError, ScenarioError
 from cosim.timebase import NS_PER_S
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
-WORKER_JOIN_TIMEOUT_S = 10  # how long an aborted pool's workers get to exit
+WORKER_JOIN_TIMEOUT_S = 10  # how long a worker gets to leave at each step of ending a pool (s)
 
 
 @dataclass(frozen=True)
@@ -148,8 +148,12 @@ class ProcessBackend:
         list(self.pool.map(_warm, [0.2] * self.workers))
 
     def submit(self, task: Task) -> cf.Future:
+        """Queue ``task``; raises :class:`WorkerLost` if a worker died since the last restart."""
         assert self.pool is not None, "start() the backend first"
-        return self.pool.submit(run_task, task)
+        try:
+            return self.pool.submit(run_task, task)
+        except cf.process.BrokenProcessPool as exc:
+            raise WorkerLost(f"a worker process died ({type(exc).__name__})", isolate=True) from None
 
     def wait(self, futures: Iterable[cf.Future]) -> set[cf.Future]:
         return cf.wait(list(futures), return_when=cf.FIRST_COMPLETED).done
@@ -161,30 +165,47 @@ class ProcessBackend:
             raise WorkerLost(f"a worker process died ({type(exc).__name__})", isolate=True) from None
 
     def restart(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-            self.pool = None
+        """A fresh pool after a worker died (the old one is unusable)."""
+        self._end_pool(grace_s=0.0)
         self.start()
 
     def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-            self.pool = None
+        """End the workers: queued runs are dropped, runs in flight get ``WORKER_JOIN_TIMEOUT_S``."""
+        self._end_pool(grace_s=WORKER_JOIN_TIMEOUT_S)
 
     def abort(self, futures: Iterable[cf.Future]) -> None:
         """Stop at once: drop queued runs and end the workers (an interrupted sweep)."""
-        if self.pool is None:
+        self._end_pool(grace_s=0.0)
+
+    def _end_pool(self, grace_s: float) -> None:
+        """Shut the pool down and make sure every worker is gone.
+
+        ``ProcessPoolExecutor.shutdown(wait=True)`` can wait forever on a pool a dying worker broke:
+        a worker started by a submit that raced the executor's own clean-up never gets its SIGTERM
+        nor a sentinel, and the executor joins it without a time limit. So the workers are ended
+        here: each gets ``grace_s`` to leave on its own, then SIGTERM (a run in progress ends at
+        its next tick: run_scene's handler), then SIGKILL.
+        """
+        pool, self.pool = self.pool, None
+        if pool is None:
             return
-        processes = list(getattr(self.pool, "_processes", {}).values())  # no public handle on them
-        self.pool.shutdown(wait=False, cancel_futures=True)
+        processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle on them
+        manager = getattr(pool, "_executor_manager_thread", None)
+        if getattr(pool, "_broken", False):
+            grace_s = 0.0  # nothing left to finish
+        pool.shutdown(wait=False, cancel_futures=True)
+        for proc in processes:
+            proc.join(grace_s)
         for proc in processes:
             if proc.is_alive():
-                proc.terminate()  # a run in progress ends at its next tick (run_scene's SIGTERM handler)
+                proc.terminate()
         for proc in processes:
             proc.join(WORKER_JOIN_TIMEOUT_S)
             if proc.is_alive():
                 proc.kill()
-        self.pool = None
+                proc.join()
+        if manager is not None:
+            manager.join(WORKER_JOIN_TIMEOUT_S)  # it only joins the workers, all gone by now
 
 
 class DaskBackend:

@@ -157,15 +157,18 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
             broken = False
             while todo or pending or suspects:
                 if not broken:
-                    if suspects:
-                        if not pending:
-                            point = suspects.popleft()
-                            alone = point.point_id
-                            pending[backend.submit(task(point))] = point
-                    else:
-                        while todo and len(pending) < limit:
-                            point = todo.popleft()
-                            pending[backend.submit(task(point))] = point
+                    try:  # a point leaves its queue only once submitted
+                        if suspects:
+                            if not pending:
+                                alone = suspects[0].point_id
+                                future = backend.submit(task(suspects[0]))
+                                pending[future] = suspects.popleft()
+                        else:
+                            while todo and len(pending) < limit:
+                                future = backend.submit(task(todo[0]))
+                                pending[future] = todo.popleft()
+                    except WorkerLost:  # the pool broke before its failed runs came back
+                        broken = True
                 for future in backend.wait(list(pending)):
                     point = pending.pop(future)
                     try:

@@ -96,3 +96,21 @@ def read_table(path, drop=("wall_s",)) -> list[list[str]]:
         rows = list(csv.reader(f))
     keep = [i for i, name in enumerate(rows[0]) if name not in drop]
     return [[row[i] for i in keep] for row in rows]
+
+
+def stubborn_task(seconds: float) -> int:
+    """A pool task that ignores SIGTERM and then sleeps (a worker that will not leave when asked)."""
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def dying_task(delay: float) -> None:
+    """A pool task that ends its worker process after ``delay`` seconds (breaks the pool)."""
+    import time
+
+    time.sleep(delay)
+    os._exit(70)

@@ -123,6 +123,70 @@ def test_a_point_that_kills_its_worker_is_the_only_one_lost(tmp_path):
             assert row["status"] == "stopped"
 
 
+def test_a_pool_found_broken_when_submitting_loses_no_point(tmp_path):
+    """A worker can die before its failed run comes back, so that submitting the next point finds
+    the pool broken: that point is not lost, it runs after the restart."""
+    from cosim.sweep_backends import WorkerLost
+
+    class BreaksOnThirdSubmit(ProcessBackend):
+        submits = 0
+        restarts = 0
+
+        def submit(self, task):
+            self.submits += 1
+            if self.submits == 3:
+                raise WorkerLost("a worker process died (BrokenProcessPool)", isolate=True)
+            return super().submit(task)
+
+        def restart(self):
+            self.restarts += 1
+            super().restart()
+
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    backend = BreaksOnThirdSubmit(2)
+    try:
+        outcome = run_sweep(sweep, tmp_path / "out.csv", backend, progress=False, figure=False)
+    finally:
+        backend.close()
+    assert outcome.complete and outcome.counts == {"stopped": 9} and backend.restarts == 1
+    assert [int(r["index"]) for r in rows_of(tmp_path / "out.csv")] == list(range(9))
+
+
+def _ends_within(action, seconds: float) -> bool:
+    """Whether ``action()`` returns within ``seconds`` (run in a thread, so a hang fails the test)."""
+    import threading
+
+    thread = threading.Thread(target=action, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    return not thread.is_alive()
+
+
+@pytest.mark.parametrize("broken", [False, True], ids=["healthy", "broken"])
+def test_closing_a_pool_ends_a_worker_that_ignores_sigterm(monkeypatch, broken):
+    """Closing the pool ends every worker, even one that ignores SIGTERM, and even after another
+    worker died and broke the pool (where the executor's own shutdown waits for it forever)."""
+    import cosim.sweep_backends as backends
+    from tests.sweep_toys import dying_task, stubborn_task
+
+    monkeypatch.setattr(backends, "WORKER_JOIN_TIMEOUT_S", 0.5)
+    backend = ProcessBackend(2)
+    backend.warm_up()
+    assert backend.pool is not None
+    workers = list(backend.pool._processes.values())
+    stubborn = backend.pool.submit(stubborn_task, 600.0)
+    if broken:
+        dead = backend.pool.submit(dying_task, 0.5)
+        with pytest.raises(Exception, match="terminated abruptly"):
+            dead.result(timeout=60)
+    else:
+        time.sleep(0.5)  # the stubborn task has started and ignores SIGTERM
+        assert not stubborn.done()
+    assert _ends_within(backend.close, 60)
+    assert backend.pool is None
+    assert [w.is_alive() for w in workers] == [False, False]
+
+
 def test_an_interrupted_table_resumes_to_the_same_table(tmp_path, pool):
     """Resuming a table cut short (rows in completion order, a half-written last row) runs only the
     missing points and ends with the table an uninterrupted sweep writes."""
