@@ -1,0 +1,89 @@
+"""The one-time compiling of JIT kernels is measured apart, and left out of the real-time factor."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import pytest
+from numba import njit
+
+from cosim.component import Component, Port
+from cosim.jit_time import compile_timer
+from cosim.runner import COMPILE_NOTE_S, RunOutcome, format_summary
+from cosim.scenario import loads
+from cosim.scheduler import RunResult, Simulation
+from tests.toys import Scalar
+
+
+def fresh_kernel():
+    """A kernel numba has never compiled (a new dispatcher, no on-disk cache)."""
+
+    @njit(cache=False)
+    def kernel(x):
+        total = 0.0
+        for i in range(10):
+            total += x * i
+        return total
+
+    return kernel
+
+
+class Compiling(Component):
+    """Calls a kernel it has just made at every step: the first call compiles it."""
+
+    @dataclass(frozen=True)
+    class Params:
+        pass
+
+    outputs = {"out": Port(Scalar)}
+
+    def setup(self) -> None:
+        self.kernel = fresh_kernel()
+
+    def _step_impl(self, t, dt, inputs):
+        return {"out": Scalar(self.kernel(t))}
+
+
+SCENE = """
+name: jit
+dt: 0.001
+until: 0.01
+components:
+  k: {type: "tests.test_jit_time:Compiling"}
+"""
+
+
+def test_the_timer_counts_a_compile_and_not_a_call_of_compiled_code():
+    kernel = fresh_kernel()
+    with compile_timer() as compiling:
+        assert kernel(2.0) == 90.0
+    first = compiling()
+    with compile_timer() as compiling:
+        for _ in range(100):
+            kernel(3.0)
+    assert first > 0.0 and compiling() == 0.0
+
+
+def test_a_run_reports_its_compiling_and_leaves_it_out_of_the_real_time_factor():
+    result = Simulation(loads(SCENE)).run()
+    assert result.status == "ok" and 0.0 < result.compile_s < result.wall_s
+    assert result.real_time_factor == pytest.approx(0.01 / (result.wall_s - result.compile_s))
+
+
+def test_real_time_factor_without_compiling():
+    result = RunResult("ok", "", 100, 2_000_000_000, wall_s=5.0, component_steps=100, compile_s=4.0)
+    assert result.real_time_factor == 2.0
+    assert RunResult("ok", "", 0, 0, 1.0, 0, compile_s=1.0).real_time_factor == math.inf
+
+
+@pytest.mark.parametrize("compile_s", [0.0, 4.0])
+def test_the_summary_names_the_compiling_only_when_there_was_some(compile_s):
+    scene = loads(SCENE)
+    result = RunResult("ok", "reached t = 2 s", 2000, 2_000_000_000, 5.0, 2000, compile_s=compile_s)
+    line = format_summary(scene, RunOutcome(result, None)).splitlines()[1]
+    if compile_s >= COMPILE_NOTE_S:
+        assert "wall 5 s, of which 4 s compiling kernels once" in line
+        assert line.endswith("real-time factor 2 (compiling left out)")
+    else:
+        assert "compiling" not in line and line.endswith("wall 5 s; real-time factor 0.4")
