@@ -249,7 +249,8 @@ class DaskBackend:
             if self.address == "local":
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                             processes=self.processes, host="127.0.0.1",
-                                            protocol="tcp://", dashboard_address=None)
+                                            protocol="tcp://",
+                                            dashboard_address="127.0.0.1:0")  # any free port, not 8787
                 self.client = Client(self.cluster)
             else:
                 self.client = Client(self.address, timeout=f"{self.timeout_s or DASK_CONNECT_TIMEOUT_S}s")

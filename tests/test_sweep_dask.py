@@ -24,7 +24,7 @@ axes:
 def cluster():
     """A Dask LocalCluster on 127.0.0.1 over TCP, its two workers threads of this process."""
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, host="127.0.0.1",
-                                  protocol="tcp://", dashboard_address=None) as local:
+                                  protocol="tcp://", dashboard_address="127.0.0.1:0") as local:
         yield local
 
 
@@ -93,3 +93,25 @@ def test_dask_local_with_worker_processes(tmp_path):
     finally:
         pool.close()
     assert read_table(tmp_path / "dask.csv") == read_table(tmp_path / "pool.csv")
+
+
+def test_a_local_cluster_starts_while_the_default_dashboard_port_is_taken():
+    """Another Dask cluster (or anything) on port 8787 does not stop ``--dask local``: its HTTP
+    server takes any free port (port-in-use warnings are errors in this suite)."""
+    import socket
+
+    blocker = socket.socket()
+    try:
+        try:
+            blocker.bind(("0.0.0.0", 8787))
+            blocker.listen()
+        except OSError:
+            pass  # taken already: the very case
+        backend = DaskBackend("local", 1, processes=False)
+        try:
+            backend.start()
+            assert backend.slots == 1
+        finally:
+            backend.close()
+    finally:
+        blocker.close()
