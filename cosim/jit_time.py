@@ -30,3 +30,27 @@ def compile_timer() -> Iterator[Callable[[], float]]:
     listener = event.TimingListener()
     with event.install_listener("numba:compile", listener):
         yield lambda: listener.duration if listener.done else 0.0
+
+
+@contextmanager
+def compile_notice(say: Callable[[], None]) -> Iterator[None]:
+    """Call ``say()`` once, when the first JIT compile inside the ``with`` starts (so a first run
+    that sits for seconds in the compiler says why, rather than seeming stuck)."""
+    if "numba" not in sys.modules:
+        yield
+        return
+    from numba.core import event
+
+    class Notice(event.Listener):
+        said = False
+
+        def on_start(self, ev: event.Event) -> None:
+            if not self.said:
+                self.said = True
+                say()
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    with event.install_listener("numba:compile", Notice()):
+        yield

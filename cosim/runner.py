@@ -7,14 +7,16 @@ call (tests, sweeps).
 from __future__ import annotations
 
 import signal
+import sys
 import warnings
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from cosim.errors import RecordingError, SimulationError
+from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
 from cosim.recorder import CHECKPOINT_TOPIC, EVENTS_TOPIC, PERF_TOPIC, STATUS_TOPIC, Recorder
 from cosim.scenario import Scene
@@ -119,7 +121,9 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
         if live_view is not None:
             observers.append(live_view)
         sim.observers.extend(observers)
-        with _signals_interrupt(sim):
+        notice = compile_notice(lambda: print(f"{scene.name}: compiling kernels for this checkout (once: later "
+                                              f"runs load them from disk)...", file=sys.stderr, flush=True))
+        with _signals_interrupt(sim), notice if progress else nullcontext():
             try:
                 result = sim.run(end_ns)
             except SimulationError as exc:

@@ -9,8 +9,8 @@ import pytest
 from numba import njit
 
 from cosim.component import Component, Port
-from cosim.jit_time import compile_timer
-from cosim.runner import COMPILE_NOTE_S, RunOutcome, format_summary
+from cosim.jit_time import compile_notice, compile_timer
+from cosim.runner import COMPILE_NOTE_S, RunOutcome, format_summary, run_scene
 from cosim.scenario import loads
 from cosim.scheduler import RunResult, Simulation
 from tests.toys import Scalar
@@ -87,3 +87,22 @@ def test_the_summary_names_the_compiling_only_when_there_was_some(compile_s):
         assert line.endswith("real-time factor 2 (compiling left out)")
     else:
         assert "compiling" not in line and line.endswith("wall 5 s; real-time factor 0.4")
+
+
+def test_the_notice_is_given_once_and_only_when_something_compiles():
+    said = []
+    first, second = fresh_kernel(), fresh_kernel()
+    with compile_notice(lambda: said.append("compiling")):
+        first(1.0)
+        second(1.0)  # a second compile in the same run: no second notice
+    with compile_notice(lambda: said.append("again")):
+        first(2.0)  # compiled already: nothing to say
+    assert said == ["compiling"]
+
+
+def test_a_run_with_progress_says_it_is_compiling(capsys):
+    scene = loads(SCENE)
+    run_scene(scene, None, progress=True)
+    assert capsys.readouterr().err.count("jit: compiling kernels for this checkout (once") == 1
+    run_scene(scene, None, progress=False)
+    assert "compiling" not in capsys.readouterr().err
