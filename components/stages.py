@@ -5,9 +5,10 @@ Stages (Tsai et al. 2022 names), decided from the body state and the contact rep
 - approach: airborne before the first contact, or falling back after a fly-away;
 - hit: touching water and moving down (vertical velocity < 0);
 - slide: touching water and moving up or level (vertical velocity >= 0);
-- fly-away: contact lost after a contact and the lowest point clear of the local surface by at
-  least ``takeoff_clearance`` (one skip counted); a contact that flickers while the stone still grazes
-  the surface is the same contact, not a new skip;
+- fly-away: contact lost after a contact, the stone rising and its lowest point clear of the local
+  surface by at least ``takeoff_clearance`` (one skip counted). A contact that flickers while the
+  stone still grazes the surface is the same contact, not a new skip; so is a dry spell while the
+  stone still comes down (the water fell away under it, as behind a crest: the stone never bounced);
 - sink: fully submerged, not rising and pushed up by the water less than its weight, or touching
   water too slowly to leave (horizontal speed below ``sink_speed``); final, except that a sunk stone can come
   to rest on the bottom;
@@ -51,6 +52,13 @@ class SkipTracker:
     in_contact: bool = False
 
 
+def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
+    """Whether a stone that was touching water and is dry this step is still in the same contact:
+    it still skims the surface (its lowest point within ``clearance`` of it), or it is still coming
+    down (vz < 0 [m/s]), so the surface dropped away from it rather than the stone bouncing off it."""
+    return water is not None and (water.depth > -clearance or vz < 0.0)
+
+
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
              sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81) -> StageId:
     """The stage now, from the previous stage and this step's body and contact reports."""
@@ -76,8 +84,7 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
                 return StageId.SINK
         return StageId.HIT if vz < 0 else StageId.SLIDE
     if previous in (StageId.HIT, StageId.SLIDE):
-        grazing = water is not None and water.depth > -clearance
-        if grazing:  # dry this step but still skimming the surface: the same contact goes on
+        if contact_goes_on(water, vz, clearance):
             return StageId.HIT if vz < 0 else StageId.SLIDE
         return StageId.FLY_AWAY
     if previous is StageId.FLY_AWAY:
@@ -96,7 +103,8 @@ class StageMonitor(Component):
         stop_after: float = param(0.3, unit="s", ge=0,
                                   doc="end the run this long after sink or rest (0: never stop)")
         takeoff_clearance: float = param(0.002, unit="m", ge=0,
-                                         doc="a contact ends when the lowest point is this far above the surface")
+                                         doc="a contact ends when the stone rises with its lowest point this far "
+                                             "above the surface")
         gravity: float = param(9.81, unit="m/s^2", gt=0,
                                doc="magnitude of the body's gravity: a stone under water sinks unless the "
                                    "water pushes it up harder than its weight")
@@ -134,8 +142,8 @@ class StageMonitor(Component):
         outputs: dict[str, Message] = {}
 
         wetted = water is not None and water.wetted
-        touching = wetted or (track.in_contact and water is not None
-                              and water.depth > -self.params.takeoff_clearance)
+        touching = wetted or (track.in_contact and contact_goes_on(water, float(body.velocity[2]),
+                                                                   self.params.takeoff_clearance))
         if wetted and not track.in_contact:
             track.in_contact = True
             track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed

@@ -169,3 +169,23 @@ def test_a_stone_under_water_sinks_only_when_the_water_no_longer_pushes_it_out()
     ]
     labels = [o["stage"].label for o in drive(m, script) if "stage" in o]
     assert labels == ["approach", "hit", "slide", "sink"]
+
+
+def test_a_dry_spell_while_still_coming_down_is_the_same_contact():
+    """The surface can drop away under a stone faster than it falls (behind a crest): dry and clear
+    of the water but still moving down, the stone has not bounced. Only rising clear is a skip."""
+    m = StageMonitor("stages", StageMonitor.Params(takeoff_clearance=0.002))
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
+        (body(0.5, 0.0, 5.0, -0.5), water(True), None),                   # touchdown at t = 2 ms
+        (body(0.6, -0.001, 5.0, -0.3), water(False, depth=-0.004), None),  # clear, but coming down
+        (body(0.7, -0.002, 5.0, -0.1), water(True), None),                # wetted again: same contact
+        (body(0.8, 0.0, 5.0, 0.3), water(True), None),
+        (body(0.9, 0.01, 5.0, 0.5), water(False, depth=-0.003), None),    # rising clear: the skip
+    ]
+    out = drive(m, script)
+    labels = [o["stage"].label for o in out if "stage" in o]
+    assert labels == ["approach", "hit", "slide", "fly-away"]
+    skips = [o["skip"] for o in out if "skip" in o]
+    assert len(skips) == 1 and skips[0].contact_time == pytest.approx(0.004)
+    assert skips[0].takeoff_angle_deg > 0
