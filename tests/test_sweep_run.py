@@ -41,6 +41,14 @@ def pool():
     backend.close()
 
 
+def run_and_close(sweep, path: Path, backend):
+    """Run ``sweep`` on a backend of its own, closed afterwards whatever happens."""
+    try:
+        return run_sweep(sweep, path, backend, progress=False, figure=False)
+    finally:
+        backend.close()
+
+
 def rows_of(path: Path) -> list[dict[str, str]]:
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
@@ -69,11 +77,7 @@ def test_results_do_not_depend_on_the_worker_count(tmp_path, pool):
     """One worker or two, the same sweep gives the same table, wall time aside."""
     sweep = load_sweep(write_sweep(tmp_path, GRID))
     run_sweep(sweep, tmp_path / "two.csv", pool, progress=False, figure=False)
-    one = ProcessBackend(1)
-    try:
-        run_sweep(sweep, tmp_path / "one.csv", one, progress=False, figure=False)
-    finally:
-        one.close()
+    run_and_close(sweep, tmp_path / "one.csv", ProcessBackend(1))
     assert read_table(tmp_path / "one.csv") == read_table(tmp_path / "two.csv")
 
 
@@ -108,11 +112,7 @@ def test_a_point_that_kills_its_worker_is_the_only_one_lost(tmp_path):
     body = ("scene: ball.yaml\naxes:\n  components.ball.speed: [2, 3, 4, 5, 6]\n"
             "  components.ball.die: [false, true]\n")
     sweep = load_sweep(write_sweep(tmp_path, body))
-    backend = ProcessBackend(2)
-    try:
-        outcome = run_sweep(sweep, tmp_path / "out.csv", backend, progress=False, figure=False)
-    finally:
-        backend.close()
+    outcome = run_and_close(sweep, tmp_path / "out.csv", ProcessBackend(2))
     rows = rows_of(tmp_path / "out.csv")
     assert outcome.complete and len(rows) == 10
     for row in rows:
@@ -144,10 +144,7 @@ def test_a_pool_found_broken_when_submitting_loses_no_point(tmp_path):
 
     sweep = load_sweep(write_sweep(tmp_path, GRID))
     backend = BreaksOnThirdSubmit(2)
-    try:
-        outcome = run_sweep(sweep, tmp_path / "out.csv", backend, progress=False, figure=False)
-    finally:
-        backend.close()
+    outcome = run_and_close(sweep, tmp_path / "out.csv", backend)
     assert outcome.complete and outcome.counts == {"stopped": 9} and backend.restarts == 1
     assert [int(r["index"]) for r in rows_of(tmp_path / "out.csv")] == list(range(9))
 
