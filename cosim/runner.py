@@ -122,8 +122,9 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
             observers.append(live_view)
         sim.observers.extend(observers)
         notice = compile_notice(lambda: print(f"{scene.name}: compiling kernels for this checkout (once: later "
-                                              f"runs load them from disk)...", file=sys.stderr, flush=True))
-        with _signals_interrupt(sim), notice if progress else nullcontext():
+                                              f"runs load them from disk)...", file=sys.stderr, flush=True)
+                                ) if progress else nullcontext()
+        with _signals_interrupt(sim), notice:
             try:
                 result = sim.run(end_ns)
             except SimulationError as exc:
