@@ -54,6 +54,11 @@ class WorkerLost(Exception):
         self.isolate = isolate
 
 
+def _worker_died(exc: BaseException) -> WorkerLost:
+    """What a broken (or cancelled) process pool means to a sweep: some worker died, unknown which."""
+    return WorkerLost(f"a worker process died ({type(exc).__name__})", isolate=True)
+
+
 class BackendError(CosimError):
     """A backend that cannot be used (Dask missing, a scheduler out of reach, workers without cosim)."""
 
@@ -153,7 +158,7 @@ class ProcessBackend:
         try:
             return self.pool.submit(run_task, task)
         except cf.process.BrokenProcessPool as exc:
-            raise WorkerLost(f"a worker process died ({type(exc).__name__})", isolate=True) from None
+            raise _worker_died(exc) from None
 
     def wait(self, futures: Iterable[cf.Future]) -> set[cf.Future]:
         return cf.wait(list(futures), return_when=cf.FIRST_COMPLETED).done
@@ -162,7 +167,7 @@ class ProcessBackend:
         try:
             return future.result()
         except (cf.process.BrokenProcessPool, cf.CancelledError) as exc:
-            raise WorkerLost(f"a worker process died ({type(exc).__name__})", isolate=True) from None
+            raise _worker_died(exc) from None
 
     def restart(self) -> None:
         """A fresh pool after a worker died (the old one is unusable)."""
