@@ -1,4 +1,4 @@
-"""What the physics messages look like in a 3D viewer, as plain :mod:`cosim.visual` items.
+"""What the physics messages look like in a 3D viewer, as plain :mod:`cosim.view.items` items.
 
 Registered by message type through the ``cosim.visuals`` entry points (pyproject.toml), so the
 recorder's visual deriver finds them for any component publishing these types, at the scene's
@@ -22,7 +22,7 @@ from functools import lru_cache
 import numpy as np
 
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterField
-from cosim.visual import (
+from cosim.view.items import (
     LOG_TOPIC,
     WORLD,
     Arrow,

@@ -104,15 +104,15 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
-    from cosim.inspection import describe_recording
-    from cosim.recording import Recording
+    from cosim.record.describe import describe_recording
+    from cosim.record.reader import Recording
 
     print(describe_recording(Recording(args.recording)))
     return EXIT_OK
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from cosim.recording import Recording
+    from cosim.record.reader import Recording
     from cosim.replay import replay_component, restart_simulation
 
     rec = Recording(args.recording)

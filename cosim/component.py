@@ -108,7 +108,7 @@ class Component:
         return []
 
     def visuals(self, port: str, msg: Message) -> list[Any]:
-        """Viewer items (:mod:`cosim.visual`) showing ``msg``, just published on ``port``.
+        """Viewer items (:mod:`cosim.view.items`) showing ``msg``, just published on ``port``.
 
         Called at the visual frame rate only, by the recorder's visual deriver, never on the physics
         path. The default shows nothing of its own: the deriver then uses the visuals registered for

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cosim.codec import codec_for
+from cosim.codec.json_codec import codec_for
 from cosim.component import Component
 from cosim.errors import RecordingError
 from cosim.messages import Message, first_difference
-from cosim.recorder import topic_of
-from cosim.recording import Recording
+from cosim.record.reader import Recording
+from cosim.record.recorder import topic_of
 from cosim.scheduler import Simulation, _Edge, _Slot, gather
 from cosim.timebase import NS_PER_S
 

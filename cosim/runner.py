@@ -18,7 +18,7 @@ from typing import Any
 from cosim.errors import RecordingError, SimulationError
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
-from cosim.recorder import CHECKPOINT_TOPIC, EVENTS_TOPIC, PERF_TOPIC, STATUS_TOPIC, Recorder
+from cosim.record.recorder import Recorder, physics_topics
 from cosim.scenario import Scene
 from cosim.scheduler import RunResult, Simulation
 from cosim.timebase import NS_PER_S
@@ -60,12 +60,6 @@ def _signals_interrupt(sim: Simulation) -> Iterator[None]:
             signal.signal(s, h)
 
 
-def physics_topics(scene: Scene) -> frozenset[str]:
-    """Every channel the physics writes (``/<component>/<port>``) plus the framework's own."""
-    topics = {f"/{name}/{port}" for name, cfg in scene.components.items() for port in cfg.cls.outputs}
-    return frozenset(topics | {STATUS_TOPIC, EVENTS_TOPIC, CHECKPOINT_TOPIC, PERF_TOPIC})
-
-
 def default_derivers(scene: Scene) -> list[Any]:
     """Viewer-channel derivers for a recording of ``scene``: Foxglove scene, transform and log
     channels at ``record.visual_rate`` frames per second (none at rate 0, or without the ``[viz]``
@@ -74,7 +68,7 @@ def default_derivers(scene: Scene) -> list[Any]:
     if rate <= 0:
         return []
     try:
-        from cosim.foxglove import visual_deriver
+        from cosim.view.foxglove import visual_deriver
     except ImportError as exc:
         warnings.warn(f"no viewer channels: {exc.name or exc} is not installed "
                       "(pip install 'cosim[viz]'; or set record.visual_rate: 0)", stacklevel=2)
@@ -97,7 +91,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     sim = simulation if simulation is not None else Simulation(scene)
     live_view = None
     if live is not None:
-        from cosim.live import LiveView  # only with --live
+        from cosim.view.live import LiveView  # only with --live
 
         live_view = LiveView(scene, live, speed=live_speed, components=sim.components)
     recorder = None

@@ -29,7 +29,7 @@ from typing import Any
 
 import yaml
 
-from cosim.codec import CodecError, codec_for
+from cosim.codec.json_codec import CodecError, codec_for
 from cosim.component import Component, OnUnstable
 from cosim.errors import ScenarioError
 from cosim.messages import Message

@@ -24,7 +24,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from cosim.codec import codec_for, decode_state
+from cosim.codec.json_codec import codec_for, decode_state
 from cosim.component import Component
 from cosim.errors import SimulationError
 from cosim.jit_time import compile_timer

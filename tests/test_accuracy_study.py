@@ -1,4 +1,4 @@
-"""``cosim bench accuracy``: the work-precision study (components/present/accuracy.py), on its --quick
+"""``cosim bench accuracy``: the work-precision study (components/analysis/accuracy.py), on its --quick
 setting against the reference skip, plus the plan's overrides and the table's bookkeeping."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from components.present.accuracy import (
+from components.analysis.accuracy import (
     SECTION,
     Trace,
     compare,

@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from cosim.codec import CodecError, codec_for, decode_state, encode_state
+from cosim.codec.json_codec import CodecError, codec_for, decode_state, encode_state
 from cosim.messages import Array, Message, Vec3, first_difference, message
 
 floats = st.floats(allow_nan=True, allow_infinity=True, width=64)

@@ -11,8 +11,8 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from google.protobuf.descriptor_pb2 import FileDescriptorSet
 
-from cosim.foxglove import FoxgloveEncoder, arrow_orientation, repeated_vectors, scene_update, to_protobuf
-from cosim.visual import Arrow, Cube, Cylinder, Entity, LineStrip, LogLine, Sphere, Transform, TriangleList
+from cosim.view.foxglove import FoxgloveEncoder, arrow_orientation, repeated_vectors, scene_update, to_protobuf
+from cosim.view.items import Arrow, Cube, Cylinder, Entity, LineStrip, LogLine, Sphere, Transform, TriangleList
 
 T = 1_234_567_890_123  # [ns]
 

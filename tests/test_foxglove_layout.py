@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from components.messages import BodyState, Stage
-from cosim.codec import codec_for
-from cosim.recording import Recording
+from cosim.codec.json_codec import codec_for
+from cosim.record.reader import Recording
 from tests.viewer_toys import record_skip
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,10 +20,10 @@ import pytest
 pytest.importorskip("foxglove", reason="the foxglove-sdk package is not installed")
 
 from components.messages import BodyState
-from cosim.codec import codec_for
-from cosim.live import LiveView, LiveViewError, parse_address
+from cosim.codec.json_codec import codec_for
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
+from cosim.view.live import LiveView, LiveViewError, parse_address
 from tests.viewer_toys import SKIP_SCENE, record_skip
 
 PROTOCOL = "foxglove.sdk.v1"

@@ -24,8 +24,8 @@ from mcap.reader import make_reader
 
 from components.messages import BodyState, Stage, WaterField
 from components.visuals import SURFACE_SIDE
-from cosim.recording import Recording
-from cosim.visual import decimation
+from cosim.record.reader import Recording
+from cosim.view.items import decimation
 from tests.viewer_toys import record_skip
 
 ROOT = Path(__file__).resolve().parents[1]

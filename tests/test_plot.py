@@ -12,9 +12,8 @@ from matplotlib.collections import LineCollection
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
-from components.messages import BodyState, StageId, WaterContact
-from components.present.data import load_run
-from components.present.plot import (
+from components.analysis.data import load_run
+from components.analysis.plot import (
     contact_intervals,
     energy_terms,
     figure_contacts,
@@ -22,9 +21,10 @@ from components.present.plot import (
     figure_trajectory,
     plot_run,
 )
-from components.present.style import STAGE_COLORS
+from components.analysis.style import STAGE_COLORS
+from components.messages import BodyState, StageId, WaterContact
 from cosim.cli import main
-from cosim.recording import Recording
+from cosim.record.reader import Recording
 from tests.viewer_toys import record_skip
 
 

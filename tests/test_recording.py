@@ -13,7 +13,7 @@ import pytest
 from mcap.reader import make_reader
 
 from cosim.errors import RecordingError
-from cosim.recording import Recording
+from cosim.record.reader import Recording
 from cosim.runner import run_scene
 from cosim.scenario import loads
 
@@ -140,7 +140,7 @@ def test_truncated_and_corrupt_recordings_get_clear_errors(tmp_path):
 
 def test_record_selection_applies_to_viewer_channels(tmp_path):
     """record.channels patterns select viewer channels too: none are written unless they match."""
-    from cosim.recorder import DerivedMessage
+    from cosim.record.recorder import DerivedMessage
 
     def deriver(time_ns, component, port, msg):
         yield DerivedMessage("/scene/x", "demo.X", "jsonschema", b"{}", "json", b"{}")
@@ -155,7 +155,7 @@ def test_record_selection_applies_to_viewer_channels(tmp_path):
 def test_a_deriver_sees_only_the_ports_it_watches(tmp_path):
     """A deriver with ``watches`` is shown the messages of the ports it watches and no others (and is
     asked once per port); one without ``watches`` sees every exchange."""
-    from cosim.recorder import DerivedMessage
+    from cosim.record.recorder import DerivedMessage
 
     class Picky:
         def __init__(self):

@@ -23,14 +23,14 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
 
-from cosim import mcapsink
-from cosim.codec import codec_for
+from cosim.codec.json_codec import codec_for
+from cosim.codec.jsontext import renderer
+from cosim.codec.records import HEADER, MESSAGE
 from cosim.component import Component, Port
-from cosim.jsontext import renderer
-from cosim.mcapsink import InProcessSink, ProcessSink
 from cosim.messages import Array, Message, Vec3, first_difference, message
-from cosim.recorder import DerivedMessage, Recorder
-from cosim.records import HEADER, MESSAGE
+from cosim.record import writer
+from cosim.record.recorder import DerivedMessage, Recorder
+from cosim.record.writer import InProcessSink, ProcessSink
 from cosim.scenario import loads
 from cosim.scheduler import BaseObserver, Simulation
 from tests.test_codec import Everything, everything, floats
@@ -156,7 +156,7 @@ def test_writer_process_and_in_process_sink_write_the_same_bytes(tmp_path, monke
     """Recorded in a writer process and in this process, the scene gives identical channels (times,
     sequences and bytes of every message, the checkpoints and the deriver's channel included), schemas,
     metadata and attachments. The stage is made smaller than the large grids, so those go alone."""
-    monkeypatch.setattr(mcapsink, "STAGE_BYTES", SMALL_STAGE)
+    monkeypatch.setattr(writer, "STAGE_BYTES", SMALL_STAGE)
     record(tmp_path / "process.mcap", background=True)
     record(tmp_path / "inproc.mcap", background=False)
     a, b = contents(tmp_path / "process.mcap"), contents(tmp_path / "inproc.mcap")

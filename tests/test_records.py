@@ -12,10 +12,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cosim.codec import codec_for, plain_state
-from cosim.jsontext import renderer, state_text
+from cosim.codec.json_codec import codec_for, plain_state
+from cosim.codec.jsontext import renderer, state_text
+from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, OTHER_HEAD, Stage, read_other
 from cosim.messages import Array, Message, message
-from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, OTHER_HEAD, Stage, read_other
 from tests.test_codec import Everything, Mode, everything
 
 

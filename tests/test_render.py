@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from components.present.render import (
+from components.analysis.render import (
     RenderOptions,
     _ffmpeg,
     body_polygons,
@@ -115,7 +115,7 @@ def test_the_disk_is_drawn_turned_by_its_quaternion():
 
     stone = ScriptedStone("s", ScriptedStone.Params(attack_deg=30.0, spin=0.0))
     state = stone.state_at(0.0)
-    from components.present.data import BodyTrack
+    from components.analysis.data import BodyTrack
 
     body = BodyTrack("/s/state", np.zeros(1), state.position[None], state.velocity[None],
                      state.orientation[None], np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),

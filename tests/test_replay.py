@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from cosim.errors import RecordingError
-from cosim.recording import Recording
+from cosim.record.reader import Recording
 from cosim.replay import replay_component, restart_simulation
 from cosim.runner import run_scene
 from cosim.scenario import loads

@@ -10,7 +10,7 @@ import pytest
 from components.messages import BodyState, Impulse, Shape, Wrench
 from components.rigid import quaternion as quat
 from components.rigid_body import RigidBody
-from cosim.codec import codec_for
+from cosim.codec.json_codec import codec_for
 from cosim.messages import messages_equal
 from cosim.params import build
 

@@ -1,4 +1,4 @@
-"""The shared-memory ring (cosim.ring): every batch arrives whole and in order, around the ring's end,
+"""The shared-memory ring (cosim.record.ring): every batch arrives whole and in order, around the ring's end,
 inline when larger than the ring, and under backpressure; either side ending is seen by the other.
 
 Most tests run the consumer in a child process, as a recording's writer does::
@@ -32,7 +32,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cosim.ring import RingConsumer, RingError, RingProducer
+from cosim.record.ring import RingConsumer, RingError, RingProducer
 
 ROOT = Path(__file__).resolve().parents[1]
 RING = 4096  # bytes: small, so that a few hundred batches go around it many times
@@ -40,7 +40,7 @@ WATCHDOG_S = 10.0  # a child consumer still running after this long is killed: a
 
 CONSUMER = r"""
 import hashlib, json, os, sys, time
-from cosim.ring import RingConsumer
+from cosim.record.ring import RingConsumer
 
 fd, size, control, ack, delay, die_after = sys.argv[1:]
 delay, die_after = float(delay), int(die_after)
@@ -84,7 +84,7 @@ class Child:
 
     def finish(self) -> list:
         """Close the producer and return the child's report of every batch it read (the ack pipe stays
-        open until the child has exited, as cosim.mcapsink.ProcessSink keeps it)."""
+        open until the child has exited, as cosim.record.writer.ProcessSink keeps it)."""
         self.close_producer()
         out, err = self.proc.communicate(timeout=WATCHDOG_S)
         self.close_ack()
@@ -388,7 +388,7 @@ def test_put_to_a_consumer_gone_before_reading_raises_ring_error(local):
 def test_put_to_a_consumer_gone_after_acknowledging_raises(local):
     """When the dead consumer's last acknowledgements are still in the pipe, the first put reads them
     and then fails writing the control record (BrokenPipeError); the next put sees the ack pipe's end
-    (RingError). Callers catch both (cosim.mcapsink.ProcessSink catches RingError and OSError)."""
+    (RingError). Callers catch both (cosim.record.writer.ProcessSink catches RingError and OSError)."""
     gen = local.consumer.batches()
     local.producer.put([b"1"])
     local.producer.put([b"2"])

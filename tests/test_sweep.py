@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from cosim.errors import ScenarioError
-from cosim.sweep import Expression, load_sweep, loads_sweep, point_id, yaml_value
+from cosim.sweep.plan import Expression, load_sweep, loads_sweep, point_id, yaml_value
 from tests.sweep_toys import BALL_SCENE, write_sweep
 
 GRID = """

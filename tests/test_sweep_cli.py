@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-import cosim.sweep_backends
+import cosim.sweep.backends
 from cosim.cli import main
 from tests.sweep_toys import write_sweep
 
@@ -103,7 +103,7 @@ def test_dask_problems_exit_2(tmp_path, monkeypatch, capsys):
     assert "error: --dask needs dask and distributed: pip install 'cosim[dask]'" in capsys.readouterr().err
     monkeypatch.delitem(sys.modules, "distributed")
     pytest.importorskip("distributed")
-    monkeypatch.setattr(cosim.sweep_backends, "DASK_CONNECT_TIMEOUT_S", 1)
+    monkeypatch.setattr(cosim.sweep.backends, "DASK_CONNECT_TIMEOUT_S", 1)
     assert main(["sweep", path, "--dask", "tcp://127.0.0.1:9", "-o", str(tmp_path / "x.csv")]) == 2
     assert "error: cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
     assert not (tmp_path / "x.csv").exists()

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from cosim.sweep import load_sweep
-from cosim.sweep_backends import BackendError, DaskBackend, ProcessBackend
-from cosim.sweep_run import run_sweep
+from cosim.sweep.backends import BackendError, DaskBackend, ProcessBackend
+from cosim.sweep.plan import load_sweep
+from cosim.sweep.run import run_sweep
 from tests.sweep_toys import read_table, write_sweep
 
 distributed = pytest.importorskip("distributed")

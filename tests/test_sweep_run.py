@@ -14,12 +14,12 @@ from pathlib import Path
 import pytest
 
 from cosim.errors import ScenarioError
-from cosim.recording import Recording
+from cosim.record.reader import Recording
 from cosim.runner import collect_metrics, run_scene
 from cosim.scenario import loads
-from cosim.sweep import load_sweep
-from cosim.sweep_backends import ProcessBackend
-from cosim.sweep_run import run_sweep
+from cosim.sweep.backends import ProcessBackend
+from cosim.sweep.plan import load_sweep
+from cosim.sweep.run import run_sweep
 from tests.sweep_toys import BALL_SCENE, read_table, write_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -126,7 +126,7 @@ def test_a_point_that_kills_its_worker_is_the_only_one_lost(tmp_path):
 def test_a_pool_found_broken_when_submitting_loses_no_point(tmp_path):
     """A worker can die before its failed run comes back, so that submitting the next point finds
     the pool broken: that point is not lost, it runs after the restart."""
-    from cosim.sweep_backends import WorkerLost
+    from cosim.sweep.backends import WorkerLost
 
     class BreaksOnThirdSubmit(ProcessBackend):
         submits = 0
@@ -163,7 +163,7 @@ def _ends_within(action, seconds: float) -> bool:
 def test_closing_a_pool_ends_a_worker_that_ignores_sigterm(monkeypatch, broken):
     """Closing the pool ends every worker, even one that ignores SIGTERM, and even after another
     worker died and broke the pool (where the executor's own shutdown waits for it forever)."""
-    import cosim.sweep_backends as backends
+    import cosim.sweep.backends as backends
     from tests.sweep_toys import dying_task, stubborn_task
 
     monkeypatch.setattr(backends, "WORKER_JOIN_TIMEOUT_S", 0.5)

@@ -7,7 +7,7 @@ import pytest
 
 from cosim.component import Component, Port
 from cosim.messages import Message, message
-from cosim.visual import (
+from cosim.view.items import (
     KEEPALIVE_NS,
     Entity,
     LineStrip,

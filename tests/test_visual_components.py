@@ -14,7 +14,7 @@ from components.visuals import (
     water_colors,
     water_field,
 )
-from cosim.visual import Arrow, Cube, Cylinder, Entity, LogLine, Sphere, Trail, Transform, decimation
+from cosim.view.items import Arrow, Cube, Cylinder, Entity, LogLine, Sphere, Trail, Transform, decimation
 from tests.viewer_toys import ScriptedStone
 
 

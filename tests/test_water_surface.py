@@ -7,7 +7,7 @@ import pytest
 
 from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
 from components.water import GaussianBump, WaterParams, WaterSurface
-from cosim.codec import codec_for, decode_state, encode_state
+from cosim.codec.json_codec import codec_for, decode_state, encode_state
 from cosim.messages import messages_equal
 from cosim.params import build
 

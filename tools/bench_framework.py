@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from cosim.docsection import replace_section  # noqa: E402
-from cosim.recorder import Recorder  # noqa: E402
+from cosim.record.recorder import Recorder  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
 

@@ -28,9 +28,9 @@ sys.path.insert(0, str(ROOT))
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
-from cosim.sweep import loads_sweep  # noqa: E402
-from cosim.sweep_backends import DaskBackend, ProcessBackend  # noqa: E402
-from cosim.sweep_run import run_sweep  # noqa: E402
+from cosim.sweep.backends import DaskBackend, ProcessBackend  # noqa: E402
+from cosim.sweep.plan import loads_sweep  # noqa: E402
+from cosim.sweep.run import run_sweep  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 

@@ -160,7 +160,7 @@ def _delayed_edge(scene: Any, source: str, port: str, target: str, target_port: 
                   initial: Any) -> str | None:
     """The override turning the direct edge ``source.port -> target.target_port`` into a delayed one
     whose initial value is ``initial`` (a message); None if there is no such direct edge."""
-    from cosim.codec import codec_for
+    from cosim.codec.json_codec import codec_for
 
     for index, edge in enumerate(scene.connections):
         if (edge.source, edge.source_port, edge.target, edge.target_port) == (source, port, target, target_port):

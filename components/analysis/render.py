@@ -30,14 +30,14 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from PIL import Image
 from tqdm import tqdm
 
+from components.analysis.data import BodyTrack, iter_fields, load_body, rest_level, topics_of
+from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
 from components.messages import Shape, SkipRecord, Stage, StageId, WaterField
-from components.present.data import BodyTrack, iter_fields, load_body, rest_level, topics_of
-from components.present.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
-from cosim.recording import Recording
+from cosim.record.reader import Recording
 from cosim.timebase import NS_PER_S
-from cosim.visual import decimation
+from cosim.view.items import decimation
 
 FORMATS = (".gif", ".mp4", ".png")
 ASPECT = 9 / 16  # frame height / width

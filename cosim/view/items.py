@@ -3,7 +3,7 @@
 Visual items are plain data, free of any viewer library: a :class:`Transform` between two frames, an
 :class:`Entity` made of primitives (:class:`Sphere`, :class:`Cylinder`, :class:`Cube`,
 :class:`Arrow`, :class:`LineStrip`, :class:`TriangleList`), a :class:`LogLine`, and a :class:`Trail`
-(one point per frame, which the deriver accumulates into a line strip). :mod:`cosim.foxglove` turns
+(one point per frame, which the deriver accumulates into a line strip). :mod:`cosim.view.foxglove` turns
 them into Foxglove messages; other viewers could take the same items.
 
 Who says what a message looks like. The deriver asks, once per (component, port):
@@ -299,7 +299,7 @@ def visuals_for(message_type: type) -> VisualsFunction | None:
 # --- the deriver --------------------------------------------------------------------------------
 
 class Encoder(Protocol):
-    """Turns the items of one frame into viewer messages (see :class:`cosim.foxglove.FoxgloveEncoder`)."""
+    """Turns the items of one frame into viewer messages (see :class:`cosim.view.foxglove.FoxgloveEncoder`)."""
 
     def encode(self, time_ns: int, items: list[Item]) -> list[Any]: ...
 

@@ -3,10 +3,10 @@
 Writing a message's JSON text (every float's repr, the base64 of every large array) and compressing
 it cost more than the physics that made it. Both happen in a second process, on another core, while
 the simulation goes on: the simulating process only packs each message into a binary record
-(:meth:`cosim.codec.MessageCodec.write`; a checkpoint into plain data,
-:func:`cosim.codec.plain_state`), gathers records in a buffer (:class:`cosim.records.Stage`) and sends
-them in batches through a ring in shared memory (:mod:`cosim.ring`); the writer writes the text with
-:mod:`cosim.jsontext` (the same functions :func:`cosim.codec.encode` uses, so the bytes do not depend
+(:meth:`cosim.codec.json_codec.MessageCodec.write`; a checkpoint into plain data,
+:func:`cosim.codec.json_codec.plain_state`), gathers records in a buffer (:class:`cosim.codec.records.Stage`) and sends
+them in batches through a ring in shared memory (:mod:`cosim.record.ring`); the writer writes the text with
+:mod:`cosim.codec.jsontext` (the same functions :func:`cosim.codec.json_codec.encode` uses, so the bytes do not depend
 on where they are made) and the file with
 the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment and metadata
 indexes). The writer imports nothing else of cosim, so it starts in a few tens of milliseconds. It
@@ -30,9 +30,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from cosim.jsontext import RecordLayout, Renderer, renderer, state_text
-from cosim.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write, read_other
-from cosim.ring import RingConsumer, RingError, RingProducer
+from cosim.codec.jsontext import RecordLayout, Renderer, renderer, state_text
+from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write, read_other
+from cosim.record.ring import RingConsumer, RingError, RingProducer
 
 BATCH = 128  # a batch is sent at this many records...
 BATCH_BYTES = 128 << 10  # ...or this many bytes: small, so the writer stays close behind (and the last batch is quick)
@@ -68,7 +68,7 @@ class _Apply:
         self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
 
     def apply_batch(self, batch: memoryview) -> None:
-        """Write every record of a batch (see :mod:`cosim.records`)."""
+        """Write every record of a batch (see :mod:`cosim.codec.records`)."""
         offset, end = 0, len(batch)
         logs, renderers = self.logs, self.renderers
         while offset < end:
@@ -117,7 +117,7 @@ class _Apply:
         os.replace(self.part, self.final)
 
 
-_PACKAGE_ROOT = str(Path(__file__).resolve().parents[1])  # the folder holding the cosim package
+_PACKAGE_ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the cosim package
 
 
 def writer_main(argv: list[str]) -> int:
@@ -159,7 +159,7 @@ class _Ids:
 
 class _Sink:
     """What both sinks share: ids counted here, and every record gathered in a
-    :class:`cosim.records.Stage` whose batches go to :meth:`_send` (applied by :class:`_Apply`, here or
+    :class:`cosim.codec.records.Stage` whose batches go to :meth:`_send` (applied by :class:`_Apply`, here or
     in the writer process).
 
     Messages are packed by their codec (:meth:`add_message_record`) or given as bytes
@@ -198,7 +198,7 @@ class _Sink:
         return self.stage.add_message(write, channel, time_ns, msg)
 
     def add_state(self, channel: int, time_ns: int, plain: Any) -> None:
-        """A checkpoint, as :func:`cosim.codec.plain_state` gives it (its arrays already copied)."""
+        """A checkpoint, as :func:`cosim.codec.json_codec.plain_state` gives it (its arrays already copied)."""
         self.stage.add_other(("state", channel, time_ns, plain))
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
@@ -239,7 +239,7 @@ class InProcessSink(_Sink):
 class ProcessSink(_Sink):
     """Sends records in batches to a writer process (this module run with ``python -m``: it shares no
     threads or locks with the simulation, and starts while the simulation does), through a ring in
-    shared memory (:mod:`cosim.ring`)."""
+    shared memory (:mod:`cosim.record.ring`)."""
 
     def __init__(self, path: Path):
         super().__init__()
@@ -260,7 +260,7 @@ class ProcessSink(_Sink):
         try:
             self._proc = subprocess.Popen(
                 # -P: the working folder must not shadow anything on the writer's path
-                [sys.executable, "-P", "-m", "cosim.mcapsink", str(part), str(path), str(self._ring.fd),
+                [sys.executable, "-P", "-m", "cosim.record.writer", str(part), str(path), str(self._ring.fd),
                  str(RING_BYTES), str(control_r), str(ack_w)],
                 pass_fds=(self._ring.fd, control_r, ack_w), stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL, stderr=self._errors, start_new_session=True, env=env)

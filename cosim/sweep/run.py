@@ -23,9 +23,9 @@ from typing import Any
 
 from tqdm import tqdm
 
-from cosim.sweep import Point, Sweep
-from cosim.sweep_backends import DaskBackend, ProcessBackend, Task, WorkerLost, versions
-from cosim.sweep_table import ResultTable
+from cosim.sweep.backends import DaskBackend, ProcessBackend, Task, WorkerLost, versions
+from cosim.sweep.plan import Point, Sweep
+from cosim.sweep.table import ResultTable
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 
@@ -204,7 +204,7 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         outcome.failures = [(int(r["index"]), label[r["point_id"]].label(), r["reason"])
                             for r in outcome.rows if r["status"] == "failed"]
         if figure and sweep.figure is not None:
-            from cosim.sweep_plot import draw
+            from cosim.sweep.figure import draw
 
             outcome.figure = draw(sweep, outcome.rows, output.with_suffix(".png"))
     return outcome

@@ -3,7 +3,7 @@
 An observer, imported only when ``--live`` is given, built on the ``foxglove-sdk`` package (which
 also writes every recording). It publishes the same channels as a recording: every exchange on
 ``/<component>/<port>`` as JSON with its ``cosim.<Type>`` JSON schema, and the viewer channels of a
-:class:`cosim.visual.VisualDeriver` (its own instance, at the scene's visual rate or
+:class:`cosim.view.items.VisualDeriver` (its own instance, at the scene's visual rate or
 :data:`DEFAULT_RATE`) as Foxglove protobufs, each with log time = simulation time. The server
 announces the simulation clock (the ``time`` capability), and the run is paced at ``speed`` times
 real time so it can be watched (``speed`` 0: as fast as it goes). Like the recorder, it only reads
@@ -17,9 +17,10 @@ import sys
 import time
 from typing import Any
 
-from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for
+from cosim.codec.json_codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for
 from cosim.errors import CosimError
 from cosim.messages import Message
+from cosim.record.recorder import physics_topics
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
 from cosim.timebase import NS_PER_S
@@ -57,8 +58,7 @@ class LiveView(BaseObserver):
         except ImportError:
             raise LiveViewError("--live needs the foxglove-sdk package (a dependency of cosim): "
                                "pip install foxglove-sdk") from None
-        from cosim.foxglove import visual_deriver
-        from cosim.runner import physics_topics
+        from cosim.view.foxglove import visual_deriver
 
         if not speed >= 0:
             raise LiveViewError(f"live speed must be >= 0 (got {speed})")

@@ -15,10 +15,10 @@ from typing import Any
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from cosim.codec import CodecError, codec_for, decode_state
+from cosim.codec.json_codec import CodecError, codec_for, decode_state
 from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
-from cosim.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
+from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
 from cosim.scenario import Scene, loads
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import ScenarioError
-from cosim.sweep import yaml_value
+from cosim.sweep.plan import yaml_value
 
 
 def cell(value: Any) -> str:

@@ -28,7 +28,7 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from components.present.plot import plot_run
+    from components.analysis.plot import plot_run
 
     out_dir = Path(args.output) if args.output else Path(args.recording).with_name(
         Path(args.recording).stem + "-plots")
@@ -65,7 +65,7 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from components.present.render import RenderError, RenderOptions, render
+    from components.analysis.render import RenderError, RenderOptions, render
 
     options = RenderOptions(fps=args.fps, width=args.width, speed=args.speed, view=args.view, span=args.span,
                             start=args.start, stop=args.stop, at=args.at, body=args.body, water=args.water,

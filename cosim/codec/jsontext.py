@@ -1,11 +1,11 @@
 """The last step of encoding: a message's packed record to JSON bytes. Standard library only.
 
 Encoding a message or a checkpoint happens in two halves. The first packs the message into a record
-of binary values (:meth:`cosim.codec.MessageCodec.write`: every number as it is, every large array's
-raw bytes) or a checkpoint into plain data (:func:`cosim.codec.plain_state`); it is cheap and runs
+of binary values (:meth:`cosim.codec.json_codec.MessageCodec.write`: every number as it is, every large array's
+raw bytes) or a checkpoint into plain data (:func:`cosim.codec.json_codec.plain_state`); it is cheap and runs
 where the message is made. The second, here, writes the text: every float's shortest round-trip
 repr and the base64 of every large array, which is most of the cost. A recording's writer process
-runs it, on another core, importing nothing but this module; :func:`cosim.codec.encode` runs both
+runs it, on another core, importing nothing but this module; :func:`cosim.codec.json_codec.encode` runs both
 halves in turn, so the bytes are the same wherever they are made.
 """
 
@@ -130,6 +130,6 @@ def _with_base64(value: Any) -> Any:
 
 
 def state_text(plain: Any) -> bytes:
-    """The JSON bytes of plain state (see :func:`cosim.codec.plain_state`): JSON values, with the
+    """The JSON bytes of plain state (see :func:`cosim.codec.json_codec.plain_state`): JSON values, with the
     arrays' raw bytes written as base64 text."""
     return json.dumps(_with_base64(plain), separators=(",", ":"), allow_nan=False).encode()

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import json
 
-from cosim.recorder import STATUS_TOPIC
-from cosim.recording import Recording
+from cosim.record.reader import Recording
+from cosim.record.recorder import STATUS_TOPIC
 from cosim.timebase import NS_PER_S
 
 TIMELINE_MAX = 60  # timeline rows shown before eliding the middle

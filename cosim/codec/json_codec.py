@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from cosim.jsontext import TEXT_LENGTH, RecordLayout, base64_text, nonfinite_text, renderer, state_text
+from cosim.codec.jsontext import TEXT_LENGTH, RecordLayout, base64_text, nonfinite_text, renderer, state_text
+from cosim.codec.records import HEADER, MESSAGE, Write
 from cosim.messages import Array, FieldKind, FieldSpec, Message, fields_of
-from cosim.records import HEADER, MESSAGE, Write
 
 INLINE_ARRAY_MAX = 16  # arrays up to this many fixed elements are written inline as JSON lists
 
@@ -190,12 +190,12 @@ def _nested(shape: tuple[int, ...], item: str) -> str:
 
 def _compile_writer(fields: tuple[FieldSpec, ...], encoders: dict[str, Callable[[Any], Any]]
                     ) -> tuple[Write, RecordLayout]:
-    """A generated function packing a message into a record (see :mod:`cosim.records`), and the
+    """A generated function packing a message into a record (see :mod:`cosim.codec.records`), and the
     record's layout, so that ``renderer(layout)`` of the record equals
     ``json.dumps(to_dict(msg), separators=(",", ":"))`` byte for byte: every number is packed as it
     is (one ``struct`` call for them all), every large array copied once as raw bytes; the text
     (floats' shortest round-trip reprs, non-finite floats as strings, base64) is written later, by
-    :func:`cosim.jsontext.renderer`, usually in a recording's writer process. Anything unexpected
+    :func:`cosim.codec.jsontext.renderer`, usually in a recording's writer process. Anything unexpected
     (a list where an array was declared, a wrong shape or dtype, an int beyond 64 bits) gives -1 and
     the caller takes the slow path. Recording every exchange hinges on this."""
     env: dict[str, Any] = {"_json": json.dumps, "_ndarray": np.ndarray, "_contiguous": np.ascontiguousarray,
@@ -318,7 +318,7 @@ class MessageCodec:
     """Encoder/decoder for one message type (built once per type, see :func:`codec_for`).
 
     ``write(msg, buffer, offset, channel, time_ns)`` packs a message into a record (see
-    :mod:`cosim.records`; -1 when the message needs the slow path: a wrong shape or dtype);
+    :mod:`cosim.codec.records`; -1 when the message needs the slow path: a wrong shape or dtype);
     ``renderer(layout)`` writes a record's JSON text. :meth:`encode` does both.
     """
 
@@ -444,7 +444,7 @@ def decode(message_type: type[Message], payload: bytes) -> Message:
 def plain_state(value: Any) -> Any:
     """State data (dicts, lists, numbers, strings, numpy arrays) as JSON values, every array as a
     tagged dict holding its little-endian bytes as a :class:`pickle.PickleBuffer` (written as base64
-    by :func:`cosim.jsontext.state_text`; pickled out of band). The buffers share the state's arrays:
+    by :func:`cosim.codec.jsontext.state_text`; pickled out of band). The buffers share the state's arrays:
     use them before the state changes."""
     if isinstance(value, np.ndarray):
         arr = np.ascontiguousarray(value)

@@ -20,10 +20,10 @@ SHOWN_POINTS = 10  # --dry-run lists this many points
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from cosim.errors import ScenarioError
-    from cosim.sweep import load_sweep
-    from cosim.sweep_backends import BackendError, DaskBackend, make_backend
-    from cosim.sweep_run import run_sweep
-    from cosim.sweep_table import journal_path
+    from cosim.sweep.backends import BackendError, DaskBackend, make_backend
+    from cosim.sweep.plan import load_sweep
+    from cosim.sweep.run import run_sweep
+    from cosim.sweep.table import journal_path
 
     try:
         sweep = load_sweep(args.sweep, overrides=args.set or [], output=args.output)

@@ -21,9 +21,9 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from components.analysis.data import RunData, contact_spans, load_run
+from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import StageId
-from components.present.data import RunData, contact_spans, load_run
-from components.present.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact

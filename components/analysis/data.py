@@ -24,10 +24,10 @@ from components.messages import (
     WaterField,
     Wrench,
 )
-from cosim.codec import codec_for
+from cosim.codec.json_codec import codec_for
 from cosim.errors import RecordingError
 from cosim.messages import Message
-from cosim.recording import Recording
+from cosim.record.reader import Recording
 from cosim.timebase import NS_PER_S
 
 

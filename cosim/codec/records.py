@@ -3,8 +3,8 @@
 A batch is a run of records, each a header (:data:`HEADER`: kind, channel id, log time [ns]) and a
 body:
 
-- :data:`MESSAGE`: a message packed by its codec (:meth:`cosim.codec.MessageCodec.write`), laid out
-  as its channel's :class:`cosim.jsontext.RecordLayout`;
+- :data:`MESSAGE`: a message packed by its codec (:meth:`cosim.codec.json_codec.MessageCodec.write`), laid out
+  as its channel's :class:`cosim.codec.jsontext.RecordLayout`;
 - :data:`BYTES`: a length (:data:`LENGTH`), then a message's bytes as they are to be written;
 - :data:`OTHER`: a length, then a pickled tuple: a schema, a channel, metadata, an attachment or a
   checkpoint (a few per run); the pickle's out-of-band buffers (a checkpoint's arrays) follow it,
@@ -102,7 +102,7 @@ class Stage:
 
     def add_other(self, record: tuple) -> None:
         """An OTHER record: ``record`` pickled, its pickle buffers (the arrays of a checkpoint, see
-        :func:`cosim.codec.plain_state`) copied out of band, straight from the arrays."""
+        :func:`cosim.codec.json_codec.plain_state`) copied out of band, straight from the arrays."""
         buffers: list[memoryview] = []
         data = pickle.dumps(record, protocol=5, buffer_callback=lambda b: buffers.append(b.raw()))
         head = OTHER_HEAD.pack(len(buffers)) + b"".join(LENGTH.pack(b.nbytes) for b in buffers)

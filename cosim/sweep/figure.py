@@ -18,7 +18,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from cosim.sweep import Sweep
+from cosim.sweep.plan import Sweep
 
 MAX_LABELLED_CELLS = 400  # above this many cells, the heat map's values are not written in them
 

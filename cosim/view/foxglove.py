@@ -1,4 +1,4 @@
-"""Visual items (:mod:`cosim.visual`) as Foxglove messages: ``foxglove.SceneUpdate``,
+"""Visual items (:mod:`cosim.view.items`) as Foxglove messages: ``foxglove.SceneUpdate``,
 ``foxglove.FrameTransforms`` and ``foxglove.Log`` protobufs, from the ``foxglove-schemas-protobuf``
 package, with schemas from ``mcap-protobuf-support`` (the ``[viz]`` extra).
 
@@ -36,9 +36,9 @@ from google.protobuf.message import Message as ProtoMessage
 from google.protobuf.timestamp_pb2 import Timestamp
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from cosim import visual as v
-from cosim.recorder import DerivedMessage
+from cosim.record.recorder import DerivedMessage
 from cosim.timebase import NS_PER_S
+from cosim.view import items as v
 
 SCHEMA_ENCODING = "protobuf"
 MESSAGE_ENCODING = "protobuf"
@@ -292,7 +292,7 @@ def to_protobuf(time_ns: int, items: Sequence[v.Item]) -> list[tuple[str, ProtoM
 
 
 class FoxgloveEncoder:
-    """Encoder for :class:`cosim.visual.VisualDeriver`: items -> recorder :class:`DerivedMessage`s."""
+    """Encoder for :class:`cosim.view.items.VisualDeriver`: items -> recorder :class:`DerivedMessage`s."""
 
     def encode(self, time_ns: int, items: list[v.Item]) -> list[DerivedMessage]:
         return [DerivedMessage(topic, cls.DESCRIPTOR.full_name, SCHEMA_ENCODING, schema_data(cls),

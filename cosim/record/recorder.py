@@ -15,7 +15,7 @@ Layout of a recording:
 
 The file is written as ``NAME.part`` and renamed when closed, so a finished path always holds a
 complete, indexed file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`.
-The MCAP writing itself happens in a writer process (:mod:`cosim.mcapsink`), which finishes the file
+The MCAP writing itself happens in a writer process (:mod:`cosim.record.writer`), which finishes the file
 even if the simulating process dies.
 """
 
@@ -29,11 +29,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cosim.codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
+from cosim.codec.json_codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
+from cosim.codec.jsontext import RecordLayout
 from cosim.errors import RecordingError
-from cosim.jsontext import RecordLayout
-from cosim.mcapsink import open_sink
 from cosim.messages import Message, message
+from cosim.record.writer import open_sink
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
 
@@ -236,3 +236,9 @@ class Recorder(BaseObserver):
         if not self._closed:
             self._closed = True
             self.sink.discard()
+
+
+def physics_topics(scene: Scene) -> frozenset[str]:
+    """Every channel the physics writes (``/<component>/<port>``) plus the framework's own."""
+    topics = {f"/{name}/{port}" for name, cfg in scene.components.items() for port in cfg.cls.outputs}
+    return frozenset(topics | {STATUS_TOPIC, EVENTS_TOPIC, CHECKPOINT_TOPIC, PERF_TOPIC})
