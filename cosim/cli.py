@@ -2,20 +2,31 @@
 
 Exit codes: 0 ok, 1 the simulation failed (or was interrupted), 2 bad input (scene, recording or
 arguments). Bad input is reported in plain lines on stderr, never as a traceback, and leaves no file.
+
+:func:`main` is the one error boundary of every command, the built-in ones and those added through
+the ``cosim.commands`` entry points (sweep, plot, render, bench): whatever escapes a command becomes
+one line on stderr naming what went wrong and where, with exit code 1 (the run failed, or an error
+inside cosim) or 2 (bad input: a scene, a recording, an argument, a missing optional extra);
+``--debug`` (anywhere on the command line) shows the traceback as well.
 """
 
 from __future__ import annotations
 
-import argparse
-import shlex
 import sys
-from collections.abc import Callable
-from importlib.metadata import entry_points
-from pathlib import Path
-from typing import Any
 
-from cosim.errors import CosimError, RecordingError, ScenarioError
-from cosim.timebase import NS_PER_S
+try:
+    import argparse
+    import os
+    import shlex
+    from collections.abc import Callable
+    from pathlib import Path
+    from typing import Any
+
+    from cosim.errors import CosimError, RecordingError, ScenarioError
+    from cosim.timebase import NS_PER_S
+except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the same one line as later
+    sys.stderr.write("error: cosim: interrupted (Ctrl-C)\n")
+    raise SystemExit(1) from None
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -54,6 +65,17 @@ _time_since_start = number_arg(float, "seconds", at_least=0, unit=" s")
 def _seconds_arg(text: str) -> int:
     """A time [s] >= 0 as integer nanoseconds."""
     return round(_time_since_start(text) * NS_PER_S)
+
+
+def _live_address(text: str) -> str:
+    """``--live [HOST:]PORT`` (or ``HOST``), checked before anything runs: a port outside 0..65535
+    is bad input."""
+    _, sep, port = text.strip().rpartition(":")
+    if not text.strip() or (sep and not port.isdigit()):
+        raise argparse.ArgumentTypeError(f"expected [HOST:]PORT, got {text!r}")
+    if port.isdigit() and not 0 <= int(port) <= 65535:
+        raise argparse.ArgumentTypeError(f"the port must be in 0..65535, got {port}")
+    return text
 
 
 def _default_output(scene_path: str, name: str) -> Path:
@@ -130,12 +152,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     sim, stamp = restart_simulation(rec, args.from_time, args.set or [])
     default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s.mcap")
     output = Path(args.output) if args.output else default
-    if output.resolve() == rec.path.resolve():
-        raise RecordingError(f"{output}: the restarted run cannot overwrite the recording it starts from")
     print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s")
     outcome = run_scene(sim.scene, output, until_ns=args.until,
                         command_line=shlex.join(["cosim", *sys.argv[1:]]), progress=not args.quiet,
-                        simulation=sim)
+                        simulation=sim, inputs=(rec.path,))
     print(format_summary(sim.scene, outcome))
     return EXIT_FAILED if outcome.failed else EXIT_OK
 
@@ -143,6 +163,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="cosim", description="Co-simulation of a stone skipping on water, recorded to MCAP.")
     parser.add_argument("--version", action="version", version=f"cosim {_version()}")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error (also accepted after the command)")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def scene_args(p: argparse.ArgumentParser) -> None:
@@ -159,7 +181,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--record-every", type=int, metavar="N", help="record every N-th message of each channel")
     p.add_argument("--perf", action="store_true", help="add wall-clock /perf channels (not deterministic)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT",
+    p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
     p.add_argument("--live-speed", type=float, default=1.0, metavar="S",
                    help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
@@ -184,9 +206,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_replay)
 
+    from importlib.metadata import entry_points  # here, not at import: Ctrl-C at start-up finds main() sooner
+
     for ep in sorted(entry_points(group=COMMANDS_GROUP), key=lambda e: e.name):
-        ep.load()(sub)
+        try:
+            ep.load()(sub)
+        except Exception as exc:  # one broken plug-in must not take the other commands with it
+            _unavailable(sub, ep.name, f"cannot load {ep.value} ({type(exc).__name__}: {exc})", exc)
     return parser
+
+
+def _unavailable(sub: argparse._SubParsersAction, name: str, why: str, exc: Exception) -> None:
+    """A command whose plug-in failed to load: using it says why (a missing extra is bad input)."""
+    if name in sub.choices:
+        return
+
+    def fail(args: argparse.Namespace) -> int:
+        if isinstance(exc, ModuleNotFoundError) and (exc.name or "").partition(".")[0] in EXTRAS:
+            raise exc  # an optional extra not installed: said as such
+        raise CosimError(f"cosim {name} is unavailable: {why}")
+
+    p = sub.add_parser(name, help=f"(unavailable: {why})", add_help=False)
+    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.set_defaults(func=fail)
 
 
 # Packages add subcommands through these entry points: each names a register(subparsers) function
@@ -200,19 +242,98 @@ def _version() -> str:
     return __version__
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+# an optional dependency (its import name, top package) -> the extra that installs it
+EXTRAS = {"matplotlib": "viz", "mpl_toolkits": "viz", "PIL": "viz", "foxglove_schemas_protobuf": "viz",
+          "mcap_protobuf": "viz", "google": "viz", "imageio_ffmpeg": "video", "dask": "dask",
+          "distributed": "dask", "fmpy": "fmi", "pythonfmu": "fmi", "pyarrow": "viz"}
+
+
+def _where(exc: BaseException) -> str:
+    """The innermost frame of a traceback, as ``file:line in function``."""
+    import traceback
+
+    frames = traceback.extract_tb(exc.__traceback__)
+    if not frames:
+        return "cosim"
+    last = frames[-1]
+    path = last.filename
     try:
-        return args.func(args)
-    except (ScenarioError, RecordingError) as exc:
+        path = os.path.relpath(path)
+    except ValueError:
+        pass
+    if path.startswith(".."):
+        path = last.filename
+    return f"{path}:{last.lineno} in {last.name}"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split()) or "(no message)"
+
+
+def report(exc: BaseException, command: str) -> int:
+    """Print ``exc`` as one line on stderr (a ScenarioError: one line per problem); its exit code."""
+    what = f"cosim {command}" if command else "cosim"
+    if isinstance(exc, (ScenarioError, RecordingError)):
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except CosimError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+    if isinstance(exc, CosimError):
+        print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_FAILED
-    except BrokenPipeError:
+    if isinstance(exc, KeyboardInterrupt):
+        print(f"error: {what}: interrupted (Ctrl-C)", file=sys.stderr)
+        return EXIT_FAILED
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").partition(".")[0] in EXTRAS:
+        extra = EXTRAS[(exc.name or "").partition(".")[0]]
+        print(f"error: {what} needs {exc.name}, which is not installed: pip install 'cosim[{extra}]'",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if isinstance(exc, MemoryError):
+        print(f"error: {what}: out of memory (at {_where(exc)})", file=sys.stderr)
+        return EXIT_FAILED
+    if isinstance(exc, OSError) and exc.filename is not None:
+        print(f"error: {exc.filename}: {exc.strerror or _one_line(str(exc))}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"error: {what}: internal error {type(exc).__name__}: {_one_line(str(exc))} (at {_where(exc)}; "
+          "--debug shows the traceback)", file=sys.stderr)
+    return EXIT_FAILED
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
+    command = next((a for a in argv if not a.startswith("-")), "")
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        return args.func(args)
+    except SystemExit:  # argparse: --help, --version, bad arguments (already said, exit 2)
+        raise
+    except BrokenPipeError:  # the reader of our output has gone (| head): nothing left to say
+        _quiet_stdout()
         return EXIT_OK
+    except BaseException as exc:  # the one error boundary: one line, never a traceback
+        if not isinstance(exc, Exception | KeyboardInterrupt):
+            raise
+        if debug:
+            import traceback
+
+            traceback.print_exc()
+        if isinstance(exc, KeyboardInterrupt):
+            # CPython marks a KeyboardInterrupt raised inside exec() of a string (dataclasses does
+            # that while a module is being imported) as unhandled even once caught, and the process
+            # would then end by SIGINT instead of with this exit code; the next exec() clears the mark
+            exec("pass")
+        return report(exc, command)
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null, so the interpreter's own flush at exit does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

@@ -15,10 +15,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import RecordingError, SimulationError
+from cosim.errors import SimulationError
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
 from cosim.record.recorder import Recorder, physics_topics
+from cosim.record.writer import SinkError
 from cosim.scenario import Scene
 from cosim.scheduler import RunResult, Simulation
 from cosim.timebase import NS_PER_S
@@ -79,14 +80,20 @@ def default_derivers(scene: Scene) -> list[Any]:
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,
               command_line: str = "", progress: bool = True, perf: bool = False,
               derivers: list[Any] | None = None, simulation: Simulation | None = None,
-              live: str | None = None, live_speed: float = 1.0) -> RunOutcome:
+              live: str | None = None, live_speed: float = 1.0, inputs: tuple[str | Path, ...] = ()) -> RunOutcome:
     """Run ``scene`` (or a prepared ``simulation`` of it), recording to ``output`` unless None.
 
     The recording is closed whatever happens, so a failed or interrupted run leaves a valid file
     holding everything up to the end plus the final status record. A SimulationError does not
     propagate: it is in ``outcome.result``. ``live`` (``[HOST:]PORT``) also streams the physics and
     viewer channels to Foxglove over WebSocket, paced at ``live_speed`` times real time (0: unpaced);
-    it uses the ``foxglove-sdk`` package's WebSocket server.
+    it uses the ``foxglove-sdk`` package's WebSocket server. ``inputs``: files the run reads besides
+    the scene, which the recording must not replace.
+
+    An output that may not be written (:func:`cosim.record.output.check_output`) raises
+    RecordingError before anything runs; a recording that cannot be finished (its writer killed,
+    the disk full) raises :class:`cosim.record.writer.SinkError` once the run has ended, with no
+    partial file left.
     """
     sim = simulation if simulation is not None else Simulation(scene)
     live_view = None
@@ -98,12 +105,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     observers: list[Any] = []
     try:
         if output is not None:
-            output = Path(output)
-            try:
-                output.parent.mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
-                raise RecordingError(f"{output}: cannot create its folder ({exc.strerror or exc})") from None
-            recorder = Recorder(output, scene, command_line=command_line, perf=perf,
+            recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs,
                                 derivers=default_derivers(scene) if derivers is None else derivers)
             for deriver in recorder.derivers:  # components may override their looks (Component.visuals)
                 if hasattr(deriver, "bind"):
@@ -124,10 +126,16 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
             except SimulationError as exc:
                 result = RunResult("failed", str(exc), sim.tick, sim.time_ns, 0.0,
                                    sim.component_steps(), exc)
+            except SinkError:  # the writer stopped mid-run: nothing more can be recorded
+                if recorder is not None:
+                    recorder.discard()
+                raise
     finally:
-        path = recorder.close() if recorder is not None else None
-        if live_view is not None:
-            live_view.close()
+        try:
+            path = recorder.close() if recorder is not None else None
+        finally:
+            if live_view is not None:
+                live_view.close()
     summary = [line for r in sim.runners for line in r.comp.summary()]
     return RunOutcome(result, path, summary, sim)
 

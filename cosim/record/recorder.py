@@ -13,8 +13,12 @@ Layout of a recording:
 - extra channels from *derivers* (viewer channels, computed from the exchanged messages and never
   fed back into the physics) and opt-in ``/perf/...`` wall-clock channels.
 
-The file is written as ``NAME.part`` and renamed when closed, so a finished path always holds a
-complete, indexed file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`.
+The output path is checked first (:func:`cosim.record.output.check_output`: never the scene, a folder,
+a device or a file that is not a recording); the file is written to a private ``NAME.<random>.part``
+beside it and moved into place when closed, so a finished path always holds a complete, indexed
+file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`. A recording that
+cannot be finished (the writer killed, the disk full) raises :class:`cosim.record.writer.SinkError`
+and leaves no partial file.
 The MCAP writing itself happens in a writer process (:mod:`cosim.record.writer`), which finishes the file
 even if the simulating process dies.
 """
@@ -33,6 +37,7 @@ from cosim.codec.json_codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for,
 from cosim.codec.jsontext import RecordLayout
 from cosim.errors import RecordingError
 from cosim.messages import Message, message
+from cosim.record.output import check_output
 from cosim.record.writer import open_sink
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
@@ -103,11 +108,12 @@ class Recorder(BaseObserver):
     """Writes a run to MCAP. Use as an observer of a :class:`Simulation`; always call :meth:`close`."""
 
     def __init__(self, path: str | Path, scene: Scene, *, command_line: str = "", perf: bool = False,
-                 derivers: list[Any] | None = None, version: str = "", background: bool = True):
+                 derivers: list[Any] | None = None, version: str = "", background: bool = True,
+                 inputs: tuple[str | Path, ...] = ()):
+        """``inputs``: files the run reads besides the scene (never overwritten by the recording)."""
         from cosim import __version__
 
-        self.path = Path(path)
-        self.part = self.path.with_name(self.path.name + ".part")
+        self.path = check_output(path, (scene.source, *inputs))
         self.scene = scene
         self.perf = perf
         self.derivers = list(derivers or [])
@@ -115,6 +121,10 @@ class Recorder(BaseObserver):
         self.every = scene.record.every
         self.checkpoint_ticks = (round(scene.record.checkpoint_every * 1e9 / scene.dt_ns)
                                  if scene.record.checkpoint_every > 0 else 0)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RecordingError(f"{self.path}: cannot create its folder ({exc.strerror or exc})") from None
         try:
             self.sink = open_sink(self.path, background)
         except OSError as exc:  # an output path that cannot be written is bad input, said plainly

@@ -21,6 +21,7 @@ not wanted).
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -32,6 +33,8 @@ from typing import Any
 
 from cosim.codec.jsontext import RecordLayout, Renderer, renderer, state_text
 from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write, read_other
+from cosim.errors import CosimError
+from cosim.record.output import claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
 
 BATCH = 128  # a batch is sent at this many records...
@@ -42,8 +45,22 @@ WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on clos
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
 
 
-class SinkError(RuntimeError):
-    """The writer could not write the file (e.g. disk full); the message says why."""
+class SinkError(CosimError):
+    """The writer could not write the file (e.g. disk full, the writer killed); the message says why.
+    The private file is removed: the target keeps what it held before."""
+
+
+_OS_ERROR = re.compile(r"Os \{ code: (\d+)")  # how the SDK's MCAP writer reports a failed write
+
+
+def _reason(text: str) -> str:
+    """The cause of a writer failure from its error output: the operating system's words for the
+    first failed write (disk full, file too large...), else its last line."""
+    match = _OS_ERROR.search(text)
+    if match:
+        return os.strerror(int(match.group(1)))
+    lines = text.strip().splitlines()
+    return lines[-1] if lines else ""
 
 
 class _Apply:
@@ -114,7 +131,7 @@ class _Apply:
 
     def finish(self) -> None:
         self.writer.close()
-        os.replace(self.part, self.final)
+        finish(self.part, self.final)
 
 
 _PACKAGE_ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the cosim package
@@ -129,14 +146,19 @@ def writer_main(argv: list[str]) -> int:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    part, final, ring_fd, ring_size, control_fd, ack_fd = argv
+    # lock_fd: the lock on the private file, held open (and so held) until this process exits
+    part, final, ring_fd, ring_size, control_fd, ack_fd, _lock_fd = argv
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
     try:
         for (batch,) in ring.batches():
             sink.apply_batch(batch)
     finally:
-        sink.finish()
+        try:
+            sink.finish()
+        except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
+            print(f"cannot finish the file: {exc}", file=sys.stderr, flush=True)
+            return 1
     ring.finish()  # the file is complete under its final name: the simulating process need not wait for the exit
     return 0
 
@@ -217,7 +239,12 @@ class InProcessSink(_Sink):
 
     def __init__(self, path: Path):
         self.path = path
-        self._apply = _Apply(str(path.with_name(path.name + ".part")), str(path))
+        self.claim = claim(path)
+        try:
+            self._apply = _Apply(str(self.claim.part), str(path))
+        except BaseException:
+            self.claim.release(remove=True)
+            raise
         super().__init__()
 
     def _send(self, batch: memoryview) -> None:
@@ -225,15 +252,22 @@ class InProcessSink(_Sink):
 
     def close(self) -> None:
         try:
-            self.flush()
-        finally:
-            self._apply.finish()
+            try:
+                self.flush()
+            finally:
+                self._apply.finish()
+        except Exception as exc:
+            self.claim.release(remove=True)
+            raise SinkError(f"{self.path}: the recording could not be written ({exc}); no file was left") from None
+        self.claim.release(remove=False)
 
     def discard(self) -> None:
-        """Finish and remove the file."""
-        self._apply.writer.close()
-        for p in (self.path, self.path.with_name(self.path.name + ".part")):
-            p.unlink(missing_ok=True)
+        """Close and remove the private file (the target keeps what it held)."""
+        try:
+            self._apply.writer.close()
+        except Exception:  # the file is dropped anyway
+            pass
+        self.claim.release(remove=True)
 
 
 class ProcessSink(_Sink):
@@ -244,11 +278,17 @@ class ProcessSink(_Sink):
     def __init__(self, path: Path):
         super().__init__()
         self.path = path
-        part = path.with_name(path.name + ".part")
-        # a path that cannot be written fails at once, in this process; the writer then creates the
-        # file afresh (on ext4, truncating an existing file makes its close wait for block allocation)
-        part.touch()
-        part.unlink()
+        # a path that cannot be written fails at once, in this process (the private file is created
+        # here, empty, and locked; the writer opens it by name and inherits the lock)
+        self.claim = claim(path)
+        try:
+            self._start()
+        except BaseException:
+            self.claim.release(remove=True)
+            raise
+
+    def _start(self) -> None:
+        part, path = self.claim.part, self.path
         # the writer's own errors go to a file, read back only if it fails (a pipe could fill and block it)
         self._errors = tempfile.TemporaryFile()
         # the writer imports this package from where this process found it
@@ -261,8 +301,8 @@ class ProcessSink(_Sink):
             self._proc = subprocess.Popen(
                 # -P: the working folder must not shadow anything on the writer's path
                 [sys.executable, "-P", "-m", "cosim.record.writer", str(part), str(path), str(self._ring.fd),
-                 str(RING_BYTES), str(control_r), str(ack_w)],
-                pass_fds=(self._ring.fd, control_r, ack_w), stdin=subprocess.DEVNULL,
+                 str(RING_BYTES), str(control_r), str(ack_w), str(self.claim.fd)],
+                pass_fds=(self._ring.fd, control_r, ack_w, self.claim.fd), stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL, stderr=self._errors, start_new_session=True, env=env)
         finally:
             os.close(control_r)
@@ -272,18 +312,31 @@ class ProcessSink(_Sink):
     def _send(self, batch: memoryview) -> None:
         try:
             self._ring.put([batch])
-        except (RingError, OSError) as exc:
-            raise SinkError(f"{self.path}: the recording writer stopped ({exc}){self._stderr()}") from None
+        except (RingError, OSError):
+            raise SinkError(self._failure()) from None
 
-    def _stderr(self) -> str:
-        """The writer's last error line, if it wrote one."""
+    def _failure(self) -> str:
+        """What went wrong with the writer, in one line; the private file is removed."""
         try:
-            self._proc.wait(5)
+            code = self._proc.wait(5)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            code = self._proc.wait(WRITER_TIMEOUT_S)
+        try:
             self._errors.seek(0)
-            text = self._errors.read().decode(errors="replace").strip()
-        except (subprocess.TimeoutExpired, OSError, ValueError):
-            return ""
-        return f": {text.splitlines()[-1]}" if text else ""
+            reason = _reason(self._errors.read().decode(errors="replace"))
+        except (OSError, ValueError):
+            reason = ""
+        if code < 0:
+            try:
+                name = signal.Signals(-code).name
+            except ValueError:
+                name = f"signal {-code}"
+            reason = f"the recording writer was killed ({name})"
+        elif not reason:
+            reason = f"the recording writer failed (exit code {code})"
+        self.claim.release(remove=True)
+        return f"{self.path}: the recording could not be written: {reason}; no file was left"
 
     def _hang_up(self) -> bool:
         """Close the ring (the writer then finishes) and wait until the writer is done; True when it
@@ -302,25 +355,25 @@ class ProcessSink(_Sink):
         if finished:  # the file is complete; the writer's exit is reaped in the background
             threading.Thread(target=self._proc.wait, daemon=True).start()
             self._errors.close()
+            self.claim.release(remove=False)
             return
-        code = self._proc.wait(WRITER_TIMEOUT_S)
         try:
-            raise SinkError(f"{self.path}: the recording writer failed (exit code {code}){self._stderr()}")
+            raise SinkError(self._failure())
         finally:
             self._errors.close()
 
     def discard(self) -> None:
-        """Stop the writer and remove the partial file."""
+        """Stop the writer and remove the private file (the target keeps what it held)."""
         self._proc.kill()
         self._hang_up()
         self._proc.wait(WRITER_TIMEOUT_S)
         self._errors.close()
-        for p in (self.path, self.path.with_name(self.path.name + ".part")):
-            p.unlink(missing_ok=True)
+        self.claim.release(remove=True)
 
 
 def open_sink(path: Path, background: bool = True) -> InProcessSink | ProcessSink:
-    """A sink writing ``path`` (via ``path.part``, renamed when finished)."""
+    """A sink writing ``path`` (via a private ``path.<random>.part``, moved onto it when finished:
+    :mod:`cosim.record.output`)."""
     return ProcessSink(path) if background else InProcessSink(path)
 
 

@@ -1,0 +1,137 @@
+"""Where a recording may go, and the private file it is written to until it is complete.
+
+One rule for every writer of recordings (``cosim run -o``, ``cosim replay --from -o``, a sweep's
+``--record``): :func:`check_output` refuses a path that is one of the run's inputs (the scene file,
+the recording a restart starts from, however the path is spelled), a folder, anything but a regular
+file (a device, a pipe, a socket), an existing file that is not an MCAP recording, and a read-only
+file. :func:`claim` then creates a private file beside the target (``NAME.<random>.part``: a unique
+name, so two runs never share one) and locks it for as long as the run and its writer process live;
+a second run aimed at the same target while the first is still writing is refused. The writer
+moves the finished file onto the target with one ``os.replace``, so the target is always either the
+previous file or a complete recording, never half of one.
+
+This module imports only the standard library (and :mod:`cosim.errors`): the writer process loads it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import glob
+import os
+import stat
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from cosim.errors import RecordingError
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+PART_SUFFIX = ".part"
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
+    except OSError:
+        return False
+
+
+def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
+    """``path`` if a recording may be written there; otherwise a RecordingError (bad input) saying why.
+
+    ``inputs`` are files the run reads (the scene, a recording it restarts from): never overwritten.
+    """
+    path = Path(path)
+    for source in inputs:
+        source = Path(source)
+        if source.is_file() and _same_file(path, source):
+            raise RecordingError(f"{path}: is the run's own input {str(source)!r}; choose another output (-o)")
+    if path.name in ("", ".", "..") or path.name.endswith(PART_SUFFIX):
+        raise RecordingError(f"{path}: not a file name for a recording (give e.g. runs/skip.mcap)")
+    try:
+        st = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):  # its folder is made (or refused) next
+        return path
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot use it as the output ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise RecordingError(f"{path}: is a folder; give the recording's file name (e.g. {path / 'run.mcap'})")
+    if not stat.S_ISREG(st.st_mode):
+        raise RecordingError(f"{path}: is not a regular file (a device, pipe or socket); a recording "
+                             "is written only to a file")
+    if not st.st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
+        raise RecordingError(f"{path}: is read-only; it is not replaced")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(MCAP_MAGIC))
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read it to check it is a recording ({exc.strerror or exc})") from None
+    if head != MCAP_MAGIC:
+        raise RecordingError(f"{path}: exists and is not an MCAP recording; it is not overwritten "
+                             "(remove it or choose another output)")
+    return path
+
+
+@dataclass
+class Claim:
+    """A private file ``part`` beside ``target``, locked through ``fd`` while it is written."""
+
+    target: Path
+    part: Path
+    fd: int
+
+    def release(self, remove: bool) -> None:
+        """Close the lock (and remove the private file when ``remove``; a finished one was moved)."""
+        if remove:
+            with contextlib.suppress(OSError):
+                self.part.unlink()
+        if self.fd >= 0:
+            with contextlib.suppress(OSError):
+                os.close(self.fd)
+            self.fd = -1
+
+
+def _locked(part: str) -> bool:
+    """True when another run holds the lock of ``part`` (a run still writing it)."""
+    try:
+        fd = os.open(part, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+    return False
+
+
+def claim(path: str | Path) -> Claim:
+    """Create and lock the private file a recording of ``path`` is written to (its folder exists).
+
+    Raises RecordingError when another run is writing ``path`` now, OSError when the folder cannot
+    be written.
+    """
+    path = Path(path)
+    fd, name = tempfile.mkstemp(prefix=path.name + ".", suffix=PART_SUFFIX, dir=path.parent)
+    mine = Claim(path, Path(name), fd)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(path.name) + ".*" + PART_SUFFIX)
+        for other in glob.glob(pattern):
+            if os.path.abspath(other) != os.path.abspath(name) and _locked(other):
+                raise RecordingError(f"{path}: another run is writing it now ({Path(other).name}); "
+                                     "wait for it or choose another output (-o)")
+    except BaseException:
+        mine.release(remove=True)
+        raise
+    return mine
+
+
+def finish(part: str | Path, target: str | Path) -> None:
+    """Move a complete recording onto its target in one step."""
+    os.replace(part, target)

@@ -1,0 +1,149 @@
+"""One error boundary for every command: whatever escapes a command (built in or added through the
+``cosim.commands`` entry points) is one line on stderr and exit 1 or 2, never a traceback; --debug
+shows it. Ctrl-C at start-up, a bad --live port and a missing optional extra are plain lines too."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import cosim.cli
+from cosim.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SCENE = """
+name: demo
+dt: 0.001
+until: 0.05
+components:
+  src: {type: "tests.toys:Source"}
+  g: {type: "tests.toys:Gain"}
+connections:
+  - src.out -> g.x
+"""
+
+
+@pytest.fixture
+def scene(tmp_path):
+    path = tmp_path / "demo.yaml"
+    path.write_text(SCENE)
+    return path
+
+
+def one_error_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def run_cosim(*args: str, cwd: Path, pythonpath: tuple[str, ...] = ()) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([*pythonpath, str(ROOT)])}
+    return subprocess.run([sys.executable, "-m", "cosim.cli", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_an_unexpected_exception_is_one_line_and_debug_shows_the_traceback(scene, tmp_path, capsys, monkeypatch):
+    """A bug inside a command: exit 1, one line naming the exception and where it happened; with
+    --debug (before or after the command) the traceback too."""
+    out = tmp_path / "r.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    capsys.readouterr()
+
+    def broken(rec):
+        return 1 / 0
+
+    monkeypatch.setattr("cosim.record.describe.describe_recording", broken)
+    assert main(["inspect", str(out)]) == 1
+    line = one_error_line(capsys.readouterr().err)
+    assert "cosim inspect: internal error ZeroDivisionError: division by zero" in line
+    assert "test_reliability_cli.py" in line and "in broken" in line
+    for argv in (["--debug", "inspect", str(out)], ["inspect", str(out), "--debug"]):
+        assert main(argv) == 1
+        err = capsys.readouterr().err
+        assert "Traceback (most recent call last)" in err and err.strip().endswith("--debug shows the traceback)")
+
+
+def test_a_plugin_command_failing_is_one_line(tmp_path, capsys, monkeypatch):
+    """A command registered through an entry point (sweep) raising anything: one line, exit 1."""
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text("scene: demo.yaml\n")
+
+    def explode(*args, **kwargs):
+        raise RuntimeError("the plan fell over")
+
+    monkeypatch.setattr("cosim.sweep.plan.load_sweep", explode)
+    assert main(["sweep", str(sweep)]) == 1
+    assert "cosim sweep: internal error RuntimeError: the plan fell over" in one_error_line(capsys.readouterr().err)
+
+
+def test_a_plugin_that_cannot_load_leaves_the_other_commands_working(scene, tmp_path, capsys, monkeypatch):
+    """An entry point that fails to import does not break `cosim`: other commands run, and the
+    broken one says why in one line."""
+    real = importlib.metadata.entry_points
+
+    def with_a_broken_one(**kw):
+        found = list(real(**kw))
+        if kw.get("group") == cosim.cli.COMMANDS_GROUP:
+            found.append(importlib.metadata.EntryPoint("wobble", "no_such_module_here:register", kw["group"]))
+        return found
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", with_a_broken_one)
+    assert main(["validate", str(scene)]) == 0
+    capsys.readouterr()
+    assert main(["wobble", "x", "--y"]) == 1
+    line = one_error_line(capsys.readouterr().err)
+    assert "cosim wobble is unavailable: cannot load no_such_module_here:register (ModuleNotFoundError" in line
+
+
+@pytest.mark.parametrize("delay", [0.1, 0.2, 0.35, 0.5])
+def test_ctrl_c_in_the_first_half_second_is_one_line(tmp_path, delay):
+    """SIGINT while `cosim run` starts up (importing, building, starting the writer) or runs: exit 1
+    and one line, never a KeyboardInterrupt traceback."""
+    long = tmp_path / "long.yaml"
+    long.write_text(SCENE.replace("until: 0.05", "until: 100000"))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(long), "-o", str(tmp_path / "l.mcap"),
+                             "-q"], cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    assert "interrupted" in one_error_line(err)
+
+
+def test_a_live_port_out_of_range_is_bad_input(scene, capsys):
+    """--live 99999 exits 2 before anything runs."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", str(scene), "--live", "99999", "--no-record", "-q"])
+    assert exit_.value.code == 2
+    assert "the port must be in 0..65535, got 99999" in one_error_line(capsys.readouterr().err)
+
+
+def _without(folder: Path, *packages: str) -> str:
+    """A folder whose packages stand in for ``packages`` and fail to import, as if not installed."""
+    for name in packages:
+        (folder / name).mkdir(parents=True)
+        (folder / name / "__init__.py").write_text(
+            f"raise ModuleNotFoundError(\"No module named '{name}'\", name={name!r})\n")
+    return str(folder)
+
+
+def test_plot_render_and_live_without_the_viz_extra_say_what_to_install(scene, tmp_path):
+    """Without matplotlib or the Foxglove schemas: one line naming the extra, exit 2."""
+    out = tmp_path / "r.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    stubs = _without(tmp_path / "stubs", "matplotlib", "foxglove_schemas_protobuf")
+    for args in (["plot", str(out)], ["render", str(out), "-o", str(tmp_path / "x.png")],
+                 ["run", str(scene), "--live", "0", "--no-record", "-q"]):
+        proc = run_cosim(*args, cwd=tmp_path, pythonpath=(stubs,))
+        assert proc.returncode == 2, proc.stderr
+        assert "pip install 'cosim[viz]'" in one_error_line(proc.stderr)

@@ -1,0 +1,214 @@
+"""Where a recording goes: never onto the scene or a file that is not a recording, always through a
+private file moved into place when complete, and a clear line (never a traceback, never a partial
+file) when the writer is killed or the disk fills up."""
+
+from __future__ import annotations
+
+import os
+import resource
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from cosim.cli import main
+from cosim.errors import RecordingError
+from cosim.record.output import check_output, claim
+from cosim.record.reader import Recording
+from cosim.runner import run_scene
+from cosim.scenario import loads
+
+ROOT = Path(__file__).resolve().parents[1]
+WAIT_S = 60  # longest wait for a subprocess to get somewhere (never a measured time)
+
+SCENE = """
+name: demo
+dt: 0.001
+until: 0.05
+components:
+  src: {type: "tests.toys:Source"}
+  g: {type: "tests.toys:Gain"}
+connections:
+  - src.out -> g.x
+"""
+LONG = SCENE.replace("until: 0.05", "until: 100000")
+
+
+@pytest.fixture
+def scene(tmp_path):
+    path = tmp_path / "demo.yaml"
+    path.write_text(SCENE)
+    return path
+
+
+def one_error_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def cosim_popen(*args: str, cwd: Path, **kw) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.Popen([sys.executable, "-m", "cosim.cli", *args], cwd=cwd, env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
+
+
+def parts(out: Path) -> list[Path]:
+    return sorted(out.parent.glob(out.name + ".*.part"))
+
+
+def wait_for_part(out: Path, size: int = 20_000) -> Path:
+    deadline = time.monotonic() + WAIT_S
+    while time.monotonic() < deadline:
+        big = [p for p in parts(out) if p.exists() and p.stat().st_size > size]
+        if big:
+            return big[0]
+        time.sleep(0.02)
+    raise AssertionError(f"no private file for {out} grew past {size} bytes")
+
+
+def children(pid: int) -> list[int]:
+    text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    return [int(c) for c in text.split()]
+
+
+@pytest.mark.parametrize("spelling", ["same", "dotted", "relative"])
+def test_the_scene_is_never_the_output(scene, tmp_path, capsys, monkeypatch, spelling):
+    """`cosim run S.yaml -o S.yaml` (however S is spelled) exits 2 in one line and leaves S as it was."""
+    monkeypatch.chdir(tmp_path)
+    target = {"same": str(scene), "dotted": str(tmp_path / "sub" / ".." / scene.name),
+              "relative": scene.name}[spelling]
+    assert main(["run", str(scene), "-o", target, "-q"]) == 2
+    assert "is the run's own input" in one_error_line(capsys.readouterr().err)
+    assert scene.read_text() == SCENE
+    assert not list(tmp_path.glob("*.part"))
+
+
+def test_outputs_that_are_not_recordings_are_refused(scene, tmp_path, capsys):
+    """-o onto a folder, a device, a file that is not MCAP or a read-only recording: exit 2, one line,
+    nothing touched."""
+    notes = tmp_path / "notes.txt"
+    notes.write_text("keep me")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    old = tmp_path / "old.mcap"
+    assert main(["run", str(scene), "-o", str(old), "-q"]) == 0
+    old.chmod(stat.S_IRUSR | stat.S_IRGRP)
+    capsys.readouterr()
+    cases = {str(folder): "is a folder", os.devnull: "is not a regular file", str(notes): "is not an MCAP recording",
+             str(old): "is read-only"}
+    for target, why in cases.items():
+        assert main(["run", str(scene), "-o", target, "-q"]) == 2, target
+        assert why in one_error_line(capsys.readouterr().err)
+    assert notes.read_text() == "keep me" and list(folder.iterdir()) == []
+    assert not list(tmp_path.glob("*.part"))
+
+
+def test_an_existing_recording_is_replaced_only_when_the_new_one_is_complete(scene, tmp_path, capsys):
+    """The recording is written to a private file with a unique name beside the target and moved
+    onto it when complete; until then the target keeps the previous recording."""
+    out = tmp_path / "run.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    first = out.read_bytes()
+    a, b = claim(out), claim(tmp_path / "other.mcap")
+    try:
+        assert a.part.parent == tmp_path and a.part.name.startswith("run.mcap.") and a.part.name.endswith(".part")
+        assert out.read_bytes() == first  # claiming does not touch the target
+    finally:
+        a.release(remove=True)
+        b.release(remove=True)
+    assert run_scene(loads(SCENE.replace("0.05", "0.02")), out, progress=False).recording == out
+    assert out.read_bytes() != first and Recording(out).status().tick == 20
+    assert parts(out) == []
+
+
+def test_a_second_run_on_the_same_output_is_refused_while_the_first_writes(tmp_path):
+    """Two runs on one path: the second is refused in one line (exit 2) while the first is writing,
+    and the first still finishes a valid recording."""
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    out = tmp_path / "same.mcap"
+    first = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    try:
+        wait_for_part(out)
+        second = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+        _, err = second.communicate(timeout=WAIT_S)
+        assert second.returncode == 2
+        assert "another run is writing it now" in one_error_line(err)
+    finally:
+        first.send_signal(signal.SIGTERM)
+        _, err = first.communicate(timeout=WAIT_S)
+    assert first.returncode == 1 and "interrupted by SIGTERM" in err
+    assert Recording(out).status().status == "interrupted"
+    assert parts(out) == []
+
+
+def test_claims_of_one_target_exclude_each_other(tmp_path):
+    """claim() refuses a target another live claim is writing, and allows it once that one ends."""
+    out = tmp_path / "x.mcap"
+    held = claim(out)
+    with pytest.raises(RecordingError, match="another run is writing it now"):
+        claim(out)
+    held.release(remove=True)
+    claim(out).release(remove=True)
+    assert parts(out) == []
+
+
+def test_the_writer_killed_mid_run_is_one_line_and_leaves_no_file(tmp_path):
+    """SIGKILL of the writer process: exit 1, one line saying so, no partial file, no output."""
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    out = tmp_path / "k.mcap"
+    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    try:
+        wait_for_part(out)
+        (writer,) = children(proc.pid)
+        os.kill(writer, signal.SIGKILL)
+        _, err = proc.communicate(timeout=WAIT_S)
+    finally:
+        proc.kill()
+    assert proc.returncode == 1
+    assert "the recording writer was killed (SIGKILL); no file was left" in one_error_line(err)
+    assert not out.exists() and parts(out) == []
+
+
+FILE_LIMIT = 12 << 20  # above the 8 MiB shared-memory ring, below the recording of PAINT
+
+PAINT = """
+dt: 0.001
+until: 0.3
+components:
+  p: {type: "tests.test_recording_paths:Painter"}
+record: {visual_rate: 0}
+"""
+
+
+def _small_file_limit() -> None:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (FILE_LIMIT, FILE_LIMIT))
+
+
+def test_a_full_disk_is_one_line_and_leaves_no_file(tmp_path):
+    """Writes that fail (a file-size limit stands in for a full disk): exit 1, one line with the
+    system's reason, no partial file."""
+    scene = tmp_path / "big.yaml"
+    scene.write_text(PAINT)
+    out = tmp_path / "full.mcap"
+    proc = cosim_popen("run", str(scene), "-o", str(out), "-q", cwd=tmp_path, preexec_fn=_small_file_limit)
+    _, err = proc.communicate(timeout=WAIT_S)
+    assert proc.returncode == 1
+    line = one_error_line(err)
+    assert os.strerror(27) in line and "no file was left" in line  # EFBIG: File too large
+    assert not out.exists() and parts(out) == []
+
+
+def test_check_output_accepts_new_files_and_recordings(tmp_path):
+    """A new file, or an existing recording, may be written."""
+    out = tmp_path / "new.mcap"
+    assert check_output(out) == out
+    run_scene(loads(SCENE), out, progress=False)
+    assert check_output(out) == out
