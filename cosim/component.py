@@ -132,6 +132,20 @@ class Component:
 
     # --- the public step ----------------------------------------------------------------------
 
+    def start_outputs(self) -> dict[str, Message]:
+        """What the component publishes at t = 0 (:meth:`initial_outputs`), checked like a step's
+        outputs; any failure is a :class:`SimulationError` naming the component at t = 0."""
+        try:
+            outputs = self.initial_outputs()
+        except SimulationError:
+            self.status = "failed"
+            raise
+        except Exception as exc:
+            self.status = "failed"
+            raise SimulationError(self.name, 0, f"its outputs at t = 0: {type(exc).__name__}: {exc}") from exc
+        self._check_outputs(0, outputs)
+        return outputs
+
     def step(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
              on_unstable: OnUnstable = "error") -> dict[str, Message]:
         """Advance one step of ``dt_ns`` from ``t_ns``; guards and bookkeeping around ``_step_impl``."""

@@ -3,17 +3,28 @@
 Names come from the ``cosim.components`` entry points (``RigidBody = "components.rigid_body:RigidBody"``)
 or are given in full as ``package.module:Class``. A type is imported only when a scene names it, so a
 scene without water never imports the water code.
+
+A scene is data, and loading it must not run code it chooses: a ``module:Class`` path is imported
+only from an allowed package: ``cosim`` itself, the packages the registered entry points come from
+(``components``), and those named in the environment variable ``COSIM_COMPONENT_PACKAGES``
+(comma-separated, e.g. ``COSIM_COMPONENT_PACKAGES=mylab,tests``), or given to :func:`resolve`. Any
+other module (``os``, ``subprocess``, a file beside the scene) is refused before it is imported.
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+import re
+from collections.abc import Iterable
 from functools import cache
 from importlib.metadata import entry_points
 
 from cosim.component import Component
 
 ENTRY_POINT_GROUP = "cosim.components"
+ALLOW_ENV = "COSIM_COMPONENT_PACKAGES"
+_MODULE_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
 
 
 @cache
@@ -23,17 +34,39 @@ def known_types() -> dict[str, str]:
 
 
 class UnknownComponentType(LookupError):
-    """The type name is neither registered nor an importable ``module:Class``."""
+    """The type name is neither registered nor an importable ``module:Class`` of an allowed package."""
 
 
-def resolve(type_name: str) -> type[Component]:
-    """The component class for a registered name or a ``module:Class`` path."""
+def allowed_packages(extra: Iterable[str] = ()) -> list[str]:
+    """The packages whose modules a scene may name as ``module:Class`` (see the module's text)."""
+    packages = {"cosim"} | {target.partition(":")[0].partition(".")[0] for target in known_types().values()}
+    packages |= {p.strip() for p in os.environ.get(ALLOW_ENV, "").split(",") if p.strip()}
+    packages |= set(extra)
+    return sorted(packages)
+
+
+def _allowed(module_name: str, packages: list[str]) -> bool:
+    return any(module_name == p or module_name.startswith(p + ".") for p in packages)
+
+
+def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
+    """The component class for a registered name or a ``module:Class`` path in an allowed package
+    (:func:`allowed_packages`, plus ``allow``)."""
     target = known_types().get(type_name)
     if target is None:
         if ":" not in type_name:
             choices = ", ".join(sorted(known_types())) or "none registered"
             raise UnknownComponentType(f"unknown component type {type_name!r} (known: {choices}; "
                                        "or give 'package.module:Class')")
+        module_name, _, attr = type_name.partition(":")
+        if not _MODULE_RE.fullmatch(module_name) or not attr.isidentifier():
+            raise UnknownComponentType(f"component type {type_name!r}: expected 'package.module:Class'")
+        packages = allowed_packages(allow)
+        if not _allowed(module_name, packages):
+            raise UnknownComponentType(
+                f"component type {type_name!r}: module {module_name!r} is not in an allowed package "
+                f"({', '.join(packages)}); a scene names registered types, or classes of these packages "
+                f"(allow more with {ALLOW_ENV}=package[,package])")
         target = type_name
     module_name, _, attr = target.partition(":")
     try:

@@ -37,7 +37,13 @@ from cosim.params import build
 from cosim.registry import UnknownComponentType, resolve
 from cosim.timebase import NS_PER_S, seconds_to_ns
 
-NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a component name: it becomes channel names
+SCENE_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}")  # a scene name: it becomes a file name
+MIN_STEP_NS = 1  # the clock's tick: no step is shorter
+MAX_TIME_NS = 2**63 - 1  # MCAP's times are 64-bit nanoseconds: no time goes past this (about 292 years)
+MAX_SCENE_BYTES = 4 << 20  # a scene file larger than this is refused before it is read
+MAX_DEPTH = 64  # deepest nesting of mappings and lists in a scene
+MAX_VALUES = 1_000_000  # most values a scene may hold, counting every repeat of a YAML alias
 EDGE_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*->\s*(\w+)\.(\w+)\s*$")
 TOP_KEYS = {"name", "description", "dt", "until", "on_unstable", "components", "connections", "record"}
 COMPONENT_KEYS = {"type", "every", "step", "on_unstable"}
@@ -132,6 +138,34 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool
 
 
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+# YAML 1.1 (PyYAML) reads 5e-4 and 1e21 as strings, because it wants a dot in a float; YAML 1.2 and
+# every other tool read them as numbers, and so does a scene
+_FLOAT_1_2 = re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$")
+_StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_1_2, list("-+0123456789."))
+
+
+def _shape_problem(data: Any) -> str | None:
+    """Why ``data`` is too deep or too large to be a scene (None when it is fine). Aliases are
+    counted as often as they are used, each shared node once (so the walk itself stays cheap)."""
+    sizes: dict[int, int] = {}
+    stack: list[tuple[Any, int, bool]] = [(data, 1, False)]
+    while stack:
+        node, depth, done = stack.pop()
+        if not isinstance(node, (dict, list)):
+            continue
+        if depth > MAX_DEPTH:
+            return f"is nested more than {MAX_DEPTH} levels deep"
+        children = list(node.values()) if isinstance(node, dict) else node
+        if done:
+            sizes[id(node)] = 1 + sum(sizes.get(id(c), 1) for c in children)
+            if sizes[id(node)] > MAX_VALUES:
+                return f"holds more than {MAX_VALUES:,} values (counting each use of a YAML alias)"
+            continue
+        if id(node) in sizes:
+            continue
+        stack.append((node, depth, True))
+        stack.extend((c, depth + 1, False) for c in children if isinstance(c, (dict, list)) and id(c) not in sizes)
+    return None
 
 
 def read_yaml(text: str, source: str) -> Any:
@@ -140,6 +174,8 @@ def read_yaml(text: str, source: str) -> Any:
     loader.duplicates = []
     try:
         data = loader.get_single_data()
+    except RecursionError:
+        raise ScenarioError(f"YAML nested too deeply to read (at most {MAX_DEPTH} levels)", source) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
@@ -149,7 +185,24 @@ def read_yaml(text: str, source: str) -> Any:
         loader.dispose()
     if loader.duplicates:
         raise ScenarioError(loader.duplicates, source)
+    problem = _shape_problem(data)
+    if problem is not None:
+        raise ScenarioError(f"the YAML {problem}", source)
     return data
+
+
+def yaml_value(text: str) -> Any:
+    """One value as a scene reads it (``--set key=VALUE``): YAML, with 1.2 floats; text that is not
+    YAML stays text."""
+    loader = _StrictLoader(text)
+    loader.duplicates = []
+    try:
+        value = loader.get_single_data()
+    except (yaml.YAMLError, RecursionError):
+        return text
+    finally:
+        loader.dispose()
+    return text if _shape_problem(value) is not None else value
 
 
 def _parse_yaml(text: str, source: str) -> dict[str, Any]:
@@ -186,10 +239,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
         if not sep or not key.strip():
             problems.append(f"--set {item!r}: expected key.path=value")
             continue
-        try:
-            value = yaml.safe_load(raw)
-        except yaml.YAMLError:
-            value = raw
+        value = yaml_value(raw)
         parts = key.strip().split(".")
         node, missing = find_parent(data, parts)
         if missing is not None:
@@ -207,21 +257,36 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
 
 # --- validation ----------------------------------------------------------------------------------
 
+def _range_text(low_ns: int) -> str:
+    return f"between {low_ns / NS_PER_S:g} s and {MAX_TIME_NS / NS_PER_S:.3g} s"
+
+
 def _seconds(data: dict, key: str, problems: list[str], *, required: bool, default: float = 0.0) -> int | None:
     if key not in data:
         if required:
             problems.append(f"{key}: missing (required, seconds)")
             return None
         return seconds_to_ns(default)
-    value = data[key]
+    return seconds_value(data[key], key, problems)
+
+
+def seconds_value(value: Any, path: str, problems: list[str], *, zero: bool = False) -> int | None:
+    """A time [s] > 0 (or 0 when ``zero``) as whole nanoseconds, from one tick (1 ns) to the largest
+    time a recording can hold; otherwise a problem naming the range."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        problems.append(f"{key}: must be a number of seconds (got {value!r})")
+        problems.append(f"{path}: must be a number of seconds (got {value!r})")
         return None
+    if zero and value == 0:
+        return 0
     if value <= 0:
-        problems.append(f"{key}: must be > 0 s (got {value:g})")
+        problems.append(f"{path}: must be > 0 s (got {value:g})")
+        return None
+    if not MIN_STEP_NS <= value * NS_PER_S <= MAX_TIME_NS:
+        below = " (shorter than the clock's 1 ns tick)" if value * NS_PER_S < MIN_STEP_NS else ""
+        problems.append(f"{path}: must be {_range_text(MIN_STEP_NS)}{below} (got {value:g})")
         return None
     try:
-        return seconds_to_ns(float(value), what=key)
+        return seconds_to_ns(float(value), what=path)
     except ValueError as exc:
         problems.append(str(exc))
         return None
@@ -229,9 +294,10 @@ def _seconds(data: dict, key: str, problems: list[str], *, required: bool, defau
 
 def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
                problems: list[str], classes: dict[str, type[Component]]) -> ComponentConfig | None:
-    path = f"components.{name}"
-    if not NAME_RE.match(str(name)):
-        problems.append(f"{path}: component names must be identifiers (letters, digits, _)")
+    path = f"components.{name!r}" if not NAME_RE.fullmatch(str(name)) else f"components.{name}"
+    if not NAME_RE.fullmatch(str(name)):
+        problems.append(f"{path}: component names must be identifiers of at most 64 characters (letters, "
+                        "digits, _; not starting with a digit): they become channel names")
         return None
     if not isinstance(spec, dict):
         problems.append(f"{path}: must be a mapping with a 'type' (got {spec!r})")
@@ -267,7 +333,7 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
         if isinstance(step, bool) or not isinstance(step, (int, float)) or not step > 0:
             problems.append(f"{path}.step: must be a positive number of seconds (got {step!r})")
             return None
-        if dt_ns is None:
+        if seconds_value(step, f"{path}.step", problems) is None or dt_ns is None:
             return None
         ratio = step * NS_PER_S / dt_ns
         if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
@@ -282,6 +348,9 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
         return None
     if every < 1:
         problems.append(f"{path}.every: must be >= 1 (got {every})")
+        return None
+    if dt_ns is not None and every * dt_ns > MAX_TIME_NS:
+        problems.append(f"{path}.every: a step of {every} x dt is longer than {MAX_TIME_NS / NS_PER_S:.3g} s")
         return None
     return every
 
@@ -419,6 +488,9 @@ def _check_stability(scene: Scene, built: dict[str, Component], problems: list[s
 def loads(text: str, source: str = "<string>", overrides: list[str] | None = None) -> Scene:
     """Parse and validate a scene from YAML text; raises ScenarioError listing every problem."""
     overrides = list(overrides or [])
+    if len(text) > MAX_SCENE_BYTES:
+        raise ScenarioError(f"the scene is {len(text) / 2**20:.1f} MiB, more than the {MAX_SCENE_BYTES >> 20} MiB "
+                            "a scene may be", source)
     data = _parse_yaml(text, source)
     problems = apply_overrides(data, overrides)
     for key in data:
@@ -427,6 +499,9 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     name = data.get("name", Path(source).stem)
     if not isinstance(name, str):
         problems.append(f"name: must be a string (got {name!r})")
+    elif "name" in data and (not SCENE_NAME_RE.fullmatch(name) or ".." in name):
+        problems.append(f"name: must be letters, digits, _, - and . (not first), at most 100 characters, "
+                        f"no '..': it names the recording's file (got {name!r})")
     description = data.get("description", "")
     dt_ns = _seconds(data, "dt", problems, required=True)
     until_ns = _seconds(data, "until", problems, required=True)
@@ -475,8 +550,13 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
                 problems.append(f"record.every: must be >= 1 (got {record.every})")
             if record.visual_rate < 0:
                 problems.append(f"record.visual_rate: must be >= 0 frames/s (got {record.visual_rate:g})")
-            if record.checkpoint_every < 0:
-                problems.append(f"record.checkpoint_every: must be >= 0 s (got {record.checkpoint_every:g})")
+            elif record.visual_rate > NS_PER_S:
+                problems.append(f"record.visual_rate: must be between 0 and {NS_PER_S:g} frames/s (a frame "
+                                f"per nanosecond; got {record.visual_rate:g})")
+            cp = seconds_value(record.checkpoint_every, "record.checkpoint_every", problems, zero=True)
+            if cp and dt_ns is not None and cp < dt_ns:
+                problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
+                                f"(got {record.checkpoint_every:g})")
 
     order, cycle = execution_order(list(classes), edges)
     if cycle:
@@ -497,15 +577,30 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     return scene
 
 
-def read_input(path: str | Path) -> str:
-    """The text of an input file; a missing or unreadable file is bad input (ScenarioError)."""
+def read_input(path: str | Path, limit: int = MAX_SCENE_BYTES) -> str:
+    """The text of an input file; a missing, unreadable, non-regular or too large file (more than
+    ``limit`` bytes) is bad input (ScenarioError), found before it is read."""
+    import stat
+
     path = Path(path)
     try:
-        return path.read_text(encoding="utf-8")
+        st = path.stat()
+        if stat.S_ISDIR(st.st_mode):
+            raise ScenarioError("is a folder, not a scene file", str(path))
+        if not stat.S_ISREG(st.st_mode):
+            raise ScenarioError("is not a regular file (a device, pipe or socket)", str(path))
+        if st.st_size > limit:
+            raise ScenarioError(f"is {st.st_size / 2**20:.1f} MiB, more than the {limit / 2**20:g} MiB a scene "
+                                "may be", str(path))
+        with open(path, encoding="utf-8") as f:
+            text = f.read(limit + 1)
     except FileNotFoundError:
         raise ScenarioError("no such file", str(path)) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"cannot read: {exc}", str(path)) from None
+    if len(text) > limit:
+        raise ScenarioError(f"is more than the {limit / 2**20:g} MiB a scene may be", str(path))
+    return text
 
 
 def load(path: str | Path, overrides: list[str] | None = None) -> Scene:

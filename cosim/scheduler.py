@@ -230,8 +230,7 @@ class Simulation:
             obs.on_initialized(self)
         if self.tick == 0:
             for runner in self.runners:
-                outputs = runner.comp.initial_outputs()
-                runner.comp._check_outputs(0, outputs)  # t = 0 values obey the same rules as step outputs
+                outputs = runner.comp.start_outputs()  # t = 0 values obey the same rules as step outputs
                 for port, msg in outputs.items():
                     runner.slots[port].publish(0, msg)
                     for obs in self.observers:

@@ -1,0 +1,13 @@
+"""The test suite's toy components live in the ``tests`` package: scenes in the tests name them as
+``tests.toys:Source`` and so on, so that package is allowed as a source of component types
+(``COSIM_COMPONENT_PACKAGES``, see :mod:`cosim.registry`), here and in every process a test starts."""
+
+from __future__ import annotations
+
+import os
+
+from cosim.registry import ALLOW_ENV
+
+_allowed = [p for p in os.environ.get(ALLOW_ENV, "").split(",") if p.strip()]
+if "tests" not in _allowed:
+    os.environ[ALLOW_ENV] = ",".join([*_allowed, "tests"])

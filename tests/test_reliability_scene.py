@@ -1,0 +1,166 @@
+"""Scene values a user can get wrong are refused when the scene loads, in one line with the rule:
+times outside one tick .. 292 years, YAML 1.2 numbers, nesting, size, names that become channels
+and file names, component modules a scene may import, and a component failing at t = 0."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+from cosim.cli import main
+from cosim.errors import ScenarioError
+from cosim.record.reader import Recording
+from cosim.runner import run_scene
+from cosim.scenario import MAX_SCENE_BYTES, load, loads
+
+SCENE = """
+name: demo
+dt: 0.001
+until: 0.05
+components:
+  src: {type: "tests.toys:Source"}
+  g: {type: "tests.toys:Gain"}
+connections:
+  - src.out -> g.x
+record: {checkpoint_every: 0.01}
+"""
+
+
+def problem(text: str, overrides: list[str] | None = None) -> str:
+    with pytest.raises(ScenarioError) as err:
+        loads(text, "s.yaml", overrides)
+    assert len(err.value.problems) == 1, err.value.problems
+    return err.value.problems[0]
+
+
+@pytest.mark.parametrize(("change", "expected"), [
+    (("dt: 0.001", "dt: 1.0e-15"), "dt: must be between 1e-09 s and 9.22e+09 s (shorter than the clock's 1 ns tick)"),
+    (("dt: 0.001", "dt: 1.0e308"), "dt: must be between 1e-09 s and 9.22e+09 s (got 1e+308)"),
+    (("until: 0.05", "until: 1.0e308"), "until: must be between 1e-09 s and 9.22e+09 s (got 1e+308)"),
+    (("until: 0.05", "until: 100000000000000000000000"), "until: must be between 1e-09 s and 9.22e+09 s"),
+    (("checkpoint_every: 0.01", "checkpoint_every: 1.0e308"),
+     "record.checkpoint_every: must be between 1e-09 s and 9.22e+09 s (got 1e+308)"),
+    (("checkpoint_every: 0.01", "checkpoint_every: 0.0001"),
+     "record.checkpoint_every: must be 0 (none) or at least dt"),
+    (("checkpoint_every: 0.01", "visual_rate: 1.0e308"), "record.visual_rate: must be between 0 and 1e+09 frames/s"),
+    (("{type: \"tests.toys:Gain\"}", "{type: \"tests.toys:Gain\", step: 1.0e308}"),
+     "components.g.step: must be between 1e-09 s and 9.22e+09 s"),
+])
+def test_times_outside_the_clock_are_refused_with_the_range(change, expected):
+    """dt below the 1 ns tick, and huge times (1e308) anywhere, are refused naming the range."""
+    assert expected in problem(SCENE.replace(*change))
+
+
+def test_set_with_a_huge_time_is_refused_cleanly(tmp_path, capsys):
+    """`--set dt=1e21` (a YAML 1.2 float) is a range error, exit 2, one line."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SCENE)
+    assert main(["validate", str(scene), "--set", "dt=1e21"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: {scene}: dt: must be between 1e-09 s and 9.22e+09 s (got 1e+21)"
+
+
+def test_exponent_floats_without_a_dot_are_numbers():
+    """`dt: 5e-4` (a string to YAML 1.1) is a number, as in YAML 1.2; so is `--set gain=2e0`."""
+    scene = loads(SCENE.replace("dt: 0.001", "dt: 5e-4"), overrides=["components.g.gain=2e0"])
+    assert scene.dt_ns == 500_000
+    assert scene.components["g"].params.gain == 2.0
+    assert loads(SCENE.replace("dt: 0.001", "dt: +5E-4")).dt_ns == 500_000
+
+
+def test_deep_nesting_is_a_clear_error_not_a_recursion_error():
+    """500 nested '[' is one ScenarioError, not a RecursionError."""
+    assert "nested too deeply" in problem("dt: 0.001\nuntil: 1\ncomponents: " + "[" * 500)
+    assert "nested more than 64 levels deep" in problem("dt: 0.001\nuntil: 1\ndescription: " + "[" * 80 + "]" * 80)
+
+
+def test_alias_bombs_are_refused():
+    """YAML aliases that expand to billions of values are refused, without expanding them."""
+    lines = ["a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, 10)]
+    text = "dt: 0.001\nuntil: 1\ndescription:\n" + "\n".join("  " + line for line in lines)
+    assert "holds more than 1,000,000 values" in problem(text)
+
+
+def test_a_huge_scene_file_is_refused_by_its_size_before_reading(tmp_path):
+    """A scene file of tens of MB (or a device) is refused up front."""
+    big = tmp_path / "big.yaml"
+    with open(big, "wb") as f:
+        f.truncate(20 << 20)  # sparse: 20 MiB of nothing, never read
+    with pytest.raises(ScenarioError, match=r"is 20\.0 MiB, more than the 4 MiB a scene may be"):
+        load(big)
+    with pytest.raises(ScenarioError, match="more than the 4 MiB"):
+        loads("#" * (MAX_SCENE_BYTES + 1))
+    with pytest.raises(ScenarioError, match="not a regular file"):
+        load("/dev/zero")
+
+
+@pytest.mark.parametrize("name", ["stone\\n", "a/b", "..", "../up", "/abs", ".hidden", "x" * 101, "a\\u0000b"])
+def test_scene_names_that_are_not_safe_file_names_are_refused(name):
+    """A scene name becomes the default recording's file name: no '/', '..', newline, absolute path."""
+    assert problem(SCENE.replace("name: demo", f'name: "{name}"')).startswith("name: must be letters, digits")
+
+
+@pytest.mark.parametrize("name", ["stone\\n", "a/b", "a.b", "x" * 65, "1st"])
+def test_component_names_that_are_not_safe_channel_names_are_refused(name):
+    """Component names become channel names (/name/port): identifiers only (a trailing newline too)."""
+    text = SCENE.replace("  g: {type", f'  "{name}": {{type').replace("src.out -> g.x", "src.out -> src.out")
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    assert any("component names must be identifiers of at most 64 characters" in p for p in err.value.problems)
+
+
+def test_a_scene_cannot_import_an_arbitrary_module(tmp_path, monkeypatch):
+    """`type: module:Class` imports only from allowed packages: another module is refused before it
+    is imported (its code never runs); COSIM_COMPONENT_PACKAGES allows a package explicitly."""
+    (tmp_path / "sideeffect_pkg").mkdir()
+    marker = tmp_path / "imported"
+    (tmp_path / "sideeffect_pkg" / "__init__.py").write_text(
+        f"open({str(marker)!r}, 'w').close()\nfrom tests.toys import Source as Toy\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    text = 'dt: 0.001\nuntil: 0.01\ncomponents:\n  g: {type: "sideeffect_pkg:Toy"}\n'
+    for bad in ("sideeffect_pkg:Toy", "os:system", "subprocess:Popen", ".toys:Gain"):
+        msg = problem(text.replace("sideeffect_pkg:Toy", bad))
+        assert "not in an allowed package" in msg or "expected 'package.module:Class'" in msg, msg
+    assert not marker.exists() and "sideeffect_pkg" not in sys.modules
+    monkeypatch.setenv("COSIM_COMPONENT_PACKAGES", "tests,sideeffect_pkg")
+    assert loads(text).components["g"].type_name == "sideeffect_pkg:Toy"
+    assert marker.exists()
+    monkeypatch.delitem(sys.modules, "sideeffect_pkg")
+
+
+def test_registered_types_and_the_framework_examples_need_no_permission(monkeypatch):
+    """Entry-point names and modules of cosim and of the packages that register components load
+    without COSIM_COMPONENT_PACKAGES."""
+    monkeypatch.delenv("COSIM_COMPONENT_PACKAGES", raising=False)
+    root = Path(__file__).resolve().parents[1]
+    assert load(root / "scenarios" / "ping_pong.yaml").components
+    with pytest.raises(ScenarioError, match="not in an allowed package"):
+        loads(SCENE)
+
+
+def test_a_component_failing_at_t0_is_a_simulation_error_with_a_status(tmp_path, capsys):
+    """A component whose t = 0 outputs raise: exit 1, one line naming it, a recording with status."""
+    scene = tmp_path / "t0.yaml"
+    scene.write_text("dt: 0.001\nuntil: 0.01\ncomponents:\n"
+                     '  bad: {type: "tests.test_reliability_scene:FailsAtStart"}\n')
+    out = tmp_path / "t0.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == "error: component 'bad' failed at t = 0 s: its outputs at t = 0: ValueError: no start"
+    status = Recording(out).status()
+    assert status.status == "failed" and "its outputs at t = 0" in status.reason
+    outcome = run_scene(load(scene), None, progress=False)
+    assert outcome.failed and outcome.result.error.component == "bad"
+
+
+from tests.toys import Source  # noqa: E402  (the toy the t = 0 failure is built on)
+
+
+class FailsAtStart(Source):
+    """A source whose initial outputs raise."""
+
+    def initial_outputs(self):
+        raise ValueError("no start")
