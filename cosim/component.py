@@ -103,6 +103,14 @@ class Component:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
         return math.inf
 
+    @classmethod
+    def estimate_bytes(cls, params: Any) -> int:
+        """About how many bytes of memory a component built from ``params`` will hold (its arrays),
+        asked before it is built; 0 when not known (the default). A scene whose components together
+        need more than the machine has is refused when it loads, instead of failing (or swapping)
+        while it builds."""
+        return 0
+
     def summary(self) -> list[str]:
         """Lines for the closing run summary."""
         return []

@@ -22,6 +22,7 @@ the YAML data first, so they are validated like the file itself.
 from __future__ import annotations
 
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +45,7 @@ MAX_TIME_NS = 2**63 - 1  # MCAP's times are 64-bit nanoseconds: no time goes pas
 MAX_SCENE_BYTES = 4 << 20  # a scene file larger than this is refused before it is read
 MAX_DEPTH = 64  # deepest nesting of mappings and lists in a scene
 MAX_VALUES = 1_000_000  # most values a scene may hold, counting every repeat of a YAML alias
+MEMORY_SHARE = 0.9  # a scene whose components' estimated memory exceeds this share of the machine's is refused
 EDGE_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*->\s*(\w+)\.(\w+)\s*$")
 TOP_KEYS = {"name", "description", "dt", "until", "on_unstable", "components", "connections", "record"}
 COMPONENT_KEYS = {"type", "every", "step", "on_unstable"}
@@ -475,6 +477,34 @@ def execution_order(names: list[str], edges: list[Connection]) -> tuple[list[str
         path.append(node)
 
 
+def machine_memory() -> int | None:
+    """The machine's physical memory [bytes], or None where the system does not say."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _gb(n: float) -> str:
+    return f"{n / 1e9:.3g} GB" if n >= 1e9 else f"{n / 1e6:.3g} MB"
+
+
+def _check_memory(components: dict[str, ComponentConfig], problems: list[str]) -> None:
+    """Refuse a scene whose components would need more memory than the machine has (each asked
+    through :meth:`cosim.component.Component.estimate_bytes` before anything is built)."""
+    needs = {}
+    for name, cfg in components.items():
+        try:
+            needs[name] = max(0, int(cfg.cls.estimate_bytes(cfg.params)))
+        except Exception:  # an estimate that fails is no estimate
+            needs[name] = 0
+    total, memory = sum(needs.values()), machine_memory()
+    if memory and total > MEMORY_SHARE * memory:
+        parts = ", ".join(f"{n} {_gb(b)}" for n, b in sorted(needs.items(), key=lambda kv: -kv[1]) if b)
+        problems.append(f"components: the scene needs about {_gb(total)} of memory ({parts}), more than this "
+                        f"machine's {_gb(memory)} allows ({MEMORY_SHARE:.0%}); use a smaller grid")
+
+
 def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     for name, comp in built.items():
         cfg = scene.components[name]
@@ -562,6 +592,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     if cycle:
         problems.append(f"connections: cycle without a delayed edge: {' -> '.join(cycle)} "
                         "(mark one edge of the loop with delay: 1 and an initial value)")
+    if not problems:
+        _check_memory(components, problems)
     if problems or dt_ns is None or until_ns is None:
         raise ScenarioError(problems, source)
     scene = Scene(name=name, description=str(description), dt_ns=dt_ns, until_ns=until_ns,

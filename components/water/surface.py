@@ -136,6 +136,15 @@ class WaterSurface(Component):
 
     # --- construction -----------------------------------------------------------------------
 
+    # float64 arrays of the grid's shape it holds: height, velocity and their spare buffers, the
+    # occupied height, the bed, rest depth and surface, two wave-speed coefficients and two masks,
+    # plus the model's and the boundary's work arrays
+    ARRAYS_PER_CELL = 16
+
+    @classmethod
+    def estimate_bytes(cls, params: WaterParams) -> int:
+        return int(params.nx) * int(params.ny) * cls.ARRAYS_PER_CELL * 8
+
     def setup(self) -> None:
         p = self.params
         problems = p.check()

@@ -1,0 +1,51 @@
+"""A scene too large for the machine is refused when it loads, with the figure, before any of its
+arrays is allocated: each component class estimates its memory (Component.estimate_bytes)."""
+
+from __future__ import annotations
+
+import pytest
+
+import cosim.scenario
+from cosim.component import Component
+from cosim.errors import ScenarioError
+from cosim.scenario import loads
+
+POND = """
+dt: 0.001
+until: 0.01
+components:
+  pond: {{type: WaterSurface, nx: {nx}, ny: {ny}, cell: 0.01}}
+"""
+
+
+@pytest.fixture
+def sixteen_gb(monkeypatch):
+    """A machine of 16 GB, whatever this one has."""
+    monkeypatch.setattr(cosim.scenario, "machine_memory", lambda: 16_000_000_000)
+
+
+def test_a_40000_by_40000_lake_is_refused_with_the_figure(sixteen_gb):
+    """40000 x 40000 cells (about 205 GB) is one ScenarioError naming the need and the machine."""
+    with pytest.raises(ScenarioError) as err:
+        loads(POND.format(nx=40000, ny=40000))
+    (problem,) = err.value.problems
+    assert problem == ("components: the scene needs about 205 GB of memory (pond 205 GB), more than this "
+                       "machine's 16 GB allows (90%); use a smaller grid")
+
+
+def test_the_estimate_follows_the_grid_and_the_machine(monkeypatch):
+    """A grid that fits is built; the same grid on a smaller machine is refused."""
+    scene = loads(POND.format(nx=300, ny=200))
+    cfg = scene.components["pond"]
+    assert cfg.cls.estimate_bytes(cfg.params) == 300 * 200 * 16 * 8
+    monkeypatch.setattr(cosim.scenario, "machine_memory", lambda: 5_000_000)
+    figure = r"needs about 7\.68 MB of memory \(pond 7\.68 MB\), more than this machine's 5 MB"
+    with pytest.raises(ScenarioError, match=figure):
+        loads(POND.format(nx=300, ny=200))
+
+
+def test_components_without_an_estimate_count_nothing(monkeypatch):
+    """The hook is optional: the base class says 0, so toy components load on any machine."""
+    assert Component.estimate_bytes(None) == 0
+    monkeypatch.setattr(cosim.scenario, "machine_memory", lambda: 1)
+    assert loads("dt: 0.001\nuntil: 0.01\ncomponents:\n  s: {type: \"tests.toys:Source\"}\n").components
