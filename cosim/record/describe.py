@@ -35,7 +35,9 @@ def describe_recording(rec: Recording) -> str:
     lines.append(f"  time span: {span:g} s, {sum(c.count for c in rec.channels.values())} messages")
     status = rec.status()
     if status is None:
-        lines.append("  status: missing (the run did not finish cleanly)")
+        end = (rec.end_ns or 0) / NS_PER_S
+        lines.append(f"  status: missing - the recording is incomplete: the run was cut off (killed?) and it "
+                     f"ends at t = {end:g} s, with its last message")
     else:
         lines.append(f"  status: {status.status} at t = {status.time:g} s ({status.tick} steps) - {status.reason}")
     lines.append("  channels:")

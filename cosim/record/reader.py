@@ -1,25 +1,83 @@
 """Reading a recording back: its scene, channels, messages and status, with clear errors.
 
 Everything that can go wrong with a file given by a user (missing, not MCAP, truncated, corrupt, not
-written by cosim) becomes a one-line :class:`RecordingError`.
+written by cosim) becomes a one-line :class:`RecordingError`. Every CRC the file carries is checked
+when it is opened (the data section's, which covers every chunk, attachment and metadata record,
+and the summary's) and again for each chunk as it is read, so a changed byte is an error, never a
+wrong value.
 """
 
 from __future__ import annotations
 
 import json
+import struct
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from cosim.codec.json_codec import CodecError, codec_for, decode_state
+from cosim.codec.json_codec import codec_for, decode_state
 from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
 from cosim.scenario import Scene, loads
+
+MAGIC = b"\x89MCAP0\r\n"
+_FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
+_DATA_END = struct.Struct("<BQI")  # opcode, record length, data section CRC
+FOOTER_OP, DATA_END_OP = 0x02, 0x0F
+_READ = 1 << 20
+
+
+def _crc(f: Any, start: int, end: int) -> int:
+    """CRC-32 of the bytes [start, end) of an open file."""
+    f.seek(start)
+    crc, left = 0, end - start
+    while left > 0:
+        block = f.read(min(_READ, left))
+        if not block:
+            break
+        crc = zlib.crc32(block, crc)
+        left -= len(block)
+    return crc
+
+
+def check_integrity(path: Path) -> None:
+    """The file ends in an MCAP footer (it was closed, not cut short) and its data-section and summary
+    CRCs match; otherwise a RecordingError saying which."""
+    with open(path, "rb") as f:
+        size = f.seek(0, 2)
+        f.seek(0)
+        if f.read(len(MAGIC)) != MAGIC:
+            raise RecordingError(f"{path}: not a readable MCAP recording (no MCAP magic at its start)")
+        if size < 2 * len(MAGIC) + _FOOTER.size:
+            raise RecordingError(f"{path}: not a readable MCAP recording (truncated: {size} bytes, no footer)")
+        f.seek(size - len(MAGIC) - _FOOTER.size)
+        tail = f.read(_FOOTER.size + len(MAGIC))
+        op, length, summary_start, summary_offsets, summary_crc = _FOOTER.unpack(tail[:_FOOTER.size])
+        if tail[_FOOTER.size:] != MAGIC or op != FOOTER_OP or length != _FOOTER.size - 9:
+            raise RecordingError(f"{path}: not a readable MCAP recording (truncated or corrupt: no footer at its "
+                                 "end; the file was cut short, or its writer was killed)")
+        footer_at = size - len(MAGIC) - _FOOTER.size
+        if not 0 <= summary_start <= footer_at or not 0 <= summary_offsets <= footer_at:
+            raise RecordingError(f"{path}: corrupt: its footer points outside the file")
+        if summary_start == 0:
+            raise RecordingError(f"{path}: the recording has no summary (truncated or not closed)")
+        if summary_crc and _crc(f, summary_start, footer_at + _FOOTER.size - 4) != summary_crc:
+            raise RecordingError(f"{path}: corrupt: the CRC of its summary does not match (changed on disk?)")
+        data_end = summary_start - _DATA_END.size
+        f.seek(data_end)
+        raw = f.read(_DATA_END.size)
+        if data_end < len(MAGIC) or len(raw) != _DATA_END.size:
+            raise RecordingError(f"{path}: corrupt: no data-end record before its summary")
+        op, length, data_crc = _DATA_END.unpack(raw)
+        if op != DATA_END_OP or length != 4:
+            raise RecordingError(f"{path}: corrupt: no data-end record before its summary")
+        if data_crc and _crc(f, 0, data_end) != data_crc:
+            raise RecordingError(f"{path}: corrupt: the CRC of its data does not match (changed on disk?)")
 
 
 @dataclass
@@ -48,16 +106,21 @@ class Recording:
         self.path = Path(path)
         if not self.path.exists():
             raise RecordingError(f"{self.path}: no such file")
+        if not self.path.is_file():
+            raise RecordingError(f"{self.path}: not a recording (a folder or a device)")
         try:
+            check_integrity(self.path)
             with open(self.path, "rb") as f:
-                reader = make_reader(f)
+                reader = make_reader(f, validate_crcs=True)
                 header = reader.get_header()
                 summary = reader.get_summary()
                 metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
                 attachments = {a.name: a.data for a in reader.iter_attachments()}
-        except (McapError, ValueError, EOFError, OSError, KeyError, AssertionError) as exc:
+        except RecordingError:
+            raise
+        except Exception as exc:  # whatever a damaged file makes the reader raise
             raise RecordingError(f"{self.path}: not a readable MCAP recording (truncated or corrupt: "
-                                 f"{type(exc).__name__}: {exc})") from None
+                                 f"{type(exc).__name__}: {_short(exc)})") from None
         if summary is None or summary.statistics is None:
             raise RecordingError(f"{self.path}: the recording has no summary (truncated or not closed)")
         if METADATA_NAME not in metadata or SCENE_ATTACHMENT not in attachments:
@@ -65,8 +128,13 @@ class Recording:
                                  f"or '{SCENE_ATTACHMENT}' attachment; written by {header.library!r})")
         self.library = header.library
         self.metadata = metadata[METADATA_NAME]
-        self.scene_text = attachments[SCENE_ATTACHMENT].decode()
-        self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
+        try:
+            self.scene_text = attachments[SCENE_ATTACHMENT].decode()
+            self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
+            if not isinstance(self.overrides, list) or not all(isinstance(o, str) for o in self.overrides):
+                raise ValueError("overrides are not a list of strings")
+        except ValueError as exc:
+            raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
         counts = summary.statistics.channel_message_counts
         self.channels = {}
         for cid, ch in summary.channels.items():
@@ -91,11 +159,13 @@ class Recording:
         """(topic, log_time_ns, payload) in log-time order; errors become RecordingError."""
         try:
             with open(self.path, "rb") as f:
-                reader = make_reader(f)
+                reader = make_reader(f, validate_crcs=True)
                 for _, channel, msg in reader.iter_messages(topics=topics, log_time_order=True):
                     yield channel.topic, msg.log_time, msg.data
-        except (McapError, ValueError, EOFError, OSError) as exc:
-            raise RecordingError(f"{self.path}: corrupt data ({type(exc).__name__}: {exc})") from None
+        except (RecordingError, GeneratorExit):
+            raise
+        except Exception as exc:  # a chunk whose CRC fails, data that does not decompress, ...
+            raise RecordingError(f"{self.path}: corrupt data ({type(exc).__name__}: {_short(exc)})") from None
 
     def messages(self, topic: str, msg_type: type[Message]) -> list[tuple[int, Message]]:
         """Every message of one channel decoded as ``msg_type``, in time order."""
@@ -104,8 +174,8 @@ class Recording:
         for _, stamp, data in self.raw([topic]):
             try:
                 out.append((stamp, codec.decode(data)))
-            except CodecError as exc:
-                raise RecordingError(f"{self.path}: {topic} at {stamp} ns: {exc}") from None
+            except Exception as exc:  # CodecError, or anything a damaged payload makes the decoder raise
+                raise RecordingError(f"{self.path}: {topic} at {stamp} ns: {_short(exc)}") from None
         return out
 
     def status(self) -> RunStatus | None:
@@ -116,4 +186,17 @@ class Recording:
         """(time_ns, checkpoint) pairs, in time order."""
         if CHECKPOINT_TOPIC not in self.channels:
             return []
-        return [(stamp, decode_state(data)) for _, stamp, data in self.raw([CHECKPOINT_TOPIC])]
+        out = []
+        for _, stamp, data in self.raw([CHECKPOINT_TOPIC]):
+            try:
+                out.append((stamp, decode_state(data)))
+            except Exception as exc:
+                raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
+                                     f"({_short(exc)})") from None
+        return out
+
+
+def _short(exc: BaseException) -> str:
+    """An exception's message on one line, at most about 200 characters."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 200 else text[:197] + "..."
