@@ -18,6 +18,7 @@ import multiprocessing
 import os
 import platform
 import signal
+import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ from cosim.timebase import NS_PER_S
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
 WORKER_JOIN_TIMEOUT_S = 10  # how long a worker gets to leave at each step of ending a pool (s)
+PARENT_POLL_S = 0.2  # how often a pool worker checks that the sweep that started it is still there (s)
 
 
 @dataclass(frozen=True)
@@ -116,10 +118,21 @@ def _warm(seconds: float) -> int:
     return os.getpid()
 
 
-def _worker_init() -> None:
+def _watch_parent(parent: int) -> None:
+    """End this worker as soon as the process that started it is gone (killed with SIGKILL, say):
+    nobody would collect its results, and the pool's resource tracker waits for every worker to
+    leave. A run in progress is cut off; its recording's writer still finishes the file."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
+
+
+def _worker_init(parent: int | None = None) -> None:
     # Ctrl-C reaches the whole process group: the parent decides what to do. A run in progress
     # still ends cleanly (run_scene installs its own handler for the run's duration).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if parent is not None:
+        threading.Thread(target=_watch_parent, args=(parent,), name="cosim-parent-watch", daemon=True).start()
     import cosim.runner  # noqa: F401  (import once per worker, not once per run)
 
 
@@ -144,7 +157,7 @@ class ProcessBackend:
     def start(self) -> None:
         if self.pool is None:
             self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                               initializer=_worker_init)
+                                               initializer=_worker_init, initargs=(os.getpid(),))
 
     def warm_up(self) -> None:
         """Start every worker now (benchmarks time the runs, not the start-up)."""
