@@ -22,7 +22,7 @@ try:
     from pathlib import Path
     from typing import Any
 
-    from cosim.errors import CosimError, RecordingError, ScenarioError
+    from cosim.errors import CosimError, RecordingError, ScenarioError, one_line
     from cosim.timebase import NS_PER_S
 except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the same one line as later
     sys.stderr.write("error: cosim: interrupted (Ctrl-C)\n")
@@ -104,7 +104,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                         progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed)
     print(format_summary(scene, outcome))
     if outcome.failed:
-        print(f"error: {outcome.result.reason}", file=sys.stderr)
+        print(f"error: {one_line(outcome.result.reason)}", file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
 
@@ -267,14 +267,17 @@ def _where(exc: BaseException) -> str:
 
 
 def _one_line(text: str) -> str:
-    return " ".join(str(text).split()) or "(no message)"
+    return one_line(str(text).strip()) or "(no message)"
 
 
 def report(exc: BaseException, command: str) -> int:
     """Print ``exc`` as one line on stderr (a ScenarioError: one line per problem); its exit code."""
     what = f"cosim {command}" if command else "cosim"
-    if isinstance(exc, (ScenarioError, RecordingError)):
+    if isinstance(exc, ScenarioError):  # one line per problem, each made one line by the error itself
         print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if isinstance(exc, RecordingError):
+        print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     if isinstance(exc, CosimError):
         print(f"error: {_one_line(str(exc))}", file=sys.stderr)
@@ -291,7 +294,7 @@ def report(exc: BaseException, command: str) -> int:
         print(f"error: {what}: out of memory (at {_where(exc)})", file=sys.stderr)
         return EXIT_FAILED
     if isinstance(exc, OSError) and exc.filename is not None:
-        print(f"error: {exc.filename}: {exc.strerror or _one_line(str(exc))}", file=sys.stderr)
+        print(f"error: {_one_line(exc.filename)}: {_one_line(exc.strerror or str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     print(f"error: {what}: internal error {type(exc).__name__}: {_one_line(str(exc))} (at {_where(exc)}; "
           "--debug shows the traceback)", file=sys.stderr)

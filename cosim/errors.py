@@ -2,7 +2,17 @@
 
 from __future__ import annotations
 
+import re
+
 from cosim.timebase import format_time
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
+
+
+def one_line(text: str) -> str:
+    """``text`` with every control character (newline, carriage return, NUL...) written as its escape,
+    so a name or value taken from user input cannot break an error message over several lines."""
+    return _CONTROL.sub(lambda m: repr(m.group())[1:-1], str(text))
 
 
 class CosimError(Exception):
@@ -16,8 +26,8 @@ class ScenarioError(CosimError):
     """
 
     def __init__(self, problems: list[str] | str, source: str = "<scene>"):
-        self.problems = [problems] if isinstance(problems, str) else list(problems)
-        self.source = source
+        self.problems = [one_line(p) for p in ([problems] if isinstance(problems, str) else problems)]
+        self.source = one_line(source)
         super().__init__(self._text())
 
     def _text(self) -> str:

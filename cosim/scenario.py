@@ -172,7 +172,10 @@ def _shape_problem(data: Any) -> str | None:
 
 def read_yaml(text: str, source: str) -> Any:
     """YAML text to plain data, refusing duplicate keys; errors as one ScenarioError with the line."""
-    loader = _StrictLoader(text)
+    try:
+        loader = _StrictLoader(text)
+    except yaml.YAMLError as exc:  # a character YAML does not allow, found as the reader starts
+        raise ScenarioError(f"YAML syntax error: {getattr(exc, 'problem', None) or exc}", source) from None
     loader.duplicates = []
     try:
         data = loader.get_single_data()
@@ -196,7 +199,10 @@ def read_yaml(text: str, source: str) -> Any:
 def yaml_value(text: str) -> Any:
     """One value as a scene reads it (``--set key=VALUE``): YAML, with 1.2 floats; text that is not
     YAML stays text."""
-    loader = _StrictLoader(text)
+    try:
+        loader = _StrictLoader(text)
+    except yaml.YAMLError:
+        return text
     loader.duplicates = []
     try:
         value = loader.get_single_data()

@@ -19,7 +19,7 @@ SHOWN_POINTS = 10  # --dry-run lists this many points
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from cosim.errors import ScenarioError
+    from cosim.errors import ScenarioError, one_line
     from cosim.sweep.backends import BackendError, DaskBackend, make_backend
     from cosim.sweep.plan import load_sweep
     from cosim.sweep.run import run_sweep
@@ -43,7 +43,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         backend = make_backend(args.dask, args.workers)
         backend.start()
     except (ScenarioError, BackendError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {exc if isinstance(exc, ScenarioError) else one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
         if isinstance(backend, DaskBackend):
