@@ -103,8 +103,9 @@ def test_pressure_torque_raises_the_trailing_edge():
 
 
 def test_newtonian_term_adds_rho_c_n_un2():
-    """Switching C_N on adds 1/2 rho C_N (u.n)^2 S to a face pushed straight down."""
-    b = body(position=(0.0, 0.0, -0.01), velocity=(0.0, 0.0, -2.0), thickness=1e-4)
+    """Switching C_N on adds 1/2 rho C_N (u.n)^2 S to a face pushed straight down (a slab piercing
+    the surface, so the planing law holds)."""
+    b = body(position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, -2.0), thickness=0.03)
     _, off = run(b, still_water(0.01), effects=["pressure"])
     _, on = run(b, still_water(0.01), effects=["pressure"], c_n=1.4)
     area = math.pi * R * R
@@ -251,3 +252,24 @@ def test_forces_are_smooth_as_the_body_crosses_cells(effect, tolerance):
     series = np.array(series)
     assert series.min() > 0
     assert np.abs(np.diff(series)).max() < tolerance * series.mean()
+
+
+@pytest.mark.parametrize("attack_deg", [0, 20])
+def test_a_wholly_submerged_disk_feels_pressure_drag_not_planing_lift(attack_deg):
+    """Under water the pressure is the drag 1/2 rho C_D |u| u A_projected along -u: a thin disk
+    pushed face-on at 2 m/s feels C_D = 1.17 of it, and one gliding forward at an attack angle is
+    slowed without being lifted (its force has no component across its motion)."""
+    alpha = math.radians(attack_deg)
+    speed = 2.0
+    if attack_deg == 0:
+        velocity = (0.0, 0.0, -speed)
+    else:
+        velocity = (speed, 0.0, 0.0)
+    b = body(position=(0.0, 0.0, -0.05), orientation=pitched(alpha), velocity=velocity, thickness=1e-3)
+    _, out = run(b, still_water(0.01), effects=["pressure"])
+    force = np.asarray(out["contact"].pressure)
+    u = np.asarray(velocity) / speed
+    projected = np.pi * R * R * abs(math.cos(alpha) * u[2] - math.sin(alpha) * u[0]) + 2 * R * 1e-3 * abs(
+        math.cos(alpha) * u[0] + math.sin(alpha) * u[2])
+    assert force @ -u == pytest.approx(0.5 * 1000 * 1.17 * speed**2 * projected, rel=0.05)
+    assert np.linalg.norm(force - (force @ u) * u) < 1e-9 * np.linalg.norm(force)

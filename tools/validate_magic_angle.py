@@ -52,6 +52,7 @@ ALUMINIUM = 2700.0  # [kg/m^3]
 BETA_DEG = 20.0  # [deg] impact angle
 GRAVITY = 9.81  # [m/s^2]
 CLEARANCE = 5e-4  # [m] the lowest point starts this far above the water
+COSIM_DROP = 0.01  # [m] and, in the co-simulation, this much higher (see _start)
 PATCH_CELL = 0.005  # [m] water columns of both ways
 COUPLER_DT = 5e-5  # [s] step of the coupler-only integration
 SCENE_DT = 1e-4  # [s] base step of the co-simulation (the coupler substeps where it must)
@@ -69,11 +70,18 @@ QUICK_ALPHAS = [5.0, 10.0, 20.0, 30.0, 45.0]
 QUICK_COSIM_ALPHAS = [10.0, 20.0, 30.0]
 
 
-def _start(speed: float, alpha_deg: float) -> tuple[np.ndarray, np.ndarray]:
-    """Centre [m] with the lowest point CLEARANCE above the water, and velocity [m/s] at beta."""
+def _start(speed: float, alpha_deg: float, drop: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Centre [m] and velocity [m/s] of a throw that meets the water at ``speed`` and beta.
+
+    The lowest point starts CLEARANCE + ``drop`` above the water, with the vertical speed that
+    gravity brings to U sin(beta) over the drop: the full co-simulation drops from 1 cm so that the
+    water has delivered its first patch (a few water steps) before the stone arrives.
+    """
     alpha, beta = math.radians(alpha_deg), math.radians(BETA_DEG)
-    x = np.array([0.0, 0.0, RADIUS * math.sin(alpha) + 0.5 * THICKNESS * math.cos(alpha) + CLEARANCE])
-    v = np.array([speed * math.cos(beta), 0.0, -speed * math.sin(beta)])
+    height = CLEARANCE + drop
+    x = np.array([0.0, 0.0, RADIUS * math.sin(alpha) + 0.5 * THICKNESS * math.cos(alpha) + height])
+    vz = math.sqrt(max((speed * math.sin(beta)) ** 2 - 2.0 * GRAVITY * drop, 0.0))
+    v = np.array([speed * math.cos(beta), 0.0, -vz])
     return x, v
 
 
@@ -155,7 +163,7 @@ NO_DISPLACEMENT = ALL_EFFECTS[1:]
 
 def throw_scene(speed: float, alpha_deg: float, cell: float = PATCH_CELL, effects: list[str] = ALL_EFFECTS):
     """The full co-simulation of one throw: a 0.8 m x 0.2 m pond of ``cell`` columns under the disk."""
-    x, v = _start(speed, alpha_deg)
+    x, v = _start(speed, alpha_deg, drop=COSIM_DROP)
     length, width = 0.8, 0.2  # [m] the contact lasts a few centimetres of travel
     nx, ny = round(length / cell), round(width / cell)
     wave_speed = math.sqrt(GRAVITY * 0.3)

@@ -50,10 +50,13 @@ from components.coupler.effects import (
     unknown_effects,
 )
 from components.coupler.forces import (
+    C_DRAG_DISK,
+    C_DRAG_SPHERE,
     C_FRICTION,
     C_LIFT,
     C_MIN,
     C_WAVE,
+    CLOSURE_DEPTH,
     GRAVITY,
     RHO_WATER,
 )
@@ -119,6 +122,11 @@ class WaterCouplerParams:
     c_f: float = param(C_FRICTION, ge=0, doc="skin friction coefficient C_f")
     c_w: float = param(C_WAVE, ge=0, doc="capillary-gravity wave drag coefficient C_W")
     c_min: float = param(C_MIN, unit="m/s", ge=0, doc="minimum capillary-gravity wave speed")
+    c_d_disk: float = param(C_DRAG_DISK, ge=0, doc="pressure drag coefficient of a submerged disk (face on)")
+    c_d_sphere: float = param(C_DRAG_SPHERE, ge=0, doc="pressure drag coefficient of a submerged sphere")
+    closure_depth: float = param(CLOSURE_DEPTH, unit="m", gt=0,
+                                 doc="the planing law fades out as the body's top goes this far under the "
+                                     "surface (the water closes over it); below, the body is submerged")
     displacement_mode: Literal["ring", "column"] = param(
         "ring", doc="ring: displaced volume around the body, buoyancy at the water's level there "
                     "(energy-consistent); column: Mueller's b under it, buoyancy at the surface there")
@@ -189,6 +197,10 @@ class WaterCoupler(Component):
         self.quiet = False
         self._went_idle = False
         self._held_request: PatchRequest | None = None  # the window the water holds from us
+        # the surface the body met when this contact began, (i0, j0, height, velocity) in the
+        # water's grid (see _incident); None while the body is away from the water
+        self._met: tuple[int, int, np.ndarray, np.ndarray] | None = None
+        self._in_contact = False  # the last step wetted the body or displaced water
 
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
@@ -204,7 +216,9 @@ class WaterCoupler(Component):
         if self._prev is not None:
             prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
         return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
-                "bound": self.bound, "prev": prev, "quiet": self.quiet,
+                "bound": self.bound, "prev": prev, "quiet": self.quiet, "in_contact": self._in_contact,
+                "met": None if self._met is None else [self._met[0], self._met[1], self._met[2].copy(),
+                                                       self._met[3].copy()],
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max]}
@@ -219,6 +233,10 @@ class WaterCoupler(Component):
         self.bound = float(state["bound"])
         prev = state.get("prev")
         self._prev = None if prev is None else {k: np.array(v, dtype=float) for k, v in prev.items()}
+        self._in_contact = bool(state.get("in_contact", False))
+        met = state.get("met")
+        self._met = None if met is None else (int(met[0]), int(met[1]), np.array(met[2], dtype=float),
+                                              np.array(met[3], dtype=float))
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
@@ -310,7 +328,11 @@ class WaterCoupler(Component):
         nsub = self._subsamples(radius, float(patch.cell))
         held = np.asarray(patch.occupied, dtype=np.float64)
         water = (x0, y0, float(patch.cell), height, wvel, bottom, held if held.shape == height.shape else None)
-        stats = self._evaluate(body, pos, vel, omega, axes, half, low, water, elements, nsub,
+        met = water
+        if self._ring_mode():
+            met_height, met_velocity = self._incident(patch, height, wvel, body)
+            met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
+        stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
                                self._b_geo, self._stats, self._local_flags())
         ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
         if ring is not None:
@@ -319,7 +341,7 @@ class WaterCoupler(Component):
         self.bound = self._stability_bound(body, stats)
         mean = stats[:kernel.S_TOTAL + 6]
         if n > 1:
-            mean = self._predict(body, n, dt, stats, water, elements, nsub)
+            mean = self._predict(body, n, dt, stats, water, met, elements, nsub)
         force = mean[kernel.S_TOTAL:kernel.S_TOTAL + 3].copy()
         torque = mean[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6].copy()
         self._prev = {"force": force, "torque": torque, "position": pos.copy(), "omega": omega.copy()}
@@ -328,6 +350,7 @@ class WaterCoupler(Component):
         volume = float(stats[kernel.S_VOLUME])
         area = float(stats[kernel.S_AREA])
         displaced = 0.0 if ring is None else float(ring.rest[kernel.S_VOLUME])
+        self._in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0
         if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
             # dry and clear of the surface: the same outputs as far away (published once, then held),
             # but the window stays requested, since the body is still near the water
@@ -366,14 +389,34 @@ class WaterCoupler(Component):
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
         p = self.params
         x0, y0, cell, height, wvel, bottom, _ = water
+        planing = self._planing(pos, low, water)
+        c_d = p.c_d_disk if body.shape == Shape.DISK else p.c_d_sphere
         kernel.evaluate(
             int(body.shape), float(body.radius), float(body.thickness),
             pos, axes, vel, omega, float(half[0]), float(half[1]), low[0], low[1], low[2],
             float(x0), float(y0), cell, height, wvel, bottom,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, flags, nsub,
-            b_geo, _NO_WATERLINE, stats)
+            b_geo, _NO_WATERLINE, stats, planing, c_d)
         return stats
+
+    def _planing(self, pos: np.ndarray, low: tuple[float, float, float], water) -> float:
+        """The share [-] of the pressure that follows the planing law: 1 while the body's highest
+        point is above the surface, falling to 0 as it goes ``closure_depth`` under.
+
+        The planing law holds for a face meeting the flow at the free surface, with the splash
+        sheet ahead and an air cavity behind the body. Once the water closes over the body's top,
+        the cavity is gone and the body is a submerged one: buoyancy, pressure drag along its
+        motion and no planing lift, so a stone that goes wholly under does not come back out as if
+        it were skimming. (The highest point of a disk or a sphere is its lowest point mirrored
+        through the centre.)"""
+        x0, y0, cell, height, wvel, _, _ = water
+        top = 2.0 * pos - np.asarray(low)
+        ok, h_top, _ = kernel.sample_surface(float(top[0]), float(top[1]), x0, y0, cell, height, wvel)
+        if not ok:
+            return 1.0
+        under = h_top - float(top[2])
+        return min(1.0, max(0.0, 1.0 - under / self.params.closure_depth))
 
     def _elements_for(self, body: BodyState) -> Elements:
         p = self.params
@@ -613,10 +656,11 @@ class WaterCoupler(Component):
             return math.inf
         return MOTION_FRACTION * float(body.radius) / speed
 
-    def _predict(self, body: BodyState, n: int, dt: float, stats0: np.ndarray, water, elements,
+    def _predict(self, body: BodyState, n: int, dt: float, stats0: np.ndarray, water, met, elements,
                  nsub: int) -> np.ndarray:
         """Mean of the effects' forces and torques and their sum (S_TOTAL + 6,) over n substeps of a
-        private copy of the body moved by them and gravity (semi-implicit Euler)."""
+        private copy of the body moved by them and gravity (semi-implicit Euler). ``met``: the water
+        the surface effects are evaluated on (see :meth:`_incident`), ``water`` the patch itself."""
         h = dt / n
         mass = float(body.mass)
         inertia_body = np.asarray(body.inertia, dtype=float)
@@ -641,7 +685,7 @@ class WaterCoupler(Component):
                 axis = axes[:, 2]
                 low = lowest_point(is_disk, x, axis, radius, thick)
                 half = disk_half_extents(axis, radius, thick) if is_disk else (radius, radius)
-                stats = self._evaluate(body, x, v, w, axes, half, low, water, elements, nsub,
+                stats = self._evaluate(body, x, v, w, axes, half, low, met, elements, nsub,
                                        b_scratch, s_scratch, flags)
                 if ring_mode:
                     self._add_hydrostatics(stats, self._ring(body, x, axes, half, low, water, elements,
@@ -659,7 +703,52 @@ class WaterCoupler(Component):
             q = _rotate(q, w * h)
         return total / n
 
+    def _incident(self, patch: HeightPatch, height: np.ndarray, velocity: np.ndarray, body: BodyState
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """The surface the planing law reads [m, m/s]: the water as the body met it.
+
+        The pressure law (Rosellini et al. 2005) is written, and its C_L measured, against the
+        undisturbed surface: the pile-up and the splash the body raises are inside C_L. The ring puts
+        the body's displaced volume into the height field, which does not see the body, so its
+        waves also run in under the wetted face; read there, they would wet more of it and push
+        the water up against it, lift that C_L already holds (at the magic angle they lowered the
+        critical speed by about 10%). So from the step a contact begins until the body is clear of
+        the water again, the surface effects read the surface as it was when the body met it: the
+        window it held then, frozen, and the live surface only for columns that enter the window
+        later (ahead of the body, before its waves reach them: a skipping stone outruns its waves).
+        Waves from elsewhere (an earlier skip, another body) that were there when the body arrived
+        are felt; those the body makes are not felt by itself during that contact, but are by the
+        next one. The buoyancy reads the water where the displaced volume goes, as before.
+
+        This is the planing regime: a body moving across the water faster than its own gravity
+        waves (Froude number U / sqrt(g L) above 1, L = 2R). A floating or slowly moving body is in
+        the waves it radiates, and feels them: the frozen surface is blended into the live one with
+        the weight F^4 / (1 + F^4) of that Froude number (a skipping stone: over 0.99; a float: 0).
+        """
+        i0, j0 = int(patch.i0), int(patch.j0)
+        met = self._met
+        if not self._in_contact or met is None:
+            self._met = (i0, j0, height, velocity)
+            return height, velocity
+        mi0, mj0, m_h, m_v = met
+        nj, ni = height.shape
+        ia, ib = max(i0, mi0), min(i0 + ni, mi0 + m_h.shape[1])
+        ja, jb = max(j0, mj0), min(j0 + nj, mj0 + m_h.shape[0])
+        h, v = height.copy(), velocity.copy()
+        if ia < ib and ja < jb:
+            h[ja - j0:jb - j0, ia - i0:ib - i0] = m_h[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
+            v[ja - j0:jb - j0, ia - i0:ib - i0] = m_v[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
+        self._met = (i0, j0, h, v)
+        vx, vy = float(body.velocity[0]), float(body.velocity[1])
+        froude4 = ((vx * vx + vy * vy) / (2.0 * self.params.g * float(body.radius))) ** 2 if self.params.g > 0 else 1.0
+        share = froude4 / (1.0 + froude4)
+        if share < 1.0:
+            h = share * h + (1.0 - share) * height
+            v = share * v + (1.0 - share) * velocity
+        return h, v
+
     def _idle(self, depth: float) -> dict[str, Message]:
+        self._in_contact = False
         self.work = {"columns": 0, "elements": 0}
         self._went_idle = True
         return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,

@@ -15,6 +15,15 @@ from the face.)
   A disk's spin about its own axis only slides its faces and rim along themselves and pushes no
   water, so the pressure uses the point velocity without that spin (friction uses all of it); a
   sphere's rotation likewise moves no water and is left out of its pressure.
+* Planing and submerged (physics.md section 3). The law above is a planing law: it holds while the
+  body pierces the surface, with a splash sheet ahead and an air cavity behind it. Once the water
+  closes over the body's highest point (over ``closure_depth``) the body is submerged: the pressure
+  becomes a drag along the relative velocity on the face's projected area::
+
+      dF = -1/2 rho_w C_D (u.n) u dA        where u.n > 0
+
+  which sums to the textbook ``-1/2 rho_w C_D |u| u A_projected`` (C_D = 1.17 for a disk face on,
+  0.47 for a sphere), with no lift; its torque still comes from the geometry.
 * Friction (Bocquet 2003): ``dF_t = -1/2 rho_w C_f |u| u_t dA`` on every wetted element, with
   ``u_t = u - (u.n) n``. The default C_f = 0.01 is skin friction (a turbulent flat plate at
   Re = U L / nu ~ 1e5-1e6 has C_f ~ 0.005); the pressure law already carries the plate's drag
@@ -58,6 +67,9 @@ C_LIFT = 1.0  # C_L of the pressure law [-] (physics.md: about 1)
 C_NEWTONIAN = 1.4  # C_N of the Newtonian (u.n)^2 term when switched on [-] (Nagahiro & Hayakawa 2005)
 C_FRICTION = 0.01  # C_f of the skin friction [-] (turbulent flat plates at Re ~ 1e5-1e6: ~0.005)
 C_WAVE = 0.3  # C_W of the capillary-gravity wave drag [-] (calibration coefficient)
+C_DRAG_DISK = 1.17  # C_D of a submerged disk face on [-] (Hoerner, Fluid-Dynamic Drag, 1965)
+C_DRAG_SPHERE = 0.47  # C_D of a submerged sphere [-] (subcritical Reynolds numbers, 1e4-2e5)
+CLOSURE_DEPTH = 1e-3  # depth [m] of the body's top under the surface over which planing gives way
 
 
 @njit(cache=True)

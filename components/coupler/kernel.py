@@ -77,19 +77,65 @@ def sample_surface(x, y, x0, y0, cell, height, wvel):
     return True, h, v
 
 
+SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^2 from the trailing edge (xi = 0) to the spray
+# root (xi = 1): its centre at 3/4 of the wetted length, Savitsky's high-speed value [-]
+
+
+@njit(cache=True)
+def spray_root_weights(s, load, forward):
+    """Weights [-] of the planing pressure of wetted elements at places ``s`` [m] along the flow
+    (the trailing edge lowest) carrying ``load`` [N] each, keeping ``sum w load = sum load``.
+
+    A planing surface is not pressed evenly: the pressure peaks where the water meets it, at the
+    spray root along the front of the wetted area (Wagner 1932), and the centre of pressure of a
+    planing plate lies at 3/4 of the wetted length from its trailing edge at speed (Savitsky 1964,
+    "Hydrodynamic design of planing hulls"), not at half. With xi = (s - s_trailing) / (s_root -
+    s_trailing), the weight (1 - f) + f (p + 1) xi^p (p = SPRAY_ROOT_POWER) puts it there for a
+    plate planing forward (f = ``forward`` = 1, the flow along the surface) and keeps the even
+    pressure of a body meeting the water head on (f = 0). The total force is unchanged: C_L and
+    the law stay the measured ones, only the place they act moves."""
+    n = s.shape[0]
+    w = np.ones(n)
+    if n < 2 or forward <= 0.0:
+        return w
+    lo = s[0]
+    hi = s[0]
+    for k in range(1, n):
+        lo = min(lo, s[k])
+        hi = max(hi, s[k])
+    if hi - lo <= 0.0:
+        return w
+    total = 0.0
+    weighted = 0.0
+    for k in range(n):
+        xi = (s[k] - lo) / (hi - lo)
+        w[k] = (1.0 - forward) + forward * (SPRAY_ROOT_POWER + 1) * xi ** SPRAY_ROOT_POWER
+        total += load[k]
+        weighted += w[k] * load[k]
+    if weighted == 0.0 or total == 0.0:
+        return np.ones(n)
+    scale = total / weighted
+    for k in range(n):
+        w[k] *= scale
+    return w
+
+
 @njit(cache=True)
 def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
              x0, y0, cell, height, wvel, bottom,
              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
              rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
-             b_geo, waterline, stats):
+             b_geo, waterline, stats, planing=1.0, c_d=0.0):
     """Water forces on one body state over one patch; see the module docstring.
 
     centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
     (columns = body axes); half_x, half_y: horizontal half-extents of the body [m]; z_low: its
     lowest point (x_low, y_low, z_low) [m]; x0, y0: centre of the patch's first column [m]; height,
     wvel, bottom: (nj, ni) patch arrays; el_*: the body's surface elements; nsub: sub-cells per
-    column side. Writes b_geo (nj, ni) [m] (zero where dry) and stats (N_STATS,); and, unless it is
+    column side; planing [-]: the share of the pressure that is the planing law (1 while the body
+    pierces the surface), the rest (1 - planing) is the submerged pressure drag of coefficient c_d
+    (:func:`components.coupler.forces.submerged_drag`). Writes b_geo (nj, ni) [m] (zero where dry) and
+    stats (N_STATS,); and, unless it is
     empty, waterline (3, nj, ni): per column, the area [m^2] of its sub-columns the surface cuts
     through the body and that area's first moments about the centre, sum dx a and sum dy a [m^3].
     """
@@ -234,6 +280,24 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
             px_, py_, pz_ = 0.0, 0.0, 0.0
         vx, vy, vz = velocity[0], velocity[1], velocity[2]
         n_el = el_area.shape[0]
+        # the planing pressure of each element (force, lever arm, place along the flow), weighted
+        # towards the spray root once all are known (see spray_root_weights)
+        pl_f = np.empty((n_el, 3))
+        pl_r = np.empty((n_el, 3))
+        pl_s = np.empty(n_el)
+        pl_m = np.empty(n_el)
+        n_pl = 0
+        # the direction from the wetted area's trailing edge towards its spray root: away from the
+        # lowest point (a disk's wetted area is the segment around it, cut by the waterline across
+        # this direction), or along the flow for a body whose lowest point is under its centre
+        hspeed = math.sqrt(vx * vx + vy * vy)
+        hx, hy = cx - x_low, cy - y_low
+        reach = math.sqrt(hx * hx + hy * hy)
+        if reach > 1e-6 * radius:
+            hx /= reach
+            hy /= reach
+        elif hspeed > 0.0:
+            hx, hy = vx / hspeed, vy / hspeed
         do_p = (flags & PRESSURE) != 0
         do_f = (flags & FRICTION) != 0
         fp = np.zeros(6)
@@ -289,10 +353,31 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                 un = ux * nx + uy * ny + uz * nz
                 if un > 0.0:
                     speed = math.sqrt(ux * ux + uy * uy + uz * uz)
-                    p = pressure_magnitude(speed, un, rho, c_l, c_n)
-                    dfx = -p * fa * nx
-                    dfy = -p * fa * ny
-                    dfz = -p * fa * nz
+                    p = planing * pressure_magnitude(speed, un, rho, c_l, c_n)
+                    if p > 0.0 and shape == SHAPE_DISK and abs(nx * ax + ny * ay + nz * az) > 0.5:
+                        # a disk face: its planing load is spread towards the spray root below
+                        pl_f[n_pl, 0] = -p * fa * nx
+                        pl_f[n_pl, 1] = -p * fa * ny
+                        pl_f[n_pl, 2] = -p * fa * nz
+                        pl_r[n_pl, 0] = rx
+                        pl_r[n_pl, 1] = ry
+                        pl_r[n_pl, 2] = rz
+                        pl_s[n_pl] = rx * hx + ry * hy
+                        pl_m[n_pl] = p * fa
+                        n_pl += 1
+                    elif p > 0.0:
+                        # the rim, or a sphere: the pressure where it acts
+                        fp[0] += -p * fa * nx
+                        fp[1] += -p * fa * ny
+                        fp[2] += -p * fa * nz
+                        fp[3] += -p * fa * (ry * nz - rz * ny)
+                        fp[4] += -p * fa * (rz * nx - rx * nz)
+                        fp[5] += -p * fa * (rx * ny - ry * nx)
+                    # submerged: a pressure drag along -u on the face's projected area (u.n / |u|) dA
+                    kd = (1.0 - planing) * 0.5 * rho * c_d * un * fa
+                    dfx = -kd * ux
+                    dfy = -kd * uy
+                    dfz = -kd * uz
                     fp[0] += dfx
                     fp[1] += dfy
                     fp[2] += dfz
@@ -300,7 +385,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                     fp[4] += rz * dfx - rx * dfz
                     fp[5] += rx * dfy - ry * dfx
                     adv += fa
-                    ce = rho * (c_l * speed + c_n * un) * fa
+                    ce = rho * (planing * (c_l * speed + c_n * un) + (1.0 - planing) * c_d * speed) * fa
                     cxn = ry * nz - rz * ny
                     cyn = rz * nx - rx * nz
                     czn = rx * ny - ry * nx
@@ -330,6 +415,24 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                 ff[5] += rx * dfy - ry * dfx
                 d_lin += 2.0 * kf
                 d_rot += 2.0 * kf * (rx * rx + ry * ry + rz * rz)
+        if n_pl > 0:
+            vz_ = velocity[2]
+            # planing: the body skims forward, faster than its own gravity waves (a Froude number
+            # U / sqrt(g L) above 1); a floating or dropped body presses the water evenly
+            forward = hspeed * hspeed / (hspeed * hspeed + vz_ * vz_ + 2.0 * g * radius)
+            weights = spray_root_weights(pl_s[:n_pl], pl_m[:n_pl], forward)
+            for k in range(n_pl):
+                wk = weights[k]
+                dfx = wk * pl_f[k, 0]
+                dfy = wk * pl_f[k, 1]
+                dfz = wk * pl_f[k, 2]
+                rx, ry, rz = pl_r[k, 0], pl_r[k, 1], pl_r[k, 2]
+                fp[0] += dfx
+                fp[1] += dfy
+                fp[2] += dfz
+                fp[3] += ry * dfz - rz * dfy
+                fp[4] += rz * dfx - rx * dfz
+                fp[5] += rx * dfy - ry * dfx
         if do_p:
             for q in range(6):
                 stats[S_PRESSURE + q] = fp[q]
