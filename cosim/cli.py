@@ -16,6 +16,7 @@ import sys
 
 try:
     import argparse
+    import math
     import os
     import shlex
     from collections.abc import Callable
@@ -47,6 +48,8 @@ def number_arg(kind: type[int] | type[float], what: str, *, above: float | None 
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if kind is float and not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"expected a finite number ({what}), got {text}")
         if above is not None and not value > above:
             raise argparse.ArgumentTypeError(f"must be > {above:g}{unit}, got {text}")
         if at_least is not None and not value >= at_least:
@@ -63,8 +66,13 @@ _time_since_start = number_arg(float, "seconds", at_least=0, unit=" s")
 
 
 def _seconds_arg(text: str) -> int:
-    """A time [s] >= 0 as integer nanoseconds."""
-    return round(_time_since_start(text) * NS_PER_S)
+    """A time [s] >= 0 as integer nanoseconds, at most the longest time a recording holds."""
+    from cosim.scenario import MAX_TIME_NS
+
+    seconds = _time_since_start(text)
+    if seconds * NS_PER_S > MAX_TIME_NS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_TIME_NS / NS_PER_S:.3g} s, got {text}")
+    return round(seconds * NS_PER_S)
 
 
 def _live_address(text: str) -> str:
@@ -178,12 +186,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
-    p.add_argument("--record-every", type=int, metavar="N", help="record every N-th message of each channel")
+    p.add_argument("--record-every", type=positive_int, metavar="N", help="record every N-th message of each channel")
     p.add_argument("--perf", action="store_true", help="add wall-clock /perf channels (not deterministic)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
-    p.add_argument("--live-speed", type=float, default=1.0, metavar="S",
+    p.add_argument("--live-speed", type=number_arg(float, "a number", at_least=0), default=1.0, metavar="S",
                    help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
     p.set_defaults(func=cmd_run)
 

@@ -249,6 +249,8 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
             continue
         value = yaml_value(raw)
         parts = key.strip().split(".")
+        if len(parts) > 1 and parts[0] == "record" and data.get("record") is None:
+            data["record"] = {}  # a scene without a record block records with the defaults: --record sets them
         node, missing = find_parent(data, parts)
         if missing is not None:
             problems.append(f"--set {key}: no such key {missing}")

@@ -147,3 +147,25 @@ def test_plot_render_and_live_without_the_viz_extra_say_what_to_install(scene, t
         proc = run_cosim(*args, cwd=tmp_path, pythonpath=(stubs,))
         assert proc.returncode == 2, proc.stderr
         assert "pip install 'cosim[viz]'" in one_error_line(proc.stderr)
+
+
+@pytest.mark.parametrize("argv", [["--until", "1e308"], ["--until", "inf"], ["--until", "nan"],
+                                  ["--live-speed", "nan", "--live", "0"], ["--record-every", "0"]])
+def test_command_line_numbers_out_of_range_are_bad_input(scene, capsys, argv):
+    """Times beyond what a recording holds, non-finite numbers and a zero rate: exit 2, one line."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", str(scene), "--no-record", "-q", *argv])
+    assert exit_.value.code == 2
+    one_error_line(capsys.readouterr().err)
+
+
+def test_record_options_work_on_a_scene_without_a_record_block(tmp_path, capsys):
+    """--record and --record-every set record.* on a scene that has no record block of its own."""
+    scene = tmp_path / "bare.yaml"
+    scene.write_text(SCENE)
+    out = tmp_path / "bare.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q", "--record", "/g/*", "--record-every", "5"]) == 0
+    from cosim.record.reader import Recording
+
+    channels = Recording(out).channels
+    assert channels["/g/out"].count == 10 and "/src/out" not in channels  # 50 steps, every 5th
