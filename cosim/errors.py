@@ -6,11 +6,12 @@ import re
 
 from cosim.timebase import format_time
 
-_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")  # control characters and every line break
 
 
 def one_line(text: str) -> str:
-    """``text`` with every control character (newline, carriage return, NUL...) written as its escape,
+    """``text`` with every control character and line break (newline, carriage return, NEL, the
+    Unicode line and paragraph separators, NUL...) written as its escape,
     so a name or value taken from user input cannot break an error message over several lines."""
     return _CONTROL.sub(lambda m: repr(m.group())[1:-1], str(text))
 

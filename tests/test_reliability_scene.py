@@ -112,6 +112,15 @@ def test_component_names_that_are_not_safe_channel_names_are_refused(name):
     assert any("component names must be identifiers of at most 64 characters" in p for p in err.value.problems)
 
 
+@pytest.mark.parametrize("char", ["\n", "\r", "\x00", "\x1c", "\x85", "\u2028", "\u2029"])
+def test_error_lines_stay_lines_whatever_a_name_holds(char):
+    """A name holding a line break or a control character is shown escaped: one line per problem."""
+    text = SCENE.replace("  g: {type", f'  "g\\u{ord(char):04x}": {{type')  # a YAML escape of the character
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    assert len(str(err.value).splitlines()) == 1 + len(err.value.problems) > 2
+
+
 def test_a_scene_cannot_import_an_arbitrary_module(tmp_path, monkeypatch):
     """`type: module:Class` imports only from allowed packages: another module is refused before it
     is imported (its code never runs); COSIM_COMPONENT_PACKAGES allows a package explicitly."""
