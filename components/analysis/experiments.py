@@ -1,0 +1,214 @@
+"""The published experiments as runnable throws: the Clanet/Rosellini aluminium disk thrown at still
+water through the full co-simulation (RigidBody + WaterSurface + WaterCoupler with every effect +
+StageMonitor), and what each throw did.
+
+Used by ``tools/validate_magic_angle.py``, ``tools/validate_targets.py`` and the tests that hold the
+model to the published values (``tests/test_validation_targets.py``). The experiment: Clanet, Hersen &
+Bocquet, Nature 427, 29 (2004); Rosellini, Hersen, Clanet & Bocquet, J. Fluid Mech. 543, 137 (2005).
+An aluminium disk (R = 2.5 cm, e = 2.75 mm, 2700 kg/m^3) thrown by a catapult with speed U, impact
+angle beta (velocity below the horizontal) and attack angle alpha (face nose-up), spun at 65 rev/s
+(held attitude, ``spin=None``) or at a given spin with a free attitude.
+
+A throw is started with the disk's lowest point 1.05 cm above the water and the vertical speed that
+gravity brings to U sin(beta) at the surface: the water delivers its first patch a few water steps
+into the run, before the stone arrives.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cosim.scenario import Scene, loads
+from cosim.scheduler import Simulation
+
+RADIUS = 0.025  # [m] Clanet et al.'s aluminium disk
+THICKNESS = 0.00275  # [m]
+ALUMINIUM = 2700.0  # [kg/m^3]
+GRAVITY = 9.81  # [m/s^2]
+START_HEIGHT = 0.0105  # [m] of the lowest point above the water at the start
+DEPTH = 0.3  # [m] of the still water
+BASE_STEP = 1e-4  # [s] of the co-simulation (the coupler substeps where it must)
+TAKEOFF_CLEARANCE = 0.002  # [m] the stage monitor's default: a bounce rises this far clear of the water
+
+SCENE = """
+name: clanet_throw
+dt: {dt}
+until: {until}
+on_unstable: substep
+components:
+  stone:
+    type: RigidBody
+    shape: disk
+    radius: {radius}
+    thickness: {thickness}
+    density: {density}
+    position: [{x[0]!r}, {x[1]!r}, {x[2]!r}]
+    velocity: [{v[0]!r}, {v[1]!r}, {v[2]!r}]
+    tilt_deg: {alpha!r}
+    {attitude}
+  pond:
+    type: WaterSurface
+    nx: {nx}
+    ny: {ny}
+    cell: {cell!r}
+    depth: {depth}
+    origin_x: {ox!r}
+    origin_y: {oy!r}
+    boundary: absorbing
+    every: {water_every}
+    field_rate: 0
+  coupler:
+    type: WaterCoupler
+  stages:
+    type: StageMonitor
+    stop_after: 0.0
+    takeoff_clearance: {clearance!r}
+connections:
+  - stone.state -> coupler.body
+  - pond.patch -> coupler.water
+  - {{from: coupler.wrench, to: stone.wrench, delay: 1, initial: {{force: [0, 0, 0], torque: [0, 0, 0]}}}}
+  - {{from: coupler.occupied, to: pond.occupied, delay: 1, initial: {{i0: 0, j0: 0, b: []}}}}
+  - {{from: coupler.request, to: pond.request, delay: 1, initial: {{x_min: 1, x_max: 0, y_min: 1, y_max: 0}}}}
+  - stone.state -> stages.body
+  - coupler.contact -> stages.water
+"""
+
+
+def start(speed: float, alpha_deg: float, beta_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centre [m] and velocity [m/s] of a throw that meets still water at ``speed`` and ``beta_deg``."""
+    alpha, beta = math.radians(alpha_deg), math.radians(beta_deg)
+    x = np.array([0.0, 0.0, RADIUS * math.sin(alpha) + 0.5 * THICKNESS * math.cos(alpha) + START_HEIGHT])
+    vz = math.sqrt(max((speed * math.sin(beta)) ** 2 - 2.0 * GRAVITY * START_HEIGHT, 0.0))
+    return x, np.array([speed * math.cos(beta), 0.0, -vz])
+
+
+def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell: float = 0.005,
+                spin_rev_s: float | None = None, until: float = 0.6,
+                clearance: float = TAKEOFF_CLEARANCE) -> Scene:
+    """One throw of the disk over a 0.8 m x 0.2 m pond of ``cell`` columns (the default effects,
+    all five); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a number frees
+    it with that spin [rev/s] about the disk's axis."""
+    x, v = start(speed, alpha_deg, beta_deg)
+    length, width = 0.8, 0.2  # [m] a contact lasts a few centimetres of travel
+    wave_speed = math.sqrt(GRAVITY * DEPTH)
+    water_every = max(1, math.floor(0.5 * cell / wave_speed / BASE_STEP))  # c dt / s <= 0.5
+    attitude = ("lock_attitude: true" if spin_rev_s is None
+                else f"lock_attitude: false\n    spin: {2.0 * math.pi * spin_rev_s!r}")
+    text = SCENE.format(dt=BASE_STEP, until=until, radius=RADIUS, thickness=THICKNESS, density=ALUMINIUM,
+                        x=x.tolist(), v=v.tolist(), alpha=float(alpha_deg), attitude=attitude,
+                        nx=round(length / cell), ny=round(width / cell), cell=cell, depth=DEPTH,
+                        ox=-0.1 + 0.5 * cell, oy=-0.5 * width + 0.5 * cell, water_every=water_every,
+                        clearance=clearance)
+    return loads(text, source="clanet_throw")
+
+
+@dataclass(frozen=True)
+class ThrowOutcome:
+    """What one throw did, up to its first bounce or its sink."""
+
+    bounced: bool  # the stage monitor recorded a fly-away before a sink
+    contact_s: float  # how long the disk was wetted in its first contact [s]
+    attack_deg: tuple[float, float, float]  # attack angle over the contact: min, max, at its end [deg]
+    tilt_change_deg: float  # largest change of the axis' tilt from the vertical during it [deg]
+    exit_speed: float  # speed at the end of the contact [m/s]
+
+
+def _attack_and_tilt(orientation: np.ndarray, velocity: np.ndarray) -> tuple[float, float]:
+    """Attack angle along the horizontal motion and tilt of the axis from the vertical [deg]."""
+    w, x, y, z = orientation
+    axis = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+    h = velocity[:2] / max(float(np.linalg.norm(velocity[:2])), 1e-12)
+    attack = math.degrees(math.atan2(-(axis[0] * h[0] + axis[1] * h[1]), axis[2]))
+    return attack, math.degrees(math.acos(min(1.0, max(-1.0, float(axis[2])))))
+
+
+def run_throw(scene: Scene) -> ThrowOutcome:
+    """Run ``scene`` (from :func:`throw_scene`) to the first bounce or sink."""
+    sim = Simulation(scene)
+    sim.initialize()
+    stages = sim.components["stages"]
+    stone = sim.components["stone"]
+    end = scene.until_ns
+    coupler_contact = {r.name: r for r in sim.runners}["coupler"].slots["contact"]
+    touched_at = None
+    wetted_from = wetted_until = None
+    attacks: list[float] = []
+    tilt0 = None
+    tilt_change = 0.0
+    bounced = False
+    state = stone.body_state()
+    while sim.time_ns < end:
+        sim.step()
+        state = stone.body_state()
+        wet = stages.track.in_contact
+        if wet and touched_at is None:
+            touched_at = sim.time_ns
+        report = coupler_contact.entries[-1][1] if coupler_contact.entries else None
+        if report is not None and report.wetted:
+            wetted_from = sim.time_ns if wetted_from is None else wetted_from
+            wetted_until = sim.time_ns
+        if touched_at is not None:
+            attack, tilt = _attack_and_tilt(np.asarray(state.orientation), np.asarray(state.velocity))
+            attacks.append(attack)
+            tilt0 = tilt if tilt0 is None else tilt0
+            tilt_change = max(tilt_change, abs(tilt - tilt0))
+        if stages.track.skips:
+            bounced = True
+            break
+        if stages.stage is not None and stages.stage.name == "SINK":
+            break
+    contact = 0.0 if wetted_from is None else (wetted_until - wetted_from) * 1e-9
+    span = (min(attacks), max(attacks), attacks[-1]) if attacks else (math.nan,) * 3
+    return ThrowOutcome(bounced, contact, span, tilt_change, float(np.linalg.norm(state.velocity)))
+
+
+def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = 0.01,
+                       cell: float = 0.005, until: float = 0.4) -> Scene:
+    """A sphere of ``radius`` [m] and ``relative_density`` thrown at ``theta_deg`` below the horizontal
+    onto still water (Johnson & Reid's ricochet), over the same pond as the disk."""
+    text = throw_scene(speed, 0.0, theta_deg, cell=cell, until=until).text
+    x, _ = start(speed, 0.0, theta_deg)
+    disk = (f"    shape: disk\n    radius: {RADIUS}\n    thickness: {THICKNESS}\n    density: {ALUMINIUM}\n"
+            f"    position: [0.0, 0.0, {float(x[2])!r}]")
+    sphere = (f"    shape: sphere\n    radius: {radius!r}\n    density: {1000.0 * relative_density!r}\n"
+              f"    position: [0.0, 0.0, {radius + START_HEIGHT!r}]")
+    if disk not in text:
+        raise AssertionError("the disk throw's text changed: update sphere_throw_scene")
+    return loads(text.replace(disk, sphere), source="sphere_throw")
+
+
+def bounces(speed: float, alpha_deg: float, beta_deg: float = 20.0, **scene_args) -> bool:
+    """Whether the throw bounces (a fly-away before a sink)."""
+    return run_throw(throw_scene(speed, alpha_deg, beta_deg, **scene_args)).bounced
+
+
+def critical_speed(alpha_deg: float, *, lo: float = 1.0, hi: float = 6.0, step: float = 0.1,
+                   tol: float = 0.01, **throw_args) -> tuple[float, list[float]]:
+    """The speed [m/s] above which every throw at ``alpha_deg`` bounces, and the slower speeds that
+    bounce too.
+
+    Every speed lo, lo + step, ..., hi is thrown (a throw need not bounce at every speed above one that
+    does: near the threshold a stone can surf along the surface instead); the critical speed is then
+    bisected to ``tol`` between the fastest one that does not bounce and the next. NaN if even ``hi``
+    does not bounce.
+    """
+    grid = np.round(np.arange(lo, hi + 0.5 * step, step), 6)
+    results = [bounces(float(u), alpha_deg, **throw_args) for u in grid]
+    if not results[-1]:
+        return math.nan, []
+    fails = [float(u) for u, ok in zip(grid, results, strict=True) if not ok]
+    if not fails:
+        return float(grid[0]), []
+    a = fails[-1]
+    below = [float(u) for u, ok in zip(grid, results, strict=True) if ok and u < a]
+    b = a + step
+    while b - a > tol:
+        mid = 0.5 * (a + b)
+        if bounces(mid, alpha_deg, **throw_args):
+            b = mid
+        else:
+            a = mid
+    return 0.5 * (a + b), below
