@@ -92,7 +92,8 @@ def test_far_body_costs_no_column_work():
 
 
 def test_body_near_water_requests_its_next_footprint():
-    """Before any patch arrives, a body near the water asks for its footprint at x + v dt plus a margin."""
+    """Before any patch arrives, a body near the water asks for its footprint at x + v dt plus a margin,
+    reaching ahead along its motion as far as it goes in ``lookahead`` (and no further behind or aside)."""
     c = WaterCoupler("c")
     b = body(position=(1.0, 2.0, 0.04), velocity=(10.0, 0.0, -1.0))
     out = step(c, b, None)
@@ -100,7 +101,9 @@ def test_body_near_water_requests_its_next_footprint():
     x_next = 1.0 + 10.0 * DT_NS * 1e-9
     assert req.x_min < x_next - 0.05 and req.x_max > x_next + 0.05
     assert req.y_min < 2.0 - 0.05 and req.y_max > 2.0 + 0.05
-    assert req.x_max - req.x_min < 0.3
+    assert req.x_min > x_next - 0.15
+    assert req.x_max == pytest.approx(x_next + 10.0 * c.params.lookahead + (req.x_min - x_next) * -1, abs=1e-9)
+    assert req.y_max - req.y_min < 0.3
     assert not out["wrench"].force.any()
 
 
@@ -269,7 +272,8 @@ def test_request_is_published_only_when_the_held_window_no_longer_covers_the_bod
     nudged = skipping_disk(depth=0.005)
     nudged = nudged.replace(position=nudged.position + np.array([0.001, 0.0, 0.0]))
     assert "request" not in step(c, nudged, patch, 1)
-    moved = nudged.replace(position=nudged.position + np.array([0.05, 0.0, 0.0]))
+    ahead = float(nudged.velocity[0]) * c.params.lookahead  # the window reaches this far ahead already
+    moved = nudged.replace(position=nudged.position + np.array([0.05 + ahead, 0.0, 0.0]))
     out = step(c, moved, patch, 2)
     assert out["request"].x_max > first["request"].x_max + 0.04
 
@@ -360,7 +364,8 @@ def test_a_quiet_coupler_still_moves_its_window_with_the_body():
     flying = skipping_disk(depth=-0.03)  # dry, 3 cm above the surface
     step(c, flying, patch, 0)
     assert step(c, flying, patch, 1) == {}  # quiet: everything held
-    far_along = flying.replace(position=flying.position + np.array([0.2, 0.0, 0.0]))
+    ahead = float(flying.velocity[0]) * c.params.lookahead  # the window reaches this far ahead already
+    far_along = flying.replace(position=flying.position + np.array([0.2 + ahead, 0.0, 0.0]))
     out = step(c, far_along, patch, 2)
     assert set(out) == {"request"}
     assert out["request"].x_min > flying.position[0]

@@ -2,7 +2,7 @@
 water through the full co-simulation (RigidBody + WaterSurface + WaterCoupler with every effect +
 StageMonitor), and what each throw did.
 
-Used by ``tools/validate_magic_angle.py``, ``tools/validate_targets.py`` and the tests that hold the
+Used by ``tools/validate_targets.py`` and the tests that hold the
 model to the published values (``tests/test_validation_targets.py``). The experiment: Clanet, Hersen &
 Bocquet, Nature 427, 29 (2004); Rosellini, Hersen, Clanet & Bocquet, J. Fluid Mech. 543, 137 (2005).
 An aluminium disk (R = 2.5 cm, e = 2.75 mm, 2700 kg/m^3) thrown by a catapult with speed U, impact

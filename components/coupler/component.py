@@ -139,6 +139,9 @@ class WaterCouplerParams:
     wet_ramp: float = param(5e-4, unit="m", gt=0,
                             doc="least depth over which a level element goes from dry to wet")
     margin_cells: int = param(4, ge=0, doc="request margin around the footprint [cells]")
+    lookahead: float = param(0.06, unit="s", ge=0,
+                             doc="the requested window reaches as far ahead as the body moves in this time "
+                                 "(a contact's length: the surface it meets is the one it saw coming)")
     water_level: float = param(0.0, unit="m", doc="rest level assumed until the first patch arrives")
     wave_allowance: float = param(0.05, unit="m", ge=0,
                                   doc="highest crest above rest level; a body above it is far")
@@ -200,7 +203,8 @@ class WaterCoupler(Component):
         # the surface the body met when this contact began, (i0, j0, height, velocity) in the
         # water's grid (see _incident); None while the body is away from the water
         self._met: tuple[int, int, np.ndarray, np.ndarray] | None = None
-        self._in_contact = False  # the last step wetted the body or displaced water
+        self._in_contact = False  # the body touched the water and is not yet clear of it (see _incident)
+        self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
 
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
@@ -329,6 +333,7 @@ class WaterCoupler(Component):
         held = np.asarray(patch.occupied, dtype=np.float64)
         water = (x0, y0, float(patch.cell), height, wvel, bottom, held if held.shape == height.shape else None)
         met = water
+        self._planing_share = planing_share(body, self.params.g)
         if self._ring_mode():
             met_height, met_velocity = self._incident(patch, height, wvel, body)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
@@ -350,7 +355,10 @@ class WaterCoupler(Component):
         volume = float(stats[kernel.S_VOLUME])
         area = float(stats[kernel.S_AREA])
         displaced = 0.0 if ring is None else float(ring.rest[kernel.S_VOLUME])
-        self._in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0
+        # the surface the body met holds until it is well clear of it (quiet_above), so that its
+        # take-off is judged against the water it planed on, not against the waves it left
+        self._in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
+            self._in_contact and depth > -self.params.quiet_above)
         if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
             # dry and clear of the surface: the same outputs as far away (published once, then held),
             # but the window stays requested, since the body is still near the water
@@ -451,8 +459,12 @@ class WaterCoupler(Component):
             if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
                     and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
                 return held
-        return PatchRequest(cx - half[0] - margin, cx + half[0] + margin,
-                            cy - half[1] - margin, cy + half[1] + margin)
+        # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
+        # the surface it meets during a contact was in the window before it touched down (_incident)
+        ahead_x = float(vel[0]) * p.lookahead if self._ring_mode() else 0.0
+        ahead_y = float(vel[1]) * p.lookahead if self._ring_mode() else 0.0
+        return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
+                            cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0))
 
     def _local_flags(self) -> int:
         """The effects evaluated against the local surface: all of them, except the buoyancy when the
@@ -580,9 +592,12 @@ class WaterCoupler(Component):
         rest = ring.rest
         stats[b:b + 6] = rest[b:b + 6]
         if self.flags & BUOYANCY:
-            stats[b + 2] += f * ring.lifted[0]
-            stats[b + 3] += f * ring.lifted[1]
-            stats[b + 4] += f * ring.lifted[2]
+            # planing, the mound is the pile-up ahead of the face, whose push is inside C_L (see
+            # _incident): its level lifts a floating body only
+            mound = f * (1.0 - self._planing_share)
+            stats[b + 2] += mound * ring.lifted[0]
+            stats[b + 3] += mound * ring.lifted[1]
+            stats[b + 4] += mound * ring.lifted[2]
             stats[kernel.S_STIFF] += f * rest[kernel.S_WATERLINE]
         stats[kernel.S_TOTAL:kernel.S_TOTAL + 6] += stats[b:b + 6]
 
@@ -723,7 +738,7 @@ class WaterCoupler(Component):
         This is the planing regime: a body moving across the water faster than its own gravity
         waves (Froude number U / sqrt(g L) above 1, L = 2R). A floating or slowly moving body is in
         the waves it radiates, and feels them: the frozen surface is blended into the live one with
-        the weight F^4 / (1 + F^4) of that Froude number (a skipping stone: over 0.99; a float: 0).
+        the weight F^8 / (1 + F^8) of that Froude number (:func:`planing_share`).
         """
         i0, j0 = int(patch.i0), int(patch.j0)
         met = self._met
@@ -739,9 +754,7 @@ class WaterCoupler(Component):
             h[ja - j0:jb - j0, ia - i0:ib - i0] = m_h[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
             v[ja - j0:jb - j0, ia - i0:ib - i0] = m_v[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
         self._met = (i0, j0, h, v)
-        vx, vy = float(body.velocity[0]), float(body.velocity[1])
-        froude4 = ((vx * vx + vy * vy) / (2.0 * self.params.g * float(body.radius))) ** 2 if self.params.g > 0 else 1.0
-        share = froude4 / (1.0 + froude4)
+        share = self._planing_share
         if share < 1.0:
             h = share * h + (1.0 - share) * height
             v = share * v + (1.0 - share) * velocity
@@ -758,6 +771,19 @@ class WaterCoupler(Component):
         if not math.isfinite(depth):
             depth = -1.0e9  # no body yet: far above any water (a finite stand-in)
         return WaterContact(False, 0.0, 0.0, _ZERO3, _ZERO3, _ZERO3, _ZERO3, depth, self.dissipated)
+
+
+def planing_share(body: BodyState, g: float) -> float:
+    """How far ``body`` planes [-]: F^8 / (1 + F^8) of its Froude number F = U / sqrt(2 g R), U its
+    horizontal speed: 0 for a floating body, 1 - 1e-3 for a skipping stone at F = 2.4.
+
+    Planing, a body outruns its own gravity waves, and the pressure law with its measured C_L holds
+    the water it piles up; floating, it sits in the waves it radiates."""
+    vx, vy = float(body.velocity[0]), float(body.velocity[1])
+    if g <= 0.0:
+        return 1.0
+    froude8 = ((vx * vx + vy * vy) / (2.0 * g * float(body.radius))) ** 4
+    return froude8 / (1.0 + froude8)
 
 
 def _ring_scratch(shape: tuple[int, int]) -> dict[str, np.ndarray]:
