@@ -187,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     spread = max(abs(curves[0.01][k] / curves[0.005][k] - 1) for k in range(len(ALPHAS)))
     curve_rows.append("")
     curve_rows.append(f"Speeds every {step:g} m/s from 1 to 6 m/s, then bisection to {tol:g} m/s. The two column "
-                      f"sizes agree within {spread:.0%} at every angle.")
+                      f"sizes agree within {spread:.1%} at every angle.")
     criterion_rows = ["| a bounce rises this far clear of the water [mm] | U_min, alpha = 20 deg, 1 cm columns [m/s] |",
                       "|---:|---:|"]
     criterion_rows += [f"| {c * 1e3:g} | {u:.2f} |" for c, u in zip(CLEARANCES, criterion, strict=True)]

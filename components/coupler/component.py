@@ -68,6 +68,7 @@ from components.coupler.geometry import (
     quat_to_matrix,
     sphere_elements,
 )
+from components.coupler.met_surface import MetSurface, planing_share
 from components.messages import (
     BodyState,
     HeightPatch,
@@ -200,10 +201,7 @@ class WaterCoupler(Component):
         self.quiet = False
         self._went_idle = False
         self._held_request: PatchRequest | None = None  # the window the water holds from us
-        # the surface the body met when this contact began, (i0, j0, height, velocity) in the
-        # water's grid (see _incident); None while the body is away from the water
-        self._met: tuple[int, int, np.ndarray, np.ndarray] | None = None
-        self._in_contact = False  # the body touched the water and is not yet clear of it (see _incident)
+        self.met = MetSurface()  # the surface the body met, which the surface effects read
         self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
 
     def initial_outputs(self) -> dict[str, Message]:
@@ -220,9 +218,7 @@ class WaterCoupler(Component):
         if self._prev is not None:
             prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
         return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
-                "bound": self.bound, "prev": prev, "quiet": self.quiet, "in_contact": self._in_contact,
-                "met": None if self._met is None else [self._met[0], self._met[1], self._met[2].copy(),
-                                                       self._met[3].copy()],
+                "bound": self.bound, "prev": prev, "quiet": self.quiet, **self.met.get_state(),
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max]}
@@ -237,10 +233,7 @@ class WaterCoupler(Component):
         self.bound = float(state["bound"])
         prev = state.get("prev")
         self._prev = None if prev is None else {k: np.array(v, dtype=float) for k, v in prev.items()}
-        self._in_contact = bool(state.get("in_contact", False))
-        met = state.get("met")
-        self._met = None if met is None else (int(met[0]), int(met[1]), np.array(met[2], dtype=float),
-                                              np.array(met[3], dtype=float))
+        self.met.set_state(state)
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
@@ -335,7 +328,8 @@ class WaterCoupler(Component):
         met = water
         self._planing_share = planing_share(body, self.params.g)
         if self._ring_mode():
-            met_height, met_velocity = self._incident(patch, height, wvel, body)
+            met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
+                                                     self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
                                self._b_geo, self._stats, self._local_flags())
@@ -357,8 +351,8 @@ class WaterCoupler(Component):
         displaced = 0.0 if ring is None else float(ring.rest[kernel.S_VOLUME])
         # the surface the body met holds until it is well clear of it (quiet_above), so that its
         # take-off is judged against the water it planed on, not against the waves it left
-        self._in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
-            self._in_contact and depth > -self.params.quiet_above)
+        self.met.in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
+            self.met.in_contact and depth > -self.params.quiet_above)
         if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
             # dry and clear of the surface: the same outputs as far away (published once, then held),
             # but the window stays requested, since the body is still near the water
@@ -460,7 +454,7 @@ class WaterCoupler(Component):
                     and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
                 return held
         # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
-        # the surface it meets during a contact was in the window before it touched down (_incident)
+        # the surface it meets during a contact was in the window before it touched down (met_surface)
         ahead_x = float(vel[0]) * p.lookahead if self._ring_mode() else 0.0
         ahead_y = float(vel[1]) * p.lookahead if self._ring_mode() else 0.0
         return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
@@ -593,7 +587,7 @@ class WaterCoupler(Component):
         stats[b:b + 6] = rest[b:b + 6]
         if self.flags & BUOYANCY:
             # planing, the mound is the pile-up ahead of the face, whose push is inside C_L (see
-            # _incident): its level lifts a floating body only
+            # met_surface): its level lifts a floating body only
             mound = f * (1.0 - self._planing_share)
             stats[b + 2] += mound * ring.lifted[0]
             stats[b + 3] += mound * ring.lifted[1]
@@ -675,7 +669,7 @@ class WaterCoupler(Component):
                  nsub: int) -> np.ndarray:
         """Mean of the effects' forces and torques and their sum (S_TOTAL + 6,) over n substeps of a
         private copy of the body moved by them and gravity (semi-implicit Euler). ``met``: the water
-        the surface effects are evaluated on (see :meth:`_incident`), ``water`` the patch itself."""
+        the surface effects are evaluated on (see :mod:`components.coupler.met_surface`), ``water`` the patch itself."""
         h = dt / n
         mass = float(body.mass)
         inertia_body = np.asarray(body.inertia, dtype=float)
@@ -718,50 +712,8 @@ class WaterCoupler(Component):
             q = _rotate(q, w * h)
         return total / n
 
-    def _incident(self, patch: HeightPatch, height: np.ndarray, velocity: np.ndarray, body: BodyState
-                  ) -> tuple[np.ndarray, np.ndarray]:
-        """The surface the planing law reads [m, m/s]: the water as the body met it.
-
-        The pressure law (Rosellini et al. 2005) is written, and its C_L measured, against the
-        undisturbed surface: the pile-up and the splash the body raises are inside C_L. The ring puts
-        the body's displaced volume into the height field, which does not see the body, so its
-        waves also run in under the wetted face; read there, they would wet more of it and push
-        the water up against it, lift that C_L already holds (at the magic angle they lowered the
-        critical speed by about 10%). So from the step a contact begins until the body is clear of
-        the water again, the surface effects read the surface as it was when the body met it: the
-        window it held then, frozen, and the live surface only for columns that enter the window
-        later (ahead of the body, before its waves reach them: a skipping stone outruns its waves).
-        Waves from elsewhere (an earlier skip, another body) that were there when the body arrived
-        are felt; those the body makes are not felt by itself during that contact, but are by the
-        next one. The buoyancy reads the water where the displaced volume goes, as before.
-
-        This is the planing regime: a body moving across the water faster than its own gravity
-        waves (Froude number U / sqrt(g L) above 1, L = 2R). A floating or slowly moving body is in
-        the waves it radiates, and feels them: the frozen surface is blended into the live one with
-        the weight F^8 / (1 + F^8) of that Froude number (:func:`planing_share`).
-        """
-        i0, j0 = int(patch.i0), int(patch.j0)
-        met = self._met
-        if not self._in_contact or met is None:
-            self._met = (i0, j0, height, velocity)
-            return height, velocity
-        mi0, mj0, m_h, m_v = met
-        nj, ni = height.shape
-        ia, ib = max(i0, mi0), min(i0 + ni, mi0 + m_h.shape[1])
-        ja, jb = max(j0, mj0), min(j0 + nj, mj0 + m_h.shape[0])
-        h, v = height.copy(), velocity.copy()
-        if ia < ib and ja < jb:
-            h[ja - j0:jb - j0, ia - i0:ib - i0] = m_h[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
-            v[ja - j0:jb - j0, ia - i0:ib - i0] = m_v[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
-        self._met = (i0, j0, h, v)
-        share = self._planing_share
-        if share < 1.0:
-            h = share * h + (1.0 - share) * height
-            v = share * v + (1.0 - share) * velocity
-        return h, v
-
     def _idle(self, depth: float) -> dict[str, Message]:
-        self._in_contact = False
+        self.met.in_contact = False
         self.work = {"columns": 0, "elements": 0}
         self._went_idle = True
         return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
@@ -771,19 +723,6 @@ class WaterCoupler(Component):
         if not math.isfinite(depth):
             depth = -1.0e9  # no body yet: far above any water (a finite stand-in)
         return WaterContact(False, 0.0, 0.0, _ZERO3, _ZERO3, _ZERO3, _ZERO3, depth, self.dissipated)
-
-
-def planing_share(body: BodyState, g: float) -> float:
-    """How far ``body`` planes [-]: F^8 / (1 + F^8) of its Froude number F = U / sqrt(2 g R), U its
-    horizontal speed: 0 for a floating body, 1 - 1e-3 for a skipping stone at F = 2.4.
-
-    Planing, a body outruns its own gravity waves, and the pressure law with its measured C_L holds
-    the water it piles up; floating, it sits in the waves it radiates."""
-    vx, vy = float(body.velocity[0]), float(body.velocity[1])
-    if g <= 0.0:
-        return 1.0
-    froude8 = ((vx * vx + vy * vy) / (2.0 * g * float(body.radius))) ** 4
-    return froude8 / (1.0 + froude8)
 
 
 def _ring_scratch(shape: tuple[int, int]) -> dict[str, np.ndarray]:

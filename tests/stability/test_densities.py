@@ -104,3 +104,18 @@ def test_cork_floats_at_its_archimedes_height(shape, model):
     assert np.abs(r.position[:, :2] - r.position[0, :2]).max() < 0.01
     assert_water_energy_not_growing(r, after=0.3, factor=1.2)
     assert math.isfinite(r.water_energy[-1])
+
+
+def test_a_body_near_neutral_buoyancy_stops_bobbing_in_an_open_pond():
+    """A flat disk of 900 kg/m^3 (relative density 0.9, floating with a tenth of its thickness
+    dry) let go 5 mm above the water of an open pond (absorbing edges) radiates its heave away: after
+    3 s its vertical speed stays under 1 mm/s and its centre within 0.3 mm of the Archimedes height."""
+    level = float_height("disk", 900.0, 0.05, 0.006)
+    r = run(scene("components.stone.density=900", "components.stone.velocity=[0, 0, 0]", "components.stone.tilt_deg=0",
+                  f"components.stone.position=[1.5, 0.5, {level + 0.005!r}]", "components.stone.lock_attitude=false",
+                  "components.pond.boundary=absorbing", "components.stages.stop_after=0", "until=4.0"))
+    assert_finite(r)
+    assert_stone_never_gains_energy(r)
+    late = r.t >= 3.0
+    assert np.abs(r.velocity[late, 2]).max() < 1e-3
+    assert np.abs(r.position[late, 2] - level).max() < 3e-4

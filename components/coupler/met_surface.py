@@ -1,0 +1,85 @@
+"""The surface the planing law reads: the water as the body met it.
+
+The pressure law (Rosellini et al. 2005) is written, and its C_L measured, against the undisturbed
+surface: the pile-up and the splash the body raises are inside C_L. The ring displacement puts the
+body's displaced volume into the height field, which does not see the body, so its waves also run
+in under the wetted face; read there, they would wet more of the face and push the water up
+against it, lift that C_L already holds (at the magic angle they lowered the critical speed by
+about 10%, and by more on finer columns, whose waves are steeper).
+
+So from the step a contact begins until the body is clear of the water again, the surface effects
+(pressure, friction, wave drag) read the surface as it was when the body met it: the window it held
+then, frozen, and the live surface only for columns that enter the window later. The coupler
+requests its window far enough ahead along the motion (``lookahead``) that those are rare. Waves
+from elsewhere (an earlier skip, another body) that were there when the body arrived are felt;
+those the body makes are felt by its next contact, not by this one. The buoyancy reads the water
+where the displaced volume goes, as before.
+
+This is the planing regime: a body moving across the water faster than its own gravity waves. A
+floating or slowly moving body is in the waves it radiates, and feels them: the frozen surface is
+blended into the live one with :func:`planing_share`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from components.messages import BodyState
+
+
+def planing_share(body: BodyState, g: float) -> float:
+    """How far ``body`` planes [-]: F^8 / (1 + F^8) of its Froude number F = U / sqrt(2 g R), U its
+    horizontal speed: 0 for a floating body, 1 - 1e-3 for a skipping stone at F = 2.4.
+
+    Planing, a body outruns its own gravity waves, and the pressure law with its measured C_L holds
+    the water it piles up; floating, it sits in the waves it radiates."""
+    vx, vy = float(body.velocity[0]), float(body.velocity[1])
+    if g <= 0.0:
+        return 1.0
+    froude8 = ((vx * vx + vy * vy) / (2.0 * g * float(body.radius))) ** 4
+    return froude8 / (1.0 + froude8)
+
+
+class MetSurface:
+    """The water a body met, over the water's grid; held while it is in contact (see the module)."""
+
+    def __init__(self) -> None:
+        self.in_contact = False  # the body touched the water and is not yet clear of it
+        # (i0, j0, height (nj, ni) [m], velocity (nj, ni) [m/s]) in the water's grid; None: away
+        self._met: tuple[int, int, np.ndarray, np.ndarray] | None = None
+
+    def read(self, i0: int, j0: int, height: np.ndarray, velocity: np.ndarray, share: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+        """The surface [m, m/s] over the patch at (i0, j0) the surface effects read this step:
+        the live ``height`` and ``velocity`` while out of contact, else the frozen window (columns
+        new to the window live), blended with the live surface by ``share`` (:func:`planing_share`)."""
+        met = self._met
+        if not self.in_contact or met is None:
+            self._met = (i0, j0, height, velocity)
+            return height, velocity
+        mi0, mj0, m_h, m_v = met
+        nj, ni = height.shape
+        ia, ib = max(i0, mi0), min(i0 + ni, mi0 + m_h.shape[1])
+        ja, jb = max(j0, mj0), min(j0 + nj, mj0 + m_h.shape[0])
+        h, v = height.copy(), velocity.copy()
+        if ia < ib and ja < jb:
+            h[ja - j0:jb - j0, ia - i0:ib - i0] = m_h[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
+            v[ja - j0:jb - j0, ia - i0:ib - i0] = m_v[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
+        self._met = (i0, j0, h, v)
+        if share < 1.0:
+            h = share * h + (1.0 - share) * height
+            v = share * v + (1.0 - share) * velocity
+        return h, v
+
+    def get_state(self) -> dict[str, Any]:
+        met = self._met
+        return {"in_contact": self.in_contact,
+                "met": None if met is None else [met[0], met[1], met[2].copy(), met[3].copy()]}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        self.in_contact = bool(state.get("in_contact", False))
+        met = state.get("met")
+        self._met = None if met is None else (int(met[0]), int(met[1]), np.array(met[2], dtype=float),
+                                              np.array(met[3], dtype=float))
