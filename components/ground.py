@@ -157,6 +157,21 @@ class SolidGround(Component):
             "contact": GroundContact(True, res.normal / dt, res.friction / dt, res.sliding, self.dissipated),
         }
 
+    def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
+        """A body that starts inside the ground by more than its own size is a mistake in the scene
+        (a contact would throw it out with an enormous impulse, or never resolve)."""
+        msg = inputs.get("body")
+        if not isinstance(msg, BodyState):
+            return []
+        x = tuple(msg.position.tolist())
+        reach = msg.radius if msg.shape == Shape.SPHERE else math.hypot(msg.radius, 0.5 * msg.thickness)
+        depth = reach - self.plane.height(x)  # of the bounding sphere's lowest point below the plane
+        if depth > 2.0 * reach:
+            return [f"the body starts {-self.plane.height(x):.4g} m inside the ground (its centre at "
+                    f"{[round(c, 6) for c in x]} m, {self.plane.height(x):.4g} m from the plane through "
+                    f"{list(self.plane.point)} m); start it above the ground"]
+        return []
+
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: no impulse yet, not in contact."""
         return {"impulse": Impulse.zero(), "contact": GroundContact(False, 0.0, 0.0, False, 0.0)}

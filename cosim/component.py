@@ -103,6 +103,13 @@ class Component:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
         return math.inf
 
+    def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
+        """Problems with what this component will receive at t = 0, as plain sentences; the scene is
+        refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then
+        (its source's initial output, or the delayed edge's ``initial``; None when not known). A
+        ground, for instance, refuses a body that starts deep inside it. Default: none."""
+        return []
+
     @classmethod
     def estimate_bytes(cls, params: Any) -> int:
         """About how many bytes of memory a component built from ``params`` will hold (its arrays),

@@ -523,6 +523,33 @@ def _check_stability(scene: Scene, built: dict[str, Component], problems: list[s
                             f"(on_unstable: error); lower dt or every, or set on_unstable: substep")
 
 
+def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    """Each component's :meth:`~cosim.component.Component.check_start` on what it will receive at
+    t = 0: for each input port, its source's initial output (a direct edge) or the edge's ``initial``
+    (a delayed one); None for a port fed by nothing or by several edges. A component whose initial
+    outputs fail is left to the run, which reports the failure with its name and time."""
+    initial: dict[str, dict[str, Message]] = {}
+    for name, comp in built.items():
+        try:
+            initial[name] = comp.initial_outputs()
+        except Exception:  # reported when the run starts
+            initial[name] = {}
+    for name, comp in built.items():
+        inputs: dict[str, Message | None] = {}
+        for port in comp.inputs:
+            feeding = [c for c in scene.connections if c.target == name and c.target_port == port]
+            value = None
+            if len(feeding) == 1:
+                edge = feeding[0]
+                value = edge.initial if edge.delay else initial.get(edge.source, {}).get(edge.source_port)
+            inputs[port] = value
+        try:
+            found = comp.check_start(inputs)
+        except Exception as exc:
+            found = [f"cannot check its start ({type(exc).__name__}: {exc})"]
+        problems.extend(f"components.{name}: {problem}" for problem in found)
+
+
 def loads(text: str, source: str = "<string>", overrides: list[str] | None = None) -> Scene:
     """Parse and validate a scene from YAML text; raises ScenarioError listing every problem."""
     overrides = list(overrides or [])
@@ -612,6 +639,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     except Exception as exc:  # a component that cannot be built from valid-looking parameters
         raise ScenarioError(f"components: cannot build: {type(exc).__name__}: {exc}", source) from None
     _check_stability(scene, built_components, problems)
+    _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)
     return scene

@@ -202,6 +202,7 @@ class WaterCoupler(Component):
         self._went_idle = False
         self._held_request: PatchRequest | None = None  # the window the water holds from us
         self.met = MetSurface()  # the surface the body met, which the surface effects read
+        self.started = False  # the first patch has come and the body was found above the bed
         self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
 
     def initial_outputs(self) -> dict[str, Message]:
@@ -218,7 +219,8 @@ class WaterCoupler(Component):
         if self._prev is not None:
             prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
         return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
-                "bound": self.bound, "prev": prev, "quiet": self.quiet, **self.met.get_state(),
+                "bound": self.bound, "prev": prev, "quiet": self.quiet, "started": self.started,
+                **self.met.get_state(),
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max]}
@@ -234,6 +236,7 @@ class WaterCoupler(Component):
         prev = state.get("prev")
         self._prev = None if prev is None else {k: np.array(v, dtype=float) for k, v in prev.items()}
         self.met.set_state(state)
+        self.started = bool(state.get("started", True))
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
@@ -288,6 +291,8 @@ class WaterCoupler(Component):
         if patch is not None and patch.height.size:
             self.rest_level = float(patch.rest_level)
             self.cell = float(patch.cell)
+            if not self.started:
+                self._check_not_under_the_bed(body, patch)
         pos = body.position
         vel = body.velocity
         omega = body.angular_velocity
@@ -711,6 +716,22 @@ class WaterCoupler(Component):
             x = x + v * h
             q = _rotate(q, w * h)
         return total / n
+
+    def _check_not_under_the_bed(self, body: BodyState, patch: HeightPatch) -> None:
+        """A body whose highest point is below the water's bed where it starts is a mistake in the
+        scene (it would fall through the pond unseen): refuse it, at the first patch the water sends."""
+        self.started = True
+        x, y, z = (float(c) for c in body.position)
+        i = round((x - patch.origin_x) / patch.cell) - int(patch.i0)
+        j = round((y - patch.origin_y) / patch.cell) - int(patch.j0)
+        nj, ni = patch.bottom.shape
+        if not (0 <= i < ni and 0 <= j < nj):
+            return
+        bed = float(patch.bottom[j, i])
+        top = z + math.hypot(float(body.radius), 0.5 * float(body.thickness))
+        if top < bed:
+            raise ValueError(f"the body starts {bed - top:.4g} m below the water's bed (its centre at "
+                             f"z = {z:.4g} m, the bed at z = {bed:.4g} m): start it above the bed")
 
     def _idle(self, depth: float) -> dict[str, Message]:
         self.met.in_contact = False
