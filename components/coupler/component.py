@@ -488,7 +488,7 @@ class WaterCoupler(Component):
             low[0], low[1], low[2], float(x0), float(y0), cell, flat, still, bottom,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp,
-            DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats)
+            DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats, 1.0, 0.0)
         return stats
 
     def _ring(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,

@@ -125,7 +125,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
              x0, y0, cell, height, wvel, bottom,
              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
              rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
-             b_geo, waterline, stats, planing=1.0, c_d=0.0):
+             b_geo, waterline, stats, planing, c_d):
     """Water forces on one body state over one patch; see the module docstring.
 
     centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
