@@ -86,8 +86,16 @@ def _live_address(text: str) -> str:
     return text
 
 
-def _default_output(scene_path: str, name: str) -> Path:
-    return Path("runs") / f"{name or Path(scene_path).stem}.mcap"
+def _default_output(scene_path: str, name: str, overrides: list[str]) -> Path:
+    """runs/<scene>.mcap; a run with --set gets its own name (runs/<scene>-set-<hash>.mcap, the hash
+    of its overrides), so that a variant never replaces the scene's own recording."""
+    stem = name or Path(scene_path).stem
+    if overrides:
+        import hashlib
+
+        digest = hashlib.sha256("\n".join(overrides).encode()).hexdigest()[:8]
+        stem = f"{stem}-set-{digest}"
+    return Path("runs") / f"{stem}.mcap"
 
 
 def _record_overrides(args: argparse.Namespace) -> list[str]:
@@ -106,7 +114,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     scene = load(args.scene, overrides=_record_overrides(args))
     output = None if args.no_record else (Path(args.output) if args.output else
-                                          _default_output(args.scene, scene.name))
+                                          _default_output(args.scene, scene.name, list(args.set or [])))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
     outcome = run_scene(scene, output, until_ns=args.until, command_line=command,
                         progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed)
@@ -145,6 +153,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from cosim.record.reader import Recording
     from cosim.replay import replay_component, restart_simulation
 
+    if args.from_time is None:
+        given = [flag for flag, value in (("--set", args.set), ("-o", args.output), ("--until", args.until))
+                 if value]
+        if given:
+            verb = "change" if len(given) > 1 else "changes"
+            raise ScenarioError(f"{', '.join(given)} {verb} a restarted run: give --from T as well (without "
+                                "--from, each component is re-run on its recorded inputs, unchanged)",
+                                f"cosim replay {args.recording}")
     rec = Recording(args.recording)
     if args.from_time is None:
         names = [args.component] if args.component else rec.scene().order
@@ -178,11 +194,12 @@ def build_parser() -> argparse.ArgumentParser:
     def scene_args(p: argparse.ArgumentParser) -> None:
         p.add_argument("scene", help="scene YAML file")
         p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                       help="override a scene value, e.g. components.stone.speed=8 (repeatable)")
+                       help="override a scene value, e.g. components.stone.tilt_deg=15 (repeatable)")
 
     p = sub.add_parser("run", help="run a scene and record it")
     scene_args(p)
-    p.add_argument("-o", "--output", help="MCAP file to write (default runs/<scene>.mcap)")
+    p.add_argument("-o", "--output", help="MCAP file to write (default runs/<scene>.mcap; with --set, "
+                                          "runs/<scene>-set-<hash>.mcap)")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")

@@ -15,6 +15,11 @@ from cosim.timebase import NS_PER_S
 TIMELINE_MAX = 60  # timeline rows shown before eliding the middle
 
 
+def _number(value: int | float) -> str:
+    """A value as a reader wants it: integers as they are, floats to 4 significant digits."""
+    return str(value) if isinstance(value, int) else f"{value:.4g}"
+
+
 def timeline(rec: Recording) -> list[tuple[int, str, dict]]:
     """(time_ns, topic, message dict) of every message on a channel with a ``label`` field."""
     topics = sorted(t for t, ch in rec.channels.items() if "label" in ch.json_properties() and t != STATUS_TOPIC)
@@ -49,7 +54,7 @@ def describe_recording(rec: Recording) -> str:
     if events:
         lines.append("  timeline:")
         rows = [f"    {stamp / NS_PER_S:9.4f} s  {topic}: {msg['label']}" +
-                "".join(f", {k} {v}" for k, v in msg.items() if k not in ("label", "stage")
+                "".join(f", {k} {_number(v)}" for k, v in msg.items() if k not in ("label", "stage")
                         and isinstance(v, (int, float)) and not isinstance(v, bool))
                 for stamp, topic, msg in events]
         if len(rows) > TIMELINE_MAX:
