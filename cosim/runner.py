@@ -153,7 +153,8 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     if r.compile_s >= COMPILE_NOTE_S:
         speed = (f"wall {r.wall_s:.3g} s, of which {r.compile_s:.3g} s compiling kernels once (later runs "
                  f"load them from disk); real-time factor {r.real_time_factor:.3g} (compiling left out)")
-    lines.append(f"  simulated {r.time_ns / NS_PER_S:.4g} s in {r.tick} steps of {scene.dt * 1e3:g} ms "
+    since = f" from t = {r.start_ns / NS_PER_S:g} s" if r.start_ns else ""
+    lines.append(f"  simulated {r.simulated_ns / NS_PER_S:.4g} s{since} in {r.steps} steps of {scene.dt * 1e3:g} ms "
                  f"({r.component_steps} component steps); {speed}")
     lines += [f"  {line}" for line in outcome.summary]
     if outcome.recording is not None:

@@ -74,12 +74,24 @@ class RunResult:
     component_steps: int
     error: SimulationError | None = None
     compile_s: float = 0.0  # of wall_s, compiling JIT kernels not yet in their on-disk cache (once)
+    start_tick: int = 0  # where this run started: 0, or a restored checkpoint's tick
+    start_ns: int = 0  # [ns] the time of that tick
+
+    @property
+    def simulated_ns(self) -> int:
+        """Simulated time of this run [ns], from its start (a checkpoint's time after a restart)."""
+        return self.time_ns - self.start_ns
+
+    @property
+    def steps(self) -> int:
+        """Base steps this run took, from its start."""
+        return self.tick - self.start_tick
 
     @property
     def real_time_factor(self) -> float:
         """Simulated seconds per wall-clock second of simulating (the one-time compiling left out)."""
         wall = self.wall_s - self.compile_s
-        return (self.time_ns / NS_PER_S) / wall if wall > 0 else math.inf
+        return (self.simulated_ns / NS_PER_S) / wall if wall > 0 else math.inf
 
 
 class Interrupted(Exception):
@@ -278,6 +290,7 @@ class Simulation:
         end_tick = -(-until_ns // self.dt_ns)
         wall0 = time.perf_counter()
         steps0 = self.component_steps()
+        tick0 = self.tick
         status, reason, error = "ok", f"reached t = {until_ns / NS_PER_S:g} s", None
         with compile_timer() as compiling:
             try:
@@ -296,7 +309,7 @@ class Simulation:
                 status, reason = "interrupted", f"interrupted ({type(exc).__name__})"
             compile_s = compiling()
         result = RunResult(status, reason, self.tick, self.time_ns, time.perf_counter() - wall0,
-                           self.component_steps() - steps0, error, compile_s)
+                           self.component_steps() - steps0, error, compile_s, tick0, tick0 * self.dt_ns)
         for obs in self.observers:
             obs.on_finished(self, result)
         if error is not None:

@@ -62,3 +62,16 @@ def test_inspect_prints_numbers_rounded_for_reading(tmp_path, capsys):
     for line in timeline:
         for number in re.findall(r"x (\S+?)(?:,|$)", line):
             assert len(number.lstrip("-").replace(".", "").lstrip("0")) <= 4, line
+
+
+def test_a_restart_counts_its_simulated_time_and_steps_from_the_checkpoint(tmp_path, capsys):
+    """`replay --from 0.5 --set dt=...` simulates from the 0.5 s checkpoint: the summary says how
+    long from there, in how many of its own steps, and its real-time factor uses that span."""
+    recording = tmp_path / "skip.mcap"
+    assert main(["run", str(ROOT / "scenarios" / "skip.yaml"), "-q", "-o", str(recording), "--until", "0.8"]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(recording), "--from", "0.5", "--set", "dt=0.00025", "-q", "--until", "0.8",
+                 "-o", str(tmp_path / "from.mcap")]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.strip().startswith("simulated"))
+    assert "simulated 0.3 s from t = 0.5 s in 1200 steps of 0.25 ms" in line
