@@ -8,6 +8,9 @@ import os
 
 from cosim.registry import ALLOW_ENV
 
+# the demo scene fixture (``scene``) of the command-line tests; a module's own ``scene`` wins over it
+pytest_plugins = ["tests.cli_toys"]
+
 _allowed = [p for p in os.environ.get(ALLOW_ENV, "").split(",") if p.strip()]
 if "tests" not in _allowed:
     os.environ[ALLOW_ENV] = ",".join([*_allowed, "tests"])

@@ -16,33 +16,11 @@ import pytest
 
 import cosim.cli
 from cosim.cli import main
+from tests.cli_toys import DEMO_SCENE, one_error_line
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SCENE = """
-name: demo
-dt: 0.001
-until: 0.05
-components:
-  src: {type: "tests.toys:Source"}
-  g: {type: "tests.toys:Gain"}
-connections:
-  - src.out -> g.x
-"""
-
-
-@pytest.fixture
-def scene(tmp_path):
-    path = tmp_path / "demo.yaml"
-    path.write_text(SCENE)
-    return path
-
-
-def one_error_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), err
-    assert "Traceback" not in err
-    return lines[0]
+SCENE = DEMO_SCENE
 
 
 def run_cosim(*args: str, cwd: Path, pythonpath: tuple[str, ...] = ()) -> subprocess.CompletedProcess:

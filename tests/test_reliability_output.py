@@ -21,35 +21,13 @@ from cosim.record.output import check_output, claim
 from cosim.record.reader import Recording
 from cosim.runner import run_scene
 from cosim.scenario import loads
+from tests.cli_toys import DEMO_SCENE, one_error_line
 
 ROOT = Path(__file__).resolve().parents[1]
 WAIT_S = 60  # longest wait for a subprocess to get somewhere (never a measured time)
 
-SCENE = """
-name: demo
-dt: 0.001
-until: 0.05
-components:
-  src: {type: "tests.toys:Source"}
-  g: {type: "tests.toys:Gain"}
-connections:
-  - src.out -> g.x
-"""
+SCENE = DEMO_SCENE
 LONG = SCENE.replace("until: 0.05", "until: 100000")
-
-
-@pytest.fixture
-def scene(tmp_path):
-    path = tmp_path / "demo.yaml"
-    path.write_text(SCENE)
-    return path
-
-
-def one_error_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), err
-    assert "Traceback" not in err
-    return lines[0]
 
 
 def cosim_popen(*args: str, cwd: Path, **kw) -> subprocess.Popen:

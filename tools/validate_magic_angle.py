@@ -27,6 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from components.analysis import experiments  # noqa: E402
 from components.coupler import WaterCoupler, WaterCouplerParams  # noqa: E402
 from components.coupler.fixtures import body, pitched, still_water  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
@@ -90,30 +91,9 @@ def bounces_coupler(speed: float, alpha_deg: float) -> bool:
 
 def critical_speed(bounces: Callable[[float, float], bool], alpha_deg: float, step: float,
                    tol: float) -> tuple[float, list[float]]:
-    """The speed [m/s] above which every throw bounces, and the slower speeds that bounce too.
-
-    The speeds SPEED_LO, SPEED_LO + step, ..., SPEED_HI are all tried (a throw need not bounce at
-    every speed above one that does: a stone can also plane without taking off); the critical speed
-    is then bisected to ``tol`` between the fastest one that does not bounce and the next. NaN if
-    even SPEED_HI does not bounce.
-    """
-    grid = np.round(np.arange(SPEED_LO, SPEED_HI + 0.5 * step, step), 6)
-    results = [bounces(float(u), alpha_deg) for u in grid]
-    if not results[-1]:
-        return math.nan, []
-    fails = [float(u) for u, ok in zip(grid, results, strict=True) if not ok]
-    if not fails:
-        return float(grid[0]), []
-    lo = fails[-1]
-    windows = [float(u) for u, ok in zip(grid, results, strict=True) if ok and u < lo]
-    hi = lo + step
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        if bounces(mid, alpha_deg):
-            hi = mid
-        else:
-            lo = mid
-    return 0.5 * (lo + hi), windows
+    """The speed [m/s] above which every throw bounces, and the slower speeds that bounce too
+    (:func:`components.analysis.experiments.critical_speed` with the force law's own bounce)."""
+    return experiments.critical_speed(alpha_deg, lo=SPEED_LO, hi=SPEED_HI, step=step, tol=tol, bounce=bounces)
 
 
 def curve(bounces, alphas, step, tol, label):

@@ -17,6 +17,7 @@ into the run, before the stone arrives.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -186,17 +187,20 @@ def bounces(speed: float, alpha_deg: float, beta_deg: float = 20.0, **scene_args
 
 
 def critical_speed(alpha_deg: float, *, lo: float = 1.0, hi: float = 6.0, step: float = 0.1,
-                   tol: float = 0.01, **throw_args) -> tuple[float, list[float]]:
+                   tol: float = 0.01, bounce: Callable[..., bool] | None = None,
+                   **throw_args) -> tuple[float, list[float]]:
     """The speed [m/s] above which every throw at ``alpha_deg`` bounces, and the slower speeds that
     bounce too.
 
     Every speed lo, lo + step, ..., hi is thrown (a throw need not bounce at every speed above one that
     does: near the threshold a stone can surf along the surface instead); the critical speed is then
     bisected to ``tol`` between the fastest one that does not bounce and the next. NaN if even ``hi``
-    does not bounce.
+    does not bounce. ``bounce(speed, alpha_deg, **throw_args)`` decides a throw (default: :func:`bounces`,
+    the full co-simulation).
     """
+    bounces_ = bounce or bounces
     grid = np.round(np.arange(lo, hi + 0.5 * step, step), 6)
-    results = [bounces(float(u), alpha_deg, **throw_args) for u in grid]
+    results = [bounces_(float(u), alpha_deg, **throw_args) for u in grid]
     if not results[-1]:
         return math.nan, []
     fails = [float(u) for u, ok in zip(grid, results, strict=True) if not ok]
@@ -207,7 +211,7 @@ def critical_speed(alpha_deg: float, *, lo: float = 1.0, hi: float = 6.0, step: 
     b = a + step
     while b - a > tol:
         mid = 0.5 * (a + b)
-        if bounces(mid, alpha_deg, **throw_args):
+        if bounces_(mid, alpha_deg, **throw_args):
             b = mid
         else:
             a = mid

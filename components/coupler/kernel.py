@@ -77,6 +77,18 @@ def sample_surface(x, y, x0, y0, cell, height, wvel):
     return True, h, v
 
 
+@njit(cache=True, inline="always")
+def add_wrench(acc, rx, ry, rz, fx, fy, fz):
+    """Add the force (fx, fy, fz) [N] acting at (rx, ry, rz) [m] from the centre of mass to ``acc``
+    (6,): force, then its torque r x F [N m]."""
+    acc[0] += fx
+    acc[1] += fy
+    acc[2] += fz
+    acc[3] += ry * fz - rz * fy
+    acc[4] += rz * fx - rx * fz
+    acc[5] += rx * fy - ry * fx
+
+
 SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^2 from the trailing edge (xi = 0) to the spray
 # root (xi = 1): its centre at 3/4 of the wetted length, Savitsky's high-speed value [-]
 
@@ -367,23 +379,10 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                         n_pl += 1
                     elif p > 0.0:
                         # the rim, or a sphere: the pressure where it acts
-                        fp[0] += -p * fa * nx
-                        fp[1] += -p * fa * ny
-                        fp[2] += -p * fa * nz
-                        fp[3] += -p * fa * (ry * nz - rz * ny)
-                        fp[4] += -p * fa * (rz * nx - rx * nz)
-                        fp[5] += -p * fa * (rx * ny - ry * nx)
+                        add_wrench(fp, rx, ry, rz, -p * fa * nx, -p * fa * ny, -p * fa * nz)
                     # submerged: a pressure drag along -u on the face's projected area (u.n / |u|) dA
                     kd = (1.0 - planing) * 0.5 * rho * c_d * un * fa
-                    dfx = -kd * ux
-                    dfy = -kd * uy
-                    dfz = -kd * uz
-                    fp[0] += dfx
-                    fp[1] += dfy
-                    fp[2] += dfz
-                    fp[3] += ry * dfz - rz * dfy
-                    fp[4] += rz * dfx - rx * dfz
-                    fp[5] += rx * dfy - ry * dfx
+                    add_wrench(fp, rx, ry, rz, -kd * ux, -kd * uy, -kd * uz)
                     adv += fa
                     ce = rho * (planing * (c_l * speed + c_n * un) + (1.0 - planing) * c_d * speed) * fa
                     cxn = ry * nz - rz * ny
@@ -407,12 +406,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                 dfx = -kf * utx
                 dfy = -kf * uty
                 dfz = -kf * utz
-                ff[0] += dfx
-                ff[1] += dfy
-                ff[2] += dfz
-                ff[3] += ry * dfz - rz * dfy
-                ff[4] += rz * dfx - rx * dfz
-                ff[5] += rx * dfy - ry * dfx
+                add_wrench(ff, rx, ry, rz, dfx, dfy, dfz)
                 d_lin += 2.0 * kf
                 d_rot += 2.0 * kf * (rx * rx + ry * ry + rz * rz)
         if n_pl > 0:
@@ -423,16 +417,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
             weights = spray_root_weights(pl_s[:n_pl], pl_m[:n_pl], forward)
             for k in range(n_pl):
                 wk = weights[k]
-                dfx = wk * pl_f[k, 0]
-                dfy = wk * pl_f[k, 1]
-                dfz = wk * pl_f[k, 2]
-                rx, ry, rz = pl_r[k, 0], pl_r[k, 1], pl_r[k, 2]
-                fp[0] += dfx
-                fp[1] += dfy
-                fp[2] += dfz
-                fp[3] += ry * dfz - rz * dfy
-                fp[4] += rz * dfx - rx * dfz
-                fp[5] += rx * dfy - ry * dfx
+                add_wrench(fp, pl_r[k, 0], pl_r[k, 1], pl_r[k, 2], wk * pl_f[k, 0], wk * pl_f[k, 1], wk * pl_f[k, 2])
         if do_p:
             for q in range(6):
                 stats[S_PRESSURE + q] = fp[q]
