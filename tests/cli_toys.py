@@ -17,6 +17,7 @@ components:
 connections:
   - src.out -> g.x
 """
+CHECKPOINTED_SCENE = DEMO_SCENE + "record: {checkpoint_every: 0.01}\n"  # the same, with checkpoints to restart from
 
 
 @pytest.fixture

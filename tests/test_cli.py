@@ -10,20 +10,11 @@ from pathlib import Path
 import pytest
 
 from cosim.cli import main
+from tests.cli_toys import CHECKPOINTED_SCENE
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SCENE = """
-name: demo
-dt: 0.001
-until: 0.05
-components:
-  src: {type: "tests.toys:Source"}
-  g: {type: "tests.toys:Gain"}
-connections:
-  - src.out -> g.x
-record: {checkpoint_every: 0.01}
-"""
+SCENE = CHECKPOINTED_SCENE
 
 
 @pytest.fixture

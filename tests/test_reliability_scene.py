@@ -14,18 +14,9 @@ from cosim.errors import ScenarioError
 from cosim.record.reader import Recording
 from cosim.runner import run_scene
 from cosim.scenario import MAX_SCENE_BYTES, load, loads
+from tests.cli_toys import CHECKPOINTED_SCENE
 
-SCENE = """
-name: demo
-dt: 0.001
-until: 0.05
-components:
-  src: {type: "tests.toys:Source"}
-  g: {type: "tests.toys:Gain"}
-connections:
-  - src.out -> g.x
-record: {checkpoint_every: 0.01}
-"""
+SCENE = CHECKPOINTED_SCENE
 
 
 def problem(text: str, overrides: list[str] | None = None) -> str:
