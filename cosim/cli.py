@@ -126,8 +126,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from cosim.scenario import load
+    from cosim.scenario import load, read_input, read_yaml
 
+    data = read_yaml(read_input(args.scene), args.scene)
+    if isinstance(data, dict) and "axes" in data and "scene" in data and "components" not in data:
+        raise ScenarioError("this is a sweep file (it has scene: and axes:, no components:); check it with "
+                            f"`cosim sweep {args.scene} --dry-run`", args.scene)
     scene = load(args.scene, overrides=args.set or [])
     print(f"{args.scene}: ok - scene {scene.name!r}: {len(scene.components)} components, "
           f"{len(scene.connections)} connections, dt = {scene.dt:g} s, until = {scene.until_ns / NS_PER_S:g} s")

@@ -75,3 +75,12 @@ def test_a_restart_counts_its_simulated_time_and_steps_from_the_checkpoint(tmp_p
     out = capsys.readouterr().out
     line = next(x for x in out.splitlines() if x.strip().startswith("simulated"))
     assert "simulated 0.3 s from t = 0.5 s in 1200 steps of 0.25 ms" in line
+
+
+def test_validate_on_a_sweep_file_says_it_is_one_and_how_to_check_it(capsys):
+    """`cosim validate` of a sweep file does not list its keys as unknown scene keys: one line says it
+    is a sweep and names the command that checks it (exit 2)."""
+    sweep = str(ROOT / "scenarios" / "sweeps" / "magic_angle.yaml")
+    assert main(["validate", sweep]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "sweep file" in err[0] and f"cosim sweep {sweep} --dry-run" in err[0]
