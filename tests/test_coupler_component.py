@@ -9,6 +9,7 @@ Topology it is built for (the scheduler is not needed here; messages are hand-ma
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -369,3 +370,28 @@ def test_a_quiet_coupler_still_moves_its_window_with_the_body():
     out = step(c, far_along, patch, 2)
     assert set(out) == {"request"}
     assert out["request"].x_min > flying.position[0]
+
+
+def test_a_body_in_the_water_before_the_first_patch_meets_still_water():
+    """Before the water has sent anything, a stone already in it (a large step, a slow water) is
+    pressed as if by still water at the rest level, not let through: the same upward push as over a
+    still patch, within sampling; nothing is displaced into a grid not yet known."""
+    b = skipping_disk(depth=0.005)
+    assumed = step(WaterCoupler("c"), b, None)
+    over_patch = step(WaterCoupler("c"), b, still_water())
+    assert assumed["wrench"].force[2] > 0
+    assert assumed["wrench"].force[2] == pytest.approx(over_patch["wrench"].force[2], rel=0.05)
+    assert assumed["occupied"].b.size == 0
+
+
+def test_a_stone_thrown_with_a_huge_step_meets_the_water_instead_of_falling_through_it():
+    """With dt = 50 ms the water's first patch comes after the stone reaches it: the stone still
+    hits the water (and sinks, such a step being far too coarse to skip), it does not 'leave the
+    pond' 1.5 m into an 8 m pond."""
+    from cosim.scenario import load
+    from cosim.scheduler import Simulation
+
+    sim = Simulation(load(Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml", ["dt=0.05"]))
+    sim.run()
+    stages = [name for _, name in sim.components["stages"].timeline]
+    assert "hit" in stages and "left-pond" not in stages

@@ -313,6 +313,12 @@ class WaterCoupler(Component):
         low = lowest_point(is_disk, pos, axis, radius, float(body.thickness))
         half = disk_half_extents(axis, radius, float(body.thickness)) if is_disk else (radius, radius)
         request = self._request(pos + vel * dt, half, vel, dt)
+        assumed = False
+        if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
+            # in the water before the water has sent anything: it is still, at the rest level, until
+            # its first patch says otherwise (a large step or a slow water would let the stone fall
+            # through unopposed); the forces only, nothing displaced into a grid not yet known
+            patch, assumed = self._assumed_still_water(pos, half, level), True
         if patch is None or patch.height.size == 0:
             self.bound = self._motion_bound(body)
             self._prev = {"force": np.zeros(3), "torque": np.zeros(3), "position": pos.copy(),
@@ -332,13 +338,15 @@ class WaterCoupler(Component):
         water = (x0, y0, float(patch.cell), height, wvel, bottom, held if held.shape == height.shape else None)
         met = water
         self._planing_share = planing_share(body, self.params.g)
-        if self._ring_mode():
+        if self._ring_mode() and not assumed:
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
                                self._b_geo, self._stats, self._local_flags())
         ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
+        if assumed and ring is not None:
+            ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
         if ring is not None:
             self._add_hydrostatics(stats, ring)
         self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
@@ -716,6 +724,17 @@ class WaterCoupler(Component):
             x = x + v * h
             q = _rotate(q, w * h)
         return total / n
+
+    def _assumed_still_water(self, pos: np.ndarray, half: tuple[float, float], level: float) -> HeightPatch:
+        """Still water at the rest ``level`` over the body's footprint (columns of an eighth of its
+        radius, the bed far below), standing in for the water until its first patch arrives."""
+        cell = max(min(half) / 8.0, 1e-3)
+        ni = math.ceil(2.0 * half[0] / cell) + 5
+        nj = math.ceil(2.0 * half[1] / cell) + 5
+        shape = (nj, ni)
+        return HeightPatch(0, 0, cell, float(pos[0]) - 0.5 * (ni - 1) * cell, float(pos[1]) - 0.5 * (nj - 1) * cell,
+                           level, np.full(shape, level), np.zeros(shape), np.full(shape, level - 1e3),
+                           np.zeros(shape))
 
     def _check_not_under_the_bed(self, body: BodyState, patch: HeightPatch) -> None:
         """A body whose highest point is below the water's bed where it starts is a mistake in the
