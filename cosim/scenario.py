@@ -634,10 +634,14 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     scene = Scene(name=name, description=str(description), dt_ns=dt_ns, until_ns=until_ns,
                   components=components, connections=edges, record=record, order=order, text=text,
                   data=data, source=source, overrides=overrides)
-    try:
-        built_components = scene.instantiate()
-    except Exception as exc:  # a component that cannot be built from valid-looking parameters
-        raise ScenarioError(f"components: cannot build: {type(exc).__name__}: {exc}", source) from None
+    built_components: dict[str, Component] = {}
+    for comp_name, cfg in components.items():
+        try:
+            built_components[comp_name] = cfg.build()
+        except Exception as exc:  # a component that cannot be built from valid-looking parameters
+            problems.append(f"components.{comp_name}: cannot be built from these values: {type(exc).__name__}: {exc}")
+    if problems:
+        raise ScenarioError(problems, source)
     _check_stability(scene, built_components, problems)
     _check_start(scene, built_components, problems)
     if problems:

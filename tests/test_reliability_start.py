@@ -34,3 +34,10 @@ def test_a_stone_starting_under_water_above_the_bed_runs():
     sim = Simulation(load(SCENES / "skip.yaml", ["components.stone.position=[0.3, 0.5, -0.2]",
                                                   "components.stone.velocity=[0, 0, 0]", "until=0.05"]))
     assert sim.run().status in ("ok", "stopped")
+
+
+def test_a_component_that_cannot_be_built_from_its_values_is_named():
+    """A radius of 1e-300 m passes each field's range check but gives a massless stone: the error
+    names the component that cannot be built, not just 'components'."""
+    with pytest.raises(ScenarioError, match=r"components\.stone: cannot be built from these values: .*mass"):
+        load(SCENES / "skip.yaml", ["components.stone.radius=1e-300"])
