@@ -118,3 +118,17 @@ def test_plot_skips_the_contact_figure_without_contacts(tmp_path, capsys):
     record_skip(path, ["until=0.05", "record.visual_rate=0"])
     written, skipped = plot_run(path, tmp_path / "figs", dpi=40)
     assert len(written) == 3 and skipped == [("contacts.png", "no contact in this run")]
+
+
+def test_contact_panels_last_as_long_as_the_summary_says_and_show_only_their_contact(run):
+    """The contacts figure's durations are the stage monitor's (those the run's summary prints), and
+    no panel's window reaches into the contact before or after it."""
+    spans = contact_intervals(run)
+    for skip, (start, end) in zip(sorted(run.skips, key=lambda s: s.index), spans, strict=False):
+        assert start == pytest.approx(skip.touchdown_time)
+        assert end - start == pytest.approx(skip.contact_time)
+    fig = figure_contacts(run)
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    for k, ax in enumerate(visible[1:], start=1):
+        lo_ms = ax.get_xlim()[0]
+        assert spans[k][0] + lo_ms / 1e3 > spans[k - 1][1] - 1e-9

@@ -14,6 +14,7 @@ Each ``figure_*`` function returns the figure, so tests can check what was drawn
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -134,8 +135,17 @@ def figure_energy(run: RunData) -> Figure:
 
 
 def contact_intervals(run: RunData) -> list[tuple[float, float]]:
-    """(start, end) [s] of each contact: wetted spans of the first water coupler, else ground
-    contact spans, else the hit/slide stage spans."""
+    """(start, end) [s] of each contact: the stage monitor's skips (the durations the run's summary
+    gives) and then the wetted spans of the first water coupler after the last skip; without skips,
+    the wetted spans, else ground contact spans, else the hit/slide stage spans."""
+    if run.skips:
+        skips = sorted(run.skips, key=lambda s: s.index)
+        spans = [(float(s.touchdown_time), float(s.touchdown_time + s.contact_time)) for s in skips]
+        if run.contacts:
+            c = run.contacts[0]
+            later = [(float(c.t[a]), float(c.t[b])) for a, b in contact_spans(c.wetted, c.t)]
+            spans += [span for span in later if span[0] > spans[-1][1]]
+        return spans
     if run.contacts:
         c = run.contacts[0]
         return [(float(c.t[a]), float(c.t[b])) for a, b in contact_spans(c.wetted, c.t)]
@@ -165,7 +175,10 @@ def figure_contacts(run: RunData) -> Figure | None:
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
     for k, (ax, (start, end)) in enumerate(zip(axes, intervals, strict=False)):
         pad = CONTACT_MARGIN * max(end - start, 1e-3)
-        lo, hi = start - pad, end + pad
+        # the margins never reach into the neighbouring contacts (their force peaks are not this one's)
+        before = start - intervals[k - 1][1] if k > 0 else math.inf
+        after = intervals[k + 1][0] - end if k + 1 < len(intervals) else math.inf
+        lo, hi = start - min(pad, 0.5 * before), end + min(pad, 0.5 * after)
 
         def window(t: np.ndarray, lo: float = lo, hi: float = hi) -> np.ndarray:
             return (t >= lo) & (t <= hi)
