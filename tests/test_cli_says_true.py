@@ -84,3 +84,16 @@ def test_validate_on_a_sweep_file_says_it_is_one_and_how_to_check_it(capsys):
     assert main(["validate", sweep]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "sweep file" in err[0] and f"cosim sweep {sweep} --dry-run" in err[0]
+
+
+def test_a_flat_throw_called_sunk_has_sunk():
+    """A flat throw (tilt 0) that the monitor calls 'sink' is under water and slow when the run ends;
+    it does not resurface and plane on (a submerged stone swims, it does not plane)."""
+    from cosim.scenario import load
+    from cosim.scheduler import Simulation
+
+    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", ["components.stone.tilt_deg=0"]))
+    sim.run()
+    state = sim.components["stone"].body_state()
+    assert sim.components["stages"].stage.name == "SINK"
+    assert state.position[2] < -0.05 and state.speed < 1.0
