@@ -97,3 +97,18 @@ def test_a_flat_throw_called_sunk_has_sunk():
     state = sim.components["stone"].body_state()
     assert sim.components["stages"].stage.name == "SINK"
     assert state.position[2] < -0.05 and state.speed < 1.0
+
+
+def test_a_steep_throw_counts_only_real_skips():
+    """Thrown 45 deg down at 8 m/s, the stone skips once after a long contact that costs it most of its
+    speed; no skip is a millisecond touch that changes nothing."""
+    from cosim.scenario import load
+    from cosim.scheduler import Simulation
+
+    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", ["components.stone.velocity=[5.657, 0, -5.657]"]))
+    sim.run()
+    records = sim.components["stages"].records
+    assert records
+    for skip in records:
+        assert skip.contact_time > 0.005
+        assert skip.speed_out < 0.95 * skip.speed_in
