@@ -6,6 +6,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from matplotlib.collections import LineCollection
@@ -132,3 +134,18 @@ def test_contact_panels_last_as_long_as_the_summary_says_and_show_only_their_con
     for k, ax in enumerate(visible[1:], start=1):
         lo_ms = ax.get_xlim()[0]
         assert spans[k][0] + lo_ms / 1e3 > spans[k - 1][1] - 1e-9
+
+
+def test_the_attack_angle_panel_says_when_the_attitude_is_held(tmp_path):
+    """A stone whose attitude is held gets an attack-angle panel that says so, rather than a flat
+    line with no word why; a free one does not."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    held, free = tmp_path / "held.mcap", tmp_path / "free.mcap"
+    for path, locked in ((held, "true"), (free, "false")):
+        sets = ["record.visual_rate=0", "until=0.05", f"components.stone.lock_attitude={locked}"]
+        run_scene(load(scene, sets), path, progress=False)
+    assert "attitude held" in figure_motion(load_run(held)).axes[1].get_title()
+    assert "attitude held" not in figure_motion(load_run(free)).axes[1].get_title()

@@ -70,6 +70,7 @@ class BodyTrack:
     radius: float
     thickness: float
     mass: float
+    attitude_locked: bool = False  # the attitude was held (lock_attitude or a script) throughout
 
     @property
     def name(self) -> str:
@@ -181,7 +182,8 @@ def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
         orientation=_stack(msgs, "orientation", 4), speed=_stack(msgs, "speed"),
         attack_deg=_stack(msgs, "attack_angle_deg"), kinetic=_stack(msgs, "kinetic_energy"),
         potential=_stack(msgs, "potential_energy"), shape=int(first.shape), radius=float(first.radius),
-        thickness=float(first.thickness), mass=float(first.mass))
+        thickness=float(first.thickness), mass=float(first.mass),
+        attitude_locked=all(bool(m.attitude_locked) for m in msgs))
 
 
 def load_run(path: str | Path, body: str | None = None) -> RunData:

@@ -92,6 +92,9 @@ def figure_motion(run: RunData) -> Figure:
     ax_speed.set_title(f"{run.scene}: {body.name}")
     ax_angle.plot(body.t, body.attack_deg, color="k", linewidth=1.2)
     ax_angle.set_ylabel("attack angle [deg]")
+    if body.attitude_locked:
+        ax_angle.set_title("attitude held (lock_attitude, the high-spin limit): the attack angle changes "
+                           "only with the direction of flight", fontsize="small")
     ax_angle.set_xlabel("time [s]")
     if run.stages is not None:
         _stage_legend(ax_speed, run.stages.stage.tolist())
