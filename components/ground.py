@@ -136,7 +136,7 @@ class SolidGround(Component):
             return self._apart()
         assert isinstance(msg, BodyState)
         x = tuple(msg.position.tolist())
-        reach = msg.radius if msg.shape == Shape.SPHERE else math.hypot(msg.radius, 0.5 * msg.thickness)
+        reach = self._mass_properties(msg).bounding_radius
         if self.plane.height(x) > reach:  # the bounding sphere is clear: no contact possible
             return self._apart()
         if not self._gravity_checked:
@@ -164,7 +164,7 @@ class SolidGround(Component):
         if not isinstance(msg, BodyState):
             return []
         x = tuple(msg.position.tolist())
-        reach = msg.radius if msg.shape == Shape.SPHERE else math.hypot(msg.radius, 0.5 * msg.thickness)
+        reach = self._mass_properties(msg).bounding_radius
         depth = reach - self.plane.height(x)  # of the bounding sphere's lowest point below the plane
         if depth > 2.0 * reach:
             return [f"the body starts {-self.plane.height(x):.4g} m inside the ground (its centre at "

@@ -106,7 +106,9 @@ def flattening() -> str:
     return "\n".join(rows)
 
 
-def bocquet() -> str:
+def skip_impulses() -> list[tuple]:
+    """Per skip of the reference skip (scenarios/skip.yaml): its SkipRecord and the water's impulses
+    over the contact [N s]: the friction's along x, all of the water's along x, and along z."""
     class Contacts(BaseObserver):
         def __init__(self):
             self.rows = []
@@ -123,15 +125,22 @@ def bocquet() -> str:
     sim = Simulation(scene, observers=[watch])
     sim.run()
     dt = scene.dt
-    alpha = math.radians(20.0)
-    rows = ["| skip | speed in [m/s] | friction x / water z impulse | all water x / z impulse |",
-            "|---:|---:|---:|---:|"]
+    skips = []
     for r in sim.components["stages"].records:
         wet = [c for t, c, _ in watch.rows if r.touchdown_time - 1e-9 <= t <= r.touchdown_time + r.contact_time
                and c.wetted]
         jf = sum(c.friction[0] for c in wet) * dt
         jx = sum(c.friction[0] + c.pressure[0] + c.wave_drag[0] for c in wet) * dt
         jz = sum(c.pressure[2] + c.buoyancy[2] + c.friction[2] for c in wet) * dt
+        skips.append((r, jf, jx, jz))
+    return skips
+
+
+def bocquet() -> str:
+    alpha = math.radians(20.0)
+    rows = ["| skip | speed in [m/s] | friction x / water z impulse | all water x / z impulse |",
+            "|---:|---:|---:|---:|"]
+    for r, jf, jx, jz in skip_impulses():
         rows.append(f"| {r.index} | {r.speed_in:.2f} | {-jf / jz:.4f} | {-jx / jz:.3f} |")
     rows.append("")
     rows.append(f"C_f / C_L = {C_FRICTION / C_LIFT:g}; (C_f / C_L) cot(alpha) = "

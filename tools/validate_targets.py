@@ -28,6 +28,7 @@ if str(ROOT) not in sys.path:
 
 from components.analysis import experiments as ex  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
+from tools.validate_scenes import skip_impulses  # noqa: E402
 
 ALPHAS = [5.0, 10.0, 15.0, 17.5, 20.0, 22.5, 25.0, 30.0, 35.0, 40.0, 45.0]  # [deg]
 CELLS = [0.005, 0.01]  # [m] water columns of the two co-simulation curves
@@ -57,34 +58,6 @@ def sphere_critical_angle(relative_density: float, speed: float = 5.0) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ex.run_throw(ex.sphere_throw_scene(speed, mid, relative_density)).bounced else (lo, mid)
     return 0.5 * (lo + hi)
-
-
-def reference_skips() -> list:
-    """The skip records of the reference skip (scenarios/skip.yaml) and its water impulses per contact."""
-    from cosim.scenario import load
-    from cosim.scheduler import BaseObserver, Simulation
-
-    class Impulses(BaseObserver):
-        def __init__(self) -> None:
-            self.contacts: list[list[float]] = []
-            self.wet = False
-
-        def on_exchange(self, time_ns, component, port, msg):
-            if component == "coupler" and port == "contact":
-                if msg.wetted and not self.wet:
-                    self.contacts.append([0.0, 0.0])
-                self.wet = msg.wetted
-                if msg.wetted:
-                    total = msg.buoyancy + msg.pressure + msg.friction + msg.wave_drag
-                    self.contacts[-1][0] += -float(total[0])
-                    self.contacts[-1][1] += float(total[2])
-
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml"))
-    watch = Impulses()
-    sim.observers.append(watch)
-    sim.run()
-    records = sim.components["stages"].records
-    return [(r, watch.contacts[k]) for k, r in enumerate(records)]
 
 
 def free_reference_throw(spin_rev_s: float) -> int:
@@ -152,7 +125,7 @@ def targets(curves, betas, regimes, contact, spheres, skips, free) -> str:
 
     mu = ((C_LIFT * math.sin(theta) + C_FRICTION * math.cos(theta))
           / (C_LIFT * math.cos(theta) - C_FRICTION * math.sin(theta)))
-    ratios = [x / z for _, (x, z) in skips if z > 0]
+    ratios = [-jx / jz for _, _, jx, jz in skips if jz > 0]
     rows.append(f"| Bocquet 2003 | drag over lift per contact, reference skip (alpha = 20 deg): the same at "
                 f"every speed, mu = (C sin a + C_f cos a) / (C cos a - C_f sin a) | {mu:.3f} | "
                 f"{min(ratios):.3f}-{max(ratios):.3f} over {len(ratios)} skips | "
@@ -161,7 +134,7 @@ def targets(curves, betas, regimes, contact, spheres, skips, free) -> str:
                 f"times (the reference throw, free, {', '.join(f'{s:g}' for s in free)} rev/s) | several skips, more "
                 f"with more spin | {', '.join(str(n) for n in free.values())} skip(s) | "
                 f"{_held(min(free.values()) >= 3)} |")
-    drops = [r.speed_in ** 2 - r.speed_out ** 2 for r, _ in skips]
+    drops = [r.speed_in ** 2 - r.speed_out ** 2 for r, _, _, _ in skips]
     rows.append(f"| Bocquet 2003 | the same loss of V^2 at every skip (a friction-like drag over a fixed "
                 f"contact length) | constant | {', '.join(f'{d:.1f}' for d in drops)} m^2/s^2 | "
                 f"{_held(max(drops) <= 1.25 * min(drops))} |")
@@ -187,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
         contact_jobs = [pool.submit(ex.run_throw, ex.throw_scene(u, 20.0, 20.0)) for u in (3.5, 7.0)]
         sphere_jobs = {sg: pool.submit(sphere_critical_angle, sg) for sg in (1.0, 2.65)}
         free_jobs = {s: pool.submit(free_reference_throw, s) for s in (10.0, 14.0)}
-        skips = reference_skips()
+        skips = skip_impulses()
         curves = {cell: [f.result() for f in fs] for cell, fs in curve_jobs.items()}
         criterion = [f.result() for f in criterion_jobs]
         betas = {a: f.result() for a, f in beta_jobs.items()}

@@ -202,7 +202,6 @@ class WaterCoupler(Component):
         self._went_idle = False
         self._held_request: PatchRequest | None = None  # the window the water holds from us
         self.met = MetSurface()  # the surface the body met, which the surface effects read
-        self.started = False  # the first patch has come and the body was found above the bed
         self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
 
     def initial_outputs(self) -> dict[str, Message]:
@@ -219,8 +218,7 @@ class WaterCoupler(Component):
         if self._prev is not None:
             prev = {k: np.array(v, dtype=float) for k, v in self._prev.items()}
         return {"rest_level": self.rest_level, "cell": self.cell, "dissipated": self.dissipated,
-                "bound": self.bound, "prev": prev, "quiet": self.quiet, "started": self.started,
-                **self.met.get_state(),
+                "bound": self.bound, "prev": prev, "quiet": self.quiet, **self.met.get_state(),
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max]}
@@ -236,7 +234,6 @@ class WaterCoupler(Component):
         prev = state.get("prev")
         self._prev = None if prev is None else {k: np.array(v, dtype=float) for k, v in prev.items()}
         self.met.set_state(state)
-        self.started = bool(state.get("started", True))
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
@@ -288,18 +285,18 @@ class WaterCoupler(Component):
         if body is None:
             self.bound = math.inf
             return self._idle(-math.inf)
-        if patch is not None and patch.height.size:
-            self.rest_level = float(patch.rest_level)
-            self.cell = float(patch.cell)
-            if not self.started:
-                self._check_not_under_the_bed(body, patch)
         pos = body.position
         vel = body.velocity
         omega = body.angular_velocity
+        radius = float(body.radius)
+        r_bound = math.hypot(radius, 0.5 * float(body.thickness))  # of the sphere about the centre holding it
+        if patch is not None and patch.height.size:
+            if self.cell == 0.0:  # the water's first patch
+                self._check_not_under_the_bed(float(pos[2]) + r_bound, pos, patch)
+            self.rest_level = float(patch.rest_level)
+            self.cell = float(patch.cell)
         self._account_work(pos, omega, dt)
         # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest
-        radius = float(body.radius)
-        r_bound = math.hypot(radius, 0.5 * float(body.thickness))
         z_bottom = float(pos[2]) - r_bound
         level = self.rest_level
         reach = min(0.0, float(vel[2])) * 2.0 * dt
@@ -380,10 +377,8 @@ class WaterCoupler(Component):
             # The column sum samples the body, so a body wholly under water sums to a little less
             # than its volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point
             # opposite its lowest one) is under the surface there is wholly submerged.
-            top = 2.0 * pos - np.asarray(low)
-            ok, h_top, _ = kernel.sample_surface(float(top[0]), float(top[1]), x0, y0, float(patch.cell),
-                                                 height, wvel)
-            if ok and top[2] < h_top:
+            under = self._top_under(pos, low, water)
+            if under is not None and under > 0.0:
                 fraction = 1.0
         contact = WaterContact(
             wetted=bool(volume > 0.0 or area > 0.0),
@@ -423,15 +418,20 @@ class WaterCoupler(Component):
         sheet ahead and an air cavity behind the body. Once the water closes over the body's top,
         the cavity is gone and the body is a submerged one: buoyancy, pressure drag along its
         motion and no planing lift, so a stone that goes wholly under does not come back out as if
-        it were skimming. (The highest point of a disk or a sphere is its lowest point mirrored
-        through the centre.)"""
+        it were skimming."""
+        under = self._top_under(pos, low, water)
+        if under is None:
+            return 1.0
+        return min(1.0, max(0.0, 1.0 - under / self.params.closure_depth))
+
+    @staticmethod
+    def _top_under(pos: np.ndarray, low: tuple[float, float, float], water) -> float | None:
+        """How far [m] the body's highest point (its lowest mirrored through the centre, for a disk
+        or a sphere) is under the surface of ``water`` (negative: above it); None off the patch."""
         x0, y0, cell, height, wvel, _, _ = water
         top = 2.0 * pos - np.asarray(low)
         ok, h_top, _ = kernel.sample_surface(float(top[0]), float(top[1]), x0, y0, cell, height, wvel)
-        if not ok:
-            return 1.0
-        under = h_top - float(top[2])
-        return min(1.0, max(0.0, 1.0 - under / self.params.closure_depth))
+        return float(h_top - top[2]) if ok else None
 
     def _elements_for(self, body: BodyState) -> Elements:
         p = self.params
@@ -468,8 +468,8 @@ class WaterCoupler(Component):
                 return held
         # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
         # the surface it meets during a contact was in the window before it touched down (met_surface)
-        ahead_x = float(vel[0]) * p.lookahead if self._ring_mode() else 0.0
-        ahead_y = float(vel[1]) * p.lookahead if self._ring_mode() else 0.0
+        lookahead = p.lookahead if self._ring_mode() else 0.0
+        ahead_x, ahead_y = float(vel[0]) * lookahead, float(vel[1]) * lookahead
         return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
                             cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0))
 
@@ -736,18 +736,17 @@ class WaterCoupler(Component):
                            level, np.full(shape, level), np.zeros(shape), np.full(shape, level - 1e3),
                            np.zeros(shape))
 
-    def _check_not_under_the_bed(self, body: BodyState, patch: HeightPatch) -> None:
-        """A body whose highest point is below the water's bed where it starts is a mistake in the
-        scene (it would fall through the pond unseen): refuse it, at the first patch the water sends."""
-        self.started = True
-        x, y, z = (float(c) for c in body.position)
+    def _check_not_under_the_bed(self, top: float, pos: np.ndarray, patch: HeightPatch) -> None:
+        """A body whose highest point (``top`` [m], its bounding sphere's) is below the water's bed
+        where it starts is a mistake in the scene (it would fall through the pond unseen): refuse it,
+        at the first patch the water sends."""
+        x, y, z = (float(c) for c in pos)
         i = round((x - patch.origin_x) / patch.cell) - int(patch.i0)
         j = round((y - patch.origin_y) / patch.cell) - int(patch.j0)
         nj, ni = patch.bottom.shape
         if not (0 <= i < ni and 0 <= j < nj):
             return
         bed = float(patch.bottom[j, i])
-        top = z + math.hypot(float(body.radius), 0.5 * float(body.thickness))
         if top < bed:
             raise ValueError(f"the body starts {bed - top:.4g} m below the water's bed (its centre at "
                              f"z = {z:.4g} m, the bed at z = {bed:.4g} m): start it above the bed")
