@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from components.messages import BodyState
+from components.rigid.quaternion import body_axis
 from cosim.scenario import Scene, loads
 from cosim.scheduler import Simulation
 
@@ -113,17 +115,16 @@ class ThrowOutcome:
     bounced: bool  # the stage monitor recorded a fly-away before a sink
     contact_s: float  # how long the disk was wetted in its first contact [s]
     attack_deg: tuple[float, float, float]  # attack angle over the contact: min, max, at its end [deg]
-    tilt_change_deg: float  # largest change of the axis' tilt from the vertical during it [deg]
-    exit_speed: float  # speed at the end of the contact [m/s]
+    tilt_change_deg: float  # largest change of the face's tilt from the horizontal during it [deg]
 
 
-def _attack_and_tilt(orientation: np.ndarray, velocity: np.ndarray) -> tuple[float, float]:
-    """Attack angle along the horizontal motion and tilt of the axis from the vertical [deg]."""
-    w, x, y, z = orientation
-    axis = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
-    h = velocity[:2] / max(float(np.linalg.norm(velocity[:2])), 1e-12)
-    attack = math.degrees(math.atan2(-(axis[0] * h[0] + axis[1] * h[1]), axis[2]))
-    return attack, math.degrees(math.acos(min(1.0, max(-1.0, float(axis[2])))))
+def _attack_along_motion(state: BodyState) -> float:
+    """The attack angle along the horizontal motion [deg]: the face nose-up (positive) or nose-down
+    (negative) in the plane of the motion, unlike BodyState.attack_angle_deg, the face's unsigned
+    tilt from the horizontal."""
+    ax, ay, az = body_axis(tuple(state.orientation.tolist()))
+    h = state.velocity[:2] / max(float(np.linalg.norm(state.velocity[:2])), 1e-12)
+    return math.degrees(math.atan2(-(ax * h[0] + ay * h[1]), az))
 
 
 def run_throw(scene: Scene) -> ThrowOutcome:
@@ -140,7 +141,6 @@ def run_throw(scene: Scene) -> ThrowOutcome:
     tilt0 = None
     tilt_change = 0.0
     bounced = False
-    state = stone.body_state()
     while sim.time_ns < end:
         sim.step()
         state = stone.body_state()
@@ -152,10 +152,9 @@ def run_throw(scene: Scene) -> ThrowOutcome:
             wetted_from = sim.time_ns if wetted_from is None else wetted_from
             wetted_until = sim.time_ns
         if touched_at is not None:
-            attack, tilt = _attack_and_tilt(np.asarray(state.orientation), np.asarray(state.velocity))
-            attacks.append(attack)
-            tilt0 = tilt if tilt0 is None else tilt0
-            tilt_change = max(tilt_change, abs(tilt - tilt0))
+            attacks.append(_attack_along_motion(state))
+            tilt0 = state.attack_angle_deg if tilt0 is None else tilt0
+            tilt_change = max(tilt_change, abs(state.attack_angle_deg - tilt0))
         if stages.track.skips:
             bounced = True
             break
@@ -163,7 +162,7 @@ def run_throw(scene: Scene) -> ThrowOutcome:
             break
     contact = 0.0 if wetted_from is None else (wetted_until - wetted_from) * 1e-9
     span = (min(attacks), max(attacks), attacks[-1]) if attacks else (math.nan,) * 3
-    return ThrowOutcome(bounced, contact, span, tilt_change, float(np.linalg.norm(state.velocity)))
+    return ThrowOutcome(bounced, contact, span, tilt_change)
 
 
 def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = 0.01,

@@ -89,8 +89,9 @@ def add_wrench(acc, rx, ry, rz, fx, fy, fz):
     acc[5] += rx * fy - ry * fx
 
 
-SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^2 from the trailing edge (xi = 0) to the spray
-# root (xi = 1): its centre at 3/4 of the wetted length, Savitsky's high-speed value [-]
+SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^p from the trailing edge (xi = 0) to the spray
+# root (xi = 1): its centre at (p + 1) / (p + 2) = 7/8 of the wetted length; fitted once on Rosellini et
+# al.'s fig. 3 (p = 2, Savitsky's steady 3/4, lets a 65 rev/s disk lose 4 deg of attack) [-]
 
 
 @njit(cache=True)
@@ -146,7 +147,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
     wvel, bottom: (nj, ni) patch arrays; el_*: the body's surface elements; nsub: sub-cells per
     column side; planing [-]: the share of the pressure that is the planing law (1 while the body
     pierces the surface), the rest (1 - planing) is the submerged pressure drag of coefficient c_d
-    (:func:`components.coupler.forces.submerged_drag`). Writes b_geo (nj, ni) [m] (zero where dry) and
+    (``-1/2 rho c_d (u.n) u dA``, see :mod:`components.coupler.forces`). Writes b_geo (nj, ni) [m] (zero where dry) and
     stats (N_STATS,); and, unless it is
     empty, waterline (3, nj, ni): per column, the area [m^2] of its sub-columns the surface cuts
     through the body and that area's first moments about the centre, sum dx a and sum dy a [m^3].
@@ -410,10 +411,9 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
                 d_lin += 2.0 * kf
                 d_rot += 2.0 * kf * (rx * rx + ry * ry + rz * rz)
         if n_pl > 0:
-            vz_ = velocity[2]
             # planing: the body skims forward, faster than its own gravity waves (a Froude number
             # U / sqrt(g L) above 1); a floating or dropped body presses the water evenly
-            forward = hspeed * hspeed / (hspeed * hspeed + vz_ * vz_ + 2.0 * g * radius)
+            forward = hspeed * hspeed / (hspeed * hspeed + vz * vz + 2.0 * g * radius)
             weights = spray_root_weights(pl_s[:n_pl], pl_m[:n_pl], forward)
             for k in range(n_pl):
                 wk = weights[k]
