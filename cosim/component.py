@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar, Literal
 
 from cosim.errors import SimulationError
@@ -109,6 +110,17 @@ class Component:
         (its source's initial output, or the delayed edge's ``initial``; None when not known). A
         ground, for instance, refuses a body that starts deep inside it. Default: none."""
         return []
+
+    @classmethod
+    def configure(cls, params: Any, path: str, base_dir: Path, problems: list[str]) -> type[Component] | None:
+        """The class a scene builds for ``params``: ``cls`` itself (the default), unless the
+        component's ports or files depend on its parameters. An FMU, for one, turns its variables
+        into ports and finds its file beside the scene: it returns a subclass declaring those ports.
+        ``params``: the validated parameters, or None when they were not valid; ``path``: the
+        component's YAML path (``components.gust``); ``base_dir``: the folder the scene's relative
+        file names start from. Problems go to ``problems`` as ``path: rule (got value)`` lines;
+        None means the ports are not known (the scene's edges to them are then not checked)."""
+        return cls
 
     @classmethod
     def estimate_bytes(cls, params: Any) -> int:

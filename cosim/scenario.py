@@ -111,6 +111,7 @@ class Scene:
     data: dict[str, Any]
     source: str = "<string>"
     overrides: list[str] = field(default_factory=list)
+    base_dir: str = "."  # absolute folder that relative file names in the scene (an FMU's path) start from
 
     def instantiate(self) -> dict[str, Component]:
         """Fresh components, built from the parameters (in execution order)."""
@@ -303,7 +304,7 @@ def seconds_value(value: Any, path: str, problems: list[str], *, zero: bool = Fa
 
 
 def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
-               problems: list[str], classes: dict[str, type[Component]]) -> ComponentConfig | None:
+               problems: list[str], classes: dict[str, type[Component]], base_dir: Path) -> ComponentConfig | None:
     path = f"components.{name!r}" if not NAME_RE.fullmatch(str(name)) else f"components.{name}"
     if not NAME_RE.fullmatch(str(name)):
         problems.append(f"{path}: component names must be identifiers of at most 64 characters (letters, "
@@ -329,6 +330,11 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
         problems.append(f"{path}.on_unstable: must be one of 'error', 'substep' (got {on_unstable!r})")
     params_data = {k: v for k, v in spec.items() if k not in COMPONENT_KEYS}
     params = build(cls.Params, params_data, path, problems)
+    configured = cls.configure(params, path, base_dir, problems)  # ports that depend on the parameters
+    if configured is None:
+        del classes[name]
+        return None
+    cls = classes[name] = configured
     if params is None or every is None:
         return None
     return ComponentConfig(name, type_name, cls, every, params, on_unstable)
@@ -550,9 +556,19 @@ def _check_start(scene: Scene, built: dict[str, Component], problems: list[str])
         problems.extend(f"components.{name}: {problem}" for problem in found)
 
 
-def loads(text: str, source: str = "<string>", overrides: list[str] | None = None) -> Scene:
-    """Parse and validate a scene from YAML text; raises ScenarioError listing every problem."""
+def scene_folder(source: str) -> Path:
+    """Where a scene's relative file names start: the folder of its file, or the working folder for
+    a scene that is not a file (text, a recording's attachment)."""
+    path = Path(source)
+    return (path.parent if path.is_file() else Path.cwd()).resolve()
+
+
+def loads(text: str, source: str = "<string>", overrides: list[str] | None = None,
+          base_dir: str | Path | None = None) -> Scene:
+    """Parse and validate a scene from YAML text; raises ScenarioError listing every problem.
+    ``base_dir``: the folder relative file names start from (default :func:`scene_folder`)."""
     overrides = list(overrides or [])
+    folder = Path(base_dir).resolve() if base_dir is not None else scene_folder(source)
     if len(text) > MAX_SCENE_BYTES:
         raise ScenarioError(f"the scene is {len(text) / 2**20:.1f} MiB, more than the {MAX_SCENE_BYTES >> 20} MiB "
                             "a scene may be", source)
@@ -585,7 +601,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         problems.append(f"components: must be a non-empty mapping (got {raw_components!r})")
         raw_components = {}
     for cname, spec in raw_components.items():
-        cfg = _component(str(cname), spec, dt_ns, default_unstable, problems, classes)
+        cfg = _component(str(cname), spec, dt_ns, default_unstable, problems, classes, folder)
         if cfg is not None:
             components[str(cname)] = cfg
 
@@ -633,7 +649,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         raise ScenarioError(problems, source)
     scene = Scene(name=name, description=str(description), dt_ns=dt_ns, until_ns=until_ns,
                   components=components, connections=edges, record=record, order=order, text=text,
-                  data=data, source=source, overrides=overrides)
+                  data=data, source=source, overrides=overrides, base_dir=str(folder))
     built_components: dict[str, Component] = {}
     for comp_name, cfg in components.items():
         try:

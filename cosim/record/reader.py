@@ -149,7 +149,7 @@ class Recording:
         """The recorded scene, with the recorded overrides and then ``overrides`` applied."""
         try:
             return loads(self.scene_text, source=f"{self.path}:{SCENE_ATTACHMENT}",
-                         overrides=self.overrides + list(overrides or []))
+                         overrides=self.overrides + list(overrides or []), base_dir=self.metadata.get("base_dir"))
         except ScenarioError:
             raise
         except Exception as exc:

@@ -138,7 +138,8 @@ class Recorder(BaseObserver):
         self._perf_tick = 0
         meta = {"version": version or __version__, "scene": scene.name, "source": scene.source,
                 "overrides": json.dumps(scene.overrides), "command_line": command_line,
-                "dt_ns": str(scene.dt_ns), "until_ns": str(scene.until_ns)}
+                "dt_ns": str(scene.dt_ns), "until_ns": str(scene.until_ns),
+                "base_dir": scene.base_dir}  # where the scene's relative file names (an FMU) start
         self.sink.add_metadata(METADATA_NAME, meta)
         self.sink.add_attachment(SCENE_ATTACHMENT, 0, "application/yaml", scene.text.encode())
 
