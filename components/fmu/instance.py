@@ -1,0 +1,175 @@
+"""One co-simulation FMU (FMI 2.0 or 3.0) running through FMPy: instantiate, set, step, get, and
+its state as bytes, with every failed call turned into an :class:`FmuCallError` holding the FMU's
+own log messages.
+
+Each FMU file is unpacked once per process (the instances of one FMU share its shared library, as
+FMI allows) and the folder is removed when the process ends.
+"""
+
+from __future__ import annotations
+
+import atexit
+import shutil
+from collections.abc import Callable
+from ctypes import byref
+from pathlib import Path
+from typing import Any
+
+LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
+STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
+
+_unpacked: dict[tuple[str, int, int], str] = {}
+
+
+class FmuCallError(RuntimeError):
+    """An FMU call returned Discard, Error or Fatal. ``status``: its name; ``log``: what the FMU
+    logged during the call (its own words)."""
+
+    def __init__(self, function: str, status: str, log: list[str]):
+        self.function, self.status, self.log = function, status, log
+        said = "; ".join(log) if log else "the FMU logged nothing"
+        super().__init__(f"{function} returned {status}: {said}")
+
+
+def _unpack(fmu_file: Path) -> str:
+    """The folder ``fmu_file`` is unpacked to, once per process per file version."""
+    from fmpy import extract
+
+    st = fmu_file.stat()
+    key = (str(fmu_file.resolve()), st.st_mtime_ns, st.st_size)
+    folder = _unpacked.get(key)
+    if folder is None:
+        folder = _unpacked[key] = str(extract(str(fmu_file)))
+        atexit.register(shutil.rmtree, folder, True)
+    return folder
+
+
+def _text(value: Any) -> str:
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value or "")
+
+
+class FmuInstance:
+    """A co-simulation instance of the FMU ``fmu_file`` described by ``md`` (FMPy's model
+    description), named ``name``, initialized with ``start`` (variable -> value) at t = 0."""
+
+    def __init__(self, fmu_file: Path, md: Any, name: str, start: dict[str, Any], variables: dict[str, Any]):
+        self.md = md
+        self.fmi3 = md.fmiVersion.startswith("3")
+        self.log: list[str] = []
+        self.can_save = bool(md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate)
+        folder = _unpack(fmu_file)
+        common = {"guid": md.guid, "unzipDirectory": folder,
+                  "modelIdentifier": md.coSimulation.modelIdentifier, "instanceName": name}
+        if self.fmi3:
+            from fmpy.fmi3 import FMU3Slave
+
+            self.fmu = FMU3Slave(**common)
+            self._call("instantiate", self.fmu.instantiate, loggingOn=True, logMessage=self._log3)
+        else:
+            from fmpy import calloc, free
+            from fmpy.fmi2 import (
+                FMU2Slave,
+                fmi2CallbackAllocateMemoryTYPE,
+                fmi2CallbackFreeMemoryTYPE,
+                fmi2CallbackFunctions,
+                fmi2CallbackLoggerTYPE,
+            )
+            from fmpy.logging import addLoggerProxy
+
+            self.fmu = FMU2Slave(**common)
+            callbacks = fmi2CallbackFunctions()
+            callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
+            callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+            callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+            addLoggerProxy(byref(callbacks))  # formats the FMU's printf-style messages before they reach us
+            self._callbacks = callbacks  # kept alive as long as the FMU may call back
+            self._call("instantiate", self.fmu.instantiate, callbacks=callbacks, loggingOn=True)
+            self._call("setupExperiment", self.fmu.setupExperiment, startTime=0.0)
+        self.live = True
+        for name_, value in start.items():
+            var = variables[name_]
+            self.set(var.type, [var.valueReference], [value])
+        self._call("enterInitializationMode", self.fmu.enterInitializationMode)
+        self._call("exitInitializationMode", self.fmu.exitInitializationMode)
+
+    # --- the FMU's log -------------------------------------------------------------------------
+
+    def _keep(self, status: int, category: Any, message: Any) -> None:
+        label = STATUS[status] if 0 <= status < len(STATUS) else str(status)
+        if len(self.log) < LOG_KEEP:
+            self.log.append(f"[{label}] {_text(message).strip()}")
+
+    def _log2(self, env: Any, instance: Any, status: int, category: Any, message: Any) -> None:
+        self._keep(status, category, message)
+
+    def _log3(self, env: Any, status: int, category: Any, message: Any) -> None:
+        self._keep(status, category, message)
+
+    def _call(self, function: str, call: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``call(*args)``, with a failed status as an FmuCallError naming ``function`` and quoting
+        what the FMU logged meanwhile (its errors first, else everything)."""
+        from fmpy.fmi1 import FMICallException
+
+        self.log = []
+        try:
+            return call(*args, **kwargs)
+        except FMICallException as exc:
+            status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else f"status {exc.status}"
+            errors = [m for m in self.log if m.startswith(("[Error]", "[Fatal]"))]
+            raise FmuCallError(function, status, errors or self.log) from None
+
+    # --- values --------------------------------------------------------------------------------
+
+    def _accessor(self, verb: str, fmu_type: str) -> Callable[..., Any]:
+        if self.fmi3:
+            kind = "Int64" if fmu_type == "Enumeration" else fmu_type
+        else:
+            kind = "Integer" if fmu_type == "Enumeration" else fmu_type
+        return getattr(self.fmu, f"{verb}{kind}")
+
+    def get(self, fmu_type: str, refs: list[int]) -> list[Any]:
+        """The values of variables ``refs`` (all of the model description type ``fmu_type``)."""
+        return list(self._call(f"get{fmu_type}", self._accessor("get", fmu_type), refs))
+
+    def set(self, fmu_type: str, refs: list[int], values: list[Any]) -> None:
+        self._call(f"set{fmu_type}", self._accessor("set", fmu_type), refs, values)
+
+    def do_step(self, t: float, dt: float) -> None:
+        """Advance the FMU from ``t`` by ``dt`` [s]; an FMI 3.0 FMU asking to end the run is a failure
+        too (a co-simulation cannot go on without it)."""
+        result = self._call("doStep", self.fmu.doStep, t, dt)
+        if self.fmi3 and result is not None and result[1]:
+            raise FmuCallError("doStep", "terminateSimulation", self.log)
+
+    # --- state ---------------------------------------------------------------------------------
+
+    def save(self) -> bytes:
+        """The FMU's state, serialized by the FMU itself."""
+        get = self.fmu.getFMUState if self.fmi3 else self.fmu.getFMUstate
+        free = self.fmu.freeFMUState if self.fmi3 else self.fmu.freeFMUstate
+        state = self._call("getFMUstate", get)
+        try:
+            return bytes(self._call("serializeFMUstate", self.fmu.serializeFMUState, state))
+        finally:
+            self._call("freeFMUstate", free, state)
+
+    def restore(self, data: bytes) -> None:
+        """Put the FMU back into a state :meth:`save` returned."""
+        put = self.fmu.setFMUState if self.fmi3 else self.fmu.setFMUstate
+        free = self.fmu.freeFMUState if self.fmi3 else self.fmu.freeFMUstate
+        state = self._call("deSerializeFMUstate", self.fmu.deserializeFMUState, data)
+        try:
+            self._call("setFMUstate", put, state)
+        finally:
+            self._call("freeFMUstate", free, state)
+
+    def close(self) -> None:
+        """Terminate and free the instance (once; errors here are not worth a failure)."""
+        if not getattr(self, "live", False):
+            return
+        self.live = False
+        for call in (self.fmu.terminate, self.fmu.freeInstance):
+            try:
+                call()
+            except Exception:  # an FMU that fails to terminate has nothing left to give
+                pass
