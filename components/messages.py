@@ -243,6 +243,9 @@ class SkipRecord(Message):
     contact_time [s]; takeoff_angle_deg: angle of the velocity above the horizontal at fly-away;
     distance [m]: touchdown x minus the previous touchdown x (or the throw's start for the first);
     speed_in, speed_out [m/s]: speed at touchdown and at fly-away.
+    The sideways curve a spinning stone takes: drift [m], how far the touchdown point lies beside the
+    line the stone was thrown along (left of the throw positive); heading_deg, the direction of the
+    horizontal velocity at fly-away against the throw's starting direction (turned left positive).
     """
 
     index: int
@@ -253,3 +256,5 @@ class SkipRecord(Message):
     distance: float
     speed_in: float
     speed_out: float
+    drift: float = 0.0
+    heading_deg: float = 0.0

@@ -45,6 +45,9 @@ class SkipTracker:
 
     skips: int = 0
     start_x: float = math.nan
+    start_y: float = math.nan
+    start_heading: float = 0.0  # direction of the throw's horizontal velocity [rad from +x]
+    touchdown_y: float = math.nan
     last_touchdown_x: float = math.nan
     touchdown_time: float = math.nan
     touchdown_x: float = math.nan
@@ -137,7 +140,9 @@ class StageMonitor(Component):
         x = float(body.position[0])
         track = self.track
         if math.isnan(track.start_x):
-            track.start_x = x
+            track.start_x, track.start_y = x, float(body.position[1])
+            vx, vy = float(body.velocity[0]), float(body.velocity[1])
+            track.start_heading = math.atan2(vy, vx) if math.hypot(vx, vy) > 0.0 else 0.0
         self.final_x = x
         outputs: dict[str, Message] = {}
 
@@ -147,6 +152,7 @@ class StageMonitor(Component):
         if wetted and not track.in_contact:
             track.in_contact = True
             track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed
+            track.touchdown_y = float(body.position[1])
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
                          self.params.takeoff_clearance, self.params.gravity)
@@ -190,10 +196,19 @@ class StageMonitor(Component):
             index=track.skips, touchdown_time=track.touchdown_time, touchdown_x=track.touchdown_x,
             contact_time=now - track.touchdown_time,
             takeoff_angle_deg=math.degrees(math.atan2(vz, math.hypot(vx, vy))),
-            distance=track.touchdown_x - previous, speed_in=track.speed_in, speed_out=body.speed)
+            distance=track.touchdown_x - previous, speed_in=track.speed_in, speed_out=body.speed,
+            drift=self._beside_throw_line(track.touchdown_x, track.touchdown_y),
+            heading_deg=_turned_deg(math.atan2(vy, vx) - track.start_heading))
         track.last_touchdown_x = track.touchdown_x
         self.records.append(record)
         return record
+
+    def _beside_throw_line(self, x: float, y: float) -> float:
+        """Signed distance [m] of the point (x, y) from the line the stone was thrown along (left of
+        the throw positive)."""
+        track = self.track
+        h = track.start_heading
+        return -(x - track.start_x) * math.sin(h) + (y - track.start_y) * math.cos(h)
 
     def get_state(self) -> dict[str, Any]:
         return {"stage": None if self.stage is None else int(self.stage), "since": self.since,
@@ -235,11 +250,23 @@ class StageMonitor(Component):
         travelled = self.final_x - start if not math.isnan(start) else math.nan
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled:.2f} m; "
                      f"final stage: {self._outcome()}")
+        # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
+        curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
         for r in self.records:
+            curve = f"; drift {r.drift:+.2f} m, heading {r.heading_deg:+.1f} deg" if curved else ""
             lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {r.touchdown_time:.3f} s; "
                          f"contact {r.contact_time * 1e3:.1f} ms; take-off {r.takeoff_angle_deg:.1f} deg; "
-                         f"speed {r.speed_in:.2f} -> {r.speed_out:.2f} m/s")
+                         f"speed {r.speed_in:.2f} -> {r.speed_out:.2f} m/s{curve}")
         return lines
+
+
+CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
+CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
+
+
+def _turned_deg(angle: float) -> float:
+    """An angle difference [rad] as degrees in (-180, 180]."""
+    return math.degrees(math.atan2(math.sin(angle), math.cos(angle)))
 
 
 _SKIP_FIELDS = [f for f in SkipRecord.__dataclass_fields__]

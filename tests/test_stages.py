@@ -189,3 +189,33 @@ def test_a_dry_spell_while_still_coming_down_is_the_same_contact():
     skips = [o["skip"] for o in out if "skip" in o]
     assert len(skips) == 1 and skips[0].contact_time == pytest.approx(0.004)
     assert skips[0].takeoff_angle_deg > 0
+
+
+def moving(x: float, y: float, z: float, v: tuple[float, float, float]) -> BodyState:
+    b = body(x, z, v[0], v[2])
+    return BodyState(np.array([x, y, z]), b.orientation, np.array(v), b.angular_velocity, b.shape, b.radius,
+                     b.thickness, b.mass, b.inertia, b.attack_angle_deg, float(np.linalg.norm(v)), 0.0, 0.0)
+
+
+def test_a_curving_throw_reports_its_drift_and_heading_per_skip():
+    """Thrown along a diagonal (x = y), the stone touches down 0.1 m to the left of that line and
+    flies away turned 10 deg further left: the skip's drift is +0.1 m and its heading +10 deg, and the
+    summary prints both (a straight throw prints neither)."""
+    m = StageMonitor("stages")
+    c45, s45 = math.cos(math.pi / 4), math.sin(math.pi / 4)
+    turned = math.radians(55.0)
+    left = (-0.1 * s45, 0.1 * c45)  # 0.1 m to the left of the diagonal
+    out = drive(m, [
+        (moving(0.0, 0.0, 0.10, (4 * c45, 4 * s45, -1.0)), water(False), None),
+        (moving(1.0 + left[0], 1.0 + left[1], 0.0, (4 * c45, 4 * s45, -1.0)), water(True), None),
+        (moving(1.1, 1.2, 0.01, (4 * math.cos(turned), 4 * math.sin(turned), 0.8)), water(False), None),
+    ])
+    (skip,) = [o["skip"] for o in out if "skip" in o]
+    assert skip.drift == pytest.approx(0.1)
+    assert skip.heading_deg == pytest.approx(10.0)
+    assert "drift +0.10 m, heading +10.0 deg" in "\n".join(m.summary())
+
+    straight = StageMonitor("stages")
+    drive(straight, [(body(0.0, 0.10, 5.0, -1.0), water(False), None), (body(0.5, 0.0, 5.0, -1.0), water(True), None),
+                     (body(0.7, 0.01, 4.6, 0.8), water(False), None)])
+    assert "skip 1:" in "\n".join(straight.summary()) and "drift" not in "\n".join(straight.summary())
