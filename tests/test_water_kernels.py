@@ -141,6 +141,8 @@ def test_smoothing_sponge_and_one_way_match_reference(nb, shape):
 CONFIGS = [
     dict(model="wave"),
     dict(model="wave", boundary="absorbing", sponge_cells=4, bottom_slope=(0.3, 0.1), smoothing=3.0),
+    dict(model="wave", bottom_slope=(0.3, 0.1), smoothing=3.0),  # smoothing by weights: a beach
+    dict(model="wave", smoothing=3.0, displacement_smoothing=3),
     dict(model="shallow_water", damping=0.5),
     dict(model="shallow_water", boundary="absorbing", bottom_slope=(0.3, 0.0), displacement_smoothing=2),
 ]
@@ -165,3 +167,63 @@ def test_component_runs_agree_across_kernels(n, config):
     assert np.array_equal(serial["h"], threads["h"]) and np.array_equal(serial["v"], threads["v"])
     assert_roundoff(serial["h"], reference["h"], ulps=64)
     assert_roundoff(serial["v"], reference["v"], ulps=64)
+
+
+def _straight_faces(h, v, ax, ay, dt, damp):
+    """The per-face wave step written cell by cell, the plainest way (the rule, not a kernel)."""
+    ny, nx = h.shape
+    h_out, v_out = np.empty_like(h), np.empty_like(v)
+    for j in range(ny):
+        for i in range(nx):
+            acc = 0.0
+            if i > 0:
+                acc += ax[j, i - 1] * (h[j, i - 1] - h[j, i])
+            if i < nx - 1:
+                acc += ax[j, i] * (h[j, i + 1] - h[j, i])
+            if j > 0:
+                acc += ay[j - 1, i] * (h[j - 1, i] - h[j, i])
+            if j < ny - 1:
+                acc += ay[j, i] * (h[j + 1, i] - h[j, i])
+            v_out[j, i] = (v[j, i] + dt * acc) * damp
+            h_out[j, i] = h[j, i] + dt * v_out[j, i]
+    return h_out, v_out
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 2), (2, 5), (6, 9)])
+def test_face_kernel_equals_the_cell_by_cell_rule(nb, shape):
+    """The row-wise face kernel (interior without branches, edges apart) gives the bits of the
+    cell-by-cell rule, on grids down to 2 x 2 where every cell is an edge cell."""
+    h, v = _random(shape)
+    rng = np.random.default_rng(7)
+    ax = rng.random((shape[0], shape[1] - 1)) * (rng.random((shape[0], shape[1] - 1)) > 0.2)
+    ay = rng.random((shape[0] - 1, shape[1]))
+    h_out, v_out = np.empty(shape), np.empty(shape)
+    nb.wave_faces(h, v, h_out, v_out, ax, ay, 0.01, 0.97)
+    want_h, want_v = _straight_faces(h, v, ax, ay, 0.01, 0.97)
+    assert np.array_equal(h_out, want_h) and np.array_equal(v_out, want_v)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_open_smoothing_equals_unit_weights(nb, shape):
+    """Smoothing with every face open gives the bits of the weighted smoothing with weights 1."""
+    h, _ = _random(shape)
+    ny, nx = shape
+    a, b, c = np.empty(shape), np.empty(shape), np.empty(shape)
+    nb.smooth_open(h, a, 0.3)
+    nb.smooth(h, b, np.ones((ny, nx - 1), np.uint8), np.ones((ny - 1, nx), np.uint8), 0.3)
+    ref.smooth_open(h, c, 0.3)
+    assert np.array_equal(a, b)
+    assert_roundoff(a, c)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 4), (5, 1), (6, 7)])
+@pytest.mark.parametrize("passes", [1, 2, 3])
+def test_blur_matches_reference_and_keeps_the_sum(shape, passes):
+    """The compiled displacement blur equals the numpy passes and keeps the displaced volume."""
+    rng = np.random.default_rng(9)
+    d = rng.standard_normal(shape)
+    a, b = d.copy(), d.copy()
+    kernels_numba.SERIAL.blur(a, np.empty_like(a), passes, 0.125)
+    ref.blur(b, np.empty_like(b), passes, 0.125)
+    assert np.array_equal(a, b)
+    assert abs(a.sum() - d.sum()) <= 64 * EPS * np.abs(d).sum()

@@ -82,6 +82,33 @@ def smooth(h: np.ndarray, h_out: np.ndarray, wx: np.ndarray, wy: np.ndarray, f: 
     np.add(h, (0.25 * f) * acc, out=h_out)
 
 
+def smooth_open(h: np.ndarray, h_out: np.ndarray, f: float) -> None:
+    """:func:`smooth` with every face open (wx, wy all 1): the grid of a pond without dry land."""
+    acc = np.zeros_like(h)
+    acc[:, 1:] += h[:, :-1] - h[:, 1:]
+    acc[:, :-1] += h[:, 1:] - h[:, :-1]
+    acc[1:, :] += h[:-1, :] - h[1:, :]
+    acc[:-1, :] += h[1:, :] - h[:-1, :]
+    np.add(h, (0.25 * f) * acc, out=h_out)
+
+
+def blur(d: np.ndarray, work: np.ndarray, passes: int, weight: float) -> None:
+    """``passes`` conservative 5-point blur passes of d (nj, ni), in place; closed edges, so the sum
+    is kept to round-off. One pass: d' = d + weight * sum over the cell's faces of (d_nb - d).
+
+    ``work``: scratch of d's shape (the compiled twin's ping-pong buffer; unused here).
+    """
+    for _ in range(passes):
+        acc = np.zeros_like(d)
+        dx = d[:, 1:] - d[:, :-1]
+        dy = d[1:, :] - d[:-1, :]
+        acc[:, :-1] += dx
+        acc[:, 1:] -= dx
+        acc[:-1, :] += dy
+        acc[1:, :] -= dy
+        d[...] = d + weight * acc
+
+
 def sponge(h: np.ndarray, v: np.ndarray, sx: np.ndarray, sy: np.ndarray, width: int, dt: float) -> None:
     """Absorbing layer, in place: h and v *= 1 / (1 + (sx[i] + sy[j]) dt) (rates sx (nx,), sy (ny,) [1/s]).
 

@@ -109,18 +109,6 @@ class WaterParams:
         return problems
 
 
-def _blur(d: np.ndarray) -> np.ndarray:
-    """One conservative 5-point blur pass with closed edges (the sum is kept to round-off)."""
-    acc = np.zeros_like(d)
-    dx = d[:, 1:] - d[:, :-1]
-    dy = d[1:, :] - d[:-1, :]
-    acc[:, :-1] += dx
-    acc[:, 1:] -= dx
-    acc[:-1, :] += dy
-    acc[1:, :] -= dy
-    return d + BLUR_WEIGHT * acc
-
-
 class WaterSurface(Component):
     """Height-field water: columns of height and vertical velocity, waves, displacement by bodies."""
 
@@ -158,8 +146,12 @@ class WaterSurface(Component):
             compiled.start()
         self.boundary = BOUNDARIES[p.boundary](g, self.kernels, p.sponge_cells)
         self.model = MODELS[p.model](g, self.kernels, p.damping, closed=self.boundary.conserves_volume)
-        self._wx = np.ascontiguousarray((g.kx > 0).astype(np.float64))
-        self._wy = np.ascontiguousarray((g.ky > 0).astype(np.float64))
+        # smoothing weights: 1 on open faces, 0 on walls; bytes, as they are read every step (a
+        # weight times a float64 is exact either way). A pond without dry land smooths with every
+        # weight 1: the same sums without reading them.
+        self._wx = np.ascontiguousarray(g.kx > 0, dtype=np.uint8)
+        self._wy = np.ascontiguousarray(g.ky > 0, dtype=np.uint8)
+        self._smoothing_weights = None if self._wx.all() and self._wy.all() else (self._wx, self._wy)
         shape = g.shape
         self._h = np.zeros(shape)
         self._v = np.zeros(shape)
@@ -274,7 +266,11 @@ class WaterSurface(Component):
         self.boundary.after_step(self._h, self._h2, self._v2, dt)
         if self.params.smoothing > 0:
             f = min(SMOOTHING_MAX, self.params.smoothing * dt)
-            self.kernels.smooth(self._h2, self._h3, self._wx, self._wy, f)
+            weights = self._smoothing_weights
+            if weights is None:
+                self.kernels.smooth_open(self._h2, self._h3, f)
+            else:
+                self.kernels.smooth(self._h2, self._h3, *weights, f)
             self._h2, self._h3 = self._h3, self._h2
         self._h, self._h2 = self._h2, self._h
         self._v, self._v2 = self._v2, self._v
@@ -305,8 +301,8 @@ class WaterSurface(Component):
         if new is not None:
             b_new[j0 - v0:j1 - v0, i0 - u0:i1 - u0] = b[j0 - msg.j0:j1 - msg.j0, i0 - msg.i0:i1 - msg.i0]
         delta = b_new - self._b[v0:v1, u0:u1]
-        for _ in range(passes):
-            delta = _blur(delta)
+        if passes:
+            self.kernels.blur(delta, np.empty_like(delta), passes, BLUR_WEIGHT)
         self._h[v0:v1, u0:u1] += delta
         self._b[v0:v1, u0:u1] = b_new
         self._b_window = new

@@ -1,0 +1,165 @@
+"""Each water path's step time beside the uniform step and the array copy, measured in one run.
+
+    python tools/bench_water_paths.py                               # table on stdout
+    python tools/bench_water_paths.py --write docs/performance.md   # also (re)write that section
+
+The paths are the ways a scene makes the water step do more than the one-coefficient wave kernel:
+a sloped bed (a coefficient per face), a beach (dry cells: walls inside the grid), positional
+smoothing, a body's displacement spread by blur passes, and the implicit shallow-water model. Each is
+one ``WaterSurface.step`` on an n x n grid (reflecting edges). The rounds run, back to back, a batch
+of copies of h and v (``np.copyto``), a batch of uniform steps and a batch of each path, so that the
+ratios of one round see the same machine load; each ratio reported is the median over the rounds of
+(path time / uniform time) and (copy time / path time) within the round. The design target: every
+wave path at most 2x the uniform step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from components.messages import OccupiedHeight  # noqa: E402
+from components.water import WaterParams, WaterSurface  # noqa: E402
+from cosim.docsection import replace_section  # noqa: E402
+
+NS = 1_000_000_000
+BODY_CELLS = 11  # side of the occupied window a body sends [cells] (a 5 cm stone over 1 cm columns)
+TARGET = 2.0  # every wave path at most this many uniform steps (DESIGN.md section 5, issue 15)
+
+PATHS: dict[str, dict] = {  # name: WaterParams overrides (plus "body": the step gets an occupied input)
+    "uniform depth (the reference)": {},
+    "sloped bed (a coefficient per face)": dict(bottom_slope=(0.1, 0.05)),
+    "beach (sloped bed with dry cells)": dict(bottom_slope=(0.5, 0.0)),
+    "positional smoothing": dict(smoothing=5.0),
+    "beach and positional smoothing (two paths at once)": dict(bottom_slope=(0.5, 0.0), smoothing=5.0),
+    "a body's displacement, no blur": dict(body=True),
+    "a body's displacement, 2 blur passes": dict(body=True, displacement_smoothing=2),
+    "shallow water (implicit, two tridiagonal sweeps)": dict(model="shallow_water"),
+}
+
+
+def _per_call(fn: Callable[[], None], reps: int) -> float:
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        fn()
+    return (time.perf_counter() - t0) / reps
+
+
+def stepper(n: int, overrides: dict) -> Callable[[], None]:
+    """A function doing one water step of this path (the tick advances at each call)."""
+    overrides = dict(overrides)
+    body = overrides.pop("body", False)
+    pond = WaterSurface("pond", WaterParams(nx=n, ny=n, cell=0.01, depth=0.5, **overrides))
+    dt = 0.5 * min(pond.max_stable_step(), 0.01 / np.sqrt(9.81 * 0.5))
+    dt_ns = round(dt * NS)
+    rng = np.random.default_rng(0)
+    pond.set_state({**pond.get_state(), "h": 1e-3 * rng.standard_normal((n, n)) * pond.grid.wet})
+    tick = [0]
+    bodies = [OccupiedHeight(i0=n // 2 + k % 3, j0=n // 2, b=np.full((BODY_CELLS, BODY_CELLS), 1e-4 * (1 + k % 5)))
+              for k in range(15)]  # a body moving and sinking a little from step to step
+
+    def step() -> None:
+        k = tick[0]
+        occupied = bodies[k % len(bodies)] if body else None
+        pond.step(k * dt_ns, dt_ns, {"occupied": occupied, "request": None})
+        tick[0] = k + 1
+
+    return step
+
+
+def measure(n: int, rounds: int, min_time: float) -> tuple[dict[str, list[float]], list[float]]:
+    """Seconds per step of every path and per copy, one entry per round."""
+    steps = {name: stepper(n, over) for name, over in PATHS.items()}
+    h, v, h2, v2 = (np.random.default_rng(1).standard_normal((n, n)) for _ in range(4))
+
+    def copy() -> None:
+        np.copyto(h2, h)
+        np.copyto(v2, v)
+
+    for fn in (copy, *steps.values()):  # compile or load the kernels, touch the buffers
+        for _ in range(3):
+            fn()
+    reps = {name: max(1, int(min_time / max(_per_call(fn, 3), 1e-7))) for name, fn in steps.items()}
+    reps_copy = max(1, int(min_time / max(_per_call(copy, 3), 1e-7)))
+    times: dict[str, list[float]] = {name: [] for name in steps}
+    copies = []
+    for _ in range(rounds):
+        copies.append(_per_call(copy, reps_copy))
+        for name, fn in steps.items():
+            times[name].append(_per_call(fn, reps[name]))
+    return times, copies
+
+
+def table(n: int, times: dict[str, list[float]], copies: list[float]) -> list[str]:
+    uniform = next(iter(times.values()))
+    lines = []
+    for name, ts in times.items():
+        to_uniform = statistics.median(t / u for t, u in zip(ts, uniform, strict=True))
+        to_copy = statistics.median(c / t for c, t in zip(copies, ts, strict=True))
+        lines.append(f"| {n} x {n} | {name} | {statistics.median(ts) * 1e6:.0f} | {to_uniform:.2f} "
+                     f"| {to_copy:.0%} |")
+    lines.append(f"| {n} x {n} | copy h and v (`np.copyto`) | {statistics.median(copies) * 1e6:.0f} | "
+                 f"{statistics.median(c / u for c, u in zip(copies, uniform, strict=True)):.2f} | 100% |")
+    return lines
+
+
+HEADER = ["| grid | path | step [us] (median) | / uniform step (median) | copy / step (median) |",
+          "|---|---|---:|---:|---:|"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512])
+    ap.add_argument("--rounds", type=int, default=31)
+    ap.add_argument("--min-time", type=float, default=0.01, help="seconds per timed batch")
+    ap.add_argument("--write", metavar="MARKDOWN", help="update the water-paths section of this file")
+    args = ap.parse_args(argv)
+    load = [os.getloadavg()[0]]
+    rows = []
+    worst = 0.0
+    for n in args.sizes:
+        times, copies = measure(n, args.rounds, args.min_time)
+        rows += table(n, times, copies)
+        uniform = next(iter(times.values()))
+        for name, ts in times.items():
+            if not name.startswith("shallow") and "at once" not in name:  # the target is per path
+                worst = max(worst, statistics.median(t / u for t, u in zip(ts, uniform, strict=True)))
+    load.append(os.getloadavg()[0])
+    verdict = "meets" if worst <= TARGET else "misses"
+    given = argv if argv is not None else sys.argv[1:]
+    command = " ".join(["python tools/bench_water_paths.py", *given])
+    text = "\n".join([
+        "## Water paths",
+        "",
+        "Every way a scene can make the water step do more than the uniform wave kernel, each beside the "
+        f"uniform step and the array copy in the same rounds ({args.rounds} rounds; load average "
+        f"{load[0]:.1f} before, {load[1]:.1f} after; `{command}`):",
+        "",
+        *HEADER,
+        *rows,
+        "",
+        f"The slowest wave path takes **{worst:.2f}x** the uniform step (target: at most {TARGET:g}x per path): "
+        f"it {verdict} the target; two paths at once cost about the sum of their extra work. A sloped "
+        "bed reads two more arrays than the uniform step (the face "
+        "coefficients), positional smoothing is one more pass over h (without reading weights when the "
+        "pond has no dry land), and a body's blur passes work only on its window.",
+        "",
+    ])
+    print(text)
+    if args.write:
+        replace_section(args.write, "water-paths", text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
