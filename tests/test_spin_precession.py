@@ -1,0 +1,34 @@
+"""The free reference throw's spin: its gyroscopic stiffness holds the axis better the faster it
+spins, and the water's friction slows it (tools/spin_precession.py, docs/validation.md section 2)."""
+
+from __future__ import annotations
+
+import pytest
+
+from tools.spin_precession import azimuth_deg, free_throw
+
+
+@pytest.fixture(scope="module")
+def first_contacts():
+    return {spin: free_throw(spin)[1][0] for spin in (10.0, 65.0)}
+
+
+def turn(contact) -> float:
+    return abs(azimuth_deg(contact.axis_after) - azimuth_deg(contact.axis_before))
+
+
+def test_a_faster_spin_turns_the_axis_less_in_a_contact(first_contacts):
+    """The same throw's first contact turns the spin axis at 65 rev/s by well under half of what it
+    turns it at 10 rev/s (the angular momentum is 6.5 times larger)."""
+    slow, fast = turn(first_contacts[10.0]), turn(first_contacts[65.0])
+    assert slow > 30.0
+    assert fast < 0.5 * slow
+
+
+def test_the_water_slows_the_spin(first_contacts):
+    """Skin friction on the wetted trailing edge brakes the spin: at 65 rev/s, the axis nearly held,
+    the angular momentum about the axis falls through the first contact, by a few per cent (at
+    10 rev/s the axis turns so far that the wetted patch moves beside the centre, where the flow
+    along the face can also spin it up)."""
+    fast = first_contacts[65.0]
+    assert 0.9 * fast.spin_before < fast.spin_after < 0.99 * fast.spin_before

@@ -1,0 +1,147 @@
+"""How far each contact turns the spin axis of the free reference throw, at a range of spins
+(docs/validation.md, section 2).
+
+    python tools/spin_precession.py                                  # the table on stdout (~1 min)
+    python tools/spin_precession.py --markdown docs/validation.md    # also rewrite its section
+
+The reference throw (scenarios/skip.yaml) with its attitude free and a spin about its axis, on a
+pond 4 m wide. For each spin: the skips; per contact, the turn of the spin axis about the vertical
+(the azimuth of its tilt, degrees), its tilt from the vertical after the contact, and the lever
+arm of the water's torque: the part of the torque impulse across the axis over the force impulse
+along it (mm), the distance from the centre at which the planing load acts on average.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from components.rigid.quaternion import body_axis  # noqa: E402
+from cosim.docsection import replace_section  # noqa: E402
+from cosim.scenario import load  # noqa: E402
+from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
+
+SPINS = [10.0, 14.0, 20.0, 30.0, 45.0, 65.0]  # [rev/s]
+CONTACTS_SHOWN = 3
+MERGE_GAP = 0.01  # [s] a dry spell shorter than this inside a contact is a flicker, not a bounce
+
+
+@dataclass
+class Contact:
+    """One wetted spell of the stone: its start and end [s], the force and torque impulses [N s],
+    [N m s] and the axis before and after (unit vectors)."""
+
+    start: float
+    end: float = math.nan
+    force: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    torque: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axis_before: np.ndarray | None = None
+    axis_after: np.ndarray | None = None
+    spin_before: float = math.nan  # angular momentum about the axis [kg m^2/s]
+    spin_after: float = math.nan
+
+
+class ContactLog(BaseObserver):
+    """Collects the coupler's wrench over each wetted spell and the stone's axis around it."""
+
+    def __init__(self, dt: float):
+        self.dt = dt
+        self.contacts: list[Contact] = []
+        self.axis = np.array([0.0, 0.0, 1.0])
+        self.spin = math.nan
+        self.wetted = False
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg) -> None:
+        t = time_ns * 1e-9
+        if component == "stone" and port == "state":
+            self.axis = np.asarray(body_axis(msg.orientation), dtype=float)
+            self.spin = float(msg.inertia[2] * np.dot(msg.angular_velocity, self.axis))
+            last = self.contacts[-1] if self.contacts else None
+            if last is not None and last.axis_after is None and not self.wetted and t - last.end >= MERGE_GAP:
+                last.axis_after, last.spin_after = self.axis, self.spin
+        elif component == "coupler" and port == "contact":
+            if msg.wetted and not self.wetted:
+                last = self.contacts[-1] if self.contacts else None
+                if last is not None and t - last.end < MERGE_GAP:
+                    last.end, last.axis_after = math.nan, None  # a flicker: the same contact goes on
+                else:
+                    self.contacts.append(Contact(t, axis_before=self.axis, spin_before=self.spin))
+            elif not msg.wetted and self.wetted:
+                self.contacts[-1].end = t
+            self.wetted = msg.wetted
+        elif component == "coupler" and port == "wrench" and self.wetted:
+            self.contacts[-1].force += msg.force * self.dt
+            self.contacts[-1].torque += msg.torque * self.dt
+
+
+def azimuth_deg(axis: np.ndarray) -> float:
+    """Direction [deg] of the axis's horizontal part (where the face leans), 0 for a nose-up throw."""
+    return math.degrees(math.atan2(axis[1], -axis[0]))
+
+
+def tilt_deg(axis: np.ndarray) -> float:
+    """Angle [deg] of the axis from the vertical (the face's angle to the horizontal)."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, float(axis[2])))))
+
+
+def free_throw(spin_rev_s: float) -> tuple[int, list[Contact]]:
+    """Skips and contacts of the free reference throw at ``spin_rev_s``."""
+    sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
+            "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0"]
+    scene = load(ROOT / "scenarios" / "skip.yaml", sets)
+    log = ContactLog(scene.dt)
+    sim = Simulation(scene, observers=[log])
+    sim.run()
+    return sim.components["stages"].track.skips, log.contacts
+
+
+def contact_row(c: Contact) -> str:
+    """'turn / tilt after / lever' of one contact."""
+    if c.axis_after is None:
+        return "never leaves the water"
+    n = c.axis_before
+    along = float(np.dot(c.force, n))
+    across = c.torque - np.dot(c.torque, n) * n
+    lever = float(np.linalg.norm(across)) / along if along > 0 else math.nan
+    turn = (azimuth_deg(c.axis_after) - azimuth_deg(n) + 180.0) % 360.0 - 180.0
+    return f"{turn:+.0f} deg, tilt {tilt_deg(c.axis_after):.0f} deg, lever {lever * 1e3:.0f} mm"
+
+
+def table(spins: list[float]) -> str:
+    rows = ["| spin [rev/s] | skips | " + " | ".join(f"contact {k + 1}: axis turn, tilt after, lever"
+                                                  for k in range(CONTACTS_SHOWN)) + " |",
+            "|---|---|" + "---|" * CONTACTS_SHOWN]
+    for spin in spins:
+        skips, contacts = free_throw(spin)
+        cells = [contact_row(c) for c in contacts[:CONTACTS_SHOWN]]
+        cells += [""] * (CONTACTS_SHOWN - len(cells))
+        rows.append(f"| {spin:g} | {skips} | " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--markdown", type=Path, help="rewrite the spin-precession section of this page")
+    args = ap.parse_args(argv)
+    text = table(SPINS)
+    print(text)
+    if args.markdown:
+        replace_section(args.markdown, "spin-precession",
+                        "The free reference throw (`python tools/spin_precession.py`): per contact, the turn of "
+                        "the spin axis about the vertical, its tilt from the vertical after the contact, and "
+                        "the lever arm of the water's torque (torque impulse across the axis over force "
+                        "impulse along it).\n\n" + text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
