@@ -143,3 +143,41 @@ def test_the_surface_is_cropped_to_the_view_and_decimated():
     assert crop_field(field, (5.0, 6.0), (0.0, 1.0)) is None
     gx, gy, gz = crop_field(field, (0.0, 3.0), (0.0, 2.0))
     assert gz.shape == (64, 64)
+
+
+def test_the_gap_to_the_water_is_measured_from_the_lowest_point():
+    """The height written in a frame is the body's lowest point above the water under it, negative
+    (into the water) when that point is below the surface."""
+    from components.analysis.render import Surface, height_above_water, height_caption
+
+    cube = np.array([[[0.0, 0.0, 0.05], [0.1, 0.0, 0.07], [0.0, 0.1, 0.09]]])
+    gx, gy = np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0])
+    surface = Surface(gx, gy, np.full(gx.shape, 0.01), np.zeros((*gx.shape, 3)))
+    assert height_above_water(cube, surface, rest=0.0) == pytest.approx(0.04)
+    assert height_above_water(cube, None, rest=0.06) == pytest.approx(-0.01)
+    assert height_caption(0.032) == "3.2 cm above the water"
+    assert height_caption(-0.011) == "1.1 cm into the water"
+
+
+def test_a_frame_in_flight_says_how_high_the_stone_is_and_shows_its_shadow(skip_path):
+    """Between two skips the frame's caption gives the recorded gap between the stone's lowest point
+    and the water, and the water straight under the stone is darkened by its shadow."""
+    from components.analysis.data import load_body, rest_level
+    from components.analysis.render import FrameRenderer
+    from cosim.record.reader import Recording
+
+    rec = Recording(skip_path)
+    body = load_body(rec)
+    renderer = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip")
+    i = body.index_at(0.2)  # in flight after the first skip
+    lowest = body.position[i, 2] - body.radius * np.sin(np.radians(abs(body.attack_deg[i]))) - body.thickness
+    frame = renderer.draw(0.2, None).astype(float) / 255
+    assert renderer.caption.endswith("cm above the water")
+    gap_cm = float(renderer.caption.split()[0])
+    assert abs(gap_cm - 100 * (lowest - rest_level(rec))) < 1.0
+    water = frame[int(0.6 * frame.shape[0]):, :, :]  # the near water, well below the stone
+    shadow_rows = frame[int(0.12 * frame.shape[0]):int(0.6 * frame.shape[0]), WIDTH // 2 - 5:WIDTH // 2 + 5]
+    blue = (water[..., 2] - water[..., 0]) > 0.2
+    water_brightness = water[blue].sum(axis=-1).mean()
+    shaded = (shadow_rows[..., 2] - shadow_rows[..., 0] > 0.1) & (shadow_rows.sum(axis=-1) < 0.85 * water_brightness)
+    assert shaded.sum() >= 5, "no shadow under the stone"

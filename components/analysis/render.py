@@ -3,12 +3,15 @@
 Frames are taken every ``speed / fps`` seconds of simulation time; each shows the body as recorded
 at or just before the frame time (a disk or a sphere, true size, turned by its quaternion), its path
 so far, and the latest water field (cropped to the view, decimated to at most 64 x 64 vertices,
-coloured as in the viewer channels and hill-shaded). Views: ``follow`` (a window of ``span`` metres
+coloured as in the viewer channels and hill-shaded, translucent), the stone's shadow on the water
+and a dashed drop line from its lowest point to the water with the gap written beside it, so that
+its height above the water reads in the picture. Views: ``follow`` (a window of ``span`` metres
 that moves with the stone, true proportions) and ``fixed`` (the whole run, heights exaggerated to
 fit, the stone also marked by a dot). Output: GIF (Pillow), MP4 (ffmpeg from ``imageio-ffmpeg`` or
 the PATH), or a single PNG frame at ``at``. The file appears only when complete.
 
-Rendering uses matplotlib's Agg canvas directly (no pyplot), one figure reused for every frame.
+Frames are projected with numpy and painted with Pillow (:mod:`components.analysis.raster`), not
+with matplotlib's 3D axes, which rebuild every polygon and tick each frame: about ten times faster.
 """
 
 from __future__ import annotations
@@ -23,14 +26,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.colors import LightSource, to_rgb
-from matplotlib.figure import Figure
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-from PIL import Image
+from matplotlib.colors import to_rgb
+from PIL import Image, ImageDraw
+from scipy.spatial import ConvexHull, QhullError
 from tqdm import tqdm
 
 from components.analysis.data import BodyTrack, iter_fields, load_body, rest_level, topics_of
+from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
 from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
 from components.messages import Shape, SkipRecord, Stage, StageId, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
@@ -41,15 +43,20 @@ from cosim.view.items import decimation
 
 FORMATS = (".gif", ".mp4", ".png")
 ASPECT = 9 / 16  # frame height / width
-DPI = 100
 DISK_SEGMENTS = 36  # polygon sides of a drawn disk
 LIGHT_AZIMUTH_DEG, LIGHT_ALTITUDE_DEG = 315.0, 50.0  # [deg] light from the north-west, 50 deg up
-LIGHT = LightSource(azdeg=LIGHT_AZIMUTH_DEG, altdeg=LIGHT_ALTITUDE_DEG)
+LIGHT_DIRECTION = np.array([  # unit vector towards the light (the same light shades water and stone)
+    math.cos(math.radians(LIGHT_ALTITUDE_DEG)) * math.sin(math.radians(LIGHT_AZIMUTH_DEG)),
+    math.cos(math.radians(LIGHT_ALTITUDE_DEG)) * math.cos(math.radians(LIGHT_AZIMUTH_DEG)),
+    math.sin(math.radians(LIGHT_ALTITUDE_DEG))])
 SHADE_STRENGTH = 0.5  # how much slopes darken or brighten the water (0: flat colours)
 WATER_SHADE_EXAGGERATION = 30.0  # hill-shading slopes are exaggerated this much (shading only)
 FIXED_MIN_ZRATIO = 0.25  # fixed view: the box is at least this tall relative to its length
 FOLLOW_HEIGHT = 0.3  # follow view: height of the box relative to its length
-BOX_ZOOM = 1.3  # the 3D box fills more of the frame than matplotlib's default
+WATER_OPACITY = 0.72  # what is under the water (the stone's lower side, its path) shows through
+STONE_AMBIENT = 0.55  # brightness of the stone's faces turned away from the light
+SHADOW_RGBA = (0, 0, 0, 70)  # the stone's shadow straight under it on the water
+BACKGROUND = (255, 255, 255)
 REST_COLOR = tuple(water_colors(np.zeros(1))[0])
 MARKER_COLOR = (0.95, 0.45, 0.05)  # fixed view: the dot marking the stone, which is small there
 
@@ -199,8 +206,48 @@ class _View:
         return (self.x[1] - self.x[0], self.y[1] - self.y[0], self.z[1] - self.z[0])
 
 
+@dataclass
+class Surface:
+    """The water drawn in one frame: vertices gx, gy, gz (ny, nx) [m] and their colours (ny, nx, 3)
+    in [0, 1]."""
+
+    gx: np.ndarray
+    gy: np.ndarray
+    gz: np.ndarray
+    rgb: np.ndarray
+
+    def height_at(self, points: np.ndarray) -> np.ndarray:
+        """The surface height [m] at the nearest vertex under each point (N, >=2) [m]: (N,)."""
+        xs, ys = self.gx[0, :], self.gy[:, 0]
+        j = np.clip(np.searchsorted(xs, points[:, 0]), 1, len(xs) - 1)
+        j -= (points[:, 0] - xs[j - 1]) < (xs[j] - points[:, 0])
+        i = np.clip(np.searchsorted(ys, points[:, 1]), 1, len(ys) - 1)
+        i -= (points[:, 1] - ys[i - 1]) < (ys[i] - points[:, 1])
+        return self.gz[i, j]
+
+
+def height_above_water(polygons: np.ndarray, surface: Surface | None, rest: float) -> float:
+    """The gap [m] between the body's lowest point (``polygons`` (N, k, 3) [m]) and the water under
+    it: > 0 above the surface, < 0 when that point is under water (the rest level ``rest`` [m]
+    without a recorded surface)."""
+    points = polygons.reshape(-1, 3)
+    lowest = points[int(np.argmin(points[:, 2]))]
+    water = surface.height_at(lowest[None])[0] if surface is not None else rest
+    return float(lowest[2] - water)
+
+
+def height_caption(gap: float) -> str:
+    """``3.2 cm above the water`` / ``1.1 cm into the water`` for a gap [m]."""
+    where = "above" if gap >= 0 else "into"
+    return f"{abs(gap) * 100:.1f} cm {where} the water"
+
+
 class FrameRenderer:
-    """Draws frames of one body (and water) on one reused figure; :meth:`draw` returns RGB pixels."""
+    """Draws frames of one body (and water) with :mod:`components.analysis.raster`; :meth:`draw`
+    returns RGB pixels. Drawn in this order, so that the stone's height above the water reads at a
+    glance: the box's floor and x scale, whatever of the stone and its path is under water, the
+    water (translucent), the stone's shadow on it and a drop line from the stone's lowest point to
+    the water with the gap written beside it, then the rest of the stone and its path."""
 
     def __init__(self, body: BodyTrack, options: RenderOptions, rest: float, title: str,
                  stages: tuple[np.ndarray, np.ndarray] | None = None):
@@ -212,22 +259,13 @@ class FrameRenderer:
         width = int(options.width) // 2 * 2
         height = max(2, round(width * ASPECT) // 2 * 2)
         self.size = (width, height)
-        self.fig = Figure(figsize=(width / DPI, height / DPI), dpi=DPI)
-        self.canvas = FigureCanvasAgg(self.fig)
-        self.ax = self.fig.add_axes((0.0, 0.0, 1.0, 0.93), projection="3d", computed_zorder=False)
-        self.ax.view_init(elev=options.elevation, azim=options.azimuth)
-        for axis in (self.ax.xaxis, self.ax.yaxis, self.ax.zaxis):
-            axis.pane.set_alpha(0.15)
-        self.ax.tick_params(labelsize=7)
-        self.ax.set_xlabel("x [m]", fontsize=8)
-        self.ax.set_ylabel("y [m]", fontsize=8)
-        self.ax.set_zlabel("z [m]", fontsize=8)
-        self.text = self.fig.text(0.01, 0.985, "", ha="left", va="top", fontsize=9)
-        self._artists: list = []
+        self.text_px = max(9, round(width / 70))
+        self.top = round(2.2 * self.text_px)  # the header line's band [px]
         pos = body.position
         self._zmax = float(np.max(pos[:, 2]))
         self._zmin = float(np.min(pos[:, 2]))
         self.fixed = self._fixed_view() if options.view == "fixed" else None
+        self.caption = ""  # the last frame's height caption (what the picture says of the gap)
 
     def _fixed_view(self) -> _View:
         pos, r = self.body.position, self.body.radius
@@ -258,67 +296,175 @@ class FrameRenderer:
 
     def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
-        for artist in self._artists:
-            artist.remove()
-        self._artists = []
-        ax, body = self.ax, self.body
+        body = self.body
         i = body.index_at(t)
         pos, quat = body.position[i], body.orientation[i]
         view = self.fixed if self.fixed is not None else self._follow_view(pos)
-        ax.set_xlim(*view.x)
-        ax.set_ylim(*view.y)
-        ax.set_zlim(*view.z)
-        box = view.box
-        if self.fixed is not None:
-            box = (box[0], box[1], max(box[2], FIXED_MIN_ZRATIO * box[0]))
-        ax.set_box_aspect(box, zoom=BOX_ZOOM)
+        aspect = view.box
+        if self.fixed is not None:  # heights exaggerated so the flight shows over a long run
+            aspect = (aspect[0], aspect[1], max(aspect[2], FIXED_MIN_ZRATIO * aspect[0]))
+        box = Box(view.x, view.y, view.z, aspect)
+        cam = Camera(box, self.size, self.options.elevation, self.options.azimuth, top=self.top)
+        image = Image.new("RGB", self.size, BACKGROUND)
+        self._draw_floor(ImageDraw.Draw(image), cam, box)
 
-        self._draw_water(field, field_mean, view)
-        trail = body.position[: i + 1].copy()
-        trail[~view.contains(trail)] = np.nan  # mplot3d does not clip lines to the box
-        (line,) = ax.plot(trail[:, 0], trail[:, 1], trail[:, 2], color=TRAIL_COLOR, linewidth=0.9, zorder=2)
-        self._artists.append(line)
-        stone = Poly3DCollection(body_polygons(body, pos, quat), facecolors=[STONE_RGB],
-                                 edgecolors=[STONE_RGB], linewidths=0.3, shade=True, lightsource=LIGHT,
-                                 zorder=3)
-        ax.add_collection3d(stone)
-        self._artists.append(stone)
+        surface = self._surface(field, field_mean, view)
+        polys = np.array(body_polygons(body, pos, quat))
+        centres = polys.mean(axis=1)
+        under = (surface.height_at(centres) > centres[:, 2]) if surface is not None else np.zeros(len(polys), bool)
+        trail = body.position[: i + 1]
+        trail_under = surface.height_at(trail) > trail[:, 2] if surface is not None else np.zeros(len(trail), bool)
+        trail_inside = box.contains(trail)
+
+        draw = ImageDraw.Draw(image)
+        self._draw_stone(draw, cam, polys, under, pos)
+        self._draw_trail(draw, cam, trail, trail_inside & trail_under)
+        gap = height_above_water(polys, surface, self.rest)
+        if surface is not None:
+            image = self._paint_water(image, cam, surface)
+        draw = ImageDraw.Draw(image, "RGBA")
+        if gap > 0 and box.z[0] <= pos[2] <= box.z[1]:
+            self._draw_shadow(draw, cam, polys, surface)
+        self._draw_trail(draw, cam, trail, trail_inside & ~trail_under)
+        self._draw_stone(draw, cam, polys, ~under, pos)
         mark = spin_mark(body, pos, quat)
-        (spin,) = ax.plot(mark[:, 0], mark[:, 1], mark[:, 2], color="0.2", linewidth=1.2, zorder=4)
-        self._artists.append(spin)
+        draw.line(cam.project(mark)[0].ravel().tolist(), fill=(50, 50, 50), width=max(1, self.text_px // 8))
         if self.fixed is not None:
-            dot = ax.scatter([pos[0]], [pos[1]], [pos[2]], s=40, color=[MARKER_COLOR], edgecolors="0.2",
-                             depthshade=False, zorder=5)
-            self._artists.append(dot)
+            (cx, cy), _ = cam.project(pos)
+            rad = max(3, self.text_px // 2)
+            draw.ellipse((cx - rad, cy - rad, cx + rad, cy + rad), fill=tuple(to_uint8(MARKER_COLOR).tolist()),
+                         outline=(50, 50, 50))
+        self.caption = height_caption(gap)
+        self._draw_drop_line(draw, cam, polys, gap)
 
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
-        self.text.set_text(f"{self.title}   t = {t:.3f} s   {label}   x = {pos[0]:.2f} m, "
-                           f"z = {pos[2] * 100:.1f} cm, speed {body.speed[i]:.2f} m/s")
-        self.text.set_color(stage_color(stage) if stage >= 0 else "0.2")
-        self.canvas.draw()
-        rgba = np.asarray(self.canvas.buffer_rgba())
-        return np.ascontiguousarray(rgba[:, :, :3])
+        header = (f"{self.title}   t = {t:.3f} s   {label}   x = {pos[0]:.2f} m, "
+                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}")
+        color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
+        draw.text((0.6 * self.text_px, 0.5 * self.text_px), header, fill=color, font=font(self.text_px))
+        return np.asarray(image)
 
-    def _draw_water(self, field: WaterField | None, field_mean: float, view: _View) -> None:
+    # --- the pieces of a frame ----------------------------------------------------------------------
+
+    def _surface(self, field: WaterField | None, field_mean: float, view: _View) -> Surface | None:
+        """The water to draw, cropped to the view; None when the view is wholly above or below it."""
         grid = crop_field(field, view.x, view.y) if field is not None else None
-        if grid is not None and (grid[2].max() < view.z[0] or grid[2].min() > view.z[1]):
-            return  # the view is wholly above or below the water
         if grid is None:
             if not view.z[0] <= self.rest <= view.z[1]:
-                return
+                return None
             gx, gy = np.meshgrid(np.linspace(*view.x, 2), np.linspace(*view.y, 2))
-            gz = np.full(gx.shape, self.rest)
-            colors = np.broadcast_to(np.array(REST_COLOR), (*gx.shape, 4))
-        else:
-            gx, gy, gz = grid
-            colors = water_colors(gz.ravel() - field_mean).reshape(*gz.shape, 4)
-            shade = hill_shade(gx, gy, gz)
-            rgb = np.clip(colors[..., :3] * shade[..., None], 0.0, 1.0)
-            colors = np.concatenate([rgb, colors[..., 3:]], axis=-1)
-        surface = self.ax.plot_surface(gx, gy, gz, facecolors=colors, rstride=1, cstride=1, linewidth=0,
-                                       antialiased=False, shade=False, zorder=1)
-        self._artists.append(surface)
+            return Surface(gx, gy, np.full(gx.shape, self.rest), np.broadcast_to(REST_COLOR[:3], (*gx.shape, 3)))
+        gx, gy, gz = grid
+        if gz.max() < view.z[0] or gz.min() > view.z[1]:
+            return None
+        colors = water_colors(gz.ravel() - field_mean).reshape(*gz.shape, 4)[..., :3]
+        return Surface(gx, gy, gz, np.clip(colors * hill_shade(gx, gy, gz)[..., None], 0.0, 1.0))
+
+    def _paint_water(self, image: Image.Image, cam: Camera, surface: Surface) -> Image.Image:
+        """The surface's cells as quads, back to front, laid over ``image`` at :data:`WATER_OPACITY`
+        (what is under the water shows through)."""
+        pts = np.stack([surface.gx, surface.gy, surface.gz], axis=-1)
+        screen, depth = cam.project(pts)
+        quads = np.stack([screen[:-1, :-1], screen[:-1, 1:], screen[1:, 1:], screen[1:, :-1]], axis=2)
+        quad_depth = 0.25 * (depth[:-1, :-1] + depth[:-1, 1:] + depth[1:, 1:] + depth[1:, :-1])
+        colors = to_uint8(surface.rgb[:-1, :-1]).reshape(-1, 3)
+        layer = image.copy()
+        paint_polygons(ImageDraw.Draw(layer), quads.reshape(-1, 4, 2), quad_depth.ravel(), colors)
+        # the surface's outline is the projected border of its grid (millimetre waves never fold it)
+        border = np.concatenate([screen[0, :], screen[1:, -1], screen[-1, -2::-1], screen[-2:0:-1, 0]])
+        return Image.composite(layer, image, water_mask(image.size, border, WATER_OPACITY))
+
+    def _draw_stone(self, draw: ImageDraw.ImageDraw, cam: Camera, polys: np.ndarray, which: np.ndarray,
+                    centre: np.ndarray) -> None:
+        """The body's polygons selected by ``which``: those facing the camera (a convex body needs no
+        sorting then), lit from :data:`LIGHT_DIRECTION`."""
+        polys = polys[which]
+        if not len(polys):
+            return
+        normals = np.cross(polys[:, 1] - polys[:, 0], polys[:, 2] - polys[:, 0])
+        outward = np.sign(np.einsum("ij,ij->i", normals, polys.mean(axis=1) - centre))
+        drawn = cam.drawn_normals(normals * np.where(outward == 0, 1.0, outward)[:, None])
+        front = drawn @ cam.eye > 0
+        lit = np.clip(drawn[front] @ LIGHT_DIRECTION, 0.0, 1.0)
+        shade = STONE_AMBIENT + (1 - STONE_AMBIENT) * lit
+        colors = to_uint8(np.array(to_rgb(STONE_RGB))[None] * shade[:, None])
+        screen, depth = cam.project(polys[front])
+        paint_polygons(draw, screen, depth.mean(axis=1), colors, colors)
+
+    def _draw_trail(self, draw: ImageDraw.ImageDraw, cam: Camera, trail: np.ndarray, keep: np.ndarray) -> None:
+        """The path so far where ``keep`` holds, as runs of connected points."""
+        if not keep.any():
+            return
+        screen, _ = cam.project(trail)
+        color = tuple(to_uint8(to_rgb(TRAIL_COLOR)).tolist())
+        width = max(1, self.text_px // 10)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], keep.astype(np.int8), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            if stop - start >= 2:
+                draw.line(screen[start:stop].ravel().tolist(), fill=color, width=width)
+
+    def _draw_shadow(self, draw: ImageDraw.ImageDraw, cam: Camera, polys: np.ndarray,
+                     surface: Surface | None) -> None:
+        """The body's outline dropped straight down onto the water, darkening it."""
+        points = polys.reshape(-1, 3).copy()
+        points[:, 2] = surface.height_at(points) if surface is not None else self.rest
+        screen, _ = cam.project(points)
+        try:
+            hull = ConvexHull(screen)
+        except QhullError:  # a degenerate outline (seen edge-on): no shadow to speak of
+            return
+        draw.polygon(screen[hull.vertices].ravel().tolist(), fill=SHADOW_RGBA)
+
+    def _draw_drop_line(self, draw: ImageDraw.ImageDraw, cam: Camera, polys: np.ndarray, gap: float) -> None:
+        """A dashed line from the body's lowest point to the water straight under it, the gap
+        written beside it."""
+        points = polys.reshape(-1, 3)
+        lowest = points[int(np.argmin(points[:, 2]))]
+        water = lowest - [0.0, 0.0, gap]
+        (x0, y0), (x1, y1) = cam.project(np.array([lowest, water]))[0]
+        length = math.hypot(x1 - x0, y1 - y0)
+        color = (40, 40, 40)
+        dash = max(2.0, self.text_px / 3)
+        for k in range(int(length // (2 * dash)) + 1):
+            a, b = 2 * k * dash / max(length, 1e-9), min(1.0, (2 * k + 1) * dash / max(length, 1e-9))
+            if a >= 1.0:
+                break
+            draw.line((x0 + a * (x1 - x0), y0 + a * (y1 - y0), x0 + b * (x1 - x0), y0 + b * (y1 - y0)),
+                      fill=color, width=1)
+        draw.line((x1 - dash, y1, x1 + dash, y1), fill=color, width=1)  # where it meets the water
+        text_font = font(self.text_px)
+        anchor = (max(x0, x1) + self.text_px, 0.5 * (y0 + y1))
+        left, top, right, bottom = draw.textbbox(anchor, self.caption, font=text_font, anchor="lm")
+        draw.rectangle((left - 2, top - 1, right + 2, bottom + 1), fill=(255, 255, 255, 170))
+        draw.text(anchor, self.caption, fill=color, font=text_font, anchor="lm")
+
+    def _draw_floor(self, draw: ImageDraw.ImageDraw, cam: Camera, box: Box) -> None:
+        """The box's floor outline and back edges in light grey, with x ticks along its front edge."""
+        (x0, x1), (y0, y1), (z0, z1) = box.x, box.y, box.z
+        front = y0 if cam.eye[1] < 0 else y1
+        back = y1 if front == y0 else y0
+        grey = (190, 190, 190)
+        floor = cam.project(np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0], [x0, y0, z0]]))[0]
+        draw.line(floor.ravel().tolist(), fill=grey, width=1)
+        for x in (x0, x1):
+            edge = cam.project(np.array([[x, back, z0], [x, back, z1]]))[0]
+            draw.line(edge.ravel().tolist(), fill=grey, width=1)
+        step = nice_step((x1 - x0) / 5)
+        small = font(max(8, round(0.85 * self.text_px)))
+        for x in np.arange(math.ceil(x0 / step) * step, x1 + 1e-9, step):
+            (px, py), _ = cam.project(np.array([x, front, z0]))
+            draw.line((px, py, px, py + 4), fill=(120, 120, 120), width=1)
+            draw.text((px, py + 5), f"{x:.{max(0, -math.floor(math.log10(step)))}f}", fill=(90, 90, 90),
+                      font=small, anchor="ma")
+        (px, py), _ = cam.project(np.array([x1, front, z0]))
+        draw.text((px + 0.5 * self.text_px, py + 5), "x [m]", fill=(90, 90, 90), font=small, anchor="la")
+
+
+def nice_step(raw: float) -> float:
+    """A tick step of 1, 2 or 5 times a power of ten, at least ``raw`` (> 0)."""
+    power = 10.0 ** math.floor(math.log10(raw))
+    return next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
 
 
 # --- writers --------------------------------------------------------------------------------------
