@@ -234,6 +234,8 @@ class StageMonitor(Component):
             "skips": self.track.skips,
             "distance": self.final_x - start if not math.isnan(start) else math.nan,
             "outcome": self._outcome(),
+            # the throw was cut short by the water's edge: its distance and skips are lower bounds
+            "reached_edge": int(not math.isnan(self.left_at)),
             "first_contact_time": contact[0] if contact else math.nan,
             "mean_contact_time": sum(contact) / len(contact) if contact else math.nan,
             "skip_distances": " ".join(f"{r.distance:.4f}" for r in self.records),

@@ -117,7 +117,7 @@ def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
     drive(m, script)
     assert m.stop_reason is not None and "left the pond at x = 1.1 m" in m.stop_reason
     metrics = m.metrics()
-    assert metrics["outcome"] == "left-pond" and metrics["skips"] == 1
+    assert metrics["outcome"] == "left-pond" and metrics["skips"] == 1 and metrics["reached_edge"] == 1
     assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
 
 
@@ -129,7 +129,7 @@ def test_a_short_dry_spell_below_the_level_is_not_leaving():
     script += [(body(0.0, -0.2, 0.0, -0.1), water(True, 1.0, depth=0.2), None)] * 4
     drive(m, script)
     assert m.stop_reason is None or "left" not in m.stop_reason
-    assert m.metrics()["outcome"] == "sink"
+    assert m.metrics()["outcome"] == "sink" and m.metrics()["reached_edge"] == 0
 
 
 def test_a_sunk_stone_comes_to_rest_on_the_bottom():

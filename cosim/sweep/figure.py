@@ -73,8 +73,11 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
                     label=spec.reference_label, zorder=5)
         if ax.get_legend_handles_labels()[0]:  # below the axes, so no cell is hidden
             ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8, frameon=False)
+        _mark_cut_short(ax, rows, spec, sweep.mode == "random")
         failed = sum(r["status"] == "failed" for r in rows)
         note = f"; {failed} failed{' (grey)' if spec.y is not None else ''}" if failed else ""
+        cut = sum(_cut_short(r) for r in rows)
+        note += f"; {cut} reached the edge of the domain (marked)" if cut else ""
         ax.set_title(f"{sweep.name}: {spec.metric} ({len(rows)} runs{note})", fontsize=10)
         fig.tight_layout()
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -82,6 +85,33 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
     finally:
         plt.close(fig)
     return path
+
+
+EDGE_METRIC = ".reached_edge"  # a component's metric: 1 when the run was cut short by its domain's edge
+
+
+def _cut_short(row: dict[str, str]) -> bool:
+    """Whether a run ended at the edge of its domain (its figures are then lower bounds)."""
+    return any(k.endswith(EDGE_METRIC) and v.strip() in ("1", "true") for k, v in row.items())
+
+
+def _mark_cut_short(ax: Any, rows: list[dict[str, str]], spec: Any, scattered: bool) -> None:
+    """Mark the runs that reached the edge of their domain with a red ring where they are drawn."""
+    cut = [r for r in rows if _cut_short(r)]
+    if not cut:
+        return
+    if spec.y is None:
+        xs, xpos, _ = _positions([r[spec.x] for r in rows])
+        points = [(xpos[xs.index(r[spec.x])] if not scattered else _number(r[spec.x]), _value(r, spec.metric))
+                  for r in cut]
+    elif scattered:
+        points = [(_number(r[spec.x]), _number(r[spec.y])) for r in cut]
+    else:
+        xs, xpos, _ = _positions([r[spec.x] for r in rows])
+        ys, ypos, _ = _positions([r[spec.y] for r in rows])
+        points = [(xpos[xs.index(r[spec.x])], ypos[ys.index(r[spec.y])]) for r in cut]
+    ax.plot(*zip(*points, strict=True), "o", markersize=15, markerfacecolor="none", markeredgecolor="tab:red",
+            markeredgewidth=1.6, label="reached the edge of the water: a lower bound", zorder=4)
 
 
 def _value(row: dict[str, str], metric: str) -> float:

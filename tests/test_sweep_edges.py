@@ -1,0 +1,42 @@
+"""Runs cut short by the edge of their water are told apart in sweeps: the stage monitor's
+``reached_edge`` column, and a red ring on the sweep figure with a count in its title."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+
+from cosim.sweep.figure import _cut_short, _mark_cut_short, draw
+
+
+def rows(cut: set[tuple[str, str]]) -> list[dict[str, str]]:
+    return [{"status": "stopped", "attack": a, "speed": s, "stages.skips": "3",
+             "stages.reached_edge": "1" if (a, s) in cut else "0"}
+            for a in ("10", "20") for s in ("4", "8")]
+
+
+def test_a_run_is_cut_short_only_when_a_component_says_so():
+    assert _cut_short({"stages.reached_edge": "1"}) and _cut_short({"x.reached_edge": "true"})
+    assert not _cut_short({"stages.reached_edge": "0"}) and not _cut_short({"stages.skips": "1"})
+
+
+def test_the_figure_rings_the_runs_that_reached_the_edge():
+    plt = pytest.importorskip("matplotlib.pyplot")
+    fig, ax = plt.subplots()
+    spec = SimpleNamespace(x="attack", y="speed", metric="stages.skips")
+    _mark_cut_short(ax, rows({("20", "8"), ("10", "8")}), spec, scattered=False)
+    (ring,) = [line for line in ax.get_lines() if "edge" in line.get_label()]
+    assert sorted(zip(ring.get_xdata(), ring.get_ydata(), strict=True)) == [(10.0, 8.0), (20.0, 8.0)]
+    plt.close(fig)
+
+
+def test_the_figure_title_counts_them(tmp_path, monkeypatch):
+    plt = pytest.importorskip("matplotlib.pyplot")
+    titles = []
+    monkeypatch.setattr(plt.Axes, "set_title", lambda self, text, **kw: titles.append(text))
+    spec = SimpleNamespace(x="attack", y="speed", metric="stages.skips", threshold=None, reference_points=None,
+                           reference_label=None)
+    sweep = SimpleNamespace(figure=spec, mode="grid", name="grid")
+    assert draw(sweep, rows({("20", "8")}), tmp_path / "f.png") == tmp_path / "f.png"
+    assert titles == ["grid: stages.skips (4 runs; 1 reached the edge of the domain (marked))"]
