@@ -40,3 +40,21 @@ def test_the_figure_title_counts_them(tmp_path, monkeypatch):
     sweep = SimpleNamespace(figure=spec, mode="grid", name="grid")
     assert draw(sweep, rows({("20", "8")}), tmp_path / "f.png") == tmp_path / "f.png"
     assert titles == ["grid: stages.skips (4 runs; 1 reached the edge of the domain (marked))"]
+
+
+def test_the_skip_grid_keeps_its_longest_throw_on_the_water():
+    """The skip-grid sweep's longest throw (10 m/s at 10 deg of attack, about 19 m) sinks on its pond
+    instead of reaching the far edge."""
+    from pathlib import Path
+
+    from cosim.scenario import loads
+    from cosim.scheduler import Simulation
+    from cosim.sweep.plan import load_sweep
+
+    sweep = load_sweep(Path(__file__).resolve().parent.parent / "scenarios" / "sweeps" / "skip_grid.yaml")
+    (point,) = [p for p in sweep.points if p.values == {"attack": 10, "speed": 10}]
+    sim = Simulation(loads(sweep.scene_text, sweep.scene_source, list(point.overrides)))
+    sim.run()
+    metrics = sim.components["stages"].metrics()
+    assert metrics["reached_edge"] == 0 and metrics["outcome"] == "sink"
+    assert metrics["distance"] > 15.0
