@@ -11,6 +11,7 @@ what happens to be imported at run time). Layers, lowest first::
     view       cosim.view.*                      (viewer items, Foxglove, live)
     run        runner replay progress cli        (a run end to end, the command line)
     sweep      cosim.sweep.*                     (many runs of one scene)
+    fmi        cosim.fmi.*                       (scenes exported as FMUs, FMUs built from models)
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ LAYERS = {
     "view": ["cosim.view"],
     "run": ["cosim.runner", "cosim.replay", "cosim.progress", "cosim.cli"],
     "sweep": ["cosim.sweep"],
+    "fmi": ["cosim.fmi"],
 }
 ORDER = list(LAYERS)
 

@@ -164,11 +164,15 @@ class FmuInstance:
             self._call("freeFMUstate", free, state)
 
     def close(self) -> None:
-        """Terminate and free the instance (once; errors here are not worth a failure)."""
+        """Terminate and free the instance (once; errors here are not worth a failure). The shared
+        library stays loaded until the process ends: unloading one that runs Python (a pythonfmu
+        FMU) while objects it made are still alive corrupts the heap, and one copy per FMU is all
+        it costs."""
         if not getattr(self, "live", False):
             return
         self.live = False
-        for call in (self.fmu.terminate, self.fmu.freeInstance):
+        free = self.fmu.fmi3FreeInstance if self.fmi3 else self.fmu.fmi2FreeInstance
+        for call in (self.fmu.terminate, lambda: free(self.fmu.component)):
             try:
                 call()
             except Exception:  # an FMU that fails to terminate has nothing left to give

@@ -1,0 +1,74 @@
+"""The ``throw`` preset of ``cosim fmu export``: a stone run shown as an FMU.
+
+Parameters: the throw of the scene's one RigidBody: ``speed`` [m/s] and ``angle_deg`` (below the
+horizontal) [deg] of its initial velocity, ``tilt_deg`` (its attack angle) [deg] and ``spin``
+[rad/s]. Outputs: the body's position ``x, y, z`` [m] and velocity ``vx, vy, vz`` [m/s], and, when
+the scene has a StageMonitor, the ``stage`` (a StageId) and the ``skips`` so far.
+
+Speed and angle are derived values: set either, and the initial velocity becomes
+speed * (cos(angle) u, -sin(angle)) with u the horizontal direction of the scene's throw; left at
+their start values, the velocity stays exactly as the scene writes it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from components.rigid_body import RigidBody
+from components.stages import StageMonitor
+from cosim.fmi.spec import Output, Parameter
+from cosim.scenario import Scene
+
+
+def _one(scene: Scene, cls: type) -> str | None:
+    """The name of the scene's one component of class ``cls`` (None if none or several)."""
+    names = [n for n in scene.order if issubclass(scene.components[n].cls, cls)]
+    return names[0] if len(names) == 1 else None
+
+
+def parameters(scene: Scene) -> list[Parameter]:
+    stone = _one(scene, RigidBody)
+    if stone is None:
+        return []
+    p = scene.components[stone].params
+    vx, vy, vz = p.velocity
+    horizontal = math.hypot(vx, vy)
+    return [
+        Parameter("speed", math.sqrt(vx * vx + vy * vy + vz * vz), "m/s", f"initial speed of {stone}"),
+        Parameter("angle_deg", math.degrees(math.atan2(-vz, horizontal)), "deg",
+                  f"initial velocity of {stone}: angle below the horizontal"),
+        Parameter("tilt_deg", p.tilt_deg, "deg", f"{stone}'s attack angle", key=f"components.{stone}.tilt_deg"),
+        Parameter("spin", p.spin, "rad/s", f"{stone}'s spin about its axis", key=f"components.{stone}.spin"),
+    ]
+
+
+def outputs(scene: Scene) -> list[Output]:
+    stone = _one(scene, RigidBody)
+    if stone is None:
+        return []
+    found = [Output(name, stone, "state", field, i, "real", unit, f"{stone} {what} {axis} (world)")
+             for field, unit, what, names in (("position", "m", "position", ("x", "y", "z")),
+                                              ("velocity", "m/s", "velocity", ("vx", "vy", "vz")))
+             for i, (name, axis) in enumerate(zip(names, "xyz", strict=True))]
+    stages = _one(scene, StageMonitor)
+    if stages is not None:
+        found += [Output("stage", stages, "stage", "stage", None, "integer", "",
+                         "stage id: 0 approach, 1 hit, 2 slide, 3 fly-away, 4 sink, 5 rest"),
+                  Output("skips", stages, "stage", "skips", None, "integer", "", "skips so far")]
+    return found
+
+
+def overrides(scene: Scene, values: dict[str, Any]) -> list[str]:
+    """The stone's new initial velocity from a changed ``speed`` or ``angle_deg``."""
+    stone = _one(scene, RigidBody)
+    if stone is None or not ({"speed", "angle_deg"} & set(values)):
+        return []
+    start = {p.name: p.start for p in parameters(scene)}
+    speed = float(values.get("speed", start["speed"]))
+    angle = math.radians(float(values.get("angle_deg", start["angle_deg"])))
+    vx, vy, _ = scene.components[stone].params.velocity
+    horizontal = math.hypot(vx, vy)
+    ux, uy = (vx / horizontal, vy / horizontal) if horizontal > 0 else (1.0, 0.0)
+    h = speed * math.cos(angle)
+    return [f"components.{stone}.velocity=[{h * ux!r}, {h * uy!r}, {-speed * math.sin(angle)!r}]"]

@@ -1,0 +1,87 @@
+"""``cosim fmu export SCENE.yaml -o NAME.fmu``: a scene as an FMI 2.0 co-simulation FMU.
+
+By default the FMU shows what the ``throw`` preset finds in the scene (the throw's speed, angles and
+spin as parameters; the stone's position and velocity, the stage and the skip count as outputs);
+``--parameter`` and ``--output-var`` add scene values and port fields, ``--preset none`` drops the
+preset. ``--step`` is the default communication step written into the FMU: a whole multiple of the
+scene's base step, or the export is refused.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import TYPE_CHECKING
+
+from cosim.cli import EXIT_OK, positive_seconds
+from cosim.errors import ScenarioError
+from cosim.timebase import NS_PER_S
+
+if TYPE_CHECKING:
+    from cosim.fmi.spec import ExportSpec
+    from cosim.scenario import Scene
+
+DEFAULT_PRESET = "throw"
+
+
+def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
+    """The export spec of the command line's options for ``scene``."""
+    from cosim.fmi.spec import ExportSpec, check_output, check_step, load_preset, parse_output, parse_parameter, unique
+
+    parameters, outputs, preset = [], [], None
+    if args.preset != "none":
+        module = load_preset(args.preset)
+        parameters, outputs = list(module.parameters(scene)), [check_output(o, scene) for o in module.outputs(scene)]
+        if parameters or outputs:
+            preset = args.preset
+        elif args.preset != DEFAULT_PRESET or not (args.parameter or args.output_vars):
+            raise ScenarioError(f"--preset {args.preset}: finds nothing to show in this scene; name what the FMU "
+                                "shows with --parameter NAME=key.path and --output-var NAME=component.port.field",
+                                scene.source)
+    parameters += [parse_parameter(text, scene) for text in args.parameter or []]
+    outputs += [parse_output(text, scene) for text in args.output_vars or []]
+    if not outputs:
+        raise ScenarioError("the FMU would have no outputs: add --output-var NAME=component.port.field", scene.source)
+    step_ns = 0
+    if args.step is not None:
+        step_ns = round(args.step * NS_PER_S)
+        check_step(step_ns, scene)
+    return unique(ExportSpec(tuple(parameters), tuple(outputs), preset, step_ns, scene.base_dir,
+                             tuple(scene.overrides)), scene.source)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from cosim.fmi.export import export_scene
+    from cosim.scenario import load
+
+    scene = load(args.scene, overrides=args.set or [])
+    spec = build_spec(args, scene)
+    path = export_scene(scene, spec, args.output)
+    names = lambda items: ", ".join(i.name for i in items) or "none"
+    print(f"{path}: FMI 2.0 co-simulation FMU of scene {scene.name!r} ({path.stat().st_size / 1e6:.2g} MB)")
+    print(f"  parameters: {names(spec.parameters)}")
+    print(f"  outputs: {names(spec.outputs)}")
+    step = f"{spec.step_ns / NS_PER_S:g} s" if spec.step_ns else "any"
+    print(f"  communication step: {step}, a whole multiple of dt = {scene.dt:g} s; runs the Python of "
+          f"{sys.executable} (with cosim installed)")
+    return EXIT_OK
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``cosim fmu export`` to the CLI."""
+    fmu = subparsers.add_parser("fmu", help="FMI: export a scene as a co-simulation FMU")
+    actions = fmu.add_subparsers(dest="fmu_command", required=True, parser_class=type(fmu))
+    p = actions.add_parser("export", help="build an FMI 2.0 co-simulation FMU that runs the scene",
+                           description=__doc__.split("\n\n", 1)[1] if __doc__ else None)
+    p.add_argument("scene", help="scene YAML file")
+    p.add_argument("-o", "--output", required=True, metavar="NAME.fmu", help="the FMU file to write")
+    p.add_argument("--step", type=positive_seconds, metavar="S",
+                   help="default communication step [s] (a whole multiple of the scene's dt)")
+    p.add_argument("--preset", default=DEFAULT_PRESET,
+                   help=f"default parameters and outputs (default {DEFAULT_PRESET}; none: only those named)")
+    p.add_argument("--parameter", action="append", metavar="NAME=KEY.PATH",
+                   help="a number of the scene as an FMU parameter, e.g. density=components.stone.density")
+    p.add_argument("--output-var", action="append", dest="output_vars", metavar="NAME=COMPONENT.PORT.FIELD[i]",
+                   help="a port field as an FMU output, e.g. wz=stone.state.angular_velocity[2]")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene value (repeatable)")
+    p.set_defaults(func=cmd_export)

@@ -1,0 +1,80 @@
+"""A scene exported as an FMI 2.0 co-simulation FMU (pythonfmu): ``cosim fmu export``.
+
+The FMU packs the scene's text and its :class:`~cosim.fmi.spec.ExportSpec` as resources beside a
+two-line slave module, a subclass of :class:`cosim.fmi.slave.SceneSlave` named after the FMU (its
+model identifier). pythonfmu writes the model description without ``InitialUnknowns``; the outputs
+are computed at initialization (initial ``calculated``), so they are added, and FMPy's validation
+of the model description then finds nothing to report.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import tempfile
+import zipfile
+from pathlib import Path
+
+from cosim.errors import ScenarioError
+from cosim.fmi.build import build_fmu
+from cosim.fmi.slave import SCENE_FILE, SPEC_FILE
+from cosim.fmi.spec import ExportSpec
+from cosim.scenario import Scene
+
+MODEL_DESCRIPTION = "modelDescription.xml"
+
+
+def model_identifier(output: Path) -> str:
+    """The FMU's model identifier from its file name (``skip.fmu`` -> ``skip``): a C identifier, as
+    FMI asks, since it names the FMU's binaries and functions."""
+    name = re.sub(r"\W", "_", output.stem)
+    return name if name and not name[0].isdigit() else f"fmu_{name}"
+
+
+SLAVE_MODULE = '''"""The scene {scene!r} as an FMI 2.0 co-simulation FMU (cosim fmu export)."""
+
+from cosim.fmi.slave import SceneSlave
+
+
+class {identifier}(SceneSlave):
+    """Runs the scene in this FMU's resources (scene.yaml, export.json)."""
+'''
+
+
+def add_initial_unknowns(fmu: Path) -> None:
+    """Rewrite ``fmu`` with every output listed under ``ModelStructure/InitialUnknowns``."""
+    with zipfile.ZipFile(fmu) as z:
+        entries = [(info, z.read(info.filename)) for info in z.infolist()]
+    text = next(data for info, data in entries if info.filename == MODEL_DESCRIPTION).decode("utf-8")
+    outputs = re.search(r"<Outputs>(.*?)</Outputs>", text, re.S)
+    if outputs is None or "<InitialUnknowns>" in text:
+        return
+    unknowns = "".join(f"\n\t\t\t{u}" for u in re.findall(r"<Unknown [^>]*/>", outputs.group(1)))
+    text = text.replace("</Outputs>", f"</Outputs>\n\t\t<InitialUnknowns>{unknowns}\n\t\t</InitialUnknowns>", 1)
+    part = fmu.with_name(fmu.name + ".part")
+    with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+        for info, data in entries:
+            z.writestr(info, text.encode("utf-8") if info.filename == MODEL_DESCRIPTION else data)
+    part.replace(fmu)
+
+
+def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
+    """Build the FMU ``output`` (a ``.fmu`` file) running ``scene`` as ``spec`` says."""
+    output = Path(output)
+    if output.suffix != ".fmu":
+        raise ScenarioError(f"-o {output}: an FMU file name ends in .fmu", scene.source)
+    if output.exists() and not zipfile.is_zipfile(output):
+        raise ScenarioError(f"-o {output}: exists and is not an FMU; it is not replaced", scene.source)
+    identifier = model_identifier(output)
+    with tempfile.TemporaryDirectory(prefix="cosim-export-") as tmp:
+        folder = Path(tmp)
+        script = folder / f"{identifier}.py"
+        script.write_text(SLAVE_MODULE.format(scene=scene.name, identifier=identifier), encoding="utf-8")
+        (folder / SCENE_FILE).write_text(scene.text, encoding="utf-8")
+        (folder / SPEC_FILE).write_text(spec.to_json(), encoding="utf-8")
+        built = build_fmu(script, folder / "out" / output.name, extra_files=[folder / SCENE_FILE, folder / SPEC_FILE],
+                          state=False)
+        add_initial_unknowns(built)
+        output.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(built), str(output))
+    return output

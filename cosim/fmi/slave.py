@@ -1,0 +1,170 @@
+"""A scene running inside an FMI 2.0 co-simulation FMU (the slave class of ``cosim fmu export``).
+
+The FMU's resources hold the scene (``scene.yaml``) and what it shows (``export.json``, an
+:class:`~cosim.fmi.spec.ExportSpec`). Its parameters are set before initialization; leaving
+initialization loads the scene with them (as ``--set`` overrides) and publishes the t = 0 values.
+Each ``doStep(t, h)`` runs ``h / dt`` base steps of the scene, exactly as ``cosim run`` does, so the
+outputs at a communication point are the scene's values at that time, bit for bit. Once the scene
+stops itself (the stone sank), the outputs hold their last values.
+
+The FMU runs the Python that loads it (pythonfmu's binaries embed or join an interpreter): that
+Python needs cosim and its components installed, the same version for the same results.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+from pathlib import Path
+from typing import Any
+
+from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.default_experiment import DefaultExperiment
+from pythonfmu.enums import Fmi2Status
+
+from cosim.errors import one_line
+from cosim.fmi.spec import ExportSpec, Output, load_preset
+from cosim.messages import Message
+from cosim.scenario import loads
+from cosim.scheduler import BaseObserver, Simulation
+from cosim.timebase import NS_PER_S
+
+SCENE_FILE = "scene.yaml"
+SPEC_FILE = "export.json"
+TIME_SLACK = 1e-6  # a doStep time within this share of a base step of the scene's time is that time
+
+
+class _Latest(BaseObserver):
+    """Keeps the last message of each watched port."""
+
+    def __init__(self, ports: set[tuple[str, str]]):
+        self.ports = ports
+        self.messages: dict[tuple[str, str], Message] = {}
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
+        if (component, port) in self.ports:
+            self.messages[(component, port)] = msg
+
+
+def _value(out: Output, msg: Message | None) -> Any:
+    """An output's value from its port's latest message (zero before the port's first message)."""
+    if msg is None:
+        return 0.0 if out.kind == "real" else 0
+    value = getattr(msg, out.field)
+    if out.index is not None:
+        value = value[out.index]
+    return float(value) if out.kind == "real" else int(value)
+
+
+_pinned: list[ctypes.CDLL] = []
+
+
+def _pin_library(resources: Path, identifier: str) -> None:
+    """Keep this FMU's own shared library loaded until the process ends. An importer that frees
+    the instance also unloads the library (FMPy does); pythonfmu's library made Python objects
+    that outlive it, and the process then corrupts its heap on exit. One more reference to the
+    library (the same file, so the same handle) keeps it in place."""
+    for library in (resources.parent / "binaries").glob(f"*/{identifier}.*"):
+        if library.suffix in (".so", ".dylib", ".dll"):
+            try:
+                _pinned.append(ctypes.CDLL(str(library), mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_GLOBAL))
+            except OSError:  # not this platform's library, or not the one loaded
+                pass
+
+
+class SceneSlave(Fmi2Slave):
+    """Runs the scene in its resources; subclassed once per exported FMU (the class names the FMU)."""
+
+    def __init__(self, **kwargs: Any):
+        super().__init__(**kwargs)
+        folder = Path(self.resources)
+        _pin_library(folder, type(self).__name__)
+        self.scene_text = (folder / SCENE_FILE).read_text(encoding="utf-8")
+        self.spec = ExportSpec.from_json((folder / SPEC_FILE).read_text(encoding="utf-8"))
+        self.description = "A cosim scene as a co-simulation FMU (cosim fmu export)"
+        self.values: dict[str, Any] = {}
+        self.sim: Simulation | None = None
+        self.latest = _Latest({(o.component, o.port) for o in self.spec.outputs})
+        for p in self.spec.parameters:
+            self.values[p.name] = p.start
+            self.register_variable(Real(p.name, start=p.start, causality=Fmi2Causality.parameter,
+                                        variability=Fmi2Variability.fixed, description=p.description,
+                                        getter=self._getter(p.name), setter=self._setter(p.name)))
+        for o in self.spec.outputs:
+            self.values[o.name] = 0.0 if o.kind == "real" else 0
+            kind = Real if o.kind == "real" else Integer
+            # an Integer changes only at communication points: discrete, as FMI asks of it
+            variability = Fmi2Variability.continuous if o.kind == "real" else Fmi2Variability.discrete
+            self.register_variable(kind(o.name, causality=Fmi2Causality.output, variability=variability,
+                                        description=o.description, getter=self._getter(o.name)))
+        if self.spec.step_ns:
+            self.default_experiment = DefaultExperiment(start_time=0.0, step_size=self.spec.step_ns / NS_PER_S)
+
+    def _getter(self, name: str) -> Any:
+        return lambda: self.values[name]
+
+    def _setter(self, name: str) -> Any:
+        def put(value: Any) -> None:
+            self.values[name] = value
+        return put
+
+    def _fail(self, message: str) -> None:
+        """Log ``message`` as an Error and raise it: the FMU call returns with an error status."""
+        self.log(one_line(message), Fmi2Status.error)
+        raise RuntimeError(message)
+
+    # --- initialization ----------------------------------------------------------------------------
+
+    def overrides(self) -> list[str]:
+        """The ``--set`` overrides the parameters ask for: none for a parameter at its start value
+        (also as the model description writes it, with 16 digits)."""
+        changed = {p.name: float(self.values[p.name]) for p in self.spec.parameters
+                   if float(self.values[p.name]) not in (p.start, float(f"{p.start:.16g}"))}
+        sets = list(self.spec.overrides)
+        sets += [f"{p.key}={changed[p.name]!r}" for p in self.spec.parameters if p.key and p.name in changed]
+        derived = {p.name: v for p in self.spec.parameters if not p.key and (v := changed.get(p.name)) is not None}
+        if derived and self.spec.preset:
+            as_written = loads(self.scene_text, source=SCENE_FILE, overrides=list(self.spec.overrides),
+                               base_dir=self.spec.base_dir)
+            sets += load_preset(self.spec.preset).overrides(as_written, derived)
+        return sets
+
+    def exit_initialization_mode(self) -> None:
+        try:
+            scene = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(),
+                          base_dir=self.spec.base_dir)
+            self.sim = Simulation(scene, observers=[self.latest])
+            self.sim.initialize()
+        except Exception as exc:  # a parameter that makes the scene invalid, a component that fails at t = 0
+            self._fail(f"the scene cannot start: {exc}")
+        self._publish()
+
+    def _publish(self) -> None:
+        for o in self.spec.outputs:
+            self.values[o.name] = _value(o, self.latest.messages.get((o.component, o.port)))
+
+    # --- stepping ----------------------------------------------------------------------------------
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        sim = self.sim
+        if sim is None:
+            self._fail("doStep before initialization")
+            return False
+        dt_ns = sim.dt_ns
+        steps = step_size * NS_PER_S / dt_ns
+        if round(steps) < 1 or abs(steps - round(steps)) > TIME_SLACK:
+            self._fail(f"a communication step of {step_size:.9g} s is not a whole multiple of the scene's base "
+                       f"step dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
+        if abs(current_time * NS_PER_S - sim.time_ns) > TIME_SLACK * dt_ns:
+            self._fail(f"doStep from t = {current_time:.9g} s, but the scene is at t = {sim.time_ns / NS_PER_S:.9g} s "
+                       "(a co-simulation steps on from where it is)")
+        end_tick = sim.tick + round(steps)
+        try:
+            while sim.tick < end_tick and sim.stop_reason is None:
+                sim.step()
+        except Exception as exc:  # a SimulationError: the scene failed at a time it names
+            self._fail(str(exc))
+        if sim.stop_reason is not None:
+            sim.tick = end_tick  # the scene has stopped itself: time goes on, the outputs hold
+        self._publish()
+        return True
