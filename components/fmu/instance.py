@@ -17,6 +17,7 @@ from typing import Any
 
 LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
 STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
+ERROR, FATAL = 3, 4
 
 _unpacked: dict[tuple[str, int, int], str] = {}
 
@@ -55,6 +56,7 @@ class FmuInstance:
     def __init__(self, fmu_file: Path, md: Any, name: str, start: dict[str, Any], variables: dict[str, Any]):
         self.md = md
         self.fmi3 = md.fmiVersion.startswith("3")
+        self.worst = 0  # the worst status a call returned: after Error only freeInstance, after Fatal nothing
         self.log: list[str] = []
         self.can_save = bool(md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate)
         folder = _unpack(fmu_file)
@@ -115,6 +117,7 @@ class FmuInstance:
             return call(*args, **kwargs)
         except FMICallException as exc:
             status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else f"status {exc.status}"
+            self.worst = max(self.worst, exc.status)
             errors = [m for m in self.log if m.startswith(("[Error]", "[Fatal]"))]
             raise FmuCallError(function, status, errors or self.log) from None
 
@@ -171,8 +174,13 @@ class FmuInstance:
         if not getattr(self, "live", False):
             return
         self.live = False
+        if self.worst >= FATAL:  # FMI: after Fatal no function may be called (the FMU may be gone)
+            return
         free = self.fmu.fmi3FreeInstance if self.fmi3 else self.fmu.fmi2FreeInstance
-        for call in (self.fmu.terminate, lambda: free(self.fmu.component)):
+        calls = [lambda: free(self.fmu.component)]
+        if self.worst < ERROR:  # FMI: after Error only freeInstance
+            calls.insert(0, self.fmu.terminate)
+        for call in calls:
             try:
                 call()
             except Exception:  # an FMU that fails to terminate has nothing left to give

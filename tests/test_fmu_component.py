@@ -1,0 +1,175 @@
+"""The FMU component: an FMU's variables on typed ports, checked when the scene loads; doStep at its
+rate; its failures, state and replay.
+
+    stone.state --> gust.body        gust.wrench -(delay)-> stone.wrench
+
+The gust is the example model (scenarios/models/wind_gust.py), built with pythonfmu on first use.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fmpy")
+pytest.importorskip("pythonfmu")
+
+from components.messages import BodyState, Wrench
+from cosim.cli import main
+from cosim.errors import RecordingError, ScenarioError
+from cosim.fmi.build import build_fmu
+from cosim.record.reader import Recording
+from cosim.replay import replay_component, restart_simulation
+from cosim.runner import run_scene
+from cosim.scenario import load, loads
+from tests.cli_toys import one_error_line
+from tests.fmu_toys import GUST_MODEL, fmu_cache, gust_scene  # noqa: F401
+
+pytestmark = pytest.mark.usefixtures("fmu_cache")
+
+RHO, CDA = 1.2, 0.004  # the model's default air density [kg/m^3] and drag area [m^2]
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """The gust scene, run and recorded once for the module."""
+    folder = tmp_path_factory.mktemp("gust")
+    path = folder / "gust.yaml"
+    path.write_text(gust_scene())
+    outcome = run_scene(load(path), folder / "gust.mcap", progress=False)
+    assert outcome.result.status == "ok", outcome.result.reason
+    return outcome.recording
+
+
+def test_the_scene_mapping_becomes_typed_ports():
+    scene = loads(gust_scene())
+    cls = scene.components["gust"].cls
+    assert cls.inputs["body"].type is BodyState
+    assert cls.outputs["wrench"].type is Wrench
+
+
+def test_the_first_step_feels_still_air_drag_on_the_stone(recorded):
+    """Before the gust the FMU's force is the drag of still air on the stone's 8 m/s, -1/2 rho CdA |v| v,
+    and it adds onto the stone's wrench (the stone slows)."""
+    rec = Recording(recorded)
+    wrenches = rec.messages("/gust/wrench", Wrench)
+    assert wrenches[0] == (0, wrenches[0][1]) and not wrenches[0][1].force.any()  # exact start values at t = 0
+    stamp, first = wrenches[1]
+    assert stamp == 2_000_000  # every: 2 of 1 ms
+    # the stone has fallen for 1 ms when the gust's first step starts: |v| is 8 m/s to 1e-6
+    assert first.force[0] == pytest.approx(-0.5 * RHO * CDA * 8.0 * 8.0, rel=1e-5)
+    states = dict(rec.messages("/stone/state", BodyState))
+    assert states[50_000_000].velocity[0] < 8.0
+
+
+def test_the_crosswind_gust_pushes_the_stone_sideways_while_it_blows(recorded):
+    """The gust blows from 0.05 s to 0.15 s; after it, still air brakes the sideways motion it left."""
+    rec = Recording(recorded)
+    lateral = {t: w.force[1] for t, w in rec.messages("/gust/wrench", Wrench)}
+    assert lateral[50_000_000] == 0.0  # before the gust: no sideways motion, no sideways force
+    assert lateral[100_000_000] > 0.1  # at its peak of 8 m/s: about 1/2 rho CdA 8^2 sideways
+    assert lateral[200_000_000] < 0.0
+    states = dict(rec.messages("/stone/state", BodyState))
+    assert states[200_000_000].velocity[1] > 0.05  # about half the peak force over 0.1 s on 0.125 kg
+
+
+def test_replay_re_runs_the_fmu_alone_bit_for_bit(recorded):
+    report = replay_component(Recording(recorded), "gust")
+    assert report.ok, str(report)
+    assert report.steps == 100 and report.messages_compared == 101
+
+
+def test_a_restart_from_a_checkpoint_restores_the_fmu_state_and_repeats_the_run(recorded, tmp_path):
+    rec = Recording(recorded)
+    sim, stamp = restart_simulation(rec, 100_000_000)
+    assert stamp == 100_000_000
+    outcome = run_scene(sim.scene, tmp_path / "again.mcap", simulation=sim, progress=False)
+    assert outcome.result.status == "ok"
+    again = dict(Recording(outcome.recording).messages("/gust/wrench", Wrench))
+    first = dict(rec.messages("/gust/wrench", Wrench))
+    assert again[200_000_000].force.tobytes() == first[200_000_000].force.tobytes()
+
+
+def test_an_fmu_without_state_serialization_is_refused_a_restart_with_the_reason(tmp_path):
+    fmu = build_fmu(GUST_MODEL, tmp_path / "stateless.fmu", state=False)
+    scene = tmp_path / "gust.yaml"
+    scene.write_text(gust_scene(source="path: stateless.fmu"))
+    outcome = run_scene(load(scene), tmp_path / "run.mcap", progress=False)
+    assert outcome.result.status == "ok" and fmu.is_file()
+    with pytest.raises(RecordingError, match=r"'stateless.fmu' cannot save and restore its state "
+                                             r"\(canGetAndSetFMUstate false"):
+        restart_simulation(Recording(outcome.recording), 100_000_000)
+
+
+def test_an_fmu_error_stops_the_run_naming_the_fmu_the_time_and_its_log(tmp_path):
+    """max_speed below the throw's 8 m/s: the model logs an Error and fails its first doStep; the
+    recording still holds the t = 0 exchanges and the final status."""
+    scene = tmp_path / "gust.yaml"
+    scene.write_text(gust_scene(start="{max_speed: 5.0}"))
+    outcome = run_scene(load(scene), tmp_path / "run.mcap", progress=False)
+    assert outcome.result.status == "failed"
+    reason = outcome.result.reason
+    assert reason.startswith("component 'gust' failed at t = 0")
+    assert "FMU 'wind_gust.py' doStep returned Fatal" in reason
+    assert "relative air speed 8 m/s at t = 0 s is above max_speed = 5 m/s" in reason
+    rec = Recording(outcome.recording)
+    assert rec.status().status == "failed"
+    assert rec.messages("/stone/state", BodyState)[0][0] == 0
+
+
+BAD_MAPPINGS = [
+    ('"force[0]": Fx', '"force[0]": Fxx',
+     r"components\.gust\.outputs\.wrench\.fields\.force\[0\]: FMU 'wind_gust\.py' has no variable 'Fxx' "
+     r"\(outputs: Fx, Fy, Fz\)"),
+    ('"force[0]": Fx', '"force[0]": vx',
+     r"fields\.force\[0\]: variable 'vx' of FMU 'wind_gust\.py' has causality 'input'; a port's output must be "
+     r"an output variable"),
+    ('"velocity[0]": vx', 'attitude_locked: vx',
+     r"inputs\.body\.fields\.attitude_locked: variable 'vx' of FMU 'wind_gust\.py' is Real, but "
+     r"BodyState\.attitude_locked takes a boolean value"),
+    ("start: {peak_speed: 8.0", "start: {peak_sped: 8.0",
+     r"components\.gust\.start\.peak_sped: FMU 'wind_gust\.py' has no variable 'peak_sped' \(did you mean "
+     r"'peak_speed'\?\)"),
+    ("start: {peak_speed: 8.0", "start: {Fx: 8.0",
+     r"start\.Fx: variable 'Fx' of FMU 'wind_gust\.py' is a continuous output; start values go to parameters"),
+    ("start: {peak_speed: 8.0", "start: {peak_speed: fast",
+     r"start\.peak_speed: variable 'peak_speed' of FMU 'wind_gust\.py' is Real; got 'fast'"),
+    ('"force[0]": Fx', '"forces[0]": Fx', r"fields\.forces\[0\]: Wrench has no field 'forces\[0\]'"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "error"), BAD_MAPPINGS)
+def test_a_mapping_that_does_not_fit_the_model_description_is_bad_input(old, new, error):
+    text = gust_scene()
+    assert old in text
+    with pytest.raises(ScenarioError, match=error):
+        loads(text.replace(old, new, 1))
+
+
+def test_cosim_validate_says_it_in_one_line_naming_scene_fmu_and_variable(tmp_path, capsys):
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene().replace('"force[2]": Fz', '"force[2]": Fq'))
+    assert main(["validate", str(path)]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line == (f"error: {path}: components.gust.outputs.wrench.fields.force[2]: FMU 'wind_gust.py' has no "
+                    "variable 'Fq' (outputs: Fx, Fy, Fz)")
+
+
+def test_a_missing_fmu_file_is_named_with_the_folder_it_was_looked_for_in(tmp_path):
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene(source="path: nowhere.fmu"))
+    with pytest.raises(ScenarioError, match=r"components\.gust\.path: no such file 'nowhere\.fmu' \(looked in "):
+        load(path)
+
+
+def test_a_scalar_output_is_a_number_port(tmp_path):
+    text = gust_scene().replace(
+        '      wrench: {type: Wrench, fields: {"force[0]": Fx, "force[1]": Fy, "force[2]": Fz}}',
+        '      wrench: {type: Wrench, fields: {"force[0]": Fx, "force[1]": Fy, "force[2]": Fz}}\n      drag: Fx')
+    scene = loads(text)
+    comp = scene.instantiate()["gust"]
+    out = comp.step(0, 2_000_000, {"body": None})
+    assert out["drag"].value == out["wrench"].force[0]
+    assert math.isfinite(out["drag"].value) and np.all(out["wrench"].torque == 0)
