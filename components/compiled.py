@@ -1,16 +1,30 @@
 """Numba's one-time start-up, done when a component is built rather than inside its first steps.
 
 The first compiled kernel a process calls starts numba's compiler and code cache (its target context
-and libraries: about half a second here); each later kernel only loads its own machine code from the
-cache (milliseconds). Components with compiled kernels call :func:`start` in their ``setup``, so a
-run's wall time and real-time factor measure the simulation, not that start-up.
+and libraries); each later kernel only loads its own machine code from the cache (milliseconds).
+Components with compiled kernels call :func:`start` in their ``setup``, so a run's wall time and
+real-time factor measure the simulation, not that start-up.
+
+Numba's target context probes two optional packages when it starts: it imports ``scipy.linalg``
+to see whether BLAS is there (for ``np.dot`` and friends) and ``cffi`` to support cffi functions.
+With SciPy 1.17 the first costs about 0.45 s (scipy.linalg clones numpy's namespace, which loads
+numpy.f2py, numpy.ma and numpy.testing), the second about 0.1 s: together more than importing
+numba itself, for features no kernel here uses. :func:`start` therefore starts numba with both
+probes answered "not here"; nothing else is affected: they can be imported normally afterwards, and a
+kernel that does call BLAS still compiles (numba imports SciPy again when it types such a call).
 """
 
 from __future__ import annotations
 
+import importlib.abc
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import cache
 
 from numba import njit
+
+PROBED = ("scipy.linalg", "cffi")  # imported by numba's start-up only to probe optional features
 
 
 @njit(cache=True)
@@ -18,7 +32,28 @@ def _touch(x: float) -> float:  # pragma: no cover - compiled
     return x + 1.0
 
 
+class _Absent(importlib.abc.MetaPathFinder):
+    """A finder that reports the probed packages as missing (only while installed)."""
+
+    def find_spec(self, fullname: str, path: object = None, target: object = None) -> None:
+        if fullname in PROBED:
+            raise ModuleNotFoundError(f"{fullname} is left out of numba's start-up", name=fullname)
+        return None
+
+
+@contextmanager
+def _without_probes() -> Iterator[None]:
+    """While inside, the probed packages that are not imported yet look absent."""
+    finder = _Absent()
+    sys.meta_path.insert(0, finder)
+    try:
+        yield
+    finally:
+        sys.meta_path.remove(finder)
+
+
 @cache
 def start() -> None:
     """Start numba's compiler and code cache, once per process."""
-    _touch(0.0)
+    with _without_probes():
+        _touch(0.0)

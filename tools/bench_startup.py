@@ -1,0 +1,102 @@
+"""Start-up: a 1 ms run of the reference skip beside `python -c "import numba"`, measured in one run.
+
+    python tools/bench_startup.py [--rounds 11] [--write docs/performance.md]
+
+Each round starts, one after the other, fresh processes of: ``python -c "import numba"`` (the
+peer: a process that can use compiled kernels at all), ``cosim run scenarios/skip.yaml --until
+0.001 -q`` as a user types it (recording to a file: the writer process, the viewer channels) and the
+same with ``--no-record``. Times are wall-clock from start to exit. The figure is the median over the
+rounds of (run time / import time) within the round, so that a slow spell of a shared machine cancels;
+the table also gives the median times. The kernels' disk cache is warmed by a first run that is not
+counted (a fresh checkout compiles once, see docs/performance.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from cosim.docsection import replace_section  # noqa: E402
+
+TARGET = 2.0  # a 1 ms run at most this many times `import numba` (DESIGN.md section 5)
+SCENE = "scenarios/skip.yaml"
+
+
+def _cosim() -> list[str]:
+    """The command a user runs: the console script beside this interpreter, else ``python -m``."""
+    script = Path(sys.executable).with_name("cosim")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "cosim.cli"]
+
+
+def commands(out: Path) -> dict[str, list[str]]:
+    run = [*_cosim(), "run", SCENE, "--until", "0.001", "-q"]
+    return {
+        'python -c "import numba"': [sys.executable, "-c", "import numba"],
+        f"cosim run {SCENE} --until 0.001 -q (recorded)": [*run, "-o", str(out)],
+        f"cosim run {SCENE} --until 0.001 -q --no-record": [*run, "--no-record"],
+    }
+
+
+def wall(cmd: list[str]) -> float:
+    """Seconds from starting ``cmd`` to its exit (it must succeed)."""
+    t0 = time.perf_counter()
+    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rounds", type=int, default=11)
+    ap.add_argument("--write", metavar="MARKDOWN", help="update the start-up section of this file")
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        cmds = commands(Path(tmp) / "short.mcap")
+        for cmd in cmds.values():  # warm the kernels' disk cache and the OS file cache
+            wall(cmd)
+        load = [os.getloadavg()[0]]
+        times: dict[str, list[float]] = {name: [] for name in cmds}
+        for _ in range(args.rounds):
+            for name, cmd in cmds.items():
+                times[name].append(wall(cmd))
+        load.append(os.getloadavg()[0])
+    peer = next(iter(times.values()))
+    rows = []
+    ratios = {}
+    for name, ts in times.items():
+        ratios[name] = statistics.median(t / p for t, p in zip(ts, peer, strict=True))
+        rows.append(f"| `{name}` | {statistics.median(ts):.3f} | {min(ts):.3f} | {ratios[name]:.2f} |")
+    recorded = list(times)[1]
+    verdict = "meets" if ratios[recorded] <= TARGET else "misses"
+    given = argv if argv is not None else sys.argv[1:]
+    command = " ".join(["python tools/bench_startup.py", *given])
+    text = "\n".join([
+        "## Start-up",
+        "",
+        f"Fresh processes, {args.rounds} rounds of each in turn (load average {load[0]:.1f} before, "
+        f"{load[1]:.1f} after), kernels already in numba's disk cache; `{command}`:",
+        "",
+        "| command | wall [s] (median) | wall [s] (best) | / `import numba` (median of the rounds) |",
+        "|---|---:|---:|---:|",
+        *rows,
+        "",
+        f"A 1 ms run of the reference skip, recorded, takes **{ratios[recorded]:.2f}x** "
+        f"`python -c \"import numba\"` (target: at most {TARGET:g}x): it {verdict} the target.",
+        "",
+    ])
+    print(text)
+    if args.write:
+        replace_section(args.write, "startup", text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
