@@ -39,7 +39,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 
 from components import compiled
-from components.coupler import kernel
+from components.coupler import kernel, step_kernel
 from components.coupler.effects import (
     BUOYANCY,
     COLUMN_MASK,
@@ -185,11 +185,28 @@ class WaterCoupler(Component):
         self._ring_work: dict[str, np.ndarray] | None = None  # work arrays of the ring (_ring_arrays)
         self._still: tuple[np.ndarray, np.ndarray] | None = None  # flat patch at the rest level
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
+        self._scratch: step_kernel.RingScratch | None = None  # work arrays of the one-call step
+        self._body = np.zeros(step_kernel.N_BODY)
+        self._prm = self._parameter_vector()
         self._zero_wrench = Wrench(_ZERO3, _ZERO3)
         self._empty_occupied = OccupiedHeight(0, 0, _EMPTY_GRID)
         self._empty_request = PatchRequest.empty()
         self.work = {"columns": 0, "elements": 0}
         self._reset_state()
+
+    def _parameter_vector(self) -> np.ndarray:
+        """The scalar parameters as :mod:`step_kernel`'s parameter vector (P_* layout)."""
+        p = self.params
+        prm = np.zeros(step_kernel.N_PARAMS)
+        for index, value in ((step_kernel.P_RHO, p.rho), (step_kernel.P_G, p.g), (step_kernel.P_C_L, p.c_l),
+                             (step_kernel.P_C_N, p.c_n), (step_kernel.P_C_F, p.c_f), (step_kernel.P_C_W, p.c_w),
+                             (step_kernel.P_C_MIN, p.c_min), (step_kernel.P_WET_RAMP, p.wet_ramp),
+                             (step_kernel.P_CLOSURE, p.closure_depth), (step_kernel.P_RING_CELLS, p.ring_cells),
+                             (step_kernel.P_DAMPING_SAFETY, DAMPING_SAFETY),
+                             (step_kernel.P_SPRING_SAFETY, SPRING_SAFETY),
+                             (step_kernel.P_MOTION_FRACTION, MOTION_FRACTION)):
+            prm[index] = value
+        return prm
 
     def _reset_state(self) -> None:
         self.rest_level = float(self.params.water_level)
@@ -304,11 +321,12 @@ class WaterCoupler(Component):
             self.bound = math.inf
             self._prev = None
             return self._idle(level - z_bottom)
-        axes = quat_to_matrix(np.asarray(body.orientation, dtype=np.float64))
         is_disk = body.shape == Shape.DISK
-        axis = axes[:, 2]
-        low = lowest_point(is_disk, pos, axis, radius, float(body.thickness))
-        half = disk_half_extents(axis, radius, float(body.thickness)) if is_disk else (radius, radius)
+        bv = self._body_vector(body)
+        axes = np.empty((3, 3))
+        x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
+        low = (x_low, y_low, z_low)
+        half = (half_x, half_y)
         request = self._request(pos + vel * dt, half, vel, dt)
         assumed = False
         if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
@@ -331,7 +349,7 @@ class WaterCoupler(Component):
         if self._b_geo.shape != height.shape:
             self._b_geo = np.zeros(height.shape)
         nsub = self._subsamples(radius, float(patch.cell))
-        held = np.asarray(patch.occupied, dtype=np.float64)
+        held = np.ascontiguousarray(patch.occupied, dtype=np.float64)
         water = (x0, y0, float(patch.cell), height, wvel, bottom, held if held.shape == height.shape else None)
         met = water
         self._planing_share = planing_share(body, self.params.g)
@@ -339,15 +357,20 @@ class WaterCoupler(Component):
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
-        stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
-                               self._b_geo, self._stats, self._local_flags())
-        ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
-        if assumed and ring is not None:
-            ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
-        if ring is not None:
-            self._add_hydrostatics(stats, ring)
+        if n == 1 and self._ring_mode() and not assumed and not self.params.smoothing:
+            # the usual step: all its column and element work in one compiled call
+            stats, ring, top_under = self._ring_step(body, bv, axes, low, half, met, water, elements, nsub)
+        else:
+            stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
+                                   self._b_geo, self._stats, self._local_flags())
+            ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
+            if assumed and ring is not None:
+                ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
+            if ring is not None:
+                self._add_hydrostatics(stats, ring)
+            self.bound = self._stability_bound(body, stats)
+            top_under = None
         self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
-        self.bound = self._stability_bound(body, stats)
         mean = stats[:kernel.S_TOTAL + 6]
         if n > 1:
             mean = self._predict(body, n, dt, stats, water, met, elements, nsub)
@@ -377,7 +400,7 @@ class WaterCoupler(Component):
             # The column sum samples the body, so a body wholly under water sums to a little less
             # than its volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point
             # opposite its lowest one) is under the surface there is wholly submerged.
-            under = self._top_under(pos, low, water)
+            under = self._top_under(pos, low, water) if top_under is None else top_under
             if under is not None and under > 0.0:
                 fraction = 1.0
         contact = WaterContact(
@@ -395,6 +418,46 @@ class WaterCoupler(Component):
                 "contact": contact}
 
     # --- pieces -----------------------------------------------------------------------------------
+
+    def _body_vector(self, body: BodyState) -> np.ndarray:
+        """The body's pose, motion and mass as :mod:`step_kernel`'s body vector (B_* layout)."""
+        bv = self._body
+        bv[step_kernel.B_POS:step_kernel.B_POS + 3] = body.position
+        bv[step_kernel.B_QUAT:step_kernel.B_QUAT + 4] = body.orientation
+        bv[step_kernel.B_VEL:step_kernel.B_VEL + 3] = body.velocity
+        bv[step_kernel.B_OMEGA:step_kernel.B_OMEGA + 3] = body.angular_velocity
+        bv[step_kernel.B_RADIUS] = body.radius
+        bv[step_kernel.B_THICKNESS] = body.thickness
+        bv[step_kernel.B_MASS] = body.mass
+        bv[step_kernel.B_INERTIA_MIN] = min(body.inertia.tolist())
+        return bv
+
+    def _ring_step(self, body: BodyState, bv: np.ndarray, axes: np.ndarray, low, half, met, water,
+                   elements: Elements, nsub: int) -> tuple[np.ndarray, _Ring, float | None]:
+        """:meth:`_evaluate`, :meth:`_ring`, :meth:`_add_hydrostatics` and :meth:`_stability_bound`
+        in one call of :func:`step_kernel.ring_step`: (stats, the ring, the depth of the body's top
+        under the live surface [m], None off the patch)."""
+        x0, y0, cell, height, wvel, bottom, held = water
+        scratch = self._scratch
+        if scratch is None or scratch.shape != height.shape or scratch.rest_level != self.rest_level:
+            scratch = self._scratch = step_kernel.RingScratch(height.shape, self.rest_level)
+        prm = self._prm
+        prm[step_kernel.P_C_D] = self.params.c_d_disk if body.shape == Shape.DISK else self.params.c_d_sphere
+        step_kernel.ring_step(
+            int(body.shape), bv, prm, self.flags, self._local_flags(), nsub, self.rest_level,
+            self._planing_share, axes, np.array([*low, *half]), float(x0), float(y0), cell, met[3], met[4],
+            height, wvel, bottom, height if held is None else held, held is not None,
+            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
+            scratch.b_geo, scratch.stats, scratch.flat, scratch.still, scratch.b_rest, scratch.waterline,
+            scratch.b_out, scratch.rest_stats, scratch.lifted, scratch.results)
+        res = scratch.results
+        self.bound = float(res[step_kernel.R_BOUND])
+        window = None
+        if res[step_kernel.R_I_LO] <= res[step_kernel.R_I_HI]:
+            i_lo, i_hi, j_lo, j_hi = (int(v) for v in res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
+            window = (i_lo, j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy())
+        under = float(res[step_kernel.R_TOP_UNDER])
+        return scratch.stats, _Ring(scratch.rest_stats, scratch.lifted, window), (None if math.isnan(under) else under)
 
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
         p = self.params

@@ -519,11 +519,13 @@ def _shares(dx, dy, outline, n, phi, cs, sn, share):
     tx, ty, sx, sy, a1, a2 = outline
     q, c, s = _polar(dx, dy, tx, ty, sx, sy, a1, a2)
     q = min(q, 1.0)
+    # three passes (weights, their sum, the normalisation) so the first and last vectorise; the
+    # sum keeps its order
+    for k in range(n):
+        share[k] = phi[k] * (1.0 + q * (c * cs[k] + s * sn[k])) ** RING_FOCUS
     total = 0.0
     for k in range(n):
-        w = phi[k] * (1.0 + q * (c * cs[k] + s * sn[k])) ** RING_FOCUS
-        share[k] = w
-        total += w
+        total += share[k]
     for k in range(n):
         share[k] /= total
 
@@ -578,13 +580,20 @@ def ring_deposit(b_geo, band_j, band_i, col_j, col_i, shares, b_out):
     """
     b_out[:, :] = 0.0
     n = band_j.size
-    for c in range(col_j.size):
-        b = b_geo[col_j[c], col_i[c]]
-        if n == 0:
-            b_out[col_j[c], col_i[c]] = b
-            continue
+    if n == 0:
+        for c in range(col_j.size):
+            b_out[col_j[c], col_i[c]] = b_geo[col_j[c], col_i[c]]
+    else:
+        # each band column is listed once, so its sum over the columns can be gathered in a row of
+        # the band's order (a contiguous loop) and stored once, in the same order of additions
+        band = np.zeros(n)
+        for c in range(col_j.size):
+            b = b_geo[col_j[c], col_i[c]]
+            row = shares[c]
+            for k in range(n):
+                band[k] += b * row[k]
         for k in range(n):
-            b_out[band_j[k], band_i[k]] += b * shares[c, k]
+            b_out[band_j[k], band_i[k]] = band[k]
     nj, ni = b_out.shape
     i_lo, i_hi, j_lo, j_hi = ni, -1, nj, -1
     touched_j, touched_i = (band_j, band_i) if n > 0 else (col_j, col_i)
@@ -609,6 +618,9 @@ def ring_lift(waterline, field, band_j, band_i, col_j, col_i, shares, lifted):
     """
     lifted[:] = 0.0
     n = band_j.size
+    band = np.empty(n)  # the field over the band, read once for every column
+    for k in range(n):
+        band[k] = field[band_j[k], band_i[k]]
     for c in range(col_j.size):
         j, i = col_j[c], col_i[c]
         area = waterline[0, j, i]
@@ -617,8 +629,9 @@ def ring_lift(waterline, field, band_j, band_i, col_j, col_i, shares, lifted):
         level = field[j, i]
         if n > 0:
             level = 0.0
+            row = shares[c]
             for k in range(n):
-                level += field[band_j[k], band_i[k]] * shares[c, k]
+                level += band[k] * row[k]
         lifted[0] += level * area
         lifted[1] += level * waterline[2, j, i]
         lifted[2] -= level * waterline[1, j, i]

@@ -25,8 +25,35 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from components.messages import BodyState
+
+
+@njit(cache=True)
+def _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v):
+    """h, v (nj, ni) = the live patch at (i0, j0), with the frozen window m_h, m_v at (mi0, mj0)
+    over the columns they share."""
+    nj, ni = height.shape
+    h[:, :] = height
+    v[:, :] = velocity
+    ia, ib = max(i0, mi0), min(i0 + ni, mi0 + m_h.shape[1])
+    ja, jb = max(j0, mj0), min(j0 + nj, mj0 + m_h.shape[0])
+    for j in range(ja, jb):
+        for i in range(ia, ib):
+            h[j - j0, i - i0] = m_h[j - mj0, i - mi0]
+            v[j - j0, i - i0] = m_v[j - mj0, i - mi0]
+
+
+@njit(cache=True)
+def _blend(share, h, v, height, velocity, out_h, out_v):
+    """out = share * frozen + (1 - share) * live, for the height and the velocity."""
+    rest = 1.0 - share
+    nj, ni = h.shape
+    for j in range(nj):
+        for i in range(ni):
+            out_h[j, i] = share * h[j, i] + rest * height[j, i]
+            out_v[j, i] = share * v[j, i] + rest * velocity[j, i]
 
 
 def planing_share(body: BodyState, g: float) -> float:
@@ -49,29 +76,37 @@ class MetSurface:
         self.in_contact = False  # the body touched the water and is not yet clear of it
         # (i0, j0, height (nj, ni) [m], velocity (nj, ni) [m/s]) in the water's grid; None: away
         self._met: tuple[int, int, np.ndarray, np.ndarray] | None = None
+        self._work: tuple | None = None  # two frozen windows in turn and a blend (_work_arrays)
 
     def read(self, i0: int, j0: int, height: np.ndarray, velocity: np.ndarray, share: float
              ) -> tuple[np.ndarray, np.ndarray]:
         """The surface [m, m/s] over the patch at (i0, j0) the surface effects read this step:
         the live ``height`` and ``velocity`` while out of contact, else the frozen window (columns
-        new to the window live), blended with the live surface by ``share`` (:func:`planing_share`)."""
+        new to the window live), blended with the live surface by ``share`` (:func:`planing_share`).
+
+        The arrays returned are the surface's own work arrays, valid until the next read."""
         met = self._met
         if not self.in_contact or met is None:
             self._met = (i0, j0, height, velocity)
             return height, velocity
         mi0, mj0, m_h, m_v = met
-        nj, ni = height.shape
-        ia, ib = max(i0, mi0), min(i0 + ni, mi0 + m_h.shape[1])
-        ja, jb = max(j0, mj0), min(j0 + nj, mj0 + m_h.shape[0])
-        h, v = height.copy(), velocity.copy()
-        if ia < ib and ja < jb:
-            h[ja - j0:jb - j0, ia - i0:ib - i0] = m_h[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
-            v[ja - j0:jb - j0, ia - i0:ib - i0] = m_v[ja - mj0:jb - mj0, ia - mi0:ib - mi0]
+        frozen, blend = self._work_arrays(height.shape, m_h)
+        h, v = frozen
+        _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v)
         self._met = (i0, j0, h, v)
         if share < 1.0:
-            h = share * h + (1.0 - share) * height
-            v = share * v + (1.0 - share) * velocity
+            _blend(share, h, v, height, velocity, blend[0], blend[1])
+            return blend
         return h, v
+
+    def _work_arrays(self, shape: tuple[int, int], held: np.ndarray):
+        """A pair of (nj, ni) arrays for this step's frozen window that are not ``held`` (the one
+        kept from last step, read while the new one is written), and a pair for the blend."""
+        work = self._work
+        if work is None or work[0][0].shape != shape:
+            work = self._work = tuple((np.empty(shape), np.empty(shape)) for _ in range(3))
+        frozen = work[0] if work[0][0] is not held else work[1]
+        return frozen, work[2]
 
     def get_state(self) -> dict[str, Any]:
         met = self._met

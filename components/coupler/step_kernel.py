@@ -1,0 +1,256 @@
+"""One coupler step's column and element work in a single compiled call (ring displacement).
+
+The component's step used to be a dozen compiled kernels glued by Python: the body's pose, the
+planing share of the pressure, the forces against the met surface (:func:`kernel.evaluate`), the
+body under the rest level, the ring's map, deposit and lift, the water level the deposit leaves,
+the hydrostatics and the stability bound, each with its own dispatch, temporary arrays and
+conversions; the glue cost as much as the kernels. :func:`ring_step` does the same arithmetic,
+in the same order, into work arrays the component keeps (:class:`RingScratch`), so Python is left
+with reading the messages and building the ones it publishes. The results are those of the
+separate kernels (the same operations on the same values).
+
+Scalar parameters travel in one float64 vector (``P_*`` indices, built once by the component), the
+body's pose and motion in another (``B_*``), so a call passes a handful of arrays, not forty values.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from components.coupler import kernel
+from components.coupler.effects import BUOYANCY, DISPLACEMENT
+from components.coupler.geometry import quat_to_matrix
+
+# parameter vector (float64), set once per component
+P_RHO = 0
+P_G = 1
+P_C_L = 2
+P_C_N = 3
+P_C_F = 4
+P_C_W = 5
+P_C_MIN = 6
+P_WET_RAMP = 7
+P_C_D = 8  # submerged pressure drag coefficient of the body's shape
+P_CLOSURE = 9  # closure depth [m]
+P_RING_CELLS = 10  # width of the displacement band [cells]
+P_DAMPING_SAFETY = 11
+P_SPRING_SAFETY = 12
+P_MOTION_FRACTION = 13
+N_PARAMS = 14
+
+# body vector (float64), filled each step from the BodyState
+B_POS = 0  # (3) [m]
+B_QUAT = 3  # (4) (w, x, y, z)
+B_VEL = 7  # (3) [m/s]
+B_OMEGA = 10  # (3) [rad/s]
+B_RADIUS = 13
+B_THICKNESS = 14
+B_MASS = 15
+B_INERTIA_MIN = 16  # least principal moment of inertia [kg m^2]
+N_BODY = 17
+
+# results vector (float64) besides stats
+R_PLANING = 0  # the planing share of the pressure [-] (see WaterCoupler._planing)
+R_TOP_UNDER = 1  # how far the body's top is under the live surface [m]; NaN off the patch
+R_BOUND = 2  # the stability bound [s]
+R_I_LO = 3  # the deposit's window in patch indices (i_lo, i_hi, j_lo, j_hi); empty: i_lo > i_hi
+R_I_HI = 4
+R_J_LO = 5
+R_J_HI = 6
+R_DISPLACED = 7  # volume under the rest level [m^3]
+N_RESULTS = 8
+
+
+class RingScratch:
+    """Work arrays of :func:`ring_step` over a patch of shape (nj, ni), reused while the shape holds:
+    b_geo, b_rest, b_out (nj, ni) [m]; waterline (3, nj, ni); flat (nj, ni) the rest level [m] and
+    still (nj, ni) zeros [m/s] (the rest pass's surface); stats and rest_stats (kernel.N_STATS,);
+    lifted (3,); results (N_RESULTS,); axes (3, 3)."""
+
+    def __init__(self, shape: tuple[int, int], rest_level: float):
+        self.shape = shape
+        self.rest_level = rest_level
+        self.b_geo = np.zeros(shape)
+        self.b_rest = np.zeros(shape)
+        self.b_out = np.zeros(shape)
+        self.waterline = np.zeros((3, *shape))
+        self.flat = np.full(shape, rest_level)
+        self.still = np.zeros(shape)
+        self.stats = np.zeros(kernel.N_STATS)
+        self.rest_stats = np.zeros(kernel.N_STATS)
+        self.lifted = np.zeros(3)
+        self.results = np.zeros(N_RESULTS)
+
+
+@njit(cache=True)
+def body_pose(shape, body, axes):
+    """Fill ``axes`` (3, 3) from the body vector's quaternion; return the lowest point (x, y, z) [m]
+    and the horizontal half-extents (hx, hy) [m] (as geometry.lowest_point, disk_half_extents)."""
+    m = quat_to_matrix(body[B_QUAT:B_QUAT + 4])
+    axes[:, :] = m
+    cx, cy, cz = body[B_POS], body[B_POS + 1], body[B_POS + 2]
+    radius = body[B_RADIUS]
+    thickness = body[B_THICKNESS]
+    if shape != kernel.SHAPE_DISK:
+        return cx, cy, cz - radius, radius, radius
+    ax, ay, az = m[0, 2], m[1, 2], m[2, 2]
+    dx, dy, dz = az * ax, az * ay, -1.0 + az * az
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    k = radius / norm if norm > 1e-12 else 0.0
+    f = -0.5 * thickness * (1.0 if az >= 0 else -1.0)
+    bx, by = abs(ax), abs(ay)
+    hx = radius * math.sqrt(max(0.0, 1.0 - bx * bx)) + 0.5 * thickness * bx
+    hy = radius * math.sqrt(max(0.0, 1.0 - by * by)) + 0.5 * thickness * by
+    return cx + k * dx + f * ax, cy + k * dy + f * ay, cz + k * dz + f * az, hx, hy
+
+
+@njit(cache=True)
+def _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel):
+    """How far [m] the body's top (its lowest point mirrored through the centre) is under the
+    surface ``height``; NaN off the patch."""
+    tx = 2.0 * body[B_POS] - x_low
+    ty = 2.0 * body[B_POS + 1] - y_low
+    tz = 2.0 * body[B_POS + 2] - z_low
+    ok, h_top, _ = kernel.sample_surface(tx, ty, x0, y0, cell, height, wvel)
+    return h_top - tz if ok else np.nan
+
+
+@njit(cache=True)
+def _stability_bound(body, stats, prm):
+    """The step bound of WaterCoupler.max_stable_step [s]."""
+    vx, vy, vz = body[B_VEL], body[B_VEL + 1], body[B_VEL + 2]
+    wx, wy, wz = body[B_OMEGA], body[B_OMEGA + 1], body[B_OMEGA + 2]
+    radius = body[B_RADIUS]
+    speed = math.sqrt(vx * vx + vy * vy + vz * vz) + radius * math.sqrt(wx * wx + wy * wy + wz * wz)
+    bound = np.inf if speed <= 0 else prm[P_MOTION_FRACTION] * radius / speed
+    mass = body[B_MASS]
+    inertia = body[B_INERTIA_MIN]
+    rate = 0.0
+    if mass > 0:
+        rate = stats[kernel.S_DAMP_LIN] / mass
+    if inertia > 0:
+        rate = max(rate, stats[kernel.S_DAMP_ROT] / inertia)
+    if rate > 0:
+        bound = min(bound, prm[P_DAMPING_SAFETY] / rate)
+    if mass > 0 and stats[kernel.S_STIFF] > 0:
+        bound = min(bound, prm[P_SPRING_SAFETY] / math.sqrt(stats[kernel.S_STIFF] / mass))
+    return bound
+
+
+@njit(cache=True)
+def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axes, low_half,
+              x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
+              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+              b_geo, stats, flat, still, b_rest, waterline, b_out, rest_stats, lifted, results):
+    """The forces of the named effects on the body over one patch, with the ring displacement.
+
+    body (N_BODY,), prm (N_PARAMS,); axes (3, 3) and low_half (x_low, y_low, z_low, hx, hy) from
+    :func:`body_pose`; met_h, met_v: the surface the surface effects read (the met surface), height,
+    wvel, bottom, held (nj, ni): the patch and the occupied height it holds (used when has_held);
+    share: the planing share of the body's motion (met_surface.planing_share). Writes stats (the
+    forces against the met surface plus the hydrostatics of the ring, as
+    WaterCoupler._add_hydrostatics), b_geo, and the ring's b_rest, waterline, b_out, rest_stats,
+    lifted; results (N_RESULTS,) the planing share, the top's depth, the stability bound, the
+    deposit's window and the displaced volume.
+    """
+    radius = body[B_RADIUS]
+    thickness = body[B_THICKNESS]
+    centre = body[B_POS:B_POS + 3]
+    velocity = body[B_VEL:B_VEL + 3]
+    omega = body[B_OMEGA:B_OMEGA + 3]
+    x_low, y_low, z_low, half_x, half_y = low_half[0], low_half[1], low_half[2], low_half[3], low_half[4]
+    rho, g = prm[P_RHO], prm[P_G]
+    under = _top_under(body, x_low, y_low, z_low, x0, y0, cell, met_h, met_v)
+    planing = 1.0 if math.isnan(under) else min(1.0, max(0.0, 1.0 - under / prm[P_CLOSURE]))
+    results[:] = 0.0
+    results[R_PLANING] = planing
+    results[R_TOP_UNDER] = _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel)
+    results[R_I_LO] = 1.0
+    results[R_I_HI] = 0.0
+    kernel.evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
+                    x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
+                    el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                    rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN], prm[P_WET_RAMP],
+                    local_flags, nsub, b_geo, np.zeros((0, 0, 0)), stats, planing, prm[P_C_D])
+    # --- the ring: the body under the rest level, pushed out around it --------------------------
+    lifted[:] = 0.0
+    if z_low >= rest_level:  # nothing of the body below the rest level: no displacement
+        rest_stats[:] = 0.0
+    else:
+        kernel.evaluate(shape, radius, thickness, centre, axes, np.zeros(3), np.zeros(3), half_x, half_y,
+                        x_low, y_low, z_low, x0, y0, cell, flat, still, bottom,
+                        el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                        rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN], prm[P_WET_RAMP],
+                        DISPLACEMENT | (flags & BUOYANCY), nsub, b_rest, waterline, rest_stats, 1.0, 0.0)
+        if rest_stats[kernel.S_VOLUME] > 0.0:
+            band_j, band_i, col_j, col_i, shares = kernel.ring_map(
+                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell)
+            i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(b_rest, band_j, band_i, col_j, col_i, shares, b_out)
+            if i_lo <= i_hi:
+                results[R_I_LO] = i_lo
+                results[R_I_HI] = i_hi
+                results[R_J_LO] = j_lo
+                results[R_J_HI] = j_hi
+                _ring_lift_live(waterline, height, held, has_held, b_out, rest_level,
+                                band_j, band_i, col_j, col_i, shares, lifted)
+    results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
+    _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share)
+    results[R_BOUND] = _stability_bound(body, stats, prm)
+
+
+@njit(cache=True)
+def _ring_lift_live(waterline, height, held, has_held, b_out, rest_level, band_j, band_i, col_j, col_i,
+                    shares, lifted):
+    """:func:`kernel.ring_lift` over the water above the rest level as this step's displacement
+    leaves it (WaterCoupler._ring_field), read where it is needed instead of made whole: the
+    patch minus the occupied height it holds plus the one published now (b_out, zero outside its
+    window), or the patch alone when it does not say what it holds."""
+    n = band_j.size
+    band = np.empty(n)  # the field over the band, read once for every column
+    for k in range(n):
+        band[k] = _field(height, held, has_held, b_out, rest_level, band_j[k], band_i[k])
+    lifted[:] = 0.0
+    for c in range(col_j.size):
+        j, i = col_j[c], col_i[c]
+        area = waterline[0, j, i]
+        if area <= 0.0:
+            continue
+        if n > 0:
+            level = 0.0
+            row = shares[c]
+            for k in range(n):
+                level += band[k] * row[k]
+        else:
+            level = _field(height, held, has_held, b_out, rest_level, j, i)
+        lifted[0] += level * area
+        lifted[1] += level * waterline[2, j, i]
+        lifted[2] -= level * waterline[1, j, i]
+
+
+@njit(cache=True, inline="always")
+def _field(height, held, has_held, b_out, rest_level, j, i):
+    value = height[j, i] - rest_level
+    if has_held:
+        value = value - held[j, i]
+        value = value + b_out[j, i]
+    return value
+
+
+@njit(cache=True)
+def _add_hydrostatics(stats, rest, lifted, flags, f, share):
+    """WaterCoupler._add_hydrostatics: the rest pass's buoyancy, the mound's lift (a floating body
+    only) and the waterline stiffness into stats, and the total."""
+    b = kernel.S_BUOYANCY
+    for q in range(6):
+        stats[b + q] = rest[b + q]
+    if flags & BUOYANCY:
+        mound = f * (1.0 - share)
+        stats[b + 2] += mound * lifted[0]
+        stats[b + 3] += mound * lifted[1]
+        stats[b + 4] += mound * lifted[2]
+        stats[kernel.S_STIFF] += f * rest[kernel.S_WATERLINE]
+    for q in range(6):
+        stats[kernel.S_TOTAL + q] += stats[b + q]

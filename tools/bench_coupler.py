@@ -1,0 +1,178 @@
+"""What the water coupler costs: a coupled step against the bare water step, and its share of the skip.
+
+    python tools/bench_coupler.py                                # figures on stdout
+    python tools/bench_coupler.py --write docs/performance.md    # also (re)write the coupler section
+
+Two measures, each a ratio taken within one run (the machine is shared: absolute times move with
+its load, ratios much less):
+
+* **Coupled / bare step.** A floating ball (5 cm radius, 500 kg/m^3, half under water, pushed
+  along at 0.3 m/s so its window moves) on an n x n pond of 1 cm columns, the water stepping every
+  tick; one tick of the scheduler with the ball, the water and the coupler against one tick of the
+  same pond alone (recording off). Batches of coupled and bare ticks alternate; the figure is the
+  median over the rounds of (coupled batch / bare batch). The pond is the one
+  ``tools/bench_water.py`` times (cell 0.01 m, depth 0.5 m, reflecting walls).
+* **The coupler's share of the reference skip.** ``scenarios/skip.yaml`` with recording off, the
+  wall time spent inside the coupler's steps (``WaterCoupler.step``, timed around each call) over
+  the wall time of the whole run loop, median over the repeats.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from components.coupler.component import WaterCoupler  # noqa: E402
+from cosim.docsection import replace_section  # noqa: E402
+from cosim.scenario import load, loads  # noqa: E402
+from cosim.scheduler import Simulation  # noqa: E402
+
+SKIP = ROOT / "scenarios" / "skip.yaml"
+CELL = 0.01  # [m] as tools/bench_water.py
+DEPTH = 0.5  # [m] as tools/bench_water.py
+DT = 0.001  # [s] c dt / s = 0.22 at c = sqrt(g d): the water steps every tick
+TARGETS = {256: 1.5, 512: 1.2}  # coupled / bare step at most (issue 15, DESIGN.md section 5)
+SHARE_TARGET = 0.30  # the coupler's share of the reference skip's loop at most
+
+_POND = f"""
+  pond:
+    type: WaterSurface
+    nx: {{n}}
+    ny: {{n}}
+    cell: {CELL}
+    depth: {DEPTH}
+    boundary: reflecting
+    origin_x: {{origin}}
+    origin_y: {{origin}}
+    field_rate: 0
+"""
+
+_BALL = """
+  ball:
+    type: RigidBody
+    shape: sphere
+    radius: 0.05
+    density: 500
+    position: [0.0, 0.0, 0.0]
+    velocity: [0.3, 0.0, 0.0]
+  coupler:
+    type: WaterCoupler
+    effects: [displacement, buoyancy, pressure, friction, wave_drag]
+connections:
+  - ball.state -> coupler.body
+  - pond.patch -> coupler.water
+  - {from: coupler.wrench, to: ball.wrench, delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}
+  - {from: coupler.occupied, to: pond.occupied, delay: 1, initial: {i0: 0, j0: 0, b: []}}
+  - {from: coupler.request, to: pond.request, delay: 1, initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}}
+"""
+
+
+def pond_scene(n: int, coupled: bool) -> str:
+    """YAML of an n x n pond centred on the origin, with the floating ball and its coupler or bare."""
+    head = f"name: bench_coupler_{n}\ndt: {DT}\nuntil: 1000\non_unstable: substep\ncomponents:"
+    pond = _POND.format(n=n, origin=-0.5 * (n - 1) * CELL)
+    return head + pond + (_BALL if coupled else "")
+
+
+def _ticks(sim: Simulation, count: int) -> float:
+    start = time.perf_counter()
+    for _ in range(count):
+        sim.step()
+    return time.perf_counter() - start
+
+
+def step_ratio(n: int, *, rounds: int, batch: int) -> tuple[float, float, float]:
+    """(median coupled / bare ratio, best coupled tick [s], best bare tick [s]) on an n x n pond."""
+    coupled = Simulation(loads(pond_scene(n, True)))
+    bare = Simulation(loads(pond_scene(n, False)))
+    for sim in (coupled, bare):
+        sim.initialize()
+        _ticks(sim, 200)  # the ball settles into its first waves; kernels loaded and warm
+    ratios, best_c, best_b = [], float("inf"), float("inf")
+    for _ in range(rounds):
+        t_c = _ticks(coupled, batch)
+        t_b = _ticks(bare, batch)
+        ratios.append(t_c / t_b)
+        best_c, best_b = min(best_c, t_c / batch), min(best_b, t_b / batch)
+    return statistics.median(ratios), best_c, best_b
+
+
+class _TimedCoupler:
+    """Adds up the wall time of a coupler's steps (wraps its ``step``)."""
+
+    def __init__(self, comp: WaterCoupler):
+        self.seconds = 0.0
+        inner = comp.step
+
+        def step(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+
+        comp.step = step  # type: ignore[method-assign]
+
+
+def skip_share() -> tuple[float, float]:
+    """(coupler's share of the loop, loop wall [s]) of one reference skip, recording off."""
+    sim = Simulation(load(SKIP))
+    timers = [_TimedCoupler(c) for c in sim.components.values() if isinstance(c, WaterCoupler)]
+    start = time.perf_counter()
+    sim.run()
+    wall = time.perf_counter() - start
+    return sum(t.seconds for t in timers) / wall, wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=15, help="alternating batches per grid")
+    parser.add_argument("--batch", type=int, default=100, help="ticks per batch")
+    parser.add_argument("--repeats", type=int, default=5, help="runs of the reference skip")
+    parser.add_argument("--write", metavar="MARKDOWN", help="update the coupler section of this file")
+    args = parser.parse_args()
+    Simulation(load(SKIP, overrides=["until=0.05"])).run()  # kernels loaded from numba's cache
+    load_before = os.getloadavg()[0]
+    rows = []
+    for n, target in TARGETS.items():
+        ratio, t_c, t_b = step_ratio(n, rounds=args.rounds, batch=args.batch)
+        verdict = "met" if ratio <= target else "not met"
+        rows.append(f"| {n} x {n} | {t_b * 1e6:.0f} | {t_c * 1e6:.0f} | **{ratio:.2f}** | {target} | {verdict} |")
+    shares = [skip_share() for _ in range(args.repeats)]
+    share = statistics.median(s for s, _ in shares)
+    wall = statistics.median(w for _, w in shares)
+    load_after = os.getloadavg()[0]
+    share_verdict = "met" if share <= SHARE_TARGET else "not met"
+    text = "\n".join([
+        "## The coupler",
+        "",
+        f"One run of `python tools/bench_coupler.py --write docs/performance.md` (load average "
+        f"{load_before:.1f} before, {load_after:.1f} after; 2 cores shared with other jobs).",
+        "",
+        "A floating ball (5 cm, half under water, drifting at 0.3 m/s) on an n x n pond of 1 cm "
+        "columns, the water stepping every tick, recording off; a tick of ball + water + coupler "
+        f"against a tick of the bare pond, {args.rounds} alternating batches of {args.batch} ticks "
+        "(the ratio is the median of the batches' ratios, the times the best batch):",
+        "",
+        "| pond | bare water tick [us] | coupled tick [us] | coupled / bare (median) | target | |",
+        "|---|---:|---:|---:|---:|---|",
+        *rows,
+        "",
+        f"The reference skip (`scenarios/skip.yaml`, recording off), {args.repeats} runs: the coupler's "
+        f"steps take **{share:.0%}** of the run loop (median; target at most {SHARE_TARGET:.0%}: "
+        f"{share_verdict}), the loop {wall:.2f} s.",
+    ])
+    print(text)
+    if args.write:
+        replace_section(args.write, "coupler", text)
+
+
+if __name__ == "__main__":
+    main()
