@@ -45,6 +45,24 @@ def _unpack(fmu_file: Path) -> str:
     return folder
 
 
+_held_namespaces: list[Any] = []
+
+
+def _hold_pythonfmu_namespace(md: Any, folder: str) -> None:
+    """One more reference to the namespace of a pythonfmu FMU's slave module, once per instance.
+    pythonfmu's binaries (0.7) release one reference to that namespace at each instantiation
+    without having taken it; held here, it is never freed while the FMU still uses it (which
+    corrupts the heap). Any other FMU: nothing to do."""
+    if not str(getattr(md, "generationTool", "") or "").startswith("PythonFMU"):
+        return
+    import sys
+
+    name_file = Path(folder) / "resources" / "slavemodule.txt"
+    module = sys.modules.get(name_file.read_text().strip()) if name_file.is_file() else None
+    if module is not None:
+        _held_namespaces.append(vars(module))
+
+
 def _text(value: Any) -> str:
     return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value or "")
 
@@ -88,6 +106,7 @@ class FmuInstance:
             self._call("instantiate", self.fmu.instantiate, callbacks=callbacks, loggingOn=True)
             self._call("setupExperiment", self.fmu.setupExperiment, startTime=0.0)
         self.live = True
+        _hold_pythonfmu_namespace(md, folder)
         for name_, value in start.items():
             var = variables[name_]
             self.set(var.type, [var.valueReference], [value])
@@ -167,17 +186,13 @@ class FmuInstance:
             self._call("freeFMUstate", free, state)
 
     def close(self) -> None:
-        """Terminate and free the instance (once; errors here are not worth a failure). The shared
-        library stays loaded until the process ends: unloading one that runs Python (a pythonfmu
-        FMU) while objects it made are still alive corrupts the heap, and one copy per FMU is all
-        it costs."""
+        """Terminate and free the instance (once; errors here are not worth a failure)."""
         if not getattr(self, "live", False):
             return
         self.live = False
         if self.worst >= FATAL:  # FMI: after Fatal no function may be called (the FMU may be gone)
             return
-        free = self.fmu.fmi3FreeInstance if self.fmi3 else self.fmu.fmi2FreeInstance
-        calls = [lambda: free(self.fmu.component)]
+        calls = [self.fmu.freeInstance]
         if self.worst < ERROR:  # FMI: after Error only freeInstance
             calls.insert(0, self.fmu.terminate)
         for call in calls:

@@ -33,7 +33,9 @@ def model_identifier(output: Path) -> str:
 
 SLAVE_MODULE = '''"""The scene {scene!r} as an FMI 2.0 co-simulation FMU (cosim fmu export)."""
 
-from cosim.fmi.slave import SceneSlave
+from cosim.fmi.slave import SceneSlave, hold_namespace
+
+hold_namespace(globals())  # once per run of this text: see cosim.fmi.slave.hold_namespace
 
 
 class {identifier}(SceneSlave):

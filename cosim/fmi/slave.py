@@ -13,8 +13,6 @@ Python needs cosim and its components installed, the same version for the same r
 
 from __future__ import annotations
 
-import ctypes
-import os
 from pathlib import Path
 from typing import Any
 
@@ -56,20 +54,16 @@ def _value(out: Output, msg: Message | None) -> Any:
     return float(value) if out.kind == "real" else int(value)
 
 
-_pinned: list[ctypes.CDLL] = []
+_held_namespaces: list[dict[str, Any]] = []
 
 
-def _pin_library(resources: Path, identifier: str) -> None:
-    """Keep this FMU's own shared library loaded until the process ends. An importer that frees
-    the instance also unloads the library (FMPy does); pythonfmu's library made Python objects
-    that outlive it, and the process then corrupts its heap on exit. One more reference to the
-    library (the same file, so the same handle) keeps it in place."""
-    for library in (resources.parent / "binaries").glob(f"*/{identifier}.*"):
-        if library.suffix in (".so", ".dylib", ".dll"):
-            try:
-                _pinned.append(ctypes.CDLL(str(library), mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_GLOBAL))
-            except OSError:  # not this platform's library, or not the one loaded
-                pass
+def hold_namespace(namespace: dict[str, Any]) -> None:
+    """Keep one more reference to a slave module's namespace. pythonfmu's binaries (0.7) run the
+    module's text again in its namespace each time they instantiate the FMU, then release one
+    reference to that namespace they never took; a module whose namespace has few other holders
+    (no functions of its own) would have it freed while in use. Called by the module's own text,
+    so each run of it adds the reference the binaries then release."""
+    _held_namespaces.append(namespace)
 
 
 class SceneSlave(Fmi2Slave):
@@ -78,7 +72,6 @@ class SceneSlave(Fmi2Slave):
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         folder = Path(self.resources)
-        _pin_library(folder, type(self).__name__)
         self.scene_text = (folder / SCENE_FILE).read_text(encoding="utf-8")
         self.spec = ExportSpec.from_json((folder / SPEC_FILE).read_text(encoding="utf-8"))
         self.description = "A cosim scene as a co-simulation FMU (cosim fmu export)"

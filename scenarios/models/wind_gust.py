@@ -17,6 +17,10 @@ import math
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 
+# pythonfmu's binaries (0.7) run this text again in this module's namespace at each instantiation and
+# then release one reference to the namespace they never took: each run adds one here to make up for it
+globals().setdefault("_held_namespaces", []).append(globals())
+
 
 class WindGust(Fmi2Slave):
     """Quadratic air drag on a body in a 1 - cosine wind gust."""

@@ -1,0 +1,150 @@
+"""A scene exported as an FMU (``cosim fmu export``): FMPy finds its model description valid,
+simulating it gives the trajectory and skip count of ``cosim run`` at the same times, bit for bit,
+and the FMU imported back into another scene (``type: FMU``) does the same.
+
+    skip.yaml --cosim fmu export--> skip.fmu --FMPy simulate_fmu--> rows every 10 ms
+                                             --type: FMU, every 20--> /throw/stage, /throw/velocity
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+pytest.importorskip("pythonfmu")
+
+from fmpy.validation import validate_fmu  # noqa: E402
+
+from components.messages import BodyState, Stage  # noqa: E402
+from cosim.cli import main  # noqa: E402
+from cosim.examples import Number  # noqa: E402
+from cosim.record.reader import Recording  # noqa: E402
+from cosim.runner import run_scene  # noqa: E402
+from cosim.scenario import load  # noqa: E402
+from tests.cli_toys import one_error_line  # noqa: E402
+from tests.fmu_toys import SKIP_SCENE, fmu_cache  # noqa: E402, F401
+
+pytestmark = pytest.mark.usefixtures("fmu_cache")
+
+UNTIL = 0.6  # [s] three skips of the reference throw
+UNTIL_NS = 600_000_000
+STEP = 0.01  # [s] the communication step: 20 base steps of 0.5 ms
+
+IMPORT_SCENE = """
+name: skip_as_fmu
+dt: 0.0005
+until: 0.6
+components:
+  throw:
+    type: FMU
+    path: skip.fmu
+    every: 20
+    outputs:
+      stage: {type: Stage, fields: {stage: stage, skips: skips, x: x}}
+      vz: vz
+record: {visual_rate: 0, checkpoint_every: 0}
+"""
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    """skip.fmu exported by the command line, beside a recorded ``cosim run`` of the same 0.6 s."""
+    folder = tmp_path_factory.mktemp("export")
+    fmu = folder / "skip.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(fmu), "--step", str(STEP)]) == 0
+    outcome = run_scene(load(SKIP_SCENE), folder / "skip.mcap", until_ns=UNTIL_NS, progress=False)
+    assert outcome.result.status == "ok", outcome.result.reason
+    return fmu, Recording(outcome.recording)
+
+
+def _recorded(rec: Recording) -> tuple[dict[int, BodyState], list[tuple[int, Stage]]]:
+    return dict(rec.messages("/stone/state", BodyState)), rec.messages("/stages/stage", Stage)
+
+
+def _skips_at(stages: list[tuple[int, Stage]], time_ns: int) -> int:
+    return max((m.skips for t, m in stages if t <= time_ns), default=0)
+
+
+def test_fmpy_finds_no_problem_in_the_model_description(exported):
+    fmu, _ = exported
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    assert md.fmiVersion == "2.0" and md.coSimulation.modelIdentifier == "skip"
+    assert [v.name for v in md.modelVariables if v.causality == "parameter"] == [
+        "speed", "angle_deg", "tilt_deg", "spin"]
+    assert [v.name for v in md.modelVariables if v.causality == "output"] == [
+        "x", "y", "z", "vx", "vy", "vz", "stage", "skips"]
+    assert md.defaultExperiment.stepSize == "0.01"
+
+
+def test_fmpy_simulates_the_trajectory_and_skips_of_cosim_run_bit_for_bit(exported):
+    fmu, rec = exported
+    states, stages = _recorded(rec)
+    rows = fmpy.simulate_fmu(str(fmu), stop_time=UNTIL, output_interval=STEP)
+    assert len(rows) == 61
+    for row in rows:
+        stamp = round(row["time"] * 1e9)
+        want = states[stamp]
+        got = np.array([row[k] for k in ("x", "y", "z", "vx", "vy", "vz")])
+        assert got.tobytes() == np.concatenate([want.position, want.velocity]).tobytes(), stamp
+        assert row["skips"] == _skips_at(stages, stamp)
+    assert rows["skips"][-1] == 3
+
+
+def test_a_changed_throw_parameter_changes_the_throw(exported):
+    fmu, _ = exported
+    rows = fmpy.simulate_fmu(str(fmu), stop_time=STEP, output_interval=STEP, start_values={"speed": 6.0})
+    angle = math.atan2(1.39, 7.88)  # the scene's own angle below the horizontal
+    assert rows["vx"][0] == pytest.approx(6.0 * math.cos(angle), rel=1e-15)
+    assert rows["vz"][0] == pytest.approx(-6.0 * math.sin(angle), rel=1e-15)
+
+
+def test_the_exported_skip_imported_back_as_a_component_runs_the_same_throw(exported, tmp_path):
+    fmu, rec = exported
+    states, stages = _recorded(rec)
+    (tmp_path / "skip.fmu").write_bytes(fmu.read_bytes())
+    scene_path = tmp_path / "skip_as_fmu.yaml"
+    scene_path.write_text(IMPORT_SCENE)
+    outcome = run_scene(load(scene_path), tmp_path / "imported.mcap", progress=False)
+    assert outcome.result.status == "ok", outcome.result.reason
+    imported = Recording(outcome.recording)
+    seen = imported.messages("/throw/stage", Stage)
+    vz = dict(imported.messages("/throw/vz", Number))
+    assert len(seen) == 61
+    for stamp, msg in seen:
+        assert np.float64(msg.x).tobytes() == states[stamp].position[:1].tobytes()
+        assert np.float64(vz[stamp].value).tobytes() == states[stamp].velocity[2:].tobytes()
+        assert msg.skips == _skips_at(stages, stamp)
+    assert seen[-1][1].skips == 3
+
+
+def test_a_communication_step_off_the_base_step_grid_is_refused_with_the_reason(tmp_path, capsys):
+    out = tmp_path / "bad.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), "--step", "0.0007"]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert "--step: a communication step of 0.0007 s is not a whole multiple of the scene's base step " \
+           "dt = 0.0005 s" in line
+    assert not out.exists()
+
+
+def test_an_importer_stepping_off_the_grid_gets_the_fmus_reason(exported, tmp_path):
+    """An importing scene whose step is 0.7 ms: the FMU refuses its first doStep, naming both steps."""
+    fmu, _ = exported
+    (tmp_path / "skip.fmu").write_bytes(fmu.read_bytes())
+    scene_path = tmp_path / "off.yaml"
+    scene_path.write_text(IMPORT_SCENE.replace("dt: 0.0005", "dt: 0.0007").replace("every: 20", "every: 1"))
+    outcome = run_scene(load(scene_path), None, progress=False)
+    assert outcome.result.status == "failed"
+    assert "FMU 'skip.fmu' doStep returned" in outcome.result.reason
+    assert "a communication step of 0.0007 s is not a whole multiple of the scene's base step dt = 0.0005 s" \
+        in outcome.result.reason
+
+
+def test_an_output_the_scene_does_not_have_is_refused(tmp_path, capsys):
+    code = main(["fmu", "export", str(SKIP_SCENE), "-o", str(tmp_path / "x.fmu"),
+                 "--output-var", "w=stone.state.spin"])
+    assert code == 2
+    assert "output 'w': BodyState has no field 'spin'" in one_error_line(capsys.readouterr().err)
