@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import sys
-
-from tqdm import tqdm
+from typing import Any
 
 from cosim.scheduler import BaseObserver, RunResult, Simulation
 from cosim.timebase import NS_PER_S
@@ -18,11 +17,13 @@ class ProgressBar(BaseObserver):
     def __init__(self, until_ns: int, label: str = "simulating"):
         self.until_ns = until_ns
         self.label = label
-        self.bar: tqdm | None = None
+        self.bar: Any = None  # a tqdm bar, made when the run starts
         self.every = 1
         self.shown_ns = 0
 
     def on_initialized(self, sim: Simulation) -> None:
+        from tqdm import tqdm  # here, not at import: tqdm and what it loads cost tens of ms at start-up
+
         total_ticks = max(1, (self.until_ns - sim.time_ns) // sim.dt_ns)
         self.every = max(1, total_ticks // UPDATES)
         self.shown_ns = sim.time_ns

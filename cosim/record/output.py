@@ -17,12 +17,9 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import glob
 import os
 import stat
-import tempfile
 from collections.abc import Iterable
-from dataclasses import dataclass
 from pathlib import Path
 
 from cosim.errors import RecordingError
@@ -74,13 +71,17 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     return path
 
 
-@dataclass
 class Claim:
-    """A private file ``part`` beside ``target``, locked through ``fd`` while it is written."""
+    """A private file ``part`` beside ``target``, locked through ``fd`` while it is written.
 
-    target: Path
-    part: Path
-    fd: int
+    (A plain class rather than a dataclass: the writer process imports this module, and dataclasses
+    with what it loads is a tenth of its start-up.)"""
+
+    def __init__(self, target: Path, part: Path, fd: int):
+        self.target, self.part, self.fd = target, part, fd
+
+    def __repr__(self) -> str:
+        return f"Claim(target={self.target!r}, part={self.part!r}, fd={self.fd})"
 
     def release(self, remove: bool) -> None:
         """Close the lock (and remove the private file when ``remove``; a finished one was moved)."""
@@ -116,6 +117,9 @@ def claim(path: str | Path) -> Claim:
     Raises RecordingError when another run is writing ``path`` now, OSError when the folder cannot
     be written.
     """
+    import glob  # here: the writer process imports this module for finish() only, and starts sooner
+    import tempfile
+
     path = Path(path)
     fd, name = tempfile.mkstemp(prefix=path.name + ".", suffix=PART_SUFFIX, dir=path.parent)
     mine = Claim(path, Path(name), fd)

@@ -23,10 +23,7 @@ from __future__ import annotations
 import os
 import re
 import signal
-import subprocess
 import sys
-import tempfile
-import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -137,6 +134,15 @@ class _Apply:
 _PACKAGE_ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the cosim package
 
 
+def _site_dirs() -> str:
+    """This interpreter's site-packages folders (where the writer's foxglove comes from), joined by
+    os.pathsep: the writer starts without site processing and adds them after its standard library."""
+    import site
+
+    dirs = [*site.getsitepackages(), site.getusersitepackages() if site.ENABLE_USER_SITE else ""]
+    return os.pathsep.join(d for d in dirs if d and os.path.isdir(d))
+
+
 def writer_main(argv: list[str]) -> int:
     """Body of the writer process: apply batches from the ring until the simulating process closes
     the control pipe, then finish the file.
@@ -147,7 +153,9 @@ def writer_main(argv: list[str]) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     # lock_fd: the lock on the private file, held open (and so held) until this process exits
-    part, final, ring_fd, ring_size, control_fd, ack_fd, _lock_fd = argv
+    part, final, ring_fd, ring_size, control_fd, ack_fd, _lock_fd, site_dirs = argv
+    # after the standard library, as site processing would put them (nothing there may shadow it)
+    sys.path.extend(d for d in site_dirs.split(os.pathsep) if d and d not in sys.path)
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
     try:
@@ -288,6 +296,9 @@ class ProcessSink(_Sink):
             raise
 
     def _start(self) -> None:
+        import subprocess  # here and below, not at import: the writer process imports this module too
+        import tempfile
+
         part, path = self.claim.part, self.path
         # the writer's own errors go to a file, read back only if it fails (a pipe could fill and block it)
         self._errors = tempfile.TemporaryFile()
@@ -300,8 +311,10 @@ class ProcessSink(_Sink):
         try:
             self._proc = subprocess.Popen(
                 # -P: the working folder must not shadow anything on the writer's path
-                [sys.executable, "-P", "-m", "cosim.record.writer", str(part), str(path), str(self._ring.fd),
-                 str(RING_BYTES), str(control_r), str(ack_w), str(self.claim.fd)],
+                # -S: no site processing (its .pth files cost tens of milliseconds of every short run's
+                # wait for the writer); the packages the writer needs are found through _site_dirs()
+                [sys.executable, "-S", "-P", "-m", "cosim.record.writer", str(part), str(path), str(self._ring.fd),
+                 str(RING_BYTES), str(control_r), str(ack_w), str(self.claim.fd), _site_dirs()],
                 pass_fds=(self._ring.fd, control_r, ack_w, self.claim.fd), stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL, stderr=self._errors, start_new_session=True, env=env)
         finally:
@@ -317,6 +330,8 @@ class ProcessSink(_Sink):
 
     def _failure(self) -> str:
         """What went wrong with the writer, in one line; the private file is removed."""
+        import subprocess
+
         try:
             code = self._proc.wait(5)
         except subprocess.TimeoutExpired:
@@ -353,6 +368,8 @@ class ProcessSink(_Sink):
         finally:
             finished = self._hang_up()
         if finished:  # the file is complete; the writer's exit is reaped in the background
+            import threading
+
             threading.Thread(target=self._proc.wait, daemon=True).start()
             self._errors.close()
             self.claim.release(remove=False)
