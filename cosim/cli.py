@@ -116,9 +116,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     output = None if args.no_record else (Path(args.output) if args.output else
                                           _default_output(args.scene, scene.name, list(args.set or [])))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
+    linger = args.live_linger if args.live is not None else 0.0
     outcome = run_scene(scene, output, until_ns=args.until, command_line=command,
-                        progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed)
-    print(format_summary(scene, outcome))
+                        progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed,
+                        keep_live=linger > 0)
+    print(format_summary(scene, outcome), flush=True)
+    if outcome.live is not None:  # the finished run stays on the server until Ctrl-C (or --live-linger)
+        if outcome.result.status == "interrupted":  # a Ctrl-C during the run meant: stop
+            outcome.live.close()
+        else:
+            outcome.live.linger(linger)
     if outcome.failed:
         print(f"error: {one_line(outcome.result.reason)}", file=sys.stderr)
         return EXIT_FAILED
@@ -214,6 +221,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
     p.add_argument("--live-speed", type=number_arg(float, "a number", at_least=0), default=1.0, metavar="S",
                    help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
+    p.add_argument("--live-linger", type=number_arg(float, "seconds", at_least=0), default=math.inf, metavar="T",
+                   help="with --live: keep serving the finished run T seconds of wall time (default: until "
+                        "Ctrl-C; 0: stop with the run)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("validate", help="check a scene without running it")

@@ -35,6 +35,7 @@ class RunOutcome:
     recording: Path | None
     summary: list[str] = field(default_factory=list)
     simulation: Simulation | None = None
+    live: Any = None  # with keep_live: the still-serving cosim.view.live.LiveView, for the caller to close
 
     @property
     def failed(self) -> bool:
@@ -80,15 +81,17 @@ def default_derivers(scene: Scene) -> list[Any]:
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,
               command_line: str = "", progress: bool = True, perf: bool = False,
               derivers: list[Any] | None = None, simulation: Simulation | None = None,
-              live: str | None = None, live_speed: float = 1.0, inputs: tuple[str | Path, ...] = ()) -> RunOutcome:
+              live: str | None = None, live_speed: float = 1.0, keep_live: bool = False,
+              inputs: tuple[str | Path, ...] = ()) -> RunOutcome:
     """Run ``scene`` (or a prepared ``simulation`` of it), recording to ``output`` unless None.
 
     The recording is closed whatever happens, so a failed or interrupted run leaves a valid file
     holding everything up to the end plus the final status record. A SimulationError does not
     propagate: it is in ``outcome.result``. ``live`` (``[HOST:]PORT``) also streams the physics and
     viewer channels to Foxglove over WebSocket, paced at ``live_speed`` times real time (0: unpaced);
-    it uses the ``foxglove-sdk`` package's WebSocket server. ``inputs``: files the run reads besides
-    the scene, which the recording must not replace.
+    it uses the ``foxglove-sdk`` package's WebSocket server; with ``keep_live`` the server is left
+    running after a run that ended (it is ``outcome.live``: call its ``linger()`` or ``close()``).
+    ``inputs``: files the run reads besides the scene, which the recording must not replace.
 
     An output that may not be written (:func:`cosim.record.output.check_output`) raises
     RecordingError before anything runs; a recording that cannot be finished (its writer killed,
@@ -103,6 +106,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
         live_view = LiveView(scene, live, speed=live_speed, components=sim.components)
     recorder = None
     observers: list[Any] = []
+    finished = False
     try:
         if output is not None:
             recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs,
@@ -130,14 +134,18 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
                 if recorder is not None:
                     recorder.discard()
                 raise
+        finished = True
     finally:
         try:
             path = recorder.close() if recorder is not None else None
+        except BaseException:
+            finished = False  # a recording that could not be finished: nothing left to serve
+            raise
         finally:
-            if live_view is not None:
+            if live_view is not None and not (keep_live and finished):
                 live_view.close()
     summary = [line for r in sim.runners for line in r.comp.summary()]
-    return RunOutcome(result, path, summary, sim)
+    return RunOutcome(result, path, summary, sim, live_view if keep_live else None)
 
 
 def collect_metrics(sim: Simulation) -> dict[str, float | int | str]:

@@ -201,7 +201,8 @@ def test_cosim_run_live_serves_while_running(tmp_path, capsys):
 
     scene = tmp_path / "skip.yaml"
     scene.write_text(SKIP_SCENE)
-    assert main(["run", str(scene), "--no-record", "-q", "--live", "127.0.0.1:0", "--live-speed", "0"]) == 0
+    assert main(["run", str(scene), "--no-record", "-q", "--live", "127.0.0.1:0", "--live-speed", "0",
+                 "--live-linger", "0"]) == 0
     out = capsys.readouterr()
     assert "live view: ws://127.0.0.1:" in out.err and "toy_skip: ok" in out.out
 

@@ -9,10 +9,16 @@ announces the simulation clock (the ``time`` capability), and the run is paced a
 real time so it can be watched (``speed`` 0: as fast as it goes). Like the recorder, it only reads
 messages: the physics is the same with or without it. Messages are encoded only for channels a
 client subscribes to.
+
+When the run ends, :meth:`LiveView.linger` keeps the server up with the finished run's last clock
+(``cosim run --live`` does so until Ctrl-C, or for ``--live-linger`` seconds), so a viewer can still
+connect after a run that lasted two seconds; Ctrl-C or SIGTERM then end it cleanly.
 """
 
 from __future__ import annotations
 
+import math
+import signal
 import sys
 import time
 from typing import Any
@@ -29,6 +35,7 @@ DEFAULT_ADDRESS = "127.0.0.1:8765"
 DEFAULT_RATE = 30.0  # [frames/s] of viewer channels when the scene records none
 CLOCK_PERIOD_S = 1 / 60  # [s of wall time] between clock broadcasts
 MIN_SLEEP_S = 0.002  # [s] pacing sleeps shorter than this are skipped (timer resolution)
+LINGER_TICK_S = 0.25  # [s of wall time] between checks (and clock broadcasts) while lingering
 
 
 class LiveViewError(CosimError):
@@ -81,6 +88,7 @@ class LiveView(BaseObserver):
         self._sim0 = 0
         self._last_clock = 0.0
         self._closed = False
+        self._sim_end: int | None = None  # the finished run's simulation time [ns]
         if announce:
             print(f"live view: ws://{self.host}:{self.port} (Foxglove: Open connection > Foxglove WebSocket)",
                   file=sys.stderr)
@@ -131,7 +139,36 @@ class LiveView(BaseObserver):
             self.server.broadcast_time(sim.time_ns)
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
+        self._sim_end = sim.time_ns
         self.server.broadcast_time(sim.time_ns)
+
+    def linger(self, seconds: float = math.inf, *, say: bool = True) -> None:
+        """Keep serving after the run for ``seconds`` of wall time (inf: until Ctrl-C or SIGTERM),
+        saying so in one line; returns normally on Ctrl-C or SIGTERM and then closes the server."""
+        if say:
+            until = "Ctrl-C to stop" if math.isinf(seconds) else f"for {seconds:g} s (Ctrl-C to stop sooner)"
+            print(f"run finished; still serving on {self.url}; {until}", file=sys.stderr, flush=True)
+        clock = self._sim_end
+
+        def stop(signum: int, frame: Any) -> None:
+            raise KeyboardInterrupt
+
+        try:
+            old = signal.signal(signal.SIGTERM, stop)
+        except ValueError:  # not the main thread: Ctrl-C and SIGTERM are the main thread's to handle
+            old = None
+        deadline = time.monotonic() + seconds
+        try:
+            while (left := deadline - time.monotonic()) > 0:
+                time.sleep(min(LINGER_TICK_S, left))
+                if clock is not None:  # a client that connects now learns where the run ended
+                    self.server.broadcast_time(clock)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            if old is not None:
+                signal.signal(signal.SIGTERM, old)
+            self.close()
 
     def close(self) -> None:
         """Stop the server (safe to call twice)."""
