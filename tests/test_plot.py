@@ -149,3 +149,29 @@ def test_the_attack_angle_panel_says_when_the_attitude_is_held(tmp_path):
         run_scene(load(scene, sets), path, progress=False)
     assert "attitude held" in figure_motion(load_run(held)).axes[1].get_title()
     assert "attitude held" not in figure_motion(load_run(free)).axes[1].get_title()
+
+
+def test_a_bounce_in_place_without_water_is_drawn_as_height_over_time(tmp_path):
+    """A disk dropped on a floor (no water, no stage monitor) gets its height over time, not a
+    vertical line: no water line, no stage legend, and a mark at each ground contact."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml"
+    path = tmp_path / "bounce.mcap"
+    run_scene(load(scene, ["until=0.4", "record.visual_rate=0"]), path, progress=False)
+    run = load_run(path, "disk_flat")
+    assert run.stages is None and not run.contacts
+    ax = figure_trajectory(run).axes[0]
+    assert ax.get_xlabel() == "time [s]" and "height over time" in ax.get_title()
+    (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+    starts = np.array([seg[0] for seg in lines.get_segments()])
+    assert np.array_equal(starts[:, 0], run.body.t[:-1]) and np.array_equal(starts[:, 1], run.body.position[:-1, 2])
+    from components.analysis.data import contact_spans
+
+    g = run.grounds[0]
+    touches = len(contact_spans(g.in_contact, g.t))
+    assert touches >= 1  # a 10 cm drop lands after 0.14 s
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == [f"ground contact ({touches})"]
+    assert not any("water" in label or "unknown" in label for label in labels)

@@ -1,7 +1,8 @@
 """``cosim plot``: PNG figures of a recorded run.
 
 - ``trajectory.png``: side view (x, z) of the body's path coloured by stage, the water line, and
-  the touchdown of each skip;
+  the touchdown of each skip; for a body that stays in place (a drop, a bounce) its height over
+  time instead, with each ground contact marked;
 - ``motion.png``: speed and attack angle over time, on the stage spans;
 - ``energy.png``: kinetic and potential energy, the energy dissipated by the water and the ground
   (when those are recorded), and their sum;
@@ -29,10 +30,12 @@ from components.messages import StageId
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
 FIGSIZE = (10.0, 4.5)  # [in]
+SIDE_VIEW_MIN_TRAVEL = 0.5  # [fraction of the height range] of horizontal travel for a side view
+PATH_COLOR = "#404040"  # the path without a stage monitor
 
 
 def _stage_legend(ax, stages: list[int]) -> None:
-    handles = [Patch(color=stage_color(s), label=STAGE_LABELS[StageId(s)] if s >= 0 else "unknown")
+    handles = [Patch(color=stage_color(s), label=STAGE_LABELS[StageId(s)] if s >= 0 else "before the first stage")
                for s in sorted(set(stages))]
     if handles:
         ax.legend(handles=handles, loc="upper right", fontsize="small", ncols=min(3, len(handles)))
@@ -52,31 +55,67 @@ def stage_per_sample(run: RunData) -> np.ndarray:
     return run.stages.at(run.body.t)
 
 
+def against_time(run: RunData) -> bool:
+    """Whether the path is drawn as height over time rather than as a side view: when it travels
+    horizontally less than :data:`SIDE_VIEW_MIN_TRAVEL` of its height range (a drop or a bounce in
+    place, whose side view would be a vertical line)."""
+    pos = run.body.position
+    travel = float(np.ptp(np.hypot(pos[:, 0] - pos[0, 0], pos[:, 1] - pos[0, 1])))
+    return travel < SIDE_VIEW_MIN_TRAVEL * max(float(np.ptp(pos[:, 2])), 2 * run.body.radius)
+
+
 def figure_trajectory(run: RunData) -> Figure:
-    """Side view x-z of the path, one segment per pair of states, coloured by the stage at its start."""
+    """The path, one segment per pair of states, coloured by the stage at its start (one colour
+    without a stage monitor): a side view x-z, or the height over time for a body that stays in
+    place (:func:`against_time`). The water line is drawn when the run has water, each ground
+    contact's start is marked when it has a ground."""
     body = run.body
     fig = Figure(figsize=FIGSIZE, layout="constrained")
     ax = fig.add_subplot()
-    xz = body.position[:, [0, 2]]
+    by_time = against_time(run)
+    path = np.column_stack([body.t if by_time else body.position[:, 0], body.position[:, 2]])
     stages = stage_per_sample(run)
-    segments = np.stack([xz[:-1], xz[1:]], axis=1)
-    lines = LineCollection(segments, colors=[stage_color(s) for s in stages[:-1]], linewidths=2.0)
-    ax.add_collection(lines)
-    ax.axhline(run.rest_level, color=WATER_LINE_COLOR, linewidth=1.0, linestyle="--", label="water level")
+    segments = np.stack([path[:-1], path[1:]], axis=1)
+    colors = [stage_color(s) for s in stages[:-1]] if run.stages is not None else PATH_COLOR
+    ax.add_collection(LineCollection(segments, colors=colors, linewidths=2.0))
+    has_water = bool(run.contacts or run.field_topics)
+    if has_water:
+        ax.axhline(run.rest_level, color=WATER_LINE_COLOR, linewidth=1.0, linestyle="--", label="water level")
     for skip in run.skips:
-        ax.axvline(skip.touchdown_x, color="0.6", linewidth=0.6, linestyle=":")
-        ax.annotate(f"skip {skip.index}", (skip.touchdown_x, run.rest_level), textcoords="offset points",
+        at = skip.touchdown_time if by_time else skip.touchdown_x
+        ax.axvline(at, color="0.6", linewidth=0.6, linestyle=":")
+        ax.annotate(f"skip {skip.index}", (at, run.rest_level), textcoords="offset points",
                     xytext=(2, -12), fontsize="x-small", color="0.35")
+    touches = _ground_touches(run)
+    if len(touches):
+        i = np.clip(np.searchsorted(body.t, touches), 0, len(body.t) - 1)
+        ax.plot(path[i, 0], path[i, 1], "v", color="0.25", markersize=5, linestyle="none",
+                label=f"ground contact ({len(touches)})")
     ax.autoscale_view()
-    zmin, zmax = float(np.min(xz[:, 1])), float(np.max(xz[:, 1]))
+    zmin, zmax = float(np.min(path[:, 1])), float(np.max(path[:, 1]))
+    if has_water:
+        zmin, zmax = min(zmin, run.rest_level), max(zmax, run.rest_level)
     pad = 0.08 * max(zmax - zmin, 2 * body.radius)
-    ax.set_ylim(min(zmin, run.rest_level) - pad, max(zmax, run.rest_level) + pad)
-    ax.set_xlabel("x [m]")
+    ax.set_ylim(zmin - pad, zmax + pad)
+    ax.set_xlabel("time [s]" if by_time else "x [m]")
     ax.set_ylabel("z [m]")
-    ax.set_title(f"{run.scene}: side view of {body.name} by stage ({len(run.skips)} skips)")
-    _stage_legend(ax, stages.tolist())
+    view = "height over time" if by_time else "side view"
+    by_stage = f" by stage ({len(run.skips)} skips)" if run.stages is not None else ""
+    ax.set_title(f"{run.scene}: {view} of {body.name}{by_stage}")
+    if run.stages is not None:
+        _stage_legend(ax, stages.tolist())
+    elif has_water or len(touches):
+        ax.legend(loc="upper right", fontsize="small")
     ax.grid(True, alpha=0.3)
     return fig
+
+
+def _ground_touches(run: RunData) -> np.ndarray:
+    """Times [s] at which the body's ground contacts begin (the first ground's reports)."""
+    if not run.grounds:
+        return np.zeros(0)
+    g = run.grounds[0]
+    return np.array([g.t[a] for a, _ in contact_spans(g.in_contact, g.t)])
 
 
 def figure_motion(run: RunData) -> Figure:
