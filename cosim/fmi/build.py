@@ -77,6 +77,11 @@ def cache_key(model: Path, extra_files: Iterable[Path] = (), state: bool = True)
 def cached_fmu(model: str | Path, *, extra_files: Iterable[str | Path] = (), state: bool = True) -> Path:
     """The FMU built from ``model``, from the cache when it is there, else built now and cached.
     Named after the model's file (``wind_gust.py`` -> ``.../<key>/wind_gust.fmu``)."""
+    from importlib.util import find_spec
+
+    if find_spec("pythonfmu") is None:
+        raise FmuBuildError(f"{model}: building an FMU from a model needs pythonfmu, which is not installed: "
+                            "pip install 'cosim[fmi]'")
     model = Path(model)
     extras = [Path(f) for f in extra_files]
     target = cache_dir() / cache_key(model, extras, state) / f"{model.stem}.fmu"
