@@ -186,7 +186,6 @@ class WaterCoupler(Component):
         self._still: tuple[np.ndarray, np.ndarray] | None = None  # flat patch at the rest level
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
         self._scratch: step_kernel.RingScratch | None = None  # work arrays of the one-call step
-        self._body = np.zeros(step_kernel.N_BODY)
         self._prm = self._parameter_vector()
         self._zero_wrench = Wrench(_ZERO3, _ZERO3)
         self._empty_occupied = OccupiedHeight(0, 0, _EMPTY_GRID)
@@ -213,7 +212,8 @@ class WaterCoupler(Component):
         self.cell = 0.0
         self.dissipated = 0.0
         self.bound = math.inf
-        self._prev: dict[str, Any] | None = None  # last published wrench and the state it acts from
+        # last published wrench and the state it acts from (force, position, torque, omega: 3 floats each)
+        self._prev: dict[str, list[float]] | None = None
         # idle outputs were published and still hold: publish nothing until the body comes near
         self.quiet = False
         self._went_idle = False
@@ -249,7 +249,7 @@ class WaterCoupler(Component):
         self.dissipated = float(state["dissipated"])
         self.bound = float(state["bound"])
         prev = state.get("prev")
-        self._prev = None if prev is None else {k: np.array(v, dtype=float) for k, v in prev.items()}
+        self._prev = None if prev is None else {k: [float(x) for x in v] for k, v in prev.items()}
         self.met.set_state(state)
 
     def max_stable_step(self) -> float:
@@ -327,7 +327,8 @@ class WaterCoupler(Component):
         x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
         low = (x_low, y_low, z_low)
         half = (half_x, half_y)
-        request = self._request(pos + vel * dt, half, vel, dt)
+        vx, vy = float(vel[0]), float(vel[1])
+        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
         assumed = False
         if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
             # in the water before the water has sent anything: it is still, at the rest level, until
@@ -336,8 +337,8 @@ class WaterCoupler(Component):
             patch, assumed = self._assumed_still_water(pos, half, level), True
         if patch is None or patch.height.size == 0:
             self.bound = self._motion_bound(body)
-            self._prev = {"force": np.zeros(3), "torque": np.zeros(3), "position": pos.copy(),
-                          "omega": omega.copy()}
+            self._prev = {"force": [0.0, 0.0, 0.0], "torque": [0.0, 0.0, 0.0], "position": pos.tolist(),
+                          "omega": omega.tolist()}
             return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
                     "contact": self._dry_contact(level - low[2])}
         elements = self._elements_for(body)
@@ -376,7 +377,8 @@ class WaterCoupler(Component):
             mean = self._predict(body, n, dt, stats, water, met, elements, nsub)
         force = mean[kernel.S_TOTAL:kernel.S_TOTAL + 3].copy()
         torque = mean[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6].copy()
-        self._prev = {"force": force, "torque": torque, "position": pos.copy(), "omega": omega.copy()}
+        self._prev = {"force": force.tolist(), "torque": torque.tolist(), "position": pos.tolist(),
+                      "omega": omega.tolist()}
         h_low = stats[kernel.S_SURFACE_LOW]
         depth = (level if math.isnan(h_low) else float(h_low)) - low[2]
         volume = float(stats[kernel.S_VOLUME])
@@ -421,16 +423,8 @@ class WaterCoupler(Component):
 
     def _body_vector(self, body: BodyState) -> np.ndarray:
         """The body's pose, motion and mass as :mod:`step_kernel`'s body vector (B_* layout)."""
-        bv = self._body
-        bv[step_kernel.B_POS:step_kernel.B_POS + 3] = body.position
-        bv[step_kernel.B_QUAT:step_kernel.B_QUAT + 4] = body.orientation
-        bv[step_kernel.B_VEL:step_kernel.B_VEL + 3] = body.velocity
-        bv[step_kernel.B_OMEGA:step_kernel.B_OMEGA + 3] = body.angular_velocity
-        bv[step_kernel.B_RADIUS] = body.radius
-        bv[step_kernel.B_THICKNESS] = body.thickness
-        bv[step_kernel.B_MASS] = body.mass
-        bv[step_kernel.B_INERTIA_MIN] = min(body.inertia.tolist())
-        return bv
+        return np.concatenate((body.position, body.orientation, body.velocity, body.angular_velocity,
+                               (body.radius, body.thickness, body.mass, min(body.inertia.tolist()))))
 
     def _ring_step(self, body: BodyState, bv: np.ndarray, axes: np.ndarray, low, half, met, water,
                    elements: Elements, nsub: int) -> tuple[np.ndarray, _Ring, float | None]:
@@ -449,14 +443,16 @@ class WaterCoupler(Component):
             height, wvel, bottom, height if held is None else held, held is not None,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             scratch.b_geo, scratch.stats, scratch.flat, scratch.still, scratch.b_rest, scratch.waterline,
-            scratch.b_out, scratch.rest_stats, scratch.lifted, scratch.results)
-        res = scratch.results
-        self.bound = float(res[step_kernel.R_BOUND])
+            scratch.b_out, scratch.rest_stats, scratch.lifted, scratch.results,
+            *scratch.planing_arrays(elements.area.shape[0]), scratch.share_work)
+        scratch.grow_shares()
+        res = scratch.results.tolist()
+        self.bound = res[step_kernel.R_BOUND]
         window = None
-        if res[step_kernel.R_I_LO] <= res[step_kernel.R_I_HI]:
-            i_lo, i_hi, j_lo, j_hi = (int(v) for v in res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
+        i_lo, i_hi, j_lo, j_hi = (int(v) for v in res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
+        if i_lo <= i_hi:
             window = (i_lo, j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy())
-        under = float(res[step_kernel.R_TOP_UNDER])
+        under = res[step_kernel.R_TOP_UNDER]
         return scratch.stats, _Ring(scratch.rest_stats, scratch.lifted, window), (None if math.isnan(under) else under)
 
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
@@ -512,15 +508,17 @@ class WaterCoupler(Component):
             return self.params.column_subsamples
         return max(1, min(MAX_AUTO_SUBSAMPLES, math.ceil(SUBSAMPLES_PER_RADIUS * cell / radius - 1e-9)))
 
-    def _request(self, centre: np.ndarray, half: tuple[float, float], vel: np.ndarray,
+    def _request(self, centre: tuple[float, float], half: tuple[float, float], vel: tuple[float, float],
                  dt: float) -> PatchRequest:
+        """The window of water needed next step around the body's horizontal ``centre`` [m] then,
+        for its horizontal velocity ``vel`` [m/s]."""
         p = self.params
         if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
             return self._empty_request
         cells = p.margin_cells + (2.0 * p.ring_cells if self.flags & DISPLACEMENT else 0.0)
         margin = cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
-        margin += math.hypot(float(vel[0]), float(vel[1])) * dt  # the window lags one step
-        cx, cy = float(centre[0]), float(centre[1])
+        margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
+        cx, cy = centre
         held = self._held_request
         if held is not None and held.x_min <= held.x_max:
             # the held window still covers the body, its displacement ring and at least half the
@@ -532,7 +530,7 @@ class WaterCoupler(Component):
         # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
         # the surface it meets during a contact was in the window before it touched down (met_surface)
         lookahead = p.lookahead if self._ring_mode() else 0.0
-        ahead_x, ahead_y = float(vel[0]) * lookahead, float(vel[1]) * lookahead
+        ahead_x, ahead_y = vel[0] * lookahead, vel[1] * lookahead
         return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
                             cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0))
 
@@ -711,7 +709,7 @@ class WaterCoupler(Component):
         prev = self._prev
         if prev is None:
             return
-        f, x0, tq, w0 = (prev[k].tolist() for k in ("force", "position", "torque", "omega"))
+        f, x0, tq, w0 = prev["force"], prev["position"], prev["torque"], prev["omega"]
         pos, omega = pos.tolist(), omega.tolist()
         work = (f[0] * (pos[0] - x0[0]) + f[1] * (pos[1] - x0[1]) + f[2] * (pos[2] - x0[2])
                 + 0.5 * dt * (tq[0] * (w0[0] + omega[0]) + tq[1] * (w0[1] + omega[1])

@@ -139,6 +139,20 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
              rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
              b_geo, waterline, stats, planing, c_d):
+    """:func:`evaluate_into` with work arrays of its own."""
+    n_el = el_area.shape[0]
+    evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
+                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                  rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
+                  np.empty((n_el, 3)), np.empty((n_el, 3)), np.empty(n_el), np.empty(n_el))
+
+
+@njit(cache=True)
+def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
+                  x0, y0, cell, height, wvel, bottom,
+                  el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                  rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
+                  b_geo, waterline, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """Water forces on one body state over one patch; see the module docstring.
 
     centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
@@ -151,6 +165,8 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
     stats (N_STATS,); and, unless it is
     empty, waterline (3, nj, ni): per column, the area [m^2] of its sub-columns the surface cuts
     through the body and that area's first moments about the centre, sum dx a and sum dy a [m^3].
+    pl_f, pl_r (N, 3), pl_s, pl_m (N,): work arrays for the elements' planing loads (force, lever
+    arm, place along the flow, magnitude), N the number of elements.
     """
     stats[:] = 0.0
     b_geo[:, :] = 0.0
@@ -293,12 +309,8 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
             px_, py_, pz_ = 0.0, 0.0, 0.0
         vx, vy, vz = velocity[0], velocity[1], velocity[2]
         n_el = el_area.shape[0]
-        # the planing pressure of each element (force, lever arm, place along the flow), weighted
+        # the planing pressure of each element (force, lever arm, place along the flow: pl_*), weighted
         # towards the spray root once all are known (see spray_root_weights)
-        pl_f = np.empty((n_el, 3))
-        pl_r = np.empty((n_el, 3))
-        pl_s = np.empty(n_el)
-        pl_m = np.empty(n_el)
         n_pl = 0
         # the direction from the wetted area's trailing edge towards its spray root: away from the
         # lowest point (a disk's wetted area is the segment around it, cut by the waterline across
@@ -532,6 +544,12 @@ def _shares(dx, dy, outline, n, phi, cs, sn, share):
 
 @njit(cache=True)
 def ring_map(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width):
+    """:func:`ring_map_into` with a shares matrix of its own."""
+    return ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, np.empty(0))
+
+
+@njit(cache=True)
+def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, work):
     """Where each column's displaced volume goes: the linear map of :func:`ring_deposit` and
     :func:`ring_lift`, computed once a step for both.
 
@@ -541,7 +559,8 @@ def ring_map(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width)
     skipping disk pushes water from its wet trailing edge (the only columns it occupies) and a rocking
     one from the side going down. Returns (band j, band i, column j, column i, shares), shares
     (columns, band) with rows summing to 1; no band column in the window: an empty band (each column
-    then keeps its volume).
+    then keeps its volume). The shares are written into ``work`` (1-D) when it is large enough
+    (columns x band values), else into a matrix of their own.
     """
     nj, ni = b_geo.shape
     n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
@@ -553,7 +572,7 @@ def ring_map(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width)
                 count += 1
     cj = np.empty(count, np.int64)
     ci = np.empty(count, np.int64)
-    shares = np.empty((count, n))
+    shares = work[:count * n].reshape((count, n)) if work.size >= count * n else np.empty((count, n))
     c = 0
     for j in range(nj):
         for i in range(ni):

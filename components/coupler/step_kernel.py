@@ -61,14 +61,17 @@ R_I_HI = 4
 R_J_LO = 5
 R_J_HI = 6
 R_DISPLACED = 7  # volume under the rest level [m^3]
-N_RESULTS = 8
+R_SHARES = 8  # values in the ring's shares matrix (columns x band): share_work needs this many
+N_RESULTS = 9
 
 
 class RingScratch:
     """Work arrays of :func:`ring_step` over a patch of shape (nj, ni), reused while the shape holds:
     b_geo, b_rest, b_out (nj, ni) [m]; waterline (3, nj, ni); flat (nj, ni) the rest level [m] and
     still (nj, ni) zeros [m/s] (the rest pass's surface); stats and rest_stats (kernel.N_STATS,);
-    lifted (3,); results (N_RESULTS,); axes (3, 3)."""
+    lifted (3,); results (N_RESULTS,); the elements' planing work arrays pl_f, pl_r (N, 3), pl_s,
+    pl_m (N,) for N elements (:meth:`planing_arrays`); share_work, room for the ring's shares, grown
+    to the largest seen (:meth:`grow_shares`)."""
 
     def __init__(self, shape: tuple[int, int], rest_level: float):
         self.shape = shape
@@ -83,6 +86,21 @@ class RingScratch:
         self.rest_stats = np.zeros(kernel.N_STATS)
         self.lifted = np.zeros(3)
         self.results = np.zeros(N_RESULTS)
+        self.share_work = np.empty(0)
+        self._planing: tuple[np.ndarray, ...] = ()
+
+    def planing_arrays(self, n_elements: int) -> tuple[np.ndarray, ...]:
+        """pl_f, pl_r, pl_s, pl_m for a body of ``n_elements`` surface elements."""
+        if not self._planing or self._planing[2].size != n_elements:
+            self._planing = (np.empty((n_elements, 3)), np.empty((n_elements, 3)), np.empty(n_elements),
+                             np.empty(n_elements))
+        return self._planing
+
+    def grow_shares(self) -> None:
+        """Make room for the shares matrix the last step needed, so later steps write it in place."""
+        needed = int(self.results[R_SHARES])
+        if needed > self.share_work.size:
+            self.share_work = np.empty(2 * needed)
 
 
 @njit(cache=True)
@@ -144,7 +162,8 @@ def _stability_bound(body, stats, prm):
 def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axes, low_half,
               x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
               el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-              b_geo, stats, flat, still, b_rest, waterline, b_out, rest_stats, lifted, results):
+              b_geo, stats, flat, still, b_rest, waterline, b_out, rest_stats, lifted, results,
+              pl_f, pl_r, pl_s, pl_m, share_work):
     """The forces of the named effects on the body over one patch, with the ring displacement.
 
     body (N_BODY,), prm (N_PARAMS,); axes (3, 3) and low_half (x_low, y_low, z_low, hx, hy) from
@@ -154,7 +173,9 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axe
     forces against the met surface plus the hydrostatics of the ring, as
     WaterCoupler._add_hydrostatics), b_geo, and the ring's b_rest, waterline, b_out, rest_stats,
     lifted; results (N_RESULTS,) the planing share, the top's depth, the stability bound, the
-    deposit's window and the displaced volume.
+    deposit's window, the displaced volume and the size of the ring's shares matrix. pl_f, pl_r,
+    pl_s, pl_m: :func:`kernel.evaluate_into`'s work arrays; share_work (1-D): room for the shares
+    (:func:`kernel.ring_map_into`).
     """
     radius = body[B_RADIUS]
     thickness = body[B_THICKNESS]
@@ -170,24 +191,27 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axe
     results[R_TOP_UNDER] = _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel)
     results[R_I_LO] = 1.0
     results[R_I_HI] = 0.0
-    kernel.evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
-                    x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
-                    el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                    rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN], prm[P_WET_RAMP],
-                    local_flags, nsub, b_geo, np.zeros((0, 0, 0)), stats, planing, prm[P_C_D])
+    kernel.evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
+                         x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
+                         el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                         rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN], prm[P_WET_RAMP],
+                         local_flags, nsub, b_geo, np.zeros((0, 0, 0)), stats, planing, prm[P_C_D],
+                         pl_f, pl_r, pl_s, pl_m)
     # --- the ring: the body under the rest level, pushed out around it --------------------------
     lifted[:] = 0.0
     if z_low >= rest_level:  # nothing of the body below the rest level: no displacement
         rest_stats[:] = 0.0
     else:
-        kernel.evaluate(shape, radius, thickness, centre, axes, np.zeros(3), np.zeros(3), half_x, half_y,
-                        x_low, y_low, z_low, x0, y0, cell, flat, still, bottom,
-                        el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                        rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN], prm[P_WET_RAMP],
-                        DISPLACEMENT | (flags & BUOYANCY), nsub, b_rest, waterline, rest_stats, 1.0, 0.0)
+        kernel.evaluate_into(shape, radius, thickness, centre, axes, np.zeros(3), np.zeros(3), half_x, half_y,
+                             x_low, y_low, z_low, x0, y0, cell, flat, still, bottom,
+                             el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                             rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
+                             prm[P_WET_RAMP], DISPLACEMENT | (flags & BUOYANCY), nsub, b_rest, waterline,
+                             rest_stats, 1.0, 0.0, pl_f, pl_r, pl_s, pl_m)
         if rest_stats[kernel.S_VOLUME] > 0.0:
-            band_j, band_i, col_j, col_i, shares = kernel.ring_map(
-                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell)
+            band_j, band_i, col_j, col_i, shares = kernel.ring_map_into(
+                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell, share_work)
+            results[R_SHARES] = shares.size
             i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(b_rest, band_j, band_i, col_j, col_i, shares, b_out)
             if i_lo <= i_hi:
                 results[R_I_LO] = i_lo
