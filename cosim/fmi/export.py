@@ -70,7 +70,9 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
     identifier = model_identifier(output)
     with tempfile.TemporaryDirectory(prefix="cosim-export-") as tmp:
         folder = Path(tmp)
-        script = folder / f"{identifier}.py"
+        # the module's name is its own (a scene called "json" must not import the standard library's
+        # json in its place); the class, named as the FMU, is the model identifier
+        script = folder / f"cosim_scene_{identifier}.py"
         script.write_text(SLAVE_MODULE.format(scene=scene.name, identifier=identifier), encoding="utf-8")
         (folder / SCENE_FILE).write_text(scene.text, encoding="utf-8")
         (folder / SPEC_FILE).write_text(spec.to_json(), encoding="utf-8")
