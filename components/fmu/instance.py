@@ -137,8 +137,10 @@ class FmuInstance:
         except FMICallException as exc:
             status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else f"status {exc.status}"
             self.worst = max(self.worst, exc.status)
-            errors = [m for m in self.log if m.startswith(("[Error]", "[Fatal]"))]
-            raise FmuCallError(function, status, errors or self.log) from None
+            # the FMU's own words first: an Error it logged says more than the Fatal its wrapper adds
+            said = ([m for m in self.log if m.startswith("[Error]")] or
+                    [m for m in self.log if m.startswith("[Fatal]")] or self.log)
+            raise FmuCallError(function, status, said) from None
 
     # --- values --------------------------------------------------------------------------------
 
