@@ -1,18 +1,27 @@
 """The stage monitor: which stage of a throw the stone is in, the skips, and when to stop.
 
-Stages (Tsai et al. 2022 names), decided from the body state and the contact reports:
+The contract, in full with the reasons, is docs/stages.md (tested in tests/test_stage_contract.py on
+the hard throws). Stages (Tsai et al. 2022 names), decided each step from the body state (vertical
+velocity ``vz`` [m/s], up positive) and the contact reports:
 
-- approach: airborne before the first contact, or falling back after a fly-away;
-- hit: touching water and moving down (vertical velocity < 0);
-- slide: touching water and moving up or level (vertical velocity >= 0);
-- fly-away: contact lost after a contact, the stone rising and its lowest point clear of the local
-  surface by at least ``takeoff_clearance`` (one skip counted). A contact that flickers while the
-  stone still grazes the surface is the same contact, not a new skip; so is a dry spell while the
-  stone still comes down (the water fell away under it, as behind a crest: the stone never bounced);
-- sink: fully submerged, not rising and pushed up by the water less than its weight, or touching
-  water too slowly to leave (horizontal speed below ``sink_speed``); final, except that a sunk stone can come
-  to rest on the bottom;
-- rest: on the solid ground and (nearly) still.
+- approach: airborne at the start, or coming down again (``vz < 0``) after a fly-away; ends at the
+  touchdown (the first wetted step);
+- hit: in contact and moving down (``vz < 0``);
+- slide: in contact and moving up or level (``vz >= 0``);
+- fly-away: after a contact, the stone dry, rising and its lowest point clear of the local surface
+  by more than ``takeoff_clearance`` [m]: one skip counted; ends when it comes down (approach).
+  A contact goes on while the stone is wetted, and while it is dry but within the clearance of the
+  surface (a flicker) or still coming down (the water fell away under it, as behind a crest: the
+  stone never bounced). Brushing the water while still rising after a fly-away is part of that
+  flight, not a new contact;
+- sink: touching water slower than ``sink_speed`` [m/s] horizontally, or wholly under water, not
+  rising and pushed up by the water (buoyancy + pressure + friction) no harder than its weight (a
+  stone under water that the pressure still throws back up is in hit or slide); final, except that
+  a sunk stone can come to rest on the bottom;
+- rest: on the solid ground and slower than ``rest_speed`` [m/s]; final.
+
+A skip is a contact that began moving down into the water and ended in a fly-away: the vertical
+speed changed sign and the stone rose clear; its :class:`SkipRecord` is published at the fly-away.
 
 Leaving the pond is an outcome, not a stage: the coupler exerts nothing where the water's grid has
 no columns and then reports the depth of the lowest point below the rest level, so a stone that is
@@ -85,6 +94,10 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             push = float(water.buoyancy[2] + water.pressure[2] + water.friction[2])
             if push <= body.mass * gravity:
                 return StageId.SINK
+        if previous is StageId.FLY_AWAY and vz >= 0:
+            # brushing the water (a crest under the climbing stone) before it has come back down is
+            # part of the flight, not a new contact: its end would be a skip with no bounce in it
+            return StageId.FLY_AWAY
         return StageId.HIT if vz < 0 else StageId.SLIDE
     if previous in (StageId.HIT, StageId.SLIDE):
         if contact_goes_on(water, vz, clearance):
