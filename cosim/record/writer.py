@@ -34,8 +34,11 @@ from cosim.errors import CosimError
 from cosim.record.output import claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
 
-BATCH = 128  # a batch is sent at this many records...
-BATCH_BYTES = 128 << 10  # ...or this many bytes: small, so the writer stays close behind (and the last batch is quick)
+BATCH = 1024  # a batch is sent at this many records...
+# ...or this many bytes: each batch wakes the writer process, which on a shared core can preempt the
+# simulation, so batches are few (about 70 for the reference skip, against 370 at 128 KiB); still
+# small enough that the last one, written after the run, takes the writer a few milliseconds
+BATCH_BYTES = 1 << 20
 STAGE_BYTES = 4 << 20  # the buffer batches are gathered in, allocated once: a water field or a checkpoint fits whole
 RING_BYTES = 8 << 20  # shared memory between the simulating and the writer process: reused, so its pages stay mapped
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
