@@ -423,8 +423,9 @@ class WaterCoupler(Component):
 
     def _body_vector(self, body: BodyState) -> np.ndarray:
         """The body's pose, motion and mass as :mod:`step_kernel`'s body vector (B_* layout)."""
-        return np.concatenate((body.position, body.orientation, body.velocity, body.angular_velocity,
-                               (body.radius, body.thickness, body.mass, min(body.inertia.tolist()))))
+        return np.array([*body.position.tolist(), *body.orientation.tolist(), *body.velocity.tolist(),
+                         *body.angular_velocity.tolist(), body.radius, body.thickness, body.mass,
+                         min(body.inertia.tolist())])
 
     def _ring_step(self, body: BodyState, bv: np.ndarray, axes: np.ndarray, low, half, met, water,
                    elements: Elements, nsub: int) -> tuple[np.ndarray, _Ring, float | None]:

@@ -31,29 +31,29 @@ from components.messages import BodyState
 
 
 @njit(cache=True)
-def _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v):
+def _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v, share, out_h, out_v):
     """h, v (nj, ni) = the live patch at (i0, j0), with the frozen window m_h, m_v at (mi0, mj0)
-    over the columns they share."""
+    over the columns they share; and, when share < 1, out = share * (h, v) + (1 - share) * live, in
+    the same pass over the patch."""
     nj, ni = height.shape
-    h[:, :] = height
-    v[:, :] = velocity
-    ia, ib = max(i0, mi0), min(i0 + ni, mi0 + m_h.shape[1])
-    ja, jb = max(j0, mj0), min(j0 + nj, mj0 + m_h.shape[0])
-    for j in range(ja, jb):
-        for i in range(ia, ib):
-            h[j - j0, i - i0] = m_h[j - mj0, i - mi0]
-            v[j - j0, i - i0] = m_v[j - mj0, i - mi0]
-
-
-@njit(cache=True)
-def _blend(share, h, v, height, velocity, out_h, out_v):
-    """out = share * frozen + (1 - share) * live, for the height and the velocity."""
     rest = 1.0 - share
-    nj, ni = h.shape
+    blend = share < 1.0
+    ia, ib = max(i0, mi0) - i0, min(i0 + ni, mi0 + m_h.shape[1]) - i0  # the shared columns, patch indices
+    ja, jb = max(j0, mj0) - j0, min(j0 + nj, mj0 + m_h.shape[0]) - j0
     for j in range(nj):
+        inside_j = ja <= j < jb
         for i in range(ni):
-            out_h[j, i] = share * h[j, i] + rest * height[j, i]
-            out_v[j, i] = share * v[j, i] + rest * velocity[j, i]
+            if inside_j and ia <= i < ib:
+                hh = m_h[j + j0 - mj0, i + i0 - mi0]
+                vv = m_v[j + j0 - mj0, i + i0 - mi0]
+            else:
+                hh = height[j, i]
+                vv = velocity[j, i]
+            h[j, i] = hh
+            v[j, i] = vv
+            if blend:
+                out_h[j, i] = share * hh + rest * height[j, i]
+                out_v[j, i] = share * vv + rest * velocity[j, i]
 
 
 def planing_share(body: BodyState, g: float) -> float:
@@ -90,14 +90,10 @@ class MetSurface:
             self._met = (i0, j0, height, velocity)
             return height, velocity
         mi0, mj0, m_h, m_v = met
-        frozen, blend = self._work_arrays(height.shape, m_h)
-        h, v = frozen
-        _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v)
+        (h, v), blend = self._work_arrays(height.shape, m_h)
+        _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v, share, blend[0], blend[1])
         self._met = (i0, j0, h, v)
-        if share < 1.0:
-            _blend(share, h, v, height, velocity, blend[0], blend[1])
-            return blend
-        return h, v
+        return blend if share < 1.0 else (h, v)
 
     def _work_arrays(self, shape: tuple[int, int], held: np.ndarray):
         """A pair of (nj, ni) arrays for this step's frozen window that are not ``held`` (the one
