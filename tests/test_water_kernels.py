@@ -227,3 +227,26 @@ def test_blur_matches_reference_and_keeps_the_sum(shape, passes):
     ref.blur(b, np.empty_like(b), passes, 0.125)
     assert np.array_equal(a, b)
     assert abs(a.sum() - d.sum()) <= 64 * EPS * np.abs(d).sum()
+
+
+@pytest.mark.parametrize("ny", [1, 2, 3, 4, 5, 8, 9])
+@pytest.mark.parametrize("shared", [False, True])
+def test_adi_sweeps_in_groups_of_rows_equal_the_line_by_line_rule(nb, ny, shared):
+    """The row sweep (four rows side by side, the rest one by one) and the column sweep (its
+    velocity written during the backward pass) give the bits of the numpy sweeps, line by line."""
+    shape = (ny, 6)
+    h, v = _random(shape, seed=ny)
+    rng = np.random.default_rng(10 + ny)
+    ax = rng.random((1 if shared else ny, 5)) * 100
+    fx = thomas_factors(ax, 0.05)
+    outs = [np.empty(shape), np.empty(shape)]
+    nb.adi_x(h, v, 0.05, outs[0], *fx)
+    ref.adi_x(h, v, 0.05, outs[1], *fx)
+    assert np.array_equal(outs[0], outs[1])
+    if ny > 1:
+        ay = rng.random((ny - 1, 1 if shared else 6)) * 100
+        fy = tuple(np.ascontiguousarray(f.T) for f in thomas_factors(np.ascontiguousarray(ay.T), 0.05))
+        vs = [np.empty(shape), np.empty(shape)]
+        nb.adi_y(h, 0.05, 0.9, outs[0], vs[0], *fy)
+        ref.adi_y(h, 0.05, 0.9, outs[1], vs[1], *fy)
+        assert np.array_equal(outs[0], outs[1]) and np.array_equal(vs[0], vs[1])

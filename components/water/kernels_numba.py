@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 PARALLEL_MIN_CELLS = 32_768  # smaller grids run single-threaded even in PARALLEL (thread start-up dominates)
-COLUMN_BLOCK = 64  # columns per task in the column (y) sweeps: contiguous rows of this many doubles
+COLUMN_BLOCK = 64  # columns per thread's task in the parallel column (y) sweep: contiguous runs of this many doubles
 
 
 # --- the wave step, one coefficient --------------------------------------------------------------
@@ -153,15 +153,55 @@ def _adi_x_row(h, v, dt, out, lower, inv, upper, j):  # pragma: no cover - compi
         o[i] = prev
 
 
+@njit(cache=True, inline="always")
+def _adi_x_rows4(h, v, dt, out, lower, inv, upper, j):  # pragma: no cover - compiled
+    # Rows j..j+3 solved side by side. Each row's sweep is a chain of dependent operations (a
+    # multiply waits for the previous cell's result), so one row at a time leaves the core idle
+    # most of each cycle; four independent chains interleaved keep it busy (about 4x faster).
+    # Each row's arithmetic is that of _adi_x_row, so the bits are the same.
+    nx = h.shape[1]
+    shared = lower.shape[0] == 1
+    f0, f1, f2, f3 = (0, 0, 0, 0) if shared else (j, j + 1, j + 2, j + 3)
+    h0, h1, h2, h3 = h[j], h[j + 1], h[j + 2], h[j + 3]
+    v0, v1, v2, v3 = v[j], v[j + 1], v[j + 2], v[j + 3]
+    o0, o1, o2, o3 = out[j], out[j + 1], out[j + 2], out[j + 3]
+    l0, l1, l2, l3 = lower[f0], lower[f1], lower[f2], lower[f3]
+    i0, i1, i2, i3 = inv[f0], inv[f1], inv[f2], inv[f3]
+    u0, u1, u2, u3 = upper[f0], upper[f1], upper[f2], upper[f3]
+    p0 = (h0[0] + dt * v0[0]) * i0[0]
+    p1 = (h1[0] + dt * v1[0]) * i1[0]
+    p2 = (h2[0] + dt * v2[0]) * i2[0]
+    p3 = (h3[0] + dt * v3[0]) * i3[0]
+    o0[0], o1[0], o2[0], o3[0] = p0, p1, p2, p3
+    for i in range(1, nx):
+        p0 = ((h0[i] + dt * v0[i]) - l0[i] * p0) * i0[i]
+        p1 = ((h1[i] + dt * v1[i]) - l1[i] * p1) * i1[i]
+        p2 = ((h2[i] + dt * v2[i]) - l2[i] * p2) * i2[i]
+        p3 = ((h3[i] + dt * v3[i]) - l3[i] * p3) * i3[i]
+        o0[i], o1[i], o2[i], o3[i] = p0, p1, p2, p3
+    for i in range(nx - 2, -1, -1):
+        p0 = o0[i] - u0[i] * p0
+        p1 = o1[i] - u1[i] * p1
+        p2 = o2[i] - u2[i] * p2
+        p3 = o3[i] - u3[i] * p3
+        o0[i], o1[i], o2[i], o3[i] = p0, p1, p2, p3
+
+
 @njit(cache=True, parallel=True)
 def _adi_x_par(h, v, dt, out, lower, inv, upper):  # pragma: no cover - compiled
-    for j in prange(h.shape[0]):
+    ny = h.shape[0]
+    for g in prange(ny // 4):
+        _adi_x_rows4(h, v, dt, out, lower, inv, upper, 4 * g)
+    for j in range(ny - ny % 4, ny):
         _adi_x_row(h, v, dt, out, lower, inv, upper, j)
 
 
 @njit(cache=True)
 def _adi_x_ser(h, v, dt, out, lower, inv, upper):  # pragma: no cover - compiled
-    for j in range(h.shape[0]):
+    ny = h.shape[0]
+    for g in range(ny // 4):
+        _adi_x_rows4(h, v, dt, out, lower, inv, upper, 4 * g)
+    for j in range(ny - ny % 4, ny):
         _adi_x_row(h, v, dt, out, lower, inv, upper, j)
 
 
@@ -169,39 +209,56 @@ def _adi_x_ser(h, v, dt, out, lower, inv, upper):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, i0, i1):  # pragma: no cover - compiled
-    # Columns i0..i1-1 solved together: the sweep runs over rows, the inner loop along a row
-    # segment is contiguous and vectorises. On a uniform grid the factors are one column (ny, 1),
-    # shared by all columns.
+    # Columns i0..i1-1 solved together: the sweeps run over rows, the inner loop along a row
+    # segment is contiguous and vectorises. The backward sweep also writes v_out, as each row is
+    # final once the sweep has passed it (one pass over memory fewer). On a uniform grid the
+    # factors are one column (ny, 1), shared by all columns.
     ny = h.shape[0]
     shared = lower.shape[1] == 1
-    for j in range(ny):
-        if j == 0:
-            if shared:
-                ivj = inv[0, 0]
-                for i in range(i0, i1):
-                    out[0, i] = out[0, i] * ivj
-            else:
-                for i in range(i0, i1):
-                    out[0, i] = out[0, i] * inv[0, i]
-        elif shared:
+    o = out[0]
+    if shared:
+        ivj = inv[0, 0]
+        for i in range(i0, i1):
+            o[i] = o[i] * ivj
+    else:
+        ivr = inv[0]
+        for i in range(i0, i1):
+            o[i] = o[i] * ivr[i]
+    for j in range(1, ny):
+        o = out[j]
+        op = out[j - 1]
+        if shared:
             loj = lower[j, 0]
             ivj = inv[j, 0]
             for i in range(i0, i1):
-                out[j, i] = (out[j, i] - loj * out[j - 1, i]) * ivj
+                o[i] = (o[i] - loj * op[i]) * ivj
         else:
+            lr = lower[j]
+            ir = inv[j]
             for i in range(i0, i1):
-                out[j, i] = (out[j, i] - lower[j, i] * out[j - 1, i]) * inv[j, i]
+                o[i] = (o[i] - lr[i] * op[i]) * ir[i]
+    o = out[ny - 1]
+    hr = h[ny - 1]
+    vo = v_out[ny - 1]
+    for i in range(i0, i1):
+        vo[i] = ((o[i] - hr[i]) / dt) * damp
     for j in range(ny - 2, -1, -1):
+        o = out[j]
+        on = out[j + 1]
+        hr = h[j]
+        vo = v_out[j]
         if shared:
             upj = upper[j, 0]
             for i in range(i0, i1):
-                out[j, i] -= upj * out[j + 1, i]
+                x = o[i] - upj * on[i]
+                o[i] = x
+                vo[i] = ((x - hr[i]) / dt) * damp
         else:
+            ur = upper[j]
             for i in range(i0, i1):
-                out[j, i] -= upper[j, i] * out[j + 1, i]
-    for j in range(ny):
-        for i in range(i0, i1):
-            v_out[j, i] = ((out[j, i] - h[j, i]) / dt) * damp
+                x = o[i] - ur[i] * on[i]
+                o[i] = x
+                vo[i] = ((x - hr[i]) / dt) * damp
 
 
 @njit(cache=True, parallel=True)
@@ -213,11 +270,9 @@ def _adi_y_par(h, dt, damp, out, v_out, lower, inv, upper, block):  # pragma: no
 
 
 @njit(cache=True)
-def _adi_y_ser(h, dt, damp, out, v_out, lower, inv, upper, block):  # pragma: no cover - compiled
-    nx = h.shape[1]
-    nblocks = (nx + block - 1) // block
-    for b in range(nblocks):
-        _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, b * block, min(nx, (b + 1) * block))
+def _adi_y_ser(h, dt, damp, out, v_out, lower, inv, upper):  # pragma: no cover - compiled
+    # one thread: whole rows (the longest contiguous runs; blocks only serve to split the work)
+    _adi_y_block(h, dt, damp, out, v_out, lower, inv, upper, 0, h.shape[1])
 
 
 
@@ -425,8 +480,10 @@ class NumbaKernels:
     def adi_y(self, h: np.ndarray, dt: float, damp: float, out: np.ndarray, v_out: np.ndarray,
               lower: np.ndarray, inv: np.ndarray, upper: np.ndarray) -> None:
         """See :func:`components.water.kernels_numpy.adi_y`."""
-        fn = _adi_y_par if self._threads(h) else _adi_y_ser
-        fn(h, dt, damp, out, v_out, lower, inv, upper, COLUMN_BLOCK)
+        if self._threads(h):
+            _adi_y_par(h, dt, damp, out, v_out, lower, inv, upper, COLUMN_BLOCK)
+        else:
+            _adi_y_ser(h, dt, damp, out, v_out, lower, inv, upper)
 
     def smooth(self, h: np.ndarray, h_out: np.ndarray, wx: np.ndarray, wy: np.ndarray, f: float) -> None:
         """See :func:`components.water.kernels_numpy.smooth`."""
