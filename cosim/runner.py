@@ -109,8 +109,10 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     finished = False
     try:
         if output is not None:
-            recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs,
-                                derivers=default_derivers(scene) if derivers is None else derivers)
+            # the recorder first, so that its writer process starts while the viewer channels'
+            # modules load (a short run waits at its end for the writer to finish the file)
+            recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs)
+            recorder.derivers = default_derivers(scene) if derivers is None else list(derivers)
             for deriver in recorder.derivers:  # components may override their looks (Component.visuals)
                 if hasattr(deriver, "bind"):
                     deriver.bind(sim.components)
