@@ -22,6 +22,7 @@ from components.messages import BodyState, Stage  # noqa: E402
 from cosim.cli import main  # noqa: E402
 from cosim.examples import Number  # noqa: E402
 from cosim.record.reader import Recording  # noqa: E402
+from cosim.replay import restart_simulation  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from tests.cli_toys import one_error_line  # noqa: E402
@@ -78,6 +79,7 @@ def test_fmpy_finds_no_problem_in_the_model_description(exported):
     assert [v.name for v in md.modelVariables if v.causality == "output"] == [
         "x", "y", "z", "vx", "vy", "vz", "stage", "skips"]
     assert md.defaultExperiment.stepSize == "0.01"
+    assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
 
 
 def test_fmpy_simulates_the_trajectory_and_skips_of_cosim_run_bit_for_bit(exported):
@@ -119,6 +121,23 @@ def test_the_exported_skip_imported_back_as_a_component_runs_the_same_throw(expo
         assert np.float64(vz[stamp].value).tobytes() == states[stamp].velocity[2:].tobytes()
         assert msg.skips == _skips_at(stages, stamp)
     assert seen[-1][1].skips == 3
+
+
+def test_the_imported_skip_restarts_from_a_checkpoint_through_the_fmus_own_state(exported, tmp_path):
+    """The exported FMU saves its state (the scene's checkpoint); a restart of the importing scene from
+    0.3 s ends where the whole run ends, bit for bit."""
+    fmu, _ = exported
+    (tmp_path / "skip.fmu").write_bytes(fmu.read_bytes())
+    scene_path = tmp_path / "skip_as_fmu.yaml"
+    scene_path.write_text(IMPORT_SCENE.replace("checkpoint_every: 0", "checkpoint_every: 0.3"))
+    whole = run_scene(load(scene_path), tmp_path / "whole.mcap", progress=False)
+    sim, stamp = restart_simulation(Recording(whole.recording), 300_000_000)
+    again = run_scene(sim.scene, tmp_path / "again.mcap", simulation=sim, progress=False)
+    assert stamp == 300_000_000 and again.result.status == "ok"
+    first = Recording(whole.recording).messages("/throw/stage", Stage)[-1]
+    second = Recording(again.recording).messages("/throw/stage", Stage)[-1]
+    assert second[0] == first[0] == UNTIL_NS
+    assert np.float64(second[1].x).tobytes() == np.float64(first[1].x).tobytes() and second[1].skips == 3
 
 
 def test_a_communication_step_off_the_base_step_grid_is_refused_with_the_reason(tmp_path, capsys):

@@ -77,7 +77,7 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
         (folder / SCENE_FILE).write_text(scene.text, encoding="utf-8")
         (folder / SPEC_FILE).write_text(spec.to_json(), encoding="utf-8")
         built = build_fmu(script, folder / "out" / output.name, extra_files=[folder / SCENE_FILE, folder / SPEC_FILE],
-                          state=False)
+                          state=True)
         add_initial_unknowns(built)
         output.parent.mkdir(parents=True, exist_ok=True)
         shutil.move(str(built), str(output))

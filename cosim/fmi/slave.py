@@ -20,6 +20,7 @@ from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
 
+from cosim.codec.json_codec import codec_for, decode_state, encode_state
 from cosim.errors import one_line
 from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
@@ -122,11 +123,13 @@ class SceneSlave(Fmi2Slave):
             sets += load_preset(self.spec.preset).overrides(as_written, derived)
         return sets
 
+    def _simulation(self) -> Simulation:
+        scene = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(), base_dir=self.spec.base_dir)
+        return Simulation(scene, observers=[self.latest])
+
     def exit_initialization_mode(self) -> None:
         try:
-            scene = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(),
-                          base_dir=self.spec.base_dir)
-            self.sim = Simulation(scene, observers=[self.latest])
+            self.sim = self._simulation()
             self.sim.initialize()
         except Exception as exc:  # a parameter that makes the scene invalid, a component that fails at t = 0
             self._fail(f"the scene cannot start: {exc}")
@@ -161,3 +164,32 @@ class SceneSlave(Fmi2Slave):
             sim.tick = end_tick  # the scene has stopped itself: time goes on, the outputs hold
         self._publish()
         return True
+
+    # --- state (what pythonfmu's getFMUstate / setFMUstate and their serialization carry) ------------
+
+    def _get_fmu_state(self) -> dict[str, Any]:
+        """The variables' values and, once initialized, the scene's checkpoint (every component's
+        state and port history, bit-exact) with the ports' latest messages the outputs read."""
+        state: dict[str, Any] = {"values": dict(self.values)}
+        if self.sim is not None:
+            state["checkpoint"] = encode_state(self.sim.checkpoint()).decode()
+            state["stop_reason"] = self.sim.stop_reason
+            state["latest"] = [[c, p, codec_for(type(m)).encode(m).decode()]
+                               for (c, p), m in self.latest.messages.items()]
+        return state
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        self.values.update(state["values"])
+        if "checkpoint" not in state:
+            return
+        try:
+            if self.sim is None:
+                self.sim = self._simulation()
+            sim = self.sim
+            sim.restore(decode_state(state["checkpoint"].encode()))
+            sim.stop_reason = state["stop_reason"]
+            self.latest.messages = {
+                (c, p): codec_for(sim.components[c].outputs[p].type).decode(text.encode())
+                for c, p, text in state["latest"]}
+        except Exception as exc:  # a state from another scene or another version of cosim
+            self._fail(f"cannot restore this state: {exc}")
