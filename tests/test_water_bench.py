@@ -54,3 +54,20 @@ def test_section_is_appended_to_other_sections(tmp_path):
     assert doc.read_text() == f"## Sweeps\n\nsweep table\n\n{bench.BEGIN}\n{bench.SECTION}\n\nx\n{bench.END}\n"
     bench.write_section(tmp_path / "new.md", f"{bench.SECTION}\n\nx\n")
     assert (tmp_path / "new.md").read_text() == f"{bench.BEGIN}\n{bench.SECTION}\n\nx\n{bench.END}\n"
+
+
+def test_paths_benchmark_writes_every_path_beside_the_uniform_step(tmp_path, capsys):
+    """A tiny run of the paths benchmark lists every path, its ratio to the uniform step and the
+    copy, and writes its own marked section with the reproducing command."""
+    path = Path(__file__).resolve().parent.parent / "tools" / "bench_water_paths.py"
+    spec = importlib.util.spec_from_file_location("bench_water_paths", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    doc = tmp_path / "performance.md"
+    assert bench.main(["--sizes", "16", "--rounds", "1", "--min-time", "0.0005", "--write", str(doc)]) == 0
+    text = doc.read_text()
+    assert text.startswith("<!-- water-paths:begin -->\n## Water paths\n")
+    for name in bench.PATHS:
+        assert f"| 16 x 16 | {name} |" in text
+    assert "| 16 x 16 | copy h and v (`np.copyto`) |" in text
+    assert "`python tools/bench_water_paths.py --sizes 16 --rounds 1" in text
