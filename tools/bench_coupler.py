@@ -87,11 +87,12 @@ Where the time still goes (py-spy, floating ball on 256 x 256): the compiled ste
 of the tick, as much as the water's own step, and the Python around it (reading the messages,
 building four, the base class's checks) about a fifth. The compiled step is arithmetic the model
 asks for: a 5 cm ball is tiled into 1200 surface elements (about 900 wet, each sampling the surface
-bilinearly), its 80 to 100 occupied columns are cut by 3 x 3 vertical chords twice (against the met
+bilinearly), its 90 to 120 occupied columns are cut by 3 x 3 vertical chords twice (against the met
 surface and the rest level), and the ring spreads each of them over the 120 band columns around it
 (a shares matrix of about 11,000 weights, built, deposited and read back every step). Reaching the
-targets needs fewer of these per step (a coarser element tiling or band, or shares kept while the
-body's pose barely changes), which changes the results beyond round-off, not a faster loop."""
+targets would need less of this work per step (a coarser element tiling or band, or shares reused
+while the body's pose barely changes), which changes the results beyond round-off; tighter loops
+alone would not close the remaining factor of about 2.5."""
 
 
 def pond_scene(n: int, coupled: bool) -> str:
