@@ -11,7 +11,10 @@ Ports (see DESIGN.md section 3)::
 
 One step: read the body state and the patch; if the body is far from the water, publish a zero
 wrench, an empty occupied window and an empty request at once (no column work). Otherwise evaluate
-the named effects (:mod:`components.coupler.kernel`) at the received state and publish their sum.
+the named effects (:mod:`components.coupler.kernel`) at the received state and publish their sum;
+with the ring displacement and one step at a time (the usual case) all of that column and element
+work is one compiled call (:mod:`components.coupler.step_kernel`), and Python only reads and builds
+the messages.
 
 Displacement and buoyancy (``displacement_mode: ring``, the default): the volume the body holds
 under the rest level is pushed out into a ring of columns around it, and the buoyancy is Archimedes'
@@ -263,7 +266,8 @@ class WaterCoupler(Component):
         return self.bound
 
     def summary(self) -> list[str]:
-        return [f"water coupler: effects {', '.join(self.params.effects) or 'none'}; "
+        label = "water coupler" if self.name == "coupler" else f"water coupler {self.name}"  # several: which
+        return [f"{label}: effects {', '.join(self.params.effects) or 'none'}; "
                 f"energy taken from the body {self.dissipated:.4g} J"]
 
     # --- stepping ---------------------------------------------------------------------------------
