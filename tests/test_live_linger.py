@@ -25,7 +25,8 @@ STILL_SERVING = re.compile(r"run finished; still serving on ws://127\.0\.0\.1:(\
 
 
 def start_live(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, queue.Queue]:
-    """``cosim run`` of the toy skip with --live on a free loopback port, unpaced; its stderr lines
+    """``cosim run`` of the toy skip with --live on a free loopback port, unpaced unless ``extra``
+    gives --live-speed; its stderr lines
     arrive on the returned queue (None at the end)."""
     scene = tmp_path / "skip.yaml"
     scene.write_text(SKIP_SCENE)
@@ -33,7 +34,8 @@ def start_live(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, queue.Que
     with open(tmp_path / "stdout.txt", "w") as out:
         proc = subprocess.Popen(
             [sys.executable, "-m", "cosim.cli", "run", str(scene), "--no-record", "-q", "--live", "127.0.0.1:0",
-             "--live-speed", "0", *extra], cwd=tmp_path, env=env, stdout=out, stderr=subprocess.PIPE, text=True)
+             *(extra if "--live-speed" in extra else ["--live-speed", "0", *extra])],
+            cwd=tmp_path, env=env, stdout=out, stderr=subprocess.PIPE, text=True)
     lines: queue.Queue = queue.Queue()
 
     def pump() -> None:
@@ -125,3 +127,18 @@ def test_live_linger_zero_ends_with_the_run(tmp_path):
         stop(proc)
     err = rest_of(lines)
     assert not any("still serving" in line for line in err), err
+
+
+def test_ctrl_c_during_the_run_stops_it_without_serving_on(tmp_path):
+    """A Ctrl-C while the run is still going ends the run (exit 1, interrupted, as without --live)
+    and the server with it: there is no finished run to keep serving."""
+    proc, lines = start_live(tmp_path, "--live-speed", "0.01")  # paced slowly: 60 s for the 0.6 s run
+    try:
+        wait_for(lines, re.compile(r"live view: ws://"))
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 1
+    finally:
+        stop(proc)
+    err = rest_of(lines)
+    assert not any("still serving" in line for line in err) and "Traceback" not in "".join(err), err
