@@ -26,8 +26,7 @@ STILL_SERVING = re.compile(r"run finished; still serving on ws://127\.0\.0\.1:(\
 
 def start_live(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, queue.Queue]:
     """``cosim run`` of the toy skip with --live on a free loopback port, unpaced unless ``extra``
-    gives --live-speed; its stderr lines
-    arrive on the returned queue (None at the end)."""
+    gives --live-speed; its stderr lines arrive on the returned queue (None at the end)."""
     scene = tmp_path / "skip.yaml"
     scene.write_text(SKIP_SCENE)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
