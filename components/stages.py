@@ -260,7 +260,8 @@ class StageMonitor(Component):
         return STAGE_NAMES[self.stage] if self.stage is not None else "none"
 
     def summary(self) -> list[str]:
-        lines = [f"stages: {' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)}"]
+        # named after the monitor ("stages" in most scenes), so that several monitors tell theirs apart
+        lines = [f"{self.name}: {' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)}"]
         start = self.track.start_x
         travelled = self.final_x - start if not math.isnan(start) else math.nan
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled:.2f} m; "

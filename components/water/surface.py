@@ -20,6 +20,13 @@ One step, from t to t + dt:
    empty when nothing is requested: then no column work is done), and the whole field when a frame
    is due.
 
+Several bodies on one pond: ``bodies: [stone, ball]`` gives each body its own three ports,
+``occupied_<name>``, ``request_<name>`` and ``patch_<name>`` (in place of ``occupied``, ``request`` and
+``patch``), for its own coupler. The water holds every body's displacement (step 1 for each, in the
+order named), so each body meets the waves of the others; each patch covers its own body's request
+and echoes that body's own occupied height, which is what its coupler needs to tell its own
+displacement from the water's.
+
 A step longer than the explicit model's stable step is refused by the framework
 (on_unstable: error) or split into equal substeps (on_unstable: substep); with substeps the inputs
 are applied once and the outputs built once, at the end of the whole step.
@@ -92,6 +99,8 @@ class WaterParams:
     field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
     backend: str = param("numba", doc="numba (compiled) or numpy (reference)")
     parallel: bool = param(False, doc="compiled kernels split large grids across threads")
+    bodies: list[str] = param([], doc="bodies sharing this water, each on its own ports occupied_<name>, "
+                                      "request_<name>, patch_<name> (empty: one body on occupied, request, patch)")
 
     def check(self) -> list[tuple[str, str]]:
         """Rules across fields and registry names, as (field, problem) pairs."""
@@ -103,6 +112,11 @@ class WaterParams:
         if self.field_every and self.field_rate:
             problems.append(("field_rate", "give field_every or field_rate, not both (got field_every "
                                            f"{self.field_every}, field_rate {self.field_rate:g})"))
+        for k, name in enumerate(self.bodies):
+            if not isinstance(name, str) or not name.isidentifier():
+                problems.append(("bodies", f"each must be a name of letters, digits and _ (got {name!r} at {k})"))
+        if len(set(self.bodies)) != len(self.bodies):
+            problems.append(("bodies", f"must not repeat a name (got {list(self.bodies)})"))
         if self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
             problems.append(("sponge_cells", f"must be < min(nx, ny) / 2 = {min(self.nx, self.ny) / 2:g} "
                                              f"for an absorbing boundary (got {self.sponge_cells})"))
@@ -121,6 +135,29 @@ class WaterSurface(Component):
         "patch": Port(HeightPatch, doc="columns over the requested window (+ margin), every step"),
         "field": Port(WaterField, doc="the whole surface, at the visual frame rate (viewers only)"),
     }
+
+    # the ports of each body: (occupied input, request input, patch output); one unnamed body by default
+    body_ports: tuple[tuple[str, str, str], ...] = (("occupied", "request", "patch"),)
+
+    @classmethod
+    def configure(cls, params: Any, path: str, base_dir: Any, problems: list[str]) -> type[Component] | None:
+        """With ``bodies`` named, a class with each body's own occupied, request and patch ports."""
+        if params is None or not params.bodies:
+            return cls
+        if any(name for name, _ in params.check() if name == "bodies"):
+            return None  # the problem is reported with the parameters
+        names = list(params.bodies)
+        ports = tuple((f"occupied_{n}", f"request_{n}", f"patch_{n}") for n in names)
+        inputs: dict[str, Port] = {}
+        outputs: dict[str, Port] = {}
+        for n, (occupied, request, patch) in zip(names, ports, strict=True):
+            inputs[occupied] = Port(OccupiedHeight, doc=f"absolute occupied height b of body {n} over a window")
+            inputs[request] = Port(PatchRequest, doc=f"world rectangle whose columns body {n}'s coupler needs next")
+            outputs[patch] = Port(HeightPatch, doc=f"columns over body {n}'s requested window (+ margin), "
+                                                   f"with its own occupied height")
+        outputs["field"] = cls.outputs["field"]
+        return type(cls.__name__, (cls,), {"__module__": cls.__module__, "__doc__": cls.__doc__,
+                                           "inputs": inputs, "outputs": outputs, "body_ports": ports})
 
     # --- construction -----------------------------------------------------------------------
 
@@ -164,8 +201,11 @@ class WaterSurface(Component):
             r2 = (x - bump.x) ** 2 + (y - bump.y) ** 2
             self._h += np.where(g.wet, bump.amplitude * np.exp(-r2 / (2.0 * bump.width**2)), 0.0)
         self.model.reset(self._h, self._v)
-        self._b = np.zeros(shape)  # occupied height of the last input, zero outside its window
-        self._b_window: tuple[int, int, int, int] | None = None
+        self._b = np.zeros(shape)  # occupied height of the last inputs (all bodies), zero outside their windows
+        self._b_window: tuple[int, int, int, int] | None = None  # one body's window (several: None)
+        # each body's own occupied height and window; one body's is the total itself
+        shared = len(self.body_ports) > 1
+        self._occupants = [_Occupant(np.zeros(shape) if shared else self._b) for _ in self.body_ports]
         self._steps = 0
         self._next_frame = 1
         self._empty_patch = HeightPatch(
@@ -216,7 +256,7 @@ class WaterSurface(Component):
             "steps": self._steps,
             "next_frame": self._next_frame,
             "model": self.model.get_state(),
-        }
+        } | ({"bodies": [_window_state(o.b, o.window) for o in self._occupants]} if len(self._occupants) > 1 else {})
 
     def set_state(self, state: dict[str, Any]) -> None:
         shape = self.grid.shape
@@ -232,6 +272,13 @@ class WaterSurface(Component):
         if self._b_window is not None:
             i0, i1, j0, j1 = self._b_window
             self._b[j0:j1, i0:i1] = state["b"]
+        if len(self._occupants) == 1:
+            self._occupants[0].window = self._b_window
+        else:  # each body's own, and the total as their sum
+            for occupant, saved in zip(self._occupants, state["bodies"], strict=True):
+                occupant.b[:] = 0.0
+                occupant.window = _put_window(occupant.b, saved["b_window"], saved["b"])
+            self._b[:] = sum(o.b for o in self._occupants)
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
         if state.get("model") is not None:
@@ -242,7 +289,7 @@ class WaterSurface(Component):
     # --- the step -------------------------------------------------------------------------------
 
     def initial_outputs(self) -> dict[str, Message]:
-        out: dict[str, Message] = {"patch": self._empty_patch}
+        out: dict[str, Message] = {patch_port: self._empty_patch for _, _, patch_port in self.body_ports}
         if self.params.field_every or self.params.field_rate:
             out["field"] = self._field()
         return out
@@ -251,14 +298,15 @@ class WaterSurface(Component):
         return self._substep(t, dt, 1, inputs)
 
     def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        occupied = inputs.get("occupied")
-        if occupied is not None:
-            self.apply_occupied(occupied)  # type: ignore[arg-type]
+        for k, (occupied_port, _, _) in enumerate(self.body_ports):
+            occupied = inputs.get(occupied_port)
+            if occupied is not None:
+                self.apply_occupied(occupied, k)  # type: ignore[arg-type]
         sub = dt / n
         for _ in range(n):
             self.advance(sub)
         self._steps += 1
-        return self._outputs(t + dt, inputs.get("request"))  # type: ignore[arg-type]
+        return self._outputs(t + dt, inputs)
 
     def advance(self, dt: float) -> None:
         """Advance the field by dt [s] with no input (model, boundary, smoothing)."""
@@ -275,8 +323,10 @@ class WaterSurface(Component):
         self._h, self._h2 = self._h2, self._h
         self._v, self._v2 = self._v2, self._v
 
-    def apply_occupied(self, msg: OccupiedHeight) -> None:
-        """h += b - b_prev over the union of the old and new windows (the part off the grid is ignored)."""
+    def apply_occupied(self, msg: OccupiedHeight, body: int = 0) -> None:
+        """h += b - b_prev over the union of the old and new windows of ``body`` (its index in
+        ``bodies``; the part off the grid is ignored)."""
+        occupant = self._occupants[body]
         g = self.grid
         b = np.asarray(msg.b, dtype=np.float64)
         if b.size == 0:
@@ -287,7 +337,7 @@ class WaterSurface(Component):
         i0, i1 = max(msg.i0, 0), min(msg.i0 + ni, g.nx)
         j0, j1 = max(msg.j0, 0), min(msg.j0 + nj, g.ny)
         new = (i0, i1, j0, j1) if i0 < i1 and j0 < j1 else None
-        old = self._b_window
+        old = occupant.window
         if new is None and old is None:
             return
         boxes = [w for w in (old, new) if w is not None]
@@ -300,23 +350,30 @@ class WaterSurface(Component):
         b_new = np.zeros((v1 - v0, u1 - u0))
         if new is not None:
             b_new[j0 - v0:j1 - v0, i0 - u0:i1 - u0] = b[j0 - msg.j0:j1 - msg.j0, i0 - msg.i0:i1 - msg.i0]
-        delta = b_new - self._b[v0:v1, u0:u1]
+        delta = b_new - occupant.b[v0:v1, u0:u1]
+        if occupant.b is not self._b:  # one of several bodies: the total takes its change
+            self._b[v0:v1, u0:u1] += delta
         if passes:
             self.kernels.blur(delta, np.empty_like(delta), passes, BLUR_WEIGHT)
         self._h[v0:v1, u0:u1] += delta
-        self._b[v0:v1, u0:u1] = b_new
-        self._b_window = new
+        occupant.b[v0:v1, u0:u1] = b_new
+        occupant.window = new
+        if occupant.b is self._b:
+            self._b_window = new
 
     # --- outputs --------------------------------------------------------------------------------
 
-    def _outputs(self, t_end: float, request: PatchRequest | None) -> dict[str, Message]:
-        out: dict[str, Message] = {"patch": self.patch(request)}
+    def _outputs(self, t_end: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        out: dict[str, Message] = {
+            patch_port: self.patch(inputs.get(request_port), k)  # type: ignore[arg-type]
+            for k, (_, request_port, patch_port) in enumerate(self.body_ports)}
         if self._field_due(t_end):
             out["field"] = self._field()
         return out
 
-    def patch(self, request: PatchRequest | None) -> HeightPatch:
-        """The columns over a requested rectangle plus the margin (empty when nothing is requested)."""
+    def patch(self, request: PatchRequest | None, body: int = 0) -> HeightPatch:
+        """The columns over a requested rectangle plus the margin (empty when nothing is requested),
+        with the occupied height of ``body`` (its index in ``bodies``)."""
         if request is None:
             return self._empty_patch
         g = self.grid
@@ -327,7 +384,8 @@ class WaterSurface(Component):
         sl = (slice(j0, j1), slice(i0, i1))
         return HeightPatch(i0=i0, j0=j0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y,
                            rest_level=g.rest_level, height=g.surface0[sl] + self._h[sl],
-                           velocity=self._v[sl].copy(), bottom=g.bed[sl].copy(), occupied=self._b[sl].copy())
+                           velocity=self._v[sl].copy(), bottom=g.bed[sl].copy(),
+                           occupied=self._occupants[body].b[sl].copy())
 
     def _field_due(self, t_end: float) -> bool:
         p = self.params
@@ -346,3 +404,26 @@ class WaterSurface(Component):
         g = self.grid
         return WaterField(cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, height=self.height,
                           volume=self.volume(), energy=self.energy())
+
+
+@dataclass
+class _Occupant:
+    """One body's occupied height b [m] over the whole grid (zero outside its window) and its window
+    (i0, i1, j0, j1), None when it occupies nothing."""
+
+    b: np.ndarray
+    window: tuple[int, int, int, int] | None = None
+
+
+def _window_state(b: np.ndarray, w: tuple[int, int, int, int] | None) -> dict[str, Any]:
+    return {"b_window": list(w) if w is not None else None,
+            "b": b[w[2]:w[3], w[0]:w[1]].copy() if w is not None else np.zeros((0, 0))}
+
+
+def _put_window(b: np.ndarray, w: list[int] | None, part: Any) -> tuple[int, int, int, int] | None:
+    """Write a saved window ``part`` into ``b``; the window as a tuple (None when empty)."""
+    if w is None:
+        return None
+    i0, i1, j0, j1 = (int(k) for k in w)
+    b[j0:j1, i0:i1] = part
+    return i0, i1, j0, j1

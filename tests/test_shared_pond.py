@@ -1,0 +1,162 @@
+"""Several bodies on one pond (WaterSurface ``bodies``): each body's coupler on its own ports, the
+water holding every displacement, each body meeting the others' waves; one body alone is today's
+result bit for bit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cosim.errors import ScenarioError
+from cosim.scenario import load, loads
+from cosim.scheduler import BaseObserver, Simulation
+
+SCENES = Path(__file__).resolve().parent.parent / "scenarios"
+
+
+class Track(BaseObserver):
+    """Every published state of one body: rows of (t, x, y, z, vx, vy, vz)."""
+
+    def __init__(self, body: str):
+        self.body, self.rows = body, []
+
+    def on_exchange(self, time_ns, component, port, msg):
+        if component == self.body and port == "state":
+            self.rows.append((time_ns * 1e-9, *msg.position, *msg.velocity))
+
+    @property
+    def array(self) -> np.ndarray:
+        return np.array(self.rows)
+
+
+def run(scene, body: str) -> tuple[np.ndarray, Simulation]:
+    track = Track(body)
+    sim = Simulation(scene, observers=[track])
+    sim.run()
+    return track.array, sim
+
+
+EXTRA_BODY = """  NAME:
+    type: RigidBody
+    shape: disk
+    radius: 0.05
+    thickness: 0.006
+    position: [4.0, 0.5, 500.0]
+  NAME_water:
+    type: WaterCoupler
+"""
+EXTRA_EDGES = """  - NAME.state -> NAME_water.body
+  - pond.patch_NAME -> NAME_water.water
+  - {from: NAME_water.wrench, to: NAME.wrench, delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}
+  - {from: NAME_water.occupied, to: pond.occupied_NAME, delay: 1, initial: {i0: 0, j0: 0, b: []}}
+  - {from: NAME_water.request, to: pond.request_NAME, delay: 1,
+     initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}}
+"""
+
+
+def skip_on_named_ports(extra_body: str = "") -> str:
+    """scenarios/skip.yaml with its pond's ports named for the stone (``bodies: [stone]``), and
+    optionally a second slate ``extra_body`` far above the pond with its own coupler and ports."""
+    text = (SCENES / "skip.yaml").read_text()
+    bodies = "[stone]" if not extra_body else f"[stone, {extra_body}]"
+    text = text.replace("    boundary: absorbing\n", f"    boundary: absorbing\n    bodies: {bodies}\n", 1)
+    for port in ("occupied", "request"):
+        text = text.replace(f"to: pond.{port},", f"to: pond.{port}_stone,")
+    text = text.replace("pond.patch -> coupler.water", "pond.patch_stone -> coupler.water")
+    if extra_body:
+        text = text.replace("  pond:\n", EXTRA_BODY.replace("NAME", extra_body) + "  pond:\n", 1)
+        head, record = text.split("\nrecord:\n")
+        text = head + "\n" + EXTRA_EDGES.replace("NAME", extra_body) + "\nrecord:\n" + record
+    return text
+
+
+@pytest.fixture(scope="module")
+def reference_skip():
+    return run(load(SCENES / "skip.yaml", ["until=0.7"]), "stone")[0]
+
+
+@pytest.mark.parametrize("extra", ["", "ball"])
+def test_one_body_on_a_shared_pond_is_todays_skip_bit_for_bit(reference_skip, extra):
+    """The reference skip with its pond's ports named for the stone, alone or beside a second body
+    that never reaches the water, follows exactly the track of scenarios/skip.yaml."""
+    scene = loads(skip_on_named_ports(extra), SCENES / "skip.yaml", ["until=0.7"])
+    track, sim = run(scene, "stone")
+    assert sim.components["stages"].track.skips == 3
+    assert np.array_equal(track, reference_skip)
+
+
+def test_two_stones_keep_the_water_volume_to_round_off():
+    """Two stones skipping side by side in a closed basin: the water's volume (bodies' occupied
+    height excluded) is what it was, to round-off, while both stones are in the water, and the
+    water holds the occupied height of both."""
+    scene = load(SCENES / "two_stones.yaml", ["until=0.36", "components.pond.boundary=reflecting"])
+    _, sim = run(scene, "left")
+    pond = sim.components["pond"]
+    # at 0.36 s both are in their second contact
+    assert sim.components["left_stages"].track.in_contact and sim.components["right_stages"].track.in_contact
+    assert pond.volume() == pytest.approx(pond.initial_volume, rel=1e-12)
+    # the water holds both stones' displacement: its total occupied height is the sum of theirs
+    assert np.allclose(pond._b, pond._occupants[0].b + pond._occupants[1].b, rtol=0, atol=1e-15)
+    assert pond._occupants[0].b.any() and pond._occupants[1].b.any()
+
+
+def test_a_floating_ball_is_moved_by_the_waves_of_a_passing_stone():
+    """The ball of scenarios/stone_and_ball.yaml moves exactly as it would alone until the stone's
+    waves can reach it (0.9 m from the first touchdown: no difference before 0.3 s), and differently
+    after."""
+    with_stone, _ = run(load(SCENES / "stone_and_ball.yaml", ["until=0.8"]), "ball")
+    alone, _ = run(load(SCENES / "stone_and_ball.yaml", ["until=0.8", "components.stone.position=[0.3, 0.4, 60.0]"]),
+                   "ball")
+    early = with_stone[:, 0] < 0.3
+    assert np.array_equal(with_stone[early], alone[early])
+    late = with_stone[:, 0] > 0.4
+    assert np.abs(with_stone[late, 1:4] - alone[late, 1:4]).max() > 1e-6
+
+
+def test_a_stone_on_anothers_wake_takes_another_track():
+    """The second stone of scenarios/wake_skip.yaml, flying 1.2 m behind the first over its wake,
+    takes a track that differs from its track alone once it meets the first one's waves."""
+    with_first, sim = run(load(SCENES / "wake_skip.yaml", ["until=0.7"]), "second")
+    alone, _ = run(load(SCENES / "wake_skip.yaml", ["until=0.7", "components.first.position=[0.3, 0.5, 60.0]"]),
+                   "second")
+    assert sim.components["second_stages"].track.skips == sim.components["first_stages"].track.skips == 3
+    early = with_first[:, 0] < 0.2
+    assert np.array_equal(with_first[early], alone[early])
+    assert np.abs(with_first[:, 1:4] - alone[:, 1:4]).max() > 1e-5
+
+
+def test_a_checkpoint_of_a_shared_pond_continues_the_same_run():
+    """Restored from a checkpoint at 0.3 s, the two-stone run continues exactly as the run that went
+    straight on (each body's own occupied height is part of the water's state)."""
+    straight, _ = run(load(SCENES / "two_stones.yaml", ["until=0.5", "components.pond.field_rate=0"]), "left")
+    first = Simulation(load(SCENES / "two_stones.yaml", ["until=0.3", "components.pond.field_rate=0"]))
+    first.run()
+    cp = first.checkpoint()
+    track = Track("left")
+    again = Simulation(load(SCENES / "two_stones.yaml", ["until=0.5", "components.pond.field_rate=0"]),
+                       observers=[track])
+    again.restore(cp)
+    again.run()
+    resumed = track.array
+    tail = straight[straight[:, 0] > 0.3 + 1e-9]
+    assert np.array_equal(resumed[-len(tail):], tail)
+
+
+@pytest.mark.parametrize("bodies, message", [
+    ("[stone, stone]", "must not repeat a name"),
+    ("[stone, 2nd]", "a name of letters, digits and _"),
+])
+def test_bad_body_names_are_refused_when_the_scene_loads(bodies, message):
+    text = skip_on_named_ports().replace("bodies: [stone]", f"bodies: {bodies}")
+    with pytest.raises(ScenarioError, match=message):
+        loads(text, SCENES / "skip.yaml")
+
+
+def test_a_shared_pond_has_no_unnamed_ports():
+    """With its bodies named, a pond has no plain 'patch' port: an edge to it names the port and
+    the ports the pond has."""
+    text = skip_on_named_ports().replace("pond.patch_stone -> coupler.water", "pond.patch -> coupler.water")
+    with pytest.raises(ScenarioError, match="patch"):
+        loads(text, SCENES / "skip.yaml")
