@@ -179,7 +179,9 @@ def readme_run_block() -> list[str]:
 
 
 def shape(line: str) -> str:
-    """A summary line with its numbers taken out (and the README's trailing `...` of a line it cuts)."""
+    """A summary line with its numbers taken out (and the README's trailing `...` of a line it cuts,
+    and the note of a first run that compiled the kernels)."""
+    line = re.sub(r", of which [^;]* compiling kernels once[^;]*;", ";", line).replace(" (compiling left out)", "")
     return NUMBER.sub("#", line.removesuffix(" ..."))
 
 
