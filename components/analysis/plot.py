@@ -49,10 +49,14 @@ def _shade_stages(ax, run: RunData) -> None:
 
 
 def stage_per_sample(run: RunData) -> np.ndarray:
-    """The stage in force at each recorded body state (-1 where none is known)."""
-    if run.stages is None:
+    """The stage in force at each recorded body state (-1 without a stage monitor)."""
+    if run.stages is None or not len(run.stages.t):
         return np.full(len(run.body.t), -1)
-    return run.stages.at(run.body.t)
+    stages = run.stages.at(run.body.t)
+    # the monitor publishes its first stage at the end of its first step: the states before that
+    # (the initial one) are in that stage, not in an unknown one
+    stages[stages < 0] = run.stages.stage[0]
+    return stages
 
 
 def against_time(run: RunData) -> bool:
