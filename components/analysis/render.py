@@ -291,8 +291,9 @@ class FrameRenderer:
     def stage_at(self, t: float) -> int:
         if self.stages is None or not len(self.stages[0]):
             return -1
-        i = int(np.searchsorted(self.stages[0], t, side="right")) - 1
-        return int(self.stages[1][i]) if i >= 0 else -1
+        # before the monitor's first message (the end of its first step) the stone is in that stage
+        i = max(0, int(np.searchsorted(self.stages[0], t, side="right")) - 1)
+        return int(self.stages[1][i])
 
     def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
