@@ -181,3 +181,26 @@ def test_a_frame_in_flight_says_how_high_the_stone_is_and_shows_its_shadow(skip_
     water_brightness = water[blue].sum(axis=-1).mean()
     shaded = (shadow_rows[..., 2] - shadow_rows[..., 0] > 0.1) & (shadow_rows.sum(axis=-1) < 0.85 * water_brightness)
     assert shaded.sum() >= 5, "no shadow under the stone"
+
+
+def test_a_scene_without_water_draws_no_water(tmp_path):
+    """A bounce on a floor (no water in the scene) gets no water surface nor a gap 'to the water'."""
+    from pathlib import Path
+
+    from components.analysis.data import load_body, rest_level
+    from components.analysis.render import FrameRenderer
+    from cosim.record.reader import Recording
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml"
+    path = tmp_path / "bounce.mcap"
+    run_scene(load(scene, ["until=0.3", "record.visual_rate=0"]), path, progress=False)
+    out = tmp_path / "bounce.png"
+    render(path, out, RenderOptions(width=WIDTH, at=0.25, progress=False))
+    image = np.asarray(Image.open(out).convert("RGB"), dtype=float) / 255
+    assert ((image[..., 2] - image[..., 0]) > 0.2).mean() < 0.01  # no blue water
+    rec = Recording(path)
+    renderer = FrameRenderer(load_body(rec), RenderOptions(width=WIDTH), rest_level(rec), "bounce", has_water=False)
+    renderer.draw(0.25, None)
+    assert "water" not in renderer.caption and renderer.caption.startswith("at z = ")

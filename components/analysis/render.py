@@ -34,7 +34,7 @@ from tqdm import tqdm
 from components.analysis.data import BodyTrack, iter_fields, load_body, rest_level, topics_of
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
 from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
-from components.messages import Shape, SkipRecord, Stage, StageId, WaterField
+from components.messages import Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
 from cosim.record.reader import Recording
@@ -250,8 +250,9 @@ class FrameRenderer:
     the water with the gap written beside it, then the rest of the stone and its path."""
 
     def __init__(self, body: BodyTrack, options: RenderOptions, rest: float, title: str,
-                 stages: tuple[np.ndarray, np.ndarray] | None = None):
+                 stages: tuple[np.ndarray, np.ndarray] | None = None, has_water: bool = True):
         self.body = body
+        self.has_water = has_water  # without water (a bounce on a floor) no surface is drawn nor measured to
         self.options = options
         self.rest = rest
         self.title = title
@@ -309,7 +310,7 @@ class FrameRenderer:
         image = Image.new("RGB", self.size, BACKGROUND)
         self._draw_floor(ImageDraw.Draw(image), cam, box)
 
-        surface = self._surface(field, field_mean, view)
+        surface = self._surface(field, field_mean, view) if self.has_water else None
         polys = np.array(body_polygons(body, pos, quat))
         centres = polys.mean(axis=1)
         under = (surface.height_at(centres) > centres[:, 2]) if surface is not None else np.zeros(len(polys), bool)
@@ -324,7 +325,7 @@ class FrameRenderer:
         if surface is not None:
             image = self._paint_water(image, cam, surface)
         draw = ImageDraw.Draw(image, "RGBA")
-        if gap > 0 and box.z[0] <= pos[2] <= box.z[1]:
+        if self.has_water and gap > 0 and box.z[0] <= pos[2] <= box.z[1]:
             self._draw_shadow(draw, cam, polys, surface)
         self._draw_trail(draw, cam, trail, trail_inside & ~trail_under)
         self._draw_stone(draw, cam, polys, ~under, pos)
@@ -335,8 +336,11 @@ class FrameRenderer:
             rad = max(3, self.text_px // 2)
             draw.ellipse((cx - rad, cy - rad, cx + rad, cy + rad), fill=tuple(to_uint8(MARKER_COLOR).tolist()),
                          outline=(50, 50, 50))
-        self.caption = height_caption(gap)
-        self._draw_drop_line(draw, cam, polys, gap)
+        if self.has_water:
+            self.caption = height_caption(gap)
+            self._draw_drop_line(draw, cam, polys, gap)
+        else:
+            self.caption = f"at z = {(gap + self.rest) * 100:.1f} cm"
 
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
@@ -618,8 +622,9 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     if stage_topics:
         pairs = rec.messages(stage_topics[0], Stage)
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
+    has_water = bool(fields or topics_of(rec, WaterContact))
     renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",
-                             stages)
+                             stages, has_water)
     cursor = _FieldCursor(rec, water)
     output.parent.mkdir(parents=True, exist_ok=True)
     writer = _writer(output, options.fps, renderer.size)
