@@ -191,15 +191,11 @@ class _FieldCursor:
 
 @dataclass
 class _View:
+    """The ranges [m] a frame shows (its :class:`Box` adds the drawn proportions)."""
+
     x: tuple[float, float]
     y: tuple[float, float]
     z: tuple[float, float]
-
-    def contains(self, points: np.ndarray) -> np.ndarray:
-        """Which points (N, 3) lie inside the view box."""
-        lo = np.array([self.x[0], self.y[0], self.z[0]])
-        hi = np.array([self.x[1], self.y[1], self.z[1]])
-        return np.all((points >= lo) & (points <= hi), axis=1)
 
     @property
     def box(self) -> tuple[float, float, float]:
