@@ -44,6 +44,9 @@ class Boundary:
     def __init__(self, grid: Grid, kernels: Any, sponge_cells: int = 0):
         self.grid = grid
         self.kernels = kernels
+        # how many cells from each edge after_step may rewrite (0: none); a tiled step reads those
+        # tiles again (components.water.tiles)
+        self.rewritten_band = 0
 
     def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float) -> None:
         """Modify the new state (h, v) in place; ``h_old`` is the state before the step."""
@@ -86,6 +89,7 @@ class Absorbing(Boundary):
         self._coef_dt: float | None = None
         self._coefs: tuple[np.ndarray, ...] = ()
         self.width = sponge_cells
+        self.rewritten_band = max(1, sponge_cells)
         self.sigma_max = SPONGE_STRENGTH * grid.c_max / (sponge_cells * grid.cell) if sponge_cells else 0.0
         self.sx = sponge_profile(grid.nx, sponge_cells, self.sigma_max)
         self.sy = sponge_profile(grid.ny, sponge_cells, self.sigma_max)

@@ -128,11 +128,18 @@ class WaveModel(Model):
     def max_stable_step(self) -> float:
         return self._bound
 
+    def uniform_factors(self, dt: float) -> tuple[float, float]:
+        """(kdt, damp) of a step of dt [s] on a uniform grid: kdt = dt c^2 / s^2 [1/s], damp the
+        velocity factor; the tiled step (:mod:`components.water.tiles`) takes the very same ones."""
+        c2 = self.grid.c2_uniform
+        if c2 is None:
+            raise ValueError("uniform_factors: the grid is not uniform (a sloped bed or dry cells)")
+        return dt * c2 / (self.grid.cell * self.grid.cell), damping_factor(self.damping, dt)
+
     def advance(self, h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray, dt: float) -> None:
         damp = damping_factor(self.damping, dt)
-        c2 = self.grid.c2_uniform
-        if c2 is not None:
-            kdt = dt * c2 / (self.grid.cell * self.grid.cell)
+        if self.grid.c2_uniform is not None:
+            kdt, damp = self.uniform_factors(dt)
             self.kernels.wave_uniform(h, v, h_out, v_out, kdt, dt, damp)
         else:
             self.kernels.wave_faces(h, v, h_out, v_out, self.ax, self.ay, dt, damp)

@@ -46,7 +46,8 @@ from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import energy, surface_energy, volume
 from components.water.grid import build_grid
-from components.water.models import MODELS
+from components.water.models import MODELS, WaveModel
+from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -99,6 +100,10 @@ class WaterParams:
     field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
     backend: str = param("numba", doc="numba (compiled) or numpy (reference)")
     parallel: bool = param(False, doc="compiled kernels split large grids across threads")
+    tile: int = param(DEFAULT_TILE, ge=0, doc="side of the tiles the wave model steps by [cells]: a tile at rest "
+                                              "with its neighbours at rest costs nothing (0: every column every "
+                                              "step; shallow_water, smoothing, a sloped bed and the numpy or "
+                                              "parallel kernels always step every column)")
     bodies: list[str] = param([], doc="bodies sharing this water, each on its own ports occupied_<name>, "
                                       "request_<name>, patch_<name> (empty: one body on occupied, request, patch)")
 
@@ -192,8 +197,13 @@ class WaterSurface(Component):
         shape = g.shape
         self._h = np.zeros(shape)
         self._v = np.zeros(shape)
-        self._h2 = np.empty(shape)  # spare buffers: each step writes into them, then they swap
-        self._v2 = np.empty(shape)
+        self.tiles = Tiles(shape, p.tile) if tiling_applies(
+            tile=p.tile, model=p.model, uniform=g.c2_uniform is not None, smoothing=p.smoothing,
+            backend=p.backend, parallel=p.parallel) else None
+        # spare buffers: each step writes into them, then they swap. Tiled, a tile left at rest
+        # must find zeros there; np.zeros maps its pages lazily, so a lake's far water costs no memory
+        self._h2 = np.zeros(shape) if self.tiles is not None else np.empty(shape)
+        self._v2 = np.zeros(shape) if self.tiles is not None else np.empty(shape)
         self._h3 = np.empty(shape) if p.smoothing > 0 else self._h2
         if p.initial is not None:
             x, y = g.centres()
@@ -201,6 +211,8 @@ class WaterSurface(Component):
             r2 = (x - bump.x) ** 2 + (y - bump.y) ** 2
             self._h += np.where(g.wet, bump.amplitude * np.exp(-r2 / (2.0 * bump.width**2)), 0.0)
         self.model.reset(self._h, self._v)
+        if self.tiles is not None:
+            self.tiles.reset(self._h, self._v)
         self._b = np.zeros(shape)  # occupied height of the last inputs (all bodies), zero outside their windows
         self._b_window: tuple[int, int, int, int] | None = None  # one body's window (several: None)
         # each body's own occupied height and window; one body's is the total itself
@@ -242,7 +254,19 @@ class WaterSurface(Component):
         return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {p.boundary} edges; "
                 f"volume change {change:+.3g} (relative); surface energy "
                 f"{surface_energy(self.grid, self._h):.3g} J (1/2 rho g sum eta^2 s^2; the model's lattice "
-                f"invariant {self.energy():.3g} J)"]
+                f"invariant {self.energy():.3g} J); {self._activity()}"]
+
+    def _activity(self) -> str:
+        """How much of the water was stepped: the share of tiles, peak and mean over the steps."""
+        t = self.tiles
+        if t is None:
+            return "every column stepped every step (active fraction 1)"
+        return (f"active water {100 * t.peak_fraction():.3g}% at most, {100 * t.mean_fraction():.3g}% on "
+                f"average (of {t.count} tiles of {t.tile} x {t.tile} cells, over {t.steps} steps)")
+
+    def active_fraction(self) -> float:
+        """Fraction of the water stepped in the last step (1 on the dense path)."""
+        return 1.0 if self.tiles is None else self.tiles.active_fraction()
 
     # --- state ----------------------------------------------------------------------------------
 
@@ -256,7 +280,8 @@ class WaterSurface(Component):
             "steps": self._steps,
             "next_frame": self._next_frame,
             "model": self.model.get_state(),
-        } | ({"bodies": [_window_state(o.b, o.window) for o in self._occupants]} if len(self._occupants) > 1 else {})
+        } | ({"tiles": self.tiles.get_state()} if self.tiles is not None else {}) | (
+            {"bodies": [_window_state(o.b, o.window) for o in self._occupants]} if len(self._occupants) > 1 else {})
 
     def set_state(self, state: dict[str, Any]) -> None:
         shape = self.grid.shape
@@ -279,6 +304,12 @@ class WaterSurface(Component):
                 occupant.b[:] = 0.0
                 occupant.window = _put_window(occupant.b, saved["b_window"], saved["b"])
             self._b[:] = sum(o.b for o in self._occupants)
+        if self.tiles is not None:
+            # the spare buffers afresh (zeros, as a tile left at rest needs them), the flags from the state
+            self._h2 = np.zeros(shape)
+            self._v2 = np.zeros(shape)
+            self.tiles.reset(self._h, self._v)
+            self.tiles.set_state(state.get("tiles", {}))
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
         if state.get("model") is not None:
@@ -310,6 +341,9 @@ class WaterSurface(Component):
 
     def advance(self, dt: float) -> None:
         """Advance the field by dt [s] with no input (model, boundary, smoothing)."""
+        if self.tiles is not None:
+            self._advance_tiles(dt)
+            return
         self.model.advance(self._h, self._v, self._h2, self._v2, dt)
         self.boundary.after_step(self._h, self._h2, self._v2, dt)
         if self.params.smoothing > 0:
@@ -320,6 +354,19 @@ class WaterSurface(Component):
             else:
                 self.kernels.smooth(self._h2, self._h3, *weights, f)
             self._h2, self._h3 = self._h3, self._h2
+        self._h, self._h2 = self._h2, self._h
+        self._v, self._v2 = self._v2, self._v
+
+    def _advance_tiles(self, dt: float) -> None:
+        """:meth:`advance` by tiles: only the tiles not at rest (and their neighbours) are stepped."""
+        model: WaveModel = self.model  # type: ignore[assignment]  # tiling_applies admits only it
+        tiles: Tiles = self.tiles  # type: ignore[assignment]
+        kdt, damp = model.uniform_factors(dt)
+        tiles.wave_step(self._h, self._v, self._h2, self._v2, kdt, dt, damp)
+        self.boundary.after_step(self._h, self._h2, self._v2, dt)
+        if self.boundary.rewritten_band:
+            tiles.rescan_edges(self._h2, self._v2, self.boundary.rewritten_band)
+        tiles.finish_step()
         self._h, self._h2 = self._h2, self._h
         self._v, self._v2 = self._v2, self._v
 
@@ -356,6 +403,8 @@ class WaterSurface(Component):
         if passes:
             self.kernels.blur(delta, np.empty_like(delta), passes, BLUR_WEIGHT)
         self._h[v0:v1, u0:u1] += delta
+        if self.tiles is not None:
+            self.tiles.touch(u0, u1, v0, v1)
         occupant.b[v0:v1, u0:u1] = b_new
         occupant.window = new
         if occupant.b is self._b:
@@ -403,7 +452,7 @@ class WaterSurface(Component):
     def _field(self) -> WaterField:
         g = self.grid
         return WaterField(cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, height=self.height,
-                          volume=self.volume(), energy=self.energy())
+                          volume=self.volume(), energy=self.energy(), active_fraction=self.active_fraction())
 
 
 @dataclass

@@ -1,0 +1,247 @@
+"""Stepping the explicit wave model by tiles: water at rest costs nothing until a wave reaches it.
+
+The grid is cut into square tiles of ``tile`` x ``tile`` cells (the last row and column of tiles
+may be narrower). A tile is *at rest* when every one of its columns has h = 0 and v = 0 exactly.
+On a uniform bed with no input, the explicit step of :class:`components.water.models.WaveModel`
+maps a cell at rest whose four neighbours are at rest to exactly (0, 0) (the Laplacian of zeros is
+0, so v' = (0 + kdt 0) damp = 0 and h' = 0 + dt 0 = 0), so a tile at rest whose four neighbouring
+tiles are at rest can be left as it is: the result is the dense step's, bit for bit, and the
+test is exact (all zeros), never a threshold.
+
+What makes a tile active, per step from state n to n + 1 (``plan``):
+
+- it or one of its four neighbours holds a non-zero column in state n (the stencil reads the four
+  neighbours only, so diagonal tiles never matter);
+- or its spare buffer is not all zeros: the step writes state n + 1 into the buffers that hold
+  state n - 1 (ping-pong), and a skipped tile must find zeros there. That is exactly "the tile was
+  not at rest in state n - 1", so the flags of the previous state decide it;
+- a body's displacement or a state set from outside marks the tiles it writes (:meth:`touch`,
+  :meth:`reset`).
+
+The step kernel writes the new columns of the tiles it steps and, row by row while the row is in
+cache, whether each of them holds anything but zeros. A boundary that rewrites the edge cells afterwards
+(absorbing) has the edge tiles it stepped scanned again (:meth:`rescan_edges`).
+
+Only the explicit ``wave`` model on a uniform grid (all wet, one wave speed) is stepped this way:
+the implicit ``shallow_water`` model couples whole rows and columns in each solve (a disturbance
+reaches every cell of its row in one step), positional smoothing and a sloped bed keep the dense
+path (:func:`tiling_applies` says which).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+DEFAULT_TILE = 32  # cells per tile side: 8 KiB of each array per tile, a wake is followed to within 32 cm at 1 cm
+
+
+def tiling_applies(*, tile: int, model: str, uniform: bool, smoothing: float, backend: str,
+                   parallel: bool) -> bool:
+    """Whether a water surface with these settings is stepped by tiles (else the dense path).
+
+    Tiles need the explicit model on a uniform grid (exactness rests on the uniform stencil), no
+    positional smoothing, and the compiled serial kernels (the numpy kernels are the reference, the
+    parallel set splits rows, not tiles).
+    """
+    return tile > 0 and model == "wave" and uniform and smoothing == 0.0 and backend == "numba" and not parallel
+
+
+@njit(cache=True)
+def _plan(nz, nz_prev, step):  # pragma: no cover - compiled
+    # step = nz dilated by its four neighbours, or nz_prev (the spare buffer's tile not all zero)
+    nty, ntx = nz.shape
+    count = 0
+    for tj in range(nty):
+        for ti in range(ntx):
+            on = nz[tj, ti] or nz_prev[tj, ti]
+            if not on and ti > 0:
+                on = nz[tj, ti - 1]
+            if not on and ti < ntx - 1:
+                on = nz[tj, ti + 1]
+            if not on and tj > 0:
+                on = nz[tj - 1, ti]
+            if not on and tj < nty - 1:
+                on = nz[tj + 1, ti]
+            step[tj, ti] = on
+            count += on
+    return count
+
+
+@njit(cache=True)
+def _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, step, tile, nz_out):  # pragma: no cover - compiled
+    # The arithmetic of each cell is that of kernels_numba._wave_uniform_row, term for term (the
+    # edge cells use their own height for the missing neighbour), so the stepped tiles hold the
+    # dense step's bits. Rows run outermost, and each run of neighbouring stepped tiles along a row
+    # is one loop like the dense one (it vectorises); whether a tile holds anything but zeros is
+    # read back from the row just written (in cache), stopping at the first non-zero column.
+    ny, nx = h.shape
+    nty, ntx = step.shape
+    for tj in range(nty):
+        j0 = tj * tile
+        j1 = min(j0 + tile, ny)
+        busy = False
+        for ti in range(ntx):
+            nz_out[tj, ti] = False
+            busy = busy or step[tj, ti]
+        if not busy:
+            continue
+        for j in range(j0, j1):
+            hc = h[j]
+            hs = h[j - 1] if j > 0 else hc
+            hn = h[j + 1] if j < ny - 1 else hc
+            vc = v[j]
+            ho = h_out[j]
+            vo = v_out[j]
+            ti = 0
+            while ti < ntx:
+                if not step[tj, ti]:
+                    ti += 1
+                    continue
+                run_end = ti
+                while run_end < ntx and step[tj, run_end]:
+                    run_end += 1
+                lo = ti * tile
+                hi = min(run_end * tile, nx)
+                if lo == 0:
+                    c = hc[0]
+                    east = hc[1] if nx > 1 else c
+                    lap = c + east + hs[0] + hn[0] - 4.0 * c
+                    vn = (vc[0] + kdt * lap) * damp
+                    vo[0] = vn
+                    ho[0] = c + dt * vn
+                    lo = 1
+                if hi == nx and nx - 1 >= lo:
+                    i = nx - 1
+                    c = hc[i]
+                    lap = hc[i - 1] + c + hs[i] + hn[i] - 4.0 * c
+                    vn = (vc[i] + kdt * lap) * damp
+                    vo[i] = vn
+                    ho[i] = c + dt * vn
+                    hi = nx - 1
+                for i in range(lo, hi):
+                    c = hc[i]
+                    lap = hc[i - 1] + hc[i + 1] + hs[i] + hn[i] - 4.0 * c
+                    vn = (vc[i] + kdt * lap) * damp
+                    vo[i] = vn
+                    ho[i] = c + dt * vn
+                for t in range(ti, run_end):
+                    if nz_out[tj, t]:
+                        continue
+                    for i in range(t * tile, min(t * tile + tile, nx)):
+                        if ho[i] != 0.0 or vo[i] != 0.0:
+                            nz_out[tj, t] = True
+                            break
+                ti = run_end
+
+
+@njit(cache=True)
+def _any_nonzero(h, v, j0, j1, i0, i1):  # pragma: no cover - compiled
+    for j in range(j0, j1):
+        for i in range(i0, i1):
+            if h[j, i] != 0.0 or v[j, i] != 0.0:
+                return True
+    return False
+
+
+@njit(cache=True)
+def _scan(h, v, tile, nz, only, band):  # pragma: no cover - compiled
+    # nz[t] = tile t holds a non-zero column; with ``only``, just the tiles it marks that lie within
+    # ``band`` cells of an edge of the grid (the rest of nz is kept)
+    ny, nx = h.shape
+    nty, ntx = nz.shape
+    for tj in range(nty):
+        j0 = tj * tile
+        j1 = min(j0 + tile, ny)
+        edge_row = j0 < band or j1 > ny - band
+        for ti in range(ntx):
+            i0 = ti * tile
+            i1 = min(i0 + tile, nx)
+            if only.shape[0] > 0:
+                if not only[tj, ti]:
+                    continue
+                if not (edge_row or i0 < band or i1 > nx - band):
+                    continue
+            nz[tj, ti] = _any_nonzero(h, v, j0, j1, i0, i1)
+
+
+class Tiles:
+    """Which tiles of an (ny, nx) grid are at rest, and the tiled wave step.
+
+    ``nz``: (nty, ntx) bool, tile holds a non-zero column in the current state; ``nz_prev`` the
+    same for the state before (the one the spare buffers hold); counters of stepped tiles for the
+    run's summary.
+    """
+
+    def __init__(self, shape: tuple[int, int], tile: int):
+        ny, nx = shape
+        self.tile = tile
+        self.shape = shape
+        self.nty = -(-ny // tile)
+        self.ntx = -(-nx // tile)
+        grid = (self.nty, self.ntx)
+        self.nz = np.zeros(grid, dtype=np.bool_)
+        self.nz_prev = np.zeros(grid, dtype=np.bool_)
+        self._nz_next = np.zeros(grid, dtype=np.bool_)
+        self._step = np.zeros(grid, dtype=np.bool_)
+        self._none = np.zeros((0, 0), dtype=np.bool_)
+        self.steps = 0  # tiled steps taken
+        self.stepped = 0  # tiles stepped, summed over those steps
+        self.peak = 0  # most tiles stepped in one step
+        self.last = 0  # tiles stepped in the last step
+
+    @property
+    def count(self) -> int:
+        """Number of tiles."""
+        return self.nty * self.ntx
+
+    def reset(self, h: np.ndarray, v: np.ndarray) -> None:
+        """Flags of a state (h, v) given from outside, whose spare buffers hold zeros."""
+        _scan(h, v, self.tile, self.nz, self._none, 0)
+        self.nz_prev[:] = False
+
+    def touch(self, i0: int, i1: int, j0: int, j1: int) -> None:
+        """Cells [j0:j1, i0:i1] were written from outside (a body's displacement): their tiles step."""
+        if i0 >= i1 or j0 >= j1:
+            return
+        t = self.tile
+        self.nz[j0 // t:(j1 - 1) // t + 1, i0 // t:(i1 - 1) // t + 1] = True
+
+    def wave_step(self, h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
+                  kdt: float, dt: float, damp: float) -> None:
+        """The uniform wave step (see :meth:`components.water.models.WaveModel.advance`) of the
+        tiles not at rest, into (h_out, v_out); the other tiles of h_out, v_out already hold zeros."""
+        n = int(_plan(self.nz, self.nz_prev, self._step))
+        _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, self._step, self.tile, self._nz_next)
+        self.steps += 1
+        self.stepped += n
+        self.peak = max(self.peak, n)
+        self.last = n
+
+    def rescan_edges(self, h: np.ndarray, v: np.ndarray, band: int) -> None:
+        """After a boundary rewrote the cells within ``band`` cells of the edges of (h, v), the new
+        state: the flags of the edge tiles that were stepped are read again."""
+        _scan(h, v, self.tile, self._nz_next, self._step, max(band, 1))
+
+    def finish_step(self) -> None:
+        """The new state becomes the current one: its flags too."""
+        self.nz_prev, self.nz, self._nz_next = self.nz, self._nz_next, self.nz_prev
+
+    def active_fraction(self) -> float:
+        """Fraction of the tiles stepped in the last step (0 before the first)."""
+        return self.last / self.count
+
+    def mean_fraction(self) -> float:
+        """Mean fraction of the tiles stepped per step (0 before the first)."""
+        return self.stepped / (self.steps * self.count) if self.steps else 0.0
+
+    def peak_fraction(self) -> float:
+        """Largest fraction of the tiles stepped in one step."""
+        return self.peak / self.count
+
+    def get_state(self) -> dict[str, int]:
+        return {"steps": self.steps, "stepped": self.stepped, "peak": self.peak, "last": self.last}
+
+    def set_state(self, state: dict[str, int]) -> None:
+        for key in ("steps", "stepped", "peak", "last"):
+            setattr(self, key, int(state.get(key, 0)))

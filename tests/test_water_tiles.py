@@ -1,0 +1,145 @@
+"""Stepping the water by tiles (components.water.tiles): the dense step's result, bit for bit, at a
+cost only where the water moves."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from components.messages import OccupiedHeight
+from components.water import GaussianBump, WaterParams, WaterSurface
+from components.water.tiles import Tiles
+from cosim.runner import run_scene
+from cosim.scenario import load
+
+NS = 10**9
+DT_NS = 2_000_000  # a 2 ms water step, as the reference skip's
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def pond(tile: int, **overrides) -> WaterSurface:
+    params = dict(nx=160, ny=70, cell=0.01, depth=0.5, boundary="absorbing", tile=tile) | overrides
+    return WaterSurface("pond", WaterParams(**params))
+
+
+def stone_input(k: int) -> OccupiedHeight | None:
+    """A small body sliding along x, pressing in and out, from step 20 to step 120 (then gone)."""
+    if not 20 <= k < 120:
+        return None if k < 20 else OccupiedHeight(i0=0, j0=0, b=np.zeros((0, 0)))
+    return OccupiedHeight(i0=30 + k // 4, j0=30, b=np.full((4, 6), 2e-3 * (1 + k % 5)))
+
+
+def run(surface: WaterSurface, steps: int, inputs=lambda k: None) -> WaterSurface:
+    for k in range(steps):
+        surface.step(k * DT_NS, DT_NS, {"occupied": inputs(k), "request": None})
+    return surface
+
+
+CASES = {
+    "reflecting": dict(boundary="reflecting"),
+    "absorbing": dict(boundary="absorbing"),
+    "absorbing with a sponge": dict(boundary="absorbing", sponge_cells=6),
+    "damped": dict(boundary="reflecting", damping=0.8),
+    "tiles not dividing the grid": dict(boundary="absorbing", nx=150, ny=67),
+}
+
+
+@pytest.mark.parametrize("case", CASES, ids=list(CASES))
+def test_a_stone_throw_tiled_is_the_dense_step_bit_for_bit(case):
+    """A body pressing in, sliding and leaving: h, v and the volume equal the dense step's exactly."""
+    dense = run(pond(0, **CASES[case]), 220, stone_input)
+    tiled = run(pond(16, **CASES[case]), 220, stone_input)
+    assert dense.tiles is None and tiled.tiles is not None
+    assert np.array_equal(tiled.get_state()["h"], dense.get_state()["h"])
+    assert np.array_equal(tiled.get_state()["v"], dense.get_state()["v"])
+    assert tiled.volume() == dense.volume()
+
+
+def test_a_bump_tiled_is_the_dense_step_bit_for_bit():
+    """An initial bump spreading to the edges gives the dense field exactly, step after step."""
+    bump = dict(initial=GaussianBump(x=0.4, y=0.3, amplitude=2e-3, width=0.02), boundary="reflecting")
+    dense, tiled = pond(0, **bump), pond(16, **bump)
+    for k in range(150):
+        run(dense, 1), run(tiled, 1)
+        if k % 30 == 0:
+            assert np.array_equal(tiled.get_state()["h"], dense.get_state()["h"])
+    assert np.array_equal(tiled.get_state()["v"], dense.get_state()["v"])
+
+
+def test_a_tile_at_rest_costs_nothing():
+    """Water at rest steps no tile at all; a touch wakes its tile and the four around it only."""
+    still = run(pond(16), 10)
+    assert still.tiles.stepped == 0 and still.active_fraction() == 0.0
+    surface = pond(16)
+    surface.step(0, DT_NS, {"occupied": OccupiedHeight(i0=40, j0=40, b=np.full((2, 2), 1e-3)), "request": None})
+    assert surface.tiles.last == 5  # tile (2, 2) and its four neighbours, of 10 x 5 tiles
+    assert surface.tiles.count == 50
+
+
+def test_the_wave_wakes_tiles_only_as_it_reaches_them():
+    """A small bump in one corner: far tiles stay at rest for the first steps, then wake."""
+    corner = dict(initial=GaussianBump(x=0.05, y=0.05, amplitude=1e-3, width=0.004), boundary="reflecting",
+                  nx=320, ny=160)
+    surface = pond(16, **corner)
+    run(surface, 3)
+    first = surface.tiles.last
+    assert 0 < first < surface.tiles.count // 4
+    run(surface, 200)
+    assert surface.tiles.last > first
+    assert surface.tiles.peak_fraction() >= surface.tiles.mean_fraction() > 0.0
+
+
+def test_the_summary_and_the_field_say_how_much_water_was_active():
+    """The summary line names the active share (peak and mean); the field carries the last one."""
+    surface = run(pond(16, field_every=1), 40, stone_input)
+    (line,) = surface.summary()
+    assert "active water" in line and "at most" in line and "on average" in line
+    field = surface.step(40 * DT_NS, DT_NS, {"occupied": None, "request": None})["field"]
+    assert field.active_fraction == surface.active_fraction()
+    assert 0.0 < field.active_fraction < 1.0
+    dense = run(pond(0, field_every=1), 2)
+    assert "active fraction 1" in dense.summary()[0]
+
+
+@pytest.mark.parametrize("settings", [dict(model="shallow_water"), dict(smoothing=2.0),
+                                      dict(bottom_slope=(0.1, 0.0)), dict(backend="numpy"),
+                                      dict(parallel=True)])
+def test_the_paths_where_tiling_is_not_exact_step_every_column(settings):
+    """Implicit shallow water, smoothing, a sloped bed and the reference or parallel kernels stay dense."""
+    assert pond(16, **settings).tiles is None
+
+
+def test_a_state_set_from_outside_is_stepped_where_it_moves():
+    """set_state: the tiles follow the given field (and the result is still the dense one)."""
+    dense, tiled = pond(0), pond(16)
+    h = np.zeros((70, 160))
+    h[10:14, 100:104] = 1e-3
+    for surface in (dense, tiled):
+        surface.set_state(surface.get_state() | {"h": h})
+    run(dense, 60), run(tiled, 60)
+    assert np.array_equal(tiled.get_state()["h"], dense.get_state()["h"])
+    assert 0 < tiled.tiles.mean_fraction() < 1
+
+
+def test_touch_marks_the_tiles_of_a_window():
+    """Cells [j0:j1, i0:i1] mark exactly the tiles they overlap."""
+    tiles = Tiles((70, 160), 16)
+    tiles.touch(15, 17, 31, 33)
+    assert sorted(zip(*np.nonzero(tiles.nz), strict=True)) == [(1, 0), (1, 1), (2, 0), (2, 1)]
+
+
+def test_the_reference_skip_tiled_is_the_dense_skip():
+    """The coupled throw (stone, coupler, water) over its first skips: the stone's state is the same
+    bit for bit whether the pond is stepped by tiles or densely."""
+    finals = []
+    for tile in (0, 32):
+        scene = load(ROOT / "scenarios" / "skip.yaml",
+                     overrides=["until=0.45", "components.pond.field_rate=0", f"components.pond.tile={tile}"])
+        outcome = run_scene(scene, None, progress=False)
+        stone = outcome.simulation.components["stone"].get_state()
+        water = outcome.simulation.components["pond"].get_state()
+        finals.append((stone, water["h"]))
+    (stone_d, h_d), (stone_t, h_t) = finals
+    assert np.array_equal(h_d, h_t)
+    for key, value in stone_d.items():
+        assert np.array_equal(np.asarray(value), np.asarray(stone_t[key])), key
