@@ -25,11 +25,11 @@ def sixteen_gb(monkeypatch):
 
 
 def test_a_40000_by_40000_lake_is_refused_with_the_figure(sixteen_gb):
-    """40000 x 40000 cells (about 205 GB) is one ScenarioError naming the need and the machine."""
+    """40000 x 40000 cells (about 102 GB) is one ScenarioError naming the need and the machine."""
     with pytest.raises(ScenarioError) as err:
         loads(POND.format(nx=40000, ny=40000))
     (problem,) = err.value.problems
-    assert problem == ("components: the scene needs about 205 GB of memory (pond 205 GB), more than this "
+    assert problem == ("components: the scene needs about 102 GB of memory (pond 102 GB), more than this "
                        "machine's 16 GB allows (90%); use a smaller grid")
 
 
@@ -37,9 +37,9 @@ def test_the_estimate_follows_the_grid_and_the_machine(monkeypatch):
     """A grid that fits is built; the same grid on a smaller machine is refused."""
     scene = loads(POND.format(nx=300, ny=200))
     cfg = scene.components["pond"]
-    assert cfg.cls.estimate_bytes(cfg.params) == 300 * 200 * 16 * 8
-    monkeypatch.setattr(cosim.scenario, "machine_memory", lambda: 5_000_000)
-    figure = r"needs about 7\.68 MB of memory \(pond 7\.68 MB\), more than this machine's 5 MB"
+    assert cfg.cls.estimate_bytes(cfg.params) == 300 * 200 * 8 * 8  # a flat bed: 8 arrays of the grid
+    monkeypatch.setattr(cosim.scenario, "machine_memory", lambda: 3_000_000)
+    figure = r"needs about 3\.84 MB of memory \(pond 3\.84 MB\), more than this machine's 3 MB"
     with pytest.raises(ScenarioError, match=figure):
         loads(POND.format(nx=300, ny=200))
 

@@ -57,6 +57,12 @@ class Grid:
         return (self.ny, self.nx)
 
     @property
+    def compact(self) -> bool:
+        """The bed is flat and all wet: every per-cell array is one value seen at every cell (a
+        read-only broadcast view, no memory per cell), as a lake of 10^7 columns needs."""
+        return is_broadcast(self.bed)
+
+    @property
     def c_max(self) -> float:
         """Largest wave speed on the grid [m/s] (0 when every cell is dry)."""
         k = max(float(self.kx.max(initial=0.0)), float(self.ky.max(initial=0.0)))
@@ -92,6 +98,21 @@ class Grid:
         return i0, i1, j0, j1
 
 
+def is_broadcast(a: np.ndarray) -> bool:
+    """Whether ``a`` is one value seen at every index (a stride-0 view of more than one element)."""
+    return a.size > 1 and all(stride == 0 for stride in a.strides)
+
+
+def uniform_view(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """The first value of ``a`` seen at every index of ``shape`` (read-only, no memory per element)."""
+    return np.broadcast_to(np.array(a.flat[0], dtype=a.dtype), shape)
+
+
+def holds_one_value(nx: int, ny: int, bottom_slope: tuple[float, float]) -> bool:
+    """Whether :func:`build_grid` holds each per-cell array as one value (a flat bed, larger than 2 x 2)."""
+    return tuple(bottom_slope) == (0.0, 0.0) and (nx > 2 or ny > 2)
+
+
 def build_grid(nx: int, ny: int, cell: float, depth: float, *, origin_x: float = 0.0,
                origin_y: float = 0.0, rest_level: float = 0.0,
                bottom_slope: tuple[float, float] = (0.0, 0.0),
@@ -100,7 +121,19 @@ def build_grid(nx: int, ny: int, cell: float, depth: float, *, origin_x: float =
 
     ``wave_speed`` [m/s] fixes K = c^2 on every wet face; None gives the physical shallow-water
     speed sqrt(g d) from the local rest depth.
+
+    A flat bed (every cell the same, all wet) is held as one value per array, seen at every cell:
+    the values are those a dense grid would hold, computed by the same formulas on a 2 x 2 grid.
     """
+    if holds_one_value(nx, ny, bottom_slope) and depth > 0.0:
+        small = build_grid(2, 2, cell, depth, origin_x=origin_x, origin_y=origin_y, rest_level=rest_level,
+                           wave_speed=wave_speed)
+        return Grid(nx=nx, ny=ny, cell=cell, origin_x=origin_x, origin_y=origin_y, rest_level=rest_level,
+                    depth=depth, bed=uniform_view(small.bed, (ny, nx)),
+                    surface0=uniform_view(small.surface0, (ny, nx)), depth0=uniform_view(small.depth0, (ny, nx)),
+                    wet=uniform_view(small.wet, (ny, nx)), kx=uniform_view(small.kx, (ny, nx - 1)),
+                    ky=uniform_view(small.ky, (ny - 1, nx)), c2_uniform=small.c2_uniform,
+                    column_mass=small.column_mass)
     x = origin_x + cell * np.arange(nx)
     y = origin_y + cell * np.arange(ny)
     xc = origin_x + cell * (nx - 1) / 2

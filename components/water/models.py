@@ -36,7 +36,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from components.water.grid import Grid
+from components.water.grid import Grid, is_broadcast, uniform_view
 
 
 def damping_factor(rate: float, dt: float) -> float:
@@ -72,6 +72,13 @@ def thomas_factors(a: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np
     return lower, inv, upper
 
 
+def _per_face(k: np.ndarray, s2: float) -> np.ndarray:
+    """Face coefficients K / s^2 [1/s^2]; one value for a compact grid's one value."""
+    if is_broadcast(k):
+        return uniform_view(np.array([k.flat[0] / s2]), k.shape)
+    return np.ascontiguousarray(k / s2)
+
+
 class Model:
     """A time integrator of the height field. Subclasses set ``name`` and ``explicit``."""
 
@@ -84,8 +91,8 @@ class Model:
         self.damping = damping
         self.closed = closed
         s2 = grid.cell * grid.cell
-        self.ax = np.ascontiguousarray(grid.kx / s2)  # (ny, nx-1) [1/s^2]
-        self.ay = np.ascontiguousarray(grid.ky / s2)  # (ny-1, nx) [1/s^2]
+        self.ax = _per_face(grid.kx, s2)  # (ny, nx-1) [1/s^2]
+        self.ay = _per_face(grid.ky, s2)  # (ny-1, nx) [1/s^2]
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] (inf for an unconditionally stable model)."""
@@ -116,12 +123,17 @@ class WaveModel(Model):
         super().__init__(grid, kernels, damping, closed)
         # Gershgorin: the operator's eigenvalues are below max over cells of 2 sum_f a_f, and the
         # leapfrog needs dt^2 lambda <= 4. On a uniform grid (4 faces of c^2/s^2) this is exactly
-        # c dt / s <= 1/sqrt(2). Computed once: the bound depends only on the grid.
-        total = np.zeros(grid.shape)
-        total[:, 1:] += self.ax
-        total[:, :-1] += self.ax
-        total[1:, :] += self.ay
-        total[:-1, :] += self.ay
+        # c dt / s <= 1/sqrt(2). Computed once: the bound depends only on the grid. A compact grid's
+        # corner of 3 x 3 cells holds every case (edge, corner, interior), summed in the same order.
+        ax, ay = self.ax, self.ay
+        if grid.compact:
+            ny, nx = min(grid.ny, 3), min(grid.nx, 3)
+            ax, ay = ax[:ny, :nx - 1], ay[:ny - 1, :nx]
+        total = np.zeros((ax.shape[0], ay.shape[1]))
+        total[:, 1:] += ax
+        total[:, :-1] += ax
+        total[1:, :] += ay
+        total[:-1, :] += ay
         peak = float(total.max())
         self._bound = math.sqrt(2.0 / peak) if peak > 0.0 else math.inf
 

@@ -45,7 +45,7 @@ from components.messages import HeightPatch, OccupiedHeight, PatchRequest, Water
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import energy, surface_energy, volume
-from components.water.grid import build_grid
+from components.water.grid import build_grid, holds_one_value
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
 from cosim.component import Component, Port
@@ -57,6 +57,7 @@ KERNELS: dict[str, Any] = {"numba": kernels_numba.SERIAL, "numpy": kernels_numpy
 """Kernel sets by name: the compiled one and the pure-numpy reference."""
 
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
+FIELD_WINDOW_STEP = 32  # [cells] the field window's corner moves in steps of this many cells
 BLUR_WEIGHT = 0.125  # weight of each neighbour difference in one displacement blur pass (<= 1/8: monotone)
 
 
@@ -98,6 +99,9 @@ class WaterParams:
     patch_margin: int = param(1, ge=0, doc="cells added around the requested window")
     field_every: int = param(0, ge=0, doc="publish the whole field every N steps (0: never)")
     field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
+    field_window: tuple[float, float] | None = param(
+        None, unit="m", doc="the published field covers this (x, y) size around the bodies, following the "
+                            "last water they asked for (none: the whole surface)")
     backend: str = param("numba", doc="numba (compiled) or numpy (reference)")
     parallel: bool = param(False, doc="compiled kernels split large grids across threads")
     tile: int = param(DEFAULT_TILE, ge=0, doc="side of the tiles the wave model steps by [cells]: a tile at rest "
@@ -122,6 +126,8 @@ class WaterParams:
                 problems.append(("bodies", f"each must be a name of letters, digits and _ (got {name!r} at {k})"))
         if len(set(self.bodies)) != len(self.bodies):
             problems.append(("bodies", f"must not repeat a name (got {list(self.bodies)})"))
+        if self.field_window is not None and min(self.field_window) <= 0:
+            problems.append(("field_window", f"must be two sizes > 0 [m] (got {list(self.field_window)})"))
         if self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
             problems.append(("sponge_cells", f"must be < min(nx, ny) / 2 = {min(self.nx, self.ny) / 2:g} "
                                              f"for an absorbing boundary (got {self.sponge_cells})"))
@@ -170,10 +176,18 @@ class WaterSurface(Component):
     # occupied height, the bed, rest depth and surface, two wave-speed coefficients and two masks,
     # plus the model's and the boundary's work arrays
     ARRAYS_PER_CELL = 16
+    # on a flat bed the bed, depths, coefficients and masks are one value each (grid.holds_one_value):
+    # height, velocity, their spare buffers and the occupied height, a checkpoint's copies of height
+    # and velocity, one temporary. Tiled, only the pages of water that has moved are ever touched,
+    # so this is the bound for a lake whose every column moves.
+    FLAT_ARRAYS_PER_CELL = 8
 
     @classmethod
     def estimate_bytes(cls, params: WaterParams) -> int:
-        return int(params.nx) * int(params.ny) * cls.ARRAYS_PER_CELL * 8
+        flat = holds_one_value(int(params.nx), int(params.ny), params.bottom_slope)
+        arrays = cls.FLAT_ARRAYS_PER_CELL if flat else cls.ARRAYS_PER_CELL
+        arrays += len(params.bodies) if len(params.bodies) > 1 else 0  # each body's own occupied height
+        return int(params.nx) * int(params.ny) * arrays * 8
 
     def setup(self) -> None:
         p = self.params
@@ -191,9 +205,10 @@ class WaterSurface(Component):
         # smoothing weights: 1 on open faces, 0 on walls; bytes, as they are read every step (a
         # weight times a float64 is exact either way). A pond without dry land smooths with every
         # weight 1: the same sums without reading them.
-        self._wx = np.ascontiguousarray(g.kx > 0, dtype=np.uint8)
-        self._wy = np.ascontiguousarray(g.ky > 0, dtype=np.uint8)
-        self._smoothing_weights = None if self._wx.all() and self._wy.all() else (self._wx, self._wy)
+        self._smoothing_weights = None
+        if p.smoothing > 0 and not g.wet.all():
+            self._smoothing_weights = (np.ascontiguousarray(g.kx > 0, dtype=np.uint8),
+                                       np.ascontiguousarray(g.ky > 0, dtype=np.uint8))
         shape = g.shape
         self._h = np.zeros(shape)
         self._v = np.zeros(shape)
@@ -220,6 +235,7 @@ class WaterSurface(Component):
         self._occupants = [_Occupant(np.zeros(shape) if shared else self._b) for _ in self.body_ports]
         self._steps = 0
         self._next_frame = 1
+        self._follow: tuple[float, float] | None = None  # centre of the last water a body asked for [m]
         self._empty_patch = HeightPatch(
             i0=0, j0=0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, rest_level=g.rest_level,
             height=np.zeros((0, 0)), velocity=np.zeros((0, 0)), bottom=np.zeros((0, 0)))
@@ -238,12 +254,31 @@ class WaterSurface(Component):
         return self._v.copy()
 
     def volume(self) -> float:
-        """Water volume above the bed, bodies excluded [m^3]."""
+        """Water volume above the bed, bodies excluded [m^3] (stepped by tiles: see :meth:`_tile_sums`)."""
+        if self.tiles is not None:
+            return self._tile_sums()[0]
         return volume(self.grid, self._h, self._b)
 
     def energy(self) -> float:
-        """Lattice wave energy [J] (see :mod:`components.water.diagnostics`)."""
+        """Lattice wave energy [J] (see :mod:`components.water.diagnostics`; by tiles: :meth:`_tile_sums`)."""
+        if self.tiles is not None:
+            return self._tile_sums()[1]
         return energy(self.grid, self._h, self._v)
+
+    def _tile_sums(self) -> tuple[float, float]:
+        """Volume [m^3] and lattice energy [J] summed over the water not at rest only (the rest
+        volume added, the bodies' windows subtracted), so that a lake's figures cost what its moving
+        water costs and make no array of the grid's size; they equal the dense sums of
+        :mod:`components.water.diagnostics` up to the order of the additions (round-off)."""
+        g = self.grid
+        c2: float = g.c2_uniform  # type: ignore[assignment]  # tiles need a uniform grid
+        s2 = g.cell * g.cell
+        sum_h, sum_v2, sum_dx2, sum_dy2 = self.tiles.sums(self._h, self._v)  # type: ignore[union-attr]
+        occupied = sum(float(np.sum(o.b[o.window[2]:o.window[3], o.window[0]:o.window[1]]))
+                       for o in self._occupants if o.window is not None)
+        volume = (float(g.depth0[0, 0]) * g.nx * g.ny + sum_h - occupied) * s2
+        energy = g.column_mass * (0.5 * sum_v2 + 0.5 * c2 * (sum_dx2 + sum_dy2) / s2)
+        return volume, energy
 
     def max_stable_step(self) -> float:
         return self.model.max_stable_step()
@@ -279,6 +314,7 @@ class WaterSurface(Component):
             "b": self._b[w[2]:w[3], w[0]:w[1]].copy() if w is not None else np.zeros((0, 0)),
             "steps": self._steps,
             "next_frame": self._next_frame,
+            "follow": list(self._follow) if self._follow is not None else None,
             "model": self.model.get_state(),
         } | ({"tiles": self.tiles.get_state()} if self.tiles is not None else {}) | (
             {"bodies": [_window_state(o.b, o.window) for o in self._occupants]} if len(self._occupants) > 1 else {})
@@ -312,6 +348,8 @@ class WaterSurface(Component):
             self.tiles.set_state(state.get("tiles", {}))
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
+        follow = state.get("follow")
+        self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
         if state.get("model") is not None:
             self.model.set_state(state["model"])
         else:  # a state built by hand (no "model" entry, or None): the model starts from it
@@ -413,6 +451,11 @@ class WaterSurface(Component):
     # --- outputs --------------------------------------------------------------------------------
 
     def _outputs(self, t_end: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
+        for _, request_port, _ in self.body_ports:
+            request = inputs.get(request_port)
+            if isinstance(request, PatchRequest) and request.x_min <= request.x_max and request.y_min <= request.y_max:
+                self._follow = (0.5 * (request.x_min + request.x_max), 0.5 * (request.y_min + request.y_max))
+                break
         out: dict[str, Message] = {
             patch_port: self.patch(inputs.get(request_port), k)  # type: ignore[arg-type]
             for k, (_, request_port, patch_port) in enumerate(self.body_ports)}
@@ -449,10 +492,32 @@ class WaterSurface(Component):
                 return True
         return False
 
+    def field_window(self) -> tuple[int, int, int, int]:
+        """Index window (i0, i1, j0, j1) of the published field: the whole grid, or with
+        ``field_window`` that size around the last water a body asked for (before any, the grid's
+        centre), kept inside the grid. Its corner moves in whole steps of FIELD_WINDOW_STEP cells, so
+        a viewer's mesh keeps its grid while the body moves less than that."""
+        g, size = self.grid, self.params.field_window
+        if size is None:
+            return 0, g.nx, 0, g.ny
+        ni = min(g.nx, max(2, round(size[0] / g.cell)))
+        nj = min(g.ny, max(2, round(size[1] / g.cell)))
+        if self._follow is not None:
+            ci = (self._follow[0] - g.origin_x) / g.cell
+            cj = (self._follow[1] - g.origin_y) / g.cell
+        else:
+            ci, cj = (g.nx - 1) / 2, (g.ny - 1) / 2
+        i0 = min(max(FIELD_WINDOW_STEP * round((ci - ni / 2) / FIELD_WINDOW_STEP), 0), g.nx - ni)
+        j0 = min(max(FIELD_WINDOW_STEP * round((cj - nj / 2) / FIELD_WINDOW_STEP), 0), g.ny - nj)
+        return i0, i0 + ni, j0, j0 + nj
+
     def _field(self) -> WaterField:
         g = self.grid
-        return WaterField(cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, height=self.height,
-                          volume=self.volume(), energy=self.energy(), active_fraction=self.active_fraction())
+        i0, i1, j0, j1 = self.field_window()
+        sl = (slice(j0, j1), slice(i0, i1))
+        return WaterField(cell=g.cell, origin_x=g.origin_x + i0 * g.cell, origin_y=g.origin_y + j0 * g.cell,
+                          height=g.surface0[sl] + self._h[sl], volume=self.volume(), energy=self.energy(),
+                          active_fraction=self.active_fraction())
 
 
 @dataclass

@@ -165,6 +165,35 @@ def _scan(h, v, tile, nz, only, band):  # pragma: no cover - compiled
             nz[tj, ti] = _any_nonzero(h, v, j0, j1, i0, i1)
 
 
+@njit(cache=True)
+def _sums(h, v, tile, step):  # pragma: no cover - compiled
+    # Over the tiles marked in ``step`` (those not at rest and their neighbours): sum h, sum v^2 and
+    # the sums of squared differences across the east and north faces of their cells. Every face
+    # with a non-zero side belongs (as its west or south cell's east or north face) to a marked tile.
+    ny, nx = h.shape
+    nty, ntx = step.shape
+    sh = 0.0
+    sv = 0.0
+    sdx = 0.0
+    sdy = 0.0
+    for tj in range(nty):
+        for ti in range(ntx):
+            if not step[tj, ti]:
+                continue
+            for j in range(tj * tile, min(tj * tile + tile, ny)):
+                for i in range(ti * tile, min(ti * tile + tile, nx)):
+                    c = h[j, i]
+                    sh += c
+                    sv += v[j, i] * v[j, i]
+                    if i + 1 < nx:
+                        d = h[j, i + 1] - c
+                        sdx += d * d
+                    if j + 1 < ny:
+                        d = h[j + 1, i] - c
+                        sdy += d * d
+    return sh, sv, sdx, sdy
+
+
 class Tiles:
     """Which tiles of an (ny, nx) grid are at rest, and the tiled wave step.
 
@@ -184,6 +213,8 @@ class Tiles:
         self.nz_prev = np.zeros(grid, dtype=np.bool_)
         self._nz_next = np.zeros(grid, dtype=np.bool_)
         self._step = np.zeros(grid, dtype=np.bool_)
+        self._marked = np.zeros(grid, dtype=np.bool_)
+        self._all_rest = np.zeros(grid, dtype=np.bool_)
         self._none = np.zeros((0, 0), dtype=np.bool_)
         self.steps = 0  # tiled steps taken
         self.stepped = 0  # tiles stepped, summed over those steps
@@ -226,6 +257,13 @@ class Tiles:
     def finish_step(self) -> None:
         """The new state becomes the current one: its flags too."""
         self.nz_prev, self.nz, self._nz_next = self.nz, self._nz_next, self.nz_prev
+
+    def sums(self, h: np.ndarray, v: np.ndarray) -> tuple[float, float, float, float]:
+        """(sum h [m], sum v^2 [m^2/s^2], sum of (h_east - h)^2 and of (h_north - h)^2 over faces
+        [m^2]) of the current state (h, v), read from the tiles not at rest and their neighbours
+        only: the whole grid's sums up to the order of the additions (round-off)."""
+        _plan(self.nz, self._all_rest, self._marked)
+        return _sums(h, v, self.tile, self._marked)
 
     def active_fraction(self) -> float:
         """Fraction of the tiles stepped in the last step (0 before the first)."""

@@ -1,0 +1,141 @@
+"""The reference throw on a lake against the same throw on its own pond, and a lake's memory.
+
+Runs ``scenarios/skip.yaml`` (recording off) on its 8 m x 1 m pond and on a 40 m x 6 m lake of the
+same 1 cm columns (the stone over open water: 5 m of lake behind it, 2.5 m either side), in turn, for
+several rounds in one process, and reports the wall time of the run loop of each (``RunResult.wall_s``,
+compilation excluded), the ratio lake / pond as the median of each round's own ratio and best against
+best, and the share of the water that was active. Then, in a fresh process each, the same throw on a
+100 m x 10 m lake (10^7 columns): its peak resident memory (``ru_maxrss``) and the estimate that a
+scene is checked against when it loads (``WaterSurface.estimate_bytes``).
+
+    python tools/bench_lake.py [--rounds 7] [--write docs/performance.md]
+
+The machine these figures come from is shared, so only ratios taken within one run mean much.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from cosim.docsection import replace_section  # noqa: E402
+from cosim.runner import run_scene  # noqa: E402
+from cosim.scenario import load  # noqa: E402
+
+SCENE = ROOT / "scenarios" / "skip.yaml"
+POND: list[str] = []  # the scene as it is: 800 x 100 cells
+LAKE = ["components.pond.nx=4000", "components.pond.ny=600", "components.pond.origin_x=-5",
+        "components.pond.origin_y=-2.5", "components.pond.field_window=[8, 3]"]
+BIG_LAKE = ["components.pond.nx=10000", "components.pond.ny=1000", "components.pond.origin_x=-10",
+            "components.pond.origin_y=-4.5", "components.pond.field_window=[8, 3]"]
+
+
+def timed(overrides: list[str]) -> tuple[float, float, float, list[str]]:
+    """(loop wall [s], peak and mean active fraction of the water, summary) of one run, recording off."""
+    outcome = run_scene(load(SCENE, overrides=overrides), None, progress=False)
+    pond = outcome.simulation.components["pond"]
+    tiles = pond.tiles
+    peak, mean = (tiles.peak_fraction(), tiles.mean_fraction()) if tiles is not None else (1.0, 1.0)
+    return outcome.result.wall_s - outcome.result.compile_s, peak, mean, outcome.summary
+
+
+def memory_child(overrides: list[str]) -> None:
+    """In a fresh process: run the throw, print its peak RSS, estimate and skip count as JSON."""
+    import resource
+
+    scene = load(SCENE, overrides=overrides)
+    estimate = scene.components["pond"].cls.estimate_bytes(scene.components["pond"].params)
+    outcome = run_scene(scene, None, progress=False)
+    skips = next((line for line in outcome.summary if line.startswith("skips:")), "")
+    rss_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    print(json.dumps({"rss": rss_kib * 1024, "estimate": estimate, "skips": skips,
+                      "wall": outcome.result.wall_s}))
+
+
+def measure_memory(overrides: list[str]) -> dict:
+    out = subprocess.run([sys.executable, __file__, "--memory-child", json.dumps(overrides)],
+                         check=True, capture_output=True, text=True, cwd=ROOT)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def skips_line(summary: list[str]) -> str:
+    return next((line for line in summary if line.startswith("skips:")), "")
+
+
+def report(rounds: int) -> str:
+    timed(["until=0.05"]), timed(["until=0.05", *LAKE])  # kernels compiled or loaded from their cache
+    pond_s, lake_s, ratios = [], [], []
+    lake_peak = lake_mean = pond_peak = pond_mean = 0.0
+    summaries: dict[str, list[str]] = {}
+    for _ in range(rounds):
+        p, pond_peak, pond_mean, summaries["pond"] = timed(POND)
+        q, lake_peak, lake_mean, summaries["lake"] = timed(LAKE)
+        pond_s.append(p)
+        lake_s.append(q)
+        ratios.append(q / p)
+        print(f"pond {p:.3f} s, lake {q:.3f} s: {q / p:.2f}", file=sys.stderr)
+    ratio = statistics.median(ratios)
+    best = min(lake_s) / min(pond_s)
+    same = skips_line(summaries["pond"]) == skips_line(summaries["lake"])
+    dense = measure_memory([*BIG_LAKE, "components.pond.tile=0", "until=0.01"])
+    big = measure_memory(BIG_LAKE)
+    load_avg = os.getloadavg()[0]
+    mb = 1e6
+    lines = [
+        f"One run of `python tools/bench_lake.py --rounds {rounds} --write docs/performance.md` "
+        f"(2 cores shared with other jobs; load average {load_avg:.1f} at the end).",
+        "",
+        "The reference throw (`scenarios/skip.yaml`, recording off) on its own 8 m x 1 m pond and on a "
+        "40 m x 6 m lake of the same 1 cm columns (2.4 million, 30 times the pond), in turn, "
+        f"{rounds} rounds; wall time of the run loop:",
+        "",
+        "| water | columns | best loop [s] | median loop [s] | active water, peak | active water, mean |",
+        "|---|---:|---:|---:|---:|---:|",
+        f"| pond 8 m x 1 m | 80,000 | {min(pond_s):.3f} | {statistics.median(pond_s):.3f} | "
+        f"{100 * pond_peak:.0f}% | {100 * pond_mean:.0f}% |",
+        f"| lake 40 m x 6 m | 2,400,000 | {min(lake_s):.3f} | {statistics.median(lake_s):.3f} | "
+        f"{100 * lake_peak:.1f}% | {100 * lake_mean:.1f}% |",
+        "",
+        f"Lake / pond: **{ratio:.2f}** (median of the rounds' own ratios; {best:.2f} best against best; "
+        f"rounds from {min(ratios):.2f} to {max(ratios):.2f}); target at most 1.5: "
+        f"{'met' if ratio <= 1.5 else 'not met'}. The throw is the same on both "
+        f"({'same skips' if same else 'skips differ'}: {skips_line(summaries['lake']).removeprefix('skips: ')}).",
+        "",
+        "The same throw on a 100 m x 10 m lake (10^7 columns), each in a fresh process:",
+        "",
+        "| run | peak resident memory [MB] | estimate checked at load [MB] |",
+        "|---|---:|---:|",
+        f"| tiled (the default), the whole throw | {big['rss'] / mb:.0f} | {big['estimate'] / mb:.0f} |",
+        f"| dense (`tile: 0`), its first 10 ms | {dense['rss'] / mb:.0f} | {dense['estimate'] / mb:.0f} |",
+        "",
+        f"Target under 1 GB: {'met' if big['rss'] < 1e9 else 'not met'} ({big['skips']}).",
+    ]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=7, help="rounds of pond and lake in turn")
+    parser.add_argument("--write", metavar="MARKDOWN", help="put the table into this file's lake section")
+    parser.add_argument("--memory-child", metavar="OVERRIDES", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.memory_child is not None:
+        memory_child(json.loads(args.memory_child))
+        return 0
+    text = report(args.rounds)
+    print(text)
+    if args.write:
+        replace_section(args.write, "lake-table", text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
