@@ -515,8 +515,9 @@ class WaterSurface(Component):
         g = self.grid
         i0, i1, j0, j1 = self.field_window()
         sl = (slice(j0, j1), slice(i0, i1))
+        volume, energy = self._tile_sums() if self.tiles is not None else (self.volume(), self.energy())
         return WaterField(cell=g.cell, origin_x=g.origin_x + i0 * g.cell, origin_y=g.origin_y + j0 * g.cell,
-                          height=g.surface0[sl] + self._h[sl], volume=self.volume(), energy=self.energy(),
+                          height=g.surface0[sl] + self._h[sl], volume=volume, energy=energy,
                           active_fraction=self.active_fraction())
 
 
