@@ -17,8 +17,15 @@ One step, from t to t + dt:
 4. optional positional smoothing (Müller): h += (mean of 4 neighbours - h) min(1/2, k_p dt);
 5. outputs: the patch over the requested window plus ``patch_margin`` cells, with the occupied
    height applied in step 1 over it (so the body that sent it knows what the water already holds;
-   empty when nothing is requested: then no column work is done), and the whole field when a frame
-   is due.
+   empty when nothing is requested: then no column work is done), and the field when a frame is
+   due: the whole surface, or with ``field_window`` a window of that size that follows the water the
+   bodies last asked for (a lake's viewer shows the stone, not a decimated lake).
+
+A lake: the ``wave`` model on a flat bed is stepped by tiles of ``tile`` x ``tile`` columns
+(:mod:`components.water.tiles`); water exactly at rest, with its neighbours at rest, is not stepped
+and (its pages never written) takes no memory. The result is the dense step's bit for bit;
+``tile: 0``, ``shallow_water``, smoothing, a sloped bed and the numpy or parallel kernels step every
+column. The summary and the field's ``active_fraction`` say how much of the water moved.
 
 Several bodies on one pond: ``bodies: [stone, ball]`` gives each body its own three ports,
 ``occupied_<name>``, ``request_<name>`` and ``patch_<name>`` (in place of ``occupied``, ``request`` and
