@@ -145,20 +145,23 @@ class LiveView(BaseObserver):
     def linger(self, seconds: float = math.inf, *, say: bool = True) -> None:
         """Keep serving after the run for ``seconds`` of wall time (inf: until Ctrl-C or SIGTERM),
         saying so in one line; returns normally on Ctrl-C or SIGTERM and then closes the server."""
-        if say:
-            until = "Ctrl-C to stop" if math.isinf(seconds) else f"for {seconds:g} s (Ctrl-C to stop sooner)"
-            print(f"run finished; still serving on {self.url}; {until}", file=sys.stderr, flush=True)
         clock = self._sim_end
 
         def stop(signum: int, frame: Any) -> None:
             raise KeyboardInterrupt
 
+        old = None
+        # everything from here on inside the try: a Ctrl-C that lands anywhere, even before the
+        # loop starts, still ends in close() (a server left open would keep the process alive)
         try:
-            old = signal.signal(signal.SIGTERM, stop)
-        except ValueError:  # not the main thread: Ctrl-C and SIGTERM are the main thread's to handle
-            old = None
-        deadline = time.monotonic() + seconds
-        try:
+            try:
+                old = signal.signal(signal.SIGTERM, stop)
+            except ValueError:  # not the main thread: Ctrl-C and SIGTERM are the main thread's to handle
+                old = None
+            if say:
+                until = "Ctrl-C to stop" if math.isinf(seconds) else f"for {seconds:g} s (Ctrl-C to stop sooner)"
+                print(f"run finished; still serving on {self.url}; {until}", file=sys.stderr, flush=True)
+            deadline = time.monotonic() + seconds
             while (left := deadline - time.monotonic()) > 0:
                 time.sleep(min(LINGER_TICK_S, left))
                 if clock is not None:  # a client that connects now learns where the run ended
