@@ -195,7 +195,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return EXIT_FAILED if outcome.failed else EXIT_OK
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str = "") -> argparse.ArgumentParser:
+    """The command line's parser. ``command``: the command asked for, when known: a built-in one
+    loads no plug-in, a plug-in's loads only its own; empty (or unknown) loads them all (for help)."""
     parser = _Parser(prog="cosim", description="Co-simulation of a stone skipping on water, recorded to MCAP.")
     parser.add_argument("--version", action="version", version=f"cosim {_version()}")
     parser.add_argument("--debug", action="store_true",
@@ -245,9 +247,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_replay)
 
+    if command in sub.choices:
+        return parser  # a built-in command: no plug-in needs loading (each costs imports at start-up)
     from importlib.metadata import entry_points  # here, not at import: Ctrl-C at start-up finds main() sooner
 
-    for ep in sorted(entry_points(group=COMMANDS_GROUP), key=lambda e: e.name):
+    plugins = sorted(entry_points(group=COMMANDS_GROUP), key=lambda e: e.name)
+    if any(ep.name == command for ep in plugins):
+        plugins = [ep for ep in plugins if ep.name == command]  # only the one asked for
+    for ep in plugins:
         try:
             ep.load()(sub)
         except Exception as exc:  # one broken plug-in must not take the other commands with it
@@ -346,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = [a for a in argv if a != "--debug"]
     command = next((a for a in argv if not a.startswith("-")), "")
     try:
-        parser = build_parser()
+        parser = build_parser(command)
         args = parser.parse_args(argv)
         return args.func(args)
     except SystemExit:  # argparse: --help, --version, bad arguments (already said, exit 2)
