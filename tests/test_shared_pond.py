@@ -160,3 +160,20 @@ def test_a_shared_pond_has_no_unnamed_ports():
     text = skip_on_named_ports().replace("pond.patch_stone -> coupler.water", "pond.patch -> coupler.water")
     with pytest.raises(ScenarioError, match="patch"):
         loads(text, SCENES / "skip.yaml")
+
+
+def test_plots_of_one_body_show_only_its_own_monitor_coupler_and_skips(tmp_path):
+    """In a recording of two stones, the figures' data for one stone come from its own monitor,
+    coupler and wrench channels (the scene's edges say which), not from the other stone's."""
+    from components.analysis.data import load_run
+    from cosim.runner import run_scene
+
+    path = tmp_path / "two.mcap"
+    run_scene(load(SCENES / "two_stones.yaml", ["until=0.45", "components.pond.field_rate=0"]), path, progress=False)
+    for body, other in (("left", "right"), ("right", "left")):
+        data = load_run(path, body)
+        assert data.stages.topic == f"/{body}_stages/stage"
+        assert [c.topic for c in data.contacts] == [f"/{body}_water/contact"]
+        assert all(other not in w.topic for w in data.wrenches) and data.wrenches
+        assert len(data.skips) == 2
+    assert load_run(path, "left").skips[0].touchdown_x != load_run(path, "right").skips[0].touchdown_x

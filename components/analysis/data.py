@@ -186,35 +186,56 @@ def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
         attitude_locked=all(bool(m.attitude_locked) for m in msgs))
 
 
+def linked_components(rec: Recording, body: str) -> set[str] | None:
+    """The components an edge joins to component ``body`` (its monitor and coupler read its state,
+    its coupler writes its wrench), from the recorded scene; None when the recording holds one body
+    only (then every channel is its) or its scene cannot be read."""
+    if len(topics_of(rec, BodyState)) < 2:
+        return None
+    try:
+        connections = rec.scene().connections
+    except Exception:  # an old or damaged scene: show every channel, as for a single body
+        return None
+    return ({c.target for c in connections if c.source == body}
+            | {c.source for c in connections if c.target == body})
+
+
+def own(topics: list[str], linked: set[str] | None) -> list[str]:
+    """The channels ``/component/port`` of the linked components (all when ``linked`` is None)."""
+    return topics if linked is None else [t for t in topics if t.strip("/").split("/")[0] in linked]
+
+
 def load_run(path: str | Path, body: str | None = None) -> RunData:
-    """Read what the figures need from a recording (RecordingError if it holds no body)."""
+    """Read what the figures need from a recording (RecordingError if it holds no body): the body's
+    states and, with several bodies, only the monitor, contact and wrench channels linked to it."""
     rec = Recording(path)
     track = load_body(rec, body)
+    linked = linked_components(rec, track.topic.strip("/").split("/")[0])
     stages = None
-    stage_topics = topics_of(rec, Stage)
+    stage_topics = own(topics_of(rec, Stage), linked)
     if stage_topics:
         t, msgs = _decoded(rec, stage_topics[0], Stage)
         stages = StageTrack(stage_topics[0], t, np.array([int(m.stage) for m in msgs], dtype=int),
                             [m.label for m in msgs], np.array([m.skips for m in msgs], dtype=int))
     contacts = []
-    for topic in topics_of(rec, WaterContact):
+    for topic in own(topics_of(rec, WaterContact), linked):
         t, msgs = _decoded(rec, topic, WaterContact)
         contacts.append(ContactTrack(
             topic, t, np.array([m.wetted for m in msgs], dtype=bool), _stack(msgs, "submerged_fraction"),
             _stack(msgs, "buoyancy", 3), _stack(msgs, "pressure", 3), _stack(msgs, "friction", 3),
             _stack(msgs, "wave_drag", 3), _stack(msgs, "depth"), _stack(msgs, "dissipated_energy")))
     grounds = []
-    for topic in topics_of(rec, GroundContact):
+    for topic in own(topics_of(rec, GroundContact), linked):
         t, msgs = _decoded(rec, topic, GroundContact)
         grounds.append(GroundTrack(topic, t, np.array([m.in_contact for m in msgs], dtype=bool),
                                    _stack(msgs, "normal_force"), _stack(msgs, "friction_force"),
                                    _stack(msgs, "dissipated_energy")))
     wrenches = []
-    for topic in topics_of(rec, Wrench):
+    for topic in own(topics_of(rec, Wrench), linked):
         t, msgs = _decoded(rec, topic, Wrench)
         wrenches.append(WrenchTrack(topic, t, _stack(msgs, "force", 3), _stack(msgs, "torque", 3)))
     skips: list[SkipRecord] = []
-    for topic in topics_of(rec, SkipRecord):
+    for topic in own(topics_of(rec, SkipRecord), linked):
         skips += [m for _, m in rec.messages(topic, SkipRecord)]
     end = (rec.end_ns or 0) / NS_PER_S
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,

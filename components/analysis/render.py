@@ -31,7 +31,7 @@ from PIL import Image, ImageDraw
 from scipy.spatial import ConvexHull, QhullError
 from tqdm import tqdm
 
-from components.analysis.data import BodyTrack, iter_fields, load_body, rest_level, topics_of
+from components.analysis.data import BodyTrack, iter_fields, linked_components, load_body, own, rest_level, topics_of
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
 from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
 from components.messages import Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
@@ -570,10 +570,11 @@ SPLASH_DELAY = 0.025  # [s] after a first hit that never becomes a skip: the spl
 def _default_at(rec: Recording, body: BodyTrack) -> float:
     """Just as the stone leaves the water after its first skip; without a skip, a moment after the
     first hit; without a hit, mid-run."""
-    for topic in topics_of(rec, SkipRecord):
+    linked = linked_components(rec, body.name)
+    for topic in own(topics_of(rec, SkipRecord), linked):
         for _, skip in rec.messages(topic, SkipRecord)[:1]:
             return float(skip.touchdown_time + skip.contact_time)
-    for topic in topics_of(rec, Stage):
+    for topic in own(topics_of(rec, Stage), linked):
         for stamp, stage in rec.messages(topic, Stage):
             if stage.stage is StageId.HIT:
                 return min(float(body.t[-1]), stamp / NS_PER_S + SPLASH_DELAY)
@@ -613,7 +614,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     if times[0] < begin or times[-1] > end + 1e-9:
         raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the recorded "
                           f"{begin:g} .. {end:g} s")
-    stage_topics = topics_of(rec, Stage)
+    stage_topics = own(topics_of(rec, Stage), linked_components(rec, body.name))  # this body's monitor
     stages = None
     if stage_topics:
         pairs = rec.messages(stage_topics[0], Stage)
