@@ -177,6 +177,8 @@ class LiveView(BaseObserver):
         """Stop the server (safe to call twice)."""
         if not self._closed:
             self._closed = True
-            for channel in self._channels.values():
-                channel.close()
+            # The server is stopped without closing its channels one by one first: Channel.close
+            # waits for a lock of the SDK while holding the GIL, and a server thread that holds that
+            # lock while it waits for the GIL (as when a viewer has just disconnected) then waits for
+            # ever (seen as a hang on Ctrl-C). Stopping the server ends every channel's subscribers.
             self.server.stop()
