@@ -168,11 +168,15 @@ class OccupiedHeight(Message):
     Absolute (not a change): the water applies h += b - b_prev itself, so a slower water component
     sampling the latest message still conserves volume. Columns outside the window have b = 0.
     i0, j0: first column and row; b: (nj, ni).
+    already_displaced: the body was in the water when the run began, so its displacement is part of
+    the water at rest (a floating ball let go at its waterline leaves the surface flat): the water
+    takes the first such b of a body as already there, without raising its surface.
     """
 
     i0: int
     j0: int
     b: Grid
+    already_displaced: bool = False
 
 
 @message

@@ -167,3 +167,19 @@ def test_an_int_beyond_64_bits_is_encoded_the_slow_way(n):
     assert codec.write(msg, memoryview(bytearray(4096)), 0, 0, 0) == -1
     assert codec.encode(msg) == codec._slow_encode(msg)
     assert json.loads(codec.encode(msg))["n"] == n
+
+
+def test_a_field_with_a_default_may_be_left_out_and_a_required_one_may_not():
+    """A message written before a field with a default was added still decodes (the field takes
+    its default); leaving out a field without a default is still an error naming it."""
+    from components.messages import OccupiedHeight, SkipRecord
+    from cosim.codec.json_codec import CodecError, codec_for
+
+    codec = codec_for(OccupiedHeight)
+    msg = codec.from_dict({"i0": 1, "j0": 2, "b": []})
+    assert msg.i0 == 1 and msg.already_displaced is False
+    old_skip = {"index": 1, "touchdown_time": 0.07, "touchdown_x": 0.9, "contact_time": 0.03,
+                "takeoff_angle_deg": 9.7, "distance": 0.6, "speed_in": 8.2, "speed_out": 6.6}
+    assert codec_for(SkipRecord).from_dict(old_skip).drift == 0.0
+    with pytest.raises(CodecError, match="missing j0"):
+        codec.from_dict({"i0": 1, "b": []})

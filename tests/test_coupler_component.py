@@ -312,19 +312,45 @@ def test_a_body_held_still_in_the_water_makes_no_waves_after_it_is_put_in():
     pond = WaterSurface("pond", WaterParams(nx=40, ny=40, cell=0.01, depth=0.2,
                                             origin_x=-0.195, origin_y=-0.195))
     coupler = WaterCoupler("c", WaterCouplerParams(effects=["displacement", "buoyancy"]))
+    above = body(position=(0.0, 0.0, 0.1), thickness=0.02, density=500.0)
     disk = body(position=(0.0, 0.0, 0.0), thickness=0.02, density=500.0)
     dt_ns = 1_000_000
     patch = pond.step(0, dt_ns, {})["patch"]
     held = coupler.initial_outputs()  # a port that did not change publishes nothing: hold its value
     energy = []
     for k in range(1, 1500):
-        held.update(coupler.step(k * dt_ns, dt_ns, {"body": disk, "water": patch}))
+        placed = above if k < 20 else disk  # dry over the water first, then put in and held there
+        held.update(coupler.step(k * dt_ns, dt_ns, {"body": placed, "water": patch}))
         inputs = {"occupied": held["occupied"], "request": held["request"]}
         patch = pond.step(k * dt_ns, dt_ns, inputs)["patch"]
         if k % 500 == 0:
             energy.append(pond.energy())
     assert energy[0] > 0.0
     assert max(energy) < 1.2 * energy[0]
+
+
+def test_a_body_in_the_water_when_the_run_begins_makes_no_waves():
+    """A disk held half in the water from the start was there before the run: its displacement is
+    part of the water at rest (OccupiedHeight.already_displaced), so the surface stays flat and the
+    water's energy zero, and the water's volume (bodies excluded) is what it was at its first step."""
+    from components.water import WaterParams, WaterSurface
+
+    pond = WaterSurface("pond", WaterParams(nx=40, ny=40, cell=0.01, depth=0.2,
+                                            origin_x=-0.195, origin_y=-0.195, boundary="reflecting"))
+    coupler = WaterCoupler("c", WaterCouplerParams(effects=["displacement", "buoyancy"]))
+    disk = body(position=(0.0, 0.0, 0.0), thickness=0.02, density=500.0)
+    dt_ns = 1_000_000
+    patch = pond.step(0, dt_ns, {})["patch"]
+    held = coupler.initial_outputs()
+    flags = []
+    for k in range(1, 300):
+        held.update(coupler.step(k * dt_ns, dt_ns, {"body": disk, "water": patch}))
+        flags.append(held["occupied"].already_displaced)
+        patch = pond.step(k * dt_ns, dt_ns, {"occupied": held["occupied"], "request": held["request"]})["patch"]
+    assert pond.energy() == 0.0 and not pond._h.any()
+    assert pond._b.sum() > 0.0  # the water holds the disk's displacement
+    assert pond.volume() == pytest.approx(pond.initial_volume, rel=1e-14)
+    assert any(flags) and not flags[-1]  # said until the water's patch showed it held it
 
 
 def test_the_ring_buoyancy_counts_the_displacement_the_water_has_not_applied_yet():

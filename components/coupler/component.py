@@ -213,6 +213,9 @@ class WaterCoupler(Component):
     def _reset_state(self) -> None:
         self.rest_level = float(self.params.water_level)
         self.cell = 0.0
+        # in the water when the run began: its displacement is part of the water at rest, said so on
+        # every occupied window until the water's patches show it holds it (see OccupiedHeight)
+        self._start_in_water = True
         self.dissipated = 0.0
         self.bound = math.inf
         # last published wrench and the state it acts from (force, position, torque, omega: 3 floats each)
@@ -241,7 +244,8 @@ class WaterCoupler(Component):
                 "bound": self.bound, "prev": prev, "quiet": self.quiet, **self.met.get_state(),
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
-                    self._held_request.y_min, self._held_request.y_max]}
+                    self._held_request.y_min, self._held_request.y_max],
+                "start_in_water": self._start_in_water}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.rest_level = float(state["rest_level"])
@@ -254,6 +258,7 @@ class WaterCoupler(Component):
         prev = state.get("prev")
         self._prev = None if prev is None else {k: [float(x) for x in v] for k, v in prev.items()}
         self.met.set_state(state)
+        self._start_in_water = bool(state.get("start_in_water", False))
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
@@ -314,6 +319,9 @@ class WaterCoupler(Component):
         if patch is not None and patch.height.size:
             if self.cell == 0.0:  # the water's first patch
                 self._check_not_under_the_bed(float(pos[2]) + r_bound, pos, patch)
+                # only a body that may be in the water as the water first shows itself was there
+                # before the run; one above it comes in later, and its displacement raises waves
+                self._start_in_water = float(pos[2]) - r_bound < float(patch.rest_level)
             self.rest_level = float(patch.rest_level)
             self.cell = float(patch.cell)
         self._account_work(pos, omega, dt)
@@ -324,6 +332,8 @@ class WaterCoupler(Component):
         if self.flags == 0 or z_bottom + reach > level + self.params.wave_allowance:
             self.bound = math.inf
             self._prev = None
+            if self.cell != 0.0:
+                self._start_in_water = False  # dry with the water known: whatever it displaces later is new
             return self._idle(level - z_bottom)
         is_disk = body.shape == Shape.DISK
         bv = self._body_vector(body)
@@ -417,13 +427,24 @@ class WaterCoupler(Component):
             wave_drag=mean[18:21].copy(), depth=float(depth), dissipated_energy=self.dissipated)
         if ring is not None:
             occupied = self._empty_occupied if ring.window is None else OccupiedHeight(
-                int(patch.i0) + ring.window[0], int(patch.j0) + ring.window[1], ring.window[2])
+                int(patch.i0) + ring.window[0], int(patch.j0) + ring.window[1], ring.window[2],
+                already_displaced=self._already_displaced(held))
         else:
             occupied = self._occupied(patch, volume)
+            if occupied.b.size and self._already_displaced(held):
+                occupied = OccupiedHeight(occupied.i0, occupied.j0, occupied.b, already_displaced=True)
+        if self._start_in_water and not assumed and (occupied.b.size == 0 or held.any()):
+            self._start_in_water = False  # dry at the water's first patch, or the water holds it now
         return {"wrench": Wrench(force, torque), "occupied": occupied, "request": request,
                 "contact": contact}
 
     # --- pieces -----------------------------------------------------------------------------------
+
+    def _already_displaced(self, held: np.ndarray) -> bool:
+        """Whether this step's displacement was there before the run began: the body has been in
+        the water since its start and the water holds nothing of it yet (``held``: the occupied
+        height the patch echoes)."""
+        return self._start_in_water and not held.any()
 
     def _body_vector(self, body: BodyState) -> np.ndarray:
         """The body's pose, motion and mass as :mod:`step_kernel`'s body vector (B_* layout)."""

@@ -240,6 +240,7 @@ class WaterSurface(Component):
         # each body's own occupied height and window; one body's is the total itself
         shared = len(self.body_ports) > 1
         self._occupants = [_Occupant(np.zeros(shape) if shared else self._b) for _ in self.body_ports]
+        self._displaced_before = 0.0  # [m^3] pushed aside by bodies in the water when the run began
         self._steps = 0
         self._next_frame = 1
         self._follow: tuple[float, float] | None = None  # centre of the last water a body asked for [m]
@@ -261,10 +262,11 @@ class WaterSurface(Component):
         return self._v.copy()
 
     def volume(self) -> float:
-        """Water volume above the bed, bodies excluded [m^3] (stepped by tiles: see :meth:`_tile_sums`)."""
+        """Water volume above the bed, bodies excluded [m^3] (stepped by tiles: see :meth:`_tile_sums`),
+        with the water bodies in it when the run began had pushed aside (see :meth:`_register_at_rest`)."""
         if self.tiles is not None:
-            return self._tile_sums()[0]
-        return volume(self.grid, self._h, self._b)
+            return self._tile_sums()[0] + self._displaced_before
+        return volume(self.grid, self._h, self._b) + self._displaced_before
 
     def energy(self) -> float:
         """Lattice wave energy [J] (see :mod:`components.water.diagnostics`; by tiles: :meth:`_tile_sums`)."""
@@ -321,6 +323,7 @@ class WaterSurface(Component):
             "b": self._b[w[2]:w[3], w[0]:w[1]].copy() if w is not None else np.zeros((0, 0)),
             "steps": self._steps,
             "next_frame": self._next_frame,
+            "displaced_before": self._displaced_before,
             "follow": list(self._follow) if self._follow is not None else None,
             "model": self.model.get_state(),
         } | ({"tiles": self.tiles.get_state()} if self.tiles is not None else {}) | (
@@ -355,6 +358,7 @@ class WaterSurface(Component):
             self.tiles.set_state(state.get("tiles", {}))
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
+        self._displaced_before = float(state.get("displaced_before", 0.0))
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
         if state.get("model") is not None:
@@ -442,6 +446,11 @@ class WaterSurface(Component):
         b_new = np.zeros((v1 - v0, u1 - u0))
         if new is not None:
             b_new[j0 - v0:j1 - v0, i0 - u0:i1 - u0] = b[j0 - msg.j0:j1 - msg.j0, i0 - msg.i0:i1 - msg.i0]
+        if msg.already_displaced and old is None:
+            # the body was in the water when the run began: its displacement is part of the water
+            # at rest (nothing raised), and of the water's volume from the start
+            self._register_at_rest(occupant, b_new, (u0, u1, v0, v1), new)
+            return
         delta = b_new - occupant.b[v0:v1, u0:u1]
         if occupant.b is not self._b:  # one of several bodies: the total takes its change
             self._b[v0:v1, u0:u1] += delta
@@ -454,6 +463,21 @@ class WaterSurface(Component):
         occupant.window = new
         if occupant.b is self._b:
             self._b_window = new
+
+    def _register_at_rest(self, occupant: _Occupant, b_new: np.ndarray, box: tuple[int, int, int, int],
+                          window: tuple[int, int, int, int] | None) -> None:
+        """Take ``b_new`` over ``box`` (i0, i1, j0, j1) as a body's occupied height the water already
+        holds: the surface stays. The water the body pushed aside before the run is counted as water
+        (its displaced volume, spread over the whole pond, raised the level by far less than a
+        column's round-off), so the water's volume is the same before and after."""
+        u0, u1, v0, v1 = box
+        if occupant.b is not self._b:
+            self._b[v0:v1, u0:u1] += b_new - occupant.b[v0:v1, u0:u1]
+        occupant.b[v0:v1, u0:u1] = b_new
+        occupant.window = window
+        if occupant.b is self._b:
+            self._b_window = window
+        self._displaced_before += float(b_new.sum()) * self.grid.cell ** 2
 
     # --- outputs --------------------------------------------------------------------------------
 
@@ -522,7 +546,11 @@ class WaterSurface(Component):
         g = self.grid
         i0, i1, j0, j1 = self.field_window()
         sl = (slice(j0, j1), slice(i0, i1))
-        volume, energy = self._tile_sums() if self.tiles is not None else (self.volume(), self.energy())
+        if self.tiles is not None:
+            volume, energy = self._tile_sums()
+            volume += self._displaced_before
+        else:
+            volume, energy = self.volume(), self.energy()
         return WaterField(cell=g.cell, origin_x=g.origin_x + i0 * g.cell, origin_y=g.origin_y + j0 * g.cell,
                           height=g.surface0[sl] + self._h[sl], volume=volume, energy=energy,
                           active_fraction=self.active_fraction())

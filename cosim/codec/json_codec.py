@@ -14,6 +14,7 @@ numpy arrays tagged ``{"__ndarray__": ...}``.
 from __future__ import annotations
 
 import base64
+import dataclasses
 import enum
 import json
 import math
@@ -329,6 +330,8 @@ class MessageCodec:
         coders = [_field_coders(spec) for spec in self.fields]
         self._encoders = [(spec.name, enc) for spec, (enc, _) in zip(self.fields, coders, strict=True)]
         self._decoders = [(spec.name, dec) for spec, (_, dec) in zip(self.fields, coders, strict=True)]
+        self._defaulted = {f.name for f in dataclasses.fields(message_type)
+                           if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING}
         self.write, self.layout = _compile_writer(self.fields, dict(self._encoders))
         self._render = renderer(self.layout)
 
@@ -355,7 +358,8 @@ class MessageCodec:
             raise CodecError(f"{self.schema_name}: expected an object, got {type(data).__name__}")
         names = {name for name, _ in self._decoders}
         unknown = sorted(set(data) - names)
-        missing = [name for name, _ in self._decoders if name not in data]
+        # a field with a default may be left out (a message written before the field was added)
+        missing = [name for name, _ in self._decoders if name not in data and name not in self._defaulted]
         if unknown or missing:
             parts = []
             if missing:
@@ -363,7 +367,7 @@ class MessageCodec:
             if unknown:
                 parts.append("unknown " + ", ".join(unknown))
             raise CodecError(f"{self.schema_name}: " + "; ".join(parts))
-        return self.message_type(**{name: dec(data[name]) for name, dec in self._decoders})
+        return self.message_type(**{name: dec(data[name]) for name, dec in self._decoders if name in data})
 
     def decode(self, payload: bytes) -> Message:
         """Message from JSON bytes; raises CodecError on malformed input."""
