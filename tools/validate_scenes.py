@@ -102,7 +102,8 @@ def flattening() -> str:
     rows.append("")
     rows.append(f"Largest relative change of the basin's water volume over {len(v)} water steps: "
                 f"{np.abs(v - v[0]).max() / v[0]:.1e}. Mean height of the disk's centre over 3.5-4 s: "
-                f"{z * 1e3:.2f} mm (half immersed: 0 mm plus the basin's rise of 0.11 mm).")
+                f"{z * 1e3:.2f} mm (half immersed: 0 mm; the disk was in the water before the run, so "
+                f"the 0.11 mm by which its volume would raise this small basin is not on the surface).")
     return "\n".join(rows)
 
 
