@@ -12,6 +12,7 @@ inside cosim) or 2 (bad input: a scene, a recording, an argument, a missing opti
 
 from __future__ import annotations
 
+import signal
 import sys
 
 try:
@@ -347,8 +348,37 @@ def report(exc: BaseException, command: str) -> int:
     return EXIT_FAILED
 
 
+class _CtrlC:
+    """Remembers a Ctrl-C while a command runs: whatever error follows it (an import the signal cut
+    short reports an ImportError, numpy's among them) is then told as the interruption it is."""
+
+    def __init__(self) -> None:
+        self.seen = False
+        self._old: Any = None
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def __enter__(self) -> _CtrlC:
+        try:
+            self._old = signal.signal(signal.SIGINT, self._handler)
+        except ValueError:  # not the main thread: its Ctrl-C is not ours to see
+            self._old = None
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    with _CtrlC() as ctrl_c:
+        return _main(argv, ctrl_c)
+
+
+def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
     command = next((a for a in argv if not a.startswith("-")), "")
@@ -373,7 +403,7 @@ def main(argv: list[str] | None = None) -> int:
             # that while a module is being imported) as unhandled even once caught, and the process
             # would then end by SIGINT instead of with this exit code; the next exec() clears the mark
             exec("pass")
-        return report(exc, command)
+        return report(KeyboardInterrupt() if ctrl_c.seen else exc, command)
 
 
 def _quiet_stdout() -> None:

@@ -85,13 +85,18 @@ def test_a_plugin_that_cannot_load_leaves_the_other_commands_working(scene, tmp_
 @pytest.mark.parametrize("delay", [0.1, 0.2, 0.35, 0.5])
 def test_ctrl_c_in_the_first_half_second_is_one_line(tmp_path, delay):
     """SIGINT while `cosim run` starts up (importing, building, starting the writer) or runs: exit 1
-    and one line, never a KeyboardInterrupt traceback."""
+    and one line, never a KeyboardInterrupt traceback. ``delay`` counts from when the interpreter
+    itself is up (a bare `python -c pass` timed just before, on the same machine): a Ctrl-C while
+    Python is still starting is Python's to report, before any of cosim runs."""
     long = tmp_path / "long.yaml"
     long.write_text(SCENE.replace("until: 0.05", "until: 100000"))
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
+    interpreter = time.perf_counter() - started
     proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(long), "-o", str(tmp_path / "l.mcap"),
                              "-q"], cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    time.sleep(delay)
+    time.sleep(interpreter + delay)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 1, err
@@ -147,3 +152,25 @@ def test_record_options_work_on_a_scene_without_a_record_block(tmp_path, capsys)
 
     channels = Recording(out).channels
     assert channels["/g/out"].count == 10 and "/src/out" not in channels  # 50 steps, every 5th
+
+
+def test_an_import_cut_short_by_ctrl_c_is_told_as_the_interruption(monkeypatch, capsys):
+    """A Ctrl-C that lands inside an import can come out as an ImportError (numpy turns an
+    interrupted load of its core into one): after a Ctrl-C, the error is still 'interrupted', exit 1."""
+    import cosim.cli as cli
+
+    def interrupted_import(args):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        except KeyboardInterrupt:
+            raise ImportError("IMPORTANT: PLEASE READ THIS FOR ADVICE ON HOW TO SOLVE THIS ISSUE!") from None
+        raise AssertionError("the signal did not arrive")
+
+    monkeypatch.setattr(cli, "cmd_validate", interrupted_import)
+    assert cli.main(["validate", "scene.yaml"]) == 1
+    assert "interrupted" in one_error_line(capsys.readouterr().err)
+    # and the next command, with no Ctrl-C, reports its own error again
+    monkeypatch.setattr(cli, "cmd_validate", lambda args: (_ for _ in ()).throw(ImportError("plain")))
+    assert cli.main(["validate", "scene.yaml"]) == 1
+    assert "internal error ImportError: plain" in one_error_line(capsys.readouterr().err)
