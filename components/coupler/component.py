@@ -743,19 +743,9 @@ class WaterCoupler(Component):
         self.dissipated -= float(work)
 
     def _stability_bound(self, body: BodyState, stats: np.ndarray) -> float:
-        mass = float(body.mass)
-        inertia = min(body.inertia.tolist())
-        bound = self._motion_bound(body)
-        rate = 0.0
-        if mass > 0:
-            rate = stats[kernel.S_DAMP_LIN] / mass
-        if inertia > 0:
-            rate = max(rate, stats[kernel.S_DAMP_ROT] / inertia)
-        if rate > 0:
-            bound = min(bound, DAMPING_SAFETY / rate)
-        if mass > 0 and stats[kernel.S_STIFF] > 0:
-            bound = min(bound, SPRING_SAFETY / math.sqrt(stats[kernel.S_STIFF] / mass))
-        return bound
+        """The step bound of :meth:`max_stable_step` [s] from this step's stats: the compiled step's
+        own rule (motion, damping and spring bounds), for the steps taken outside it."""
+        return float(step_kernel.stability_bound(self._body_vector(body), stats, self._prm))
 
     def _motion_bound(self, body: BodyState) -> float:
         v, w = body.velocity.tolist(), body.angular_velocity.tolist()

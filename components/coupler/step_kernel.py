@@ -137,7 +137,7 @@ def _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel):
 
 
 @njit(cache=True)
-def _stability_bound(body, stats, prm):
+def stability_bound(body, stats, prm):
     """The step bound of WaterCoupler.max_stable_step [s]."""
     vx, vy, vz = body[B_VEL], body[B_VEL + 1], body[B_VEL + 2]
     wx, wy, wz = body[B_OMEGA], body[B_OMEGA + 1], body[B_OMEGA + 2]
@@ -222,7 +222,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axe
                                 band_j, band_i, col_j, col_i, shares, lifted)
     results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
     _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share)
-    results[R_BOUND] = _stability_bound(body, stats, prm)
+    results[R_BOUND] = stability_bound(body, stats, prm)
 
 
 @njit(cache=True)

@@ -236,7 +236,6 @@ class WaterSurface(Component):
         if self.tiles is not None:
             self.tiles.reset(self._h, self._v)
         self._b = np.zeros(shape)  # occupied height of the last inputs (all bodies), zero outside their windows
-        self._b_window: tuple[int, int, int, int] | None = None  # one body's window (several: None)
         # each body's own occupied height and window; one body's is the total itself
         shared = len(self.body_ports) > 1
         self._occupants = [_Occupant(np.zeros(shape) if shared else self._b) for _ in self.body_ports]
@@ -315,12 +314,12 @@ class WaterSurface(Component):
     # --- state ----------------------------------------------------------------------------------
 
     def get_state(self) -> dict[str, Any]:
-        w = self._b_window
+        # one body: its window of the occupied height; several: each body's own (their sum is the total)
+        w = self._occupants[0].window if len(self._occupants) == 1 else None
         return {
             "h": self._h.copy(),
             "v": self._v.copy(),
-            "b_window": list(w) if w is not None else None,
-            "b": self._b[w[2]:w[3], w[0]:w[1]].copy() if w is not None else np.zeros((0, 0)),
+            **_window_state(self._b, w),
             "steps": self._steps,
             "next_frame": self._next_frame,
             "displaced_before": self._displaced_before,
@@ -338,13 +337,8 @@ class WaterSurface(Component):
         np.copyto(self._h, state["h"])
         np.copyto(self._v, state["v"])
         self._b[:] = 0.0
-        w = state["b_window"]
-        self._b_window = tuple(int(k) for k in w) if w is not None else None  # type: ignore[assignment]
-        if self._b_window is not None:
-            i0, i1, j0, j1 = self._b_window
-            self._b[j0:j1, i0:i1] = state["b"]
         if len(self._occupants) == 1:
-            self._occupants[0].window = self._b_window
+            self._occupants[0].window = _put_window(self._b, state["b_window"], state["b"])
         else:  # each body's own, and the total as their sum
             for occupant, saved in zip(self._occupants, state["bodies"], strict=True):
                 occupant.b[:] = 0.0
@@ -461,8 +455,6 @@ class WaterSurface(Component):
             self.tiles.touch(u0, u1, v0, v1)
         occupant.b[v0:v1, u0:u1] = b_new
         occupant.window = new
-        if occupant.b is self._b:
-            self._b_window = new
 
     def _register_at_rest(self, occupant: _Occupant, b_new: np.ndarray, box: tuple[int, int, int, int],
                           window: tuple[int, int, int, int] | None) -> None:
@@ -475,8 +467,6 @@ class WaterSurface(Component):
             self._b[v0:v1, u0:u1] += b_new - occupant.b[v0:v1, u0:u1]
         occupant.b[v0:v1, u0:u1] = b_new
         occupant.window = window
-        if occupant.b is self._b:
-            self._b_window = window
         self._displaced_before += float(b_new.sum()) * self.grid.cell ** 2
 
     # --- outputs --------------------------------------------------------------------------------
