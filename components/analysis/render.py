@@ -567,10 +567,9 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
 SPLASH_DELAY = 0.025  # [s] after a first hit that never becomes a skip: the splash is forming
 
 
-def _default_at(rec: Recording, body: BodyTrack) -> float:
+def _default_at(rec: Recording, body: BodyTrack, linked: set[str] | None) -> float:
     """Just as the stone leaves the water after its first skip; without a skip, a moment after the
-    first hit; without a hit, mid-run."""
-    linked = linked_components(rec, body.name)
+    first hit; without a hit, mid-run (``linked``: the body's own channels, see linked_components)."""
     for topic in own(topics_of(rec, SkipRecord), linked):
         for _, skip in rec.messages(topic, SkipRecord)[:1]:
             return float(skip.touchdown_time + skip.contact_time)
@@ -590,6 +589,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                           f"{', '.join(FORMATS)})")
     rec = Recording(recording)
     body = load_body(rec, options.body)
+    linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)
     if options.water is not None and options.water not in fields:
         raise RecordingError(f"{rec.path}: no WaterField channel {options.water!r} "
@@ -598,7 +598,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     begin, end = float(body.t[0]), float(body.t[-1])
     if output.suffix.lower() == ".png":
         if options.at is None:
-            at = _default_at(rec, body)
+            at = _default_at(rec, body, linked)
             if water is not None:  # the first water field from then on, so the surface is current
                 stamps = (stamp / NS_PER_S for _, stamp, _ in rec.raw([water]))
                 at = next((t for t in stamps if t >= at), at)
@@ -614,7 +614,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     if times[0] < begin or times[-1] > end + 1e-9:
         raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the recorded "
                           f"{begin:g} .. {end:g} s")
-    stage_topics = own(topics_of(rec, Stage), linked_components(rec, body.name))  # this body's monitor
+    stage_topics = own(topics_of(rec, Stage), linked)  # this body's monitor
     stages = None
     if stage_topics:
         pairs = rec.messages(stage_topics[0], Stage)
