@@ -61,7 +61,7 @@ R_I_HI = 4
 R_J_LO = 5
 R_J_HI = 6
 R_DISPLACED = 7  # volume under the rest level [m^3]
-R_SHARES = 8  # values in the ring's shares matrix (columns x band): share_work needs this many
+R_SHARES = 8  # values in the ring's factors ((columns + band) x kernel.RING_TERMS): share_work needs this many
 N_RESULTS = 9
 
 
@@ -70,8 +70,8 @@ class RingScratch:
     b_geo, b_rest, b_out (nj, ni) [m]; waterline (3, nj, ni); flat (nj, ni) the rest level [m] and
     still (nj, ni) zeros [m/s] (the rest pass's surface); stats and rest_stats (kernel.N_STATS,);
     lifted (3,); results (N_RESULTS,); the elements' planing work arrays pl_f, pl_r (N, 3), pl_s,
-    pl_m (N,) for N elements (:meth:`planing_arrays`); share_work, room for the ring's shares, grown
-    to the largest seen (:meth:`grow_shares`)."""
+    pl_m (N,) for N elements (:meth:`planing_arrays`); share_work, room for the ring's factors of its
+    shares, grown to the largest seen (:meth:`grow_shares`)."""
 
     def __init__(self, shape: tuple[int, int], rest_level: float):
         self.shape = shape
@@ -97,7 +97,7 @@ class RingScratch:
         return self._planing
 
     def grow_shares(self) -> None:
-        """Make room for the shares matrix the last step needed, so later steps write it in place."""
+        """Make room for the ring's factors the last step needed, so later steps write them in place."""
         needed = int(self.results[R_SHARES])
         if needed > self.share_work.size:
             self.share_work = np.empty(2 * needed)
@@ -173,9 +173,9 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axe
     forces against the met surface plus the hydrostatics of the ring, as
     WaterCoupler._add_hydrostatics), b_geo, and the ring's b_rest, waterline, b_out, rest_stats,
     lifted; results (N_RESULTS,) the planing share, the top's depth, the stability bound, the
-    deposit's window, the displaced volume and the size of the ring's shares matrix. pl_f, pl_r,
-    pl_s, pl_m: :func:`kernel.evaluate_into`'s work arrays; share_work (1-D): room for the shares
-    (:func:`kernel.ring_map_into`).
+    deposit's window, the displaced volume and the size of the ring's factors. pl_f, pl_r,
+    pl_s, pl_m: :func:`kernel.evaluate_into`'s work arrays; share_work (1-D): room for the factors of
+    the ring's shares (:func:`kernel.ring_map_into`).
     """
     radius = body[B_RADIUS]
     thickness = body[B_THICKNESS]
@@ -209,17 +209,17 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axe
                              prm[P_WET_RAMP], DISPLACEMENT | (flags & BUOYANCY), nsub, b_rest, waterline,
                              rest_stats, 1.0, 0.0, pl_f, pl_r, pl_s, pl_m)
         if rest_stats[kernel.S_VOLUME] > 0.0:
-            band_j, band_i, col_j, col_i, shares = kernel.ring_map_into(
+            band_j, band_i, col_j, col_i, columns, band = kernel.ring_map_into(
                 shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell, share_work)
-            results[R_SHARES] = shares.size
-            i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(b_rest, band_j, band_i, col_j, col_i, shares, b_out)
+            results[R_SHARES] = columns.size + band.size
+            i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(b_rest, band_j, band_i, col_j, col_i, columns, band, b_out)
             if i_lo <= i_hi:
                 results[R_I_LO] = i_lo
                 results[R_I_HI] = i_hi
                 results[R_J_LO] = j_lo
                 results[R_J_HI] = j_hi
                 _ring_lift_live(waterline, height, held, has_held, b_out, rest_level,
-                                band_j, band_i, col_j, col_i, shares, lifted)
+                                band_j, band_i, col_j, col_i, columns, band, lifted)
     results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
     _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share)
     results[R_BOUND] = stability_bound(body, stats, prm)
@@ -227,28 +227,25 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axe
 
 @njit(cache=True)
 def _ring_lift_live(waterline, height, held, has_held, b_out, rest_level, band_j, band_i, col_j, col_i,
-                    shares, lifted):
+                    columns, band, lifted):
     """:func:`kernel.ring_lift` over the water above the rest level as this step's displacement
     leaves it (WaterCoupler._ring_field), read where it is needed instead of made whole: the
     patch minus the occupied height it holds plus the one published now (b_out, zero outside its
     window), or the patch alone when it does not say what it holds."""
     n = band_j.size
-    band = np.empty(n)  # the field over the band, read once for every column
-    for k in range(n):
-        band[k] = _field(height, held, has_held, b_out, rest_level, band_j[k], band_i[k])
+    if n > 0:
+        band_field = np.empty(n)  # the field over the band
+        for k in range(n):
+            band_field[k] = _field(height, held, has_held, b_out, rest_level, band_j[k], band_i[k])
+        kernel.ring_levels(band_field, waterline, col_j, col_i, columns, band, lifted)
+        return
     lifted[:] = 0.0
     for c in range(col_j.size):
         j, i = col_j[c], col_i[c]
         area = waterline[0, j, i]
         if area <= 0.0:
             continue
-        if n > 0:
-            level = 0.0
-            row = shares[c]
-            for k in range(n):
-                level += band[k] * row[k]
-        else:
-            level = _field(height, held, has_held, b_out, rest_level, j, i)
+        level = _field(height, held, has_held, b_out, rest_level, j, i)
         lifted[0] += level * area
         lifted[1] += level * waterline[2, j, i]
         lifted[2] -= level * waterline[1, j, i]
