@@ -8,12 +8,16 @@ peer: a process that can use compiled kernels at all), ``cosim run scenarios/ski
 same with ``--no-record``. Times are wall-clock from start to exit. The figure is the median over the
 rounds of (run time / import time) within the round, so that a slow spell of a shared machine cancels;
 the table also gives the median times. The kernels' disk cache is warmed by a first run that is not
-counted (a fresh checkout compiles once, see docs/performance.md).
+counted (a fresh checkout compiles once, see docs/performance.md), and the project's modules are
+byte-compiled first, as installing a package or importing it once does: an environment that sets
+PYTHONDONTWRITEBYTECODE would otherwise have every process compile them from source again (about
+60 modules; ``--no-byte-compile`` measures that).
 """
 
 from __future__ import annotations
 
 import argparse
+import compileall
 import os
 import statistics
 import subprocess
@@ -46,6 +50,12 @@ def commands(out: Path) -> dict[str, list[str]]:
     }
 
 
+def byte_compile() -> None:
+    """Write the bytecode of the project's packages, as an install (or a first import) would."""
+    for package in ("cosim", "components"):
+        compileall.compile_dir(ROOT / package, quiet=1)
+
+
 def wall(cmd: list[str]) -> float:
     """Seconds from starting ``cmd`` to its exit (it must succeed)."""
     t0 = time.perf_counter()
@@ -57,7 +67,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=11)
     ap.add_argument("--write", metavar="MARKDOWN", help="update the start-up section of this file")
+    ap.add_argument("--no-byte-compile", action="store_true",
+                    help="leave the project's modules as they are (without bytecode, compiled at every start)")
     args = ap.parse_args(argv)
+    if not args.no_byte_compile:
+        byte_compile()
     with tempfile.TemporaryDirectory() as tmp:
         cmds = commands(Path(tmp) / "short.mcap")
         for cmd in cmds.values():  # warm the kernels' disk cache and the OS file cache
@@ -82,7 +96,9 @@ def main(argv: list[str] | None = None) -> int:
         "## Start-up",
         "",
         f"Fresh processes, {args.rounds} rounds of each in turn (load average {load[0]:.1f} before, "
-        f"{load[1]:.1f} after), kernels already in numba's disk cache; `{command}`:",
+        f"{load[1]:.1f} after), kernels already in numba's disk cache, "
+        + ("the project's modules as they were" if args.no_byte_compile else "the project's modules byte-compiled")
+        + f"; `{command}`:",
         "",
         "| command | wall [s] (median) | wall [s] (best) | / `import numba` (median of the rounds) |",
         "|---|---:|---:|---:|",

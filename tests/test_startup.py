@@ -1,0 +1,78 @@
+"""Start-up and end of a short `cosim run`: the process ends as soon as the command is done, with
+its exit handlers run and its output flushed, and loads only what the scene needs."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SKIP = ROOT / "scenarios" / "skip.yaml"
+
+
+def run_program(code: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` in a new interpreter, as the program (cosim.cli.main() with no arguments)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_a_run_as_the_program_runs_the_exit_handlers_flushes_and_leaves_a_complete_recording(tmp_path):
+    out = tmp_path / "short.mcap"
+    done = run_program(f"""
+        import atexit, sys
+        import cosim.cli
+        atexit.register(lambda: print("exit handler ran"))
+        sys.stdout.write("buffered, not yet flushed ")
+        sys.argv = ["cosim", "run", {str(SKIP)!r}, "--until", "0.001", "-q", "-o", {str(out)!r}]
+        sys.exit(cosim.cli.main())
+    """, tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("buffered, not yet flushed skip: ok - reached t = 0.001 s")
+    assert done.stdout.rstrip().endswith("exit handler ran")
+    from cosim.record.reader import Recording
+
+    assert Recording(out).scene().name == "skip"
+
+
+def test_the_exit_code_of_a_command_that_failed_is_kept(tmp_path):
+    done = run_program("""
+        import sys
+        import cosim.cli
+        sys.argv = ["cosim", "run", "no_such_scene.yaml", "-q"]
+        sys.exit(cosim.cli.main())
+    """, tmp_path)
+    assert done.returncode == 2
+    assert "no_such_scene.yaml" in done.stderr
+
+
+def test_a_thread_left_running_is_waited_for_as_at_a_normal_exit(tmp_path):
+    done = run_program(f"""
+        import sys, threading
+        import cosim.cli
+        returned = threading.Event()
+        def late():  # still running when main() is done: it finishes after main() has returned
+            returned.wait()
+            print("thread finished")
+        threading.Thread(target=late).start()
+        sys.argv = ["cosim", "validate", {str(SKIP)!r}]
+        code = cosim.cli.main()
+        print("main returned")
+        returned.set()
+        sys.exit(code)
+    """, tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "main returned" in done.stdout and "thread finished" in done.stdout
+
+
+def test_main_called_with_arguments_returns_to_its_caller(tmp_path):
+    done = run_program(f"""
+        import cosim.cli
+        code = cosim.cli.main(["validate", {str(SKIP)!r}])
+        print("returned", code)
+    """, tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.rstrip().endswith("returned 0")
