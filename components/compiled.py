@@ -12,6 +12,13 @@ numpy.f2py, numpy.ma and numpy.testing), the second about 0.1 s: together more t
 numba itself, for features no kernel here uses. :func:`start` therefore starts numba with both
 probes answered "not here"; nothing else is affected: they can be imported normally afterwards, and a
 kernel that does call BLAS still compiles (numba imports SciPy again when it types such a call).
+
+The first call of a kernel with an array of a kind not seen before types that array in Python, and
+numba's typing of arrays first refuses masked arrays with ``isinstance(val, np.ma.MaskedArray)``:
+reading ``np.ma`` imports numpy.ma (about 25 ms, in every run's first step). An array whose type is
+exactly ``np.ndarray`` is never masked (masked arrays are a subclass), so :func:`start` has numba type
+such an array without that check, to the same type (tests compare them); any other array still goes
+through numba's own typing.
 """
 
 from __future__ import annotations
@@ -22,7 +29,11 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from functools import cache
 
+import numpy as np
 from numba import njit
+from numba.core import errors, types
+from numba.core.typing.typeof import typeof_impl
+from numba.np import numpy_support
 
 PROBED = ("scipy.linalg", "cffi")  # imported by numba's start-up only to probe optional features
 
@@ -52,8 +63,25 @@ def _without_probes() -> Iterator[None]:
         sys.meta_path.remove(finder)
 
 
+numba_typeof_ndarray = typeof_impl.dispatch(np.ndarray)  # numba's own typing of array arguments
+
+
+def typeof_plain_ndarray(val: np.ndarray, c: object) -> types.Array:
+    """numba's type of an array argument, without the masked-array check for an exact ``np.ndarray``
+    (never masked): the check would import numpy.ma. Other arrays, and dtypes numba does not
+    support (for its error), go to numba's own typing."""
+    if type(val) is not np.ndarray:
+        return numba_typeof_ndarray(val, c)
+    try:
+        dtype = numpy_support.from_dtype(val.dtype)
+    except errors.NumbaNotImplementedError:
+        return numba_typeof_ndarray(val, c)
+    return types.Array(dtype, val.ndim, numpy_support.map_layout(val), readonly=not val.flags.writeable)
+
+
 @cache
 def start() -> None:
     """Start numba's compiler and code cache, once per process."""
+    typeof_impl.register(np.ndarray)(typeof_plain_ndarray)
     with _without_probes():
         _touch(0.0)

@@ -44,3 +44,38 @@ def test_start_twice_is_harmless_and_restores_the_import_system():
         print(sys.meta_path == before)
     """)
     assert out == "True"
+
+
+def test_arrays_are_typed_as_numba_types_them_and_numpy_ma_is_not_imported():
+    """After start(), kernels called with arrays of every layout, a read-only view, several dtypes
+    (records included) get the type numba's own typing gives, without numpy.ma being imported; a
+    masked array and an unsupported dtype are still refused with numba's own errors."""
+    out = run_fresh("""
+        import sys
+        import numpy as np
+        from numba import njit, typeof
+        from components import compiled
+        compiled.start()
+
+        @njit
+        def first(a):
+            return a.flat[0]
+
+        base = np.arange(24.0).reshape(4, 6)
+        readonly = np.broadcast_to(np.float64(2.0), (3, 3))
+        record = np.zeros(3, dtype=[("x", "f8"), ("n", "i4")])
+        arrays = [base, base.T, base[:, ::2], base[1], np.asfortranarray(base), readonly, np.array(5.0),
+                  np.zeros(4, np.int8), np.zeros(2, np.complex128), np.zeros(3, bool), record,
+                  np.zeros(2, "datetime64[ns]"), np.ones((2, 2, 2, 2), np.float32)]
+        print(first(base), first(readonly), first(np.zeros(4, np.int8)))
+        ours = [typeof(a) for a in arrays]
+        print("numpy.ma" in sys.modules)  # numba's own typing, compared with below, imports it
+        same = [t == compiled.numba_typeof_ndarray(a, None) for t, a in zip(ours, arrays)]
+        print(all(same), [i for i, s in enumerate(same) if not s])
+        for bad in (np.ma.masked_array([1.0, 2.0], mask=[0, 1]), np.zeros(2, ">f8")):
+            try:
+                typeof(bad)
+            except Exception as exc:
+                print(type(exc).__name__)
+    """)
+    assert out.splitlines() == ["0.0 2.0 0", "False", "True []", "NumbaTypeError", "NumbaValueError"]
