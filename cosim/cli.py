@@ -401,9 +401,12 @@ def _command(argv: list[str]) -> str:
 def _end_process(code: int) -> None:
     """Exit with ``code`` now: the exit handlers run and the output is flushed as at a normal exit;
     only the teardown of the interpreter's objects is left out. A thread still running that is not a
-    daemon (one the interpreter would wait for) means a normal exit instead."""
+    daemon (one the interpreter would wait for), or a profiler or tracer watching (``python -m
+    cProfile``, a debugger: they report once the program has returned), means a normal exit instead."""
     import threading
 
+    if sys.getprofile() is not None or sys.gettrace() is not None:
+        return
     if any(t is not threading.main_thread() and not t.daemon and t.is_alive() for t in threading.enumerate()):
         return
     import atexit

@@ -76,3 +76,13 @@ def test_main_called_with_arguments_returns_to_its_caller(tmp_path):
     """, tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout.rstrip().endswith("returned 0")
+
+
+def test_a_profiled_run_still_gets_its_profile_written(tmp_path):
+    """Under `python -m cProfile` the process exits normally, so the profiler writes its file."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    profile = tmp_path / "run.prof"
+    done = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(profile), "-m", "cosim.cli", "validate",
+                           str(SKIP)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert profile.stat().st_size > 0
