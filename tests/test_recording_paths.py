@@ -29,7 +29,7 @@ from cosim.codec.records import HEADER, MESSAGE
 from cosim.component import Component, Port
 from cosim.messages import Array, Message, Vec3, first_difference, message
 from cosim.record import writer
-from cosim.record.recorder import DerivedMessage, Recorder
+from cosim.record.recorder import DerivedMessage, Recorder, wire_codec
 from cosim.record.writer import InProcessSink, ProcessSink
 from cosim.scenario import loads
 from cosim.scheduler import BaseObserver, Simulation
@@ -170,8 +170,9 @@ def test_writer_process_and_in_process_sink_write_the_same_bytes(tmp_path, monke
 
 
 def test_recorded_payloads_are_the_codecs_bytes_of_the_published_messages(tmp_path):
-    """Through the writer process, each physics payload is ``codec.encode`` of the message published
-    at that time, and re-encoding the message decoded from it gives the same bytes; the scene has
+    """Through the writer process, each physics payload is the recorded form's ``encode`` of the
+    message published at that time (protobuf for the types that have it, JSON for the frame, which
+    has a label), and re-encoding the message decoded from it gives the same bytes; the scene has
     messages on both the fast (packed) and the slow (float32 grid) path."""
     published = record(tmp_path / "run.mcap", background=True)
     frame = codec_for(Frame)
@@ -180,7 +181,8 @@ def test_recorded_payloads_are_the_codecs_bytes_of_the_published_messages(tmp_pa
     recorded = contents(tmp_path / "run.mcap")
     checked = 0
     for topic, sent in published.messages.items():
-        codec = codec_for(PHYSICS_TYPES[recorded["schemas"][topic][0]])
+        codec = wire_codec(PHYSICS_TYPES[recorded["schemas"][topic][0]])
+        assert recorded["schemas"][topic][3] == ("json" if topic == "/paint/frame" else "protobuf"), topic
         rows = recorded["channels"][topic]
         assert [(t, seq) for t, _, seq, _ in rows] == [(t, i + 1) for i, (t, _) in enumerate(sent)], topic
         for (_, _, _, data), (_, msg) in zip(rows, sent, strict=True):

@@ -7,7 +7,6 @@ streamed (:func:`iter_fields`), never all held at once.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -245,16 +244,17 @@ def load_run(path: str | Path, body: str | None = None) -> RunData:
 def rest_level(rec: Recording) -> float:
     """The undisturbed water level [m]: from the first water patch if recorded, else 0."""
     for topic in topics_of(rec, HeightPatch):
+        decode = rec.decoder(topic, HeightPatch)
         for _, _, data in rec.raw([topic]):
-            return float(json.loads(data)["rest_level"])
+            return float(decode(data).rest_level)  # type: ignore[attr-defined]
     return 0.0
 
 
 def iter_fields(rec: Recording, topic: str) -> Iterator[tuple[float, WaterField]]:
     """(time [s], WaterField) of one channel in time order, decoded one at a time."""
-    codec = codec_for(WaterField)
+    decode = rec.decoder(topic, WaterField)
     for _, stamp, data in rec.raw([topic]):
-        yield stamp / NS_PER_S, codec.decode(data)  # type: ignore[misc]
+        yield stamp / NS_PER_S, decode(data)  # type: ignore[misc]
 
 
 def contact_spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[int, int]]:

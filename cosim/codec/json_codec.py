@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from cosim.codec.jsontext import TEXT_LENGTH, RecordLayout, base64_text, nonfinite_text, renderer, state_text
+from cosim.codec.proto_codec import ProtoError, is_protobuf_payload, proto_codec_for
 from cosim.codec.records import HEADER, MESSAGE, Write
 from cosim.messages import Array, FieldKind, FieldSpec, Message, fields_of
 
@@ -370,7 +371,16 @@ class MessageCodec:
         return self.message_type(**{name: dec(data[name]) for name, dec in self._decoders if name in data})
 
     def decode(self, payload: bytes) -> Message:
-        """Message from JSON bytes; raises CodecError on malformed input."""
+        """Message from JSON bytes, or from the protobuf payload a recording holds for a type that has
+        that form (:mod:`cosim.codec.proto_codec`, written with the type's present schema); raises
+        CodecError on malformed input."""
+        if is_protobuf_payload(payload):
+            proto = proto_codec_for(self.message_type)
+            if proto is not None:
+                try:
+                    return proto.decode(payload)
+                except (ProtoError, struct.error, TypeError, ValueError) as exc:
+                    raise CodecError(f"{self.schema_name}: not a valid protobuf payload ({exc})") from None
         try:
             data = json.loads(payload)
         except (ValueError, UnicodeDecodeError) as exc:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import struct
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,6 +20,8 @@ from typing import Any
 from mcap.reader import make_reader
 
 from cosim.codec.json_codec import codec_for, decode_state
+from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
+from cosim.codec.proto_codec import ProtoError, proto_codec_for
 from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
@@ -169,14 +171,28 @@ class Recording:
 
     def messages(self, topic: str, msg_type: type[Message]) -> list[tuple[int, Message]]:
         """Every message of one channel decoded as ``msg_type``, in time order."""
-        codec = codec_for(msg_type)
+        decode = self.decoder(topic, msg_type)
         out = []
         for _, stamp, data in self.raw([topic]):
             try:
-                out.append((stamp, codec.decode(data)))
+                out.append((stamp, decode(data)))
             except Exception as exc:  # CodecError, or anything a damaged payload makes the decoder raise
                 raise RecordingError(f"{self.path}: {topic} at {stamp} ns: {_short(exc)}") from None
         return out
+
+    def decoder(self, topic: str, msg_type: type[Message]) -> Callable[[bytes], Message]:
+        """The function decoding one channel's payloads as ``msg_type``: its JSON codec, or for a
+        protobuf channel the type's protobuf codec reading the schema the recording holds."""
+        channel = self.channels.get(topic)
+        if channel is None or channel.message_encoding != PROTO_ENCODING:
+            return codec_for(msg_type).decode
+        proto = proto_codec_for(msg_type)
+        if proto is None:
+            raise RecordingError(f"{self.path}: {topic} is protobuf, which {msg_type.__name__} has no form for")
+        try:
+            return proto.decoder(channel.schema_data)
+        except ProtoError as exc:
+            raise RecordingError(f"{self.path}: {topic}: its schema cannot be read ({exc})") from None
 
     def status(self) -> RunStatus | None:
         found = self.messages(STATUS_TOPIC, RunStatus) if STATUS_TOPIC in self.channels else []

@@ -2,9 +2,10 @@
 
 Layout of a recording:
 
-- ``/<component>/<port>``: every message published on that output port, JSON with a ``jsonschema``
-  schema named ``cosim.<Type>``; log_time = publish_time = simulation time [ns]; a per-channel
-  sequence number.
+- ``/<component>/<port>``: every message published on that output port, under a schema named
+  ``cosim.<Type>``: protobuf (:mod:`cosim.codec.proto_codec`) for every type that has that form,
+  JSON with a ``jsonschema`` schema for the others (a ``str`` field: stages, events, the status);
+  log_time = publish_time = simulation time [ns]; a per-channel sequence number.
 - ``/cosim/events``: framework events (substepping switched on, ...), ``cosim.Event``.
 - ``/cosim/checkpoint``: full restart states every ``record.checkpoint_every`` seconds.
 - ``/cosim/status``: the final status record (ok, stopped, failed, interrupted), always written.
@@ -35,6 +36,8 @@ from typing import Any
 
 from cosim.codec.json_codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
 from cosim.codec.jsontext import RecordLayout
+from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
+from cosim.codec.proto_codec import proto_codec_for
 from cosim.errors import RecordingError
 from cosim.messages import Message, message
 from cosim.record.output import check_output
@@ -160,13 +163,16 @@ class Recorder(BaseObserver):
     def _message_channel(self, topic: str, msg_type: type[Message]) -> int:
         channel = self._channels.get(topic)
         if channel is None:
+            proto = proto_codec_for(msg_type)
+            if proto is not None:  # the writer copies these records as they are
+                return self._channel(topic, proto.schema_name, PROTO_ENCODING, proto.schema_bytes(), PROTO_ENCODING)
             codec = codec_for(msg_type)
             channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
                                     MESSAGE_ENCODING, codec.layout)
         return channel
 
     def write_message(self, topic: str, time_ns: int, msg: Message) -> None:
-        self.sink.add_message(self._message_channel(topic, type(msg)), time_ns, codec_for(type(msg)).encode(msg))
+        self.sink.add_message(self._message_channel(topic, type(msg)), time_ns, wire_codec(type(msg)).encode(msg))
 
     def wanted(self, topic: str) -> bool:
         ok = self._wanted.get(topic)
@@ -181,7 +187,7 @@ class Recorder(BaseObserver):
         """[channel (None when not recorded), write, count, encode, the derivers watching] of an
         output port."""
         topic = f"/{component}/{port}"
-        codec = codec_for(type(msg))
+        codec = wire_codec(type(msg))
         channel = self._message_channel(topic, type(msg)) if self.wanted(topic) else None
         watching = tuple(d for d in self.derivers
                          if getattr(d, "watches", None) is None or d.watches(component, port, type(msg)))
@@ -247,6 +253,12 @@ class Recorder(BaseObserver):
         if not self._closed:
             self._closed = True
             self.sink.discard()
+
+
+def wire_codec(msg_type: type[Message]) -> Any:
+    """The codec of a type's recorded form: protobuf where the type has it, else JSON (both have
+    ``write`` packing a record and ``encode`` giving the payload)."""
+    return proto_codec_for(msg_type) or codec_for(msg_type)
 
 
 def physics_topics(scene: Scene) -> frozenset[str]:
