@@ -231,6 +231,7 @@ class StageId(enum.IntEnum):
     FLY_AWAY = 3
     SINK = 4
     REST = 5
+    FLOAT = 6  # a stone lighter than water, too slow to skip: it floats instead of sinking
 
 
 @message

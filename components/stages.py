@@ -18,6 +18,10 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
   rising and pushed up by the water (buoyancy + pressure + friction) no harder than its weight (a
   stone under water that the pressure still throws back up is in hit or slide); final, except that
   a sunk stone can come to rest on the bottom;
+- float: what sink is for a stone the water can carry (lighter than water: its buoyancy if it were
+  wholly under, the reported buoyancy over the submerged fraction, exceeds its weight); final. Until
+  a hundredth of the stone is under water the buoyancy says too little to tell, and the contact goes
+  on as hit or slide;
 - rest: on the solid ground and slower than ``rest_speed`` [m/s]; final.
 
 A skip is a contact that began moving down into the water and ended in a fly-away: the vertical
@@ -44,6 +48,7 @@ from cosim.messages import Message
 from cosim.params import param
 
 FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
+BUOYANCY_READABLE = 0.01  # submerged volume fraction from which the buoyancy tells whether a stone floats
 STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
 LEFT_POND = "left-pond"  # the outcome (and timeline label) of a stone that left the water's grid
 
@@ -71,6 +76,12 @@ def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> 
     return water is not None and (water.depth > -clearance or vz < 0.0)
 
 
+def floats(body: BodyState, water: WaterContact, gravity: float = 9.81) -> bool:
+    """Whether the water could carry the stone wholly under: its buoyancy scaled to the whole volume
+    (the reported buoyancy [N] over the submerged fraction) exceeds its weight [N]."""
+    return float(water.buoyancy[2]) > body.mass * gravity * water.submerged_fraction
+
+
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
              sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81) -> StageId:
     """The stage now, from the previous stage and this step's body and contact reports."""
@@ -78,15 +89,19 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
         return StageId.REST
     # sinking is final, but a sunk stone can come to rest on the bottom; in the water that is final
     # too (a stone settling on the bottom rocks a little faster than rest_speed now and then)
-    if previous is StageId.SINK:
-        return StageId.SINK
+    if previous in (StageId.SINK, StageId.FLOAT):
+        return previous
     if previous is StageId.REST and water is not None and water.wetted:
         return StageId.REST
     vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if water is not None and water.wetted:
         if horizontal < sink_speed:
-            return StageId.SINK
+            if water.submerged_fraction >= BUOYANCY_READABLE:
+                return StageId.FLOAT if floats(body, water, gravity) else StageId.SINK
+            if not water.buoyancy[2] > 0.0:
+                return StageId.SINK  # no buoyancy in this scene's water: nothing holds the stone up
+            return StageId.HIT if vz < 0 else StageId.SLIDE
         if water.submerged_fraction >= FULLY_SUBMERGED and vz <= 0.0:
             # under water, the stone has sunk unless it is rising or the water pushes it back up: a
             # thin stone thrown fast dips wholly under the surface for a few milliseconds while the
@@ -109,7 +124,7 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
 
 
 class StageMonitor(Component):
-    """Publishes stage changes and per-skip figures; stops the run after sink or rest."""
+    """Publishes stage changes and per-skip figures; stops the run after sink, float or rest."""
 
     @dataclass(frozen=True)
     class Params:
@@ -117,7 +132,7 @@ class StageMonitor(Component):
                                   doc="touching water slower than this horizontally counts as sinking")
         rest_speed: float = param(0.01, unit="m/s", ge=0, doc="on the ground slower than this is at rest")
         stop_after: float = param(0.3, unit="s", ge=0,
-                                  doc="end the run this long after sink or rest (0: never stop)")
+                                  doc="end the run this long after sink, float or rest (0: never stop)")
         takeoff_clearance: float = param(0.002, unit="m", ge=0,
                                          doc="a contact ends when the stone rises with its lowest point this far "
                                              "above the surface")
@@ -177,7 +192,7 @@ class StageMonitor(Component):
             self.stage, self.since = stage, now
             self.timeline.append((now, STAGE_NAMES[stage]))
             outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x)
-        if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.REST)
+        if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
                 and now - self.since >= self.params.stop_after):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
         self._check_outside(now, body, water)

@@ -206,3 +206,19 @@ def test_brushing_a_crest_while_still_rising_is_no_new_skip():
     labels = [o["stage"].label for o in drive(m, script) if "stage" in o]
     assert labels == ["approach", "hit", "slide", "fly-away", "approach", "hit"]
     assert m.track.skips == len(m.records) == 1
+
+
+def test_a_pumice_stone_skips_then_floats_where_slate_sinks():
+    """The reference throw with a stone half as dense as water: it skips, slows, and ends afloat
+    (its lowest point under the surface, its top above), reported as float, not sink; the slate of
+    the same throw sinks."""
+    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml",
+                          ["components.stone.density=500", "record.visual_rate=0"]))
+    sim.run()
+    stages = sim.components["stages"]
+    assert stages.stage is StageId.FLOAT and stages.track.skips >= 3
+    z = float(sim.components["stone"].state[0][2])
+    assert -0.003 < z < 0.003  # afloat: a 6 mm disk half as dense as water rides half under
+    slate = Simulation(load(ROOT / "scenarios" / "skip.yaml", ["record.visual_rate=0"]))
+    slate.run()
+    assert slate.components["stages"].stage is StageId.SINK

@@ -219,3 +219,46 @@ def test_a_curving_throw_reports_its_drift_and_heading_per_skip():
     drive(straight, [(body(0.0, 0.10, 5.0, -1.0), water(False), None), (body(0.5, 0.0, 5.0, -1.0), water(True), None),
                      (body(0.7, 0.01, 4.6, 0.8), water(False), None)])
     assert "skip 1:" in "\n".join(straight.summary()) and "drift" not in "\n".join(straight.summary())
+
+
+def buoyant_water(fraction: float, lift: float) -> WaterContact:
+    """Wetted, ``fraction`` of the stone under water, buoyancy ``lift`` [N] up."""
+    z = np.zeros(3)
+    return WaterContact(True, fraction, 0.001, np.array([0.0, 0.0, lift]), z, z, z, 0.001, 0.0)
+
+
+WEIGHT = 0.12 * 9.81  # [N] of the test body
+
+
+@pytest.mark.parametrize("density_ratio, stage", [(0.5, "float"), (2.65, "sink")])
+def test_a_slow_stone_floats_if_lighter_than_water_else_sinks(density_ratio, stage):
+    """Too slow to skip: a stone the water could carry wholly under (buoyancy / submerged fraction
+    above its weight) floats; a denser one sinks. Both are final and end the run."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))
+    fraction = 0.3
+    lift = WEIGHT / density_ratio * fraction  # buoyancy of the submerged 30% at this density ratio
+    script = [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
+              (body(0.5, 0.0, 0.3, -0.1), buoyant_water(fraction, lift), None),
+              (body(0.5, 0.0, 0.3, 0.1), water(False), None),  # bobbing out again changes nothing
+              (body(0.5, 0.0, 0.3, 0.1), water(False), None),
+              (body(0.5, 0.0, 0.3, 0.1), water(False), None)]
+    out = drive(m, script)
+    labels = [o["stage"].label for o in out if "stage" in o]
+    assert labels == ["approach", stage]
+    assert m.stop_reason == f"stone {stage} since t = 0.002 s"
+    assert m.metrics()["outcome"] == stage
+
+
+def test_a_slow_stone_barely_touching_waits_for_the_buoyancy_to_tell():
+    """Under 1% of the stone in the water its buoyancy says too little: the contact goes on (hit,
+    then slide) until it does; with no buoyancy at all in the scene's water the stone sinks at once."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
+                    (body(0.5, 0.0, 0.3, -0.1), buoyant_water(0.001, 1e-4), None),
+                    (body(0.5, 0.0, 0.3, 0.05), buoyant_water(0.002, 2e-4), None),
+                    (body(0.5, 0.0, 0.3, -0.05), buoyant_water(0.2, 0.2 * WEIGHT * 2), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "slide", "float"]
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
+                    (body(0.5, 0.0, 0.3, -0.1), water(True, 0.001), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]

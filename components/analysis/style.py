@@ -12,6 +12,7 @@ STAGE_COLORS = {  # one colour per stage, the same in every figure and in the an
     StageId.FLY_AWAY: "#55a868",
     StageId.SINK: "#8172b3",
     StageId.REST: "#937860",
+    StageId.FLOAT: "#64b5cd",
 }
 UNKNOWN_STAGE_COLOR = "#7f7f7f"  # before the first stage message
 STAGE_LABELS = {s: s.name.lower().replace("_", "-") for s in StageId}
