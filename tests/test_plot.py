@@ -186,3 +186,12 @@ def test_the_initial_state_is_in_the_first_stage_not_an_unknown_one(run):
     assert stage_per_sample(run)[0] == run.stages.stage[0]
     labels = [t.get_text() for t in figure_trajectory(run).axes[0].get_legend().get_texts()]
     assert labels and "before the first stage" not in labels and "unknown" not in labels
+
+
+def test_plot_into_something_that_is_not_a_folder_is_bad_input(skip_path, tmp_path, capsys):
+    """-o naming a file: exit 2 with the reason, and the file is left as it was."""
+    target = tmp_path / "figs"
+    target.write_text("not a folder\n")
+    assert main(["plot", str(skip_path), "-o", str(target)]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    assert target.read_text() == "not a folder\n"

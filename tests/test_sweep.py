@@ -214,3 +214,12 @@ def test_override_values_round_trip(value):
     text = yaml_value(value)
     assert "\n" not in text and yaml.safe_load(text) == value
     assert yaml.safe_load(yaml_value(math.nan)) != yaml.safe_load(yaml_value(math.nan))  # still a NaN
+
+
+def test_a_scene_given_as_a_sweep_says_so_in_one_line(tmp_path):
+    """`cosim sweep` on a scene file: one problem naming the mix-up and the command that runs it, not
+    every scene key a sweep does not know."""
+    with pytest.raises(ScenarioError) as info:
+        loads_sweep(BALL_SCENE, "ball.yaml", tmp_path)
+    assert info.value.problems == ["a scene, not a sweep (it has components: and no axes:); run it with "
+                                   "`cosim run ball.yaml`, or name it in a sweep's scene: key"]

@@ -32,6 +32,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
     out_dir = Path(args.output) if args.output else Path(args.recording).with_name(
         Path(args.recording).stem + "-plots")
+    if out_dir.exists() and not out_dir.is_dir():
+        print(f"error: {out_dir}: not a folder; cosim plot writes its PNG figures into a folder (-o DIR)",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
     written, skipped = plot_run(args.recording, out_dir, body=args.body, dpi=args.dpi)
     for path in written:
         print(f"wrote {path}")

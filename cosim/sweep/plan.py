@@ -463,6 +463,10 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     applied to every run (after the file's ``set``). ``output``: the table, instead of ``output:``.
     """
     data = _parse_yaml(text, source)
+    if "components" in data and "axes" not in data and "scene" not in data:
+        # a scene given where a sweep belongs: say so, not every scene key that a sweep lacks
+        raise ScenarioError([f"a scene, not a sweep (it has components: and no axes:); run it with "
+                             f"`cosim run {source}`, or name it in a sweep's scene: key"], source)
     problems: list[str] = []
     for key in data:
         if key not in TOP_KEYS:
