@@ -19,6 +19,11 @@ reading ``np.ma`` imports numpy.ma (about 25 ms, in every run's first step). An 
 exactly ``np.ndarray`` is never masked (masked arrays are a subclass), so :func:`start` has numba type
 such an array without that check, to the same type (tests compare them); any other array still goes
 through numba's own typing.
+
+Numba's start also looks for its extensions (entry points ``numba_extensions``, name ``init``) with
+a scan of every installed package of its own; :func:`start` looks in the scan the component registry
+has made already (:func:`cosim.registry.installed_entry_points`) and, when there are none, tells numba
+its extensions are loaded; when there are some, numba loads them itself, as it always does.
 """
 
 from __future__ import annotations
@@ -79,9 +84,21 @@ def typeof_plain_ndarray(val: np.ndarray, c: object) -> types.Array:
     return types.Array(dtype, val.ndim, numpy_support.map_layout(val), readonly=not val.flags.writeable)
 
 
+def _no_extensions_to_load() -> None:
+    """Spare numba's scan for extensions when the registry's scan found none (see the module's text)."""
+    from numba.core import entrypoints
+
+    from cosim.registry import installed_entry_points
+
+    if hasattr(entrypoints, "_already_initialized") and not installed_entry_points().select(
+            group="numba_extensions", name="init"):
+        entrypoints._already_initialized = True
+
+
 @cache
 def start() -> None:
     """Start numba's compiler and code cache, once per process."""
     typeof_impl.register(np.ndarray)(typeof_plain_ndarray)
+    _no_extensions_to_load()
     with _without_probes():
         _touch(0.0)

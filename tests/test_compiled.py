@@ -79,3 +79,25 @@ def test_arrays_are_typed_as_numba_types_them_and_numpy_ma_is_not_imported():
                 print(type(exc).__name__)
     """)
     assert out.splitlines() == ["0.0 2.0 0", "False", "True []", "NumbaTypeError", "NumbaValueError"]
+
+
+def test_numba_extensions_are_still_loaded_when_installed_and_not_looked_for_again_when_not(tmp_path):
+    """With no numba extension installed, start() spares numba's own scan of the installed packages
+    (one scan in all, the registry's); with one installed, numba loads it."""
+    (tmp_path / "fake_numba_extension.py").write_text("def init():\n    print('extension loaded')\n")
+    code = """
+        import importlib.metadata, sys
+        sys.path.insert(0, {folder!r})
+        scans = []
+        def counted(**kw):  # the installed packages: the fake extension, or nothing
+            scans.append(kw)
+            found = importlib.metadata.EntryPoints([importlib.metadata.EntryPoint(
+                "init", "fake_numba_extension:init", "numba_extensions")] if {installed} else [])
+            return found.select(**kw) if kw else found
+        importlib.metadata.entry_points = counted
+        from components import compiled
+        compiled.start()
+        print(len(scans), "scans")
+    """
+    assert run_fresh(code.format(folder=str(tmp_path), installed=True)) == "extension loaded\n2 scans"
+    assert run_fresh(code.format(folder=str(tmp_path), installed=False)) == "1 scans"
