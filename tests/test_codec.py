@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import base64
 import enum
 import json
 import math
+import pickle
 from typing import Annotated
 
 import numpy as np
@@ -13,7 +15,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from cosim.codec.json_codec import CodecError, codec_for, decode_state, encode_state
+from cosim.codec.json_codec import CodecError, codec_for, decode_state, encode_state, plain_state
 from cosim.messages import Array, Message, Vec3, first_difference, message
 
 floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
@@ -141,6 +143,28 @@ def test_state_round_trip(value):
     back = decode_state(encode_state(value))
     assert json.dumps(back, sort_keys=True, default=str) == json.dumps(value, sort_keys=True, default=str) or (
         isinstance(value, float) and math.isnan(value) and math.isnan(back))
+
+
+@given(st.recursive(
+    st.none() | st.booleans() | st.integers(-2**70, 2**70) | floats | st.text(max_size=5)
+    | hnp.arrays(st.sampled_from([np.float64, np.int32, np.bool_]), hnp.array_shapes(max_dims=2, min_side=0, max_side=3)),
+    lambda children: st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=3), children, max_size=3),
+    max_leaves=10))
+def test_state_text_is_json_dumps_of_the_state_with_base64_arrays(value):
+    """The checkpoint text, written in pieces, is byte for byte ``json.dumps`` of the plain state
+    with every array's bytes as a base64 string."""
+    plain = plain_state(value)
+
+    def with_base64(v):
+        if isinstance(v, pickle.PickleBuffer):
+            return base64.b64encode(v.raw()).decode()
+        if isinstance(v, dict):
+            return {k: with_base64(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [with_base64(x) for x in v]
+        return v
+
+    assert encode_state(value) == json.dumps(with_base64(plain), separators=(",", ":"), allow_nan=False).encode()
 
 
 def test_state_arrays_round_trip():

@@ -117,19 +117,44 @@ def renderer(layout: RecordLayout) -> Renderer:
 
 
 _RAW = (bytes, memoryview, pickle.PickleBuffer)  # an array's bytes in plain state, wherever it is read
+_SCALARS = (str, int, float, bool, type(None))
+_encode = json.JSONEncoder(separators=(",", ":"), allow_nan=False).encode
 
 
-def _with_base64(value: Any) -> Any:
-    if type(value) in _RAW:
-        return base64_text(value)
-    if type(value) is dict:
-        return {k: _with_base64(v) for k, v in value.items()}
-    if type(value) is list:
-        return [_with_base64(v) for v in value]
-    return value
+def _dumps(value: Any) -> bytes:
+    return _encode(value).encode()
+
+
+def _pieces(value: Any, out: list[bytes]) -> None:
+    """The JSON text of plain state, in pieces appended to ``out``: an array's base64 is put in as
+    it is (it needs no escaping), so the encoder never scans the megabytes of a water state; all else
+    is the encoder's own text, so the whole equals ``json.dumps`` of the state with base64 strings."""
+    kind = type(value)
+    if kind in _RAW:
+        out += (b'"', binascii.b2a_base64(value, newline=False), b'"')
+    elif kind is dict:
+        out.append(b"{")
+        for i, (key, item) in enumerate(value.items()):
+            out += (b"," if i else b"", _dumps(key), b":")
+            _pieces(item, out)
+        out.append(b"}")
+    elif kind is list:
+        if all(type(item) in _SCALARS for item in value):  # a list of numbers: the encoder at once
+            out.append(_dumps(value))
+            return
+        out.append(b"[")
+        for i, item in enumerate(value):
+            if i:
+                out.append(b",")
+            _pieces(item, out)
+        out.append(b"]")
+    else:
+        out.append(_dumps(value))
 
 
 def state_text(plain: Any) -> bytes:
     """The JSON bytes of plain state (see :func:`cosim.codec.json_codec.plain_state`): JSON values, with the
     arrays' raw bytes written as base64 text."""
-    return json.dumps(_with_base64(plain), separators=(",", ":"), allow_nan=False).encode()
+    out: list[bytes] = []
+    _pieces(plain, out)
+    return b"".join(out)
