@@ -66,6 +66,11 @@ the pond's loop the lake could step about 175,000 columns per water step on aver
 outside the water costs about what the pond's does), against about 500,000 moving now; even a
 0.1 mm threshold, far above what the stone can feel, keeps 80% of them. The 1.5 target is not met:
 the water the throw sets moving covers that much of the lake, and stepping it costs what it costs.
+Part of that spread is the wave model's, not the lake's: its columns carry waves of every length at
+the long-wave speed sqrt(g d) (physics.md, section 1), where real ripples of the stone's size are
+deep-water waves and travel slower, at sqrt(g lambda / 2 pi) (0.28 m/s for 5 cm, 0.4 m/s for 10 cm,
+their energy at half that). A dispersive water model would keep the moving water of a real lake
+much closer to the stone; it is not in this project.
 
 `scenarios/lake.yaml` (50 m x 6 m, 3 million columns, the slate at 18 m/s): 11 skips over 35.3 m;
 the moving water covers 53% of the lake's tiles on average over its 4.5 s, and the viewer's surface
