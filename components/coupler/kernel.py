@@ -501,9 +501,14 @@ def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, wi
         dy = y0 + j * cell - cy
         for i in range(i_lo, i_hi + 1):
             dx = x0 + i * cell - cx
-            q, c, s = _polar(dx, dy, tx, ty, sx, sy, a1, a2)
-            if q <= 1.0:
+            # _polar, with the columns inside the outline (most of the box) left before its root
+            un = (dx * tx + dy * ty) / a1
+            vn = (dx * sx + dy * sy) / a2
+            q2 = un * un + vn * vn
+            if q2 <= 1.0:
                 continue
+            q = math.sqrt(q2)
+            c, s = un / q, vn / q
             u = (dx * tx + dy * ty) / (a1 * a1)
             v = (dx * sx + dy * sy) / (a2 * a2)
             d = (q - 1.0) / (math.sqrt(u * u + v * v) / q)  # distance outside the outline, to first order
@@ -529,22 +534,31 @@ def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, wi
 # the RING_TERMS moments between them: work in columns + band, not columns x band (about 11,000
 # shares a step for a 5 cm ball on 1 cm columns). The sums are those of the matrix to round-off.
 RING_TERMS = (RING_FOCUS + 1) * (RING_FOCUS + 2) // 2  # monomials X^a Y^b with a + b <= RING_FOCUS
+assert RING_FOCUS == 4, "_monomials is written out for RING_FOCUS = 4"
 
 
 @njit(cache=True, inline="always")
 def _monomials(x, y, scale, out):
     """out[m] = scale x^a y^b over the monomials (a, b), a + b <= RING_FOCUS, in the order n = a + b,
-    then a (out: RING_TERMS,)."""
-    m = 0
-    for n in range(RING_FOCUS + 1):
-        for a in range(n + 1):
-            value = scale
-            for _ in range(a):
-                value *= x
-            for _ in range(n - a):
-                value *= y
-            out[m] = value
-            m += 1
+    then a (out: RING_TERMS,). Written out for RING_FOCUS = 4: in registers, not through ``out``."""
+    y1 = scale * y
+    y2 = y1 * y
+    y3 = y2 * y
+    out[0] = scale
+    out[1] = y1
+    out[2] = scale * x
+    out[3] = y2
+    out[4] = y1 * x
+    out[5] = out[2] * x
+    out[6] = y3
+    out[7] = y2 * x
+    out[8] = out[4] * x
+    out[9] = out[5] * x
+    out[10] = y3 * y
+    out[11] = y3 * x
+    out[12] = out[7] * x
+    out[13] = out[8] * x
+    out[14] = out[9] * x
 
 
 @njit(cache=True)
@@ -563,7 +577,7 @@ def _multinomials():
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _column_factors(dx, dy, outline, moments, multinomial, out):
     """The column at (dx, dy) [m] from the centre: out (RING_TERMS,) such that its share of band column
     k is sum_m out[m] band[k, m] (:func:`ring_map_into`), its shares summing to 1 over the band

@@ -55,6 +55,7 @@ from components.water.diagnostics import energy, surface_energy, volume
 from components.water.grid import build_grid, holds_one_value
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
+from components.water.windows import apply_window, patch_arrays
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -430,10 +431,21 @@ class WaterSurface(Component):
         old = occupant.window
         if new is None and old is None:
             return
-        boxes = [w for w in (old, new) if w is not None]
-        u0, u1 = min(w[0] for w in boxes), max(w[1] for w in boxes)
-        v0, v1 = min(w[2] for w in boxes), max(w[3] for w in boxes)
+        if old is None or new is None:
+            u0, u1, v0, v1 = new if old is None else old
+        else:
+            u0, u1 = min(old[0], new[0]), max(old[1], new[1])
+            v0, v1 = min(old[2], new[2]), max(old[3], new[3])
         passes = self.params.displacement_smoothing
+        if not passes and not (msg.already_displaced and old is None):
+            # the usual step: the change of the occupied height into the surface in one pass
+            # (the same operations as below, column by column)
+            apply_window(self._h, occupant.b, self._b, occupant.b is not self._b, b, msg.i0, msg.j0,
+                         u0, u1, v0, v1)
+            if self.tiles is not None:
+                self.tiles.touch(u0, u1, v0, v1)
+            occupant.window = new
+            return
         if passes:
             u0, u1 = max(u0 - passes, 0), min(u1 + passes, g.nx)
             v0, v1 = max(v0 - passes, 0), min(v1 + passes, g.ny)
@@ -494,11 +506,11 @@ class WaterSurface(Component):
         if win is None:
             return self._empty_patch
         i0, i1, j0, j1 = win
-        sl = (slice(j0, j1), slice(i0, i1))
+        height, velocity, bottom, occupied = patch_arrays(g.surface0, self._h, self._v, g.bed,
+                                                          self._occupants[body].b, win)
         return HeightPatch(i0=i0, j0=j0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y,
-                           rest_level=g.rest_level, height=g.surface0[sl] + self._h[sl],
-                           velocity=self._v[sl].copy(), bottom=g.bed[sl].copy(),
-                           occupied=self._occupants[body].b[sl].copy())
+                           rest_level=g.rest_level, height=height, velocity=velocity, bottom=bottom,
+                           occupied=occupied)
 
     def _field_due(self, t_end: float) -> bool:
         p = self.params
