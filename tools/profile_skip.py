@@ -1,0 +1,146 @@
+"""Where the reference skip's time goes: each component's share of the run loop, and the functions
+that take it.
+
+    python tools/profile_skip.py [--runs 5] [--write docs/performance.md]
+
+Two measures of ``scenarios/skip.yaml`` with recording off (the physics alone), after a warm-up run
+that loads the kernels from numba's disk cache:
+
+* **Shares** (``--runs`` runs, median): every component's ``step`` is wrapped in a timer; the rest
+  of the loop (gathering inputs, delivering outputs, the scheduler's bookkeeping) is the scheduler's.
+  The wrappers cost a few hundred nanoseconds a step, so the shares are those of the plain run to
+  within a percent or two.
+* **Functions** (one run under ``cProfile``): the functions with the most time of their own. The
+  profiler slows Python code several times and compiled kernels not at all (a numba call is one
+  entry, its whole time its own), so this table says *which* code takes the time, the shares above
+  *how much*.
+
+The machine is shared: the shares are ratios within one run, the absolute times move with the load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import statistics
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from cosim.docsection import replace_section  # noqa: E402
+from cosim.scenario import load  # noqa: E402
+from cosim.scheduler import Simulation  # noqa: E402
+
+SCENE = ROOT / "scenarios" / "skip.yaml"
+SECTION = "profile"
+FUNCTIONS_SHOWN = 12
+
+
+class _StepTimer:
+    """Wraps a component's ``step`` and adds up the wall time spent in it [s]."""
+
+    def __init__(self, comp):
+        self.seconds = 0.0
+        inner = comp.step
+
+        def step(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+
+        comp.step = step
+
+
+def shares() -> tuple[dict[str, float], float, str]:
+    """(seconds per component type and 'scheduler', loop wall [s], the run's status line) of one run."""
+    sim = Simulation(load(SCENE, ["record.visual_rate=0"]))
+    timers = {name: (type(comp).__name__, _StepTimer(comp)) for name, comp in sim.components.items()}
+    start = time.perf_counter()
+    result = sim.run()
+    wall = time.perf_counter() - start
+    seconds: dict[str, float] = defaultdict(float)
+    for kind, timer in timers.values():
+        seconds[kind] += timer.seconds
+    seconds["scheduler"] = wall - sum(seconds.values())
+    return dict(seconds), wall, f"{result.status} at t = {result.time_ns * 1e-9:.3g} s"
+
+
+def _where(filename: str) -> str:
+    """A function's file relative to the project, or the library it belongs to."""
+    if filename.startswith("<"):
+        return filename  # built-in
+    path = Path(filename).resolve()
+    if ROOT in path.parents:
+        return str(path.relative_to(ROOT))
+    parts = path.parts
+    if "site-packages" in parts and parts.index("site-packages") + 1 < len(parts):
+        return "/".join(parts[parts.index("site-packages") + 1:])
+    return path.name
+
+
+def functions(top: int) -> tuple[list[tuple[str, int, float, float]], float]:
+    """([(function, calls, own seconds, cumulative seconds)], total profiled seconds) of one run."""
+    sim = Simulation(load(SCENE, ["record.visual_rate=0"]))
+    profile = cProfile.Profile()
+    profile.enable()
+    sim.run()
+    profile.disable()
+    stats = pstats.Stats(profile)
+    rows = []
+    for (filename, line, name), (_, calls, own, cumulative, _) in stats.stats.items():  # type: ignore[attr-defined]
+        rows.append((f"`{name}` ({_where(filename)}:{line})", calls, own, cumulative))
+    rows.sort(key=lambda r: -r[2])
+    return rows[:top], stats.total_tt  # type: ignore[attr-defined]
+
+
+def report(runs: int) -> str:
+    Simulation(load(SCENE, ["until=0.05", "record.visual_rate=0"])).run()  # kernels from the disk cache
+    load_before = os.getloadavg()[0]
+    measured = [shares() for _ in range(runs)]
+    top, total = functions(FUNCTIONS_SHOWN)
+    load_after = os.getloadavg()[0]
+    kinds = list(measured[0][0])
+    share = {k: statistics.median(m[0][k] / m[1] for m in measured) for k in kinds}
+    wall = statistics.median(m[1] for m in measured)
+    lines = [
+        f"`{SCENE.relative_to(ROOT)}` with recording off ({measured[0][2]}), {runs} runs, median; load "
+        f"average {load_before:.1f} before, {load_after:.1f} after (2 cores shared with other jobs); "
+        f"`python tools/profile_skip.py --write docs/performance.md`:",
+        "",
+        "| part of the loop | share of the loop (median) |",
+        "|---|---:|",
+    ]
+    for kind in sorted(kinds, key=lambda k: -share[k]):
+        label = "the scheduler (inputs, outputs, bookkeeping)" if kind == "scheduler" else f"`{kind}` steps"
+        lines.append(f"| {label} | {share[kind]:.0%} |")
+    lines += [f"| the loop | {wall:.2f} s (median) |", "",
+              f"The functions with the most time of their own, one run under `cProfile` ({total:.2f} s "
+              f"profiled: the profiler slows Python code, not the compiled kernels, so their share "
+              f"here is below the true one):", "",
+              "| function | calls | own time [s] | with callees [s] |", "|---|---:|---:|---:|"]
+    lines += [f"| {name} | {calls} | {own:.3f} | {cumulative:.3f} |" for name, calls, own, cumulative in top]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--write", metavar="MARKDOWN", help="update the profile section of this file")
+    args = parser.parse_args(argv)
+    text = report(args.runs)
+    print(text)
+    if args.write:
+        replace_section(Path(args.write), SECTION, "## Where the reference skip's time goes\n\n" + text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
