@@ -9,7 +9,7 @@ from __future__ import annotations
 import signal
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -82,7 +82,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
               command_line: str = "", progress: bool = True, perf: bool = False,
               derivers: list[Any] | None = None, simulation: Simulation | None = None,
               live: str | None = None, live_speed: float = 1.0, keep_live: bool = False,
-              inputs: tuple[str | Path, ...] = ()) -> RunOutcome:
+              inputs: tuple[str | Path, ...] = (), before_run: Callable[[], None] | None = None) -> RunOutcome:
     """Run ``scene`` (or a prepared ``simulation`` of it), recording to ``output`` unless None.
 
     The recording is closed whatever happens, so a failed or interrupted run leaves a valid file
@@ -92,6 +92,8 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     it uses the ``foxglove-sdk`` package's WebSocket server; with ``keep_live`` the server is left
     running after a run that ended (it is ``outcome.live``: call its ``linger()`` or ``close()``).
     ``inputs``: files the run reads besides the scene, which the recording must not replace.
+    ``before_run`` is called once everything is ready, just before the first step (``cosim run``
+    ends its start-up there: :func:`cosim.cli.start_up_done`).
 
     An output that may not be written (:func:`cosim.record.output.check_output`) raises
     RecordingError before anything runs; a recording that cannot be finished (its writer killed,
@@ -126,6 +128,8 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
         notice = compile_notice(lambda: print(f"{scene.name}: compiling kernels for this checkout (once: later "
                                               f"runs load them from disk)...", file=sys.stderr, flush=True)
                                 ) if progress else nullcontext()
+        if before_run is not None:
+            before_run()
         with _signals_interrupt(sim), notice:
             try:
                 result = sim.run(end_ns)

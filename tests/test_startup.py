@@ -86,3 +86,43 @@ def test_a_profiled_run_still_gets_its_profile_written(tmp_path):
                            str(SKIP)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert profile.stat().st_size > 0
+
+
+GC_STATE = """
+    import atexit, gc, sys
+    import cosim.cli, cosim.runner
+    seen = {{}}
+    real_run = cosim.runner.Simulation.run
+    def run(self, *args, **kwargs):  # the collector's state when the steps begin
+        seen["run"] = (gc.isenabled(), gc.get_freeze_count() > 0)
+        return real_run(self, *args, **kwargs)
+    cosim.runner.Simulation.run = run
+    atexit.register(lambda: print("at exit", gc.isenabled(), "run", seen.get("run")))
+    {call}
+"""
+
+
+def test_the_collector_is_paused_while_a_run_starts_and_back_for_the_steps(tmp_path):
+    """Run as the program, `cosim run` starts up without the cyclic garbage collector and turns it
+    back on, with the start-up's objects frozen, before the first step."""
+    done = run_program(GC_STATE.format(call=f"""
+    sys.argv = ["cosim", "run", {str(SKIP)!r}, "--until", "0.001", "-q", "--no-record"]
+    sys.exit(cosim.cli.main())"""), tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.rstrip().endswith("at exit True run (True, True)")
+
+
+def test_a_start_up_that_fails_turns_the_collector_back_on(tmp_path):
+    done = run_program(GC_STATE.format(call="""
+    sys.argv = ["cosim", "run", "no_such_scene.yaml", "-q"]
+    sys.exit(cosim.cli.main())"""), tmp_path)
+    assert done.returncode == 2
+    assert done.stdout.rstrip().endswith("at exit True run None")
+
+
+def test_main_called_with_arguments_leaves_the_collector_alone(tmp_path):
+    done = run_program(GC_STATE.format(call=f"""
+    code = cosim.cli.main(["run", {str(SKIP)!r}, "--until", "0.001", "-q", "--no-record"])
+    sys.exit(code)"""), tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.rstrip().endswith("at exit True run (True, False)")
