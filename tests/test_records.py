@@ -205,6 +205,38 @@ def test_any_operations_come_back_in_order(ops, size, batch):
     assert [r for records in parsed for r in records] == [expected(op) for op in ops]
 
 
+@settings(max_examples=100, deadline=None)
+@given(st.lists(operations, max_size=40), st.integers(1, 2000), st.integers(1, 8))
+def test_a_stage_gathering_in_fresh_buffers_sends_the_same_batches(ops, size, batch):
+    """A stage given a fresh buffer after each batch (as a ring's free space) sends exactly the
+    batches of one with its own buffer, asks for a buffer only when a record comes, and sends each
+    batch from the buffer it was given (a record larger than the stage from one of its own)."""
+    fixed, want = staged(size, batch)
+    given_out: list[memoryview] = []
+    got: list[bytes] = []
+
+    def fresh(n: int) -> memoryview:
+        assert n == size and not given_out or given_out[-1] is None
+        given_out.append(memoryview(bytearray(n)))
+        return given_out[-1]
+
+    def send(view: memoryview) -> None:
+        if given_out and given_out[-1] is not None and view.obj is given_out[-1].obj:
+            given_out.append(None)  # that buffer is spent
+        else:
+            assert view.nbytes > size
+        got.append(bytes(view))
+
+    ringed = Stage(size, batch, send, fresh=fresh)
+    for op in ops:
+        add(fixed, op)
+        add(ringed, op)
+    fixed.flush()
+    ringed.flush()
+    assert got == want
+    assert len([b for b in given_out if b is not None]) == len([b for b in got if len(b) <= size])
+
+
 def test_a_batch_is_sent_once_it_holds_batch_bytes_and_larger_records_still_fit_the_stage():
     """With batch_bytes below the stage's size, a batch goes as soon as it holds that many bytes, and a
     record larger than batch_bytes (but not than the stage) is gathered in the stage like any other."""

@@ -19,6 +19,7 @@ from cosim.cli import main
 from cosim.errors import RecordingError
 from cosim.record.output import check_output, claim
 from cosim.record.reader import Recording
+from cosim.record.writer import RING_BYTES
 from cosim.runner import run_scene
 from cosim.scenario import loads
 from tests.cli_toys import DEMO_SCENE, one_error_line
@@ -155,7 +156,8 @@ def test_the_writer_killed_mid_run_is_one_line_and_leaves_no_file(tmp_path):
     assert not out.exists() and parts(out) == []
 
 
-FILE_LIMIT = 12 << 20  # above the 8 MiB shared-memory ring, below the recording of PAINT
+# above the shared-memory ring (its memory file counts against the limit too), below PAINT's 36 MB recording
+FILE_LIMIT = RING_BYTES + (8 << 20)
 
 PAINT = """
 dt: 0.001

@@ -255,6 +255,29 @@ def test_many_batches_wrap_around_a_small_ring_byte_identical(child):
     assert consumer.finish() == [digest(batch) for batch in batches]
 
 
+def test_batches_gathered_in_the_ring_itself_arrive_between_copied_ones(child):
+    """Batches written straight into space the ring reserved (any part of it used), mixed with
+    copied ones, go around a small ring many times and arrive byte-identical, never overwritten
+    while a slow consumer still reads them."""
+    rng = random.Random(11)
+    producer = RingProducer(RING)
+    consumer = child(producer, delay=0.0005)
+    sent = []
+    for i in range(300):
+        data = rng.randbytes(rng.randint(0, RING // 4))
+        if i % 3:
+            view = producer.reserve(RING // 4)
+            assert producer.owns(view) and view.nbytes == RING // 4
+            view[:len(data)] = data
+            producer.commit(len(data))
+        else:
+            assert not producer.owns(memoryview(data))
+            producer.put([data])
+        sent.append([data])
+    del view
+    assert consumer.finish() == [digest(batch) for batch in sent]
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.lists(st.binary(max_size=RING // 6), max_size=3), max_size=60))
 def test_any_batches_round_trip_through_the_ring(batches):

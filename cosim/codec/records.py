@@ -11,8 +11,9 @@ body:
   their number and lengths before it (:data:`OTHER_HEAD`, :func:`read_other`).
 
 Records are written into a :class:`Stage`, a buffer allocated once (so its pages stay mapped and
-warm in the cache), and sent a batch at a time: numbers go in as they are and arrays as raw bytes,
-one copy each, with no Python object made per value.
+warm in the cache) or the free space of a ring in shared memory, and sent a batch at a time:
+numbers go in as they are and arrays as raw bytes, one copy each, with no Python object made per
+value.
 """
 
 from __future__ import annotations
@@ -33,14 +34,27 @@ wrote; -1 when the message must be encoded the slow way; ``-n`` (n > 1) when the
 bytes and fewer are left (nothing written)."""
 
 
-class Stage:
-    """Records gathered into a buffer of ``size`` bytes, allocated once, and handed to ``send`` (a
-    memoryview, valid only during the call) once ``batch`` records or ``batch_bytes`` bytes are in it
-    (so the receiver stays close behind), when the next record does not fit, or on :meth:`flush`. A
-    record larger than the buffer is sent alone, from a buffer of its own."""
+_NO_ROOM = memoryview(b"")
 
-    def __init__(self, size: int, batch: int, send: Callable[[memoryview], None], batch_bytes: int | None = None):
-        self.view = memoryview(bytearray(size))
+
+class Stage:
+    """Records gathered into a buffer of ``size`` bytes and handed to ``send`` (a memoryview, valid
+    only during the call) once ``batch`` records or ``batch_bytes`` bytes are in it (so the receiver
+    stays close behind), when the next record does not fit, or on :meth:`flush`. A record larger
+    than the buffer is sent alone, from a buffer of its own.
+
+    The buffer is allocated once, or, with ``fresh``, asked for anew after each batch is sent:
+    ``fresh(size)`` gives ``size`` bytes to gather the next batch in (a ring's free space in shared
+    memory, so a batch reaches the other process without a copy). It is asked for only when a
+    record comes, so the packing of each message does not test for it: an empty buffer makes the
+    record's ``write`` report the room it needs, which takes the slow branch here.
+    """
+
+    def __init__(self, size: int, batch: int, send: Callable[[memoryview], None], batch_bytes: int | None = None,
+                 fresh: Callable[[int], memoryview] | None = None):
+        self.size = size
+        self.fresh = fresh
+        self.view = memoryview(bytearray(size)) if fresh is None else _NO_ROOM
         self.offset = 0
         self.count = 0
         self.batch = batch
@@ -59,19 +73,33 @@ class Stage:
             self.flush()
         return True
 
+    def _room(self, needed: int) -> bool:
+        """Make room for a record of ``needed`` bytes at :attr:`offset` (sending the records gathered
+        so far, taking a fresh buffer); False when it is larger than any buffer."""
+        if self.offset + needed <= len(self.view):
+            return True
+        self.flush()
+        if needed > self.size:
+            return False
+        if len(self.view) < needed:
+            assert self.fresh is not None  # a buffer allocated once has ``size`` bytes
+            self.view = self.fresh(self.size)
+        return True
+
     def _add_large(self, write: Write, channel: int, time_ns: int, msg: Any, needed: int) -> bool:
         """A record that does not fit in the space left: packed into a buffer of its own first (a
-        message can still be refused while its numbers are packed), then sent after the records
-        gathered so far, at the start of the next batch or, larger than the stage, alone."""
+        message can still be refused while its numbers are packed: then nothing has changed), then
+        put after the records gathered so far, at the start of the next batch or, larger than the
+        stage, sent alone. (With ``fresh``, the first record of each batch comes this way: one
+        record's copy a batch.)"""
         own = memoryview(bytearray(needed))
         if write(msg, own, 0, channel, time_ns) == -1:
             return False
-        self.flush()
-        if needed > len(self.view):
+        if not self._room(needed):
             self.send(own)
             return True
-        self.view[:needed] = own
-        self._added(needed)
+        self.view[self.offset:self.offset + needed] = own
+        self._added(self.offset + needed)
         return True
 
     def _added(self, end: int) -> None:
@@ -85,9 +113,7 @@ class Stage:
         raws = [memoryview(part).cast("B") for part in parts]
         n = sum(raw.nbytes for raw in raws)
         needed = HEADER.size + LENGTH.size + n
-        if self.offset + needed > len(self.view):
-            self.flush()
-        view, start = (self.view, self.offset) if needed <= len(self.view) else (memoryview(bytearray(needed)), 0)
+        view, start = (self.view, self.offset) if self._room(needed) else (memoryview(bytearray(needed)), 0)
         HEADER.pack_into(view, start, kind, channel, time_ns)
         at = start + HEADER.size
         LENGTH.pack_into(view, at, n)
@@ -109,10 +135,12 @@ class Stage:
         self.add_bytes(OTHER, 0, 0, head, data, *buffers)
 
     def flush(self) -> None:
-        """Send the records gathered so far."""
+        """Send the records gathered so far (with ``fresh``, the buffer goes with them)."""
         if self.offset:
             offset, self.offset, self.count = self.offset, 0, 0
             self.send(self.view[:offset])
+            if self.fresh is not None:
+                self.view = _NO_ROOM
 
 
 def read_other(body: memoryview) -> tuple:

@@ -1,7 +1,8 @@
 """Batches of bytes from one process to another through a ring in shared memory. Standard library only.
 
-The producer copies each batch (a list of byte buffers) into the ring and sends its place on a
-control pipe; the consumer reads it in place and acknowledges how far it has read on a second pipe.
+The producer copies each batch (a list of byte buffers) into the ring, or gathers it in the ring's
+own space in the first place (:meth:`RingProducer.reserve`, :meth:`RingProducer.commit`: no copy),
+and sends its place on a control pipe; the consumer reads it in place and acknowledges how far it has read on a second pipe.
 Compared with writing the bytes down a pipe, this saves the kernel's copy and most of the turns
 between the two processes: a recording streams tens of megabytes a second this way while the
 simulation goes on.
@@ -80,6 +81,7 @@ class RingProducer:
         self._head = 0  # stream position of the next byte written
         self._tail = 0  # stream position the consumer has acknowledged
         self._acks = b""
+        self._reserved: int | None = None  # stream position of the space reserve() gave
         self.control_fd = -1
         self.ack_fd = -1
         self.finished = False  # the consumer said FINISHED
@@ -89,16 +91,9 @@ class RingProducer:
         self.control_fd, self.ack_fd = control_fd, ack_fd
         os.set_blocking(ack_fd, False)
 
-    def put(self, parts: Sequence[Any]) -> None:
-        """Send one batch (bytes-like parts); waits while the consumer is a ring's length behind."""
-        sizes = [_size_of(p) for p in parts]
-        total = sum(sizes)
-        lengths = b"".join(_LENGTH.pack(n) for n in sizes)
-        if total > self.size:
-            _write_all(self.control_fd, _HEAD.pack(INLINE, len(parts)) + lengths)
-            for part in parts:
-                _write_all(self.control_fd, part)
-            return
+    def _free(self, total: int) -> int:
+        """Where in the stream ``total`` bytes go next (after the head, or at the ring's start when
+        they do not fit before its end), once the consumer has read what was there."""
         start = self._head
         if start % self.size + total > self.size:  # no room before the ring's end: start over at 0
             start += self.size - start % self.size
@@ -110,6 +105,43 @@ class RingProducer:
         self._read_acks(wait=False)
         while self._tail < free_from:
             self._read_acks(wait=True)
+        return start
+
+    def reserve(self, n: int) -> memoryview:
+        """``n`` bytes of the ring to gather a batch in (at most the ring's size), free of anything the
+        consumer has still to read (waits until they are): a batch written there is sent with
+        :meth:`commit`, without a copy. The space stays the producer's until then; :meth:`put` gives
+        it up."""
+        start = self._free(n)
+        self._reserved = start
+        at = start % self.size
+        return self._view[at:at + n]
+
+    def owns(self, part: Any) -> bool:
+        """Whether ``part`` is a view of the ring itself (space given by :meth:`reserve`)."""
+        return isinstance(part, memoryview) and part.obj is self._map
+
+    def commit(self, used: int) -> None:
+        """Send the first ``used`` bytes of the space :meth:`reserve` gave as one batch."""
+        start, self._reserved = self._reserved, None
+        if start is None:
+            raise RingError("commit without reserve")
+        self._head = start + used
+        _write_all(self.control_fd, _HEAD.pack(start % self.size, 1) + _LENGTH.pack(used))
+
+    def put(self, parts: Sequence[Any]) -> None:
+        """Send one batch (bytes-like parts); waits while the consumer is a ring's length behind."""
+        sizes = [_size_of(p) for p in parts]
+        total = sum(sizes)
+        lengths = b"".join(_LENGTH.pack(n) for n in sizes)
+        if total > self.size:
+            _write_all(self.control_fd, _HEAD.pack(INLINE, len(parts)) + lengths)
+            for part in parts:
+                _write_all(self.control_fd, part)
+            return
+        self._reserved = None  # any space reserved is given up: this batch may take it
+        start = self._free(total)
+        end = start + total
         offset = at = start % self.size
         for part, n in zip(parts, sizes, strict=True):
             self._view[at:at + n] = memoryview(part).cast("B")
@@ -165,7 +197,10 @@ class RingProducer:
             self.control_fd = -1
         if self.fd >= 0:  # safe to call twice: never closes a number another file may have reused
             self._view.release()
-            self._map.close()
+            try:
+                self._map.close()
+            except BufferError:  # space reserve() gave is still viewed: unmapped once that view goes
+                pass
             os.close(self.fd)
             self.fd = -1
 

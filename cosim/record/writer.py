@@ -34,13 +34,16 @@ from cosim.errors import CosimError
 from cosim.record.output import claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
 
-BATCH = 1024  # a batch is sent at this many records...
+BATCH = 4096  # a batch is sent at this many records...
 # ...or this many bytes: each batch wakes the writer process, which on a shared core can preempt the
-# simulation, so batches are few (about 70 for the reference skip, against 370 at 128 KiB); still
+# simulation, so batches are few (about 40 for the reference skip, against 70 at 1 MiB); still
 # small enough that the last one, written after the run, takes the writer a few milliseconds
-BATCH_BYTES = 1 << 20
-STAGE_BYTES = 4 << 20  # the buffer batches are gathered in, allocated once: a water field or a checkpoint fits whole
-RING_BYTES = 8 << 20  # shared memory between the simulating and the writer process: reused, so its pages stay mapped
+BATCH_BYTES = 2 << 20
+# the space a batch is gathered in (in the ring, for the writer process): a water field fits whole
+STAGE_BYTES = 4 << 20
+# shared memory between the simulating and the writer process: reused, so its pages stay mapped;
+# four stages long, so that the simulation goes on while the writer is a few batches behind
+RING_BYTES = 16 << 20
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
 
@@ -200,9 +203,10 @@ class _Sink:
     attachments) travels pickled.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, fresh: Callable[[int], memoryview] | None = None) -> None:
+        """``fresh``: where the stage gathers each batch (see :class:`cosim.codec.records.Stage`)."""
         self._ids = _Ids()
-        self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES)
+        self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES, fresh)
         self.add_message_record = self.stage.add_message  # type: ignore[method-assign]
 
     def _send(self, batch: memoryview) -> None:
@@ -287,7 +291,8 @@ class ProcessSink(_Sink):
     shared memory (:mod:`cosim.record.ring`)."""
 
     def __init__(self, path: Path):
-        super().__init__()
+        # batches are gathered in the ring itself, so they reach the writer without a copy
+        super().__init__(lambda n: self._ring.reserve(n))
         self.path = path
         # a path that cannot be written fails at once, in this process (the private file is created
         # here, empty, and locked; the writer opens it by name and inherits the lock)
@@ -327,7 +332,10 @@ class ProcessSink(_Sink):
 
     def _send(self, batch: memoryview) -> None:
         try:
-            self._ring.put([batch])
+            if self._ring.owns(batch):
+                self._ring.commit(len(batch))
+            else:  # a record larger than the stage, from a buffer of its own
+                self._ring.put([batch])
         except (RingError, OSError):
             raise SinkError(self._failure()) from None
 
@@ -359,6 +367,7 @@ class ProcessSink(_Sink):
     def _hang_up(self) -> bool:
         """Close the ring (the writer then finishes) and wait until the writer is done; True when it
         finished the file."""
+        self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
         try:
             return self._ring.hang_up()
         finally:
