@@ -187,6 +187,34 @@ def test_a_deriver_sees_only_the_ports_it_watches(tmp_path):
     assert Recording(path).channels["/scene/g"].count > 0
 
 
+def test_a_deriver_is_shown_a_port_only_from_the_time_it_is_due(tmp_path):
+    """A deriver with ``due_ns`` is shown a port's messages from its next due time on, not before;
+    the same recording made by a deriver shown every message holds the same viewer messages."""
+    from cosim.record.recorder import DerivedMessage
+
+    class Framed:
+        """One message every 10 ms of a port's messages (a frame rate), naming the time."""
+
+        def __init__(self, with_due: bool):
+            self.due, self.shown = {}, []
+            if with_due:
+                self.due_ns = lambda component, port: self.due.get((component, port), 0)
+
+        def __call__(self, time_ns, component, port, msg):
+            self.shown.append(time_ns)
+            if time_ns >= self.due.get((component, port), 0):
+                self.due[(component, port)] = time_ns + 10_000_000
+                yield DerivedMessage(f"/scene/{component}", "demo.F", "jsonschema", b"{}", "json", b"%d" % time_ns)
+
+    framed, plain = Framed(True), Framed(False)
+    a = run_scene(loads(LOOP), tmp_path / "a.mcap", progress=False, derivers=[framed]).recording
+    b = run_scene(loads(LOOP), tmp_path / "b.mcap", progress=False, derivers=[plain]).recording
+    views = [[(t, d) for t, topic, d in ((t, topic, d) for topic, t, d in Recording(path).raw())
+              if topic.startswith("/scene/")] for path in (a, b)]
+    assert views[0] == views[1] and len(views[0]) > 40
+    assert len(framed.shown) == len(views[0]) < len(plain.shown) / 5
+
+
 def test_killed_run_still_leaves_a_complete_file(tmp_path):
     """Even SIGKILL of the simulating process leaves a valid, indexed recording: the writer process
     sees its pipe close and finishes the file (only the final status record is missing)."""

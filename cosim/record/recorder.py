@@ -104,7 +104,9 @@ class DerivedMessage:
 Deriver = Callable[[int, str, str, Message], Iterable[DerivedMessage]]
 """Called with (time_ns, component, port, msg) for every exchange; yields extra messages to write.
 A deriver may also have ``watches(component, port, message_type) -> bool``: False when it never
-derives anything from that port's messages, which are then not shown to it at all."""
+derives anything from that port's messages, which are then not shown to it at all; and
+``due_ns(component, port) -> int``: the time [ns] before which it derives nothing more from that
+port (its next frame), so that the messages before it are not shown to it either."""
 
 
 class Recorder(BaseObserver):
@@ -184,14 +186,14 @@ class Recorder(BaseObserver):
     # --- observer interface ----------------------------------------------------------------------------
 
     def _route(self, component: str, port: str, msg: Message) -> list:
-        """[channel (None when not recorded), write, count, encode, the derivers watching] of an
-        output port."""
+        """[channel (None when not recorded), write, count, encode, the derivers watching, the time
+        the next of them is due [ns]] of an output port."""
         topic = f"/{component}/{port}"
         codec = wire_codec(type(msg))
         channel = self._message_channel(topic, type(msg)) if self.wanted(topic) else None
         watching = tuple(d for d in self.derivers
                          if getattr(d, "watches", None) is None or d.watches(component, port, type(msg)))
-        return [channel, codec.write, 0, codec.encode, watching]
+        return [channel, codec.write, 0, codec.encode, watching, 0]
 
     def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
         # one dict lookup per exchange: the port's channel, codec and derivers are resolved once;
@@ -205,6 +207,11 @@ class Recorder(BaseObserver):
             if n % self.every == 0 and not self.sink.add_message_record(route[1], route[0], time_ns, msg):
                 # an odd field (a list for an array, another dtype): the exact slow path, here
                 self.sink.add_message(route[0], time_ns, route[3](msg))
+        if route[4] and time_ns >= route[5]:  # the viewer channels only at their frames
+            self._derive(route, time_ns, component, port, msg)
+
+    def _derive(self, route: list, time_ns: int, component: str, port: str, msg: Message) -> None:
+        due = None
         for deriver in route[4]:
             for extra in deriver(time_ns, component, port, msg):
                 if not self.wanted(extra.topic):
@@ -212,6 +219,9 @@ class Recorder(BaseObserver):
                 channel = self._channel(extra.topic, extra.schema_name, extra.schema_encoding,
                                         extra.schema_data, extra.message_encoding)
                 self.sink.add_message(channel, time_ns, extra.data)
+            next_ns = deriver.due_ns(component, port) if hasattr(deriver, "due_ns") else time_ns
+            due = next_ns if due is None else min(due, next_ns)
+        route[5] = due
 
     def on_event(self, time_ns: int, component: str, kind: str, detail: str) -> None:
         self.write_message(EVENTS_TOPIC, time_ns, Event(component, kind, detail))

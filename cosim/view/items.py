@@ -370,6 +370,11 @@ class VisualDeriver:
             slot = self._slots[(component, port)] = self._resolve(component, message_type)
         return slot is not None
 
+    def due_ns(self, component: str, port: str) -> int:
+        """The time [ns] before which messages of this port give no items (0: every message may)."""
+        slot = self._slots.get((component, port))
+        return 0 if slot is None or slot is _UNRESOLVED or slot.every_message else slot.due_ns
+
     def __call__(self, time_ns: int, component: str, port: str, msg: Message) -> list[Any] | tuple:
         slot = self._slots.get((component, port), _UNRESOLVED)
         if slot is _UNRESOLVED:
