@@ -15,7 +15,8 @@ kernel that does call BLAS still compiles (numba imports SciPy again when it typ
 
 The first call of a kernel with an array of a kind not seen before types that array in Python, and
 numba's typing of arrays first refuses masked arrays with ``isinstance(val, np.ma.MaskedArray)``:
-reading ``np.ma`` imports numpy.ma (about 25 ms, in every run's first step). An array whose type is
+reading ``np.ma`` imports numpy.ma (7 ms, more while the garbage collector runs, in every
+run's first step). An array whose type is
 exactly ``np.ndarray`` is never masked (masked arrays are a subclass), so :func:`start` has numba type
 such an array without that check, to the same type (tests compare them); any other array still goes
 through numba's own typing.
@@ -39,6 +40,8 @@ from numba import njit
 from numba.core import errors, types
 from numba.core.typing.typeof import typeof_impl
 from numba.np import numpy_support
+
+from cosim.jit_time import watch_compiles
 
 PROBED = ("scipy.linalg", "cffi")  # imported by numba's start-up only to probe optional features
 
@@ -98,6 +101,7 @@ def _no_extensions_to_load() -> None:
 @cache
 def start() -> None:
     """Start numba's compiler and code cache, once per process."""
+    watch_compiles()  # a run's start-up that compiles leaves garbage to collect (cosim.cli.start_up_done)
     typeof_impl.register(np.ndarray)(typeof_plain_ndarray)
     _no_extensions_to_load()
     with _without_probes():

@@ -375,8 +375,9 @@ class _CtrlC:
 def main(argv: list[str] | None = None) -> int:
     """Run the command in ``argv`` (default: this program's arguments) and return its exit code.
 
-    Run as the program (no ``argv``), a command of :data:`ENDS_WHEN_DONE` ends the process as soon
-    as it has returned (:func:`_end_process`), without the interpreter's teardown."""
+    Run as the program (no ``argv``), a command of :data:`ENDS_WHEN_DONE` starts up without the
+    cyclic garbage collector (see ``_collection``; a run turns it back on as it begins) and ends the
+    process as soon as it has returned (:func:`_end_process`), without the interpreter's teardown."""
     as_program = argv is None
     argv = list(sys.argv[1:] if argv is None else argv)
     if as_program and _command(argv) in ENDS_WHEN_DONE:
@@ -397,6 +398,8 @@ def main(argv: list[str] | None = None) -> int:
 # pays 15 ms). Start-up makes next to no garbage (under a thousand unreachable objects when the run
 # begins), so it runs without the collector; when the run begins (start_up_done) everything built
 # so far is frozen, never to be walked again, and the collector is back on for what the run allocates.
+# A start-up that compiled kernels (a fresh checkout's first run) leaves tens of thousands of
+# unreachable objects: those are collected first (a full collection there costs 30-120 ms).
 _collection = {"paused": False}
 
 
@@ -414,14 +417,18 @@ def start_up_done() -> None:
     if _collection["paused"]:
         import gc
 
+        from cosim.jit_time import may_have_compiled
+
         _collection["paused"] = False
+        if may_have_compiled():
+            gc.collect()
         gc.freeze()
         gc.enable()
 
 
 # Commands whose work is finished and on disk once they return (a recording is complete under its
 # final name before run_scene returns): what is left of the process is the interpreter's teardown,
-# which after a run with compiled kernels costs about 0.1 s (freeing numba's and LLVM's objects one
+# which after a run with compiled kernels costs 0.13-0.15 s (freeing numba's and LLVM's objects one
 # by one), more than a short run itself.
 ENDS_WHEN_DONE = frozenset({"run", "validate"})
 

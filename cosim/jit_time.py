@@ -54,3 +54,35 @@ def compile_notice(say: Callable[[], None]) -> Iterator[None]:
 
     with event.install_listener("numba:compile", Notice()):
         yield
+
+
+_watch: dict[str, object] = {"listener": None}
+
+
+def watch_compiles() -> None:
+    """From now on, remember whether this process compiles a kernel (:func:`may_have_compiled`).
+    Called once numba is imported and before any kernel is called (``components.compiled.start``)."""
+    if _watch["listener"] is not None:
+        return
+    from numba.core import event
+
+    class Seen(event.Listener):
+        compiled = False
+
+        def on_start(self, ev: event.Event) -> None:
+            self.compiled = True
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    _watch["listener"] = listener = Seen()
+    event.register("numba:compile", listener)
+
+
+def may_have_compiled() -> bool:
+    """False when this process has certainly compiled no kernel: numba is not imported, or it was
+    watched (:func:`watch_compiles`) and nothing compiled; True otherwise."""
+    if "numba" not in sys.modules:
+        return False
+    listener = _watch["listener"]
+    return listener is None or bool(getattr(listener, "compiled", True))

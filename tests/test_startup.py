@@ -126,3 +126,42 @@ def test_main_called_with_arguments_leaves_the_collector_alone(tmp_path):
     sys.exit(code)"""), tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout.rstrip().endswith("at exit True run (True, False)")
+
+
+def test_whether_a_kernel_was_compiled_is_known_once_watched(tmp_path):
+    done = run_program("""
+        import sys
+        from cosim import jit_time
+        print(jit_time.may_have_compiled())  # no numba: nothing compiled
+        import numba
+        print(jit_time.may_have_compiled())  # numba, unwatched: cannot tell
+        jit_time.watch_compiles()
+        print(jit_time.may_have_compiled())
+        numba.njit(lambda x: x + 1)(1)
+        print(jit_time.may_have_compiled())
+    """, tmp_path)
+    assert done.stdout.split() == ["False", "True", "False", "True"], done.stderr
+
+
+def test_a_start_up_that_compiled_kernels_is_collected_before_it_is_frozen(tmp_path):
+    """With an empty kernel cache the start-up compiles; its garbage is collected (a full collection)
+    when the run begins, and a start-up that only loaded kernels is frozen without one."""
+    code = f"""
+        import gc, sys
+        import cosim.cli
+        real = cosim.cli.start_up_done
+        def done():
+            before = gc.get_stats()[2]["collections"]
+            real()
+            print("full collections", gc.get_stats()[2]["collections"] - before)
+            cosim.cli.start_up_done = real
+        cosim.cli.start_up_done = done
+        sys.argv = ["cosim", "run", {str(SKIP)!r}, "--until", "0.001", "-q", "--no-record"]
+        sys.exit(cosim.cli.main())
+    """
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "kernels")}
+    for expected in ("full collections 1", "full collections 0"):  # compiled, then loaded
+        done = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=tmp_path, env=env,
+                              capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+        assert expected in done.stdout.splitlines()
