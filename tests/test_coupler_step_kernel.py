@@ -80,15 +80,17 @@ def _separate(coupler: WaterCoupler, b, patch: HeightPatch):
 @pytest.mark.parametrize("amplitude", [0.0, 0.004])
 @pytest.mark.parametrize("name", list(BODIES))
 def test_one_call_step_equals_the_separate_kernels(name, amplitude, with_held):
-    """stats, the ring's window and levels, the top's depth and the bound are those of the
-    separate kernels, bit for bit."""
+    """the body's pose, stats, the ring's window and levels, the top's depth and the bound are those
+    of the separate kernels, bit for bit."""
     b = BODIES[name]
     patch = wavy(still_water(half_width=0.12), amplitude, with_held)
     stats_ref, ring_ref, under_ref, bound_ref = _separate(WaterCoupler("reference"), b, patch)
     fused = WaterCoupler("fused")
     x = _inputs(fused, b, patch)
-    stats, ring, under = fused._ring_step(b, x.body_vector, x.axes, x.low, x.half, x.water, x.water,
-                                          x.elements, x.nsub)
+    stats, ring, under, axes, low, half = fused._ring_step(b, x.body_vector, x.water, x.water, x.elements,
+                                                           x.nsub)
+    np.testing.assert_array_equal(axes, x.axes)
+    assert (low, half) == (x.low, x.half)
     np.testing.assert_array_equal(stats, stats_ref)
     np.testing.assert_array_equal(ring.lifted, ring_ref.lifted)
     np.testing.assert_array_equal(ring.rest, ring_ref.rest)

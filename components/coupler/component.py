@@ -337,24 +337,29 @@ class WaterCoupler(Component):
             return self._idle(level - z_bottom)
         is_disk = body.shape == Shape.DISK
         bv = self._body_vector(body)
-        axes = np.empty((3, 3))
-        x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
-        low = (x_low, y_low, z_low)
-        half = (half_x, half_y)
         vx, vy = float(vel[0]), float(vel[1])
-        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
         assumed = False
-        if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
-            # in the water before the water has sent anything: it is still, at the rest level, until
-            # its first patch says otherwise (a large step or a slow water would let the stone fall
-            # through unopposed); the forces only, nothing displaced into a grid not yet known
-            patch, assumed = self._assumed_still_water(pos, half, level), True
-        if patch is None or patch.height.size == 0:
-            self.bound = self._motion_bound(body)
-            self._prev = {"force": [0.0, 0.0, 0.0], "torque": [0.0, 0.0, 0.0], "position": pos.tolist(),
-                          "omega": omega.tolist()}
-            return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
-                    "contact": self._dry_contact(level - low[2])}
+        # the usual step: the body's pose and all its column and element work in one compiled call
+        one_call = (n == 1 and patch is not None and patch.height.size != 0 and self._ring_mode()
+                    and not self.params.smoothing)
+        if not one_call:
+            axes = np.empty((3, 3))
+            x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
+            low = (x_low, y_low, z_low)
+            half = (half_x, half_y)
+            request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
+            if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
+                # in the water before the water has sent anything: it is still, at the rest level,
+                # until its first patch says otherwise (a large step or a slow water would let the
+                # stone fall through unopposed); the forces only, nothing displaced into a grid not
+                # yet known
+                patch, assumed = self._assumed_still_water(pos, half, level), True
+            if patch is None or patch.height.size == 0:
+                self.bound = self._motion_bound(body)
+                self._prev = {"force": [0.0, 0.0, 0.0], "torque": [0.0, 0.0, 0.0], "position": pos.tolist(),
+                              "omega": omega.tolist()}
+                return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
+                        "contact": self._dry_contact(level - low[2])}
         elements = self._elements_for(body)
         x0 = patch.origin_x + patch.i0 * patch.cell
         y0 = patch.origin_y + patch.j0 * patch.cell
@@ -372,9 +377,9 @@ class WaterCoupler(Component):
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
-        if n == 1 and self._ring_mode() and not assumed and not self.params.smoothing:
-            # the usual step: all its column and element work in one compiled call
-            stats, ring, top_under = self._ring_step(body, bv, axes, low, half, met, water, elements, nsub)
+        if one_call:
+            stats, ring, top_under, axes, low, half = self._ring_step(body, bv, met, water, elements, nsub)
+            request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
         else:
             stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
                                    self._b_geo, self._stats, self._local_flags())
@@ -452,11 +457,12 @@ class WaterCoupler(Component):
                          *body.angular_velocity.tolist(), body.radius, body.thickness, body.mass,
                          min(body.inertia.tolist())])
 
-    def _ring_step(self, body: BodyState, bv: np.ndarray, axes: np.ndarray, low, half, met, water,
-                   elements: Elements, nsub: int) -> tuple[np.ndarray, _Ring, float | None]:
-        """:meth:`_evaluate`, :meth:`_ring`, :meth:`_add_hydrostatics` and :meth:`_stability_bound`
-        in one call of :func:`step_kernel.ring_step`: (stats, the ring, the depth of the body's top
-        under the live surface [m], None off the patch)."""
+    def _ring_step(self, body: BodyState, bv: np.ndarray, met, water, elements: Elements, nsub: int
+                   ) -> tuple[np.ndarray, _Ring, float | None, np.ndarray, tuple, tuple]:
+        """The body's pose, :meth:`_evaluate`, :meth:`_ring`, :meth:`_add_hydrostatics` and
+        :meth:`_stability_bound` in one call of :func:`step_kernel.ring_step`: (stats, the ring, the
+        depth of the body's top under the live surface [m] (None off the patch), the body's axes
+        (3, 3), its lowest point (x, y, z) [m] and half-extents (hx, hy) [m])."""
         x0, y0, cell, height, wvel, bottom, held = water
         scratch = self._scratch
         if scratch is None or scratch.shape != height.shape or scratch.rest_level != self.rest_level:
@@ -465,21 +471,21 @@ class WaterCoupler(Component):
         prm[step_kernel.P_C_D] = self.params.c_d_disk if body.shape == Shape.DISK else self.params.c_d_sphere
         step_kernel.ring_step(
             int(body.shape), bv, prm, self.flags, self._local_flags(), nsub, self.rest_level,
-            self._planing_share, axes, np.array([*low, *half]), float(x0), float(y0), cell, met[3], met[4],
+            self._planing_share, float(x0), float(y0), cell, met[3], met[4],
             height, wvel, bottom, height if held is None else held, held is not None,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
-            scratch.b_geo, scratch.stats, scratch.flat, scratch.still, scratch.b_rest, scratch.waterline,
-            scratch.b_out, scratch.rest_stats, scratch.lifted, scratch.results,
-            *scratch.planing_arrays(elements.area.shape[0]), scratch.share_work)
-        scratch.grow_shares()
-        res = scratch.results.tolist()
+            scratch.planes, scratch.numbers, scratch.work_for(elements.area.shape[0]))
+        numbers = scratch.numbers.tolist()
+        res = numbers[step_kernel.NUM_RESULTS:step_kernel.NUM_RESULTS + step_kernel.N_RESULTS]
+        pose = numbers[step_kernel.NUM_POSE:step_kernel.NUM_POSE + 5]
         self.bound = res[step_kernel.R_BOUND]
         window = None
-        i_lo, i_hi, j_lo, j_hi = (int(v) for v in res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
+        i_lo, i_hi, j_lo, j_hi = map(int, res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
         if i_lo <= i_hi:
             window = (i_lo, j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy())
         under = res[step_kernel.R_TOP_UNDER]
-        return scratch.stats, _Ring(scratch.rest_stats, scratch.lifted, window), (None if math.isnan(under) else under)
+        return (scratch.stats, _Ring(scratch.rest_stats, scratch.lifted, window),
+                None if math.isnan(under) else under, scratch.axes, tuple(pose[:3]), tuple(pose[3:]))
 
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
         p = self.params

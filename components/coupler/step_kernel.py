@@ -65,42 +65,72 @@ R_SHARES = 8  # values in the ring's factors ((columns + band) x kernel.RING_TER
 N_RESULTS = 9
 
 
+# the numbers a step writes (float64 vector of a RingScratch), by where they start
+NUM_STATS = 0  # the step's stats (kernel.N_STATS)
+NUM_REST = kernel.N_STATS  # the rest pass's stats (kernel.N_STATS)
+NUM_LIFTED = 2 * kernel.N_STATS  # the ring's lifted levels (3)
+NUM_RESULTS = NUM_LIFTED + 3  # results (N_RESULTS)
+NUM_AXES = NUM_RESULTS + N_RESULTS  # the body's axes (3 x 3, row-major)
+NUM_POSE = NUM_AXES + 9  # its lowest point (x, y, z) and half-extents (hx, hy) [m] (5)
+N_NUMBERS = NUM_POSE + 5
+
+# the planes of a RingScratch's (N_PLANES, nj, ni) grid block
+PLANE_B_GEO = 0
+PLANE_B_REST = 1
+PLANE_B_OUT = 2
+PLANE_WATERLINE = 3  # three planes
+PLANE_FLAT = 6
+PLANE_STILL = 7
+N_PLANES = 8
+
+
 class RingScratch:
-    """Work arrays of :func:`ring_step` over a patch of shape (nj, ni), reused while the shape holds:
-    b_geo, b_rest, b_out (nj, ni) [m]; waterline (3, nj, ni); flat (nj, ni) the rest level [m] and
-    still (nj, ni) zeros [m/s] (the rest pass's surface); stats and rest_stats (kernel.N_STATS,);
-    lifted (3,); results (N_RESULTS,); the elements' planing work arrays pl_f, pl_r (N, 3), pl_s,
-    pl_m (N,) for N elements (:meth:`planing_arrays`); share_work, room for the ring's factors of its
-    shares, grown to the largest seen (:meth:`grow_shares`)."""
+    """Work arrays of :func:`ring_step` over a patch of shape (nj, ni), reused while the shape holds,
+    in three blocks so that a call passes three arrays, not twenty: ``planes`` (N_PLANES, nj, ni)
+    holds b_geo, b_rest, b_out [m], waterline (3, nj, ni), flat (the rest level [m]) and still
+    (zeros [m/s]) (the rest pass's surface); ``numbers`` (N_NUMBERS,) holds stats and rest_stats
+    (kernel.N_STATS,), lifted (3,), results (N_RESULTS,), the body's axes (3, 3) and pose (5,);
+    ``work`` (1-D) holds the elements' planing work arrays and room for the ring's factors, grown to
+    the largest seen (:meth:`grow`). The named arrays are views of the blocks."""
 
     def __init__(self, shape: tuple[int, int], rest_level: float):
         self.shape = shape
         self.rest_level = rest_level
-        self.b_geo = np.zeros(shape)
-        self.b_rest = np.zeros(shape)
-        self.b_out = np.zeros(shape)
-        self.waterline = np.zeros((3, *shape))
-        self.flat = np.full(shape, rest_level)
-        self.still = np.zeros(shape)
-        self.stats = np.zeros(kernel.N_STATS)
-        self.rest_stats = np.zeros(kernel.N_STATS)
-        self.lifted = np.zeros(3)
-        self.results = np.zeros(N_RESULTS)
-        self.share_work = np.empty(0)
-        self._planing: tuple[np.ndarray, ...] = ()
+        self.planes = np.zeros((N_PLANES, *shape))
+        self.planes[PLANE_FLAT] = rest_level
+        self.b_geo = self.planes[PLANE_B_GEO]
+        self.b_rest = self.planes[PLANE_B_REST]
+        self.b_out = self.planes[PLANE_B_OUT]
+        self.waterline = self.planes[PLANE_WATERLINE:PLANE_WATERLINE + 3]
+        self.numbers = np.zeros(N_NUMBERS)
+        self.stats = self.numbers[NUM_STATS:NUM_STATS + kernel.N_STATS]
+        self.rest_stats = self.numbers[NUM_REST:NUM_REST + kernel.N_STATS]
+        self.lifted = self.numbers[NUM_LIFTED:NUM_LIFTED + 3]
+        self.results = self.numbers[NUM_RESULTS:NUM_RESULTS + N_RESULTS]
+        self.axes = self.numbers[NUM_AXES:NUM_AXES + 9].reshape(3, 3)
+        self.work = np.empty(0)
 
-    def planing_arrays(self, n_elements: int) -> tuple[np.ndarray, ...]:
-        """pl_f, pl_r, pl_s, pl_m for a body of ``n_elements`` surface elements."""
-        if not self._planing or self._planing[2].size != n_elements:
-            self._planing = (np.empty((n_elements, 3)), np.empty((n_elements, 3)), np.empty(n_elements),
-                             np.empty(n_elements))
-        return self._planing
+    def work_for(self, n_elements: int) -> np.ndarray:
+        """The work block for a body of ``n_elements`` surface elements: its planing arrays
+        (:func:`_planing_arrays`) and at least the ring's factors of the last step."""
+        needed = PLANING_PER_ELEMENT * n_elements + int(self.results[R_SHARES])
+        if needed > self.work.size:
+            self.work = np.empty(PLANING_PER_ELEMENT * n_elements + 2 * int(self.results[R_SHARES]))
+        return self.work
 
-    def grow_shares(self) -> None:
-        """Make room for the ring's factors the last step needed, so later steps write them in place."""
-        needed = int(self.results[R_SHARES])
-        if needed > self.share_work.size:
-            self.share_work = np.empty(2 * needed)
+
+PLANING_PER_ELEMENT = 8  # values of the planing work arrays per surface element (pl_f, pl_r: 3; pl_s, pl_m: 1)
+
+
+@njit(cache=True)
+def _planing_arrays(work, n):
+    """pl_f, pl_r (n, 3), pl_s, pl_m (n,) of kernel.evaluate_into and the rest of ``work`` (room for
+    the ring's factors)."""
+    pl_f = work[0:3 * n].reshape((n, 3))
+    pl_r = work[3 * n:6 * n].reshape((n, 3))
+    pl_s = work[6 * n:7 * n]
+    pl_m = work[7 * n:8 * n]
+    return pl_f, pl_r, pl_s, pl_m, work[8 * n:]
 
 
 @njit(cache=True)
@@ -159,30 +189,45 @@ def stability_bound(body, stats, prm):
 
 
 @njit(cache=True)
-def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share, axes, low_half,
+def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
               x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-              b_geo, stats, flat, still, b_rest, waterline, b_out, rest_stats, lifted, results,
-              pl_f, pl_r, pl_s, pl_m, share_work):
+              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, planes, numbers, work):
     """The forces of the named effects on the body over one patch, with the ring displacement.
 
-    body (N_BODY,), prm (N_PARAMS,); axes (3, 3) and low_half (x_low, y_low, z_low, hx, hy) from
-    :func:`body_pose`; met_h, met_v: the surface the surface effects read (the met surface), height,
-    wvel, bottom, held (nj, ni): the patch and the occupied height it holds (used when has_held);
-    share: the planing share of the body's motion (met_surface.planing_share). Writes stats (the
-    forces against the met surface plus the hydrostatics of the ring, as
-    WaterCoupler._add_hydrostatics), b_geo, and the ring's b_rest, waterline, b_out, rest_stats,
-    lifted; results (N_RESULTS,) the planing share, the top's depth, the stability bound, the
-    deposit's window, the displaced volume and the size of the ring's factors. pl_f, pl_r,
-    pl_s, pl_m: :func:`kernel.evaluate_into`'s work arrays; share_work (1-D): room for the factors of
-    the ring's shares (:func:`kernel.ring_map_into`).
+    body (N_BODY,), prm (N_PARAMS,); met_h, met_v: the surface the surface effects read (the met
+    surface), height, wvel, bottom, held (nj, ni): the patch and the occupied height it holds (used
+    when has_held); share: the planing share of the body's motion (met_surface.planing_share);
+    planes, numbers, work: a :class:`RingScratch`'s blocks. Writes the body's axes and pose
+    (:func:`body_pose`), stats (the forces against the met surface plus the hydrostatics of the
+    ring, as WaterCoupler._add_hydrostatics), b_geo, and the ring's b_rest, waterline, b_out,
+    rest_stats, lifted; results (N_RESULTS,) the planing share, the top's depth, the stability
+    bound, the deposit's window, the displaced volume and the size of the ring's factors.
     """
+    b_geo = planes[PLANE_B_GEO]
+    b_rest = planes[PLANE_B_REST]
+    b_out = planes[PLANE_B_OUT]
+    waterline = planes[PLANE_WATERLINE:PLANE_WATERLINE + 3]
+    flat = planes[PLANE_FLAT]
+    still = planes[PLANE_STILL]
+    stats = numbers[NUM_STATS:NUM_STATS + kernel.N_STATS]
+    rest_stats = numbers[NUM_REST:NUM_REST + kernel.N_STATS]
+    lifted = numbers[NUM_LIFTED:NUM_LIFTED + 3]
+    results = numbers[NUM_RESULTS:NUM_RESULTS + N_RESULTS]
+    axes = np.empty((3, 3))
+    x_low, y_low, z_low, half_x, half_y = body_pose(shape, body, axes)
+    for q in range(9):
+        numbers[NUM_AXES + q] = axes[q // 3, q % 3]
+    numbers[NUM_POSE] = x_low
+    numbers[NUM_POSE + 1] = y_low
+    numbers[NUM_POSE + 2] = z_low
+    numbers[NUM_POSE + 3] = half_x
+    numbers[NUM_POSE + 4] = half_y
+    pl_f, pl_r, pl_s, pl_m, share_work = _planing_arrays(work, el_area.shape[0])
     radius = body[B_RADIUS]
     thickness = body[B_THICKNESS]
     centre = body[B_POS:B_POS + 3]
     velocity = body[B_VEL:B_VEL + 3]
     omega = body[B_OMEGA:B_OMEGA + 3]
-    x_low, y_low, z_low, half_x, half_y = low_half[0], low_half[1], low_half[2], low_half[3], low_half[4]
     rho, g = prm[P_RHO], prm[P_G]
     under = _top_under(body, x_low, y_low, z_low, x0, y0, cell, met_h, met_v)
     planing = 1.0 if math.isnan(under) else min(1.0, max(0.0, 1.0 - under / prm[P_CLOSURE]))
