@@ -149,6 +149,38 @@ def _site_dirs() -> str:
     return os.pathsep.join(d for d in dirs if d and os.path.isdir(d))
 
 
+class _OffTheSimulationsCore:
+    """Keeps this process off the core the simulating process last ran on.
+
+    Woken by the simulating process (a batch on the control pipe), the kernel tends to run this
+    process on the waker's core (so that it finds the data in the cache), where it takes the
+    simulation's time; while another job holds the machine's other core, all of the writer's CPU
+    then lands on the run's wall time. Asked before each batch, this lets the writer run anywhere
+    else, sharing another core with whatever runs there. Nothing is pinned on a single-core
+    machine, nor where the system gives no core numbers.
+    """
+
+    def __init__(self, pid: int):
+        self.stat = f"/proc/{pid}/stat"
+        try:
+            self.allowed = os.sched_getaffinity(0)
+        except (AttributeError, OSError):
+            self.allowed = set()
+        self.avoided = -1
+
+    def __call__(self) -> None:
+        if len(self.allowed) < 2:
+            return
+        try:
+            with open(self.stat, "rb") as f:
+                cpu = int(f.read().rsplit(b")", 1)[1].split()[36])  # field 39: the CPU it last ran on
+            if cpu != self.avoided and cpu in self.allowed:
+                os.sched_setaffinity(0, self.allowed - {cpu})
+                self.avoided = cpu
+        except (OSError, ValueError, IndexError):  # the process has gone, or no such field here
+            self.allowed = set()
+
+
 def writer_main(argv: list[str]) -> int:
     """Body of the writer process: apply batches from the ring until the simulating process closes
     the control pipe, then finish the file.
@@ -164,8 +196,10 @@ def writer_main(argv: list[str]) -> int:
     sys.path.extend(d for d in site_dirs.split(os.pathsep) if d and d not in sys.path)
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
+    off_the_simulations_core = _OffTheSimulationsCore(os.getppid())
     try:
         for (batch,) in ring.batches():
+            off_the_simulations_core()
             sink.apply_batch(batch)
     finally:
         try:
