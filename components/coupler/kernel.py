@@ -168,15 +168,69 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
     pl_f, pl_r (N, 3), pl_s, pl_m (N,): work arrays for the elements' planing loads (force, lever
     arm, place along the flow, magnitude), N the number of elements.
     """
+    empty, hmax = _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell)
+    if empty:
+        return
+    if flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG):
+        _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, half_y, z_low, x0, y0, cell,
+                       height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats,
+                       0.0, 0, b_geo, waterline, stats)
+    if flags & (PRESSURE | FRICTION):
+        _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_f,
+                      wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
+    _totals(stats)
+
+
+@njit(cache=True)
+def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low,
+                       z_low, x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2,
+                       world_fixed, rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
+                       b_geo, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m,
+                       rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats):
+    """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
+    pass: :func:`evaluate_into` of the body at rest (zero velocity) against the flat surface
+    ``flat`` (nj, ni) at the rest level with ``rest_flags`` (column effects only) into b_rest,
+    rest_waterline and rest_stats (zeros when it does not reach: b_rest and rest_waterline are then
+    left as they are). The two passes share one loop over the columns (:func:`_column_passes`);
+    each one's results are those of a call of its own, bit for bit."""
+    do_rest = z_low < rest_level
+    empty, hmax = _prologue(stats, b_geo, np.zeros((0, 0, 0)), height, wvel, x_low, y_low, x0, y0, cell)
+    if do_rest:
+        _prologue(rest_stats, b_rest, rest_waterline, flat, still, x_low, y_low, x0, y0, cell)
+    else:
+        rest_stats[:] = 0.0
+    if empty:
+        return
+    columns = (flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG)) != 0
+    rest_columns = do_rest and (rest_flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG)) != 0
+    if columns or rest_columns:
+        _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, half_y, z_low, x0, y0, cell,
+                       height, bottom, rho, g, c_w, c_min, nsub, flags if columns else 0, b_geo,
+                       np.zeros((0, 0, 0)), stats, rest_level, rest_flags if rest_columns else 0, b_rest,
+                       rest_waterline, rest_stats)
+    if flags & (PRESSURE | FRICTION):
+        _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_f,
+                      wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
+    _totals(stats)
+    if do_rest:
+        _totals(rest_stats)
+
+
+@njit(cache=True)
+def _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell):
+    """Clear a pass's stats, occupied height and waterline (when not empty), and put in the patch's
+    highest surface and the surface at the body's lowest point; (the patch is empty, its highest
+    surface)."""
     stats[:] = 0.0
     b_geo[:, :] = 0.0
-    by_column = waterline.size > 0
-    if by_column:
+    if waterline.size > 0:
         waterline[:, :, :] = 0.0
     nj, ni = height.shape
     stats[S_SURFACE_LOW] = np.nan
     if nj == 0 or ni == 0:
-        return
+        return True, -np.inf
     hmax = -np.inf
     for j in range(nj):
         for i in range(ni):
@@ -185,121 +239,195 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
     ok, h_low, _ = sample_surface(x_low, y_low, x0, y0, cell, height, wvel)
     if ok:
         stats[S_SURFACE_LOW] = h_low
+    return False, hmax
+
+
+@njit(cache=True)
+def _totals(stats):
+    """The sum of the switched-on effects' forces and torques."""
+    for q in range(6):
+        stats[S_TOTAL + q] = stats[S_BUOYANCY + q] + stats[S_PRESSURE + q] + stats[S_FRICTION + q] \
+            + stats[S_WAVE + q]
+
+
+@njit(cache=True, inline="always")
+def _column_dry(shape, hcol, z_low, xc, yc, cx, cy, cz, base, gx, gy, slack, radius, cell):
+    """Whether the body certainly stays above ``hcol`` [m] over the column centred at (xc, yc): a
+    lower bound of its lowest point there (a disk's lower slab face is a plane z = cz + base +
+    gx dx + gy dy; a sphere's bottom is lowest at the column's nearest point to the centre) is at or
+    above it."""
+    if z_low >= hcol:
+        return True
+    if shape == SHAPE_DISK:
+        return cz + base + gx * (xc - cx) + gy * (yc - cy) - slack >= hcol
+    nx_ = max(abs(xc - cx) - 0.5 * cell, 0.0)
+    ny_ = max(abs(yc - cy) - 0.5 * cell, 0.0)
+    rn2 = nx_ * nx_ + ny_ * ny_
+    return rn2 < radius * radius and cz - math.sqrt(radius * radius - rn2) >= hcol
+
+
+@njit(cache=True)
+def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, half_y, z_low, x0, y0, cell,
+                   height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats,
+                   rest_level, rest_flags, b_rest, rest_waterline, rest_stats):
+    """The columns' part of :func:`evaluate_into` (occupied height, buoyancy, submerged volume, wave
+    drag) against ``height`` (nj, ni) with ``flags`` (0: not this pass) into b_geo, waterline (when
+    not empty) and stats, and, when ``rest_flags`` is not 0, the same against a flat surface at
+    ``rest_level`` [m] into b_rest, rest_waterline and rest_stats: one loop over the columns, each
+    sub-column's chord through the body found once for both passes. Each pass adds up its sums in
+    the order of a pass of its own."""
+    nj, ni = height.shape
     cx, cy, cz = centre[0], centre[1], centre[2]
     ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
-
-    # --- columns: occupied height, buoyancy, submerged volume -------------------------------
-    if flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG):
-        i_lo = max(0, math.floor((cx - half_x - x0) / cell + 0.5))
-        i_hi = min(ni - 1, math.floor((cx + half_x - x0) / cell + 0.5))
-        j_lo = max(0, math.floor((cy - half_y - y0) / cell + 0.5))
-        j_hi = min(nj - 1, math.floor((cy + half_y - y0) / cell + 0.5))
-        sub = cell / nsub
-        a_sub = sub * sub
-        fz = 0.0
-        tx = 0.0
-        ty = 0.0
-        vol = 0.0
-        mx = 0.0
-        my = 0.0
-        mz = 0.0
-        wl = 0.0
-        ncol = 0
-        # lowest body point over a column, bounded from below cheaply: a disk's lower slab face is a
-        # plane (z = cz + base + gx dx + gy dy), a sphere's bottom is lowest at the column's nearest
-        # point to the centre; columns whose bound is above their surface are dry and skipped
-        if shape == SHAPE_DISK and abs(az) > 1e-3:
-            gx = -ax / az
-            gy = -ay / az
-            base = -0.5 * thickness / abs(az)
-            slack = 0.5 * cell * (abs(gx) + abs(gy))
-        else:
-            gx = 0.0
-            gy = 0.0
-            base = z_low - cz
-            slack = 0.0
-        for j in range(j_lo, j_hi + 1):
-            yc = y0 + j * cell
-            for i in range(i_lo, i_hi + 1):
-                hcol = height[j, i]
-                if z_low >= hcol:
-                    continue
-                xc = x0 + i * cell
-                if shape == SHAPE_DISK:
-                    if cz + base + gx * (xc - cx) + gy * (yc - cy) - slack >= hcol:
+    live = flags != 0
+    rest = rest_flags != 0
+    i_lo = max(0, math.floor((cx - half_x - x0) / cell + 0.5))
+    i_hi = min(ni - 1, math.floor((cx + half_x - x0) / cell + 0.5))
+    j_lo = max(0, math.floor((cy - half_y - y0) / cell + 0.5))
+    j_hi = min(nj - 1, math.floor((cy + half_y - y0) / cell + 0.5))
+    sub = cell / nsub
+    a_sub = sub * sub
+    by_column = waterline.size > 0
+    rest_by_column = rest_waterline.size > 0
+    fz = tx = ty = vol = mx = my = mz = wl = 0.0
+    r_fz = r_tx = r_ty = r_vol = r_mx = r_my = r_mz = r_wl = 0.0
+    ncol = 0
+    r_ncol = 0
+    # columns whose lowest body point is bounded from below above their surface are dry, skipped
+    # (_column_dry)
+    if shape == SHAPE_DISK and abs(az) > 1e-3:
+        gx = -ax / az
+        gy = -ay / az
+        base = -0.5 * thickness / abs(az)
+        slack = 0.5 * cell * (abs(gx) + abs(gy))
+    else:
+        gx = 0.0
+        gy = 0.0
+        base = z_low - cz
+        slack = 0.0
+    for j in range(j_lo, j_hi + 1):
+        yc = y0 + j * cell
+        for i in range(i_lo, i_hi + 1):
+            hcol = height[j, i]
+            xc = x0 + i * cell
+            wet = live and not _column_dry(shape, hcol, z_low, xc, yc, cx, cy, cz, base, gx, gy, slack,
+                                           radius, cell)
+            r_wet = rest and not _column_dry(shape, rest_level, z_low, xc, yc, cx, cy, cz, base, gx, gy,
+                                             slack, radius, cell)
+            if not (wet or r_wet):
+                continue
+            ncol += wet
+            r_ncol += r_wet
+            bed = bottom[j, i]
+            bsum = 0.0
+            r_bsum = 0.0
+            for sa in range(nsub):
+                xs = xc + ((sa + 0.5) / nsub - 0.5) * cell
+                dx = xs - cx
+                for sb in range(nsub):
+                    ys = yc + ((sb + 0.5) / nsub - 0.5) * cell
+                    dy = ys - cy
+                    lo, hi = _chord(shape, dx, dy, ax, ay, az, radius, thickness)
+                    if lo >= hi:
                         continue
-                else:
-                    nx_ = max(abs(xc - cx) - 0.5 * cell, 0.0)
-                    ny_ = max(abs(yc - cy) - 0.5 * cell, 0.0)
-                    rn2 = nx_ * nx_ + ny_ * ny_
-                    if rn2 < radius * radius and cz - math.sqrt(radius * radius - rn2) >= hcol:
-                        continue
-                ncol += 1
-                bed = bottom[j, i]
-                bsum = 0.0
-                for sa in range(nsub):
-                    xs = xc + ((sa + 0.5) / nsub - 0.5) * cell
-                    dx = xs - cx
-                    for sb in range(nsub):
-                        ys = yc + ((sb + 0.5) / nsub - 0.5) * cell
-                        dy = ys - cy
-                        lo, hi = _chord(shape, dx, dy, ax, ay, az, radius, thickness)
-                        if lo >= hi:
-                            continue
-                        zlo = cz + lo
-                        zhi = cz + hi
+                    zlo = cz + lo
+                    zhi = cz + hi
+                    bot = max(zlo, bed)
+                    if wet:
                         top = min(zhi, hcol)
-                        bot = max(zlo, bed)
-                        if top <= bot:
-                            continue
-                        w = top - bot
-                        bsum += w
-                        dv = w * a_sub
-                        vol += dv
-                        zm = 0.5 * (top + bot)
-                        mx += xs * dv
-                        my += ys * dv
-                        mz += zm * dv
-                        f = rho * g * dv
-                        fz += f
-                        tx += dy * f
-                        ty -= dx * f
-                        if zlo < hcol < zhi:
-                            wl += a_sub
-                            if by_column:
-                                waterline[0, j, i] += a_sub
-                                waterline[1, j, i] += dx * a_sub
-                                waterline[2, j, i] += dy * a_sub
+                        if not top <= bot:
+                            w = top - bot
+                            bsum += w
+                            dv = w * a_sub
+                            vol += dv
+                            zm = 0.5 * (top + bot)
+                            mx += xs * dv
+                            my += ys * dv
+                            mz += zm * dv
+                            f = rho * g * dv
+                            fz += f
+                            tx += dy * f
+                            ty -= dx * f
+                            if zlo < hcol < zhi:
+                                wl += a_sub
+                                if by_column:
+                                    waterline[0, j, i] += a_sub
+                                    waterline[1, j, i] += dx * a_sub
+                                    waterline[2, j, i] += dy * a_sub
+                    if r_wet:
+                        top = min(zhi, rest_level)
+                        if not top <= bot:
+                            w = top - bot
+                            r_bsum += w
+                            dv = w * a_sub
+                            r_vol += dv
+                            zm = 0.5 * (top + bot)
+                            r_mx += xs * dv
+                            r_my += ys * dv
+                            r_mz += zm * dv
+                            f = rho * g * dv
+                            r_fz += f
+                            r_tx += dy * f
+                            r_ty -= dx * f
+                            if zlo < rest_level < zhi:
+                                r_wl += a_sub
+                                if rest_by_column:
+                                    rest_waterline[0, j, i] += a_sub
+                                    rest_waterline[1, j, i] += dx * a_sub
+                                    rest_waterline[2, j, i] += dy * a_sub
+            if wet:
                 b_geo[j, i] = bsum / (nsub * nsub)
-        stats[S_VOLUME] = vol
-        stats[S_CENTROID] = mx
-        stats[S_CENTROID + 1] = my
-        stats[S_CENTROID + 2] = mz
-        stats[S_WATERLINE] = wl
-        stats[S_COLUMNS] = ncol
-        if flags & BUOYANCY:
-            stats[S_BUOYANCY + 2] = fz
-            stats[S_BUOYANCY + 3] = tx
-            stats[S_BUOYANCY + 4] = ty
-            stats[S_STIFF] += rho * g * wl
-        if flags & WAVE_DRAG and vol > 0.0:
-            vx = velocity[0]
-            vy = velocity[1]
-            speed = math.sqrt(vx * vx + vy * vy)
-            mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min, g)
-            if mag > 0.0:
-                fx = -mag * vx / speed
-                fy = -mag * vy / speed
-                rx = mx / vol - cx
-                ry = my / vol - cy
-                rz = mz / vol - cz
-                stats[S_WAVE] = fx
-                stats[S_WAVE + 1] = fy
-                stats[S_WAVE + 3] = -rz * fy
-                stats[S_WAVE + 4] = rz * fx
-                stats[S_WAVE + 5] = rx * fy - ry * fx
+            if r_wet:
+                b_rest[j, i] = r_bsum / (nsub * nsub)
+    if live:
+        _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
+                      cx, cy, cz)
+    if rest:
+        _column_stats(rest_stats, rest_flags, r_vol, r_mx, r_my, r_mz, r_wl, r_ncol, r_fz, r_tx, r_ty,
+                      np.zeros(3), radius, rho, g, c_w, c_min, cx, cy, cz)
 
-    # --- surface elements: pressure and friction --------------------------------------------
+
+@njit(cache=True)
+def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
+                  cx, cy, cz):
+    """A column pass's sums into ``stats``: volume, centroid, waterline, columns; the buoyancy and
+    its stiffness and the wave drag when switched on."""
+    stats[S_VOLUME] = vol
+    stats[S_CENTROID] = mx
+    stats[S_CENTROID + 1] = my
+    stats[S_CENTROID + 2] = mz
+    stats[S_WATERLINE] = wl
+    stats[S_COLUMNS] = ncol
+    if flags & BUOYANCY:
+        stats[S_BUOYANCY + 2] = fz
+        stats[S_BUOYANCY + 3] = tx
+        stats[S_BUOYANCY + 4] = ty
+        stats[S_STIFF] += rho * g * wl
+    if flags & WAVE_DRAG and vol > 0.0:
+        vx = velocity[0]
+        vy = velocity[1]
+        speed = math.sqrt(vx * vx + vy * vy)
+        mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min, g)
+        if mag > 0.0:
+            fx = -mag * vx / speed
+            fy = -mag * vy / speed
+            rx = mx / vol - cx
+            ry = my / vol - cy
+            rz = mz / vol - cz
+            stats[S_WAVE] = fx
+            stats[S_WAVE + 1] = fy
+            stats[S_WAVE + 3] = -rz * fy
+            stats[S_WAVE + 4] = rz * fx
+            stats[S_WAVE + 5] = rx * fy - ry * fx
+
+
+@njit(cache=True)
+def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
+                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_f,
+                  wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
+    """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``."""
+    cx, cy, cz = centre[0], centre[1], centre[2]
+    ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
     if flags & (PRESSURE | FRICTION):
         wx, wy, wz = omega[0], omega[1], omega[2]
         if shape == SHAPE_DISK:
@@ -442,9 +570,6 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
         stats[S_DAMP_ROT] = d_rot
         stats[S_STIFF] += stiff
         stats[S_ELEMENTS] = nel
-    for q in range(6):
-        stats[S_TOTAL + q] = stats[S_BUOYANCY + q] + stats[S_PRESSURE + q] + stats[S_FRICTION + q] \
-            + stats[S_WAVE + q]
 
 
 @njit(cache=True)

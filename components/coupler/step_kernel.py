@@ -236,23 +236,19 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     results[R_TOP_UNDER] = _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel)
     results[R_I_LO] = 1.0
     results[R_I_HI] = 0.0
-    kernel.evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
-                         x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
-                         el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                         rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN], prm[P_WET_RAMP],
-                         local_flags, nsub, b_geo, np.zeros((0, 0, 0)), stats, planing, prm[P_C_D],
-                         pl_f, pl_r, pl_s, pl_m)
+    # the forces against the met surface and the body under the rest level (the ring's), the two
+    # passes over the columns in one loop
+    kernel.evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
+                              x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
+                              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                              rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
+                              prm[P_WET_RAMP], local_flags, nsub, b_geo, stats, planing, prm[P_C_D],
+                              pl_f, pl_r, pl_s, pl_m,
+                              rest_level, flat, still, DISPLACEMENT | (flags & BUOYANCY), b_rest, waterline,
+                              rest_stats)
     # --- the ring: the body under the rest level, pushed out around it --------------------------
     lifted[:] = 0.0
-    if z_low >= rest_level:  # nothing of the body below the rest level: no displacement
-        rest_stats[:] = 0.0
-    else:
-        kernel.evaluate_into(shape, radius, thickness, centre, axes, np.zeros(3), np.zeros(3), half_x, half_y,
-                             x_low, y_low, z_low, x0, y0, cell, flat, still, bottom,
-                             el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                             rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
-                             prm[P_WET_RAMP], DISPLACEMENT | (flags & BUOYANCY), nsub, b_rest, waterline,
-                             rest_stats, 1.0, 0.0, pl_f, pl_r, pl_s, pl_m)
+    if z_low < rest_level:  # else nothing of the body below the rest level: no displacement
         if rest_stats[kernel.S_VOLUME] > 0.0:
             band_j, band_i, col_j, col_i, columns, band = kernel.ring_map_into(
                 shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell, share_work)
