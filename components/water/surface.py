@@ -244,6 +244,8 @@ class WaterSurface(Component):
         self._steps = 0
         self._next_frame = 1
         self._follow: tuple[float, float] | None = None  # centre of the last water a body asked for [m]
+        # each body's last request and its index window (patch): requests are immutable
+        self._windows: dict[int, tuple[PatchRequest, tuple[int, int, int, int] | None]] = {}
         self._empty_patch = HeightPatch(
             i0=0, j0=0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, rest_level=g.rest_level,
             height=np.zeros((0, 0)), velocity=np.zeros((0, 0)), bottom=np.zeros((0, 0)))
@@ -502,7 +504,12 @@ class WaterSurface(Component):
         if request is None:
             return self._empty_patch
         g = self.grid
-        win = g.window(request.x_min, request.x_max, request.y_min, request.y_max, self.params.patch_margin)
+        cached = self._windows.get(body)
+        if cached is not None and cached[0] is request:
+            win = cached[1]  # a body's request is held over many steps: its window with it
+        else:
+            win = g.window(request.x_min, request.x_max, request.y_min, request.y_max, self.params.patch_margin)
+            self._windows[body] = (request, win)
         if win is None:
             return self._empty_patch
         i0, i1, j0, j1 = win
