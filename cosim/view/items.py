@@ -347,7 +347,7 @@ class VisualDeriver:
         fraction = Fraction(self.rate)
         self._num, self._den = fraction.numerator, fraction.denominator
         self._slots: dict[tuple[str, str], Any] = {}
-        self._trails: dict[tuple[str, str], list[np.ndarray]] = {}
+        self._trails: dict[tuple[str, str], np.ndarray] = {}  # each trail's points so far, (n, 3)
         self._sent: dict[tuple[str, str], _Sent] = {}
 
     def bind(self, components: dict[str, Any]) -> None:
@@ -437,11 +437,17 @@ class VisualDeriver:
             raise ValueError(f"log level {item.level!r} is not one of {', '.join(LOG_LEVELS)}")
 
     def _trail_entity(self, trail: Trail) -> Entity:
-        points = self._trails.setdefault((trail.topic, trail.id), [])
-        points.append(np.array(trail.point, dtype=np.float64))
-        if len(points) > trail.max_points:
-            del points[: len(points) - trail.max_points]
-        strip = LineStrip(np.array(points), trail.color, trail.thickness)
+        # the points so far are kept as one array, a new one each frame (the last frame's entity
+        # still holds the old one): a copy of the rows, not an array built from a list of points
+        point = np.array(trail.point, dtype=np.float64).reshape(1, -1)
+        points = self._trails.get((trail.topic, trail.id))
+        if points is None or points.shape[1] != point.shape[1]:
+            points = point
+        else:
+            keep = max(trail.max_points - 1, 0)
+            points = np.concatenate((points[len(points) - keep:] if keep else points[:0], point))
+        self._trails[(trail.topic, trail.id)] = points
+        strip = LineStrip(points, trail.color, trail.thickness)
         return Entity(trail.topic, trail.id, trail.frame_id, (strip,))
 
     def _changed(self, entity: Entity, time_ns: int) -> bool:
