@@ -475,9 +475,10 @@ class WaterCoupler(Component):
             height, wvel, bottom, height if held is None else held, held is not None,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             scratch.planes, scratch.numbers, scratch.work_for(elements.area.shape[0]))
-        numbers = scratch.numbers.tolist()
-        res = numbers[step_kernel.NUM_RESULTS:step_kernel.NUM_RESULTS + step_kernel.N_RESULTS]
-        pose = numbers[step_kernel.NUM_POSE:step_kernel.NUM_POSE + 5]
+        # results, axes and pose lie at the end of the numbers: read them as Python floats at once
+        numbers = scratch.numbers[step_kernel.NUM_RESULTS:].tolist()
+        res = numbers[:step_kernel.N_RESULTS]
+        pose = numbers[step_kernel.NUM_POSE - step_kernel.NUM_RESULTS:]
         self.bound = res[step_kernel.R_BOUND]
         window = None
         i_lo, i_hi, j_lo, j_hi = map(int, res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
