@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -238,27 +237,23 @@ def test_killed_run_still_leaves_a_complete_file(tmp_path):
 
 
 
-WRITER_PLACEMENT = r"""
-import json, os, sys
-from cosim.record.writer import _OffTheSimulationsCore
-keep_off = _OffTheSimulationsCore(int(sys.argv[1]))
-keep_off()
-print(json.dumps([sorted(keep_off.allowed), keep_off.avoided, sorted(os.sched_getaffinity(0))]))
-"""
-
 
 @pytest.mark.skipif(not hasattr(os, "sched_setaffinity") or len(os.sched_getaffinity(0)) < 2
                     or not Path("/proc/self/stat").exists(), reason="needs two cores and /proc")
-def test_the_writer_keeps_off_the_core_the_simulation_last_ran_on():
-    """The writer's placement: every allowed core but the one the simulating process last ran on
-    (here a process spinning on its core)."""
-    spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+def test_the_writer_keeps_off_the_simulations_core_until_the_simulation_waits():
+    """A writer's placement: every core it may use but the one this process last ran on, then,
+    once told this process only waits, every core again."""
+    from cosim.record.writer import WriterPlacement
+
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
     try:
-        time.sleep(0.2)
-        done = subprocess.run([sys.executable, "-c", WRITER_PLACEMENT, str(spin.pid)], capture_output=True,
-                              text=True, check=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        allowed = os.sched_getaffinity(child.pid)
+        placement = WriterPlacement(child.pid)
+        placement.avoid_mine()
+        assert placement.avoided in allowed and os.sched_getaffinity(child.pid) == allowed - {placement.avoided}
+        placement.anywhere()
+        assert os.sched_getaffinity(child.pid) == allowed and placement.avoided == -1
     finally:
-        spin.kill()
-        spin.wait()
-    allowed, avoided, placed = json.loads(done.stdout)
-    assert avoided in allowed and placed == sorted(set(allowed) - {avoided})
+        child.kill()
+        child.wait()
+    placement.avoid_mine()  # the writer gone: nothing to place, no error

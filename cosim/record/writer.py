@@ -149,38 +149,6 @@ def _site_dirs() -> str:
     return os.pathsep.join(d for d in dirs if d and os.path.isdir(d))
 
 
-class _OffTheSimulationsCore:
-    """Keeps this process off the core the simulating process last ran on.
-
-    Woken by the simulating process (a batch on the control pipe), the kernel tends to run this
-    process on the waker's core (so that it finds the data in the cache), where it takes the
-    simulation's time; while another job holds the machine's other core, all of the writer's CPU
-    then lands on the run's wall time. Asked before each batch, this lets the writer run anywhere
-    else, sharing another core with whatever runs there. Nothing is pinned on a single-core
-    machine, nor where the system gives no core numbers.
-    """
-
-    def __init__(self, pid: int):
-        self.stat = f"/proc/{pid}/stat"
-        try:
-            self.allowed = os.sched_getaffinity(0)
-        except (AttributeError, OSError):
-            self.allowed = set()
-        self.avoided = -1
-
-    def __call__(self) -> None:
-        if len(self.allowed) < 2:
-            return
-        try:
-            with open(self.stat, "rb") as f:
-                cpu = int(f.read().rsplit(b")", 1)[1].split()[36])  # field 39: the CPU it last ran on
-            if cpu != self.avoided and cpu in self.allowed:
-                os.sched_setaffinity(0, self.allowed - {cpu})
-                self.avoided = cpu
-        except (OSError, ValueError, IndexError):  # the process has gone, or no such field here
-            self.allowed = set()
-
-
 def writer_main(argv: list[str]) -> int:
     """Body of the writer process: apply batches from the ring until the simulating process closes
     the control pipe, then finish the file.
@@ -196,10 +164,8 @@ def writer_main(argv: list[str]) -> int:
     sys.path.extend(d for d in site_dirs.split(os.pathsep) if d and d not in sys.path)
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
-    off_the_simulations_core = _OffTheSimulationsCore(os.getppid())
     try:
         for (batch,) in ring.batches():
-            off_the_simulations_core()
             sink.apply_batch(batch)
     finally:
         try:
@@ -209,6 +175,52 @@ def writer_main(argv: list[str]) -> int:
             return 1
     ring.finish()  # the file is complete under its final name: the simulating process need not wait for the exit
     return 0
+
+
+class WriterPlacement:
+    """Keeps a writer process off the core this (the simulating) process runs on, until it waits.
+
+    Woken by the simulating process (a batch on the control pipe), the kernel tends to run the writer
+    on the waker's core (so that it finds the data in the cache), where it takes the simulation's
+    time: while another job holds the machine's other core, all of the writer's CPU then lands on
+    the run's wall time. Told at each batch which core the simulation is on (:meth:`avoid_mine`), the
+    writer runs anywhere else, sharing another core with whatever runs there; once the simulation
+    waits for it (the file being finished, :meth:`anywhere`) it may run anywhere again. Nothing is
+    pinned on a single-core machine, nor where the system gives no such figures (no ``/proc``).
+    """
+
+    def __init__(self, pid: int):
+        self.pid = pid
+        try:
+            self.allowed = os.sched_getaffinity(pid)
+        except (AttributeError, OSError):
+            self.allowed = set()
+        self.avoided = -1  # the core the writer keeps off, -1 for none
+
+    def _set(self, cpu: int) -> None:
+        if cpu != self.avoided and len(self.allowed) > 1:
+            try:
+                os.sched_setaffinity(self.pid, self.allowed - {cpu})
+                self.avoided = cpu
+            except OSError:  # the writer has gone: its failure is told elsewhere
+                self.allowed = set()
+
+    def avoid_mine(self) -> None:
+        """Keep the writer off the core this process last ran on (``/proc/self/stat``, field 39)."""
+        if len(self.allowed) < 2:
+            return
+        try:
+            with open("/proc/self/stat", "rb") as f:
+                cpu = int(f.read().rsplit(b")", 1)[1].split()[36])
+        except (OSError, ValueError, IndexError):
+            self.allowed = set()
+            return
+        if cpu in self.allowed:
+            self._set(cpu)
+
+    def anywhere(self) -> None:
+        """Let the writer run on any core it may."""
+        self._set(-1)
 
 
 class _Ids:
@@ -363,8 +375,10 @@ class ProcessSink(_Sink):
             os.close(control_r)
             os.close(ack_w)
         self._ring.connect(control_w, ack_r)
+        self._placement = WriterPlacement(self._proc.pid)
 
     def _send(self, batch: memoryview) -> None:
+        self._placement.avoid_mine()
         try:
             if self._ring.owns(batch):
                 self._ring.commit(len(batch))
@@ -411,6 +425,7 @@ class ProcessSink(_Sink):
         """Send what is left, close the ring, and wait until the writer has finished the file."""
         try:
             self.flush()
+            self._placement.anywhere()  # this process only waits from now on
         finally:
             finished = self._hang_up()
         if finished:  # the file is complete; the writer's exit is reaped in the background
