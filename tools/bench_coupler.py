@@ -79,22 +79,35 @@ connections:
 HOW = """How the coupler's step runs. Everything it computes over the columns and the body's surface
 (the body's pose, the planing share, the forces of the named effects against the met surface, the
 body under the rest level, the ring's map, deposit and lift, the hydrostatics, the stability bound)
-is one compiled call, `components.coupler.step_kernel.ring_step`, into work arrays the component
-keeps (no array is allocated per step inside it; the frozen surface the planing law reads is
-overlaid and blended in one compiled pass, `met_surface._freeze`); Python reads the messages and
-builds the four it publishes. The results are those of the separate kernels it replaced, bit for
-bit (`tests/test_coupler_step_kernel.py`).
+is one compiled call, `components.coupler.step_kernel.ring_step`, into three work blocks the
+component keeps (grid planes, numbers, work); the frozen surface the planing law reads is overlaid
+and blended in one compiled pass (`met_surface._freeze`); Python reads the messages and builds the
+four it publishes. The water takes a body's occupied height, and reads its patch, in one compiled
+pass each (`components/water/windows.py`). Since the section was last written (4.13, 2.06 and 54%,
+before the water was stepped by tiles):
 
-Where the time still goes (py-spy, floating ball on 256 x 256): the compiled step about a quarter
-of the tick, as much as the water's own step, and the Python around it (reading the messages,
-building four, the base class's checks) about a fifth. The compiled step is arithmetic the model
-asks for: a 5 cm ball is tiled into 1200 surface elements (about 900 wet, each sampling the surface
-bilinearly), its 90 to 120 occupied columns are cut by 3 x 3 vertical chords twice (against the met
-surface and the rest level), and the ring spreads each of them over the 120 band columns around it
-(a shares matrix of about 11,000 weights, built, deposited and read back every step). Reaching the
-targets would need less of this work per step (a coarser element tiling or band, or shares reused
-while the body's pose barely changes), which changes the results beyond round-off; tighter loops
-alone would not close the remaining factor of about 2.5."""
+- The ring's shares matrix (occupied columns x band columns, about 11,000 weights a step for the
+  ball) is never formed. A column's share of a band column is a polynomial of degree 4 in the band
+  column's direction, so the matrix is the product of a (columns x 15) and a (band x 15) factor, and
+  the deposit and the lift go through 15 moments: work in columns + band, not columns x band (ring
+  map, deposit and lift about 37 -> 15 us). The results move by round-off (deposit and lift within
+  1e-14 of the matrix's on 300 random poses, the scenes' bodies within 1e-13; every pinned test
+  passes unchanged).
+- The forces' pass over the columns and the ring's pass under the rest level share one loop, each
+  sub-column's chord through the body found once for both; the pose is computed inside the call,
+  which passes three blocks instead of twenty arrays. Bit for bit.
+- The benchmark's pond steps every column (`tile: 0`, as `tools/bench_water.py`): tiled, the bare
+  pond at rest is not stepped at all and the ratio would say nothing.
+
+Where the time still goes (py-spy, floating ball on 256 x 256): the water's own step about a quarter
+of the tick; the compiled coupler step about a sixth, half of it the ball's surface elements (1200,
+about 670 wet, each sampling the surface bilinearly: the pressure and friction the model asks for);
+the coupler's Python around it about an eighth; the water's patch and the framework's checks of
+every message (`Message.first_nonfinite` sums each array of each patch) about a fifth; the ball's
+own step and the scheduler's exchange about a sixth. At 256 x 256 the target leaves half a bare
+tick (about 50 us) for everything but the water's step, and the ball's step and the scheduler's
+exchange alone take about that, outside the coupler's and the water's code; at 512 x 512 the 0.2
+left (about 90 us) is less than the coupler's compiled step and the ball's step together."""
 
 
 def pond_scene(n: int, coupled: bool) -> str:
