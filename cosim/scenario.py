@@ -594,10 +594,11 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     raw_components = data.get("components")
     components: dict[str, ComponentConfig] = {}
     classes: dict[str, type[Component]] = {}
+    no_components = not isinstance(raw_components, dict) or not raw_components
     if raw_components is None:
         problems.append("components: missing (required, a mapping of name -> {type: ..., parameters})")
         raw_components = {}
-    elif not isinstance(raw_components, dict) or not raw_components:
+    elif no_components:
         problems.append(f"components: must be a non-empty mapping (got {raw_components!r})")
         raw_components = {}
     for cname, spec in raw_components.items():
@@ -612,7 +613,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         raw_edges = []
     names = {str(n) for n in raw_components}
     spelled = {str(n): str(spec.get("type")) for n, spec in raw_components.items() if isinstance(spec, dict)}
-    for i, item in enumerate(raw_edges):
+    for i, item in enumerate(raw_edges if not no_components else []):
+        # without components every connection would only repeat that its ends are unknown
         edge = _connection(i, item, classes, names, problems, spelled)
         if edge is not None:
             edges.append(edge)

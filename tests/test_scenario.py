@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+import yaml
 
 from cosim.errors import ScenarioError
 from cosim.scenario import load, loads
@@ -140,3 +141,14 @@ def test_missing_file_is_bad_input(tmp_path):
     """A scene path that does not exist is a ScenarioError naming the path."""
     with pytest.raises(ScenarioError, match=r"nope\.yaml: no such file"):
         load(tmp_path / "nope.yaml")
+
+
+@pytest.mark.parametrize("components", ["[1, 2]", "{}"])
+def test_components_that_are_not_a_mapping_is_the_one_problem_named(components):
+    """With no usable components, the connections are not checked against them: the error is the one
+    line that says what is wrong, not one more per connection end that names an unknown component."""
+    text = (f"dt: 0.001\nuntil: 1\ncomponents: {components}\n"
+            "connections:\n  - a.out -> b.in\n  - b.out -> a.in\n")
+    with pytest.raises(ScenarioError) as info:
+        loads(text)
+    assert info.value.problems == [f"components: must be a non-empty mapping (got {yaml.safe_load(components)!r})"]
