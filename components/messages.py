@@ -147,6 +147,8 @@ class HeightPatch(Message):
     (the last OccupiedHeight it received, already part of ``height``), so that the body that sent it
     knows how much of its own displacement the water holds; (0, 0) when the source does not say
     (hand-made still water).
+    off_grid: the window is empty because the request lay wholly outside the water's grid: there is
+    no water there (an empty window without it means that nothing was asked yet).
     """
 
     i0: int
@@ -159,6 +161,7 @@ class HeightPatch(Message):
     velocity: Grid
     bottom: Grid
     occupied: Grid = dataclasses.field(default_factory=lambda: np.zeros((0, 0)))
+    off_grid: bool = False
 
 
 @message

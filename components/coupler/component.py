@@ -324,6 +324,10 @@ class WaterCoupler(Component):
                 self._start_in_water = float(pos[2]) - r_bound < float(patch.rest_level)
             self.rest_level = float(patch.rest_level)
             self.cell = float(patch.cell)
+        elif patch is not None and patch.off_grid and self.cell == 0.0:
+            # the water answered that it has no columns where the body is: no still water is assumed
+            # there, and the body falls through as off any edge of the water
+            self.rest_level, self.cell = float(patch.rest_level), float(patch.cell)
         self._account_work(pos, omega, dt)
         # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest
         z_bottom = float(pos[2]) - r_bound

@@ -42,7 +42,7 @@ are applied once and the outputs built once, at the end of the whole step.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -249,6 +249,7 @@ class WaterSurface(Component):
         self._empty_patch = HeightPatch(
             i0=0, j0=0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, rest_level=g.rest_level,
             height=np.zeros((0, 0)), velocity=np.zeros((0, 0)), bottom=np.zeros((0, 0)))
+        self._off_grid_patch = replace(self._empty_patch, off_grid=True)
         self.initial_volume = self.volume()
 
     # --- diagnostics --------------------------------------------------------------------------
@@ -511,7 +512,8 @@ class WaterSurface(Component):
             win = g.window(request.x_min, request.x_max, request.y_min, request.y_max, self.params.patch_margin)
             self._windows[body] = (request, win)
         if win is None:
-            return self._empty_patch
+            asked = request.x_min <= request.x_max and request.y_min <= request.y_max
+            return self._off_grid_patch if asked else self._empty_patch
         i0, i1, j0, j1 = win
         height, velocity, bottom, occupied = patch_arrays(g.surface0, self._h, self._v, g.bed,
                                                           self._occupants[body].b, win)

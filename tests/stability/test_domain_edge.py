@@ -64,3 +64,30 @@ def test_a_stone_skipping_over_an_edge_lands_outside_and_stops_the_run(side, vel
     assert r.metrics["skips"] == 1 and r.metrics["outcome"] == "left-pond"
     x, y = r.position[-1, :2]
     assert x > 1.5 or not 0.0 < y < 1.0
+
+
+@pytest.mark.parametrize(("where", "position"), [("beyond the far end", "[3.5, 0.5, 0.15]"),
+                                                 ("far off the pond", "[100.0, 100.0, 0.15]")])
+def test_a_stone_that_first_comes_down_off_the_grid_finds_no_water_there(where, position):
+    """A throw whose first touchdown lies wholly outside the water's grid (3 m pond): the water
+    answers that it has no columns there (``HeightPatch.off_grid``), the coupler assumes no still
+    water in their place, and the stone falls through: no skip, no force, 'left the pond'. Before,
+    having never received a column, the coupler stood in still water for the water it had not yet
+    heard from, and the stone skipped four times on a pond that was not there."""
+    r = run(scene(f"components.stone.position={position}", "until=1.0"))
+    assert_finite(r)
+    assert r.metrics["skips"] == 0 and r.metrics["outcome"] == "left-pond"
+    assert r.sim.components["coupler"].dissipated == 0.0  # the water never pushed on the stone
+    assert r.volume[-1] == r.volume[0]  # the water never moved
+
+
+def test_a_stone_thrown_from_the_shore_skips_on_the_pond():
+    """Let go in the air off the grid (1 m before the pond's near edge) and coming down on it, the
+    stone skips as from inside: the water that answers 'off the grid' while it flies there stands
+    for nothing once it is over the columns."""
+    r = run(scene("components.stone.position=[-1.0, 0.5, 0.3]", "components.stone.velocity=[8.0, 0.0, 0.5]",
+                  "until=1.0"))
+    assert_finite(r)
+    assert r.metrics["skips"] >= 1
+    first = r.sim.components["stages"].records[0]
+    assert 0.0 < first.touchdown_x < 3.0
