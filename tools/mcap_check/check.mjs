@@ -1,6 +1,7 @@
 // Opens cosim recordings with @mcap/core, the TypeScript reader Foxglove and Lichtblick use, and
 // checks what a viewer relies on: chunk and data CRCs, every message decodes against its schema
-// (JSON for cosim.* exchanges, protobuf descriptors for foxglove.* viewer types), per-channel
+// (protobuf descriptors for the cosim.* exchanges that have that form and the foxglove.* viewer
+// types, JSON for the other cosim.* channels), per-channel
 // counts equal the summary statistics, log_time == publish_time, sequence numbers increase, and a
 // foxglove payload's timestamp equals its log time.
 //
