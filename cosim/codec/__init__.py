@@ -2,6 +2,8 @@
 
 - :mod:`~cosim.codec.json_codec`: one codec per message type, a JSON schema plus JSON bytes and back,
   bit-exact (:func:`codec_for`), and plain component state for checkpoints;
+- :mod:`~cosim.codec.proto_codec`: the protobuf form a recording holds for every type without a
+  ``str`` field, packed in one go where the message is made (:func:`proto_codec_for`);
 - :mod:`~cosim.codec.records`: the packed records a message or a checkpoint becomes in the simulating
   process (cheap), gathered into batches;
 - :mod:`~cosim.codec.jsontext`: the JSON text of a record, written later (usually in the writer

@@ -1,6 +1,9 @@
 """One codec for every message type: a JSON schema plus JSON bytes, and back, bit-exact.
 
-JSON keeps the channels plottable in Foxglove. Exactness comes from Python's shortest round-trip
+JSON is the form of the few recorded types that have a ``str`` field (stages, events, the status),
+of the live view, of checkpointed port slots and of hand-written values; a recording holds the
+other types as protobuf (:mod:`cosim.codec.proto_codec`), which :meth:`MessageCodec.decode` reads
+too. Exactness comes from Python's shortest round-trip
 float repr; non-finite floats are written as the strings ``"nan"``, ``"inf"``, ``"-inf"`` (a NaN with
 another sign or payload as ``"nan:<hex bits>"``). Arrays of
 at most :data:`INLINE_ARRAY_MAX` fixed elements are written as (nested) lists so they can be plotted;

@@ -1,17 +1,19 @@
 """Where a recording's records go: an MCAP writer in a separate process, fed in batches.
 
-Writing a message's JSON text (every float's repr, the base64 of every large array) and compressing
-it cost more than the physics that made it. Both happen in a second process, on another core, while
-the simulation goes on: the simulating process only packs each message into a binary record
-(:meth:`cosim.codec.json_codec.MessageCodec.write`; a checkpoint into plain data,
-:func:`cosim.codec.json_codec.plain_state`), gathers records in a buffer (:class:`cosim.codec.records.Stage`) and sends
-them in batches through a ring in shared memory (:mod:`cosim.record.ring`); the writer writes the text with
-:mod:`cosim.codec.jsontext` (the same functions :func:`cosim.codec.json_codec.encode` uses, so the bytes do not depend
-on where they are made) and the file with
-the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment and metadata
-indexes). The writer imports nothing else of cosim, so it starts in a few tens of milliseconds. It
-also makes recordings sturdier: if the simulating process dies, the writer
-sees its control pipe close and still finishes a valid, indexed file.
+Compressing a recording and writing it costs a good part of what the physics costs, so it happens
+in a second process, on another core, while the simulation goes on. The simulating process packs
+each message into a record (its protobuf payload, :meth:`cosim.codec.proto_codec.ProtoCodec.write`;
+for the few JSON types a binary record, :meth:`cosim.codec.json_codec.MessageCodec.write`; a
+checkpoint into plain data, :func:`cosim.codec.json_codec.plain_state`), gathers records straight in
+the free space of a ring in shared memory (:class:`cosim.codec.records.Stage`,
+:mod:`cosim.record.ring`) and hands them over in batches; the writer copies each payload, writes
+the JSON text of the others with :mod:`cosim.codec.jsontext` (the same functions
+:func:`cosim.codec.json_codec.encode` uses, so the bytes do not depend on where they are made), and
+the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment
+and metadata indexes). The writer imports nothing else of cosim, so it starts in a few tens of
+milliseconds, and is kept off the simulation's core (:class:`WriterPlacement`). It also makes
+recordings sturdier: if the simulating process dies, the writer sees its control pipe close and
+still finishes a valid, indexed file.
 
 Each channel's messages are numbered from 1 in the order they are written (the MCAP sequence).
 :class:`InProcessSink` does the same work in the calling process (used where a second process is
