@@ -84,7 +84,7 @@ def main() -> None:
         "",
         f"Framework overhead with recording off: **{us['off']:.2f} us per component-step** ({verdict} the "
         f"5 us target). Recording every exchange costs {us['on'] - us['off']:.2f} us more per "
-        "component-step here (two messages per tick, packed into records here, written as JSON and "
+        "component-step here (two messages per tick, packed as protobuf here, copied into the file and "
         "zstd-chunked by the writer process).",
     ])
     print(text)
