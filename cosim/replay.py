@@ -171,6 +171,12 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
                        observers: list | None = None) -> tuple[Simulation, int]:
     """A simulation of the recorded scene (with ``overrides``) restored at the last checkpoint at or
     before ``from_ns``; returns it with the checkpoint time [ns]."""
+    status = rec.status()
+    end_ns = round(status.time * NS_PER_S) if status is not None else rec.end_ns
+    if from_ns > end_ns:
+        # the checkpoint before it would be the run's last: a restart there is not what was asked
+        raise RecordingError(f"{rec.path}: --from {from_ns / NS_PER_S:g} s is after the recorded run's end "
+                             f"(t = {end_ns / NS_PER_S:g} s); restart from a time within it")
     checkpoints = rec.checkpoints()
     usable = [(stamp, cp) for stamp, cp in checkpoints if stamp <= from_ns]
     if not usable:

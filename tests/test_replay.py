@@ -94,3 +94,12 @@ def test_replay_errors_are_clear(recording):
         replay_component(recording, "nope")
     with pytest.raises(RecordingError, match=r"no checkpoint at or before t = -0.001 s"):
         restart_simulation(recording, -1_000_000)
+
+
+def test_a_restart_after_the_recorded_end_is_refused_with_the_end_named(recording):
+    """--from beyond the run's end (0.1 s here) is an error naming both times, not a silent restart
+    from the run's last checkpoint; the end itself is still a time within the run."""
+    with pytest.raises(RecordingError, match=r"--from 99 s is after the recorded run's end \(t = 0.1 s\)"):
+        restart_simulation(recording, 99 * 1_000_000_000)
+    _, stamp = restart_simulation(recording, 100_000_000)
+    assert stamp <= 100_000_000
