@@ -62,7 +62,7 @@ carries a vanishing precursor ahead of each wavefront (down to 1e-300 m). A thre
 change the picture, because behind the precursor the wavefront is sharp: at t = 2 s on the
 40 m x 6 m lake, of its 2250 whole 32 x 32 tiles 840 held a non-zero column, and 632, 630, 626, 619 and 506 held a
 column moving by more than 1 nm, 0.1 um, 1 um, 10 um and 0.1 mm (|h|, or |v| x 50 ms). Within 1.5x
-the pond's loop the lake could step about 175,000 columns per water step on average (the run
+the pond's loop the lake could step about 160,000 columns per water step on average (the run
 outside the water costs about what the pond's does), against about 500,000 moving now; even a
 0.1 mm threshold, far above what the stone can feel, keeps 80% of them. The 1.5 target is not met:
 the water the throw sets moving covers that much of the lake, and stepping it costs what it costs.
