@@ -237,3 +237,14 @@ def test_height_field_mesh_needs_a_grid():
     """A surface needs at least 2 x 2 cells."""
     with pytest.raises(ValueError, match="at least 2 x 2"):
         height_field_mesh(np.zeros((1, 5)), 0.0, 0.0, 1.0)
+
+
+def test_decimation_is_the_unique_rounded_spread():
+    """The indices are those of np.unique over the rounded even spread, for every size up to 300 and
+    every budget up to 70 (decimation drops the repeats itself, sparing np.unique's numpy.ma import)."""
+    for n in range(2, 300):
+        for max_n in range(2, 70):
+            spread = np.round(np.linspace(0, n - 1, max_n)).astype(np.int64)
+            expected = np.arange(n) if n <= max_n else np.unique(spread)
+            got = decimation(n, max_n)
+            assert got.dtype == expected.dtype and np.array_equal(got, expected), (n, max_n)

@@ -205,7 +205,9 @@ def decimation(n: int, max_n: int) -> np.ndarray:
         raise ValueError(f"max_n must be >= 2 (got {max_n})")
     if n <= max_n:
         return np.arange(n)
-    return np.unique(np.round(np.linspace(0, n - 1, max_n)).astype(np.int64))
+    picked = np.round(np.linspace(0, n - 1, max_n)).astype(np.int64)  # sorted: only neighbours repeat
+    # the same as np.unique(picked), without the import of numpy.ma that np.unique makes (7 ms)
+    return picked[np.concatenate(([True], picked[1:] != picked[:-1]))]
 
 
 def color_ramp(values: np.ndarray, stops: Sequence[tuple[float, RGBA]]) -> np.ndarray:
