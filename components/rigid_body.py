@@ -92,7 +92,21 @@ class RigidBodyParams:
             problems.append(("angular_velocity", "is set by scripted_tilt_deg (with spin); leave it 0"))
         for name in ("scripted_tilt_deg", "scripted_velocity"):
             problems += [(name, p) for p in keyframe_problems(getattr(self, name))]
+        problems += self._energy_problems()
         return problems
+
+    def _energy_problems(self) -> list[tuple[str, str]]:
+        """A start whose kinetic energy overflows a float (a speed or spin of 1e150 and more) would
+        fail at the first step with infinities: refuse it here, naming the parameter."""
+        volume = (math.pi * self.radius ** 2 * self.thickness if self.shape == "disk"
+                  else 4.0 / 3.0 * math.pi * self.radius ** 3)
+        mass = self.mass if self.mass is not None else self.density * volume
+        rim = self.radius * (abs(self.spin) + math.sqrt(sum(w * w for w in self.angular_velocity)))
+        # products, not powers: a float power that overflows raises where a product gives inf
+        spun = "spin" if self.spin else "angular_velocity"
+        terms = {"velocity": 0.5 * mass * sum(v * v for v in self.velocity), spun: 0.5 * mass * rim * rim}
+        return [(name, f"makes the stone's kinetic energy overflow a float (got {getattr(self, name)!r})")
+                for name, energy in terms.items() if not math.isfinite(energy)]
 
 
 def _array(values: Vec | quat.Quat) -> np.ndarray:

@@ -61,6 +61,11 @@ def test_unknown_integrator_is_reported_with_the_choices():
     ({"scripted_velocity": [[1, 0, 0], [0.5, 1, 1]]},
      "stone.scripted_velocity: keyframe times must increase strictly (got 1 then 0.5)"),
     ({"radius": -1.0}, "stone.radius: must be > 0 m (got -1)"),
+    ({"spin": 1e300}, "stone.spin: makes the stone's kinetic energy overflow a float (got 1e+300)"),
+    ({"angular_velocity": [0, 0, 1e300]},
+     "stone.angular_velocity: makes the stone's kinetic energy overflow a float (got (0.0, 0.0, 1e+300))"),
+    ({"velocity": [1e200, 0, 0]},
+     "stone.velocity: makes the stone's kinetic energy overflow a float (got (1e+200, 0.0, 0.0))"),
 ])
 def test_inconsistent_parameters_are_reported_with_their_path(params, problem):
     """Each rule across fields is reported as 'path: rule (got value)'."""
