@@ -191,8 +191,9 @@ class Component:
                         f"use a base step or 'every' giving at most {bound:.6g} s, or on_unstable: substep)")
                 substeps = math.ceil(dt / bound)
                 if substeps > MAX_SUBSTEPS:
+                    count = str(substeps) if substeps < 10**6 else f"{substeps:.3g}"  # not 150 digits
                     raise SimulationError(
-                        self.name, t_ns, f"needs {substeps} substeps (stable step {bound:.3g} s), "
+                        self.name, t_ns, f"needs {count} substeps (stable step {bound:.3g} s), "
                         f"more than the limit {MAX_SUBSTEPS}")
             self.status = "running"
             if substeps == 1:

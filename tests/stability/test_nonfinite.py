@@ -17,7 +17,9 @@ from tests.stability.scenes import POND, scene
 
 OVERFLOWS = [
     # (override, component, port, field, time of the failing step [s])
-    ("components.stone.velocity=[1.0e+200, 0.0, 0.0]", "stone", "state", "speed", 0.0),
+    # a gravity of 1e307 m/s^2 gives a finite velocity whose square (the speed's) overflows in the
+    # first step; a start whose own energy overflows is refused at load (test_rigid_body)
+    ("components.stone.gravity=[0.0, 0.0, -1.0e+307]", "stone", "state", "speed", 0.0),
     ("components.coupler.rho=1.0e+307", "coupler", "wrench", "force", 0.074),
 ]
 
@@ -69,3 +71,13 @@ def test_a_non_finite_initial_output_stops_the_run_at_t_0():
         Simulation(sc).run()
     assert info.value.component == "pond" and info.value.time_ns == 0
     assert "non-finite value in output 'field' field 'energy'" in info.value.reason
+
+
+def test_a_step_needing_too_many_substeps_says_how_many_in_a_few_digits():
+    """A stone thrown at 1e150 m/s (its energy still a float) makes the coupler's stable step
+    absurdly small: the run fails naming the substeps it would need in three digits, not 150."""
+    outcome = run_scene(scene("components.stone.velocity=[1.0e+150, 0.0, 0.0]"), None, progress=False)
+    assert outcome.failed
+    error = outcome.result.error
+    assert isinstance(error, SimulationError) and error.component == "coupler"
+    assert "needs 1.6e+148 substeps (stable step 1.25e-152 s), more than the limit 10000" in error.reason
