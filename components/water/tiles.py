@@ -33,6 +33,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from components.water.kernels_numba import wave_uniform_span
+
 DEFAULT_TILE = 32  # cells per tile side: 8 KiB of each array per tile, a wake is followed to within 32 cm at 1 cm
 
 
@@ -70,11 +72,10 @@ def _plan(nz, nz_prev, step):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, step, tile, nz_out):  # pragma: no cover - compiled
-    # The arithmetic of each cell is that of kernels_numba._wave_uniform_row, term for term (the
-    # edge cells use their own height for the missing neighbour), so the stepped tiles hold the
-    # dense step's bits. Rows run outermost, and each run of neighbouring stepped tiles along a row
-    # is one loop like the dense one (it vectorises); whether a tile holds anything but zeros is
-    # read back from the row just written (in cache), stopping at the first non-zero column.
+    # Rows run outermost, and each run of neighbouring stepped tiles along a row is one span of the
+    # dense step's own row kernel (kernels_numba.wave_uniform_span), so the stepped tiles hold the
+    # dense step's bits; whether a tile holds anything but zeros is read back from the row just
+    # written (in cache), stopping at the first non-zero column.
     ny, nx = h.shape
     nty, ntx = step.shape
     for tj in range(nty):
@@ -101,30 +102,7 @@ def _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, step, tile, nz_out):  # pragm
                 run_end = ti
                 while run_end < ntx and step[tj, run_end]:
                     run_end += 1
-                lo = ti * tile
-                hi = min(run_end * tile, nx)
-                if lo == 0:
-                    c = hc[0]
-                    east = hc[1] if nx > 1 else c
-                    lap = c + east + hs[0] + hn[0] - 4.0 * c
-                    vn = (vc[0] + kdt * lap) * damp
-                    vo[0] = vn
-                    ho[0] = c + dt * vn
-                    lo = 1
-                if hi == nx and nx - 1 >= lo:
-                    i = nx - 1
-                    c = hc[i]
-                    lap = hc[i - 1] + c + hs[i] + hn[i] - 4.0 * c
-                    vn = (vc[i] + kdt * lap) * damp
-                    vo[i] = vn
-                    ho[i] = c + dt * vn
-                    hi = nx - 1
-                for i in range(lo, hi):
-                    c = hc[i]
-                    lap = hc[i - 1] + hc[i + 1] + hs[i] + hn[i] - 4.0 * c
-                    vn = (vc[i] + kdt * lap) * damp
-                    vo[i] = vn
-                    ho[i] = c + dt * vn
+                wave_uniform_span(hc, hs, hn, vc, ho, vo, ti * tile, min(run_end * tile, nx), kdt, dt, damp)
                 for t in range(ti, run_end):
                     if nz_out[tj, t]:
                         continue
