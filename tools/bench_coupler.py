@@ -31,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from components.coupler.component import WaterCoupler  # noqa: E402
+from cosim.component import Component  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load, loads  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
@@ -140,10 +141,10 @@ def step_ratio(n: int, *, rounds: int, batch: int) -> tuple[float, float, float]
     return statistics.median(ratios), best_c, best_b
 
 
-class _TimedCoupler:
-    """Adds up the wall time of a coupler's steps (wraps its ``step``)."""
+class StepTimer:
+    """Adds up the wall time of a component's steps [s] (wraps its ``step``)."""
 
-    def __init__(self, comp: WaterCoupler):
+    def __init__(self, comp: Component):
         self.seconds = 0.0
         inner = comp.step
 
@@ -160,7 +161,7 @@ class _TimedCoupler:
 def skip_share() -> tuple[float, float]:
     """(coupler's share of the loop, loop wall [s]) of one reference skip, recording off."""
     sim = Simulation(load(SKIP))
-    timers = [_TimedCoupler(c) for c in sim.components.values() if isinstance(c, WaterCoupler)]
+    timers = [StepTimer(c) for c in sim.components.values() if isinstance(c, WaterCoupler)]
     start = time.perf_counter()
     sim.run()
     wall = time.perf_counter() - start

@@ -36,33 +36,17 @@ sys.path.insert(0, str(ROOT))
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
+from tools.bench_coupler import StepTimer  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
 SECTION = "profile"
 FUNCTIONS_SHOWN = 12
 
 
-class _StepTimer:
-    """Wraps a component's ``step`` and adds up the wall time spent in it [s]."""
-
-    def __init__(self, comp):
-        self.seconds = 0.0
-        inner = comp.step
-
-        def step(*args, **kwargs):
-            start = time.perf_counter()
-            try:
-                return inner(*args, **kwargs)
-            finally:
-                self.seconds += time.perf_counter() - start
-
-        comp.step = step
-
-
 def shares() -> tuple[dict[str, float], float, str]:
     """(seconds per component type and 'scheduler', loop wall [s], the run's status line) of one run."""
     sim = Simulation(load(SCENE, ["record.visual_rate=0"]))
-    timers = {name: (type(comp).__name__, _StepTimer(comp)) for name, comp in sim.components.items()}
+    timers = {name: (type(comp).__name__, StepTimer(comp)) for name, comp in sim.components.items()}
     start = time.perf_counter()
     result = sim.run()
     wall = time.perf_counter() - start
