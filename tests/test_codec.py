@@ -147,7 +147,8 @@ def test_state_round_trip(value):
 
 @given(st.recursive(
     st.none() | st.booleans() | st.integers(-2**70, 2**70) | floats | st.text(max_size=5)
-    | hnp.arrays(st.sampled_from([np.float64, np.int32, np.bool_]), hnp.array_shapes(max_dims=2, min_side=0, max_side=3)),
+    | hnp.arrays(st.sampled_from([np.float64, np.int32, np.bool_]),
+                 hnp.array_shapes(max_dims=2, min_side=0, max_side=3)),
     lambda children: st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=3), children, max_size=3),
     max_leaves=10))
 def test_state_text_is_json_dumps_of_the_state_with_base64_arrays(value):

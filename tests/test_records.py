@@ -216,7 +216,7 @@ def test_a_stage_gathering_in_fresh_buffers_sends_the_same_batches(ops, size, ba
     got: list[bytes] = []
 
     def fresh(n: int) -> memoryview:
-        assert n == size and not given_out or given_out[-1] is None
+        assert (n == size and not given_out) or given_out[-1] is None
         given_out.append(memoryview(bytearray(n)))
         return given_out[-1]
 

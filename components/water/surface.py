@@ -514,7 +514,7 @@ class WaterSurface(Component):
         if win is None:
             asked = request.x_min <= request.x_max and request.y_min <= request.y_max
             return self._off_grid_patch if asked else self._empty_patch
-        i0, i1, j0, j1 = win
+        i0, _, j0, _ = win
         height, velocity, bottom, occupied = patch_arrays(g.surface0, self._h, self._v, g.bed,
                                                           self._occupants[body].b, win)
         return HeightPatch(i0=i0, j0=j0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y,

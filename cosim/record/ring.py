@@ -2,7 +2,8 @@
 
 The producer copies each batch (a list of byte buffers) into the ring, or gathers it in the ring's
 own space in the first place (:meth:`RingProducer.reserve`, :meth:`RingProducer.commit`: no copy),
-and sends its place on a control pipe; the consumer reads it in place and acknowledges how far it has read on a second pipe.
+and sends its place on a control pipe; the consumer reads it in place and acknowledges how far it
+has read on a second pipe.
 Compared with writing the bytes down a pipe, this saves the kernel's copy and most of the turns
 between the two processes: a recording streams tens of megabytes a second this way while the
 simulation goes on.
