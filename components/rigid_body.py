@@ -36,7 +36,7 @@ from components.rigid import quaternion as quat
 from components.rigid.dynamics import RigidState, apply_impulse, kinetic_energy, potential_energy
 from components.rigid.integrators import get_integrator, unknown_integrator
 from components.rigid.script import Keyframes, keyframe_problems
-from components.rigid.shapes import mass_properties
+from components.rigid.shapes import mass_properties, shape_volume
 from components.rigid.vec import ZERO, Vec, add, as_vec, norm, scale
 from cosim.component import Component, Port
 from cosim.messages import Message
@@ -95,11 +95,14 @@ class RigidBodyParams:
         problems += self._energy_problems()
         return problems
 
+    def shape_id(self) -> Shape:
+        """The shape as the messages name it."""
+        return Shape.DISK if self.shape == "disk" else Shape.SPHERE
+
     def _energy_problems(self) -> list[tuple[str, str]]:
         """A start whose kinetic energy overflows a float (a speed or spin of 1e150 and more) would
         fail at the first step with infinities: refuse it here, naming the parameter."""
-        volume = (math.pi * self.radius ** 2 * self.thickness if self.shape == "disk"
-                  else 4.0 / 3.0 * math.pi * self.radius ** 3)
+        volume = shape_volume(self.shape_id(), self.radius, self.thickness)
         mass = self.mass if self.mass is not None else self.density * volume
         rim = self.radius * (abs(self.spin) + math.sqrt(sum(w * w for w in self.angular_velocity)))
         # products, not powers: a float power that overflows raises where a product gives inf
@@ -125,7 +128,7 @@ class RigidBody(Component):
 
     def setup(self) -> None:
         p: RigidBodyParams = self.params
-        self.shape = Shape.DISK if p.shape == "disk" else Shape.SPHERE
+        self.shape = p.shape_id()
         self.body = mass_properties(self.shape, p.radius, p.thickness, density=p.density, mass=p.mass)
         self.integrate = get_integrator(p.integrator)
         self.gravity = as_vec(p.gravity)
