@@ -7,6 +7,7 @@ import pytest
 from components.coupler.forces import (
     C_MIN,
     friction_factor,
+    impact_pressure,
     plate_force,
     pressure_magnitude,
     segment_area,
@@ -26,6 +27,14 @@ def test_pressure_only_on_faces_moving_into_the_water():
     assert pressure_magnitude(3.0, 0.0, 1000.0, 1.0, 1.4) == 0.0
     assert pressure_magnitude(3.0, 0.5, 1000.0, 1.0, 0.0) == pytest.approx(750.0)
     assert pressure_magnitude(3.0, 0.5, 1000.0, 1.0, 1.4) == pytest.approx(750.0 + 175.0)
+
+
+def test_impact_pressure_only_where_a_blunt_body_advances():
+    """A blunt body's pressure is zero for u.n <= 0 and 1/2 rho C_B (u.n)^2 otherwise."""
+    assert impact_pressure(-0.5, 1000.0, 1.0) == 0.0
+    assert impact_pressure(0.0, 1000.0, 1.0) == 0.0
+    assert impact_pressure(2.0, 1000.0, 1.0) == pytest.approx(2000.0)
+    assert impact_pressure(2.0, 1000.0, 0.5) == pytest.approx(1000.0)
 
 
 def test_pressure_on_a_plate_is_the_rosellini_law():

@@ -114,6 +114,22 @@ def test_newtonian_term_adds_rho_c_n_un2():
         0.5 * 1000 * 1.4 * 4.0 * area, rel=1e-3)
 
 
+@pytest.mark.parametrize("speed", [1.0, 4.0])
+def test_a_half_immersed_sphere_meets_the_water_as_a_blunt_body(speed):
+    """A sphere half in still water moving along x at U feels the impact pressure 1/2 rho C_B (u.n)^2
+    on its advancing lower quarter: a drag 1/2 rho U^2 R^2 C_B pi / 4 (a drag coefficient C_B / 2 on
+    the immersed half-disk, 0.5 with C_B = 1: a sphere's is 0.47 at these Reynolds numbers) and a
+    lift 1/2 rho U^2 R^2 C_B pi / 8; not the planing law of a disk's face (|u| (u.n): 4/3 and 2x
+    as much)."""
+    b = body(Shape.SPHERE, velocity=(speed, 0.0, 0.0), radius=R)
+    _, out = run(b, still_water(0.01), effects=["pressure"])
+    q = 0.5 * 1000 * speed * speed * R * R
+    assert out["contact"].pressure[0] == pytest.approx(-q * math.pi / 4, rel=0.03)
+    assert out["contact"].pressure[2] == pytest.approx(q * math.pi / 8, rel=0.03)
+    _, doubled = run(b, still_water(0.01), effects=["pressure"], c_b=2.0)
+    assert doubled["contact"].pressure == pytest.approx(2 * out["contact"].pressure, rel=1e-12)
+
+
 def test_relative_velocity_uses_the_surface_velocity():
     """A disk at rest in water rising at V feels what a disk sinking at V in still water feels."""
     pos = (0.0, 0.0, -0.002)

@@ -56,6 +56,7 @@ from components.coupler.forces import (
     C_DRAG_DISK,
     C_DRAG_SPHERE,
     C_FRICTION,
+    C_IMPACT,
     C_LIFT,
     C_MIN,
     C_WAVE,
@@ -122,7 +123,9 @@ class WaterCouplerParams:
     rho: float = param(RHO_WATER, unit="kg/m^3", gt=0, doc="water density")
     g: float = param(GRAVITY, unit="m/s^2", ge=0, doc="gravity (buoyancy and the substep predictor)")
     c_l: float = param(C_LIFT, ge=0, doc="pressure coefficient C_L of the Rosellini/Clanet law")
-    c_n: float = param(0.0, ge=0, doc="Newtonian coefficient C_N (0 = off; 1.4 per Nagahiro & Hayakawa)")
+    c_n: float = param(0.0, ge=0, doc="Newtonian coefficient C_N of the faces (0 = off; 1.4 per Nagahiro & Hayakawa)")
+    c_b: float = param(C_IMPACT, ge=0, doc="impact pressure coefficient C_B of a blunt body (a sphere): "
+                                            "1/2 rho C_B (u.n)^2 where it advances into the water")
     c_f: float = param(C_FRICTION, ge=0, doc="skin friction coefficient C_f")
     c_w: float = param(C_WAVE, ge=0, doc="capillary-gravity wave drag coefficient C_W")
     c_min: float = param(C_MIN, unit="m/s", ge=0, doc="minimum capillary-gravity wave speed")
@@ -201,7 +204,8 @@ class WaterCoupler(Component):
         p = self.params
         prm = np.zeros(step_kernel.N_PARAMS)
         for index, value in ((step_kernel.P_RHO, p.rho), (step_kernel.P_G, p.g), (step_kernel.P_C_L, p.c_l),
-                             (step_kernel.P_C_N, p.c_n), (step_kernel.P_C_F, p.c_f), (step_kernel.P_C_W, p.c_w),
+                             (step_kernel.P_C_N, p.c_n), (step_kernel.P_C_B, p.c_b), (step_kernel.P_C_F, p.c_f),
+                             (step_kernel.P_C_W, p.c_w),
                              (step_kernel.P_C_MIN, p.c_min), (step_kernel.P_WET_RAMP, p.wet_ramp),
                              (step_kernel.P_CLOSURE, p.closure_depth), (step_kernel.P_RING_CELLS, p.ring_cells),
                              (step_kernel.P_DAMPING_SAFETY, DAMPING_SAFETY),
@@ -502,7 +506,7 @@ class WaterCoupler(Component):
             pos, axes, vel, omega, float(half[0]), float(half[1]), low[0], low[1], low[2],
             float(x0), float(y0), cell, height, wvel, bottom,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
-            p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp, flags, nsub,
+            p.rho, p.g, p.c_l, p.c_n, p.c_b, p.c_f, p.c_w, p.c_min, p.wet_ramp, flags, nsub,
             b_geo, _NO_WATERLINE, stats, planing, c_d)
         return stats
 
@@ -593,7 +597,7 @@ class WaterCoupler(Component):
             pos, axes, _ZERO3, _ZERO3, float(half[0]), float(half[1]),
             low[0], low[1], low[2], float(x0), float(y0), cell, flat, still, bottom,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
-            p.rho, p.g, p.c_l, p.c_n, p.c_f, p.c_w, p.c_min, p.wet_ramp,
+            p.rho, p.g, p.c_l, p.c_n, p.c_b, p.c_f, p.c_w, p.c_min, p.wet_ramp,
             DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats, 1.0, 0.0)
         return stats
 

@@ -15,6 +15,20 @@ from the face.)
   A disk's spin about its own axis only slides its faces and rim along themselves and pushes no
   water, so the pressure uses the point velocity without that spin (friction uses all of it); a
   sphere's rotation likewise moves no water and is left out of its pressure.
+* Impact pressure on a blunt body (a sphere). The law above is the one measured on a skipping disk,
+  a lifting surface: a flat face that meets the water at a small angle and sheds it at its trailing
+  edge carries a pressure linear in the angle (planing, like a thin wing's lift). A sphere has no
+  such face: each part of it meets the water head on, and the pressure there is the impact
+  (modified Newtonian) pressure::
+
+      p = 1/2 rho_w C_B (u.n)^2        where u.n > 0, else 0
+
+  C_B = 1 is the stagnation pressure 1/2 rho U^2 where the surface faces the flow (no coefficient
+  fitted). Summed over a half-immersed sphere's advancing quarter it is a drag coefficient of 0.5
+  on the immersed half-disk (a sphere's is 0.47 at Reynolds numbers 1e4-2e5), and it gives
+  Johnson & Reid's ricochet law 18 deg / sqrt(relative density) within a few per cent at the
+  speeds where that law applies (docs/validation.md). The disk's planing law on a sphere's cap gave
+  it twice that lift and ricochets at 25 deg instead of 18.
 * Planing and submerged (physics.md section 3). The law above is a planing law: it holds while the
   body pierces the surface, with a splash sheet ahead and an air cavity behind it. Once the water
   closes over the body's highest point (over ``closure_depth``) the body is submerged: the pressure
@@ -67,6 +81,8 @@ C_LIFT = 1.0  # C_L of the pressure law [-] (physics.md: about 1)
 C_NEWTONIAN = 1.4  # C_N of the Newtonian (u.n)^2 term when switched on [-] (Nagahiro & Hayakawa 2005)
 C_FRICTION = 0.01  # C_f of the skin friction [-] (turbulent flat plates at Re ~ 1e5-1e6: ~0.005)
 C_WAVE = 0.3  # C_W of the capillary-gravity wave drag [-] (calibration coefficient)
+C_IMPACT = 1.0  # C_B of the impact pressure on blunt surfaces [-]: the stagnation pressure 1/2 rho U^2 where
+# the surface meets the flow head on (modified Newtonian theory)
 C_DRAG_DISK = 1.17  # C_D of a submerged disk face on [-] (Hoerner, Fluid-Dynamic Drag, 1965)
 C_DRAG_SPHERE = 0.47  # C_D of a submerged sphere [-] (subcritical Reynolds numbers, 1e4-2e5)
 CLOSURE_DEPTH = 1e-3  # depth [m] of the body's top under the surface over which planing gives way
@@ -78,6 +94,15 @@ def pressure_magnitude(speed: float, u_n: float, rho: float, c_l: float, c_n: fl
     if u_n <= 0.0:
         return 0.0
     return 0.5 * rho * (c_l * speed * u_n + c_n * u_n * u_n)
+
+
+@njit(cache=True)
+def impact_pressure(u_n: float, rho: float, c_b: float) -> float:
+    """Pressure [Pa] on a blunt surface advancing into the water at normal speed ``u_n`` > 0 (0
+    otherwise): 1/2 rho C_B u_n^2."""
+    if u_n <= 0.0:
+        return 0.0
+    return 0.5 * rho * c_b * u_n * u_n
 
 
 @njit(cache=True)

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
-from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
+from components.coupler.forces import impact_pressure, pressure_magnitude, ventilation, wave_drag_magnitude
 from components.coupler.geometry import box_coverage, box_density, disk_chord, sphere_chord
 
 SHAPE_DISK = 0
@@ -137,13 +137,13 @@ def spray_root_weights(s, load, forward):
 def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
              x0, y0, cell, height, wvel, bottom,
              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-             rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
+             rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
              b_geo, waterline, stats, planing, c_d):
     """:func:`evaluate_into` with work arrays of its own."""
     n_el = el_area.shape[0]
     evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
                   x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                  rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
+                  rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
                   np.empty((n_el, 3)), np.empty((n_el, 3)), np.empty(n_el), np.empty(n_el))
 
 
@@ -151,7 +151,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
 def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
                   x0, y0, cell, height, wvel, bottom,
                   el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                  rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
+                  rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                   b_geo, waterline, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """Water forces on one body state over one patch; see the module docstring.
 
@@ -177,7 +177,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
 
@@ -185,7 +185,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
 @njit(cache=True)
 def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low,
                        z_low, x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2,
-                       world_fixed, rho, g, c_l, c_n, c_f, c_w, c_min, wet_ramp, flags, nsub,
+                       world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                        b_geo, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m,
                        rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats):
     """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
@@ -211,7 +211,7 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
     if do_rest:
@@ -423,7 +423,7 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
 
 @njit(cache=True)
 def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_f,
+                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                   wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``."""
     cx, cy, cz = centre[0], centre[1], centre[2]
@@ -506,8 +506,14 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 un = ux * nx + uy * ny + uz * nz
                 if un > 0.0:
                     speed = math.sqrt(ux * ux + uy * uy + uz * uz)
-                    p = planing * pressure_magnitude(speed, un, rho, c_l, c_n)
-                    if p > 0.0 and shape == SHAPE_DISK and abs(nx * ax + ny * ay + nz * az) > 0.5:
+                    # a disk (faces and rim) follows the planing law measured on it; a sphere has no
+                    # lifting face and meets the water as a blunt body (see components.coupler.forces)
+                    lifting = shape == SHAPE_DISK
+                    if lifting:
+                        p = planing * pressure_magnitude(speed, un, rho, c_l, c_n)
+                    else:
+                        p = planing * impact_pressure(un, rho, c_b)
+                    if p > 0.0 and lifting and abs(nx * ax + ny * ay + nz * az) > 0.5:
                         # a disk face: its planing load is spread towards the spray root below
                         pl_f[n_pl, 0] = -p * fa * nx
                         pl_f[n_pl, 1] = -p * fa * ny
@@ -525,7 +531,10 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                     kd = (1.0 - planing) * 0.5 * rho * c_d * un * fa
                     add_wrench(fp, rx, ry, rz, -kd * ux, -kd * uy, -kd * uz)
                     adv += fa
-                    ce = rho * (planing * (c_l * speed + c_n * un) + (1.0 - planing) * c_d * speed) * fa
+                    if lifting:
+                        ce = rho * (planing * (c_l * speed + c_n * un) + (1.0 - planing) * c_d * speed) * fa
+                    else:
+                        ce = rho * (planing * c_b * un + (1.0 - planing) * c_d * speed) * fa
                     cxn = ry * nz - rz * ny
                     cyn = rz * nx - rx * nz
                     czn = rx * ny - ry * nx

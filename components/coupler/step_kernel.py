@@ -39,7 +39,8 @@ P_RING_CELLS = 10  # width of the displacement band [cells]
 P_DAMPING_SAFETY = 11
 P_SPRING_SAFETY = 12
 P_MOTION_FRACTION = 13
-N_PARAMS = 14
+P_C_B = 14  # impact pressure coefficient of a blunt body (a sphere)
+N_PARAMS = 15
 
 # body vector (float64), filled each step from the BodyState
 B_POS = 0  # (3) [m]
@@ -241,7 +242,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     kernel.evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
                               x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
                               el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
-                              rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
+                              rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_B], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
                               prm[P_WET_RAMP], local_flags, nsub, b_geo, stats, planing, prm[P_C_D],
                               pl_f, pl_r, pl_s, pl_m,
                               rest_level, flat, still, DISPLACEMENT | (flags & BUOYANCY), b_rest, waterline,
