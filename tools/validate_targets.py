@@ -35,7 +35,9 @@ CELLS = [0.005, 0.01]  # [m] water columns of the two co-simulation curves
 U_MIN_BAND = (2.4, 2.8)  # [m/s] accepted model values around the published 2.5-2.6 m/s
 MAGIC_BAND = (17.5, 22.5)  # [deg] accepted place of the model's minimum around the published 20
 CLEARANCES = [0.0, 0.0005, 0.001, 0.002, 0.005]  # [m] bounce criteria compared in the criterion section
-SPHERE_SPEEDS = (5.0, 20.0)  # [m/s] of the sphere ricochets (Johnson & Reid's law leaves gravity out)
+SPHERE_SPEEDS = (5.0, 10.0, 20.0, 40.0)  # [m/s] of the sphere ricochets, 1 cm sphere: U^2 / g R = 255 to 16,000
+LAW_SPEEDS = (20.0, 40.0)  # [m/s] where Johnson & Reid's law applies: gravity (which it leaves out) 4000x and
+# more weaker than the water's push, U^2 / g R >= 4000
 
 
 def _critical(args: tuple) -> float:
@@ -53,8 +55,11 @@ def beta_max(alpha_deg: float, speed: float = 3.5) -> float:
 
 
 def sphere_critical_angle(relative_density: float, speed: float = 5.0) -> float:
-    """Johnson & Reid's critical angle [deg] of the model sphere, bisected to 0.25 deg."""
+    """Johnson & Reid's critical angle [deg] of the model sphere, bisected to 0.25 deg; NaN when it
+    does not ricochet even at 2 deg."""
     lo, hi = 2.0, 45.0
+    if not ex.run_throw(ex.sphere_throw_scene(speed, lo, relative_density)).bounced:
+        return math.nan
     while hi - lo > 0.25:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ex.run_throw(ex.sphere_throw_scene(speed, mid, relative_density)).bounced else (lo, mid)
@@ -117,6 +122,8 @@ def targets(curves, betas, regimes, contact, spheres, skips, free) -> str:
                 f"nose-down and dives | attack {none.attack_deg[2]:.0f} deg at the end; "
                 f"{'bounces' if none.bounced else 'sinks'} | {_held(not none.bounced and none.attack_deg[2] < 0)} |")
     for (sg, speed), angle in spheres.items():
+        if speed not in LAW_SPEEDS:
+            continue
         published = 18.0 / math.sqrt(sg)
         rows.append(f"| Johnson & Reid 1975 (via Nagahiro & Hayakawa 2005) | sphere ricochet: critical impact "
                     f"angle, relative density {sg:g}, {speed:g} m/s | 18 deg / sqrt({sg:g}) = {published:.1f} deg | "
@@ -159,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
         regime_jobs = [pool.submit(ex.run_throw, ex.throw_scene(3.5, a, 20.0, spin_rev_s=s))
                        for a, s in ((20.0, 65.0), (20.0, 10.0), (35.0, 0.0))]
         contact_jobs = [pool.submit(ex.run_throw, ex.throw_scene(u, 20.0, 20.0)) for u in (3.5, 7.0)]
-        # the law is one of fast ricochets (gravity left out): 5 m/s, and 20 m/s where gravity is 16x weaker
+        # the law is one of fast ricochets (gravity left out): its table rows are the fast throws, and the
+        # sphere-speeds section shows every speed
         sphere_jobs = {(sg, u): pool.submit(sphere_critical_angle, sg, u) for sg in (1.0, 2.65) for u in SPHERE_SPEEDS}
         free_jobs = {s: pool.submit(free_reference_throw, s) for s in (10.0, 14.0)}
         skips = skip_impulses()
@@ -185,13 +193,21 @@ def main(argv: list[str] | None = None) -> int:
     criterion_rows = ["| a bounce rises this far clear of the water [mm] | U_min, alpha = 20 deg, 1 cm columns [m/s] |",
                       "|---:|---:|"]
     criterion_rows += [f"| {c * 1e3:g} | {u:.2f} |" for c, u in zip(CLEARANCES, criterion, strict=True)]
+    heads = [f"critical angle, relative density {sg:g} [deg] (law: {18.0 / math.sqrt(sg):.1f})" for sg in (1.0, 2.65)]
+    sphere_rows = ["| speed [m/s] | U^2 / g R | " + " | ".join(heads) + " |", "|---:|---:|---:|---:|"]
+    for u in SPHERE_SPEEDS:
+        cells = [f"{spheres[(sg, u)]:.1f}" if not math.isnan(spheres[(sg, u)]) else "none (not even at 2 deg)"
+                 for sg in (1.0, 2.65)]
+        sphere_rows.append(f"| {u:g} | {u * u / (ex.GRAVITY * 0.01):.0f} | " + " | ".join(cells) + " |")
     print(table)
+    print("\n".join(sphere_rows))
     print("\n".join(curve_rows))
     print("\n".join(criterion_rows))
     if args.markdown is not None:
         replace_section(args.markdown, "targets", table)
         replace_section(args.markdown, "magic-angle-default", "\n".join(curve_rows))
         replace_section(args.markdown, "criterion", "\n".join(criterion_rows))
+        replace_section(args.markdown, "sphere-speeds", "\n".join(sphere_rows))
         _figure(ROOT / "docs" / "figures" / "magic_angle.png", curves)
     return 0
 
