@@ -7,7 +7,6 @@ import pytest
 from components.coupler.forces import (
     C_MIN,
     friction_factor,
-    impact_pressure,
     plate_force,
     pressure_magnitude,
     segment_area,
@@ -30,11 +29,12 @@ def test_pressure_only_on_faces_moving_into_the_water():
 
 
 def test_impact_pressure_only_where_a_blunt_body_advances():
-    """A blunt body's pressure is zero for u.n <= 0 and 1/2 rho C_B (u.n)^2 otherwise."""
-    assert impact_pressure(-0.5, 1000.0, 1.0) == 0.0
-    assert impact_pressure(0.0, 1000.0, 1.0) == 0.0
-    assert impact_pressure(2.0, 1000.0, 1.0) == pytest.approx(2000.0)
-    assert impact_pressure(2.0, 1000.0, 0.5) == pytest.approx(1000.0)
+    """A blunt body's pressure (the law with C_L = 0, C_N = C_B) is zero for u.n <= 0 and
+    1/2 rho C_B (u.n)^2 otherwise, whatever the speed along the surface."""
+    assert pressure_magnitude(3.0, -0.5, 1000.0, 0.0, 1.0) == 0.0
+    assert pressure_magnitude(3.0, 0.0, 1000.0, 0.0, 1.0) == 0.0
+    assert pressure_magnitude(3.0, 2.0, 1000.0, 0.0, 1.0) == pytest.approx(2000.0)
+    assert pressure_magnitude(3.0, 2.0, 1000.0, 0.0, 0.5) == pytest.approx(1000.0)
 
 
 def test_pressure_on_a_plate_is_the_rosellini_law():

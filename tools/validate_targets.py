@@ -198,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     for u in SPHERE_SPEEDS:
         cells = [f"{spheres[(sg, u)]:.1f}" if not math.isnan(spheres[(sg, u)]) else "none (not even at 2 deg)"
                  for sg in (1.0, 2.65)]
-        sphere_rows.append(f"| {u:g} | {u * u / (ex.GRAVITY * 0.01):.0f} | " + " | ".join(cells) + " |")
+        sphere_rows.append(f"| {u:g} | {u * u / (ex.GRAVITY * ex.SPHERE_RADIUS):.0f} | " + " | ".join(cells) + " |")
     print(table)
     print("\n".join(sphere_rows))
     print("\n".join(curve_rows))

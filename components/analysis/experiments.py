@@ -35,6 +35,7 @@ START_HEIGHT = 0.0105  # [m] of the lowest point above the water at the start
 DEPTH = 0.3  # [m] of the still water
 BASE_STEP = 1e-4  # [s] of the co-simulation (the coupler substeps where it must)
 TAKEOFF_CLEARANCE = 0.002  # [m] the stage monitor's default: a bounce rises this far clear of the water
+SPHERE_RADIUS = 0.01  # [m] of the sphere of Johnson & Reid's ricochet throws
 
 SCENE = """
 name: clanet_throw
@@ -165,7 +166,7 @@ def run_throw(scene: Scene) -> ThrowOutcome:
     return ThrowOutcome(bounced, contact, span, tilt_change)
 
 
-def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = 0.01,
+def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = SPHERE_RADIUS,
                        cell: float = 0.005, until: float = 0.4) -> Scene:
     """A sphere of ``radius`` [m] and ``relative_density`` thrown at ``theta_deg`` below the horizontal
     onto still water (Johnson & Reid's ricochet), over the same pond as the disk."""

@@ -19,7 +19,7 @@ from the face.)
   a lifting surface: a flat face that meets the water at a small angle and sheds it at its trailing
   edge carries a pressure linear in the angle (planing, like a thin wing's lift). A sphere has no
   such face: each part of it meets the water head on, and the pressure there is the impact
-  (modified Newtonian) pressure::
+  (modified Newtonian) pressure, the law above with C_L = 0 and C_N = C_B::
 
       p = 1/2 rho_w C_B (u.n)^2        where u.n > 0, else 0
 
@@ -94,15 +94,6 @@ def pressure_magnitude(speed: float, u_n: float, rho: float, c_l: float, c_n: fl
     if u_n <= 0.0:
         return 0.0
     return 0.5 * rho * (c_l * speed * u_n + c_n * u_n * u_n)
-
-
-@njit(cache=True)
-def impact_pressure(u_n: float, rho: float, c_b: float) -> float:
-    """Pressure [Pa] on a blunt surface advancing into the water at normal speed ``u_n`` > 0 (0
-    otherwise): 1/2 rho C_B u_n^2."""
-    if u_n <= 0.0:
-        return 0.0
-    return 0.5 * rho * c_b * u_n * u_n
 
 
 @njit(cache=True)

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
-from components.coupler.forces import impact_pressure, pressure_magnitude, ventilation, wave_drag_magnitude
+from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
 from components.coupler.geometry import box_coverage, box_density, disk_chord, sphere_chord
 
 SHAPE_DISK = 0
@@ -433,8 +433,13 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
         if shape == SHAPE_DISK:
             spin = wx * ax + wy * ay + wz * az
             px_, py_, pz_ = wx - spin * ax, wy - spin * ay, wz - spin * az
+            # a disk (faces and rim) follows the planing law measured on it
+            c_lin, c_sq = c_l, c_n
         else:
             px_, py_, pz_ = 0.0, 0.0, 0.0
+            # a sphere has no lifting face: it meets the water as a blunt body, the impact pressure
+            # 1/2 rho C_B (u.n)^2 alone (see components.coupler.forces)
+            c_lin, c_sq = 0.0, c_b
         vx, vy, vz = velocity[0], velocity[1], velocity[2]
         n_el = el_area.shape[0]
         # the planing pressure of each element (force, lever arm, place along the flow: pl_*), weighted
@@ -506,14 +511,8 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 un = ux * nx + uy * ny + uz * nz
                 if un > 0.0:
                     speed = math.sqrt(ux * ux + uy * uy + uz * uz)
-                    # a disk (faces and rim) follows the planing law measured on it; a sphere has no
-                    # lifting face and meets the water as a blunt body (see components.coupler.forces)
-                    lifting = shape == SHAPE_DISK
-                    if lifting:
-                        p = planing * pressure_magnitude(speed, un, rho, c_l, c_n)
-                    else:
-                        p = planing * impact_pressure(un, rho, c_b)
-                    if p > 0.0 and lifting and abs(nx * ax + ny * ay + nz * az) > 0.5:
+                    p = planing * pressure_magnitude(speed, un, rho, c_lin, c_sq)
+                    if p > 0.0 and shape == SHAPE_DISK and abs(nx * ax + ny * ay + nz * az) > 0.5:
                         # a disk face: its planing load is spread towards the spray root below
                         pl_f[n_pl, 0] = -p * fa * nx
                         pl_f[n_pl, 1] = -p * fa * ny
@@ -531,10 +530,7 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                     kd = (1.0 - planing) * 0.5 * rho * c_d * un * fa
                     add_wrench(fp, rx, ry, rz, -kd * ux, -kd * uy, -kd * uz)
                     adv += fa
-                    if lifting:
-                        ce = rho * (planing * (c_l * speed + c_n * un) + (1.0 - planing) * c_d * speed) * fa
-                    else:
-                        ce = rho * (planing * c_b * un + (1.0 - planing) * c_d * speed) * fa
+                    ce = rho * (planing * (c_lin * speed + c_sq * un) + (1.0 - planing) * c_d * speed) * fa
                     cxn = ry * nz - rz * ny
                     cyn = rz * nx - rx * nz
                     czn = rx * ny - ry * nx
