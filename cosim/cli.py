@@ -19,6 +19,7 @@ try:
     import argparse
     import math
     import os
+    import re
     import shlex
     from collections.abc import Callable
     from pathlib import Path
@@ -79,11 +80,32 @@ def _seconds_arg(text: str) -> int:
 def _live_address(text: str) -> str:
     """``--live [HOST:]PORT`` (or ``HOST``), checked before anything runs: a port outside 0..65535
     is bad input."""
-    _, sep, port = text.strip().rpartition(":")
+    host, sep, port = text.strip().rpartition(":")
     if not text.strip() or (sep and not port.isdigit()):
         raise argparse.ArgumentTypeError(f"expected [HOST:]PORT, got {text!r}")
     if port.isdigit() and not 0 <= int(port) <= 65535:
         raise argparse.ArgumentTypeError(f"the port must be in 0..65535, got {port}")
+    if not sep and not port.isdigit():
+        host = port  # HOST alone
+    if host and not _HOST.fullmatch(host.strip("[]")):
+        raise argparse.ArgumentTypeError(f"{host!r} is not a host name or address (letters, digits, '-', '.'; "
+                                         "or an IP address)")
+    return text
+
+
+# a host name (RFC 1123 labels), an IPv4 address, or an IPv6 one (hex digits and colons, maybe bracketed)
+_HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?(\.[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?)*"
+                   r"|[0-9A-Fa-f:.]+")
+
+
+def _output_path(text: str) -> str:
+    """``-o FILE``: a file's name, checked before anything runs. An empty name would silently mean
+    the default one, and a name ending in a separator names a folder, which would be written as a
+    file of that name."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a file name, got an empty one (leave -o out for the default)")
+    if text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(f"{text!r} names a folder; give the file's name, e.g. {text}run.mcap")
     return text
 
 
@@ -120,7 +142,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     linger = args.live_linger if args.live is not None else 0.0
     outcome = run_scene(scene, output, until_ns=args.until, command_line=command,
                         progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed,
-                        keep_live=linger > 0, before_run=start_up_done)
+                        keep_live=linger > 0, before_run=_run_begins)
     print(format_summary(scene, outcome), flush=True)
     if outcome.live is not None:  # the finished run stays on the server until Ctrl-C (or --live-linger)
         if outcome.result.status == "interrupted":  # a Ctrl-C during the run meant: stop
@@ -173,6 +195,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
             raise ScenarioError(f"{', '.join(given)} {verb} a restarted run: give --from T as well (without "
                                 "--from, each component is re-run on its recorded inputs, unchanged)",
                                 f"cosim replay {args.recording}")
+    if args.from_time is not None and args.until is not None and args.until <= args.from_time:
+        raise ScenarioError(f"--until {args.until / NS_PER_S:g} s must be after --from {args.from_time / NS_PER_S:g} s",
+                            f"cosim replay {args.recording}")
     rec = Recording(args.recording)
     if args.from_time is None:
         names = [args.component] if args.component else rec.scene().order
@@ -212,8 +237,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run a scene and record it")
     scene_args(p)
-    p.add_argument("-o", "--output", help="MCAP file to write (default runs/<scene>.mcap; with --set, "
-                                          "runs/<scene>-set-<hash>.mcap)")
+    p.add_argument("-o", "--output", type=_output_path,
+                   help="MCAP file to write (default runs/<scene>.mcap; with --set, runs/<scene>-set-<hash>.mcap)")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
@@ -243,7 +268,7 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("--from", dest="from_time", type=_seconds_arg, metavar="T",
                    help="restart the whole scene from the last checkpoint at or before T [s]")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="with --from: changed settings")
-    p.add_argument("-o", "--output", help="with --from: MCAP file for the restarted run")
+    p.add_argument("-o", "--output", type=_output_path, help="with --from: MCAP file for the restarted run")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="with --from: end time [s]")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_replay)
@@ -350,26 +375,54 @@ def report(exc: BaseException, command: str) -> int:
 
 class _CtrlC:
     """Remembers a Ctrl-C while a command runs: whatever error follows it (an import the signal cut
-    short reports an ImportError, numpy's among them) is then told as the interruption it is."""
+    short reports an ImportError, numpy's among them) is then told as the interruption it is.
+
+    The KeyboardInterrupt the handler raises can land where Python cannot pass it on: in a callback
+    the interpreter runs itself (importlib's module locks are freed by one while a module loads),
+    where it is printed as "Exception ignored" with a traceback and dropped. Such a drop is not
+    printed here (the interrupt is remembered), and :func:`_run_begins` turns a remembered one into
+    the interruption before a run starts."""
+
+    active: _CtrlC | None = None  # the one watching this command
 
     def __init__(self) -> None:
         self.seen = False
         self._old: Any = None
+        self._old_hook: Any = None
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.seen = True
         raise KeyboardInterrupt
+
+    def _unraisable(self, unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt) and self.seen:
+            return  # our own interrupt, dropped by the interpreter: remembered in self.seen
+        self._old_hook(unraisable)
 
     def __enter__(self) -> _CtrlC:
         try:
             self._old = signal.signal(signal.SIGINT, self._handler)
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
+            return self
+        self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
+        _CtrlC.active = self
         return self
 
     def __exit__(self, *exc: object) -> None:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
+            sys.unraisablehook = self._old_hook
+            _CtrlC.active = None
+
+
+def _run_begins() -> None:
+    """Just before a run's first step: the start-up is over (:func:`start_up_done`), and a Ctrl-C
+    during it that Python dropped (see :class:`_CtrlC`) interrupts the run now, before it starts."""
+    start_up_done()
+    watcher = _CtrlC.active
+    if watcher is not None and watcher.seen:
+        raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:

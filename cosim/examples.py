@@ -21,7 +21,7 @@ class Number(Message):
 class Ping(Component):
     """out = inp + 1."""
 
-    inputs = {"inp": Port(Number)}
+    inputs = {"inp": Port(Number, "the number to add one to", required=True)}
     outputs = {"out": Port(Number)}
 
     def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
@@ -31,7 +31,7 @@ class Ping(Component):
 class Pong(Component):
     """out = inp / 2."""
 
-    inputs = {"inp": Port(Number)}
+    inputs = {"inp": Port(Number, "the number to halve", required=True)}
     outputs = {"out": Port(Number)}
 
     def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:

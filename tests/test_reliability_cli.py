@@ -174,3 +174,96 @@ def test_an_import_cut_short_by_ctrl_c_is_told_as_the_interruption(monkeypatch, 
     monkeypatch.setattr(cli, "cmd_validate", lambda args: (_ for _ in ()).throw(ImportError("plain")))
     assert cli.main(["validate", "scene.yaml"]) == 1
     assert "internal error ImportError: plain" in one_error_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("output", ["", "  ", "new_folder/"])
+def test_an_empty_output_or_one_naming_a_folder_is_bad_input(scene, tmp_path, capsys, monkeypatch, output):
+    """-o '' would quietly mean the default file, and -o DIR/ a file named DIR: exit 2, one line,
+    nothing written."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", str(scene), "-o", output, "-q"])
+    assert exit_.value.code == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert ("empty" in line) if not output.strip() else ("names a folder" in line)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.yaml"]
+
+
+def test_a_live_host_that_is_no_host_name_is_bad_input(scene, capsys):
+    """--live 'no such host:80': exit 2 before anything runs (not a failure to start the server)."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", str(scene), "--live", "no such host:80", "--no-record", "-q"])
+    assert exit_.value.code == 2
+    assert "'no such host' is not a host name or address" in one_error_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("pattern", ["/gg/*", "nothing", "["])
+def test_a_record_pattern_that_matches_no_channel_is_bad_input(scene, tmp_path, capsys, pattern):
+    """A misspelt --record pattern would record none of the channels it meant: exit 2, naming it
+    and the scene's channels, and no file."""
+    out = tmp_path / "r.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q", "--record", f"/g/*,{pattern}"]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert f"record.channels: {pattern!r} matches no channel of this scene" in line and "/g/out" in line
+    assert not out.exists()
+
+
+def test_replay_until_before_from_is_bad_input(tmp_path, capsys):
+    """replay --from 0.02 --until 0.01: exit 2 before anything is read or written."""
+    from tests.cli_toys import CHECKPOINTED_SCENE
+
+    scene = tmp_path / "c.yaml"
+    scene.write_text(CHECKPOINTED_SCENE)
+    rec = tmp_path / "c.mcap"
+    assert main(["run", str(scene), "-o", str(rec), "-q"]) == 0
+    capsys.readouterr()
+    restarted = tmp_path / "again.mcap"
+    assert main(["replay", str(rec), "--from", "0.02", "--until", "0.01", "-o", str(restarted), "-q"]) == 2
+    assert "--until 0.01 s must be after --from 0.02 s" in one_error_line(capsys.readouterr().err)
+    assert not restarted.exists()
+
+
+def test_a_ctrl_c_that_python_drops_during_start_up_still_interrupts_the_run(scene, tmp_path, capsys, monkeypatch):
+    """A Ctrl-C whose KeyboardInterrupt lands in a callback the interpreter runs itself (as
+    importlib's module-lock callbacks do while modules load) is dropped by Python with an
+    'Exception ignored' traceback, and the run went on to its end with exit 0. Now the interrupt is
+    remembered: no traceback, and the run stops before its first step, exit 1."""
+    import weakref
+
+    import cosim.scenario
+
+    real_load = cosim.scenario.load
+
+    def load_then_ctrl_c_in_a_callback(*args, **kwargs):
+        class Thing:
+            pass
+
+        def callback(ref):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)  # the handler raises in here; the interpreter drops it
+
+        thing = Thing()
+        ref = weakref.ref(thing, callback)
+        del thing  # the callback runs now
+        assert ref() is None
+        return real_load(*args, **kwargs)
+
+    monkeypatch.setattr(cosim.scenario, "load", load_then_ctrl_c_in_a_callback)
+    out = tmp_path / "r.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 1
+    captured = capsys.readouterr()
+    assert "interrupted" in one_error_line(captured.err)
+    assert "reached" not in captured.out  # the run did not go on to its end
+
+
+def test_an_example_component_without_its_input_is_refused_before_the_run(tmp_path, capsys):
+    """Ping with nothing feeding its input: `validate` and `run` name the unconnected input, exit 2
+    (it failed at t = 0 with an AttributeError, exit 1)."""
+    scene = tmp_path / "unconnected.yaml"
+    scene.write_text('name: x\ndt: 0.001\nuntil: 0.05\ncomponents:\n  ping: {type: "cosim.examples:Ping"}\n'
+                     '  pong: {type: "cosim.examples:Pong"}\nconnections:\n  - ping.out -> pong.inp\n')
+    for argv in (["validate", str(scene)], ["run", str(scene), "-o", str(tmp_path / "r.mcap"), "-q"]):
+        assert main(argv) == 2
+        assert "components.ping: required input 'inp' (Number) is not connected" in one_error_line(
+            capsys.readouterr().err)
+    assert not (tmp_path / "r.mcap").exists()
