@@ -43,16 +43,19 @@ class ReplayReport:
     steps: int
     messages_compared: int
     divergence: Divergence | None
+    cut_off_ns: int | None = None  # the recording has no final status (the run was cut off): replayed up to here
 
     @property
     def ok(self) -> bool:
         return self.divergence is None
 
     def __str__(self) -> str:
+        cut = ("" if self.cut_off_ns is None else
+               f" (the recording is incomplete: replayed up to its last output, t = {self.cut_off_ns / NS_PER_S:g} s)")
         if self.ok:
             return (f"{self.component}: {self.steps} steps replayed, {self.messages_compared} outputs "
-                    "identical bit for bit")
-        return f"{self.component}: {self.divergence} (after {self.steps} steps)"
+                    f"identical bit for bit{cut}")
+        return f"{self.component}: {self.divergence} (after {self.steps} steps){cut}"
 
 
 def _show(msg: Message | None, field: str) -> str:
@@ -99,8 +102,6 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         raise RecordingError(f"{rec.path}: cannot replay: the run recorded a selection of its exchanges "
                              "(record.channels / record.every); replay needs every exchange")
     status = rec.status()
-    if status is None:
-        raise RecordingError(f"{rec.path}: no final status record; the recording is incomplete")
     cfg = scene.components[name]
     comp = component if component is not None else cfg.build()
     dt_ns = scene.dt_ns
@@ -148,12 +149,21 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
                                     Divergence(stamp, port, field, _show(want, field), _show(got, field)))
         return None
 
+    # a run cut off (killed, its writer gone) left no final status: its recording is replayed up to
+    # the component's last recorded output, the last step whose outputs and inputs are all there
+    cut_off = None
+    if status is None:
+        cut_off = max((max(by_time) for by_time in expected.values() if by_time), default=0)
+        last_tick, stop_ns = cut_off // dt_ns, cut_off
+    else:
+        last_tick, stop_ns = status.tick, status.time * NS_PER_S
     bad = compare(0, comp.start_outputs(), 0)
     if bad:
+        bad.cut_off_ns = cut_off
         return bad
     steps = 0
     every = cfg.every
-    for tick in range(0, status.tick, every):
+    for tick in range(0, last_tick - (every - 1 if cut_off is not None else 0), every):
         start, end = tick * dt_ns, (tick + every) * dt_ns
         for src in sources:
             src.advance(tick)
@@ -161,10 +171,11 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         steps += 1
         bad = compare(end, outputs, steps)
         if bad:
+            bad.cut_off_ns = cut_off
             return bad
-        if comp.stop_reason is not None and end >= status.time * NS_PER_S:
+        if comp.stop_reason is not None and end >= stop_ns:
             break
-    return ReplayReport(name, steps, compared, None)
+    return ReplayReport(name, steps, compared, None, cut_off)
 
 
 def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None = None,

@@ -103,3 +103,49 @@ def test_a_restart_after_the_recorded_end_is_refused_with_the_end_named(recordin
         restart_simulation(recording, 99 * 1_000_000_000)
     _, stamp = restart_simulation(recording, 100_000_000)
     assert stamp <= 100_000_000
+
+
+def _cut_off(full: Recording, path, until_ns: int) -> None:
+    """The recording of a run cut off at ``until_ns``: its messages up to then, without the final
+    status (as a run killed there leaves it)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    from cosim.record.recorder import STATUS_TOPIC
+
+    with open(full.path, "rb") as src, open(path, "wb") as dst:
+        reader = make_reader(src)
+        summary = reader.get_summary()
+        writer = Writer(dst)
+        writer.start(profile="", library="test")
+        schemas = {sid: writer.register_schema(schema.name, schema.encoding, schema.data)
+                   for sid, schema in summary.schemas.items()}
+        ids = {cid: writer.register_channel(ch.topic, ch.message_encoding, schemas.get(ch.schema_id, 0), ch.metadata)
+               for cid, ch in summary.channels.items()}
+        for meta in reader.iter_metadata():
+            writer.add_metadata(meta.name, meta.metadata)
+        for att in reader.iter_attachments():
+            writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
+        for _, channel, message in reader.iter_messages(log_time_order=False):
+            if channel.topic != STATUS_TOPIC and message.log_time <= until_ns:
+                writer.add_message(ids[channel.id], message.log_time, message.data, message.publish_time)
+        writer.finish()
+
+
+def test_a_cut_off_recording_replays_each_component_up_to_where_it_ends(tmp_path):
+    """A run killed part-way leaves a valid recording without its final status: each component
+    replays bit for bit up to its last recorded output, and the report says the recording is
+    incomplete (it was refused as a whole: 'no final status record')."""
+    full = tmp_path / "full.mcap"
+    run_scene(loads(SCENE), full, progress=False)
+    cut = tmp_path / "cut.mcap"
+    _cut_off(Recording(full), cut, 50_000_000)
+    rec = Recording(cut)
+    assert rec.status() is None
+    for name in ("src", "g", "acc", "sum"):
+        report = replay_component(rec, name)
+        assert report.ok, str(report)
+        assert report.cut_off_ns is not None and 40_000_000 <= report.cut_off_ns <= 50_000_000
+        assert report.steps > 0 and "the recording is incomplete: replayed up to its last output" in str(report)
+    whole = replay_component(Recording(full), "acc")
+    assert whole.ok and whole.cut_off_ns is None and whole.steps > replay_component(rec, "acc").steps
