@@ -167,3 +167,16 @@ def test_an_output_the_scene_does_not_have_is_refused(tmp_path, capsys):
                  "--output-var", "w=stone.state.spin"])
     assert code == 2
     assert "output 'w': BodyState has no field 'spin'" in one_error_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("where", ["a_file/skip.fmu", "folder_ending/", "an_existing_folder"])
+def test_an_fmu_path_that_cannot_be_written_is_refused_before_the_build(tmp_path, capsys, where):
+    """-o under a file, ending in a separator, or naming a folder: exit 2 at once, one line naming
+    the path (it was found only after the minute-long build, as 'File exists')."""
+    (tmp_path / "a_file").write_text("not a folder")
+    (tmp_path / "an_existing_folder").mkdir()
+    with pytest.raises(SystemExit) as exit_:
+        main(["fmu", "export", str(SKIP_SCENE), "-o", str(tmp_path / where) + ("/" if where.endswith("/") else "")])
+    assert exit_.value.code == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert "argument -o/--output" in line and str(tmp_path) in line

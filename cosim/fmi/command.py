@@ -10,7 +10,9 @@ scene's base step, or the export is refused.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cosim.cli import EXIT_OK, positive_seconds
@@ -50,6 +52,22 @@ def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
                              tuple(scene.overrides)), scene.source)
 
 
+def fmu_path(text: str) -> str:
+    """``-o NAME.fmu``, checked before the scene is loaded and the FMU built (a minute's work): a file
+    name whose folder exists or can be made (no file in the way)."""
+    if not text.strip() or text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(f"expected the FMU's file name, e.g. out/skip.fmu, got {text!r}")
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder; give the FMU's file name, e.g. {path / 'skip.fmu'}")
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise argparse.ArgumentTypeError(f"{folder} is a file, so the folder of {text} cannot be made")
+    return text
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from cosim.fmi.export import export_scene
     from cosim.scenario import load
@@ -74,7 +92,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = actions.add_parser("export", help="build an FMI 2.0 co-simulation FMU that runs the scene",
                            description=__doc__.split("\n\n", 1)[1] if __doc__ else None)
     p.add_argument("scene", help="scene YAML file")
-    p.add_argument("-o", "--output", required=True, metavar="NAME.fmu", help="the FMU file to write")
+    p.add_argument("-o", "--output", required=True, type=fmu_path, metavar="NAME.fmu", help="the FMU file to write")
     p.add_argument("--step", type=positive_seconds, metavar="S",
                    help="default communication step [s] (a whole multiple of the scene's dt)")
     p.add_argument("--preset", default=DEFAULT_PRESET,
