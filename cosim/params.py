@@ -143,7 +143,8 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     for key in data:
         if key not in fields:
             close = difflib.get_close_matches(str(key), list(fields), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(fields)}"
+            hint = (f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(fields)}" if fields
+                    else f" ({path or 'this'} takes no parameters)")
             problems.append(f"{prefix}{key}: unknown key{hint}")
     values: dict[str, Any] = {}
     before = len(problems)

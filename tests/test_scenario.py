@@ -152,3 +152,14 @@ def test_components_that_are_not_a_mapping_is_the_one_problem_named(components):
     with pytest.raises(ScenarioError) as info:
         loads(text)
     assert info.value.problems == [f"components: must be a non-empty mapping (got {yaml.safe_load(components)!r})"]
+
+
+def test_a_parameter_given_to_a_component_that_takes_none_says_so():
+    """A key under a component without parameters: the error says it takes none (it ended in an
+    empty 'known: ' list)."""
+    text = ('name: x\ndt: 0.001\nuntil: 0.01\ncomponents:\n  ping: {type: "cosim.examples:Ping", gain: 3}\n'
+            '  pong: {type: "cosim.examples:Pong"}\nconnections:\n  - ping.out -> pong.inp\n'
+            '  - {from: pong.out, to: ping.inp, delay: 1, initial: {value: 1.0}}\n')
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    assert "components.ping.gain: unknown key (components.ping takes no parameters)" in str(err.value)
