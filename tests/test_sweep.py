@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
 import yaml
 
 from cosim.errors import ScenarioError
+from cosim.sweep import plan
 from cosim.sweep.plan import Expression, load_sweep, loads_sweep, point_id, yaml_value
 from tests.sweep_toys import BALL_SCENE, write_sweep
 
@@ -223,3 +225,53 @@ def test_a_scene_given_as_a_sweep_says_so_in_one_line(tmp_path):
         loads_sweep(BALL_SCENE, "ball.yaml", tmp_path)
     assert info.value.problems == ["a scene, not a sweep (it has components: and no axes:); run it with "
                                    "`cosim run ball.yaml`, or name it in a sweep's scene: key"]
+
+
+HUGE = 10**18  # values no machine could hold: a sweep that built them would fail at once, not pass
+
+
+@pytest.mark.parametrize(("body", "message"), [
+    (f"axes: {{components.ball.speed: {{range: [0, {HUGE}, 1]}}}}",
+     rf"axes\.components\.ball\.speed\.range: {HUGE} values is more than the 1000000 points a sweep may "
+     rf"have \(got \[0, {HUGE}, 1\]\); check the start, stop and step"),
+    (f"axes: {{components.ball.speed: {{linspace: [1, 2, {HUGE}]}}}}",
+     rf"axes\.components\.ball\.speed\.linspace: {HUGE} values is more than the 1000000 points"),
+    (f"axes: {{components.ball.speed: {{logspace: [1, 2, {HUGE}]}}}}",
+     rf"axes\.components\.ball\.speed\.logspace: {HUGE} values is more than the 1000000 points"),
+    ("axes: {components.ball.speed: {linspace: [1, 2, 2000]}, components.ball.angle_deg: "
+     "{linspace: [10, 80, 2000]}}",
+     r"axes: 4000000 points is more than 1000000 \(a grid of 2000 components\.ball\.speed x "
+     r"2000 components\.ball\.angle_deg\); check the axis counts"),
+    (f"mode: random\nsamples: {HUGE}\naxes: {{components.ball.speed: {{uniform: [1, 2]}}}}",
+     rf"samples: {HUGE} points is more than 1000000; check the count"),
+])
+def test_a_sweep_too_large_is_refused_before_its_points_are_built(tmp_path, monkeypatch, body, message):
+    """A huge range, linspace or logspace, a grid whose axes multiply past the limit, or a huge random
+    sample count is refused from the counts alone: no value and no point is built first."""
+    def no_points(*args, **kwargs):
+        raise AssertionError("the points were built before the sweep's size was checked")
+
+    monkeypatch.setattr(plan, "_points", no_points)
+    with pytest.raises(ScenarioError, match=message) as info:
+        load_sweep(write_sweep(tmp_path, f"scene: ball.yaml\n{body}\n"))
+    assert len(info.value.problems) == 1
+
+
+def test_the_point_limit_is_exact_and_counts_ranges_like_python(tmp_path, monkeypatch):
+    """A sweep of exactly MAX_POINTS points runs; one more is refused, whichever axis or count makes
+    it; a range counts its values as Python's range does (any step, stop excluded)."""
+    monkeypatch.setattr(plan, "MAX_POINTS", 6)
+    grid = "scene: ball.yaml\naxes: {components.ball.speed: %s, components.ball.angle_deg: [10, 20]}\n"
+    assert len(load_sweep(write_sweep(tmp_path, grid % "{range: [9, 0, -3]}")).points) == 6
+    with pytest.raises(ScenarioError, match=r"axes: 8 points is more than 6 \(a grid of 4 components\.ball"
+                                            r"\.speed x 2 components\.ball\.angle_deg\)"):
+        load_sweep(write_sweep(tmp_path, grid % "{range: [1, 8, 2]}"))
+    with pytest.raises(ScenarioError, match=r"axes\.components\.ball\.speed\.range: 7 values is more "
+                                            r"than the 6 points"):
+        load_sweep(write_sweep(tmp_path, grid % "{range: [1, 8]}"))
+    random = "scene: ball.yaml\nmode: random\nsamples: %d\naxes: {components.ball.speed: {uniform: [1, 2]}}\n"
+    assert len(load_sweep(write_sweep(tmp_path, random % 6)).points) == 6
+    with pytest.raises(ScenarioError, match=r"samples: 7 points is more than 6; check the count"):
+        load_sweep(write_sweep(tmp_path, random % 7))
+    for args in itertools.product(range(-4, 5), range(-4, 5), (-3, -1, 1, 2)):
+        assert plan._range_count(*args) == len(range(*args)), args

@@ -131,3 +131,90 @@ def test_ctrl_c_keeps_finished_rows_and_exits_1(tmp_path):
     assert "Traceback" not in stderr
     rows = len(out.read_text().splitlines()) - 1
     assert 2 <= rows < 12
+
+
+def test_a_huge_sweep_is_refused_at_once_even_in_a_dry_run(tmp_path, capsys):
+    """A typo that makes an axis huge exits 2 with one line naming the axis, its count and the limit,
+    before any value is built (a range of 10**18 values could never be built)."""
+    path = write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  dt: {range: [0, 1000000000000000000, 1]}\n")
+    assert main(["sweep", str(path), "--dry-run", "-q"]) == 2
+    assert capsys.readouterr().err == (
+        f"error: {path}: axes.dt.range: 1000000000000000000 values is more than the 1000000 points a sweep "
+        "may have (got [0, 1000000000000000000, 1]); check the start, stop and step\n")
+
+
+def leftovers(folder: Path) -> set[str]:
+    """The files and folders in ``folder`` besides the sweep and scene files ``write_sweep`` writes."""
+    return {str(p.relative_to(folder)) for p in folder.rglob("*")} - {"sweep.yaml", "ball.yaml"}
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc, where no file can be made")
+def test_an_unwritable_output_is_named_as_the_user_gave_it(tmp_path, capsys):
+    """An output where nothing can be written exits 2 with one line naming the path given with -o and
+    what could not be written there, not a temporary file of its own."""
+    path = write_sweep(tmp_path, SWEEP)
+    assert main(["sweep", str(path), "-o", "/proc/x.csv", "--workers", "1", "--no-figure", "-q"]) == 2
+    assert capsys.readouterr().err == ("error: /proc/x.csv: cannot write the sweep's results here "
+                                       "(x.meta.json beside it: No such file or directory)\n")
+
+
+@pytest.mark.parametrize(("blocker", "output", "reason"), [
+    ("afile", "afile/x.csv", "Not a directory"),  # a file where a folder should be
+    ("x.meta.json/", "x.csv", "x.meta.json beside it: Is a directory"),  # the record's place is taken
+])
+def test_an_output_that_cannot_be_written_says_why_and_leaves_nothing(tmp_path, capsys, blocker, output,
+                                                                      reason):
+    """A results table that cannot be made exits 2 naming the output and the reason, and writes nothing."""
+    path = write_sweep(tmp_path, SWEEP)
+    if blocker.endswith("/"):
+        (tmp_path / blocker).mkdir()
+    else:
+        (tmp_path / blocker).touch()
+    before = leftovers(tmp_path)
+    out = tmp_path / output
+    assert main(["sweep", str(path), "-o", str(out), "--workers", "1", "--no-figure", "-q"]) == 2
+    assert capsys.readouterr().err == f"error: {out}: cannot write the sweep's results here ({reason})\n"
+    assert leftovers(tmp_path) == before
+
+
+def test_a_table_that_fails_halfway_is_removed_with_its_folders(tmp_path, monkeypatch, capsys):
+    """If the table cannot be created once its record and folders are (the disk fills, a permission),
+    they are removed again: no sweep is left half-started."""
+    import cosim.sweep.table
+
+    def refuse(file, *args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(file))
+
+    monkeypatch.setattr(cosim.sweep.table, "open", refuse, raising=False)
+    path = write_sweep(tmp_path, SWEEP)
+    out = tmp_path / "new" / "deeper" / "x.csv"
+    assert main(["sweep", str(path), "-o", str(out), "--workers", "1", "--no-figure", "-q"]) == 2
+    assert capsys.readouterr().err == f"error: {out}: cannot write the sweep's results here (Permission denied)\n"
+    assert leftovers(tmp_path) == set()
+
+
+def test_an_unwritable_recording_folder_is_said_once_before_any_run(tmp_path, capsys):
+    """With --record, a place for the runs' recordings that is taken exits 2 naming the output and that
+    folder, before any run, and leaves no table behind (not a table of runs that all failed)."""
+    path = write_sweep(tmp_path, SWEEP)
+    (tmp_path / "x_runs").touch()
+    out = tmp_path / "x.csv"
+    assert main(["sweep", str(path), "-o", str(out), "--workers", "1", "--no-figure", "-q", "--record"]) == 2
+    assert capsys.readouterr().err == (f"error: {out}: cannot write the sweep's recordings here "
+                                       "(x_runs beside it: File exists)\n")
+    assert leftovers(tmp_path) == {"x_runs"}
+
+
+def test_a_figure_that_cannot_be_written_says_the_table_is_complete(tmp_path, capsys):
+    """A summary figure whose place is taken exits 2 naming the output and the figure, says the table
+    is complete, and leaves no temporary picture behind."""
+    pytest.importorskip("matplotlib")
+    path = write_sweep(tmp_path, SWEEP)
+    (tmp_path / "x.png").mkdir()
+    out = tmp_path / "x.csv"
+    assert main(["sweep", str(path), "-o", str(out), "--workers", "1", "-q"]) == 2
+    assert capsys.readouterr().err == (f"error: {out}: cannot draw the sweep's figure here (x.png beside it: "
+                                       "Is a directory); the table is complete (--no-figure leaves the "
+                                       "figure out)\n")
+    assert leftovers(tmp_path) == {"x.png", "x.csv", "x.meta.json"}
+    assert len(out.read_text().splitlines()) == 7

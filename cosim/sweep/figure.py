@@ -12,8 +12,10 @@ without it there is no figure, and the sweep says so.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
+import os
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -81,7 +83,14 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
         ax.set_title(f"{sweep.name}: {spec.metric} ({len(rows)} runs{note})", fontsize=10)
         fig.tight_layout()
         path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path)
+        tmp = path.with_name(path.name + ".tmp")  # a failed write leaves no half a picture behind
+        try:
+            fig.savefig(tmp, format=path.suffix.removeprefix(".") or plt.rcParams["savefig.format"])
+            os.replace(tmp, path)
+        except OSError:
+            with contextlib.suppress(OSError):
+                tmp.unlink(missing_ok=True)
+            raise
     finally:
         plt.close(fig)
     return path

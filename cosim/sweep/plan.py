@@ -30,7 +30,8 @@ different backends or worker counts can be compared row by row.
 
 :func:`load_sweep` validates the whole file before anything runs and reports every problem with its
 path as one :class:`ScenarioError`, including those of the first point's scene (a misspelt key path
-shows up there); a later point whose scene is invalid becomes an error row of the table.
+shows up there); a later point whose scene is invalid becomes an error row of the table. A sweep of
+more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``) before any value is built.
 """
 
 from __future__ import annotations
@@ -276,50 +277,73 @@ def _numbers(spec: Any, count: int, path: str, problems: list[str]) -> list[floa
     return spec
 
 
-def _grid_values(name: str, spec: Any, problems: list[str]) -> tuple[Any, ...]:
+def _range_count(start: int, stop: int, step: int = 1) -> int:
+    """``len(range(start, stop, step))`` without building it (and without overflowing a C size)."""
+    if step > 0:
+        return max(0, (stop - start + step - 1) // step)
+    return max(0, (start - stop - step - 1) // -step)
+
+
+def _grid_axis(name: str, spec: Any, problems: list[str]) -> tuple[int, Callable[[], tuple[Any, ...]]]:
+    """An axis of a grid: its number of values and a function that builds them.
+
+    The count comes from the spec alone, so a sweep that is too large is refused before any value is
+    built (``{range: [0, 100000000]}`` would otherwise take gigabytes). An axis with a problem, or more
+    values than a whole sweep may have, counts 0 and builds nothing.
+    """
     path = f"axes.{name}"
+    nothing: tuple[int, Callable[[], tuple[Any, ...]]] = (0, tuple)
     if isinstance(spec, list):
         if not spec:
             problems.append(f"{path}: needs at least one value")
-        return tuple(plain(spec))
+        values = tuple(plain(spec))  # already in memory: the YAML parser built it
+        return len(values), lambda: values
     if not isinstance(spec, dict) or len(spec) != 1:
         problems.append(f"{path}: expected a list of values or one of {{linspace: [a, b, n]}}, "
                         f"{{logspace: [a, b, n]}}, {{range: [start, stop, step]}} (got {spec!r})")
-        return ()
+        return nothing
     (kind, args), = spec.items()
     if kind in RANDOM_SPECS:
         problems.append(f"{path}.{kind}: is for mode: random "
                         "(in a grid, use linspace, logspace, range or a list)")
-        return ()
+        return nothing
     if kind in ("linspace", "logspace"):
         nums = _numbers(args, 3, f"{path}.{kind}", problems)
         if nums is None:
-            return ()
+            return nothing
         a, b, n = nums
         if not (isinstance(n, int) and n >= 1):
             problems.append(f"{path}.{kind}: the count must be a whole number >= 1 (got {n!r})")
-            return ()
+            return nothing
+        if n > MAX_POINTS:
+            problems.append(f"{path}.{kind}: {n} values is more than the {MAX_POINTS} points a sweep may "
+                            f"have (got {args!r}); check the count")
+            return nothing
         if kind == "logspace":
             if not (a > 0 and b > 0):
                 problems.append(f"{path}.logspace: both ends must be > 0 (got {a:g} and {b:g})")
-                return ()
-            return tuple(plain(np.geomspace(a, b, n)))
-        return tuple(plain(np.linspace(a, b, n)))
+                return nothing
+            return n, lambda: tuple(plain(np.geomspace(a, b, n)))
+        return n, lambda: tuple(plain(np.linspace(a, b, n)))
     if kind == "range":
         if not (isinstance(args, list) and 2 <= len(args) <= 3
                 and all(isinstance(v, int) and not isinstance(v, bool) for v in args)):
             problems.append(f"{path}.range: expected [start, stop] or [start, stop, step] of integers "
                             f"(got {args!r})")
-            return ()
+            return nothing
         if len(args) == 3 and args[2] == 0:
             problems.append(f"{path}.range: the step must not be 0")
-            return ()
-        values = tuple(range(*args))
-        if not values:
+            return nothing
+        count = _range_count(*args)
+        if not count:
             problems.append(f"{path}.range: {args!r} holds no value")
-        return values
+        elif count > MAX_POINTS:
+            problems.append(f"{path}.range: {count} values is more than the {MAX_POINTS} points a sweep may "
+                            f"have (got {args!r}); check the start, stop and step")
+            return nothing
+        return count, lambda: tuple(range(*args))
     problems.append(f"{path}: unknown kind {kind!r} (known in a grid: {', '.join(GRID_SPECS)}, or a list)")
-    return ()
+    return nothing
 
 
 def _sampler(name: str, spec: Any, problems: list[str]) -> tuple[Any, ...] | None:
@@ -489,6 +513,8 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         if not (isinstance(samples, int) and not isinstance(samples, bool) and samples >= 1):
             problems.append(f"samples: mode: random needs a whole number of samples >= 1 (got {samples!r})")
             samples = 0
+        elif samples > MAX_POINTS:  # refused before a single sample is drawn
+            problems.append(f"samples: {samples} points is more than {MAX_POINTS}; check the count")
         if not (isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0):
             problems.append(f"seed: must be a whole number >= 0 (got {seed!r})")
             seed = 0
@@ -498,6 +524,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
                 problems.append(f"{key}: only for mode: random (a grid runs every combination)")
 
     axes: list[Axis] = []
+    grid: list[tuple[str, str, int, Callable[[], tuple[Any, ...]]]] = []  # name, kind, count, build
     raw_axes = data.get("axes")
     if not isinstance(raw_axes, dict) or not raw_axes:
         problems.append("axes: missing or empty (required: a mapping of key path or variable -> values)"
@@ -515,13 +542,21 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
             problems.append(f"axes.{axis_name}: neither a key path of the scene nor a variable name")
             continue
         if mode == "grid":
-            values = _grid_values(axis_name, spec, problems)
-            if len(set(map(yaml_value, values))) < len(values):
-                problems.append(f"axes.{axis_name}: repeats a value ({list(values)!r}); "
-                                "each point must differ")
-            axes.append(Axis(axis_name, kind, values=values))
+            grid.append((axis_name, kind, *_grid_axis(axis_name, spec, problems)))
         else:
             axes.append(Axis(axis_name, kind, sampler=_sampler(axis_name, spec, problems)))
+    # the number of points from the axis counts alone: a grid too large is refused before any of its
+    # values (let alone its points) is built; an axis with a problem counts 0 and is reported already
+    total = math.prod(count for _, _, count, _ in grid)
+    if total > MAX_POINTS:
+        shape = " x ".join(f"{count} {axis_name}" for axis_name, _, count, _ in grid)
+        problems.append(f"axes: {total} points is more than {MAX_POINTS} (a grid of {shape}); "
+                        "check the axis counts")
+    for axis_name, kind, _, build in grid:
+        values = build() if total <= MAX_POINTS else ()
+        if len(set(map(yaml_value, values))) < len(values):
+            problems.append(f"axes.{axis_name}: repeats a value ({list(values)!r}); each point must differ")
+        axes.append(Axis(axis_name, kind, values=values))
 
     fixed: list[str] = []
     targets: dict[str, str] = {a.name: f"axes.{a.name}" for a in axes if a.kind == "override"}
@@ -613,10 +648,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     if problems or base is None:
         raise ScenarioError(problems, source)
 
-    points = _points(mode, axes, samples, seed, fixed, derived)
-    if len(points) > MAX_POINTS:
-        raise ScenarioError(f"axes: {len(points)} points is more than {MAX_POINTS}; check the axis counts",
-                            source)
+    points = _points(mode, axes, samples, seed, fixed, derived)  # at most MAX_POINTS: checked above
     metric_keys, kinds = _first_point(points[0], base[0], base[1], source)
     metrics = _select_metrics(metric_keys, metric_patterns, problems)
     sweep = Sweep(name=name, description=str(description), source=source, text=text, scene_text=base[0],

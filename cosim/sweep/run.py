@@ -25,7 +25,7 @@ from tqdm import tqdm
 
 from cosim.sweep.backends import DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
-from cosim.sweep.table import ResultTable
+from cosim.sweep.table import ResultTable, cannot
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 
@@ -119,6 +119,12 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
     outcome.counts.update(row["status"] for row in done.values())
     todo = deque(p for p in sweep.points if p.point_id not in done)
     runs_dir = output.with_name(output.stem + "_runs")
+    if sweep.record and todo:  # said once here, rather than by every run failing to record
+        try:
+            runs_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            table.discard()
+            raise cannot(output, exc, "write the sweep's recordings") from None
     label = {p.point_id: p for p in sweep.points}
 
     def task(point: Point) -> Task:
@@ -206,5 +212,9 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         if figure and sweep.figure is not None:
             from cosim.sweep.figure import draw
 
-            outcome.figure = draw(sweep, outcome.rows, output.with_suffix(".png"))
+            try:
+                outcome.figure = draw(sweep, outcome.rows, output.with_suffix(".png"))
+            except OSError as exc:
+                raise cannot(output, exc, "draw the sweep's figure",
+                             "; the table is complete (--no-figure leaves the figure out)") from None
     return outcome

@@ -44,6 +44,33 @@ def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else output.with_suffix(".csv")
 
 
+def _remove(path: Path) -> None:
+    """Remove a file (or an empty folder) this module made, if it is there; never raises."""
+    try:
+        if path.is_dir():
+            path.rmdir()
+        else:
+            path.unlink(missing_ok=True)
+    except OSError:
+        pass  # already failing: the error being reported matters more than this leftover
+
+
+def cannot(output: Path, exc: OSError, action: str, then: str = "") -> ScenarioError:
+    """The bad-input error for ``exc``, raised while trying to ``action`` (the table at ``output``, or the
+    files beside it). It names the path the user gave; the file that failed, when it is another (the
+    record beside the table, a folder), is named in the reason, by its final name, not a temporary one.
+    ``then``: what the user should know next, appended to the line."""
+    reason = exc.strerror or str(exc)
+    if exc.filename is not None:
+        failed = Path(os.fsdecode(exc.filename))
+        ours = (output, journal_path(output), meta_path(output), output.with_suffix(".png"))
+        failed = next((p for p in ours if failed == p.with_name(p.name + ".tmp")), failed)
+        if failed != output:
+            where = f"{failed.name} beside it" if failed.parent == output.parent else str(failed)
+            reason = f"{where}: {reason}"
+    return ScenarioError(f"cannot {action} here ({reason}){then}", str(output))
+
+
 class ResultTable:
     """The CSV journal of one sweep; ``open`` it (fresh or resumed), ``append`` rows, ``finish``."""
 
@@ -55,6 +82,7 @@ class ResultTable:
         self.meta = meta
         self._file: io.TextIOWrapper | None = None
         self._writer: Any = None
+        self._made: list[Path] = []  # what open() created: the files and folders discard() removes
 
     def open(self, known_ids: set[str], fresh: bool = False) -> dict[str, dict[str, str]]:
         """Start the table, or resume it; returns the rows already there, by point id.
@@ -63,21 +91,41 @@ class ResultTable:
         not in this sweep are an error (a different sweep wrote them).
         """
         rows: dict[str, dict[str, str]] = {}
-        if self.path.exists() and not fresh:
-            rows = self._read_existing(known_ids)
+        resume = self.path.exists() and not fresh
+        if resume:
+            try:
+                rows = self._read_existing(known_ids)
+            except OSError as exc:
+                raise cannot(self.output, exc, "read the sweep's table to resume it") from None
             self.meta["resumed_with"] = len(rows)
-        else:
-            for path in (self.path, self.output):
-                path.unlink(missing_ok=True)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.meta["started"] = time.strftime("%Y-%m-%dT%H:%M:%S%z")
-        self._write_meta()
-        new = not self.path.exists()
-        self._file = open(self.path, "a", newline="", encoding="utf-8")  # closed in close()
-        self._writer = csv.writer(self._file, lineterminator="\n")
-        if new:
-            self._writer.writerow(self.columns)
-            self._file.flush()
+        made: list[Path] = []  # what this call creates: removed again if it fails halfway
+        try:
+            if not resume:
+                for path in (self.path, self.output):
+                    path.unlink(missing_ok=True)
+            folder = self.path.parent
+            while not folder.exists() and folder != folder.parent:
+                made.append(folder)  # deepest first, the order to remove them in
+                folder = folder.parent
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.meta["started"] = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+            if not self.meta_path.exists():
+                made.insert(0, self.meta_path)
+            self._write_meta()
+            new = not self.path.exists()
+            if new:
+                made.insert(0, self.path)
+            self._file = open(self.path, "a", newline="", encoding="utf-8")  # closed in close()
+            self._writer = csv.writer(self._file, lineterminator="\n")
+            if new:
+                self._writer.writerow(self.columns)
+                self._file.flush()
+        except OSError as exc:
+            self.close()
+            for path in made:
+                _remove(path)
+            raise cannot(self.output, exc, "write the sweep's results") from None
+        self._made = made
         return rows
 
     def _read_existing(self, known_ids: set[str]) -> dict[str, dict[str, str]]:
@@ -129,9 +177,28 @@ class ResultTable:
             self._file = None
             self._writer = None
 
-    def finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
-        """Rewrite the table sorted by point index (and the Parquet file if asked); returns the rows."""
+    def discard(self) -> None:
+        """Close the table and remove what ``open`` created (a table started for a sweep that cannot go
+        on); a resumed table is kept as it was."""
         self.close()
+        for path in self._made:
+            _remove(path)
+        self._made = []
+
+    def finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
+        """Rewrite the table sorted by point index (and the Parquet file if asked); returns the rows.
+
+        If that cannot be written, the rows stay in the journal as they were, and a ScenarioError says
+        so: running the sweep again resumes with nothing left to run and finishes it.
+        """
+        self.close()
+        try:
+            return self._finish(order, summary)
+        except OSError as exc:
+            raise cannot(self.output, exc, "write the sweep's finished table",
+                         "; its rows are kept: run the same command again to finish it") from None
+
+    def _finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
         with open(self.path, newline="", encoding="utf-8") as f:
             reader = csv.DictReader(f)
             by_id: dict[str, dict[str, str]] = {}
@@ -142,11 +209,15 @@ class ResultTable:
         for row in rows:
             row["index"] = str(order[row["point_id"]])
         tmp = self.path.with_name(self.path.name + ".tmp")
-        with open(tmp, "w", newline="", encoding="utf-8") as f:
-            writer = csv.DictWriter(f, self.columns, lineterminator="\n")
-            writer.writeheader()
-            writer.writerows(rows)
-        os.replace(tmp, self.path)
+        try:
+            with open(tmp, "w", newline="", encoding="utf-8") as f:
+                writer = csv.DictWriter(f, self.columns, lineterminator="\n")
+                writer.writeheader()
+                writer.writerows(rows)
+            os.replace(tmp, self.path)
+        except OSError:
+            _remove(tmp)
+            raise
         self.meta.update(summary, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
         self._write_meta()
         if self.output.suffix == ".parquet":
@@ -155,8 +226,12 @@ class ResultTable:
 
     def _write_meta(self) -> None:
         tmp = self.meta_path.with_name(self.meta_path.name + ".tmp")
-        tmp.write_text(json.dumps(self.meta, indent=2, default=str) + "\n", encoding="utf-8")
-        os.replace(tmp, self.meta_path)
+        try:
+            tmp.write_text(json.dumps(self.meta, indent=2, default=str) + "\n", encoding="utf-8")
+            os.replace(tmp, self.meta_path)
+        except OSError:
+            _remove(tmp)
+            raise
 
 
 def _parses(values: list[str], kind: type) -> bool:
@@ -189,4 +264,10 @@ def write_parquet(path: Path, rows: list[dict[str, str]], columns: list[str], me
         arrays.append(pa.array(values, type=getattr(pa, kind)()))
         fields.append(pa.field(name, getattr(pa, kind)()))
     schema = pa.schema(fields, metadata={"cosim.sweep": json.dumps(meta, default=str)})
-    pq.write_table(pa.Table.from_arrays(arrays, schema=schema), path)
+    tmp = path.with_name(path.name + ".tmp")  # a failed write leaves no half a Parquet file behind
+    try:
+        pq.write_table(pa.Table.from_arrays(arrays, schema=schema), tmp)
+        os.replace(tmp, path)
+    except OSError:
+        _remove(tmp)
+        raise
