@@ -105,9 +105,9 @@ def test_a_restart_after_the_recorded_end_is_refused_with_the_end_named(recordin
     assert stamp <= 100_000_000
 
 
-def _cut_off(full: Recording, path, until_ns: int) -> None:
+def _cut_off(full: Recording, path, until_ns: int, metadata: dict[str, str] | None = None) -> None:
     """The recording of a run cut off at ``until_ns``: its messages up to then, without the final
-    status (as a run killed there leaves it)."""
+    status (as a run killed there leaves it); ``metadata`` changes entries of its cosim metadata."""
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
@@ -123,7 +123,7 @@ def _cut_off(full: Recording, path, until_ns: int) -> None:
         ids = {cid: writer.register_channel(ch.topic, ch.message_encoding, schemas.get(ch.schema_id, 0), ch.metadata)
                for cid, ch in summary.channels.items()}
         for meta in reader.iter_metadata():
-            writer.add_metadata(meta.name, meta.metadata)
+            writer.add_metadata(meta.name, {**meta.metadata, **(metadata or {})})
         for att in reader.iter_attachments():
             writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
         for _, channel, message in reader.iter_messages(log_time_order=False):
@@ -149,3 +149,20 @@ def test_a_cut_off_recording_replays_each_component_up_to_where_it_ends(tmp_path
         assert report.steps > 0 and "the recording is incomplete: replayed up to its last output" in str(report)
     whole = replay_component(Recording(full), "acc")
     assert whole.ok and whole.cut_off_ns is None and whole.steps > replay_component(rec, "acc").steps
+
+
+@pytest.mark.parametrize("value", ["abc", "0", "-5", "1.5"])
+def test_a_recording_whose_step_in_its_metadata_is_no_step_is_refused_in_one_line(tmp_path, capsys, value):
+    """dt_ns: 'abc' in the cosim metadata (checksums intact) made inspect fail with an internal
+    ValueError (exit 1), and '0' was shown as dt = 0 s: exit 2, naming the field and its value."""
+    from cosim.cli import main
+    from tests.cli_toys import one_error_line
+
+    full = tmp_path / "full.mcap"
+    run_scene(loads(SCENE), full, progress=False)
+    bad = tmp_path / "bad.mcap"
+    _cut_off(Recording(full), bad, 10**12, metadata={"dt_ns": value})
+    for command in ("inspect", "replay"):
+        assert main([command, str(bad)]) == 2
+        line = one_error_line(capsys.readouterr().err)
+        assert f"dt_ns is {value!r}, not a whole number of nanoseconds > 0" in line and str(bad) in line

@@ -135,6 +135,10 @@ class Recording:
             self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
             if not isinstance(self.overrides, list) or not all(isinstance(o, str) for o in self.overrides):
                 raise ValueError("overrides are not a list of strings")
+            for key in ("dt_ns", "until_ns"):  # the run's step and end, shown by inspect
+                value = self.metadata.get(key)
+                if value is not None and not (value.isdigit() and int(value) > 0):
+                    raise ValueError(f"{key} is {value!r}, not a whole number of nanoseconds > 0")
         except ValueError as exc:
             raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
         counts = summary.statistics.channel_message_counts
