@@ -163,6 +163,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
         raise ScenarioError("this is a sweep file (it has scene: and axes:, no components:); check it with "
                             f"`cosim sweep {args.scene} --dry-run`", args.scene)
     scene = load(args.scene, overrides=args.set or [])
+    if scene.record.channels is not None:
+        from cosim.runner import check_channel_patterns
+
+        check_channel_patterns(scene)
     print(f"{args.scene}: ok - scene {scene.name!r}: {len(scene.components)} components, "
           f"{len(scene.connections)} connections, dt = {scene.dt:g} s, until = {scene.until_ns / NS_PER_S:g} s")
     print(f"  order within a tick: {' -> '.join(scene.order)}")

@@ -6,6 +6,7 @@ call (tests, sweeps).
 
 from __future__ import annotations
 
+import fnmatch
 import signal
 import sys
 import warnings
@@ -15,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import SimulationError
+from cosim.errors import ScenarioError, SimulationError
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
 from cosim.record.recorder import Recorder, physics_topics
@@ -78,6 +79,27 @@ def default_derivers(scene: Scene) -> list[Any]:
     return [visual_deriver(rate, physics_topics(scene))]
 
 
+def check_channel_patterns(scene: Scene) -> None:
+    """record.channels (``--record``): each pattern must match a channel the scene can record (a
+    component's output ``/<component>/<port>``, the framework's own, the viewer's), or the recording
+    silently leaves out what a misspelt pattern meant: a ScenarioError naming it and the scene's
+    channels. The viewer's per-item channels under ``/scene/`` depend on the components' looks, not
+    known before the run: a pattern there is taken as it is."""
+    if scene.record.channels is None:
+        return
+    from cosim.view.items import LOG_TOPIC, TF_TOPIC
+
+    topics = sorted(physics_topics(scene) | {TF_TOPIC, LOG_TOPIC})
+    problems = []
+    for pattern in scene.record.channels:
+        if str(pattern).startswith("/scene/") or any(fnmatch.fnmatchcase(t, str(pattern)) for t in topics):
+            continue
+        shown = ", ".join(topics[:12]) + (", ..." if len(topics) > 12 else "")
+        problems.append(f"record.channels: {pattern!r} matches no channel of this scene (its channels: {shown})")
+    if problems:
+        raise ScenarioError(problems, scene.source)
+
+
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,
               command_line: str = "", progress: bool = True, perf: bool = False,
               derivers: list[Any] | None = None, simulation: Simulation | None = None,
@@ -100,6 +122,8 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     the disk full) raises :class:`cosim.record.writer.SinkError` once the run has ended, with no
     partial file left.
     """
+    if output is not None:
+        check_channel_patterns(scene)
     sim = simulation if simulation is not None else Simulation(scene)
     live_view = None
     if live is not None:

@@ -444,25 +444,6 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
     return Connection(src, sport, dst, dport, delay, initial)
 
 
-def _check_channel_patterns(patterns: list[str], classes: dict[str, type], problems: list[str]) -> None:
-    """record.channels: each pattern must match a channel the scene can record (a component's output
-    ``/<component>/<port>``, the framework's own, the viewer's), or the recording silently leaves out
-    what a misspelt pattern meant. The viewer's per-item channels under ``/scene/`` depend on the
-    components' looks, not known before the run: a pattern there is taken as it is."""
-    import fnmatch
-
-    from cosim.record.recorder import CHECKPOINT_TOPIC, EVENTS_TOPIC, PERF_TOPIC, STATUS_TOPIC
-    from cosim.view.items import LOG_TOPIC, TF_TOPIC
-
-    topics = [f"/{name}/{port}" for name, cls in classes.items() for port in getattr(cls, "outputs", {})]
-    topics += [STATUS_TOPIC, EVENTS_TOPIC, CHECKPOINT_TOPIC, PERF_TOPIC, TF_TOPIC, LOG_TOPIC]
-    for pattern in patterns:
-        if str(pattern).startswith("/scene/") or any(fnmatch.fnmatchcase(t, str(pattern)) for t in topics):
-            continue
-        shown = ", ".join(topics[:12]) + (", ..." if len(topics) > 12 else "")
-        problems.append(f"record.channels: {pattern!r} matches no channel of this scene (its channels: {shown})")
-
-
 def _check_inputs(components: dict[str, type[Component]], edges: list[Connection], problems: list[str]) -> None:
     fed: dict[tuple[str, str], list[Connection]] = {}
     for edge in edges:
@@ -659,8 +640,6 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
             if cp and dt_ns is not None and cp < dt_ns:
                 problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
                                 f"(got {record.checkpoint_every:g})")
-            if record.channels is not None:
-                _check_channel_patterns(record.channels, classes, problems)
 
     order, cycle = execution_order(list(classes), edges)
     if cycle:
