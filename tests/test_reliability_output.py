@@ -1,6 +1,6 @@
 """Where a recording goes: never onto the scene or a file that is not a recording, always through a
-private file moved into place when complete, and a clear line (never a traceback, never a partial
-file) when the writer is killed or the disk fills up."""
+private file moved into place when complete, and a clear line (never a traceback) when the writer is
+killed (the recording salvaged up to then) or the disk fills up (no partial file)."""
 
 from __future__ import annotations
 
@@ -138,8 +138,10 @@ def test_claims_of_one_target_exclude_each_other(tmp_path):
     assert parts(out) == []
 
 
-def test_the_writer_killed_mid_run_is_one_line_and_leaves_no_file(tmp_path):
-    """SIGKILL of the writer process: exit 1, one line saying so, no partial file, no output."""
+def test_the_writer_killed_mid_run_is_one_line_and_leaves_the_recording_salvaged(tmp_path, capsys):
+    """SIGKILL of the writer process: exit 1, one line saying so and up to when and where the
+    recording was salvaged; the output is a valid recording, ending there with a `failed` status
+    (tests/test_reliability_salvage.py checks its messages one by one)."""
     long = tmp_path / "long.yaml"
     long.write_text(LONG)
     out = tmp_path / "k.mcap"
@@ -152,8 +154,17 @@ def test_the_writer_killed_mid_run_is_one_line_and_leaves_no_file(tmp_path):
     finally:
         proc.kill()
     assert proc.returncode == 1
-    assert "the recording writer was killed (SIGKILL); no file was left" in one_error_line(err)
-    assert not out.exists() and parts(out) == []
+    rec = Recording(out)
+    line = one_error_line(err)
+    assert line.startswith(f"error: {out}: the recording writer was killed (SIGKILL); the recording was salvaged "
+                           f"up to t = {rec.end_ns / 1e9:g} s, all the run had recorded (")
+    assert line.endswith(f"into {out}")
+    status = rec.status()
+    assert status.status == "failed" and status.reason.startswith("the recording writer was killed (SIGKILL)")
+    assert rec.channels["/src/out"].count >= status.tick > 0
+    assert parts(out) == []
+    assert main(["inspect", str(out)]) == 0
+    assert f"status: failed at t = {status.time:g} s" in capsys.readouterr().out
 
 
 # above the shared-memory ring (its memory file counts against the limit too), below PAINT's 36 MB recording

@@ -111,8 +111,10 @@ def _locked(part: str) -> bool:
     return False
 
 
-def claim(path: str | Path) -> Claim:
+def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     """Create and lock the private file a recording of ``path`` is written to (its folder exists).
+    ``replacing``: this run's own claim of ``path`` that the new one takes over from (a recording
+    rebuilt after its writer died: :mod:`cosim.record.salvage`), still locked while it is read.
 
     Raises RecordingError when another run is writing ``path`` now, OSError when the folder cannot
     be written.
@@ -126,8 +128,9 @@ def claim(path: str | Path) -> Claim:
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(path.name) + ".*" + PART_SUFFIX)
+        mine_too = {os.path.abspath(name)} | ({os.path.abspath(replacing.part)} if replacing is not None else set())
         for other in glob.glob(pattern):
-            if os.path.abspath(other) != os.path.abspath(name) and _locked(other):
+            if os.path.abspath(other) not in mine_too and _locked(other):
                 raise RecordingError(f"{path}: another run is writing it now ({Path(other).name}); "
                                      "wait for it or choose another output (-o)")
     except BaseException:

@@ -17,11 +17,13 @@ Layout of a recording:
 The output path is checked first (:func:`cosim.record.output.check_output`: never the scene, a folder,
 a device or a file that is not a recording); the file is written to a private ``NAME.<random>.part``
 beside it and moved into place when closed, so a finished path always holds a complete, indexed
-file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`. A recording that
-cannot be finished (the writer killed, the disk full) raises :class:`cosim.record.writer.SinkError`
-and leaves no partial file.
-The MCAP writing itself happens in a writer process (:mod:`cosim.record.writer`), which finishes the file
-even if the simulating process dies.
+file; every ending (error, Ctrl-C, SIGTERM) goes through :meth:`Recorder.close`. The MCAP writing
+itself happens in a writer process (:mod:`cosim.record.writer`), which finishes the file even if the
+simulating process dies, with every step it completed (the recorder marks each one,
+:meth:`cosim.record.writer.ProcessSink.mark`). If the writer dies instead, the run ends with a
+:class:`cosim.record.writer.SinkError` and the recording is salvaged up to the failure
+(:mod:`cosim.record.salvage`), ending with a ``failed`` status saying so (:meth:`Recorder.epitaph`);
+one whose writes fail (the disk full) leaves no partial file.
 """
 
 from __future__ import annotations
@@ -139,6 +141,11 @@ class Recorder(BaseObserver):
         self._routes: dict[tuple[str, str], list] = {}
         self._wanted: dict[str, bool] = {}
         self._closed = False
+        self._sim: Simulation | None = None  # the run, once it has started
+        self._steps0 = 0  # its component steps when it started
+        self._finished = False  # the final status has been written
+        self.sink.epitaph = self.epitaph
+        self._mark = self.sink.mark
         self._perf_wall = time.perf_counter()
         self._perf_tick = 0
         meta = {"version": version or __version__, "scene": scene.name, "source": scene.source,
@@ -227,8 +234,10 @@ class Recorder(BaseObserver):
         self.write_message(EVENTS_TOPIC, time_ns, Event(component, kind, detail))
 
     def on_initialized(self, sim: Simulation) -> None:
+        self._sim, self._steps0 = sim, sim.component_steps()
         if self.checkpoint_ticks:
             self.write_checkpoint(sim)
+        self._mark()
 
     def on_step_complete(self, sim: Simulation) -> None:
         if self.checkpoint_ticks and sim.tick % self.checkpoint_ticks == 0:
@@ -240,6 +249,7 @@ class Recorder(BaseObserver):
             rtf = ticks * sim.dt_ns / 1e9 / wall if wall > 0 else 0.0
             self.write_message(PERF_TOPIC, sim.time_ns, PerfSample(ticks, wall, rtf))
             self._perf_wall, self._perf_tick = now, sim.tick
+        self._mark()  # the step's records are whole: the writer keeps them should this process die
 
     def write_checkpoint(self, sim: Simulation) -> None:
         channel = self._channel(CHECKPOINT_TOPIC, "cosim.Checkpoint", SCHEMA_ENCODING,
@@ -250,6 +260,33 @@ class Recorder(BaseObserver):
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
         self.write_message(STATUS_TOPIC, sim.time_ns, RunStatus(
             result.status, result.reason, result.tick, sim.time_ns / 1e9, result.component_steps))
+        self._finished = True
+
+    def epitaph(self, fate: str, end_ns: int, complete: bool) -> tuple[int, DerivedMessage] | None:
+        """The status a recording salvaged after its writer died ends with (``fate``: how the writer
+        ended; ``end_ns``: the latest time salvaged; ``complete``: whether all the run sent is there),
+        as (log time [ns], message); None when the run's own status is there.
+
+        ``failed``, with the run's tick and time when everything was salvaged (as a run failing there
+        would have it: replay goes up to it). Otherwise only what the writer had put on disk is there,
+        and the status stands at the last tick certainly whole in it: records go out in tick order,
+        and none of a tick's is stamped later than its end plus the slowest component's step.
+        """
+        if complete and self._finished:
+            return None
+        sim, dt_ns = self._sim, self.scene.dt_ns
+        if complete:
+            tick, steps = (sim.tick, sim.component_steps() - self._steps0) if sim is not None else (0, 0)
+            reason = f"{fate} at t = {tick * dt_ns / 1e9:g} s; the recording holds all the run had recorded"
+        else:
+            slowest = max((c.every for c in self.scene.components.values()), default=1)
+            tick, steps = max(0, end_ns // dt_ns - slowest), 0
+            reason = (f"{fate}; the recording was salvaged up to t = {end_ns / 1e9:g} s, and what the run "
+                      f"recorded after that was lost")
+        codec = codec_for(RunStatus)  # JSON, as write_message has it: a status has text fields
+        status = RunStatus("failed", reason, tick, tick * dt_ns / 1e9, steps)
+        return tick * dt_ns, DerivedMessage(STATUS_TOPIC, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
+                                            MESSAGE_ENCODING, codec.encode(status))
 
     def close(self) -> Path:
         """Finish the file (summary, indexes) under its final name. Safe to call twice."""

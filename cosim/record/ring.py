@@ -14,6 +14,20 @@ batch larger than the ring). Acknowledgements (consumer -> producer): ``<Q``, th
 read up to, or :data:`FINISHED` as the consumer's last word. When the ring is full the producer waits
 for the consumer; when the producer's end of the control pipe closes (on purpose or because the
 process died) the consumer's iteration ends.
+
+Either side can die part-way, and the other can still save what it holds. After the ring's bytes,
+the shared memory holds a small control block (:data:`CONTROL_BYTES`):
+
+- the producer's *mark* (:meth:`RingProducer.mark`): the stream position of the space
+  :meth:`RingProducer.reserve` gave, and how many of its bytes hold records gathered but not yet
+  committed, up to a point the producer chooses (a recording marks each completed step). A producer
+  that dies (SIGSEGV, SIGKILL) leaves it behind, and the consumer reads those records too
+  (:meth:`RingConsumer.unsent`); one that hangs up clears it.
+- the consumer's *tallies* (:meth:`RingConsumer.tally`): for each batch, by its number (batches are
+  numbered from 0 in the order they are sent, on both sides), a count the consumer keeps of what
+  it had done before it (a recording's writer: messages written). The producer keeps the batches
+  that are still whole in the ring (:meth:`RingProducer.held`): with the tallies it can tell which of
+  them hold what a consumer that died had not yet made durable.
 """
 
 from __future__ import annotations
@@ -22,6 +36,7 @@ import mmap
 import os
 import select
 import struct
+from collections import deque
 from collections.abc import Iterator, Sequence
 from typing import Any
 
@@ -29,6 +44,13 @@ INLINE = (1 << 64) - 1  # control offset: the batch's parts follow on the pipe
 FINISHED = (1 << 64) - 1  # acknowledgement: the consumer has done all it had to (e.g. finished a file)
 _HEAD = struct.Struct("<QI")
 _LENGTH = struct.Struct("<Q")
+# the control block after the ring's bytes: the producer's mark, then the consumer's tallies
+# the reserved space's stream position, the bytes of it marked (native order: set through a memoryview)
+_MARK = struct.Struct("=QQ")
+_TALLY = struct.Struct("<QQ")  # a batch's number, the consumer's count before it
+TALLIES = 256  # batches whose tally is kept (the ring holds far fewer whole batches)
+_TALLIES_AT = 64  # bytes into the control block
+CONTROL_BYTES = _TALLIES_AT + TALLIES * _TALLY.size
 
 
 class RingError(RuntimeError):
@@ -76,13 +98,19 @@ class RingProducer:
 
     def __init__(self, size: int):
         self.size = size
-        self.fd = shared_memory_fd(size)
-        self._map = mmap.mmap(self.fd, size)
-        self._view = memoryview(self._map)
+        self.fd = shared_memory_fd(size + CONTROL_BYTES)
+        self._map = mmap.mmap(self.fd, size + CONTROL_BYTES)
+        self._view = memoryview(self._map)[:size]
         self._head = 0  # stream position of the next byte written
         self._tail = 0  # stream position the consumer has acknowledged
         self._acks = b""
         self._reserved: int | None = None  # stream position of the space reserve() gave
+        self._sent = 0  # batches sent (the next one's number)
+        # (number, stream position, length) of each batch still whole in the ring, oldest first
+        self._held: deque[tuple[int, int, int]] = deque()
+        self._unsent: tuple[int, Sequence[Any]] | None = None  # a batch too large for the ring, while it is sent
+        # the mark: [the reserved space's stream position, the bytes of it marked] (see mark())
+        self.marked = memoryview(self._map)[size:size + _MARK.size].cast("Q")
         self.control_fd = -1
         self.ack_fd = -1
         self.finished = False  # the consumer said FINISHED
@@ -106,6 +134,9 @@ class RingProducer:
         self._read_acks(wait=False)
         while self._tail < free_from:
             self._read_acks(wait=True)
+        held = self._held
+        while held and held[0][1] + self.size < end:  # its bytes are about to be written over
+            held.popleft()
         return start
 
     def reserve(self, n: int) -> memoryview:
@@ -115,6 +146,8 @@ class RingProducer:
         it up."""
         start = self._free(n)
         self._reserved = start
+        self.marked[1] = 0  # in this order: a process dying in between leaves nothing marked
+        self.marked[0] = start
         at = start % self.size
         return self._view[at:at + n]
 
@@ -128,6 +161,8 @@ class RingProducer:
         if start is None:
             raise RingError("commit without reserve")
         self._head = start + used
+        self._held.append((self._sent, start, used))
+        self._sent += 1
         _write_all(self.control_fd, _HEAD.pack(start % self.size, 1) + _LENGTH.pack(used))
 
     def put(self, parts: Sequence[Any]) -> None:
@@ -136,9 +171,14 @@ class RingProducer:
         total = sum(sizes)
         lengths = b"".join(_LENGTH.pack(n) for n in sizes)
         if total > self.size:
+            # nothing before it can be continued from the ring once it has gone: it is not held
+            self._held.clear()
+            self._unsent = (self._sent, parts)
+            self._sent += 1
             _write_all(self.control_fd, _HEAD.pack(INLINE, len(parts)) + lengths)
             for part in parts:
                 _write_all(self.control_fd, part)
+            self._unsent = None
             return
         self._reserved = None  # any space reserved is given up: this batch may take it
         start = self._free(total)
@@ -148,8 +188,37 @@ class RingProducer:
             self._view[at:at + n] = memoryview(part).cast("B")
             at += n
         self._head = end
+        self._held.append((self._sent, start, total))
+        self._sent += 1
         # only now that the bytes are in place may the consumer hear of them
         _write_all(self.control_fd, _HEAD.pack(offset, len(parts)) + lengths)
+
+    def mark(self, used: int) -> None:
+        """Mark the first ``used`` bytes of the space :meth:`reserve` gave last as whole records: should
+        this process die before it commits them, the consumer reads them too
+        (:meth:`RingConsumer.unsent`). (A caller marking often sets ``marked[1] = used`` itself: a
+        third of the cost.) A mark on space already committed is ignored."""
+        self.marked[1] = used
+
+    def held(self) -> list[tuple[int, memoryview]]:
+        """(number, bytes) of each batch sent that the ring still holds whole, oldest first, whether
+        or not the consumer has read it; and a batch too large for the ring whose sending failed.
+        Valid until the ring is written to or closed."""
+        out = [(number, self._view[start % self.size:start % self.size + n]) for number, start, n in self._held]
+        if self._unsent is not None:
+            number, parts = self._unsent
+            out.append((number, memoryview(b"".join(memoryview(p).cast("B") for p in parts))))
+        return out
+
+    def tallies(self) -> dict[int, int]:
+        """The consumer's count before each batch it noted (:meth:`RingConsumer.tally`), by the
+        batch's number; 0 before the first."""
+        found = {0: 0}
+        for i in range(TALLIES):
+            number, count = _TALLY.unpack_from(self._map, self.size + _TALLIES_AT + i * _TALLY.size)
+            if number and number % TALLIES == i:
+                found[number] = count
+        return found
 
     def _read_acks(self, wait: bool) -> None:
         if wait:
@@ -174,6 +243,8 @@ class RingProducer:
         """Close the control pipe (the consumer then finishes) and read the consumer's last
         acknowledgements until it closes its end (so it never waits on a full pipe). True when its
         last word was :data:`FINISHED`."""
+        if self.fd >= 0:  # hanging up on purpose: nothing is left unsent
+            self.marked[1] = 0
         if self.control_fd >= 0:
             os.close(self.control_fd)
             self.control_fd = -1
@@ -197,6 +268,7 @@ class RingProducer:
             os.close(self.control_fd)
             self.control_fd = -1
         if self.fd >= 0:  # safe to call twice: never closes a number another file may have reused
+            self.marked.release()
             self._view.release()
             try:
                 self._map.close()
@@ -211,10 +283,11 @@ class RingConsumer:
 
     def __init__(self, fd: int, size: int, control_fd: int, ack_fd: int):
         self.size = size
-        self._map = mmap.mmap(fd, size)
-        self._view = memoryview(self._map)
+        self._map = mmap.mmap(fd, size + CONTROL_BYTES)
+        self._view = memoryview(self._map)[:size]
         self.control_fd, self.ack_fd = control_fd, ack_fd
         self._position = 0  # stream position read up to (mirrors the producer's head)
+        self._number = 0  # the number of the batch last given (or next to be)
 
     def batches(self) -> Iterator[list[Any]]:
         """Each batch's parts (memoryviews into the ring, valid until the next batch is asked for),
@@ -233,6 +306,7 @@ class RingConsumer:
                 if any(p is None for p in parts):
                     return
                 yield parts
+                self._number += 1
                 continue
             # where the producer put it: after the last batch, or at the ring's start
             start = self._position
@@ -243,12 +317,35 @@ class RingConsumer:
                 parts.append(self._view[at:at + n])
                 at += n
             yield parts
+            self._number += 1
             self._position = start + sum(sizes)
             if self.ack_fd >= 0:
                 try:
                     _write_all(self.ack_fd, _LENGTH.pack(self._position))
                 except OSError:  # the producer has gone: read on to the batches it has already sent
                     self.ack_fd = -1
+
+    def tally(self, count: int) -> None:
+        """Note ``count`` (what this side has done so far, e.g. messages written) as its count before
+        the next batch; call it once the batch last given is done with."""
+        number = self._number + 1
+        _TALLY.pack_into(self._map, self.size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, count)
+
+    def unsent(self) -> memoryview | None:
+        """Once :meth:`batches` has ended: the records a producer that died had gathered in the ring
+        and marked (:meth:`RingProducer.mark`) but not committed, as one batch; None when there are
+        none (a producer that hung up clears its mark)."""
+        start, used = _MARK.unpack_from(self._map, self.size)
+        end = start + used
+        if start == self._position:  # the space came after the last batch...
+            at = start % self.size
+        elif start > self._position and start % self.size == 0 and start - self._position < self.size:
+            at = 0  # ...or at the ring's start, the last batch leaving too little room before its end
+        else:  # no mark, or one in a batch already read
+            return None
+        if not 0 < end - start <= self.size - at:
+            return None
+        return self._view[at:at + end - start]
 
     def finish(self) -> None:
         """Tell the producer this side has done all it had to (see :meth:`RingProducer.hang_up`), and

@@ -13,7 +13,11 @@ the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, 
 and metadata indexes). The writer imports nothing else of cosim, so it starts in a few tens of
 milliseconds, and is kept off the simulation's core (:class:`WriterPlacement`). It also makes
 recordings sturdier: if the simulating process dies, the writer sees its control pipe close and
-still finishes a valid, indexed file.
+still finishes a valid, indexed file, with the records of every step the simulation had completed
+(those it had not yet sent too: the recorder marks each step in the ring, :meth:`ProcessSink.mark`).
+If the writer dies instead, the simulating process rebuilds the recording from what the writer left
+on disk, what the ring still holds and its own copy of the schemas, channels, metadata and
+attachments (:mod:`cosim.record.salvage`), and the run ends with a :class:`SinkError` saying so.
 
 Each channel's messages are numbered from 1 in the order they are written (the MCAP sequence).
 :class:`InProcessSink` does the same work in the calling process (used where a second process is
@@ -33,7 +37,7 @@ from typing import Any
 from cosim.codec.jsontext import RecordLayout, Renderer, renderer, state_text
 from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write, read_other
 from cosim.errors import CosimError
-from cosim.record.output import claim, finish
+from cosim.record.output import Claim, claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
 
 BATCH = 4096  # a batch is sent at this many records...
@@ -51,8 +55,10 @@ ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at t
 
 
 class SinkError(CosimError):
-    """The writer could not write the file (e.g. disk full, the writer killed); the message says why.
-    The private file is removed: the target keeps what it held before."""
+    """The writer could not write the file; the message says why. When the writer died (killed, a
+    crash) the recording is salvaged up to the failure and the message says to when and where;
+    when writing failed (e.g. the disk full) the private file is removed and the target keeps what
+    it held before."""
 
 
 _OS_ERROR = re.compile(r"Os \{ code: (\d+)")  # how the SDK's MCAP writer reports a failed write
@@ -89,16 +95,19 @@ class _Apply:
         self.logs: dict[int, Callable[[bytes, int], None]] = {}
         self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
 
-    def apply_batch(self, batch: memoryview) -> None:
-        """Write every record of a batch (see :mod:`cosim.codec.records`)."""
+    def apply_batch(self, batch: memoryview) -> int:
+        """Write every record of a batch (see :mod:`cosim.codec.records`); the number of messages
+        written."""
         offset, end = 0, len(batch)
         logs, renderers = self.logs, self.renderers
+        count = 0
         while offset < end:
             kind, channel, time_ns = HEADER.unpack_from(batch, offset)
             offset += HEADER.size
             if kind == MESSAGE:
                 data, offset = renderers[channel](batch, offset)
                 logs[channel](data, time_ns)
+                count += 1
                 continue
             (n,) = LENGTH.unpack_from(batch, offset)
             offset += LENGTH.size
@@ -106,18 +115,21 @@ class _Apply:
             offset += n
             if kind == BYTES:
                 logs[channel](bytes(body), time_ns)
+                count += 1
             elif kind == OTHER:
-                self.apply(read_other(body))
+                count += self.apply(read_other(body))
             else:
                 raise SinkError(f"unknown record kind {kind}")
+        return count
 
-    def apply(self, record: tuple) -> None:
+    def apply(self, record: tuple) -> int:
         """Write a record other than a message: a schema, a channel, metadata, an attachment, a
-        checkpoint."""
+        checkpoint; the number of messages written (1 for a checkpoint, else 0)."""
         op = record[0]
         if op == "state":
             self.logs[record[1]](state_text(record[3]), record[2])
-        elif op == "schema":
+            return 1
+        if op == "schema":
             self.schemas[record[1]] = self._foxglove.Schema(name=record[2], encoding=record[3], data=record[4])
         elif op == "channel":
             _, cid, topic, encoding, schema_id, layout = record
@@ -133,6 +145,7 @@ class _Apply:
                                data=record[4])
         else:
             raise SinkError(f"unknown record {op!r}")
+        return 0
 
     def finish(self) -> None:
         self.writer.close()
@@ -156,7 +169,10 @@ def writer_main(argv: list[str]) -> int:
     the control pipe, then finish the file.
 
     The simulating process closing the pipe, on purpose or by dying, is the signal to finish, so the
-    writer ignores Ctrl-C and SIGTERM meant for the simulation.
+    writer ignores Ctrl-C and SIGTERM meant for the simulation. One that died leaves the records of
+    its last completed steps marked in the ring (:meth:`ProcessSink.mark`): they are written too.
+    After each batch the writer tallies the messages written so far in the ring's control block, so
+    that should it die, the simulating process knows what it had taken (:mod:`cosim.record.salvage`).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
@@ -166,9 +182,14 @@ def writer_main(argv: list[str]) -> int:
     sys.path.extend(d for d in site_dirs.split(os.pathsep) if d and d not in sys.path)
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     sink = _Apply(part, final)
+    written = 0
     try:
         for (batch,) in ring.batches():
-            sink.apply_batch(batch)
+            written += sink.apply_batch(batch)
+            ring.tally(written)
+        unsent = ring.unsent()  # the simulating process died: the steps it completed but had not sent
+        if unsent is not None:
+            sink.apply_batch(unsent)
     finally:
         try:
             sink.finish()
@@ -248,7 +269,8 @@ class _Sink:
 
     Messages are packed by their codec (:meth:`add_message_record`) or given as bytes
     (:meth:`add_message`); everything else (schemas, channels, checkpoints as plain data, metadata,
-    attachments) travels pickled.
+    attachments) travels pickled. The records other than messages are also kept here
+    (:attr:`directory`: a few per run), for a recording rebuilt after its writer died.
     """
 
     def __init__(self, fresh: Callable[[int], memoryview] | None = None) -> None:
@@ -256,20 +278,34 @@ class _Sink:
         self._ids = _Ids()
         self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES, fresh)
         self.add_message_record = self.stage.add_message  # type: ignore[method-assign]
+        self.directory: list[tuple] = []  # every schema, channel, metadata and attachment record, in order
+        # the recorder's last word for a recording salvaged after its writer died: called with the
+        # writer's fate, the latest time salvaged [ns] and whether all that was sent is there; gives
+        # (log time [ns], a message with the attributes of a cosim.record.recorder.DerivedMessage), or
+        # None to add nothing
+        self.epitaph: Callable[[str, int, bool], tuple[int, Any] | None] | None = None
 
     def _send(self, batch: memoryview) -> None:
         raise NotImplementedError
 
+    def _other(self, record: tuple) -> None:
+        self.stage.add_other(record)
+        self.directory.append(record)
+
+    def mark(self) -> None:
+        """The records given so far are whole steps: should this process die before sending them,
+        the writer process writes them still (:meth:`cosim.record.ring.RingProducer.mark`)."""
+
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         sid = self._ids.schema()
-        self.stage.add_other(("schema", sid, name, encoding, data))
+        self._other(("schema", sid, name, encoding, data))
         return sid
 
     def register_channel(self, topic: str, encoding: str, schema_id: int,
                          layout: RecordLayout | None = None) -> int:
         """A channel id; ``layout`` is how :meth:`add_message_record` records on it are laid out."""
         cid = self._ids.channel()
-        self.stage.add_other(("channel", cid, topic, encoding, schema_id, None if layout is None else tuple(layout)))
+        self._other(("channel", cid, topic, encoding, schema_id, None if layout is None else tuple(layout)))
         return cid
 
     def add_message(self, channel: int, time_ns: int, data: bytes) -> None:
@@ -287,10 +323,10 @@ class _Sink:
         self.stage.add_other(("state", channel, time_ns, plain))
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        self.stage.add_other(("metadata", name, dict(data)))
+        self._other(("metadata", name, dict(data)))
 
     def add_attachment(self, name: str, time_ns: int, media_type: str, data: bytes) -> None:
-        self.stage.add_other(("attachment", name, time_ns, media_type, data))
+        self._other(("attachment", name, time_ns, media_type, data))
 
     def flush(self) -> None:
         """Send the records gathered so far."""
@@ -340,8 +376,9 @@ class ProcessSink(_Sink):
 
     def __init__(self, path: Path):
         # batches are gathered in the ring itself, so they reach the writer without a copy
-        super().__init__(lambda n: self._ring.reserve(n))
+        super().__init__(self._reserve)
         self.path = path
+        self._failed: str | None = None  # the line saying how the writer failed, once it has
         # a path that cannot be written fails at once, in this process (the private file is created
         # here, empty, and locked; the writer opens it by name and inherits the lock)
         self.claim = claim(path)
@@ -377,7 +414,19 @@ class ProcessSink(_Sink):
             os.close(control_r)
             os.close(ack_w)
         self._ring.connect(control_w, ack_r)
+        self._marked = self._ring.marked
         self._placement = WriterPlacement(self._proc.pid)
+
+    @property
+    def writer_pid(self) -> int:
+        """The writer process's id."""
+        return self._proc.pid
+
+    def _reserve(self, n: int) -> memoryview:
+        try:
+            return self._ring.reserve(n)
+        except (RingError, OSError):  # the writer has gone while this process waited for room
+            raise SinkError(self._failure()) from None
 
     def _send(self, batch: memoryview) -> None:
         self._placement.avoid_mine()
@@ -389,10 +438,18 @@ class ProcessSink(_Sink):
         except (RingError, OSError):
             raise SinkError(self._failure()) from None
 
+    def mark(self) -> None:
+        self._marked[1] = self.stage.offset  # RingProducer.mark, inlined: the recorder calls it every step
+
     def _failure(self) -> str:
-        """What went wrong with the writer, in one line; the private file is removed."""
+        """What went wrong with the writer, in one line (the same line when asked again). A writer that
+        died (killed, or failing otherwise than in writing the file) has its recording salvaged
+        (:meth:`_salvage`); when writing failed (the disk full) the private file is removed. Called
+        while the ring is still open: the salvage reads it."""
         import subprocess
 
+        if self._failed is not None:
+            return self._failed
         try:
             code = self._proc.wait(5)
         except subprocess.TimeoutExpired:
@@ -400,19 +457,80 @@ class ProcessSink(_Sink):
             code = self._proc.wait(WRITER_TIMEOUT_S)
         try:
             self._errors.seek(0)
-            reason = _reason(self._errors.read().decode(errors="replace"))
+            text = self._errors.read().decode(errors="replace")
         except (OSError, ValueError):
-            reason = ""
+            text = ""
+        reason = _reason(text)
         if code < 0:
             try:
                 name = signal.Signals(-code).name
             except ValueError:
                 name = f"signal {-code}"
-            reason = f"the recording writer was killed ({name})"
-        elif not reason:
-            reason = f"the recording writer failed (exit code {code})"
-        self.claim.release(remove=True)
-        return f"{self.path}: the recording could not be written: {reason}; no file was left"
+            self._failed = self._salvage(f"the recording writer was killed ({name})")
+        elif not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
+            self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
+        else:
+            self.claim.release(remove=True)
+            self._failed = f"{self.path}: the recording could not be written: {reason}; no file was left"
+        return self._failed
+
+    def _salvage(self, fate: str) -> str:
+        """Rebuild the recording from what the writer that died left (:mod:`cosim.record.salvage`) in a
+        private file of its own, ending with the recorder's :attr:`epitaph`, and move it onto the
+        target; the line saying so (or, if even that fails, that no file was left)."""
+        from cosim.record.salvage import rebuild
+
+        path, old = self.path, self.claim
+        new: Claim | None = None
+        out: _Apply | None = None
+        try:
+            new = claim(path, replacing=old)
+            out = _Apply(str(new.part), str(path))
+            kept = rebuild(out, old.part, self.directory, self._ring.held(), self._ring.tallies())
+            ending = self.epitaph(fate, kept.end_ns, kept.complete) if self.epitaph is not None else None
+            if ending is not None:
+                self._end_with(out, kept.channels, *ending)
+            out.finish()
+        except BaseException as exc:
+            if out is not None:
+                try:
+                    out.writer.close()
+                except Exception:  # the file is dropped anyway
+                    pass
+            if new is not None:
+                new.release(remove=True)
+            old.release(remove=True)
+            why = f"{type(exc).__name__}: {exc}" if isinstance(exc, Exception) else "interrupted"
+            self._failed = (f"{path}: the recording could not be written: {fate}, and salvaging what it "
+                            f"had recorded failed too ({why}); no file was left")
+            if not isinstance(exc, Exception):  # (Ctrl-C) the run is told the same line when it next records
+                raise
+            return self._failed
+        new.release(remove=False)
+        old.release(remove=True)
+        end = f"t = {kept.end_ns / 1e9:g} s"
+        if kept.complete:
+            return (f"{path}: {fate}; the recording was salvaged up to {end}, all the run had recorded "
+                    f"({kept.messages} messages), into {path}")
+        return (f"{path}: {fate}; the recording was salvaged up to {end} ({kept.messages} messages) into "
+                f"{path}; what the run recorded after that was lost")
+
+    def _end_with(self, out: _Apply, written: set[int], time_ns: int, msg: Any) -> None:
+        """Write ``msg`` (a DerivedMessage: topic, schema and data) at ``time_ns`` unless its channel
+        already has a message among those ``written``."""
+        schemas = {r[2]: r[1] for r in self.directory if r[0] == "schema"}
+        channels = {r[2]: r[1] for r in self.directory if r[0] == "channel"}
+        channel = channels.get(msg.topic)
+        if channel in written:
+            return
+        if channel is None:
+            schema = schemas.get(msg.schema_name)
+            if schema is None:
+                schema = max(schemas.values(), default=0) + 1
+                out.apply(("schema", schema, msg.schema_name, msg.schema_encoding, msg.schema_data))
+            channel = max(channels.values(), default=0) + 1
+            out.apply(("channel", channel, msg.topic, msg.message_encoding, schema, None))
+        out.logs[channel](msg.data, time_ns)
 
     def _hang_up(self) -> bool:
         """Close the ring (the writer then finishes) and wait until the writer is done; True when it
@@ -424,26 +542,30 @@ class ProcessSink(_Sink):
             self._ring.close()
 
     def close(self) -> None:
-        """Send what is left, close the ring, and wait until the writer has finished the file."""
+        """Send what is left, close the ring, and wait until the writer has finished the file; a
+        SinkError when it could not (its message says whether the recording was salvaged)."""
         try:
-            self.flush()
-            self._placement.anywhere()  # this process only waits from now on
+            try:
+                self.flush()
+                self._placement.anywhere()  # this process only waits from now on
+            finally:
+                self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
+                finished = self._ring.hang_up()
+            # (a writer killed after moving the finished file into place, before it could say so, finished it)
+            if self._failed is not None or (not finished and self.claim.part.exists()):
+                raise SinkError(self._failure())  # the ring is still open here: the salvage reads it
         finally:
-            finished = self._hang_up()
-        if finished:  # the file is complete; the writer's exit is reaped in the background
-            import threading
+            self._ring.close()
+            self._errors.close()
+        # the file is complete; the writer's exit is reaped in the background
+        import threading
 
-            threading.Thread(target=self._proc.wait, daemon=True).start()
-            self._errors.close()
-            self.claim.release(remove=False)
-            return
-        try:
-            raise SinkError(self._failure())
-        finally:
-            self._errors.close()
+        threading.Thread(target=self._proc.wait, daemon=True).start()
+        self.claim.release(remove=False)
 
     def discard(self) -> None:
-        """Stop the writer and remove the private file (the target keeps what it held)."""
+        """Stop the writer and remove the private file (the target keeps what it held; a recording
+        already salvaged after the writer died stays)."""
         self._proc.kill()
         self._hang_up()
         self._proc.wait(WRITER_TIMEOUT_S)

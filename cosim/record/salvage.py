@@ -1,0 +1,194 @@
+"""A recording whose writer process died part-way, rebuilt from what is left of it.
+
+The writer process (:mod:`cosim.record.writer`) can die while the run goes on (killed, out of
+memory, a crash). Everything the run recorded up to then is still to be had, from three places:
+
+- the private file the writer was writing: an MCAP file cut short, whose complete chunks (each
+  checked against its CRC; reading stops at the first record cut short or damaged, such as the
+  chunk being written, whose length is not filled in yet) hold the first messages of the record
+  stream, in order (:func:`complete_messages`);
+- the ring (:mod:`cosim.record.ring`): the batches sent that it still holds whole, numbered, and the
+  writer's tally of the messages it had written before each batch it took; so the batch holding the
+  first message missing from the file is known, and everything from there on is taken from the
+  ring (:func:`ring_messages`), also what the writer had taken but not yet put on disk (its chunk
+  in memory) and the batches it never took;
+- the sink's own copy of the records that are not messages (schemas, channels, metadata such as
+  ``cosim``, attachments such as ``scene.yaml``).
+
+:func:`rebuild` writes them, in that order, to a fresh file. If the ring no longer reaches back to
+the file's end (a record larger than the ring went through it), the recording holds the file's
+messages only: :attr:`Salvaged.complete` says which.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from io import BytesIO
+from pathlib import Path
+from typing import Any, Protocol
+
+from mcap.data_stream import ReadDataStream
+from mcap.records import Channel, Chunk, Message
+from mcap.stream_reader import StreamReader, get_chunk_data_stream
+
+from cosim.codec.jsontext import state_text
+from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, read_other
+
+# a record inside a chunk: opcode, length; a message record's fixed part: channel id, sequence,
+# log time, publish time (the MCAP specification). Read here rather than with mcap's breakup_chunk,
+# which makes an object of every message: three times slower on a long recording.
+_RECORD = struct.Struct("<BQ")
+_MESSAGE_HEAD = struct.Struct("<HIQQ")
+_OP_CHANNEL, _OP_MESSAGE = 0x04, 0x05
+
+
+def _chunk_messages(chunk: Chunk, topics: dict[int, str]) -> list[tuple[str, int, bytes]]:
+    """(topic, log time [ns], payload) of every message in a chunk; the channels it defines go into
+    ``topics``. Raises whatever a damaged chunk makes the reader raise (its CRC is checked)."""
+    stream, size = get_chunk_data_stream(chunk, validate_crc=True)
+    data = stream.read(size)
+    found = []
+    at = 0
+    while at < size:
+        op, length = _RECORD.unpack_from(data, at)
+        at += _RECORD.size
+        if op == _OP_MESSAGE:
+            channel, _, log_time, _ = _MESSAGE_HEAD.unpack_from(data, at)
+            found.append((topics.get(channel, ""), log_time, data[at + _MESSAGE_HEAD.size:at + length]))
+        elif op == _OP_CHANNEL:
+            record = Channel.read(ReadDataStream(BytesIO(data[at:at + length])))
+            topics[record.id] = record.topic
+        at += length
+    if at != size:
+        raise ValueError("a chunk's last record runs past its end")
+    return found
+
+
+def complete_messages(path: str | Path) -> Iterator[tuple[str, int, bytes]]:
+    """(topic, log time [ns], payload) of every message an MCAP file holds in full, in file order, up
+    to the first record that is cut short or damaged: what a writer that died had put on disk."""
+    topics: dict[int, str] = {}
+    try:
+        f = open(path, "rb")
+    except OSError:
+        return
+    with f:
+        records = StreamReader(f, emit_chunks=True, validate_crcs=True).records
+        while True:
+            try:
+                record = next(records)
+                if isinstance(record, Chunk):
+                    found = _chunk_messages(record, topics)
+                elif isinstance(record, Channel):
+                    topics[record.id] = record.topic
+                    continue
+                elif isinstance(record, Message):
+                    found = [(topics.get(record.channel_id, ""), record.log_time, record.data)]
+                else:
+                    continue
+            except StopIteration:
+                return
+            except Exception:  # the end of what was written whole (any error a cut-short file gives)
+                return
+            yield from found
+
+
+def ring_messages(batch: memoryview, renderers: dict[int, Any]) -> Iterator[tuple[int, int, bytes]]:
+    """(channel id, log time [ns], payload) of every message in a batch of records, as the writer
+    would write them (:meth:`cosim.record.writer._Apply.apply_batch`: the same renderers, the same
+    checkpoint text); the other records are skipped."""
+    offset, end = 0, len(batch)
+    while offset < end:
+        kind, channel, time_ns = HEADER.unpack_from(batch, offset)
+        offset += HEADER.size
+        if kind == MESSAGE:
+            data, offset = renderers[channel](batch, offset)
+            yield channel, time_ns, data
+            continue
+        (n,) = LENGTH.unpack_from(batch, offset)
+        offset += LENGTH.size
+        body = batch[offset:offset + n]
+        offset += n
+        if kind == BYTES:
+            yield channel, time_ns, bytes(body)
+        elif kind == OTHER:
+            record = read_other(body)
+            if record[0] == "state":
+                yield record[1], record[2], state_text(record[3])
+        else:
+            raise ValueError(f"unknown record kind {kind}")
+
+
+def resume_point(held: Sequence[tuple[int, memoryview]], tallies: dict[int, int],
+                 written: int) -> tuple[int, int] | None:
+    """Where the ring continues a file holding the stream's first ``written`` messages: (index in
+    ``held``, messages of it and the batches after it to skip), from the latest held batch whose
+    tally (messages written before it) is at most ``written``; None when the ring no longer reaches
+    back that far."""
+    for i in range(len(held) - 1, -1, -1):
+        before = tallies.get(held[i][0])
+        if before is not None and before <= written:
+            return i, written - before
+    return None
+
+
+@dataclass
+class Salvaged:
+    """What a rebuilt recording holds."""
+
+    messages: int = 0  # messages written
+    from_file: int = 0  # of which read back from the file the writer left
+    end_ns: int = 0  # the latest log time among them [ns]
+    complete: bool = False  # every message the run sent is there (else only the file's)
+    channels: set[int] = field(default_factory=set)  # channel ids with at least one message
+
+
+class _Target(Protocol):
+    """What :func:`rebuild` writes to (:class:`cosim.record.writer._Apply`): records applied with
+    ``apply``, messages logged through ``logs[channel](data, log_time)``, and the ``renderers`` of
+    the channels' packed records."""
+
+    logs: dict[int, Callable[[bytes, int], None]]
+    renderers: dict[int, Any]
+
+    def apply(self, record: tuple) -> int: ...
+
+
+def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Sequence[tuple[int, memoryview]],
+            tallies: dict[int, int]) -> Salvaged:
+    """Write to ``out`` what a writer that died left: the ``directory`` (the schema, channel, metadata
+    and attachment records the run sent, in order), the messages complete in its file ``part``, and
+    the rest from the ring's ``held`` batches (see :func:`resume_point`)."""
+    for record in directory:
+        out.apply(record)
+    by_topic = {record[2]: record[1] for record in directory if record[0] == "channel"}
+    kept = Salvaged()
+    logs = out.logs
+
+    def log(channel: int, time_ns: int, data: bytes) -> None:
+        logs[channel](data, time_ns)
+        kept.messages += 1
+        kept.end_ns = max(kept.end_ns, time_ns)
+        kept.channels.add(channel)
+
+    written = 0  # messages in the file (the stream's first ones), whether or not their channel is known
+    for topic, time_ns, data in complete_messages(part):
+        written += 1
+        channel = by_topic.get(topic)
+        if channel is not None:
+            log(channel, time_ns, data)
+    kept.from_file = kept.messages
+    start = resume_point(held, tallies, written)
+    if start is None:
+        return kept
+    first, skip = start
+    for _, batch in held[first:]:
+        for channel, time_ns, data in ring_messages(batch, out.renderers):
+            if skip:
+                skip -= 1
+            else:
+                log(channel, time_ns, data)
+    kept.complete = True
+    return kept
