@@ -118,9 +118,10 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     ends its start-up there: :func:`cosim.cli.start_up_done`).
 
     An output that may not be written (:func:`cosim.record.output.check_output`) raises
-    RecordingError before anything runs; a recording that cannot be finished (its writer killed,
-    the disk full) raises :class:`cosim.record.writer.SinkError` once the run has ended, with no
-    partial file left.
+    RecordingError before anything runs, as does a record.channels pattern that matches no channel
+    (:func:`check_channel_patterns`); a recording that cannot be finished raises
+    :class:`cosim.record.writer.SinkError` once the run has ended: a writer that died leaves the
+    recording salvaged up to the failure (:mod:`cosim.record.salvage`), a full disk no file.
     """
     if output is not None:
         check_channel_patterns(scene)
