@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import pickle
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 HEADER = struct.Struct("<BIq")  # kind, channel id, log time [ns]
@@ -141,6 +141,25 @@ class Stage:
             self.send(self.view[:offset])
             if self.fresh is not None:
                 self.view = _NO_ROOM
+
+
+def iter_records(batch: memoryview, renderers: dict[int, Callable[[memoryview, int], tuple[bytes, int]]]
+                 ) -> Iterator[tuple[int, int, int, Any]]:
+    """(kind, channel id, log time [ns], payload) of each record of a batch, in order: a MESSAGE's
+    payload is its bytes as ``renderers[channel](batch, offset)`` renders them, a BYTES or OTHER
+    record's its body (a view into the batch; :func:`read_other` reads an OTHER one)."""
+    offset, end = 0, len(batch)
+    while offset < end:
+        kind, channel, time_ns = HEADER.unpack_from(batch, offset)
+        offset += HEADER.size
+        if kind == MESSAGE:
+            data, offset = renderers[channel](batch, offset)
+            yield kind, channel, time_ns, data
+            continue
+        (n,) = LENGTH.unpack_from(batch, offset)
+        offset += LENGTH.size
+        yield kind, channel, time_ns, batch[offset:offset + n]
+        offset += n
 
 
 def read_other(body: memoryview) -> tuple:

@@ -34,7 +34,7 @@ from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
 
 from cosim.codec.jsontext import state_text
-from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, read_other
+from cosim.codec.records import BYTES, MESSAGE, OTHER, iter_records, read_other
 
 # a record inside a chunk: opcode, length; a message record's fixed part: channel id, sequence,
 # log time, publish time (the MCAP specification). Read here rather than with mcap's breakup_chunk,
@@ -99,22 +99,13 @@ def ring_messages(batch: memoryview, renderers: dict[int, Any]) -> Iterator[tupl
     """(channel id, log time [ns], payload) of every message in a batch of records, as the writer
     would write them (:meth:`cosim.record.writer._Apply.apply_batch`: the same renderers, the same
     checkpoint text); the other records are skipped."""
-    offset, end = 0, len(batch)
-    while offset < end:
-        kind, channel, time_ns = HEADER.unpack_from(batch, offset)
-        offset += HEADER.size
+    for kind, channel, time_ns, payload in iter_records(batch, renderers):
         if kind == MESSAGE:
-            data, offset = renderers[channel](batch, offset)
-            yield channel, time_ns, data
-            continue
-        (n,) = LENGTH.unpack_from(batch, offset)
-        offset += LENGTH.size
-        body = batch[offset:offset + n]
-        offset += n
-        if kind == BYTES:
-            yield channel, time_ns, bytes(body)
+            yield channel, time_ns, payload
+        elif kind == BYTES:
+            yield channel, time_ns, bytes(payload)
         elif kind == OTHER:
-            record = read_other(body)
+            record = read_other(payload)
             if record[0] == "state":
                 yield record[1], record[2], state_text(record[3])
         else:

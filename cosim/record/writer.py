@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.codec.jsontext import RecordLayout, Renderer, renderer, state_text
-from cosim.codec.records import BYTES, HEADER, LENGTH, MESSAGE, OTHER, Stage, Write, read_other
+from cosim.codec.records import BYTES, MESSAGE, OTHER, Stage, Write, iter_records, read_other
 from cosim.errors import CosimError
 from cosim.record.output import Claim, claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
@@ -98,26 +98,17 @@ class _Apply:
     def apply_batch(self, batch: memoryview) -> int:
         """Write every record of a batch (see :mod:`cosim.codec.records`); the number of messages
         written."""
-        offset, end = 0, len(batch)
-        logs, renderers = self.logs, self.renderers
+        logs = self.logs
         count = 0
-        while offset < end:
-            kind, channel, time_ns = HEADER.unpack_from(batch, offset)
-            offset += HEADER.size
+        for kind, channel, time_ns, payload in iter_records(batch, self.renderers):
             if kind == MESSAGE:
-                data, offset = renderers[channel](batch, offset)
-                logs[channel](data, time_ns)
+                logs[channel](payload, time_ns)
                 count += 1
-                continue
-            (n,) = LENGTH.unpack_from(batch, offset)
-            offset += LENGTH.size
-            body = batch[offset:offset + n]
-            offset += n
-            if kind == BYTES:
-                logs[channel](bytes(body), time_ns)
+            elif kind == BYTES:
+                logs[channel](bytes(payload), time_ns)
                 count += 1
             elif kind == OTHER:
-                count += self.apply(read_other(body))
+                count += self.apply(read_other(payload))
             else:
                 raise SinkError(f"unknown record kind {kind}")
         return count
