@@ -150,8 +150,10 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     before = len(problems)
     for name, f in fields.items():
         if name in data:
+            said = len(problems)
             value = convert(hints[name], data[name], prefix + name, problems)
-            _bounds(dict(f.metadata), value, prefix + name, problems)
+            if len(problems) == said:  # a value already refused (not finite, not a number) is not also out of bounds
+                _bounds(dict(f.metadata), value, prefix + name, problems)
             values[name] = value
         elif f.default is MISSING and f.default_factory is MISSING:
             problems.append(f"{prefix}{name}: missing (required, {_type_name(hints[name])})")

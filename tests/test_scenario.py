@@ -163,3 +163,10 @@ def test_a_parameter_given_to_a_component_that_takes_none_says_so():
     with pytest.raises(ScenarioError) as err:
         loads(text)
     assert "components.ping.gain: unknown key (components.ping takes no parameters)" in str(err.value)
+
+
+def test_a_value_that_is_no_finite_number_is_one_problem_not_also_out_of_bounds():
+    """radius: .nan was said twice ('must be finite' and 'must be > 0 m'): once is the problem."""
+    with pytest.raises(ScenarioError) as err:
+        load("scenarios/skip.yaml", overrides=["components.stone.radius=.nan"])
+    assert err.value.problems == ["components.stone.radius: must be finite (got nan)"]
