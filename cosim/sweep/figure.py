@@ -12,15 +12,14 @@ without it there is no figure, and the sweep says so.
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import math
-import os
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
 from cosim.sweep.plan import Sweep
+from cosim.sweep.table import written_whole
 
 MAX_LABELLED_CELLS = 400  # above this many cells, the heat map's values are not written in them
 
@@ -83,14 +82,8 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
         ax.set_title(f"{sweep.name}: {spec.metric} ({len(rows)} runs{note})", fontsize=10)
         fig.tight_layout()
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")  # a failed write leaves no half a picture behind
-        try:
+        with written_whole(path) as tmp:  # a failed write leaves no half a picture behind
             fig.savefig(tmp, format=path.suffix.removeprefix(".") or plt.rcParams["savefig.format"])
-            os.replace(tmp, path)
-        except OSError:
-            with contextlib.suppress(OSError):
-                tmp.unlink(missing_ok=True)
-            raise
     finally:
         plt.close(fig)
     return path

@@ -16,6 +16,8 @@ import json
 import math
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +55,19 @@ def _remove(path: Path) -> None:
             path.unlink(missing_ok=True)
     except OSError:
         pass  # already failing: the error being reported matters more than this leftover
+
+
+@contextmanager
+def written_whole(path: Path) -> Iterator[Path]:
+    """A temporary name beside ``path`` to write to, moved onto ``path`` once written and removed if
+    the writing fails: ``path`` holds the whole new file or what it held before, never half of one."""
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError:
+        _remove(tmp)
+        raise
 
 
 def cannot(output: Path, exc: OSError, action: str, then: str = "") -> ScenarioError:
@@ -208,16 +223,10 @@ class ResultTable:
         rows = sorted(by_id.values(), key=lambda r: order[r["point_id"]])
         for row in rows:
             row["index"] = str(order[row["point_id"]])
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        try:
-            with open(tmp, "w", newline="", encoding="utf-8") as f:
-                writer = csv.DictWriter(f, self.columns, lineterminator="\n")
-                writer.writeheader()
-                writer.writerows(rows)
-            os.replace(tmp, self.path)
-        except OSError:
-            _remove(tmp)
-            raise
+        with written_whole(self.path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, self.columns, lineterminator="\n")
+            writer.writeheader()
+            writer.writerows(rows)
         self.meta.update(summary, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
         self._write_meta()
         if self.output.suffix == ".parquet":
@@ -225,13 +234,8 @@ class ResultTable:
         return rows
 
     def _write_meta(self) -> None:
-        tmp = self.meta_path.with_name(self.meta_path.name + ".tmp")
-        try:
+        with written_whole(self.meta_path) as tmp:
             tmp.write_text(json.dumps(self.meta, indent=2, default=str) + "\n", encoding="utf-8")
-            os.replace(tmp, self.meta_path)
-        except OSError:
-            _remove(tmp)
-            raise
 
 
 def _parses(values: list[str], kind: type) -> bool:
@@ -264,10 +268,5 @@ def write_parquet(path: Path, rows: list[dict[str, str]], columns: list[str], me
         arrays.append(pa.array(values, type=getattr(pa, kind)()))
         fields.append(pa.field(name, getattr(pa, kind)()))
     schema = pa.schema(fields, metadata={"cosim.sweep": json.dumps(meta, default=str)})
-    tmp = path.with_name(path.name + ".tmp")  # a failed write leaves no half a Parquet file behind
-    try:
+    with written_whole(path) as tmp:
         pq.write_table(pa.Table.from_arrays(arrays, schema=schema), tmp)
-        os.replace(tmp, path)
-    except OSError:
-        _remove(tmp)
-        raise
