@@ -149,21 +149,22 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
                                     Divergence(stamp, port, field, _show(want, field), _show(got, field)))
         return None
 
+    every = cfg.every
     # a run cut off (killed, its writer gone) left no final status: its recording is replayed up to
     # the component's last recorded output, the last step whose outputs and inputs are all there
+    # (a step from tick t ends at t + every: the last one to replay starts at cut_off / dt - every)
     cut_off = None
     if status is None:
         cut_off = max((max(by_time) for by_time in expected.values() if by_time), default=0)
-        last_tick, stop_ns = cut_off // dt_ns, cut_off
+        end_tick, stop_ns = cut_off // dt_ns - every + 1, cut_off
     else:
-        last_tick, stop_ns = status.tick, status.time * NS_PER_S
+        end_tick, stop_ns = status.tick, status.time * NS_PER_S
     bad = compare(0, comp.start_outputs(), 0)
     if bad:
         bad.cut_off_ns = cut_off
         return bad
     steps = 0
-    every = cfg.every
-    for tick in range(0, last_tick - (every - 1 if cut_off is not None else 0), every):
+    for tick in range(0, end_tick, every):
         start, end = tick * dt_ns, (tick + every) * dt_ns
         for src in sources:
             src.advance(tick)
