@@ -98,15 +98,21 @@ _HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?(\.[A-Za-z0-9]([
                    r"|[0-9A-Fa-f:.]+")
 
 
-def _output_path(text: str) -> str:
-    """``-o FILE``: a file's name, checked before anything runs. An empty name would silently mean
-    the default one, and a name ending in a separator names a folder, which would be written as a
+def file_name(text: str, example: str, empty_hint: str = "") -> str:
+    """A file's name given on the command line (``example``: one to show), checked before anything
+    runs: not empty, and not ending in a separator, which names a folder and would be written as a
     file of that name."""
     if not text.strip():
-        raise argparse.ArgumentTypeError("expected a file name, got an empty one (leave -o out for the default)")
+        raise argparse.ArgumentTypeError(f"expected a file name, e.g. {example}, got an empty one{empty_hint}")
     if text.endswith(("/", os.sep)):
-        raise argparse.ArgumentTypeError(f"{text!r} names a folder; give the file's name, e.g. {text}run.mcap")
+        raise argparse.ArgumentTypeError(f"{text!r} names a folder; give the file's name, e.g. "
+                                         f"{text}{Path(example).name}")
     return text
+
+
+def _output_path(text: str) -> str:
+    """``-o FILE`` of a recording: an empty name would silently mean the default one."""
+    return file_name(text, "runs/run.mcap", " (leave -o out for the default)")
 
 
 def _default_output(scene_path: str, name: str, overrides: list[str]) -> Path:

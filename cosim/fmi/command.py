@@ -10,12 +10,11 @@ scene's base step, or the export is refused.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from cosim.cli import EXIT_OK, positive_seconds
+from cosim.cli import EXIT_OK, file_name, positive_seconds
 from cosim.errors import ScenarioError
 from cosim.timebase import NS_PER_S
 
@@ -55,9 +54,7 @@ def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
 def fmu_path(text: str) -> str:
     """``-o NAME.fmu``, checked before the scene is loaded and the FMU built (a minute's work): a file
     name whose folder exists or can be made (no file in the way)."""
-    if not text.strip() or text.endswith(("/", os.sep)):
-        raise argparse.ArgumentTypeError(f"expected the FMU's file name, e.g. out/skip.fmu, got {text!r}")
-    path = Path(text)
+    path = Path(file_name(text, "out/skip.fmu"))
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a folder; give the FMU's file name, e.g. {path / 'skip.fmu'}")
     folder = path.parent
