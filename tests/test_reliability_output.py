@@ -1,6 +1,7 @@
 """Where a recording goes: never onto the scene or a file that is not a recording, always through a
 private file moved into place when complete, and a clear line (never a traceback) when the writer is
-killed (the recording salvaged up to then) or the disk fills up (no partial file)."""
+killed (the recording salvaged up to then) or the disk fills up (the recording closed where it was
+cut)."""
 
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from cosim.record.writer import RING_BYTES
 from cosim.runner import run_scene
 from cosim.scenario import loads
 from tests.cli_toys import DEMO_SCENE, one_error_line
+from tests.test_recording_paths import Frame
 
 ROOT = Path(__file__).resolve().parents[1]
 WAIT_S = 60  # longest wait for a subprocess to get somewhere (never a measured time)
@@ -183,9 +185,10 @@ def _small_file_limit() -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (FILE_LIMIT, FILE_LIMIT))
 
 
-def test_a_full_disk_is_one_line_and_leaves_no_file(tmp_path):
+def test_a_full_disk_is_one_line_and_keeps_what_fitted(tmp_path, capsys):
     """Writes that fail (a file-size limit stands in for a full disk): exit 1, one line with the
-    system's reason, no partial file."""
+    system's reason, and the recording closed where it was cut: the run's first messages exactly as a
+    run with room for all of them writes them, ending with a failed status."""
     scene = tmp_path / "big.yaml"
     scene.write_text(PAINT)
     out = tmp_path / "full.mcap"
@@ -193,8 +196,18 @@ def test_a_full_disk_is_one_line_and_leaves_no_file(tmp_path):
     _, err = proc.communicate(timeout=WAIT_S)
     assert proc.returncode == 1
     line = one_error_line(err)
-    assert os.strerror(27) in line and "no file was left" in line  # EFBIG: File too large
-    assert not out.exists() and parts(out) == []
+    assert os.strerror(27) in line and "the recording was closed where it stopped, at t = " in line  # EFBIG
+    assert parts(out) == [] and out.stat().st_size <= FILE_LIMIT
+    rec = Recording(out)
+    status = rec.status()
+    assert status.status == "failed" and os.strerror(27) in status.reason
+    kept = rec.messages("/p/frame", Frame)
+    assert 0 < len(kept) < 300 and f"at t = {kept[-1][0] / 1e9:g} s" in line
+    room = tmp_path / "room.mcap"
+    run_scene(loads(PAINT), room, progress=False)
+    assert list(rec.raw(["/p/frame"])) == list(Recording(room).raw(["/p/frame"]))[:len(kept)]
+    assert main(["inspect", str(out)]) == 0
+    assert "status: failed" in capsys.readouterr().out
 
 
 def test_check_output_accepts_new_files_and_recordings(tmp_path):

@@ -18,6 +18,9 @@ still finishes a valid, indexed file, with the records of every step the simulat
 If the writer dies instead, the simulating process rebuilds the recording from what the writer left
 on disk, what the ring still holds and its own copy of the schemas, channels, metadata and
 attachments (:mod:`cosim.record.salvage`), and the run ends with a :class:`SinkError` saying so.
+If the file system refuses the writer's writes (the disk full), the file is closed in place where it
+was cut, ending with the run's ``failed`` status (:mod:`cosim.record.seal`): everything that fitted
+is kept.
 
 Each channel's messages are numbered from 1 in the order they are written (the MCAP sequence).
 :class:`InProcessSink` does the same work in the calling process (used where a second process is
@@ -57,8 +60,8 @@ ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at t
 class SinkError(CosimError):
     """The writer could not write the file; the message says why. When the writer died (killed, a
     crash) the recording is salvaged up to the failure and the message says to when and where;
-    when writing failed (e.g. the disk full) the private file is removed and the target keeps what
-    it held before."""
+    when writing failed (e.g. the disk full) the file is closed where it was cut, keeping everything
+    that fitted (when not even its end fits, it is removed and the target keeps what it held)."""
 
 
 _OS_ERROR = re.compile(r"Os \{ code: (\d+)")  # how the SDK's MCAP writer reports a failed write
@@ -435,7 +438,8 @@ class ProcessSink(_Sink):
     def _failure(self) -> str:
         """What went wrong with the writer, in one line (the same line when asked again). A writer that
         died (killed, or failing otherwise than in writing the file) has its recording salvaged
-        (:meth:`_salvage`); when writing failed (the disk full) the private file is removed. Called
+        (:meth:`_salvage`); when writing failed (the disk full) the file is closed where it was cut
+        (:meth:`_seal`). Called
         while the ring is still open: the salvage reads it."""
         import subprocess
 
@@ -461,9 +465,31 @@ class ProcessSink(_Sink):
         elif not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
             self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
         else:
-            self.claim.release(remove=True)
-            self._failed = f"{self.path}: the recording could not be written: {reason}; no file was left"
+            self._failed = self._seal(reason)
         return self._failed
+
+    def _seal(self, reason: str) -> str:
+        """The file system refused the writer's writes (the disk full, a file-size limit): close the
+        private file where it was cut (:mod:`cosim.record.seal`), ending with the recorder's
+        :attr:`epitaph`, and move it onto the target; the line saying so (or, when not even that
+        could be written, that no file was left)."""
+        from cosim.record.seal import seal
+
+        fate = f"writing the recording failed ({reason})"
+
+        def ending(end_ns: int) -> tuple[int, Any] | None:
+            return self.epitaph(fate, end_ns, False) if self.epitaph is not None else None
+
+        try:
+            kept = seal(self.claim.part, ending)
+            finish(self.claim.part, self.path)
+        except (OSError, ValueError):
+            self.claim.release(remove=True)
+            return f"{self.path}: the recording could not be written: {reason}; no file was left"
+        self.claim.release(remove=False)
+        dropped = f"; its last {kept.chunks_dropped} chunks gave way to its end" if kept.chunks_dropped else ""
+        return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {kept.end_ns / 1e9:g} s "
+                f"({kept.messages} messages{dropped}), and what the run recorded after that was lost")
 
     def _salvage(self, fate: str) -> str:
         """Rebuild the recording from what the writer that died left (:mod:`cosim.record.salvage`) in a
