@@ -108,6 +108,17 @@ def test_an_existing_recording_is_replaced_only_when_the_new_one_is_complete(sce
     assert parts(out) == []
 
 
+@pytest.mark.parametrize("umask", [0o022, 0o077])
+def test_a_recording_gets_the_mode_of_any_new_file(tmp_path, umask):
+    """Not tempfile's 0600: readable by whoever the user's umask lets read their files."""
+    old = os.umask(umask)
+    try:
+        out = run_scene(loads(SCENE), tmp_path / "run.mcap", progress=False).recording
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~umask
+
+
 def test_a_second_run_on_the_same_output_is_refused_while_the_first_writes(tmp_path):
     """Two runs on one path: the second is refused in one line (exit 2) while the first is writing,
     and the first still finishes a valid recording."""

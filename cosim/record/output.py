@@ -111,6 +111,22 @@ def _locked(part: str) -> bool:
     return False
 
 
+def _private_file(path: Path) -> tuple[int, str]:
+    """Create ``NAME.<random>.part`` beside ``path``, new (never an existing file), open for reading
+    and writing: (descriptor, name). Its mode is what any new file of the user's gets (0666 less the
+    umask, as for the figures and tables the other commands write), not tempfile's 0600: the
+    recording it becomes is for viewers and colleagues to read."""
+    import secrets
+
+    for _ in range(100):
+        name = os.path.join(path.parent, f"{path.name}.{secrets.token_hex(4)}{PART_SUFFIX}")
+        try:
+            return os.open(name, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666), name
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"{path}: no free private file name beside it")
+
+
 def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     """Create and lock the private file a recording of ``path`` is written to (its folder exists).
     ``replacing``: this run's own claim of ``path`` that the new one takes over from (a recording
@@ -120,10 +136,9 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     be written.
     """
     import glob  # here: the writer process imports this module for finish() only, and starts sooner
-    import tempfile
 
     path = Path(path)
-    fd, name = tempfile.mkstemp(prefix=path.name + ".", suffix=PART_SUFFIX, dir=path.parent)
+    fd, name = _private_file(path)
     mine = Claim(path, Path(name), fd)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
