@@ -87,6 +87,27 @@ def test_a_recording_cut_anywhere_is_sealed_into_a_valid_prefix(recording, tmp_p
     assert 0 < kept_before < len(whole)
 
 
+CHECKER = ROOT / "tools" / "mcap_check" / "check.mjs"
+
+
+@pytest.mark.skipif(shutil.which("node") is None or not (CHECKER.parent / "node_modules").exists(),
+                    reason="node or tools/mcap_check/node_modules missing (npm install in tools/mcap_check)")
+def test_the_typescript_reader_reads_recordings_sealed_anywhere_around_a_chunk(recording, tmp_path):
+    """@mcap/core (Foxglove's reader) finds a chunk's messages through its message index: cut in a
+    chunk, just behind it (its index cut off whole) or inside its index, the sealed file's last
+    chunk has its index again, and the reader decodes every message and agrees with the summary."""
+    with open(recording, "rb") as f:
+        chunk = make_reader(f).get_summary().chunk_indexes[2]
+    after = chunk.chunk_start_offset + chunk.chunk_length
+    paths = []
+    for n, cut in enumerate((after - 50, after, after + 3, after + chunk.message_index_length - 1)):
+        paths.append(cut_copy(recording, tmp_path / f"cut{n}.mcap", cut))
+        seal(paths[-1], failed_status)
+    done = subprocess.run(["node", str(CHECKER), *map(str, paths)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert f"{len(paths)} passed, 0 failed" in done.stdout
+
+
 def test_a_recording_cut_in_its_summary_keeps_everything_without_a_second_ending(recording, tmp_path):
     """The data section whole (the run's own status in it): every message, no ending added."""
     path = cut_copy(recording, tmp_path / "cut.mcap", recording.stat().st_size - 40)

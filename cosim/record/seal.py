@@ -22,7 +22,7 @@ import os
 import struct
 import zlib
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from io import BytesIO
 from pathlib import Path
 from typing import Any
@@ -60,6 +60,8 @@ class _ChunkEntry:
     counts: dict[int, int]  # messages per channel id
     schemas: list[Schema]  # defined in it
     channels: list[Channel]
+    chunk_end: int  # offset just past the chunk record
+    chunk_crc: int  # CRC-32 of the file up to ``chunk_end``
     end: int  # offset just past it and the message indexes that follow it
     crc: int  # CRC-32 of the file up to ``end``
 
@@ -86,27 +88,30 @@ class _Scan:
     schemas: list[Schema] = field(default_factory=list)  # outside chunks
     channels: list[Channel] = field(default_factory=list)
     data_complete: bool = False  # the data section's end was reached (only the summary was cut off)
+    last_indexes: list[MessageIndex] = field(default_factory=list)  # the last chunk's, from its content
 
 
-def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, int], list[Schema], list[Channel], int, int]:
-    """(the chunk, messages per channel id, its schemas, its channels, its earliest and latest log
-    time [ns]) of a chunk record's body; raises on anything damaged (its CRC is checked)."""
+def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, list[tuple[int, int]]], list[Schema], list[Channel], int, int]:
+    """(the chunk, per channel id the (log time [ns], offset) of each of its messages (its message
+    index), its schemas, its channels, its earliest and latest log time [ns]) of a chunk record's
+    body; raises on anything damaged (its CRC is checked)."""
     chunk = Chunk.read(ReadDataStream(BytesIO(body)))
     stream, size = get_chunk_data_stream(chunk, validate_crc=True)
     data = stream.read(size)
-    counts: dict[int, int] = {}
+    messages: dict[int, list[tuple[int, int]]] = {}
     schemas: list[Schema] = []
     channels: list[Channel] = []
     first, last = None, None
     at = 0
     while at < size:
+        record_at = at
         op, length = _PREFIX.unpack_from(data, at)
         at += _PREFIX.size
         if at + length > size:
             raise ValueError("a chunk's record runs past its end")
         if op == Opcode.MESSAGE:
             channel, _, log_time, _ = _MESSAGE_HEAD.unpack_from(data, at)
-            counts[channel] = counts.get(channel, 0) + 1
+            messages.setdefault(channel, []).append((log_time, record_at))
             first = log_time if first is None else min(first, log_time)
             last = log_time if last is None else max(last, log_time)
         elif op == Opcode.SCHEMA:
@@ -114,7 +119,7 @@ def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, int], list[Schema], list[
         elif op == Opcode.CHANNEL:
             channels.append(Channel.read(ReadDataStream(BytesIO(data[at:at + length]))))
         at += length
-    return chunk, counts, schemas, channels, first or 0, last or 0
+    return chunk, messages, schemas, channels, first or 0, last or 0
 
 
 def _scan(data: Any) -> _Scan:
@@ -140,12 +145,15 @@ def _scan(data: Any) -> _Scan:
         body = data[at + _PREFIX.size:end]
         try:
             if op == Opcode.CHUNK:
-                chunk, counts, schemas, channels, first, last = _read_chunk(body)
+                chunk, messages, schemas, channels, first, last = _read_chunk(body)
                 index = ChunkIndex(chunk_length=end - at, chunk_start_offset=at, compression=chunk.compression,
                                    compressed_size=len(chunk.data), message_end_time=last,
                                    message_index_length=0, message_index_offsets={}, message_start_time=first,
                                    uncompressed_size=chunk.uncompressed_size)
-                found.chunks.append(_ChunkEntry(index, counts, schemas, channels, end, 0))
+                counts = {channel: len(found) for channel, found in messages.items()}
+                found.chunks.append(_ChunkEntry(index, counts, schemas, channels, end, 0, end, 0))
+                # the last chunk's message index may be cut off behind it: kept to be written anew
+                found.last_indexes = [MessageIndex(channel_id=c, records=r) for c, r in sorted(messages.items())]
             elif op == Opcode.MESSAGE_INDEX:
                 if not found.chunks or found.chunks[-1].end != at:
                     break  # a message index belongs right after its chunk
@@ -173,7 +181,9 @@ def _scan(data: Any) -> _Scan:
             break
         crc = zlib.crc32(data[at:end], crc)
         # the file's CRC up to here, kept with the record it follows (a message index: with its chunk)
-        if op in (Opcode.CHUNK, Opcode.MESSAGE_INDEX):
+        if op == Opcode.CHUNK:
+            found.chunks[-1].chunk_crc = found.chunks[-1].crc = crc
+        elif op == Opcode.MESSAGE_INDEX:
             found.chunks[-1].crc = crc
         elif op == Opcode.ATTACHMENT:
             found.attachments[-1] = (*found.attachments[-1][:2], crc)
@@ -183,10 +193,13 @@ def _scan(data: Any) -> _Scan:
     return found
 
 
-def _cut(scan: _Scan, chunks: int) -> tuple[int, int]:
-    """(offset, CRC of the file up to it) just past the last whole record kept when only the first
-    ``chunks`` chunks are (attachments and metadata after the last kept chunk stay when they come
-    before the first dropped one)."""
+def _cut(scan: _Scan, chunks: int) -> tuple[int, int, bool]:
+    """(offset, CRC of the file up to it, whether the last chunk's message index is to be written
+    anew) just past the last whole record kept when only the first ``chunks`` chunks are
+    (attachments and metadata after the last kept chunk stay when they come before the first dropped
+    one). A chunk's message index follows it; when the file ends there, its last records may be cut
+    off, so the last chunk scanned is cut behind the chunk itself and its index written again from
+    its content (readers find a chunk's messages through it)."""
     limit = scan.chunks[chunks].index.chunk_start_offset if chunks < len(scan.chunks) else None
     best = (scan.start, scan.start_crc)
     ends = [(c.end, c.crc) for c in scan.chunks[:chunks]]
@@ -194,13 +207,17 @@ def _cut(scan: _Scan, chunks: int) -> tuple[int, int]:
     for end, crc in ends:
         if (limit is None or end <= limit) and end > best[0]:
             best = (end, crc)
-    return best
+    last = scan.chunks[-1] if scan.chunks and chunks == len(scan.chunks) else None
+    if last is not None and best[0] == last.end:
+        return last.chunk_end, last.chunk_crc, True
+    return best[0], best[1], False
 
 
-def _tail(scan: _Scan, chunks: int, start: int, crc: int, ending: Ending | None) -> tuple[bytes, Sealed]:
+def _tail(scan: _Scan, chunks: int, start: int, crc: int, reindex: bool, ending: Ending | None
+          ) -> tuple[bytes, Sealed]:
     """The bytes a file cut at ``start`` (keeping its first ``chunks`` chunks; ``crc``: the CRC-32 of
-    the file up to there) ends with: the ending's chunk, the data end, the summary and the footer;
-    and what the file then holds."""
+    the file up to there) ends with: the last chunk's message index when ``reindex``, the ending's
+    chunk, the data end, the summary and the footer; and what the file then holds."""
     kept = scan.chunks[:chunks]
     schemas = {s.id: s for s in scan.schemas}
     channels = {c.id: c for c in scan.channels}
@@ -215,6 +232,12 @@ def _tail(scan: _Scan, chunks: int, start: int, crc: int, ending: Ending | None)
                     end_ns=max((i.message_end_time for i in with_messages), default=0))
     indexes = [e.index for e in kept]
     out = RecordBuilder()
+    if reindex:
+        offsets = {}
+        for record in scan.last_indexes:
+            offsets[record.channel_id] = start + out.count
+            record.write(out)
+        indexes[-1] = replace(indexes[-1], message_index_offsets=offsets, message_index_length=out.count)
     whole = scan.data_complete and chunks == len(scan.chunks)  # the run's own ending is there
     last = ending(sealed.end_ns) if ending is not None and not whole else None
     if last is not None:
@@ -306,8 +329,8 @@ def seal(path: str | Path, ending: Ending | None = None) -> Sealed:
             scan = _scan(data)
         chunks = len(scan.chunks)
         while True:
-            start, crc = _cut(scan, chunks)
-            tail, sealed = _tail(scan, chunks, start, crc, ending)
+            start, crc, reindex = _cut(scan, chunks)
+            tail, sealed = _tail(scan, chunks, start, crc, reindex, ending)
             os.ftruncate(fd, start)  # frees what the cut-off record took
             try:
                 _write_all(fd, tail, start)
