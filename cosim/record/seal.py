@@ -5,11 +5,12 @@ file holds the run's records up to the failure, the last of them cut off part-wa
 elsewhere (:mod:`cosim.record.salvage`) would need as much free space again. :func:`seal` instead
 keeps the file where it is: it reads the data section up to the last record that is whole (each
 chunk checked against its CRC), cuts the file there, which frees the space the cut-off record took,
-and writes what a finished MCAP file ends with: a last small chunk holding the ``ending`` message
-(the run's ``failed`` status), the data-end record with the data section's CRC, the summary (the
-schemas, channels, statistics, chunk, attachment and metadata indexes, as a writer closing the file
-would write them) and the footer. If even that does not fit, it drops the last chunks one at a
-time until it does.
+writes the last chunk's message index again from its content (it follows the chunk, and may be
+what was cut off), and then what a finished MCAP file ends with: a last small chunk holding the
+``ending`` message (the run's ``failed`` status), the data-end record with the data section's CRC,
+the summary (the schemas, channels, statistics, chunk, attachment and metadata indexes, as a writer
+closing the file would write them) and the footer. If even that does not fit, it drops the last
+chunks one at a time until it does.
 
 This module reads the MCAP layout itself (the specification's records, built with the ``mcap``
 package's record classes), because the writer that wrote the file is gone.
@@ -150,7 +151,7 @@ def _scan(data: Any) -> _Scan:
                                    compressed_size=len(chunk.data), message_end_time=last,
                                    message_index_length=0, message_index_offsets={}, message_start_time=first,
                                    uncompressed_size=chunk.uncompressed_size)
-                counts = {channel: len(found) for channel, found in messages.items()}
+                counts = {channel: len(records) for channel, records in messages.items()}
                 found.chunks.append(_ChunkEntry(index, counts, schemas, channels, end, 0, end, 0))
                 # the last chunk's message index may be cut off behind it: kept to be written anew
                 found.last_indexes = [MessageIndex(channel_id=c, records=r) for c, r in sorted(messages.items())]
