@@ -17,6 +17,7 @@ from cosim.scenario import MAX_SCENE_BYTES, load, loads
 from tests.cli_toys import CHECKPOINTED_SCENE
 
 SCENE = CHECKPOINTED_SCENE
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def problem(text: str, overrides: list[str] | None = None) -> str:
@@ -42,6 +43,17 @@ def problem(text: str, overrides: list[str] | None = None) -> str:
 def test_times_outside_the_clock_are_refused_with_the_range(change, expected):
     """dt below the 1 ns tick, and huge times (1e308) anywhere, are refused naming the range."""
     assert expected in problem(SCENE.replace(*change))
+
+
+@pytest.mark.parametrize(("cell", "expected"), [
+    ("1.0e-300", "components.pond.cell: must be >= 1e-06 m (got 1e-300)"),  # its square underflows to 0
+    ("1.0e+160", "components.pond.cell: must be <= 10000 m (got 1e+160)"),  # its square overflows
+])
+def test_water_cells_whose_arithmetic_breaks_are_refused_with_the_range(cell, expected):
+    """Before the rule, the water was built and failed with a division by zero or an overflow, not
+    naming the cell."""
+    text = (ROOT / "scenarios" / "wave_pulse.yaml").read_text()
+    assert problem(text, [f"components.pond.cell={cell}"]) == expected
 
 
 def test_set_with_a_huge_time_is_refused_cleanly(tmp_path, capsys):

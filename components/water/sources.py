@@ -38,7 +38,7 @@ class DropParams:
     start: float = param(0.0, unit="s", ge=0, doc="time the body starts entering")
     rise: float = param(0.02, unit="s", gt=0, doc="time to enter fully (and to leave)")
     hold: float | None = param(None, unit="s", ge=0, doc="time spent fully in before leaving; none: stays")
-    cell: float = param(0.01, unit="m", gt=0, doc="cell size of the water grid")
+    cell: float = param(0.01, unit="m", ge=1e-6, le=1e4, doc="cell size of the water grid (as WaterSurface's)")
     origin_x: float = param(0.0, unit="m", doc="x of the centre of the water's cell (0, 0)")
     origin_y: float = param(0.0, unit="m", doc="y of the centre of the water's cell (0, 0)")
     nx: int = param(128, ge=1, doc="cells of the water grid along x")

@@ -89,7 +89,9 @@ class WaterParams:
 
     nx: int = param(128, ge=2, doc="cells along x")
     ny: int = param(128, ge=2, doc="cells along y")
-    cell: float = param(0.01, unit="m", gt=0, doc="cell size s")
+    # the model's arithmetic (areas s^2, volumes, the stable step s / c) stays exact to round-off
+    # over this range, which holds every water a stone meets, from sub-millimetre studies to lakes
+    cell: float = param(0.01, unit="m", ge=1e-6, le=1e4, doc="cell size s (1 um to 10 km)")
     depth: float = param(0.5, unit="m", gt=0, doc="rest depth at the centre of the grid")
     origin_x: float = param(0.0, unit="m", doc="x of the centre of cell (0, 0)")
     origin_y: float = param(0.0, unit="m", doc="y of the centre of cell (0, 0)")
