@@ -480,14 +480,22 @@ def execution_order(names: list[str], edges: list[Connection]) -> tuple[list[str
                 ready.sort(key=names.index)
     if len(order) == len(names):
         return order, None
-    # walk the remaining graph to report one cycle
+    # report one cycle: every component left has a predecessor left (else it would have been
+    # ordered), so walking back along predecessors must come round to a component it met before;
+    # walking forward could end at one that merely waits for a cycle
     left = {n for n in names if n not in order}
+    pred: dict[str, list[str]] = {n: [] for n in names}
+    for e in direct:
+        pred[e.target].append(e.source)
     start = next(n for n in names if n in left)
     path, node = [start], start
     while True:
-        node = next(t for t in succ[node] if t in left)
+        node = next(s for s in pred[node] if s in left)
         if node in path:
-            return order, [*path[path.index(node):], node]
+            loop = path[path.index(node):][::-1]  # forward along the edges
+            first = min(range(len(loop)), key=lambda k: names.index(loop[k]))  # from the first declared
+            loop = loop[first:] + loop[:first]
+            return order, [*loop, loop[0]]
         path.append(node)
 
 

@@ -88,6 +88,12 @@ MALFORMED = {
         scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
                    "[g.out -> acc.x, acc.total -> g.x]"),
         r"connections: cycle without a delayed edge: g -> acc -> g"),
+    "cycle without delay, a component waiting on it declared first": (
+        # the component fed by the loop is not on it: the loop is found all the same
+        scene_with('late: {type: "tests.toys:Gain"}\ng: {type: "tests.toys:Gain"}\n'
+                   'acc: {type: "tests.toys:Accumulator"}',
+                   "[g.out -> late.x, g.out -> acc.x, acc.total -> g.x]"),
+        r"connections: cycle without a delayed edge: g -> acc -> g"),
     "delayed edge without initial": (
         scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
                    "[g.out -> acc.x, {from: acc.total, to: g.x, delay: 1}]"),
