@@ -483,9 +483,12 @@ class ProcessSink(_Sink):
         try:
             kept = seal(self.claim.part, ending)
             finish(self.claim.part, self.path)
-        except (OSError, ValueError):
+        except Exception:  # not even the file's start whole, or no room at all: nothing to keep
             self.claim.release(remove=True)
             return f"{self.path}: the recording could not be written: {reason}; no file was left"
+        except BaseException:  # (Ctrl-C) no half-sealed file is left behind
+            self.claim.release(remove=True)
+            raise
         self.claim.release(remove=False)
         dropped = f"; its last {kept.chunks_dropped} chunks gave way to its end" if kept.chunks_dropped else ""
         return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {kept.end_ns / 1e9:g} s "
