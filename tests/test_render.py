@@ -204,3 +204,41 @@ def test_a_scene_without_water_draws_no_water(tmp_path):
     renderer = FrameRenderer(load_body(rec), RenderOptions(width=WIDTH), rest_level(rec), "bounce", has_water=False)
     renderer.draw(0.25, None)
     assert "water" not in renderer.caption and renderer.caption.startswith("at z = ")
+
+
+def test_water_alone_is_drawn_whole_with_its_waves_moving(tmp_path, capsys):
+    """A recording without a body (the wave pulse) is drawn as the whole surface: water covers a good
+    part of the frame, and the spreading ring moves between frames. Before, render refused it
+    (no BodyState channel)."""
+    from pathlib import Path
+
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "wave_pulse.yaml"
+    path = tmp_path / "pulse.mcap"
+    run_scene(load(scene, ["until=0.3"]), path, progress=False)
+    out = tmp_path / "pulse.gif"
+    result = render(path, out, RenderOptions(width=WIDTH, fps=10, progress=False))
+    frames = gif_frames(out)
+    assert result.frames == len(frames) == len(frame_times(0.0, 0.3, 10, 1.0))
+    water = (frames[0][..., 2] - frames[0][..., 0]) > 0.2
+    assert water.mean() > 0.2
+    assert np.abs(frames[-1] - frames[0]).max() > 0.1  # the pulse has spread into a ring
+    assert main(["render", str(path), "-o", str(tmp_path / "pulse.png"), "--width", str(WIDTH), "-q"]) == 0
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_a_recording_without_body_or_water_is_one_line(tmp_path, capsys):
+    from pathlib import Path
+
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ping_pong.yaml"
+    path = tmp_path / "pp.mcap"
+    run_scene(load(scene, ["until=0.01"]), path, progress=False)
+    assert main(["render", str(path), "-o", str(tmp_path / "pp.png"), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "no BodyState or WaterField channel, nothing to show" in err
+    assert len(err.splitlines()) == 1

@@ -46,7 +46,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def register_render(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "render", help="3D animation of the stone over the shaded water surface (GIF, MP4 or one PNG frame)")
+        "render", help="3D animation of the stone over the shaded water surface, or of the water alone "
+                       "(GIF, MP4 or one PNG frame)")
     p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="skip.gif, skip.mp4 (needs ffmpeg or the [video] extra) or frame.png (one frame)")
@@ -55,13 +56,15 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--speed", type=positive_number, default=1.0,
                    help="simulated seconds per second of video (default 1; 0.25 is a slow motion)")
     p.add_argument("--view", choices=("follow", "fixed"), default="follow",
-                   help="follow: a window around the stone (default); fixed: the whole run in view")
+                   help="follow: a window around the stone (default); fixed: the whole run in view "
+                        "(water alone: always the whole surface)")
     p.add_argument("--span", type=positive_number, default=1.0,
                    help="follow view: width of the window [m] (default 1)")
     p.add_argument("--from", dest="start", type=seconds, metavar="T", help="start time [s]")
     p.add_argument("--to", dest="stop", type=seconds, metavar="T", help="end time [s]")
     p.add_argument("--at", type=seconds, metavar="T",
-                   help="time of the frame for a PNG [s] (default: shortly after the first touchdown)")
+                   help="time of the frame for a PNG [s] (default: shortly after the first touchdown; "
+                        "water alone: mid-run)")
     p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
     p.add_argument("--water", metavar="TOPIC", help="WaterField channel (default: the first one)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

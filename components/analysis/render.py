@@ -1,4 +1,6 @@
 """``cosim render``: a 3D animation of the stone over the shaded water surface, from a recording.
+A recording of water alone (a wave pulse, a drop's ripples) is drawn as the whole surface, its
+heights exaggerated (:class:`WaterRenderer`).
 
 Frames are taken every ``speed / fps`` seconds of simulation time; each shows the body as recorded
 at or just before the frame time (a disk or a sphere, true size, turned by its quaternion), its path
@@ -34,7 +36,7 @@ from tqdm import tqdm
 from components.analysis.data import BodyTrack, iter_fields, linked_components, load_body, own, rest_level, topics_of
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
 from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
-from components.messages import Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
+from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
 from cosim.record.reader import Recording
@@ -59,6 +61,7 @@ SHADOW_RGBA = (0, 0, 0, 70)  # the stone's shadow straight under it on the water
 BACKGROUND = (255, 255, 255)
 REST_COLOR = tuple(water_colors(np.zeros(1))[0])
 MARKER_COLOR = (0.95, 0.45, 0.05)  # fixed view: the dot marking the stone, which is small there
+WATER_MIN_SWING = 1e-3  # [m] water alone: the box reaches at least this far above and below rest
 
 
 class RenderError(Exception):
@@ -238,7 +241,74 @@ def height_caption(gap: float) -> str:
     return f"{abs(gap) * 100:.1f} cm {where} the water"
 
 
-class FrameRenderer:
+class _Frames:
+    """What every frame shares: its size in pixels, the text size and header band, and the pieces
+    painted the same way with or without a body (the box's floor and x scale, the water)."""
+
+    def __init__(self, options: RenderOptions, rest: float, title: str):
+        self.options = options
+        self.rest = rest
+        self.title = title
+        width = int(options.width) // 2 * 2
+        height = max(2, round(width * ASPECT) // 2 * 2)
+        self.size = (width, height)
+        self.text_px = max(9, round(width / 70))
+        self.top = round(2.2 * self.text_px)  # the header line's band [px]
+
+    def _header(self, draw: ImageDraw.ImageDraw, text: str, color: tuple[int, ...]) -> None:
+        draw.text((0.6 * self.text_px, 0.5 * self.text_px), text, fill=color, font=font(self.text_px))
+
+    def _surface(self, field: WaterField | None, field_mean: float, view: _View) -> Surface | None:
+        """The water to draw, cropped to the view; None when the view is wholly above or below it."""
+        grid = crop_field(field, view.x, view.y) if field is not None else None
+        if grid is None:
+            if not view.z[0] <= self.rest <= view.z[1]:
+                return None
+            gx, gy = np.meshgrid(np.linspace(*view.x, 2), np.linspace(*view.y, 2))
+            return Surface(gx, gy, np.full(gx.shape, self.rest), np.broadcast_to(REST_COLOR[:3], (*gx.shape, 3)))
+        gx, gy, gz = grid
+        if gz.max() < view.z[0] or gz.min() > view.z[1]:
+            return None
+        colors = water_colors(gz.ravel() - field_mean).reshape(*gz.shape, 4)[..., :3]
+        return Surface(gx, gy, gz, np.clip(colors * hill_shade(gx, gy, gz)[..., None], 0.0, 1.0))
+
+    def _paint_water(self, image: Image.Image, cam: Camera, surface: Surface) -> Image.Image:
+        """The surface's cells as quads, back to front, laid over ``image`` at :data:`WATER_OPACITY`
+        (what is under the water shows through)."""
+        pts = np.stack([surface.gx, surface.gy, surface.gz], axis=-1)
+        screen, depth = cam.project(pts)
+        quads = np.stack([screen[:-1, :-1], screen[:-1, 1:], screen[1:, 1:], screen[1:, :-1]], axis=2)
+        quad_depth = 0.25 * (depth[:-1, :-1] + depth[:-1, 1:] + depth[1:, 1:] + depth[1:, :-1])
+        colors = to_uint8(surface.rgb[:-1, :-1]).reshape(-1, 3)
+        layer = image.copy()
+        paint_polygons(ImageDraw.Draw(layer), quads.reshape(-1, 4, 2), quad_depth.ravel(), colors)
+        # the surface's outline is the projected border of its grid (millimetre waves never fold it)
+        border = np.concatenate([screen[0, :], screen[1:, -1], screen[-1, -2::-1], screen[-2:0:-1, 0]])
+        return Image.composite(layer, image, water_mask(image.size, border, WATER_OPACITY))
+
+    def _draw_floor(self, draw: ImageDraw.ImageDraw, cam: Camera, box: Box) -> None:
+        """The box's floor outline and back edges in light grey, with x ticks along its front edge."""
+        (x0, x1), (y0, y1), (z0, z1) = box.x, box.y, box.z
+        front = y0 if cam.eye[1] < 0 else y1
+        back = y1 if front == y0 else y0
+        grey = (190, 190, 190)
+        floor = cam.project(np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0], [x0, y0, z0]]))[0]
+        draw.line(floor.ravel().tolist(), fill=grey, width=1)
+        for x in (x0, x1):
+            edge = cam.project(np.array([[x, back, z0], [x, back, z1]]))[0]
+            draw.line(edge.ravel().tolist(), fill=grey, width=1)
+        step = nice_step((x1 - x0) / 5)
+        small = font(max(8, round(0.85 * self.text_px)))
+        for x in np.arange(math.ceil(x0 / step) * step, x1 + 1e-9, step):
+            (px, py), _ = cam.project(np.array([x, front, z0]))
+            draw.line((px, py, px, py + 4), fill=(120, 120, 120), width=1)
+            draw.text((px, py + 5), f"{x:.{max(0, -math.floor(math.log10(step)))}f}", fill=(90, 90, 90),
+                      font=small, anchor="ma")
+        (px, py), _ = cam.project(np.array([x1, front, z0]))
+        draw.text((px + 0.5 * self.text_px, py + 5), "x [m]", fill=(90, 90, 90), font=small, anchor="la")
+
+
+class FrameRenderer(_Frames):
     """Draws frames of one body (and water) with :mod:`components.analysis.raster`; :meth:`draw`
     returns RGB pixels. Drawn in this order, so that the stone's height above the water reads at a
     glance: the box's floor and x scale, whatever of the stone and its path is under water, the
@@ -247,17 +317,10 @@ class FrameRenderer:
 
     def __init__(self, body: BodyTrack, options: RenderOptions, rest: float, title: str,
                  stages: tuple[np.ndarray, np.ndarray] | None = None, has_water: bool = True):
+        super().__init__(options, rest, title)
         self.body = body
         self.has_water = has_water  # without water (a bounce on a floor) no surface is drawn nor measured to
-        self.options = options
-        self.rest = rest
-        self.title = title
         self.stages = stages  # (times, stage ids)
-        width = int(options.width) // 2 * 2
-        height = max(2, round(width * ASPECT) // 2 * 2)
-        self.size = (width, height)
-        self.text_px = max(9, round(width / 70))
-        self.top = round(2.2 * self.text_px)  # the header line's band [px]
         pos = body.position
         self._zmax = float(np.max(pos[:, 2]))
         self._zmin = float(np.min(pos[:, 2]))
@@ -343,38 +406,10 @@ class FrameRenderer:
         header = (f"{self.title}   t = {t:.3f} s   {label}   x = {pos[0]:.2f} m, "
                   f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}")
         color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
-        draw.text((0.6 * self.text_px, 0.5 * self.text_px), header, fill=color, font=font(self.text_px))
+        self._header(draw, header, color)
         return np.asarray(image)
 
     # --- the pieces of a frame ----------------------------------------------------------------------
-
-    def _surface(self, field: WaterField | None, field_mean: float, view: _View) -> Surface | None:
-        """The water to draw, cropped to the view; None when the view is wholly above or below it."""
-        grid = crop_field(field, view.x, view.y) if field is not None else None
-        if grid is None:
-            if not view.z[0] <= self.rest <= view.z[1]:
-                return None
-            gx, gy = np.meshgrid(np.linspace(*view.x, 2), np.linspace(*view.y, 2))
-            return Surface(gx, gy, np.full(gx.shape, self.rest), np.broadcast_to(REST_COLOR[:3], (*gx.shape, 3)))
-        gx, gy, gz = grid
-        if gz.max() < view.z[0] or gz.min() > view.z[1]:
-            return None
-        colors = water_colors(gz.ravel() - field_mean).reshape(*gz.shape, 4)[..., :3]
-        return Surface(gx, gy, gz, np.clip(colors * hill_shade(gx, gy, gz)[..., None], 0.0, 1.0))
-
-    def _paint_water(self, image: Image.Image, cam: Camera, surface: Surface) -> Image.Image:
-        """The surface's cells as quads, back to front, laid over ``image`` at :data:`WATER_OPACITY`
-        (what is under the water shows through)."""
-        pts = np.stack([surface.gx, surface.gy, surface.gz], axis=-1)
-        screen, depth = cam.project(pts)
-        quads = np.stack([screen[:-1, :-1], screen[:-1, 1:], screen[1:, 1:], screen[1:, :-1]], axis=2)
-        quad_depth = 0.25 * (depth[:-1, :-1] + depth[:-1, 1:] + depth[1:, 1:] + depth[1:, :-1])
-        colors = to_uint8(surface.rgb[:-1, :-1]).reshape(-1, 3)
-        layer = image.copy()
-        paint_polygons(ImageDraw.Draw(layer), quads.reshape(-1, 4, 2), quad_depth.ravel(), colors)
-        # the surface's outline is the projected border of its grid (millimetre waves never fold it)
-        border = np.concatenate([screen[0, :], screen[1:, -1], screen[-1, -2::-1], screen[-2:0:-1, 0]])
-        return Image.composite(layer, image, water_mask(image.size, border, WATER_OPACITY))
 
     def _draw_stone(self, draw: ImageDraw.ImageDraw, cam: Camera, polys: np.ndarray, which: np.ndarray,
                     centre: np.ndarray) -> None:
@@ -440,26 +475,45 @@ class FrameRenderer:
         draw.rectangle((left - 2, top - 1, right + 2, bottom + 1), fill=(255, 255, 255, 170))
         draw.text(anchor, self.caption, fill=color, font=text_font, anchor="lm")
 
-    def _draw_floor(self, draw: ImageDraw.ImageDraw, cam: Camera, box: Box) -> None:
-        """The box's floor outline and back edges in light grey, with x ticks along its front edge."""
-        (x0, x1), (y0, y1), (z0, z1) = box.x, box.y, box.z
-        front = y0 if cam.eye[1] < 0 else y1
-        back = y1 if front == y0 else y0
-        grey = (190, 190, 190)
-        floor = cam.project(np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0], [x0, y0, z0]]))[0]
-        draw.line(floor.ravel().tolist(), fill=grey, width=1)
-        for x in (x0, x1):
-            edge = cam.project(np.array([[x, back, z0], [x, back, z1]]))[0]
-            draw.line(edge.ravel().tolist(), fill=grey, width=1)
-        step = nice_step((x1 - x0) / 5)
-        small = font(max(8, round(0.85 * self.text_px)))
-        for x in np.arange(math.ceil(x0 / step) * step, x1 + 1e-9, step):
-            (px, py), _ = cam.project(np.array([x, front, z0]))
-            draw.line((px, py, px, py + 4), fill=(120, 120, 120), width=1)
-            draw.text((px, py + 5), f"{x:.{max(0, -math.floor(math.log10(step)))}f}", fill=(90, 90, 90),
-                      font=small, anchor="ma")
-        (px, py), _ = cam.project(np.array([x1, front, z0]))
-        draw.text((px + 0.5 * self.text_px, py + 5), "x [m]", fill=(90, 90, 90), font=small, anchor="la")
+
+
+class WaterRenderer(_Frames):
+    """Draws frames of the water alone (a recording without a body: a wave pulse, a drop's ripples):
+    the whole surface in a fixed box, its heights exaggerated so that waves of millimetres show
+    (the header says how much), coloured and hill-shaded as with a body, with the highest crest and
+    the lowest trough of the frame written in the header."""
+
+    def __init__(self, first: WaterField, swing: float, options: RenderOptions, rest: float, title: str):
+        """``first``: the first field (its grid sets the box); ``swing`` [m]: the largest |height -
+        rest| over the frames to draw (sets the box's height)."""
+        super().__init__(options, rest, title)
+        ny, nx = first.height.shape
+        half = 0.5 * first.cell
+        x = (first.origin_x - half, first.origin_x + (nx - 0.5) * first.cell)
+        y = (first.origin_y - half, first.origin_y + (ny - 0.5) * first.cell)
+        reach = 1.2 * max(swing, WATER_MIN_SWING)
+        self.view = _View(x, y, (rest - reach, rest + reach))
+        length = x[1] - x[0]
+        self.aspect = (length, y[1] - y[0], max(2 * reach, FIXED_MIN_ZRATIO * length))
+        self.exaggeration = self.aspect[2] / (2 * reach)
+
+    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
+        """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
+        view = self.view
+        box = Box(view.x, view.y, view.z, self.aspect)
+        cam = Camera(box, self.size, self.options.elevation, self.options.azimuth, top=self.top)
+        image = Image.new("RGB", self.size, BACKGROUND)
+        self._draw_floor(ImageDraw.Draw(image), cam, box)
+        surface = self._surface(field, field_mean, view)
+        if surface is not None:
+            image = self._paint_water(image, cam, surface)
+        waves = ""
+        if field is not None and field.height.size:
+            crest, trough = float(field.height.max()) - self.rest, float(field.height.min()) - self.rest
+            waves = f"   crest {crest * 1000:+.2f} mm, trough {trough * 1000:+.2f} mm"
+        header = f"{self.title}   t = {t:.3f} s{waves}   (heights x {self.exaggeration:.0f})"
+        self._header(ImageDraw.Draw(image), header, (50, 50, 50))
+        return np.asarray(image)
 
 
 def nice_step(raw: float) -> float:
@@ -588,6 +642,11 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         raise RenderError(f"{output}: unknown format {output.suffix or '(none)'!r} (choose one of "
                           f"{', '.join(FORMATS)})")
     rec = Recording(recording)
+    if options.body is None and not topics_of(rec, BodyState):
+        if not topics_of(rec, WaterField):
+            raise RecordingError(f"{rec.path}: no BodyState or WaterField channel, nothing to show "
+                                 f"(channels: {', '.join(sorted(rec.channels))})")
+        return _render_water(rec, output, options)
     body = load_body(rec, options.body)
     linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)
@@ -622,6 +681,54 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     has_water = bool(fields or topics_of(rec, WaterContact))
     renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water)
+    cursor = _FieldCursor(rec, water)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    writer = _writer(output, options.fps, renderer.size)
+    try:
+        for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
+                      file=sys.stderr, leave=False, dynamic_ncols=True):
+            field = cursor.at(float(t))
+            writer.add(renderer.draw(float(t), field, cursor.mean))
+        writer.finish()
+    except BaseException:
+        writer.abort()
+        raise
+    return RenderResult(output, len(times), *renderer.size, float(times[0]), float(times[-1]))
+
+
+def _render_water(rec: Recording, output: Path, options: RenderOptions) -> RenderResult:
+    """:func:`render` of a recording that holds water but no body (:class:`WaterRenderer`): frames
+    over the fields' times; a PNG by default mid-run."""
+    fields = topics_of(rec, WaterField)
+    if options.water is not None and options.water not in fields:
+        raise RecordingError(f"{rec.path}: no WaterField channel {options.water!r} "
+                             f"(WaterField channels: {', '.join(fields)})")
+    water = options.water or fields[0]
+    stamps = [stamp / NS_PER_S for _, stamp, _ in rec.raw([water])]
+    begin, end = stamps[0], stamps[-1]
+    if output.suffix.lower() == ".png":
+        at = 0.5 * (begin + end) if options.at is None else options.at
+        if options.at is None:  # the field drawn is the one recorded then
+            at = max(t for t in stamps if t <= at)
+        times = np.array([min(at, end)])
+    else:
+        t0 = begin if options.start is None else options.start
+        t1 = end if options.stop is None else options.stop
+        if not t1 >= t0:
+            raise RenderError(f"--to ({t1:g} s) must not be before --from ({t0:g} s)")
+        times = frame_times(t0, t1, options.fps, options.speed)
+    if times[0] < begin or times[-1] > end + 1e-9:
+        raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the recorded water's "
+                          f"{begin:g} .. {end:g} s")
+    rest = rest_level(rec)
+    # the box holds the highest wave of the fields drawn: from the one current at the first frame on
+    shown = max(t for t in stamps if t <= times[0] + 1e-9), times[-1] + 1e-9
+    first, swing = None, 0.0
+    for t, field in iter_fields(rec, water):
+        first = first if first is not None else field
+        if shown[0] <= t <= shown[1]:
+            swing = max(swing, float(np.max(np.abs(field.height - rest))))
+    renderer = WaterRenderer(first, swing, options, rest, f"{rec.metadata.get('scene', '')}: {water.strip('/')}")
     cursor = _FieldCursor(rec, water)
     output.parent.mkdir(parents=True, exist_ok=True)
     writer = _writer(output, options.fps, renderer.size)
