@@ -114,6 +114,31 @@ def test_plot_without_a_body_is_bad_input(tmp_path, capsys):
     assert "no BodyState channel" in capsys.readouterr().err
 
 
+def test_water_alone_gets_its_crest_volume_and_energy_over_time(tmp_path, capsys):
+    """A recording of water alone (the wave pulse in its closed basin) gets water.png: the crest
+    falls from the pulse's 1 cm as it spreads, the volume does not change, the energy is the
+    recorded one; the body's figures are named as skipped. Before, plot refused it."""
+    from components.analysis.plot import figure_water
+    from components.messages import WaterField
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "wave_pulse.yaml"
+    path = run_scene(load(scene, ["until=0.3"]), tmp_path / "pulse.mcap", progress=False).recording
+    assert main(["plot", str(path), "-o", str(tmp_path / "figs"), "--dpi", "40"]) == 0
+    out = capsys.readouterr().out
+    assert "wrote" in out and "water.png" in out and "skipped trajectory.png" in out
+    assert imread(tmp_path / "figs" / "water.png").shape[0] > 100
+    rec = Recording(path)
+    fields = [m for _, m in rec.messages("/pond/field", WaterField)]
+    crest, volume, energy = figure_water(rec, "/pond/field").axes
+    heights = crest.lines[0].get_ydata()
+    assert heights[0] == pytest.approx(1000 * float(fields[0].height.max()))  # the 1 cm pulse, in mm
+    assert heights[-1] < 0.5 * heights[0]
+    assert np.abs(volume.lines[0].get_ydata()).max() < 1e-12
+    assert list(energy.lines[0].get_ydata()) == [f.energy for f in fields]
+
+
 def test_plot_skips_the_contact_figure_without_contacts(tmp_path, capsys):
     """A run without any contact writes three figures and says why the fourth is missing."""
     path = tmp_path / "flight.mcap"

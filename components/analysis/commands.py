@@ -18,7 +18,7 @@ EXIT_OK, EXIT_BAD_INPUT = 0, 2
 def register_plot(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "plot", help="PNG figures of a recording: trajectory by stage, speed and attack angle, energy, "
-                     "contact forces")
+                     "contact forces (water alone: crest, volume and energy over time)")
     p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("-o", "--output", metavar="DIR",
                    help="folder for the PNGs (default: RUN-plots/ beside the recording)")

@@ -9,6 +9,10 @@
 - ``contacts.png``: the forces during each contact (water effects per coupler, total wrenches,
   ground normal and friction), over the time since touchdown.
 
+A recording of water alone (no body: a wave pulse, a drop's ripples) gets ``water.png`` instead:
+the highest crest and lowest trough, the change of the water's volume and its lattice energy over
+time.
+
 Figures are built on :class:`matplotlib.figure.Figure` directly (no pyplot state, Agg output).
 Each ``figure_*`` function returns the figure, so tests can check what was drawn.
 """
@@ -23,9 +27,10 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from components.analysis.data import RunData, contact_spans, load_run
+from components.analysis.data import RunData, contact_spans, iter_fields, load_run, rest_level, topics_of
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
-from components.messages import StageId
+from components.messages import BodyState, StageId, WaterField
+from cosim.record.reader import Recording
 
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
@@ -269,9 +274,44 @@ FIGURES = {
 }
 
 
+def figure_water(rec: Recording, topic: str) -> Figure:
+    """The water of one WaterField channel over time: its highest crest and lowest trough above the
+    rest level [mm], the change of its volume relative to the first field, and its lattice energy
+    (:mod:`components.water.diagnostics`: in a closed basin without losses it oscillates within
+    O(c dt / s) about the explicit step's invariant and never drifts; it falls as waves leave through
+    absorbing edges)."""
+    rest = rest_level(rec)
+    rows = [(t, float(f.height.max()) - rest, float(f.height.min()) - rest, f.volume, f.energy)
+            for t, f in iter_fields(rec, topic)]
+    t, crest, trough, volume, energy = (np.array(column) for column in zip(*rows, strict=True))
+    fig = Figure(figsize=(FIGSIZE[0], 1.6 * FIGSIZE[1]), layout="constrained")
+    ax_wave, ax_volume, ax_energy = fig.subplots(3, 1, sharex=True)
+    ax_wave.plot(t, crest * 1000, color="#1f5fa8", label="highest crest")
+    ax_wave.plot(t, trough * 1000, color="#7fa8d8", label="lowest trough")
+    ax_wave.axhline(0.0, color=WATER_LINE_COLOR, linewidth=0.8)
+    ax_wave.set_ylabel("above rest [mm]")
+    ax_wave.legend(loc="upper right", fontsize="small")
+    ax_wave.set_title(f"{rec.metadata.get('scene', rec.path.stem)}: {topic}")
+    ax_volume.plot(t, (volume - volume[0]) / volume[0] if volume[0] else volume - volume[0], color="#404040")
+    ax_volume.set_ylabel("volume change [-]")
+    ax_energy.plot(t, energy, color="#b03030")
+    ax_energy.set_ylabel("lattice energy [J]")
+    ax_energy.set_xlabel("t [s]")
+    return fig
+
+
 def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = None,
              dpi: int = 120) -> tuple[list[Path], list[tuple[str, str]]]:
     """Write the figures of a recording into ``out_dir``; returns (written paths, [(name, why skipped)])."""
+    if body is None:
+        rec = Recording(recording)
+        fields = topics_of(rec, WaterField)
+        if fields and not topics_of(rec, BodyState):  # water alone
+            out_dir = Path(out_dir)
+            out_dir.mkdir(parents=True, exist_ok=True)
+            path = out_dir / "water.png"
+            figure_water(rec, fields[0]).savefig(path, dpi=dpi)
+            return [path], [(", ".join(FIGURES), "no body in this run")]
     run = load_run(recording, body)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
