@@ -189,8 +189,9 @@ class WaterField(Message):
     cell [m]; origin_x, origin_y: centre of cell (0, 0) [m]; height: (ny, nx) elevation z [m];
     volume: total water volume above the bed [m^3]; energy: the wave model's lattice energy [J]
     (within O(c dt / s) of the explicit step's exact invariant, so bounded when the model is stable),
-    which for short waves is far above the waves' physical energy (see components.water.diagnostics); active_fraction: share of the water stepped
-    in the last step (tiles not at rest over all tiles; 1 when every column is stepped). With a
+    which for short waves is far above the waves' physical energy (see components.water.diagnostics);
+    active_fraction: share of the water stepped in the last step (tiles not at rest over all tiles; 1
+    when every column is stepped). With a
     field window the height covers that window only (origin_x, origin_y its first cell), volume,
     energy and active_fraction the whole water.
     """
