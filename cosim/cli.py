@@ -17,6 +17,7 @@ import sys
 
 try:
     import argparse
+    import errno
     import math
     import os
     import re
@@ -32,6 +33,7 @@ except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the sam
     raise SystemExit(1) from None
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})  # writes refused for want of room
 
 
 class _Parser(argparse.ArgumentParser):
@@ -374,6 +376,10 @@ def report(exc: BaseException, command: str) -> int:
         return EXIT_BAD_INPUT
     if isinstance(exc, MemoryError):
         print(f"error: {what}: out of memory (at {_where(exc)})", file=sys.stderr)
+        return EXIT_FAILED
+    if isinstance(exc, OSError) and exc.errno in FULL:  # the machine's limits, not the user's input
+        where = _one_line(exc.filename) if exc.filename is not None else f"{what}: its output"
+        print(f"error: {where}: cannot be written ({_one_line(exc.strerror or str(exc))})", file=sys.stderr)
         return EXIT_FAILED
     if isinstance(exc, OSError) and exc.filename is not None:
         print(f"error: {_one_line(exc.filename)}: {_one_line(exc.strerror or str(exc))}", file=sys.stderr)

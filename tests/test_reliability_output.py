@@ -227,3 +227,31 @@ def test_check_output_accepts_new_files_and_recordings(tmp_path):
     assert check_output(out) == out
     run_scene(loads(SCENE), out, progress=False)
     assert check_output(out) == out
+
+
+FIGURE_LIMIT = 8 << 10  # bytes: less than any figure or frame
+
+
+def _figure_limit() -> None:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (FIGURE_LIMIT, FIGURE_LIMIT))
+
+
+@pytest.mark.parametrize("command", ["plot", "render"])
+def test_figures_on_a_full_disk_are_one_line_and_leave_nothing_half_written(tmp_path, command):
+    """plot and render writing into a full disk (a file-size limit stands in for it): exit 1, one
+    line naming the file and the system's reason, no truncated picture and no temporary left. Before,
+    plot left a truncated PNG and both said "internal error"."""
+    from tests.viewer_toys import record_skip
+
+    recording = tmp_path / "skip.mcap"
+    record_skip(recording, ["until=0.2", "record.visual_rate=0"])
+    out = tmp_path / "figs"
+    target = out / "trajectory.png" if command == "plot" else out / "frame.png"
+    args = ["plot", str(recording), "-o", str(out)] if command == "plot" else [
+        "render", str(recording), "-o", str(target), "-q"]
+    proc = cosim_popen(*args, cwd=tmp_path, preexec_fn=_figure_limit)
+    _, err = proc.communicate(timeout=WAIT_S)
+    assert proc.returncode == 1
+    line = one_error_line(err)
+    assert line == f"error: {target}: cannot be written ({os.strerror(27)})"  # EFBIG: File too large
+    assert not out.exists() or list(out.iterdir()) == []

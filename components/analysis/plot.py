@@ -30,6 +30,7 @@ from matplotlib.patches import Patch
 from components.analysis.data import RunData, contact_spans, iter_fields, load_run, rest_level, topics_of
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, StageId, WaterField
+from cosim.record.output import written_whole
 from cosim.record.reader import Recording
 
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
@@ -310,7 +311,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
             out_dir = Path(out_dir)
             out_dir.mkdir(parents=True, exist_ok=True)
             path = out_dir / "water.png"
-            figure_water(rec, fields[0]).savefig(path, dpi=dpi)
+            _save(figure_water(rec, fields[0]), path, dpi)
             return [path], [(", ".join(FIGURES), "no body in this run")]
     run = load_run(recording, body)
     out_dir = Path(out_dir)
@@ -322,6 +323,16 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
             skipped.append((name, "no contact in this run"))
             continue
         path = out_dir / name
-        fig.savefig(path, dpi=dpi)
+        _save(fig, path, dpi)
         written.append(path)
     return written, skipped
+
+
+def _save(fig: Figure, path: Path, dpi: int) -> None:
+    """Write ``fig`` as the PNG ``path``, whole or not at all (a full disk leaves no truncated
+    picture); an OSError names ``path``."""
+    try:
+        with written_whole(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format="png")
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None

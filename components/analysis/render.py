@@ -255,6 +255,10 @@ class _Frames:
         self.text_px = max(9, round(width / 70))
         self.top = round(2.2 * self.text_px)  # the header line's band [px]
 
+    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
+        """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
+        raise NotImplementedError
+
     def _header(self, draw: ImageDraw.ImageDraw, text: str, color: tuple[int, ...]) -> None:
         draw.text((0.6 * self.text_px, 0.5 * self.text_px), text, fill=color, font=font(self.text_px))
 
@@ -681,19 +685,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     has_water = bool(fields or topics_of(rec, WaterContact))
     renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water)
-    cursor = _FieldCursor(rec, water)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    writer = _writer(output, options.fps, renderer.size)
-    try:
-        for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
-                      file=sys.stderr, leave=False, dynamic_ncols=True):
-            field = cursor.at(float(t))
-            writer.add(renderer.draw(float(t), field, cursor.mean))
-        writer.finish()
-    except BaseException:
-        writer.abort()
-        raise
-    return RenderResult(output, len(times), *renderer.size, float(times[0]), float(times[-1]))
+    return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
 
 
 def _render_water(rec: Recording, output: Path, options: RenderOptions) -> RenderResult:
@@ -729,15 +721,28 @@ def _render_water(rec: Recording, output: Path, options: RenderOptions) -> Rende
         if shown[0] <= t <= shown[1]:
             swing = max(swing, float(np.max(np.abs(field.height - rest))))
     renderer = WaterRenderer(first, swing, options, rest, f"{rec.metadata.get('scene', '')}: {water.strip('/')}")
-    cursor = _FieldCursor(rec, water)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    writer = _writer(output, options.fps, renderer.size)
+    return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
+
+
+def _write_frames(renderer: _Frames, cursor: _FieldCursor, times: np.ndarray, output: Path,
+                  options: RenderOptions) -> RenderResult:
+    """Draw the frames at ``times`` and write them to ``output``, which appears only when complete; a
+    failed write (the disk full, a folder that cannot be made) is an OSError naming ``output``, not
+    the private file it was written to, and leaves nothing behind."""
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        writer = _writer(output, options.fps, renderer.size)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(output)) from None
     try:
         for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
                       file=sys.stderr, leave=False, dynamic_ncols=True):
             field = cursor.at(float(t))
             writer.add(renderer.draw(float(t), field, cursor.mean))
         writer.finish()
+    except OSError as exc:
+        writer.abort()
+        raise OSError(exc.errno, exc.strerror or str(exc), str(output)) from None
     except BaseException:
         writer.abort()
         raise

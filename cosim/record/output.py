@@ -10,6 +10,10 @@ a second run aimed at the same target while the first is still writing is refuse
 moves the finished file onto the target with one ``os.replace``, so the target is always either the
 previous file or a complete recording, never half of one.
 
+The other files the commands write (a sweep's table, record and figure, the figures of ``cosim
+plot``) are written whole too (:func:`written_whole`): to a temporary name beside the target, moved
+onto it once complete, removed if the writing fails or is interrupted.
+
 This module imports only the standard library (and :mod:`cosim.errors`): the writer process loads it.
 """
 
@@ -19,7 +23,8 @@ import contextlib
 import fcntl
 import os
 import stat
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from cosim.errors import RecordingError
@@ -157,3 +162,28 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
 def finish(part: str | Path, target: str | Path) -> None:
     """Move a complete recording onto its target in one step."""
     os.replace(part, target)
+
+
+def remove_quietly(path: Path) -> None:
+    """Remove a file (or an empty folder) a command made, if it is there; never raises."""
+    try:
+        if path.is_dir():
+            path.rmdir()
+        else:
+            path.unlink(missing_ok=True)
+    except OSError:
+        pass  # already failing: the error being reported matters more than this leftover
+
+
+@contextmanager
+def written_whole(path: Path) -> Iterator[Path]:
+    """A temporary name beside ``path`` to write to, moved onto ``path`` once written and removed if
+    the writing fails or is interrupted: ``path`` holds the whole new file or what it held before,
+    never half of one."""
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        remove_quietly(tmp)
+        raise

@@ -18,8 +18,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from cosim.record.output import written_whole
 from cosim.sweep.plan import Sweep
-from cosim.sweep.table import written_whole
 
 MAX_LABELLED_CELLS = 400  # above this many cells, the heat map's values are not written in them
 

@@ -16,12 +16,11 @@ import json
 import math
 import os
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from cosim.errors import ScenarioError
+from cosim.record.output import remove_quietly, written_whole
 from cosim.sweep.plan import yaml_value
 
 
@@ -44,30 +43,6 @@ def meta_path(output: Path) -> Path:
 
 def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else output.with_suffix(".csv")
-
-
-def _remove(path: Path) -> None:
-    """Remove a file (or an empty folder) this module made, if it is there; never raises."""
-    try:
-        if path.is_dir():
-            path.rmdir()
-        else:
-            path.unlink(missing_ok=True)
-    except OSError:
-        pass  # already failing: the error being reported matters more than this leftover
-
-
-@contextmanager
-def written_whole(path: Path) -> Iterator[Path]:
-    """A temporary name beside ``path`` to write to, moved onto ``path`` once written and removed if
-    the writing fails: ``path`` holds the whole new file or what it held before, never half of one."""
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except OSError:
-        _remove(tmp)
-        raise
 
 
 def cannot(output: Path, exc: OSError, action: str, then: str = "") -> ScenarioError:
@@ -138,7 +113,7 @@ class ResultTable:
         except OSError as exc:
             self.close()
             for path in made:
-                _remove(path)
+                remove_quietly(path)
             raise cannot(self.output, exc, "write the sweep's results") from None
         self._made = made
         return rows
@@ -197,7 +172,7 @@ class ResultTable:
         on); a resumed table is kept as it was."""
         self.close()
         for path in self._made:
-            _remove(path)
+            remove_quietly(path)
         self._made = []
 
     def finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
