@@ -303,13 +303,16 @@ class _Frames:
             draw.line(edge.ravel().tolist(), fill=grey, width=1)
         step = nice_step((x1 - x0) / 5)
         small = font(max(8, round(0.85 * self.text_px)))
+        right = -math.inf  # where the last tick's number ends [px]: the axis name goes after it
         for x in np.arange(math.ceil(x0 / step) * step, x1 + 1e-9, step):
             (px, py), _ = cam.project(np.array([x, front, z0]))
             draw.line((px, py, px, py + 4), fill=(120, 120, 120), width=1)
-            draw.text((px, py + 5), f"{x:.{max(0, -math.floor(math.log10(step)))}f}", fill=(90, 90, 90),
-                      font=small, anchor="ma")
+            label = f"{x:.{max(0, -math.floor(math.log10(step)))}f}"
+            draw.text((px, py + 5), label, fill=(90, 90, 90), font=small, anchor="ma")
+            right = draw.textbbox((px, py + 5), label, font=small, anchor="ma")[2]
         (px, py), _ = cam.project(np.array([x1, front, z0]))
-        draw.text((px + 0.5 * self.text_px, py + 5), "x [m]", fill=(90, 90, 90), font=small, anchor="la")
+        at = max(px + 0.5 * self.text_px, right + 0.5 * self.text_px)
+        draw.text((at, py + 5), "x [m]", fill=(90, 90, 90), font=small, anchor="la")
 
 
 class FrameRenderer(_Frames):
