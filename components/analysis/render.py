@@ -23,7 +23,7 @@ import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -661,25 +661,15 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         raise RecordingError(f"{rec.path}: no WaterField channel {options.water!r} "
                              f"(WaterField channels: {', '.join(fields) or 'none'})")
     water = options.water or (fields[0] if fields else None)
-    begin, end = float(body.t[0]), float(body.t[-1])
-    if output.suffix.lower() == ".png":
-        if options.at is None:
-            at = _default_at(rec, body, linked)
-            if water is not None:  # the first water field from then on, so the surface is current
-                stamps = (stamp / NS_PER_S for _, stamp, _ in rec.raw([water]))
-                at = next((t for t in stamps if t >= at), at)
-        else:
-            at = options.at
-        times = np.array([min(at, end)])
-    else:
-        t0 = begin if options.start is None else options.start
-        t1 = end if options.stop is None else options.stop
-        if not t1 >= t0:
-            raise RenderError(f"--to ({t1:g} s) must not be before --from ({t0:g} s)")
-        times = frame_times(t0, t1, options.fps, options.speed)
-    if times[0] < begin or times[-1] > end + 1e-9:
-        raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the recorded "
-                          f"{begin:g} .. {end:g} s")
+
+    def default_at() -> float:
+        at = _default_at(rec, body, linked)
+        if water is not None:  # the first water field from then on, so the surface is current
+            stamps = (stamp / NS_PER_S for _, stamp, _ in rec.raw([water]))
+            at = next((t for t in stamps if t >= at), at)
+        return at
+
+    times = _frame_times(output, options, float(body.t[0]), float(body.t[-1]), default_at, "recorded")
     stage_topics = own(topics_of(rec, Stage), linked)  # this body's monitor
     stages = None
     if stage_topics:
@@ -689,6 +679,25 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water)
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
+
+
+def _frame_times(output: Path, options: RenderOptions, begin: float, end: float, default_at: Callable[[], float],
+                 what: str) -> np.ndarray:
+    """The frames' times [s]: one, at ``options.at`` (else ``default_at()``) for a PNG; from
+    ``--from`` to ``--to`` (else ``begin`` to ``end``) otherwise; RenderError outside ``begin`` ..
+    ``end`` (the ``what`` recording's span)."""
+    if output.suffix.lower() == ".png":
+        times = np.array([min(default_at() if options.at is None else options.at, end)])
+    else:
+        t0 = begin if options.start is None else options.start
+        t1 = end if options.stop is None else options.stop
+        if not t1 >= t0:
+            raise RenderError(f"--to ({t1:g} s) must not be before --from ({t0:g} s)")
+        times = frame_times(t0, t1, options.fps, options.speed)
+    if times[0] < begin or times[-1] > end + 1e-9:
+        raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the {what} "
+                          f"{begin:g} .. {end:g} s")
+    return times
 
 
 def _render_water(rec: Recording, output: Path, options: RenderOptions) -> RenderResult:
@@ -701,20 +710,9 @@ def _render_water(rec: Recording, output: Path, options: RenderOptions) -> Rende
     water = options.water or fields[0]
     stamps = [stamp / NS_PER_S for _, stamp, _ in rec.raw([water])]
     begin, end = stamps[0], stamps[-1]
-    if output.suffix.lower() == ".png":
-        at = 0.5 * (begin + end) if options.at is None else options.at
-        if options.at is None:  # the field drawn is the one recorded then
-            at = max(t for t in stamps if t <= at)
-        times = np.array([min(at, end)])
-    else:
-        t0 = begin if options.start is None else options.start
-        t1 = end if options.stop is None else options.stop
-        if not t1 >= t0:
-            raise RenderError(f"--to ({t1:g} s) must not be before --from ({t0:g} s)")
-        times = frame_times(t0, t1, options.fps, options.speed)
-    if times[0] < begin or times[-1] > end + 1e-9:
-        raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the recorded water's "
-                          f"{begin:g} .. {end:g} s")
+    # mid-run, at the field recorded then
+    times = _frame_times(output, options, begin, end, lambda: max(t for t in stamps if t <= 0.5 * (begin + end)),
+                         "recorded water's")
     rest = rest_level(rec)
     # the box holds the highest wave of the fields drawn: from the one current at the first frame on
     shown = max(t for t in stamps if t <= times[0] + 1e-9), times[-1] + 1e-9
