@@ -43,6 +43,7 @@ import numpy as np
 
 from cosim.cli import positive_int, positive_seconds
 from cosim.docsection import replace_section
+from cosim.record.output import written_whole
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 SECTION = "accuracy-table"
@@ -546,7 +547,8 @@ def figure(study: Study, path: str | Path, dpi: int = 100) -> Path:
     axes[1, 0].legend(loc="lower left", fontsize=8)
     fig.suptitle(f"Work-precision of {Path(study.scene_path).name} against the reference run "
                  f"({'quick' if study.quick else 'full'} study; * = the scene's base step)", fontsize=10)
-    fig.savefig(path, dpi=dpi)
+    with written_whole(Path(path)) as tmp:  # a failed write leaves no truncated picture
+        fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
     return path
 
