@@ -46,7 +46,7 @@ def test_unknown_model_and_boundary_list_the_choices():
 def test_parameter_rules_are_all_reported():
     """Bounds, both field rates at once and a sponge wider than the pond are each reported."""
     problems = problems_of({"cell": 0.0, "nx": 10, "ny": 10})
-    assert problems == ["components.pond.cell: must be > 0 m (got 0)"]
+    assert problems == ["components.pond.cell: must be >= 1e-06 m (got 0)"]
     problems = problems_of({"nx": 10, "ny": 10, "boundary": "absorbing", "sponge_cells": 5,
                             "field_every": 2, "field_rate": 30.0})
     assert any("field_rate: give field_every or field_rate, not both" in p for p in problems)
