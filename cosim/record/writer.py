@@ -439,8 +439,7 @@ class ProcessSink(_Sink):
         """What went wrong with the writer, in one line (the same line when asked again). A writer that
         died (killed, or failing otherwise than in writing the file) has its recording salvaged
         (:meth:`_salvage`); when writing failed (the disk full) the file is closed where it was cut
-        (:meth:`_seal`). Called
-        while the ring is still open: the salvage reads it."""
+        (:meth:`_seal`). Called while the ring is still open: the salvage reads it."""
         import subprocess
 
         if self._failed is not None:
