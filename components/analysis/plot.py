@@ -30,7 +30,7 @@ from matplotlib.patches import Patch
 from components.analysis.data import RunData, contact_spans, iter_fields, load_run, rest_level, topics_of
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, StageId, WaterField
-from cosim.record.output import written_whole
+from cosim.record.output import output_folder, written_whole
 from cosim.record.reader import Recording
 
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
@@ -304,27 +304,26 @@ def figure_water(rec: Recording, topic: str) -> Figure:
 def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = None,
              dpi: int = 120) -> tuple[list[Path], list[tuple[str, str]]]:
     """Write the figures of a recording into ``out_dir``; returns (written paths, [(name, why skipped)])."""
+    out_dir = Path(out_dir)
     if body is None:
         rec = Recording(recording)
         fields = topics_of(rec, WaterField)
         if fields and not topics_of(rec, BodyState):  # water alone
-            out_dir = Path(out_dir)
-            out_dir.mkdir(parents=True, exist_ok=True)
-            path = out_dir / "water.png"
-            _save(figure_water(rec, fields[0]), path, dpi)
+            with output_folder(out_dir):
+                path = out_dir / "water.png"
+                _save(figure_water(rec, fields[0]), path, dpi)
             return [path], [(", ".join(FIGURES), "no body in this run")]
     run = load_run(recording, body)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     written, skipped = [], []
-    for name, make in FIGURES.items():
-        fig = make(run)
-        if fig is None:
-            skipped.append((name, "no contact in this run"))
-            continue
-        path = out_dir / name
-        _save(fig, path, dpi)
-        written.append(path)
+    with output_folder(out_dir):
+        for name, make in FIGURES.items():
+            fig = make(run)
+            if fig is None:
+                skipped.append((name, "no contact in this run"))
+                continue
+            path = out_dir / name
+            _save(fig, path, dpi)
+            written.append(path)
     return written, skipped
 
 

@@ -39,6 +39,7 @@ from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stag
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
+from cosim.record.output import output_folder
 from cosim.record.reader import Recording
 from cosim.timebase import NS_PER_S
 from cosim.view.items import decimation
@@ -731,22 +732,19 @@ def _write_frames(renderer: _Frames, cursor: _FieldCursor, times: np.ndarray, ou
     failed write (the disk full, a folder that cannot be made) is an OSError naming ``output``, not
     the private file it was written to, and leaves nothing behind."""
     try:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        writer = _writer(output, options.fps, renderer.size)
+        with output_folder(output.parent):
+            writer = _writer(output, options.fps, renderer.size)
+            try:
+                for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
+                              file=sys.stderr, leave=False, dynamic_ncols=True):
+                    field = cursor.at(float(t))
+                    writer.add(renderer.draw(float(t), field, cursor.mean))
+                writer.finish()
+            except BaseException:
+                writer.abort()
+                raise
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror or str(exc), str(output)) from None
-    try:
-        for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
-                      file=sys.stderr, leave=False, dynamic_ncols=True):
-            field = cursor.at(float(t))
-            writer.add(renderer.draw(float(t), field, cursor.mean))
-        writer.finish()
-    except OSError as exc:
-        writer.abort()
-        raise OSError(exc.errno, exc.strerror or str(exc), str(output)) from None
-    except BaseException:
-        writer.abort()
-        raise
     return RenderResult(output, len(times), *renderer.size, float(times[0]), float(times[-1]))
 
 

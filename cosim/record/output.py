@@ -187,3 +187,17 @@ def written_whole(path: Path) -> Iterator[Path]:
     except BaseException:
         remove_quietly(tmp)
         raise
+
+
+@contextmanager
+def output_folder(folder: Path) -> Iterator[Path]:
+    """Make ``folder`` (and its parents) for a command's outputs; if it was made here and the writing
+    fails before anything is in it, it goes again: a failed command leaves no empty folder behind."""
+    made = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        yield folder
+    except BaseException:
+        if made:
+            remove_quietly(folder)  # only when empty
+        raise
