@@ -44,25 +44,40 @@ _MESSAGE_HEAD = struct.Struct("<HIQQ")
 _OP_CHANNEL, _OP_MESSAGE = 0x04, 0x05
 
 
-def _chunk_messages(chunk: Chunk, topics: dict[int, str]) -> list[tuple[str, int, bytes]]:
-    """(topic, log time [ns], payload) of every message in a chunk; the channels it defines go into
-    ``topics``. Raises whatever a damaged chunk makes the reader raise (its CRC is checked)."""
+def chunk_records(chunk: Chunk) -> Iterator[tuple[int, int, int, int, bytes]]:
+    """(opcode, offset of the record, offset of its body, length of its body, the chunk's records)
+    of every record in a chunk, in order, its records decompressed once. Raises whatever a damaged
+    chunk makes the reader raise (its CRC is checked), or ValueError for a record running past the
+    chunk's end."""
     stream, size = get_chunk_data_stream(chunk, validate_crc=True)
     data = stream.read(size)
-    found = []
     at = 0
     while at < size:
         op, length = _RECORD.unpack_from(data, at)
-        at += _RECORD.size
+        body = at + _RECORD.size
+        if body + length > size:
+            raise ValueError("a chunk's record runs past its end")
+        yield op, at, body, length, data
+        at = body + length
+
+
+def message_head(data: bytes, at: int) -> tuple[int, int]:
+    """(channel id, log time [ns]) of the message record whose body starts at ``at`` in ``data``."""
+    channel, _, log_time, _ = _MESSAGE_HEAD.unpack_from(data, at)
+    return channel, log_time
+
+
+def _chunk_messages(chunk: Chunk, topics: dict[int, str]) -> list[tuple[str, int, bytes]]:
+    """(topic, log time [ns], payload) of every message in a chunk; the channels it defines go into
+    ``topics``. Raises whatever a damaged chunk makes the reader raise (its CRC is checked)."""
+    found = []
+    for op, _, at, length, data in chunk_records(chunk):
         if op == _OP_MESSAGE:
-            channel, _, log_time, _ = _MESSAGE_HEAD.unpack_from(data, at)
+            channel, log_time = message_head(data, at)
             found.append((topics.get(channel, ""), log_time, data[at + _MESSAGE_HEAD.size:at + length]))
         elif op == _OP_CHANNEL:
             record = Channel.read(ReadDataStream(BytesIO(data[at:at + length])))
             topics[record.id] = record.topic
-        at += length
-    if at != size:
-        raise ValueError("a chunk's last record runs past its end")
     return found
 
 

@@ -43,11 +43,11 @@ from mcap.records import (
     Schema,
     Statistics,
 )
-from mcap.stream_reader import get_chunk_data_stream
 
-MAGIC = b"\x89MCAP0\r\n"
+from cosim.record.output import MCAP_MAGIC
+from cosim.record.salvage import chunk_records, message_head
+
 _PREFIX = struct.Struct("<BQ")  # a record's opcode and length
-_MESSAGE_HEAD = struct.Struct("<HIQQ")  # a message's channel id, sequence, log time, publish time
 
 
 Ending = Callable[[int], "tuple[int, Any] | None"]
@@ -97,21 +97,13 @@ def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, list[tuple[int, int]]], l
     index), its schemas, its channels, its earliest and latest log time [ns]) of a chunk record's
     body; raises on anything damaged (its CRC is checked)."""
     chunk = Chunk.read(ReadDataStream(BytesIO(body)))
-    stream, size = get_chunk_data_stream(chunk, validate_crc=True)
-    data = stream.read(size)
     messages: dict[int, list[tuple[int, int]]] = {}
     schemas: list[Schema] = []
     channels: list[Channel] = []
     first, last = None, None
-    at = 0
-    while at < size:
-        record_at = at
-        op, length = _PREFIX.unpack_from(data, at)
-        at += _PREFIX.size
-        if at + length > size:
-            raise ValueError("a chunk's record runs past its end")
+    for op, record_at, at, length, data in chunk_records(chunk):
         if op == Opcode.MESSAGE:
-            channel, _, log_time, _ = _MESSAGE_HEAD.unpack_from(data, at)
+            channel, log_time = message_head(data, at)
             messages.setdefault(channel, []).append((log_time, record_at))
             first = log_time if first is None else min(first, log_time)
             last = log_time if last is None else max(last, log_time)
@@ -119,7 +111,6 @@ def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, list[tuple[int, int]]], l
             schemas.append(Schema.read(ReadDataStream(BytesIO(data[at:at + length]))))
         elif op == Opcode.CHANNEL:
             channels.append(Channel.read(ReadDataStream(BytesIO(data[at:at + length]))))
-        at += length
     return chunk, messages, schemas, channels, first or 0, last or 0
 
 
@@ -127,10 +118,10 @@ def _scan(data: Any) -> _Scan:
     """The whole records of the MCAP bytes ``data``, up to the first record cut short or damaged (or
     the data section's end); raises ValueError when not even the magic and header are whole."""
     size = len(data)
-    if size < len(MAGIC) + _PREFIX.size or bytes(data[:len(MAGIC)]) != MAGIC:
+    if size < len(MCAP_MAGIC) + _PREFIX.size or bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
         raise ValueError("no MCAP magic at its start")
-    op, length = _PREFIX.unpack_from(data, len(MAGIC))
-    at = len(MAGIC) + _PREFIX.size + length
+    op, length = _PREFIX.unpack_from(data, len(MCAP_MAGIC))
+    at = len(MCAP_MAGIC) + _PREFIX.size + length
     if op != Opcode.HEADER or at > size:
         raise ValueError("its header is cut short")
     found = _Scan(start=at, start_crc=zlib.crc32(data[:at]))
@@ -268,7 +259,7 @@ def _tail(scan: _Scan, chunks: int, start: int, crc: int, reindex: bool, ending:
     # own CRC field
     struct.pack_into("<I", tail, data_end_at + _PREFIX.size, zlib.crc32(tail[:data_end_at], crc))
     struct.pack_into("<I", tail, len(tail) - 4, zlib.crc32(tail[summary_at:len(tail) - 4]))
-    tail += MAGIC
+    tail += MCAP_MAGIC
     sealed.size = start + len(tail)
     return bytes(tail), sealed
 
