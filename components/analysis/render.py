@@ -260,6 +260,15 @@ class _Frames:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
         raise NotImplementedError
 
+    def _canvas(self, view: _View, aspect: tuple[float, float, float]) -> tuple[Box, Camera, Image.Image]:
+        """The box of ``view`` drawn in the proportions ``aspect``, the camera on it and a blank frame
+        with the box's floor and x scale already painted."""
+        box = Box(view.x, view.y, view.z, aspect)
+        cam = Camera(box, self.size, self.options.elevation, self.options.azimuth, top=self.top)
+        image = Image.new("RGB", self.size, BACKGROUND)
+        self._draw_floor(ImageDraw.Draw(image), cam, box)
+        return box, cam, image
+
     def _header(self, draw: ImageDraw.ImageDraw, text: str, color: tuple[int, ...]) -> None:
         draw.text((0.6 * self.text_px, 0.5 * self.text_px), text, fill=color, font=font(self.text_px))
 
@@ -372,10 +381,7 @@ class FrameRenderer(_Frames):
         aspect = view.box
         if self.fixed is not None:  # heights exaggerated so the flight shows over a long run
             aspect = (aspect[0], aspect[1], max(aspect[2], FIXED_MIN_ZRATIO * aspect[0]))
-        box = Box(view.x, view.y, view.z, aspect)
-        cam = Camera(box, self.size, self.options.elevation, self.options.azimuth, top=self.top)
-        image = Image.new("RGB", self.size, BACKGROUND)
-        self._draw_floor(ImageDraw.Draw(image), cam, box)
+        box, cam, image = self._canvas(view, aspect)
 
         surface = self._surface(field, field_mean, view) if self.has_water else None
         polys = np.array(body_polygons(body, pos, quat))
@@ -484,7 +490,6 @@ class FrameRenderer(_Frames):
         draw.text(anchor, self.caption, fill=color, font=text_font, anchor="lm")
 
 
-
 class WaterRenderer(_Frames):
     """Draws frames of the water alone (a recording without a body: a wave pulse, a drop's ripples):
     the whole surface in a fixed box, its heights exaggerated so that waves of millimetres show
@@ -508,10 +513,7 @@ class WaterRenderer(_Frames):
     def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
         view = self.view
-        box = Box(view.x, view.y, view.z, self.aspect)
-        cam = Camera(box, self.size, self.options.elevation, self.options.azimuth, top=self.top)
-        image = Image.new("RGB", self.size, BACKGROUND)
-        self._draw_floor(ImageDraw.Draw(image), cam, box)
+        _, cam, image = self._canvas(view, self.aspect)
         surface = self._surface(field, field_mean, view)
         if surface is not None:
             image = self._paint_water(image, cam, surface)
@@ -709,19 +711,19 @@ def _render_water(rec: Recording, output: Path, options: RenderOptions) -> Rende
         raise RecordingError(f"{rec.path}: no WaterField channel {options.water!r} "
                              f"(WaterField channels: {', '.join(fields)})")
     water = options.water or fields[0]
-    stamps = [stamp / NS_PER_S for _, stamp, _ in rec.raw([water])]
+    rest = rest_level(rec)
+    first, stamps, swings = None, [], []  # the first field; each field's time [s] and largest |height - rest| [m]
+    for t, field in iter_fields(rec, water):
+        first = first if first is not None else field
+        stamps.append(t)
+        swings.append(float(np.max(np.abs(field.height - rest))))
     begin, end = stamps[0], stamps[-1]
     # mid-run, at the field recorded then
     times = _frame_times(output, options, begin, end, lambda: max(t for t in stamps if t <= 0.5 * (begin + end)),
                          "recorded water's")
-    rest = rest_level(rec)
     # the box holds the highest wave of the fields drawn: from the one current at the first frame on
     shown = max(t for t in stamps if t <= times[0] + 1e-9), times[-1] + 1e-9
-    first, swing = None, 0.0
-    for t, field in iter_fields(rec, water):
-        first = first if first is not None else field
-        if shown[0] <= t <= shown[1]:
-            swing = max(swing, float(np.max(np.abs(field.height - rest))))
+    swing = max(w for t, w in zip(stamps, swings, strict=True) if shown[0] <= t <= shown[1])
     renderer = WaterRenderer(first, swing, options, rest, f"{rec.metadata.get('scene', '')}: {water.strip('/')}")
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
 
