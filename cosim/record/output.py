@@ -179,11 +179,17 @@ def remove_quietly(path: Path) -> None:
 def written_whole(path: Path) -> Iterator[Path]:
     """A temporary name beside ``path`` to write to, moved onto ``path`` once written and removed if
     the writing fails or is interrupted: ``path`` holds the whole new file or what it held before,
-    never half of one."""
+    never half of one. A failed write is an OSError naming ``path``, not the temporary (a writer that
+    names no file, such as an image library on a full disk, is taken to have failed on it too)."""
     tmp = path.with_name(path.name + ".tmp")
     try:
         yield tmp
         os.replace(tmp, path)
+    except OSError as exc:
+        remove_quietly(tmp)
+        if exc.filename is None or Path(os.fsdecode(exc.filename)) == tmp:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        raise
     except BaseException:
         remove_quietly(tmp)
         raise

@@ -48,13 +48,12 @@ def journal_path(output: Path) -> Path:
 def cannot(output: Path, exc: OSError, action: str, then: str = "") -> ScenarioError:
     """The bad-input error for ``exc``, raised while trying to ``action`` (the table at ``output``, or the
     files beside it). It names the path the user gave; the file that failed, when it is another (the
-    record beside the table, a folder), is named in the reason, by its final name, not a temporary one.
-    ``then``: what the user should know next, appended to the line."""
+    record beside the table, a folder), is named in the reason, by its final name, not a temporary one
+    (:func:`cosim.record.output.written_whole` names it so). ``then``: what the user should know next,
+    appended to the line."""
     reason = exc.strerror or str(exc)
     if exc.filename is not None:
         failed = Path(os.fsdecode(exc.filename))
-        ours = (output, journal_path(output), meta_path(output), output.with_suffix(".png"))
-        failed = next((p for p in ours if failed == p.with_name(p.name + ".tmp")), failed)
         if failed != output:
             where = f"{failed.name} beside it" if failed.parent == output.parent else str(failed)
             reason = f"{where}: {reason}"
