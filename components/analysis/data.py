@@ -204,10 +204,12 @@ def own(topics: list[str], linked: set[str] | None) -> list[str]:
     return topics if linked is None else [t for t in topics if t.strip("/").split("/")[0] in linked]
 
 
-def load_run(path: str | Path, body: str | None = None) -> RunData:
-    """Read what the figures need from a recording (RecordingError if it holds no body): the body's
-    states and, with several bodies, only the monitor, contact and wrench channels linked to it."""
-    rec = Recording(path)
+def load_run(recording: str | Path | Recording, body: str | None = None) -> RunData:
+    """Read what the figures need from a recording, a file or one already opened (RecordingError if it
+    holds no body): the body's states and, with several bodies, only the monitor, contact and wrench
+    channels linked to it."""
+    rec = recording if isinstance(recording, Recording) else Recording(recording)
+    path = rec.path
     track = load_body(rec, body)
     linked = linked_components(rec, track.topic.strip("/").split("/")[0])
     stages = None

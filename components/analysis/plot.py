@@ -305,15 +305,14 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
              dpi: int = 120) -> tuple[list[Path], list[tuple[str, str]]]:
     """Write the figures of a recording into ``out_dir``; returns (written paths, [(name, why skipped)])."""
     out_dir = Path(out_dir)
-    if body is None:
-        rec = Recording(recording)
-        fields = topics_of(rec, WaterField)
-        if fields and not topics_of(rec, BodyState):  # water alone
-            with output_folder(out_dir):
-                path = out_dir / "water.png"
-                _save(figure_water(rec, fields[0]), path, dpi)
-            return [path], [(", ".join(FIGURES), "no body in this run")]
-    run = load_run(recording, body)
+    rec = Recording(recording)  # opened (and its CRCs checked) once, for either set of figures
+    fields = topics_of(rec, WaterField)
+    if body is None and fields and not topics_of(rec, BodyState):  # water alone
+        with output_folder(out_dir):
+            path = out_dir / "water.png"
+            _save(figure_water(rec, fields[0]), path, dpi)
+        return [path], [(", ".join(FIGURES), "no body in this run")]
+    run = load_run(rec, body)
     written, skipped = [], []
     with output_folder(out_dir):
         for name, make in FIGURES.items():
@@ -330,8 +329,5 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
 def _save(fig: Figure, path: Path, dpi: int) -> None:
     """Write ``fig`` as the PNG ``path``, whole or not at all (a full disk leaves no truncated
     picture); an OSError names ``path``."""
-    try:
-        with written_whole(path) as tmp:
-            fig.savefig(tmp, dpi=dpi, format="png")
-    except OSError as exc:
-        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+    with written_whole(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png")
