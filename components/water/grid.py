@@ -23,6 +23,10 @@ import numpy as np
 
 GRAVITY = 9.81  # [m/s^2], as in physics.md
 WATER_DENSITY = 1000.0  # [kg/m^3], rho_w of physics.md
+# a column's side [m]: the model's arithmetic (areas s^2, volumes, the stable step s / c) stays exact
+# to round-off over this range, which holds every water a stone meets, from sub-millimetre studies to
+# lakes (a cell of 1e-300 m has a square of 0, one of 1e160 m an infinite one)
+CELL_MIN, CELL_MAX = 1e-6, 1e4
 
 
 @dataclass(frozen=True, eq=False)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from components.messages import OccupiedHeight
+from components.water.grid import CELL_MAX, CELL_MIN
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -38,7 +39,8 @@ class DropParams:
     start: float = param(0.0, unit="s", ge=0, doc="time the body starts entering")
     rise: float = param(0.02, unit="s", gt=0, doc="time to enter fully (and to leave)")
     hold: float | None = param(None, unit="s", ge=0, doc="time spent fully in before leaving; none: stays")
-    cell: float = param(0.01, unit="m", ge=1e-6, le=1e4, doc="cell size of the water grid (as WaterSurface's)")
+    cell: float = param(0.01, unit="m", ge=CELL_MIN, le=CELL_MAX,
+                        doc="cell size of the water grid (as WaterSurface's)")
     origin_x: float = param(0.0, unit="m", doc="x of the centre of the water's cell (0, 0)")
     origin_y: float = param(0.0, unit="m", doc="y of the centre of the water's cell (0, 0)")
     nx: int = param(128, ge=1, doc="cells of the water grid along x")

@@ -52,7 +52,7 @@ from components.messages import HeightPatch, OccupiedHeight, PatchRequest, Water
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import energy, surface_energy, volume
-from components.water.grid import build_grid, holds_one_value
+from components.water.grid import CELL_MAX, CELL_MIN, build_grid, holds_one_value
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
 from components.water.windows import apply_window, patch_arrays
@@ -89,9 +89,7 @@ class WaterParams:
 
     nx: int = param(128, ge=2, doc="cells along x")
     ny: int = param(128, ge=2, doc="cells along y")
-    # the model's arithmetic (areas s^2, volumes, the stable step s / c) stays exact to round-off
-    # over this range, which holds every water a stone meets, from sub-millimetre studies to lakes
-    cell: float = param(0.01, unit="m", ge=1e-6, le=1e4, doc="cell size s (1 um to 10 km)")
+    cell: float = param(0.01, unit="m", ge=CELL_MIN, le=CELL_MAX, doc="cell size s (1 um to 10 km)")
     depth: float = param(0.5, unit="m", gt=0, doc="rest depth at the centre of the grid")
     origin_x: float = param(0.0, unit="m", doc="x of the centre of cell (0, 0)")
     origin_y: float = param(0.0, unit="m", doc="y of the centre of cell (0, 0)")
