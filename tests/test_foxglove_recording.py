@@ -200,8 +200,12 @@ def test_the_visual_rate_changes_only_the_viewer_channels(skip_run, tmp_path):
     assert physics(fast) == physics(skip_run.path)
 
 
-@pytest.mark.skipif(shutil.which("node") is None or not (CHECKER.parent / "node_modules").exists(),
-                    reason="node or tools/mcap_check/node_modules missing (npm install in tools/mcap_check)")
+needs_mcap_check = pytest.mark.skipif(
+    shutil.which("node") is None or not (CHECKER.parent / "node_modules").exists(),
+    reason="node or tools/mcap_check/node_modules missing (npm install in tools/mcap_check)")
+
+
+@needs_mcap_check
 def test_the_independent_typescript_reader_decodes_every_viewer_message(skip_run):
     """@mcap/core under node validates CRCs and decodes every foxglove.* message against its schema,
     with payload timestamps equal to log time."""

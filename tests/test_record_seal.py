@@ -20,22 +20,17 @@ from cosim.record.recorder import STATUS_TOPIC, DerivedMessage, RunStatus
 from cosim.record.seal import seal
 from cosim.runner import run_scene
 from cosim.scenario import loads
+from tests.test_foxglove_recording import CHECKER, needs_mcap_check
+from tests.test_reliability_output import PAINT
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PAINT = """
-dt: 0.001
-until: 0.06
-components:
-  p: {type: "tests.test_recording_paths:Painter"}
-record: {visual_rate: 0}
-"""
 
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("seal") / "whole.mcap"
-    run_scene(loads(PAINT), out, progress=False)
+    run_scene(loads(PAINT, overrides=["until=0.06"]), out, progress=False)
     return out
 
 
@@ -87,11 +82,7 @@ def test_a_recording_cut_anywhere_is_sealed_into_a_valid_prefix(recording, tmp_p
     assert 0 < kept_before < len(whole)
 
 
-CHECKER = ROOT / "tools" / "mcap_check" / "check.mjs"
-
-
-@pytest.mark.skipif(shutil.which("node") is None or not (CHECKER.parent / "node_modules").exists(),
-                    reason="node or tools/mcap_check/node_modules missing (npm install in tools/mcap_check)")
+@needs_mcap_check
 def test_the_typescript_reader_reads_recordings_sealed_anywhere_around_a_chunk(recording, tmp_path):
     """@mcap/core (Foxglove's reader) finds a chunk's messages through its message index: cut in a
     chunk, just behind it (its index cut off whole) or inside its index, the sealed file's last
