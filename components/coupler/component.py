@@ -183,6 +183,9 @@ class WaterCoupler(Component):
         if problems:
             raise ValueError("effects: " + "; ".join(problems))
         self.flags = effect_mask(p.effects)
+        # fixed by the parameters: the ring displacement, and the effects read against the local surface
+        self._ring_on = bool(self.flags & DISPLACEMENT) and p.displacement_mode == "ring"
+        self._local = self.flags & ~BUOYANCY if self._ring_on else self.flags
         compiled.start()
         self._elements: Elements | None = None
         self._elements_key: tuple | None = None
@@ -343,31 +346,29 @@ class WaterCoupler(Component):
             if self.cell != 0.0:
                 self._start_in_water = False  # dry with the water known: whatever it displaces later is new
             return self._idle(level - z_bottom)
-        is_disk = body.shape == Shape.DISK
         bv = self._body_vector(body)
+        if n == 1 and patch is not None and patch.height.size != 0 and self._ring_on and not self.params.smoothing:
+            return self._ring_advance(body, bv, patch, dt)  # the usual step
+        is_disk = body.shape == Shape.DISK
         vx, vy = float(vel[0]), float(vel[1])
         assumed = False
-        # the usual step: the body's pose and all its column and element work in one compiled call
-        one_call = (n == 1 and patch is not None and patch.height.size != 0 and self._ring_mode()
-                    and not self.params.smoothing)
-        if not one_call:
-            axes = np.empty((3, 3))
-            x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
-            low = (x_low, y_low, z_low)
-            half = (half_x, half_y)
-            request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
-            if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
-                # in the water before the water has sent anything: it is still, at the rest level,
-                # until its first patch says otherwise (a large step or a slow water would let the
-                # stone fall through unopposed); the forces only, nothing displaced into a grid not
-                # yet known
-                patch, assumed = self._assumed_still_water(pos, half, level), True
-            if patch is None or patch.height.size == 0:
-                self.bound = self._motion_bound(body)
-                self._prev = {"force": [0.0, 0.0, 0.0], "torque": [0.0, 0.0, 0.0], "position": pos.tolist(),
-                              "omega": omega.tolist()}
-                return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
-                        "contact": self._dry_contact(level - low[2])}
+        axes = np.empty((3, 3))
+        x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
+        low = (x_low, y_low, z_low)
+        half = (half_x, half_y)
+        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
+        if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
+            # in the water before the water has sent anything: it is still, at the rest level,
+            # until its first patch says otherwise (a large step or a slow water would let the
+            # stone fall through unopposed); the forces only, nothing displaced into a grid not
+            # yet known
+            patch, assumed = self._assumed_still_water(pos, half, level), True
+        if patch is None or patch.height.size == 0:
+            self.bound = self._motion_bound(body)
+            self._prev = {"force": [0.0, 0.0, 0.0], "torque": [0.0, 0.0, 0.0], "position": pos.tolist(),
+                          "omega": omega.tolist()}
+            return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
+                    "contact": self._dry_contact(level - low[2])}
         elements = self._elements_for(body)
         x0 = patch.origin_x + patch.i0 * patch.cell
         y0 = patch.origin_y + patch.j0 * patch.cell
@@ -385,19 +386,14 @@ class WaterCoupler(Component):
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
-        if one_call:
-            stats, ring, top_under, axes, low, half = self._ring_step(body, bv, met, water, elements, nsub)
-            request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
-        else:
-            stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
-                                   self._b_geo, self._stats, self._local_flags())
-            ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
-            if assumed and ring is not None:
-                ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
-            if ring is not None:
-                self._add_hydrostatics(stats, ring)
-            self.bound = self._stability_bound(body, stats)
-            top_under = None
+        stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
+                               self._b_geo, self._stats, self._local_flags())
+        ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
+        if assumed and ring is not None:
+            ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
+        if ring is not None:
+            self._add_hydrostatics(stats, ring)
+        self.bound = self._stability_bound(body, stats)
         self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
         mean = stats[:kernel.S_TOTAL + 6]
         if n > 1:
@@ -429,7 +425,7 @@ class WaterCoupler(Component):
             # The column sum samples the body, so a body wholly under water sums to a little less
             # than its volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point
             # opposite its lowest one) is under the surface there is wholly submerged.
-            under = self._top_under(pos, low, water) if top_under is None else top_under
+            under = self._top_under(pos, low, water)
             if under is not None and under > 0.0:
                 fraction = 1.0
         contact = WaterContact(
@@ -465,36 +461,91 @@ class WaterCoupler(Component):
                          *body.angular_velocity.tolist(), body.radius, body.thickness, body.mass,
                          min(body.inertia.tolist())])
 
-    def _ring_step(self, body: BodyState, bv: np.ndarray, met, water, elements: Elements, nsub: int
-                   ) -> tuple[np.ndarray, _Ring, float | None, np.ndarray, tuple, tuple]:
-        """The body's pose, :meth:`_evaluate`, :meth:`_ring`, :meth:`_add_hydrostatics` and
-        :meth:`_stability_bound` in one call of :func:`step_kernel.ring_step`: (stats, the ring, the
-        depth of the body's top under the live surface [m] (None off the patch), the body's axes
-        (3, 3), its lowest point (x, y, z) [m] and half-extents (hx, hy) [m])."""
-        x0, y0, cell, height, wvel, bottom, held = water
+    def _ring_advance(self, body: BodyState, bv: np.ndarray, patch: HeightPatch, dt: float
+                      ) -> dict[str, Message]:
+        """The usual step of :meth:`_advance` (the ring displacement, one step at a time, a patch in
+        hand, no smoothing): the body's pose, :meth:`_evaluate`, :meth:`_ring`,
+        :meth:`_add_hydrostatics` and :meth:`_stability_bound` in one call of
+        :func:`step_kernel.ring_step`, whose numbers are read back once as Python floats to build the
+        four messages; the same outputs as the general path, bit for bit."""
+        pos, vel = body.position, body.velocity
+        radius = float(body.radius)
+        level = self.rest_level
+        cell = float(patch.cell)
+        i0, j0 = int(patch.i0), int(patch.j0)
+        height = np.ascontiguousarray(patch.height, dtype=np.float64)
+        wvel = np.ascontiguousarray(patch.velocity, dtype=np.float64)
+        bottom = np.ascontiguousarray(patch.bottom, dtype=np.float64)
+        held = np.ascontiguousarray(patch.occupied, dtype=np.float64)
+        has_held = held.shape == height.shape
+        if self._b_geo.shape != height.shape:
+            self._b_geo = np.zeros(height.shape)
+        elements = self._elements_for(body)
+        share = self._planing_share = planing_share(body, self.params.g)
+        met_h, met_v = self.met.read(i0, j0, height, wvel, share)
         scratch = self._scratch
-        if scratch is None or scratch.shape != height.shape or scratch.rest_level != self.rest_level:
-            scratch = self._scratch = step_kernel.RingScratch(height.shape, self.rest_level)
+        if scratch is None or scratch.shape != height.shape or scratch.rest_level != level:
+            scratch = self._scratch = step_kernel.RingScratch(height.shape, level)
+        shape = int(body.shape)
         prm = self._prm
-        prm[step_kernel.P_C_D] = self.params.c_d_disk if body.shape == Shape.DISK else self.params.c_d_sphere
+        prm[step_kernel.P_C_D] = self.params.c_d_disk if shape == Shape.DISK else self.params.c_d_sphere
         step_kernel.ring_step(
-            int(body.shape), bv, prm, self.flags, self._local_flags(), nsub, self.rest_level,
-            self._planing_share, float(x0), float(y0), cell, met[3], met[4],
-            height, wvel, bottom, height if held is None else held, held is not None,
+            shape, bv, prm, self.flags, self._local, self._subsamples(radius, cell), level, share,
+            float(patch.origin_x + patch.i0 * patch.cell), float(patch.origin_y + patch.j0 * patch.cell), cell,
+            met_h, met_v, height, wvel, bottom, held if has_held else height, has_held,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
             scratch.planes, scratch.numbers, scratch.work_for(elements.area.shape[0]))
-        # results, axes and pose lie at the end of the numbers: read them as Python floats at once
-        numbers = scratch.numbers[step_kernel.NUM_RESULTS:].tolist()
-        res = numbers[:step_kernel.N_RESULTS]
-        pose = numbers[step_kernel.NUM_POSE - step_kernel.NUM_RESULTS:]
+        numbers = scratch.numbers.tolist()
+        stats = numbers[step_kernel.NUM_STATS:step_kernel.NUM_STATS + kernel.S_TOTAL + 6]
+        res = numbers[step_kernel.NUM_RESULTS:step_kernel.NUM_RESULTS + step_kernel.N_RESULTS]
+        z_low, half_x, half_y = numbers[step_kernel.NUM_POSE + 2:step_kernel.NUM_POSE + step_kernel.N_POSE]
         self.bound = res[step_kernel.R_BOUND]
-        window = None
-        i_lo, i_hi, j_lo, j_hi = map(int, res[step_kernel.R_I_LO:step_kernel.R_J_HI + 1])
+        vx, vy = float(vel[0]), float(vel[1])
+        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), (half_x, half_y), (vx, vy), dt)
+        self.work = {"columns": int(numbers[kernel.S_COLUMNS]), "elements": int(numbers[kernel.S_ELEMENTS])}
+        force = stats[kernel.S_TOTAL:kernel.S_TOTAL + 3]
+        torque = stats[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
+        self._prev = {"force": force, "torque": torque, "position": pos.tolist(),
+                      "omega": body.angular_velocity.tolist()}
+        h_low = numbers[kernel.S_SURFACE_LOW]
+        depth = (level if math.isnan(h_low) else h_low) - z_low
+        volume = numbers[kernel.S_VOLUME]
+        area = numbers[kernel.S_AREA]
+        displaced = res[step_kernel.R_DISPLACED]
+        # the surface the body met holds until it is well clear of it (quiet_above), see _advance
+        self.met.in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
+            self.met.in_contact and depth > -self.params.quiet_above)
+        if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
+            self._prev = None
+            quiet = self._idle(depth)
+            quiet["request"] = request
+            return quiet
+        fraction = 0.0
+        if volume > 0.0:
+            body_volume = (math.pi * radius * radius * float(body.thickness) if shape == Shape.DISK
+                           else 4.0 / 3.0 * math.pi * radius**3)
+            fraction = min(1.0, volume / body_volume) if body_volume > 0 else 0.0
+            if res[step_kernel.R_TOP_UNDER] > 0.0:  # wholly under water (see _advance); NaN: off the patch
+                fraction = 1.0
+        b = kernel.S_BUOYANCY
+        p, f, w = kernel.S_PRESSURE, kernel.S_FRICTION, kernel.S_WAVE
+        contact = WaterContact(
+            wetted=volume > 0.0 or area > 0.0, submerged_fraction=fraction, wetted_area=area,
+            buoyancy=np.array(stats[b:b + 3]), pressure=np.array(stats[p:p + 3]),
+            friction=np.array(stats[f:f + 3]), wave_drag=np.array(stats[w:w + 3]), depth=depth,
+            dissipated_energy=self.dissipated)
+        occupied = self._empty_occupied
+        i_lo = int(res[step_kernel.R_I_LO])
+        i_hi = int(res[step_kernel.R_I_HI])
         if i_lo <= i_hi:
-            window = (i_lo, j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy())
-        under = res[step_kernel.R_TOP_UNDER]
-        return (scratch.stats, _Ring(scratch.rest_stats, scratch.lifted, window),
-                None if math.isnan(under) else under, scratch.axes, tuple(pose[:3]), tuple(pose[3:]))
+            j_lo = int(res[step_kernel.R_J_LO])
+            j_hi = int(res[step_kernel.R_J_HI])
+            occupied = OccupiedHeight(i0 + i_lo, j0 + j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy(),
+                                      already_displaced=self._start_in_water and not held.any())
+        if self._start_in_water and (occupied.b.size == 0 or held.any()):
+            self._start_in_water = False  # dry at the water's first patch, or the water holds it now
+        return {"wrench": Wrench(np.array(force), np.array(torque)), "occupied": occupied, "request": request,
+                "contact": contact}
 
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
         p = self.params
@@ -535,8 +586,9 @@ class WaterCoupler(Component):
 
     def _elements_for(self, body: BodyState) -> Elements:
         p = self.params
-        key = (int(body.shape), float(body.radius), float(body.thickness))
-        if self._elements is None or self._elements_key != key:
+        key = (body.shape, body.radius, body.thickness)
+        if self._elements_key != key or self._elements is None:
+            key = (int(body.shape), float(body.radius), float(body.thickness))
             if body.shape == Shape.DISK:
                 self._elements = disk_elements(key[1], key[2], p.face_elements, p.rim_elements)
             else:
@@ -578,10 +630,10 @@ class WaterCoupler(Component):
     def _local_flags(self) -> int:
         """The effects evaluated against the local surface: all of them, except the buoyancy when the
         ring displacement is on (it is then evaluated against the rest level, see :meth:`_ring`)."""
-        return self.flags & ~BUOYANCY if self._ring_mode() else self.flags
+        return self._local
 
     def _ring_mode(self) -> bool:
-        return bool(self.flags & DISPLACEMENT) and self.params.displacement_mode == "ring"
+        return self._ring_on
 
     def _rest_pass(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
                    b_rest: np.ndarray, waterline: np.ndarray, stats: np.ndarray) -> np.ndarray:

@@ -187,17 +187,30 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        z_low, x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2,
                        world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                        b_geo, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m,
-                       rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats):
+                       rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats, box):
     """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
     pass: :func:`evaluate_into` of the body at rest (zero velocity) against the flat surface
     ``flat`` (nj, ni) at the rest level with ``rest_flags`` (column effects only) into b_rest,
     rest_waterline and rest_stats (zeros when it does not reach: b_rest and rest_waterline are then
     left as they are). The two passes share one loop over the columns (:func:`_column_passes`);
-    each one's results are those of a call of its own, bit for bit."""
+    each one's results are those of a call of its own, bit for bit.
+
+    ``box`` (4,) holds the columns (i_lo, i_hi, j_lo, j_hi) the previous call may have written in
+    b_geo, b_rest and rest_waterline, everywhere else zero: only those are cleared (the planes span
+    the whole patch, the body a few of its columns), and the box of this call is put in its place.
+    """
     do_rest = z_low < rest_level
-    empty, hmax = _prologue(stats, b_geo, np.zeros((0, 0, 0)), height, wvel, x_low, y_low, x0, y0, cell)
+    nj, ni = height.shape
+    _clear_box(b_geo, box)
     if do_rest:
-        _prologue(rest_stats, b_rest, rest_waterline, flat, still, x_low, y_low, x0, y0, cell)
+        _clear_box(b_rest, box)
+        for q in range(rest_waterline.shape[0]):
+            _clear_box(rest_waterline[q], box)
+    i_lo, i_hi, j_lo, j_hi = _column_box(centre[0], centre[1], half_x, half_y, x0, y0, cell, nj, ni)
+    box[0], box[1], box[2], box[3] = i_lo, i_hi, j_lo, j_hi
+    empty, hmax = _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell)
+    if do_rest:
+        _surface_stats_flat(rest_stats, flat, still, rest_level, x_low, y_low, x0, y0, cell)
     else:
         rest_stats[:] = 0.0
     if empty:
@@ -223,10 +236,17 @@ def _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell)
     """Clear a pass's stats, occupied height and waterline (when not empty), and put in the patch's
     highest surface and the surface at the body's lowest point; (the patch is empty, its highest
     surface)."""
-    stats[:] = 0.0
     b_geo[:, :] = 0.0
     if waterline.size > 0:
         waterline[:, :, :] = 0.0
+    return _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell)
+
+
+@njit(cache=True)
+def _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell):
+    """Clear ``stats`` and put in the patch's highest surface and the surface at the body's lowest
+    point; (the patch is empty, its highest surface)."""
+    stats[:] = 0.0
     nj, ni = height.shape
     stats[S_SURFACE_LOW] = np.nan
     if nj == 0 or ni == 0:
@@ -240,6 +260,46 @@ def _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell)
     if ok:
         stats[S_SURFACE_LOW] = h_low
     return False, hmax
+
+
+@njit(cache=True)
+def _surface_stats_flat(stats, flat, still, level, x_low, y_low, x0, y0, cell):
+    """:func:`_surface_stats` of ``flat``, every column of it at ``level`` [m]: its highest surface
+    is that level, found without a scan."""
+    stats[:] = 0.0
+    nj, ni = flat.shape
+    stats[S_SURFACE_LOW] = np.nan
+    if nj == 0 or ni == 0:
+        return
+    stats[S_HMAX] = level
+    ok, h_low, _ = sample_surface(x_low, y_low, x0, y0, cell, flat, still)
+    if ok:
+        stats[S_SURFACE_LOW] = h_low
+
+
+@njit(cache=True)
+def _clear_box(plane, box):
+    """Zero ``plane`` (nj, ni) over the columns i_lo..i_hi, j_lo..j_hi of ``box`` (4,), clipped to
+    the plane (empty when lo > hi)."""
+    nj, ni = plane.shape
+    i_lo, i_hi = max(0, int(box[0])), min(ni - 1, int(box[1]))
+    j_lo, j_hi = max(0, int(box[2])), min(nj - 1, int(box[3]))
+    for j in range(j_lo, j_hi + 1):
+        row = plane[j]
+        for i in range(i_lo, i_hi + 1):
+            row[i] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _column_box(cx, cy, half_x, half_y, x0, y0, cell, nj, ni):
+    """The columns (i_lo, i_hi, j_lo, j_hi) of an (nj, ni) patch whose centres lie within the body's
+    horizontal half-extents of its centre (cx, cy) [m], to the nearest column: those a column pass
+    visits (empty when lo > hi)."""
+    i_lo = max(0, math.floor((cx - half_x - x0) / cell + 0.5))
+    i_hi = min(ni - 1, math.floor((cx + half_x - x0) / cell + 0.5))
+    j_lo = max(0, math.floor((cy - half_y - y0) / cell + 0.5))
+    j_hi = min(nj - 1, math.floor((cy + half_y - y0) / cell + 0.5))
+    return i_lo, i_hi, j_lo, j_hi
 
 
 @njit(cache=True)
@@ -281,10 +341,7 @@ def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, hal
     ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
     live = flags != 0
     rest = rest_flags != 0
-    i_lo = max(0, math.floor((cx - half_x - x0) / cell + 0.5))
-    i_hi = min(ni - 1, math.floor((cx + half_x - x0) / cell + 0.5))
-    j_lo = max(0, math.floor((cy - half_y - y0) / cell + 0.5))
-    j_hi = min(nj - 1, math.floor((cy + half_y - y0) / cell + 0.5))
+    i_lo, i_hi, j_lo, j_hi = _column_box(cx, cy, half_x, half_y, x0, y0, cell, nj, ni)
     sub = cell / nsub
     a_sub = sub * sub
     by_column = waterline.size > 0
@@ -728,11 +785,13 @@ def _column_factors(dx, dy, outline, moments, multinomial, out):
 @njit(cache=True)
 def ring_map(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width):
     """:func:`ring_map_into` with factors of its own."""
-    return ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, np.empty(0))
+    nj, ni = b_geo.shape
+    return ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, np.empty(0),
+                         0, ni - 1, 0, nj - 1)
 
 
 @njit(cache=True)
-def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, work):
+def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, width, work, i_lo, i_hi, j_lo, j_hi):
     """Where each column's displaced volume goes: the linear map of :func:`ring_deposit` and
     :func:`ring_lift`, computed once a step for both.
 
@@ -747,14 +806,16 @@ def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, w
     column c's volume is sum_m column[c, m] band[k, m], and a column's shares sum to 1 (see
     RING_TERMS). No band column in the window: an empty band (each column then keeps its volume).
     The factors are written into ``work`` (1-D) when it is large enough ((columns + band) x
-    RING_TERMS values), else into arrays of their own.
+    RING_TERMS values), else into arrays of their own. Only the columns i_lo..i_hi, j_lo..j_hi of
+    b_geo are read: it is zero outside them.
     """
     nj, ni = b_geo.shape
     n, jj, ii, phi, cs, sn = _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width)
     outline = _outline(shape, radius, thickness, axes)
+    i_lo, i_hi, j_lo, j_hi = max(0, i_lo), min(ni - 1, i_hi), max(0, j_lo), min(nj - 1, j_hi)
     count = 0
-    for j in range(nj):
-        for i in range(ni):
+    for j in range(j_lo, j_hi + 1):
+        for i in range(i_lo, i_hi + 1):
             if b_geo[j, i] > 0.0:
                 count += 1
     cj = np.empty(count, np.int64)
@@ -770,8 +831,8 @@ def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, w
             moments[m] += band[k, m]
     multinomial = _multinomials()
     c = 0
-    for j in range(nj):
-        for i in range(ni):
+    for j in range(j_lo, j_hi + 1):
+        for i in range(i_lo, i_hi + 1):
             if b_geo[j, i] > 0.0:
                 cj[c], ci[c] = j, i
                 _column_factors(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, moments,
@@ -795,6 +856,12 @@ def ring_deposit(b_geo, band_j, band_i, col_j, col_i, columns, band, b_out):
     nonzero b_out, empty when i_lo > i_hi.
     """
     b_out[:, :] = 0.0
+    return deposit_onto_zero(b_geo, band_j, band_i, col_j, col_i, columns, band, b_out)
+
+
+@njit(cache=True)
+def deposit_onto_zero(b_geo, band_j, band_i, col_j, col_i, columns, band, b_out):
+    """:func:`ring_deposit` into a b_out that is already zero."""
     n = band_j.size
     if n == 0:
         for c in range(col_j.size):

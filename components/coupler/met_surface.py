@@ -33,27 +33,40 @@ from components.messages import BodyState
 @njit(cache=True)
 def _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v, share, out_h, out_v):
     """h, v (nj, ni) = the live patch at (i0, j0), with the frozen window m_h, m_v at (mi0, mj0)
-    over the columns they share; and, when share < 1, out = share * (h, v) + (1 - share) * live, in
-    the same pass over the patch."""
+    over the columns they share; and, when share < 1, out = share * (h, v) + (1 - share) * live.
+
+    Row by row, each row in up to three runs (live, frozen, live) with no test per column, so the
+    copies and the blend vectorise."""
     nj, ni = height.shape
     rest = 1.0 - share
     blend = share < 1.0
     ia, ib = max(i0, mi0) - i0, min(i0 + ni, mi0 + m_h.shape[1]) - i0  # the shared columns, patch indices
     ja, jb = max(j0, mj0) - j0, min(j0 + nj, mj0 + m_h.shape[0]) - j0
+    ia, ib = max(ia, 0), max(min(ib, ni), max(ia, 0))
     for j in range(nj):
-        inside_j = ja <= j < jb
-        for i in range(ni):
-            if inside_j and ia <= i < ib:
-                hh = m_h[j + j0 - mj0, i + i0 - mi0]
-                vv = m_v[j + j0 - mj0, i + i0 - mi0]
-            else:
-                hh = height[j, i]
-                vv = velocity[j, i]
-            h[j, i] = hh
-            v[j, i] = vv
-            if blend:
-                out_h[j, i] = share * hh + rest * height[j, i]
-                out_v[j, i] = share * vv + rest * velocity[j, i]
+        live_h, live_v, row_h, row_v = height[j], velocity[j], h[j], v[j]
+        if ja <= j < jb and ia < ib:
+            met_h = m_h[j + j0 - mj0]
+            met_v = m_v[j + j0 - mj0]
+            shift = i0 - mi0
+            for i in range(ia):
+                row_h[i] = live_h[i]
+                row_v[i] = live_v[i]
+            for i in range(ia, ib):
+                row_h[i] = met_h[i + shift]
+                row_v[i] = met_v[i + shift]
+            for i in range(ib, ni):
+                row_h[i] = live_h[i]
+                row_v[i] = live_v[i]
+        else:
+            for i in range(ni):
+                row_h[i] = live_h[i]
+                row_v[i] = live_v[i]
+        if blend:
+            blend_h, blend_v = out_h[j], out_v[j]
+            for i in range(ni):
+                blend_h[i] = share * row_h[i] + rest * live_h[i]
+                blend_v[i] = share * row_v[i] + rest * live_v[i]
 
 
 def planing_share(body: BodyState, g: float) -> float:

@@ -73,7 +73,11 @@ NUM_LIFTED = 2 * kernel.N_STATS  # the ring's lifted levels (3)
 NUM_RESULTS = NUM_LIFTED + 3  # results (N_RESULTS)
 NUM_AXES = NUM_RESULTS + N_RESULTS  # the body's axes (3 x 3, row-major)
 NUM_POSE = NUM_AXES + 9  # its lowest point (x, y, z) and half-extents (hx, hy) [m] (5)
-N_NUMBERS = NUM_POSE + 5
+N_POSE = 5
+# kept from step to step: the columns (i_lo, i_hi, j_lo, j_hi) outside which the planes are zero
+NUM_BOX = NUM_POSE + N_POSE  # b_geo, b_rest and waterline (kernel.evaluate_with_rest)
+NUM_OUT_BOX = NUM_BOX + 4  # b_out (the last deposit's window)
+N_NUMBERS = NUM_OUT_BOX + 4
 
 # the planes of a RingScratch's (N_PLANES, nj, ni) grid block
 PLANE_B_GEO = 0
@@ -109,6 +113,7 @@ class RingScratch:
         self.lifted = self.numbers[NUM_LIFTED:NUM_LIFTED + 3]
         self.results = self.numbers[NUM_RESULTS:NUM_RESULTS + N_RESULTS]
         self.axes = self.numbers[NUM_AXES:NUM_AXES + 9].reshape(3, 3)
+        self.numbers[NUM_BOX:NUM_BOX + 4] = self.numbers[NUM_OUT_BOX:NUM_OUT_BOX + 4] = (1, 0, 1, 0)  # empty
         self.work = np.empty(0)
 
     def work_for(self, n_elements: int) -> np.ndarray:
@@ -246,15 +251,21 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
                               prm[P_WET_RAMP], local_flags, nsub, b_geo, stats, planing, prm[P_C_D],
                               pl_f, pl_r, pl_s, pl_m,
                               rest_level, flat, still, DISPLACEMENT | (flags & BUOYANCY), b_rest, waterline,
-                              rest_stats)
+                              rest_stats, numbers[NUM_BOX:NUM_BOX + 4])
     # --- the ring: the body under the rest level, pushed out around it --------------------------
     lifted[:] = 0.0
     if z_low < rest_level:  # else nothing of the body below the rest level: no displacement
         if rest_stats[kernel.S_VOLUME] > 0.0:
+            box = numbers[NUM_BOX:NUM_BOX + 4]
             band_j, band_i, col_j, col_i, columns, band = kernel.ring_map_into(
-                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell, share_work)
+                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell, share_work,
+                int(box[0]), int(box[1]), int(box[2]), int(box[3]))
             results[R_SHARES] = columns.size + band.size
-            i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(b_rest, band_j, band_i, col_j, col_i, columns, band, b_out)
+            out_box = numbers[NUM_OUT_BOX:NUM_OUT_BOX + 4]
+            kernel._clear_box(b_out, out_box)  # b_out is zero outside the last deposit's window
+            i_lo, i_hi, j_lo, j_hi = kernel.deposit_onto_zero(b_rest, band_j, band_i, col_j, col_i, columns, band,
+                                                              b_out)
+            out_box[0], out_box[1], out_box[2], out_box[3] = i_lo, i_hi, j_lo, j_hi
             if i_lo <= i_hi:
                 results[R_I_LO] = i_lo
                 results[R_I_HI] = i_hi
