@@ -35,36 +35,38 @@ def _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v, share, out_h, ou
     """h, v (nj, ni) = the live patch at (i0, j0), with the frozen window m_h, m_v at (mi0, mj0)
     over the columns they share; and, when share < 1, out = share * (h, v) + (1 - share) * live.
 
-    Row by row, each row in up to three runs (live, frozen, live) with no test per column, so the
-    copies and the blend vectorise."""
+    Row by row, each row in up to three runs (live, frozen, live) with no test per column, and
+    unsigned indices (a signed one that may be negative is wrapped, a select per access that keeps
+    a loop from vectorising), so the copies and the blend vectorise."""
     nj, ni = height.shape
     rest = 1.0 - share
     blend = share < 1.0
     ia, ib = max(i0, mi0) - i0, min(i0 + ni, mi0 + m_h.shape[1]) - i0  # the shared columns, patch indices
     ja, jb = max(j0, mj0) - j0, min(j0 + nj, mj0 + m_h.shape[0]) - j0
-    ia, ib = max(ia, 0), max(min(ib, ni), max(ia, 0))
+    ia = max(ia, 0)
+    ib = max(min(ib, ni), ia)
+    zero, ua, ub, uni = np.uint64(0), np.uint64(ia), np.uint64(ib), np.uint64(ni)
     for j in range(nj):
         live_h, live_v, row_h, row_v = height[j], velocity[j], h[j], v[j]
         if ja <= j < jb and ia < ib:
-            met_h = m_h[j + j0 - mj0]
-            met_v = m_v[j + j0 - mj0]
-            shift = i0 - mi0
-            for i in range(ia):
+            met_h = m_h[j + j0 - mj0][ia + i0 - mi0:]  # the frozen row from patch column ia on
+            met_v = m_v[j + j0 - mj0][ia + i0 - mi0:]
+            for i in range(zero, ua):
                 row_h[i] = live_h[i]
                 row_v[i] = live_v[i]
-            for i in range(ia, ib):
-                row_h[i] = met_h[i + shift]
-                row_v[i] = met_v[i + shift]
-            for i in range(ib, ni):
+            for k in range(zero, ub - ua):
+                row_h[ua + k] = met_h[k]
+                row_v[ua + k] = met_v[k]
+            for i in range(ub, uni):
                 row_h[i] = live_h[i]
                 row_v[i] = live_v[i]
         else:
-            for i in range(ni):
+            for i in range(zero, uni):
                 row_h[i] = live_h[i]
                 row_v[i] = live_v[i]
         if blend:
             blend_h, blend_v = out_h[j], out_v[j]
-            for i in range(ni):
+            for i in range(zero, uni):
                 blend_h[i] = share * row_h[i] + rest * live_h[i]
                 blend_v[i] = share * row_v[i] + rest * live_v[i]
 
