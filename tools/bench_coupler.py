@@ -82,33 +82,34 @@ HOW = """How the coupler's step runs. Everything it computes over the columns an
 body under the rest level, the ring's map, deposit and lift, the hydrostatics, the stability bound)
 is one compiled call, `components.coupler.step_kernel.ring_step`, into three work blocks the
 component keeps (grid planes, numbers, work); the frozen surface the planing law reads is overlaid
-and blended in one compiled pass (`met_surface._freeze`); Python reads the messages and builds the
-four it publishes. The water takes a body's occupied height, and reads its patch, in one compiled
-pass each (`components/water/windows.py`). Since the section was last written (4.13, 2.06 and 54%,
-before the water was stepped by tiles):
+and blended in one compiled pass (`met_surface._freeze`); the usual step
+(`WaterCoupler._ring_advance`) reads the call's numbers back once, as Python floats, and builds the
+four messages from them. The water takes a body's occupied height, and reads its patch, in one
+compiled pass each (`components/water/windows.py`).
 
-- The ring's shares matrix (occupied columns x band columns, about 11,000 weights a step for the
-  ball) is never formed. A column's share of a band column is a polynomial of degree 4 in the band
-  column's direction, so the matrix is the product of a (columns x 15) and a (band x 15) factor, and
-  the deposit and the lift go through 15 moments: work in columns + band, not columns x band (ring
-  map, deposit and lift about 37 -> 15 us). The results move by round-off (deposit and lift within
-  1e-14 of the matrix's on 300 random poses, the scenes' bodies within 1e-13; every pinned test
-  passes unchanged).
+- The ring's shares matrix (occupied columns x band columns) is never formed: a column's share of
+  a band column is a polynomial of degree 4 in the band column's direction, so the deposit and the
+  lift go through 15 moments, work in columns + band, not columns x band.
 - The forces' pass over the columns and the ring's pass under the rest level share one loop, each
-  sub-column's chord through the body found once for both; the pose is computed inside the call,
-  which passes three blocks instead of twenty arrays. Bit for bit.
+  sub-column's chord through the body found once for both.
+- The work planes span the whole patch (about 23 x 71 columns for the skip, its window reaching
+  60 ms ahead), the body a few of its columns: each step clears only the columns the last one
+  wrote, the ring's map scans only the body's columns, and the rest pass's flat plane is not
+  scanned for its highest point. The met surface's freeze copies each row in runs with unsigned
+  indices, so it vectorises (7.9 to 2.6 us a call, most of that the call itself). Bit for bit.
 - The benchmark's pond steps every column (`tile: 0`, as `tools/bench_water.py`): tiled, the bare
   pond at rest is not stepped at all and the ratio would say nothing.
 
-Where the time still goes (py-spy, floating ball on 256 x 256): the water's own step about a quarter
-of the tick; the compiled coupler step about a sixth, half of it the ball's surface elements (1200,
-about 670 wet, each sampling the surface bilinearly: the pressure and friction the model asks for);
-the coupler's Python around it about an eighth; the water's patch and the framework's checks of
-every message (`Message.first_nonfinite` sums each array of each patch) about a fifth; the ball's
-own step and the scheduler's exchange about a sixth. At 256 x 256 the target leaves half a bare
-tick (about 50 us) for everything but the water's step, and the ball's step and the scheduler's
-exchange alone take about that, outside the coupler's and the water's code; at 512 x 512 the 0.2
-left (about 90 us) is less than the coupler's compiled step and the ball's step together."""
+Where the time goes now. The coupler's step on the reference skip takes about 90 us (97 us before
+the changes of this round, the same runs), of which the compiled call is about 40 us; the rest is
+Python: reading the four inputs, the met surface's read, the request, building four messages, and
+the framework's checks of each (`Message.first_nonfinite`). The water, meanwhile, got 5x cheaper on
+the skip (its tiled row kernel now vectorises, see "Water paths"), so the bare water step the
+targets divide by shrank: the coupler's share of the skip's loop rose from about 40% to 57% and
+the coupled / bare ratios grew, while every run got faster (the skip's loop 1.06 s to 0.70 s in
+the same runs). At 256 x 256 a bare tick is now about 45 us, less than the ball's compiled coupler
+call alone (about 75 us: 1200 surface elements, about 670 of them wet, each sampling the surface),
+so the 1.5 target would need that arithmetic itself to shrink, besides the Python around it."""
 
 
 def pond_scene(n: int, coupled: bool) -> str:

@@ -54,17 +54,21 @@ on a flat bed (the bound if every column moved), 16 otherwise.
 Why the lake still costs more than the pond. The pond's absorbing edges are 0.5 m either side of
 the throw; the lake keeps every wave the stone leaves, and they spread at c = sqrt(g d) = 2.2 m/s in
 every direction, so by the end of the throw the moving water covers a fifth of the lake on average,
-several times the pond's moving columns (above). Per column the two cost the same: profiled, the
-tiled step takes 3.5 ns per stepped column and step on the pond and 3.8 ns on the lake (the pond's
-four arrays, 2.6 MB, are beyond a core's 2 MB cache too), so the ratio is that of the moving water,
-plus the lake's longer absorbing edges (a quarter of a second over the throw). The exact test for
+several times the pond's moving columns (above). A moving column also costs the lake more: timed
+in the run, the tiled step takes 0.8 ns per stepped column and step on the pond, whose four arrays
+(2.6 MB) stay in the caches, and 2.6 ns on the lake, whose moving water (15 to 40 MB of its 77 MB
+of arrays) streams from memory; the lake's longer absorbing edges add 0.07 to 0.23 s over the
+throw. This round the row kernel came to vectorise in the tiled spans (see "Water paths"): on this
+machine, run in turn with the code before it, the tiled step went from 4.2-5.4 to 0.8 ns a column
+on the pond and from 8.9 to 2.6 ns on the lake, and lake / pond from 5.4-6.2 (loops of 6.2 s and
+1.0-1.2 s) to the figure above. The exact test for
 rest keeps a little more awake: the explicit scheme carries a vanishing precursor ahead of each
 wavefront (down to 1e-300 m). A threshold would not change the picture, because behind the precursor
 the wavefront is sharp: at t = 2 s on the 40 m x 6 m lake, of its 2250 whole 32 x 32 tiles 840 held
 a non-zero column, and 632, 630, 626, 619 and 506 held a column moving by more than 1 nm, 0.1 um, 1
 um, 10 um and 0.1 mm (|h|, or |v| x 50 ms). Within 1.5x the pond's loop the lake could step about
-160,000 columns per water step on average (the run outside the water costs about what the pond's
-does), against about 500,000 moving now; even a 0.1 mm threshold, far above what the stone can feel,
+100,000 columns per water step on average at its 2.6 ns (the run outside the water costs about what
+the pond's does), against about 500,000 moving now; even a 0.1 mm threshold, far above what the stone can feel,
 keeps 80% of them. The 1.5 target is not met: the water the throw sets moving covers that much of
 the lake, and stepping it costs what it costs.
 Part of that spread is the wave model's, not the lake's: its columns carry waves of every length at
