@@ -349,7 +349,6 @@ class WaterCoupler(Component):
         bv = self._body_vector(body)
         if n == 1 and patch is not None and patch.height.size != 0 and self._ring_on and not self.params.smoothing:
             return self._ring_advance(body, bv, patch, dt)  # the usual step
-        is_disk = body.shape == Shape.DISK
         vx, vy = float(vel[0]), float(vel[1])
         assumed = False
         axes = np.empty((3, 3))
@@ -407,27 +406,11 @@ class WaterCoupler(Component):
         volume = float(stats[kernel.S_VOLUME])
         area = float(stats[kernel.S_AREA])
         displaced = 0.0 if ring is None else float(ring.rest[kernel.S_VOLUME])
-        # the surface the body met holds until it is well clear of it (quiet_above), so that its
-        # take-off is judged against the water it planed on, not against the waves it left
-        self.met.in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
-            self.met.in_contact and depth > -self.params.quiet_above)
-        if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
-            # dry and clear of the surface: the same outputs as far away (published once, then held),
-            # but the window stays requested, since the body is still near the water
-            self._prev = None
-            quiet = self._idle(depth)
-            quiet["request"] = request
+        quiet = self._quiet_when_clear(volume, area, displaced, depth, request)
+        if quiet is not None:
             return quiet
-        body_volume = (math.pi * radius * radius * float(body.thickness) if is_disk
-                       else 4.0 / 3.0 * math.pi * radius**3)
-        fraction = min(1.0, volume / body_volume) if body_volume > 0 else 0.0
-        if volume > 0.0:
-            # The column sum samples the body, so a body wholly under water sums to a little less
-            # than its volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point
-            # opposite its lowest one) is under the surface there is wholly submerged.
-            under = self._top_under(pos, low, water)
-            if under is not None and under > 0.0:
-                fraction = 1.0
+        under = self._top_under(pos, low, water) if volume > 0.0 else None
+        fraction = self._submerged_fraction(body, volume, math.nan if under is None else under)
         contact = WaterContact(
             wetted=bool(volume > 0.0 or area > 0.0),
             submerged_fraction=fraction,
@@ -448,6 +431,40 @@ class WaterCoupler(Component):
                 "contact": contact}
 
     # --- pieces -----------------------------------------------------------------------------------
+
+    def _quiet_when_clear(self, volume: float, area: float, displaced: float, depth: float,
+                          request: PatchRequest) -> dict[str, Message] | None:
+        """Whether the body is still in contact with the surface it met, from this step's submerged
+        ``volume`` [m^3], wetted ``area`` [m^2], volume ``displaced`` under the rest level [m^3] and
+        the ``depth`` [m] of its lowest point; when it is dry and clear of the surface, the outputs
+        of a body far away (published once, then held) with ``request`` still asked for, since the
+        body is near the water; else None."""
+        # the surface the body met holds until it is well clear of it (quiet_above), so that its
+        # take-off is judged against the water it planed on, not against the waves it left
+        self.met.in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
+            self.met.in_contact and depth > -self.params.quiet_above)
+        if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
+            self._prev = None
+            quiet = self._idle(depth)
+            quiet["request"] = request
+            return quiet
+        return None
+
+    @staticmethod
+    def _submerged_fraction(body: BodyState, volume: float, top_under: float) -> float:
+        """The share of the body's volume under water [-] from its submerged ``volume`` [m^3] and
+        how far its top is under the surface, ``top_under`` [m] (NaN off the patch).
+
+        The column sum samples the body, so a body wholly under water sums to a little less than its
+        volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point opposite its lowest
+        one) is under the surface there is wholly submerged."""
+        radius = float(body.radius)
+        body_volume = (math.pi * radius * radius * float(body.thickness) if body.shape == Shape.DISK
+                       else 4.0 / 3.0 * math.pi * radius**3)
+        fraction = min(1.0, volume / body_volume) if body_volume > 0 else 0.0
+        if volume > 0.0 and top_under > 0.0:
+            fraction = 1.0
+        return fraction
 
     def _already_displaced(self, held: np.ndarray) -> bool:
         """Whether this step's displacement was there before the run began: the body has been in
@@ -511,22 +528,10 @@ class WaterCoupler(Component):
         depth = (level if math.isnan(h_low) else h_low) - z_low
         volume = numbers[kernel.S_VOLUME]
         area = numbers[kernel.S_AREA]
-        displaced = res[step_kernel.R_DISPLACED]
-        # the surface the body met holds until it is well clear of it (quiet_above), see _advance
-        self.met.in_contact = volume > 0.0 or area > 0.0 or displaced > 0.0 or (
-            self.met.in_contact and depth > -self.params.quiet_above)
-        if volume == 0.0 and area == 0.0 and displaced == 0.0 and depth < -self.params.quiet_above:
-            self._prev = None
-            quiet = self._idle(depth)
-            quiet["request"] = request
+        quiet = self._quiet_when_clear(volume, area, res[step_kernel.R_DISPLACED], depth, request)
+        if quiet is not None:
             return quiet
-        fraction = 0.0
-        if volume > 0.0:
-            body_volume = (math.pi * radius * radius * float(body.thickness) if shape == Shape.DISK
-                           else 4.0 / 3.0 * math.pi * radius**3)
-            fraction = min(1.0, volume / body_volume) if body_volume > 0 else 0.0
-            if res[step_kernel.R_TOP_UNDER] > 0.0:  # wholly under water (see _advance); NaN: off the patch
-                fraction = 1.0
+        fraction = self._submerged_fraction(body, volume, res[step_kernel.R_TOP_UNDER])
         b = kernel.S_BUOYANCY
         p, f, w = kernel.S_PRESSURE, kernel.S_FRICTION, kernel.S_WAVE
         contact = WaterContact(
