@@ -141,6 +141,21 @@ def test_one_call_steps_in_a_row_leave_nothing_behind():
         _check_fused_against_separate(fused, b, patch)
 
 
+def test_a_step_above_the_rest_level_leaves_nothing_behind():
+    """A step with the body wholly above the rest level (no pass under it) between two steps with
+    it under the rest level, its columns elsewhere in the same window: each step equals a fresh
+    evaluation, bit for bit (what the first step left under the rest level must not reach the
+    third)."""
+    fused = WaterCoupler("fused")
+    patch = still_water(half_width=0.12)
+    sunk = BODIES["sunk disk"]
+    above = BODIES["disk above the rest level"]
+    above = above.replace(position=np.asarray(above.position) + (0.06, 0.05, 0.0))
+    for b in (sunk, above, BODIES["planing disk"]):  # the last one under the rest level by 8 mm only
+        fused.met = MetSurface()
+        _check_fused_against_separate(fused, b, patch)
+
+
 def _read_with_numpy(met, i0, j0, height, velocity, share):
     """The met surface's read as numpy slices (its first form): the reference for the compiled one."""
     if not met["in_contact"] or met["met"] is None:

@@ -191,21 +191,23 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
     """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
     pass: :func:`evaluate_into` of the body at rest (zero velocity) against the flat surface
     ``flat`` (nj, ni) at the rest level with ``rest_flags`` (column effects only) into b_rest,
-    rest_waterline and rest_stats (zeros when it does not reach: b_rest and rest_waterline are then
-    left as they are). The two passes share one loop over the columns (:func:`_column_passes`);
-    each one's results are those of a call of its own, bit for bit.
+    rest_waterline and rest_stats (all zero when it does not reach). The two passes share one loop
+    over the columns (:func:`_column_passes`); each one's results are those of a call of its own,
+    bit for bit.
 
     ``box`` (4,) holds the columns (i_lo, i_hi, j_lo, j_hi) the previous call may have written in
-    b_geo, b_rest and rest_waterline, everywhere else zero: only those are cleared (the planes span
-    the whole patch, the body a few of its columns), and the box of this call is put in its place.
+    b_geo, b_rest and rest_waterline, everywhere else zero: only those are cleared, in all three
+    planes at every call (the planes span the whole patch, the body a few of its columns), and the
+    box of this call is put in its place.
     """
     do_rest = z_low < rest_level
     nj, ni = height.shape
+    # all three every call, the rest planes too when this call has no rest pass: the box moves on,
+    # and what it leaves behind must be zero
     _clear_box(b_geo, box)
-    if do_rest:
-        _clear_box(b_rest, box)
-        for q in range(rest_waterline.shape[0]):
-            _clear_box(rest_waterline[q], box)
+    _clear_box(b_rest, box)
+    for q in range(rest_waterline.shape[0]):
+        _clear_box(rest_waterline[q], box)
     i_lo, i_hi, j_lo, j_hi = _column_box(centre[0], centre[1], half_x, half_y, x0, y0, cell, nj, ni)
     box[0], box[1], box[2], box[3] = i_lo, i_hi, j_lo, j_hi
     empty, hmax = _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell)
