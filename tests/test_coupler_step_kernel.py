@@ -150,7 +150,7 @@ def test_a_step_above_the_rest_level_leaves_nothing_behind():
     patch = still_water(half_width=0.12)
     sunk = BODIES["sunk disk"]
     above = BODIES["disk above the rest level"]
-    above = above.replace(position=np.asarray(above.position) + (0.06, 0.05, 0.0))
+    above = above.replace(position=np.asarray(above.position) + np.array([0.06, 0.05, 0.0]))
     for b in (sunk, above, BODIES["planing disk"]):  # the last one under the rest level by 8 mm only
         fused.met = MetSurface()
         _check_fused_against_separate(fused, b, patch)
