@@ -495,8 +495,6 @@ class WaterCoupler(Component):
         bottom = np.ascontiguousarray(patch.bottom, dtype=np.float64)
         held = np.ascontiguousarray(patch.occupied, dtype=np.float64)
         has_held = held.shape == height.shape
-        if self._b_geo.shape != height.shape:
-            self._b_geo = np.zeros(height.shape)
         elements = self._elements_for(body)
         share = self._planing_share = planing_share(body, self.params.g)
         met_h, met_v = self.met.read(i0, j0, height, wvel, share)

@@ -204,15 +204,15 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
     nj, ni = height.shape
     # all three every call, the rest planes too when this call has no rest pass: the box moves on,
     # and what it leaves behind must be zero
-    _clear_box(b_geo, box)
-    _clear_box(b_rest, box)
+    clear_box(b_geo, box)
+    clear_box(b_rest, box)
     for q in range(rest_waterline.shape[0]):
-        _clear_box(rest_waterline[q], box)
+        clear_box(rest_waterline[q], box)
     i_lo, i_hi, j_lo, j_hi = _column_box(centre[0], centre[1], half_x, half_y, x0, y0, cell, nj, ni)
     box[0], box[1], box[2], box[3] = i_lo, i_hi, j_lo, j_hi
     empty, hmax = _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell)
     if do_rest:
-        _surface_stats_flat(rest_stats, flat, still, rest_level, x_low, y_low, x0, y0, cell)
+        _surface_stats(rest_stats, flat, still, x_low, y_low, x0, y0, cell, rest_level)
     else:
         rest_stats[:] = 0.0
     if empty:
@@ -245,18 +245,22 @@ def _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell)
 
 
 @njit(cache=True)
-def _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell):
+def _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell, level=np.nan):
     """Clear ``stats`` and put in the patch's highest surface and the surface at the body's lowest
-    point; (the patch is empty, its highest surface)."""
+    point; (the patch is empty, its highest surface). A ``level`` [m] given says every column of
+    ``height`` is at it (the rest pass's flat surface): its highest surface is then found without a
+    scan."""
     stats[:] = 0.0
     nj, ni = height.shape
     stats[S_SURFACE_LOW] = np.nan
     if nj == 0 or ni == 0:
         return True, -np.inf
-    hmax = -np.inf
-    for j in range(nj):
-        for i in range(ni):
-            hmax = max(hmax, height[j, i])
+    hmax = level
+    if math.isnan(level):
+        hmax = -np.inf
+        for j in range(nj):
+            for i in range(ni):
+                hmax = max(hmax, height[j, i])
     stats[S_HMAX] = hmax
     ok, h_low, _ = sample_surface(x_low, y_low, x0, y0, cell, height, wvel)
     if ok:
@@ -265,22 +269,7 @@ def _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell):
 
 
 @njit(cache=True)
-def _surface_stats_flat(stats, flat, still, level, x_low, y_low, x0, y0, cell):
-    """:func:`_surface_stats` of ``flat``, every column of it at ``level`` [m]: its highest surface
-    is that level, found without a scan."""
-    stats[:] = 0.0
-    nj, ni = flat.shape
-    stats[S_SURFACE_LOW] = np.nan
-    if nj == 0 or ni == 0:
-        return
-    stats[S_HMAX] = level
-    ok, h_low, _ = sample_surface(x_low, y_low, x0, y0, cell, flat, still)
-    if ok:
-        stats[S_SURFACE_LOW] = h_low
-
-
-@njit(cache=True)
-def _clear_box(plane, box):
+def clear_box(plane, box):
     """Zero ``plane`` (nj, ni) over the columns i_lo..i_hi, j_lo..j_hi of ``box`` (4,), clipped to
     the plane (empty when lo > hi)."""
     nj, ni = plane.shape

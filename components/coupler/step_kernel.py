@@ -262,7 +262,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
                 int(box[0]), int(box[1]), int(box[2]), int(box[3]))
             results[R_SHARES] = columns.size + band.size
             out_box = numbers[NUM_OUT_BOX:NUM_OUT_BOX + 4]
-            kernel._clear_box(b_out, out_box)  # b_out is zero outside the last deposit's window
+            kernel.clear_box(b_out, out_box)  # b_out is zero outside the last deposit's window
             i_lo, i_hi, j_lo, j_hi = kernel.deposit_onto_zero(b_rest, band_j, band_i, col_j, col_i, columns, band,
                                                               b_out)
             out_box[0], out_box[1], out_box[2], out_box[3] = i_lo, i_hi, j_lo, j_hi
