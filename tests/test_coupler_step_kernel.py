@@ -86,10 +86,15 @@ def _fused_step(coupler: WaterCoupler, b, patch: HeightPatch, dt: float = 5e-4):
 def _check_fused_against_separate(fused: WaterCoupler, b, patch: HeightPatch) -> None:
     """The messages of one fused step carry what the separate kernels compute, bit for bit: the
     wrench (the stats' total), each effect's force, the submerged fraction's top test, the ring's
-    window, the bound and the body's axes."""
+    window, the bound, and the body's axes, lowest point, half-extents and top depth."""
     stats_ref, ring_ref, under_ref, bound_ref = _separate(WaterCoupler("reference"), b, patch)
     out = _fused_step(fused, b, patch)
-    np.testing.assert_array_equal(fused._scratch.axes, _inputs(WaterCoupler("axes"), b, patch).axes)
+    x = _inputs(WaterCoupler("pose"), b, patch)
+    np.testing.assert_array_equal(fused._scratch.axes, x.axes)
+    pose = fused._scratch.numbers[step_kernel.NUM_POSE:step_kernel.NUM_POSE + step_kernel.N_POSE].tolist()
+    assert (tuple(pose[:3]), tuple(pose[3:])) == (x.low, x.half)
+    under = float(fused._scratch.results[step_kernel.R_TOP_UNDER])
+    assert (math.isnan(under) and under_ref is None) or under == under_ref
     np.testing.assert_array_equal(fused._scratch.stats, stats_ref)
     np.testing.assert_array_equal(fused._scratch.rest_stats, ring_ref.rest)
     np.testing.assert_array_equal(fused._scratch.lifted, ring_ref.lifted)
