@@ -87,21 +87,16 @@ class Message:
     def first_nonfinite(self) -> str | None:
         """Name of the first float field (or array) holding NaN or infinity, or None.
 
-        Fast path: one sum over every float value is finite exactly when each value is (barring an
-        overflow of huge finite values, which the slow path then rules out field by field).
+        Fast path (:func:`_finite_check`, generated once per type): one sum over every float value
+        is finite exactly when each value is (barring an overflow of huge finite values, which the
+        slow path then rules out field by field).
         """
-        floats, arrays = _finiteness_plan(type(self))
-        total = 0.0
-        for name in floats:
-            total += getattr(self, name)
-        for name in arrays:
-            value = getattr(self, name)
-            if value.ndim == 1 and value.size <= 16:
-                total += sum(value.tolist())  # a few Python floats: far cheaper than a numpy reduction
-            elif value.size:
-                total += float(value.sum())
-        if math.isfinite(total):
+        check = _CHECKS.get(type(self))
+        if check is None:
+            check = _CHECKS[type(self)] = _finite_check(type(self))
+        if check(self):
             return None
+        floats, arrays = _finiteness_plan(type(self))
         for name in floats:
             if not math.isfinite(getattr(self, name)):
                 return name
@@ -112,19 +107,41 @@ class Message:
         return None
 
 
-_PLANS: dict[type, tuple[tuple[str, ...], tuple[str, ...]]] = {}
+_CHECKS: dict[type, typing.Callable[[Message], bool]] = {}
+_SMALL_ARRAY = 16  # a fixed 1-D array of at most this many floats is summed as Python floats
 
 
 def _finiteness_plan(message_type: type[Message]) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(float field names, float array field names) of a message type, computed once."""
-    plan = _PLANS.get(message_type)
-    if plan is None:
-        specs = message_type.__cosim_fields__
-        plan = _PLANS[message_type] = (
-            tuple(s.name for s in specs if s.kind is FieldKind.FLOAT),
+    """(float field names, float array field names) of a message type."""
+    specs = message_type.__cosim_fields__
+    return (tuple(s.name for s in specs if s.kind is FieldKind.FLOAT),
             tuple(s.name for s in specs if s.kind is FieldKind.ARRAY and s.array is not None
                   and np.dtype(s.array.dtype).kind == "f"))
-    return plan
+
+
+def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], bool]:
+    """A function generated for ``message_type``: whether the sum of all its float values (fields
+    and float arrays) is finite, in one expression. It runs for every output of every step, where a
+    loop over the fields with ``getattr`` cost several microseconds a message. A small fixed 1-D
+    array (at most 16 values) is summed as Python floats, far cheaper than a numpy reduction, any
+    other by ``np.add.reduce`` (without ``ndarray.sum``'s Python wrapper). A value of another form (a nested list, a scalar where an array was declared)
+    makes it answer False, and the caller looks field by field."""
+    floats, arrays = _finiteness_plan(message_type)
+    specs = {s.name: s for s in message_type.__cosim_fields__}
+    terms = [f"m.{name}" for name in floats]
+    for name in arrays:
+        array = specs[name].array
+        assert array is not None
+        small = array.fixed_size is not None and len(array.shape) == 1 and array.fixed_size <= _SMALL_ARRAY
+        terms.append(f"sum(m.{name}.tolist())" if small else f"_reduce(m.{name}, None)")
+    body = " + ".join(["0.0", *terms])
+    env: dict[str, Any] = {"_isfinite": math.isfinite, "_reduce": np.add.reduce}
+    exec("def check(m):\n"
+         "    try:\n"
+         f"        return _isfinite({body})\n"
+         "    except (AttributeError, TypeError, ValueError):\n"
+         "        return False\n", env)
+    return env["check"]
 
 
 def _field_spec(name: str, annotation: Any, owner: str) -> FieldSpec:

@@ -1,0 +1,69 @@
+"""The finiteness guard every output passes (``Message.first_nonfinite``): it names the first field
+holding NaN or infinity, in a float, a small array or a large one, whatever form the value came in."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from components.messages import BodyState, HeightPatch, Shape, Wrench
+
+
+def _state(**changes) -> BodyState:
+    base = dict(position=np.zeros(3), orientation=np.array([1.0, 0.0, 0.0, 0.0]), velocity=np.ones(3),
+                angular_velocity=np.zeros(3), shape=Shape.DISK, radius=0.05, thickness=0.01, mass=0.1,
+                inertia=np.full(3, 1e-4), attack_angle_deg=20.0, speed=1.7, kinetic_energy=0.15,
+                potential_energy=0.0)
+    return BodyState(**{**base, **changes})
+
+
+def _patch(**changes) -> HeightPatch:
+    grid = np.zeros((23, 71))
+    base = dict(i0=0, j0=0, cell=0.01, origin_x=0.0, origin_y=0.0, rest_level=0.0, height=grid,
+                velocity=grid, bottom=grid - 0.3)
+    return HeightPatch(**{**base, **changes})
+
+
+def test_finite_messages_pass():
+    assert _state().first_nonfinite() is None
+    assert _patch().first_nonfinite() is None
+    assert Wrench(np.zeros(3), np.zeros(3)).first_nonfinite() is None
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_float_field_is_named(bad):
+    assert _state(speed=bad).first_nonfinite() == "speed"
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf])
+def test_a_small_array_is_named(bad):
+    velocity = np.ones(3)
+    velocity[2] = bad
+    assert _state(velocity=velocity).first_nonfinite() == "velocity"
+
+
+def test_a_large_array_is_named():
+    height = np.zeros((23, 71))
+    height[11, 40] = math.nan
+    assert _patch(height=height).first_nonfinite() == "height"
+
+
+def test_the_first_bad_field_in_declaration_order_is_named():
+    torque = np.array([0.0, math.inf, 0.0])
+    force = np.array([math.nan, 0.0, 0.0])
+    assert Wrench(force, torque).first_nonfinite() == "force"
+
+
+def test_huge_finite_values_whose_sum_overflows_are_finite():
+    """The fast path sums every value; an overflow of that sum is not a non-finite field."""
+    assert _state(position=np.array([1e308, 1e308, 1e308]), speed=1e308).first_nonfinite() is None
+
+
+def test_a_value_of_another_shape_is_still_checked():
+    """A (2, 3) array where a 3-vector was declared still has its NaN found."""
+    odd = np.ones((2, 3))
+    odd[1, 1] = math.nan
+    assert _state(velocity=odd).first_nonfinite() == "velocity"
+    assert _state(velocity=np.ones((2, 3))).first_nonfinite() is None
