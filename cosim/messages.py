@@ -121,10 +121,10 @@ def _finiteness_plan(message_type: type[Message]) -> tuple[tuple[str, ...], tupl
 
 def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], bool]:
     """A function generated for ``message_type``: whether the sum of all its float values (fields
-    and float arrays) is finite, in one expression. It runs for every output of every step, where a
-    loop over the fields with ``getattr`` cost several microseconds a message. A small fixed 1-D
-    array (at most 16 values) is summed as Python floats, far cheaper than a numpy reduction, any
-    other by ``np.add.reduce`` (without ``ndarray.sum``'s Python wrapper). A value of another form (a nested list, a scalar where an array was declared)
+    and float arrays) is finite, in one expression, with no loop over the fields (it runs for every
+    output of every step). A small fixed 1-D array (at most 16 values) is summed as Python floats,
+    far cheaper than a numpy reduction, any other by ``np.add.reduce`` (without ``ndarray.sum``'s
+    Python wrapper). A value of another form (a nested list, a scalar where an array was declared)
     makes it answer False, and the caller looks field by field."""
     floats, arrays = _finiteness_plan(message_type)
     specs = {s.name: s for s in message_type.__cosim_fields__}

@@ -48,8 +48,11 @@ class Boundary:
         # tiles again (components.water.tiles)
         self.rewritten_band = 0
 
-    def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float) -> None:
-        """Modify the new state (h, v) in place; ``h_old`` is the state before the step."""
+    def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float,
+                   moving: tuple[np.ndarray, int] | None = None) -> None:
+        """Modify the new state (h, v) in place; ``h_old`` is the state before the step. ``moving``,
+        from a step by tiles (components.water.tiles): the tiles it stepped, (nty, ntx) bool, and
+        their side [cells]; every other tile is at rest (zeros) before and after the step."""
 
 
 class Reflecting(Boundary):
@@ -102,7 +105,14 @@ class Absorbing(Boundary):
             self._coef_dt = dt
         return self._coefs
 
-    def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float) -> None:
+    def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float,
+                   moving: tuple[np.ndarray, int] | None = None) -> None:
+        if moving is not None:
+            # water at rest stays at rest under both: only the stepped tiles' edges are visited
+            self.kernels.one_way_moving(h_old, h, v, *self.coefficients(dt), *self._open, dt, *moving)
+            if self.width:
+                self.kernels.sponge_moving(h, v, self.sx, self.sy, self.width, dt, *moving)
+            return
         self.kernels.one_way(h_old, h, v, *self.coefficients(dt), *self._open, dt)
         if self.width:
             self.kernels.sponge(h, v, self.sx, self.sy, self.width, dt)

@@ -462,6 +462,80 @@ def _one_way(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt):  # pragma: no co
             v[ny - 1, i] = (h[ny - 1, i] - h_old[ny - 1, i]) / dt
 
 
+@njit(cache=True)
+def _sponge_moving(h, v, sx, sy, width, dt, near, tile):  # pragma: no cover - compiled
+    # _sponge over the cells of the tiles marked in ``near`` (nty, ntx) only: every other tile is
+    # at rest (zeros) before and after the step, which the layer's factor leaves as they are. Each
+    # cell's arithmetic is _sponge's; rows and columns go by tiles (no division per cell).
+    ny, nx = h.shape
+    nty, ntx = near.shape
+    for tj in range(nty):
+        for j in range(tj * tile, min(tj * tile + tile, ny)):
+            whole = j < width or j >= ny - width
+            for ti in range(ntx):
+                if not near[tj, ti]:
+                    continue
+                i0 = ti * tile
+                i1 = min(i0 + tile, nx)
+                if not whole:  # the layer's columns only: [0, width) and [max(nx - width, width), nx)
+                    a1 = min(i1, width)
+                    for i in range(i0, a1):
+                        _sponge_cell(h, v, sx, sy, j, i, dt)
+                    i0 = max(i0, nx - width, width)
+                for i in range(i0, i1):
+                    _sponge_cell(h, v, sx, sy, j, i, dt)
+
+
+@njit(cache=True)
+def _one_way_moving(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt, near, tile):  # pragma: no cover - compiled
+    # _one_way on the edge cells of the tiles marked in ``near`` (nty, ntx) only, in _one_way's
+    # order. An edge cell and the inner neighbour it reads lie in the same tile or in two
+    # neighbouring ones; ``near`` marks every tile stepped and every neighbour of one, so where it
+    # is not marked both cells are at rest before and after the step (zeros) and the condition
+    # gives zero again. On a lake most of the edge, whose rows lie on distinct memory pages, is
+    # then not visited. Rows and columns go by tiles (no division per cell).
+    ny, nx = h.shape
+    nty, ntx = near.shape
+    last_i, last_j = ntx - 1, nty - 1
+    for tj in range(nty):
+        west, east = near[tj, 0], near[tj, last_i]
+        if not (west or east):
+            continue
+        for j in range(tj * tile, min(tj * tile + tile, ny)):
+            if west and ol[j]:
+                h[j, 0] = h_old[j, 1] + kl[j] * (h[j, 1] - h_old[j, 0])
+            if east and orr[j]:
+                h[j, nx - 1] = h_old[j, nx - 2] + kr[j] * (h[j, nx - 2] - h_old[j, nx - 1])
+    for ti in range(ntx):
+        if near[0, ti]:
+            for i in range(ti * tile, min(ti * tile + tile, nx)):
+                if ob[i]:
+                    h[0, i] = h_old[1, i] + kb[i] * (h[1, i] - h_old[0, i])
+    for ti in range(ntx):
+        if near[last_j, ti]:
+            for i in range(ti * tile, min(ti * tile + tile, nx)):
+                if ot[i]:
+                    h[ny - 1, i] = h_old[ny - 2, i] + kt[i] * (h[ny - 2, i] - h_old[ny - 1, i])
+    for tj in range(nty):
+        west, east = near[tj, 0], near[tj, last_i]
+        if not (west or east):
+            continue
+        for j in range(tj * tile, min(tj * tile + tile, ny)):
+            if west and ol[j]:
+                v[j, 0] = (h[j, 0] - h_old[j, 0]) / dt
+            if east and orr[j]:
+                v[j, nx - 1] = (h[j, nx - 1] - h_old[j, nx - 1]) / dt
+    for ti in range(ntx):
+        bottom, top = near[0, ti], near[last_j, ti]
+        if not (bottom or top):
+            continue
+        for i in range(ti * tile, min(ti * tile + tile, nx)):
+            if bottom and ob[i]:
+                v[0, i] = (h[0, i] - h_old[0, i]) / dt
+            if top and ot[i]:
+                v[ny - 1, i] = (h[ny - 1, i] - h_old[ny - 1, i]) / dt
+
+
 class NumbaKernels:
     """The compiled kernel set (same functions as :mod:`components.water.kernels_numpy`)."""
 
@@ -516,6 +590,19 @@ class NumbaKernels:
                dt: float) -> None:
         """See :func:`components.water.kernels_numpy.sponge`."""
         _sponge(h, v, sx, sy, width, dt)
+
+    def sponge_moving(self, h: np.ndarray, v: np.ndarray, sx: np.ndarray, sy: np.ndarray, width: int,
+                      dt: float, near: np.ndarray, tile: int) -> None:
+        """:meth:`sponge` over the tiles marked in ``near`` (nty, ntx) of ``tile`` cells only, the
+        others being at rest before and after the step (the tiled step, components.water.tiles)."""
+        _sponge_moving(h, v, sx, sy, width, dt, near, tile)
+
+    def one_way_moving(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, kl: np.ndarray, kr: np.ndarray,
+                       kb: np.ndarray, kt: np.ndarray, ol: np.ndarray, orr: np.ndarray, ob: np.ndarray,
+                       ot: np.ndarray, dt: float, near: np.ndarray, tile: int) -> None:
+        """:meth:`one_way` on the edge cells of the tiles marked in ``near`` only (see
+        :meth:`sponge_moving`)."""
+        _one_way_moving(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt, near, tile)
 
     def one_way(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, kl: np.ndarray, kr: np.ndarray,
                 kb: np.ndarray, kt: np.ndarray, ol: np.ndarray, orr: np.ndarray, ob: np.ndarray,

@@ -192,6 +192,7 @@ class Tiles:
         self._nz_next = np.zeros(grid, dtype=np.bool_)
         self._step = np.zeros(grid, dtype=np.bool_)
         self._marked = np.zeros(grid, dtype=np.bool_)
+        self._near = np.zeros(grid, dtype=np.bool_)
         self._all_rest = np.zeros(grid, dtype=np.bool_)
         self._none = np.zeros((0, 0), dtype=np.bool_)
         self.steps = 0  # tiled steps taken
@@ -222,15 +223,24 @@ class Tiles:
         tiles not at rest, into (h_out, v_out); the other tiles of h_out, v_out already hold zeros."""
         n = int(_plan(self.nz, self.nz_prev, self._step))
         _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, self._step, self.tile, self._nz_next)
+        _plan(self._step, self._all_rest, self._near)  # the stepped tiles and their neighbours
         self.steps += 1
         self.stepped += n
         self.peak = max(self.peak, n)
         self.last = n
 
+    def moving(self) -> tuple[np.ndarray, int]:
+        """The tiles the last :meth:`wave_step` stepped and their neighbours ((nty, ntx) bool), and
+        the tiles' side [cells]: every other tile was at rest before the step and is after it, and
+        so are its neighbours, so that a boundary condition reading a cell and the next one (an edge
+        cell and its inner neighbour) finds only zeros there and leaves zeros."""
+        return self._near, self.tile
+
     def rescan_edges(self, h: np.ndarray, v: np.ndarray, band: int) -> None:
         """After a boundary rewrote the cells within ``band`` cells of the edges of (h, v), the new
-        state: the flags of the edge tiles that were stepped are read again."""
-        _scan(h, v, self.tile, self._nz_next, self._step, max(band, 1))
+        state: the flags of the edge tiles that were stepped, and of their neighbours (an edge cell
+        reads the next one, which may lie in a stepped tile), are read again."""
+        _scan(h, v, self.tile, self._nz_next, self._near, max(band, 1))
 
     def finish_step(self) -> None:
         """The new state becomes the current one: its flags too."""
