@@ -57,11 +57,16 @@ every direction, so by the end of the throw the moving water covers a fifth of t
 several times the pond's moving columns (above). A moving column also costs the lake more: timed
 in the run, the tiled step takes 0.8 ns per stepped column and step on the pond, whose four arrays
 (2.6 MB) stay in the caches, and 2.6 ns on the lake, whose moving water (15 to 40 MB of its 77 MB
-of arrays) streams from memory; the lake's longer absorbing edges add 0.07 to 0.23 s over the
-throw. This round the row kernel came to vectorise in the tiled spans (see "Water paths"): on this
-machine, run in turn with the code before it, the tiled step went from 4.2-5.4 to 0.8 ns a column
-on the pond and from 8.9 to 2.6 ns on the lake, and lake / pond from 5.4-6.2 (loops of 6.2 s and
-1.0-1.2 s) to the figure above. The exact test for
+of arrays) streams from memory. The lake's absorbing edges (92 m of them, each row of the side
+edges on a page of its own) visit only the tiles that moved and their neighbours: 41 to 44 ms over
+the throw, timed in the run, against 77 to 260 ms when every edge cell was visited at every step
+(most of a lake's edge is at rest, where the condition gives zeros again). An earlier round the row
+kernel came to vectorise in the tiled spans (see "Water paths"): on this machine, run in turn with
+the code before it, the tiled step went from 4.2-5.4 to 0.8 ns a column on the pond and from 8.9 to
+2.6 ns on the lake, and lake / pond from 5.4-6.2 (loops of 6.2 s and 1.0-1.2 s) to 3.7. Stepping
+the moving water in place (one pair of arrays, a saved row for the stencil) would halve its
+footprint; tried here on a 600 x 4000 grid, it took as long as the two-buffer step (2.2 ns a column
+either way, dense), so the step is not held by the bytes alone. The exact test for
 rest keeps a little more awake: the explicit scheme carries a vanishing precursor ahead of each
 wavefront (down to 1e-300 m). A threshold would not change the picture, because behind the precursor
 the wavefront is sharp: at t = 2 s on the 40 m x 6 m lake, of its 2250 whole 32 x 32 tiles 840 held
