@@ -488,52 +488,28 @@ def _sponge_moving(h, v, sx, sy, width, dt, near, tile):  # pragma: no cover - c
 
 @njit(cache=True)
 def _one_way_moving(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt, near, tile):  # pragma: no cover - compiled
-    # _one_way on the edge cells of the tiles marked in ``near`` (nty, ntx) only, in _one_way's
-    # order. An edge cell and the inner neighbour it reads lie in the same tile or in two
-    # neighbouring ones; ``near`` marks every tile stepped and every neighbour of one, so where it
-    # is not marked both cells are at rest before and after the step (zeros) and the condition
-    # gives zero again. On a lake most of the edge, whose rows lie on distinct memory pages, is
-    # then not visited. Rows and columns go by tiles (no division per cell).
+    # _one_way on the edge cells of the tiles marked in ``near`` (nty, ntx) only: its open-edge
+    # masks narrowed to those tiles. An edge cell and the inner neighbour it reads lie in the same
+    # tile or in two neighbouring ones; ``near`` marks every tile stepped and every neighbour of
+    # one, so where it is not marked both cells are at rest before and after the step (zeros) and
+    # the condition gives zero again. On a lake most of the edge, whose rows lie on distinct memory
+    # pages, is then not visited.
     ny, nx = h.shape
     nty, ntx = near.shape
-    last_i, last_j = ntx - 1, nty - 1
+    west, east, south, north = ol.copy(), orr.copy(), ob.copy(), ot.copy()
     for tj in range(nty):
-        west, east = near[tj, 0], near[tj, last_i]
-        if not (west or east):
-            continue
-        for j in range(tj * tile, min(tj * tile + tile, ny)):
-            if west and ol[j]:
-                h[j, 0] = h_old[j, 1] + kl[j] * (h[j, 1] - h_old[j, 0])
-            if east and orr[j]:
-                h[j, nx - 1] = h_old[j, nx - 2] + kr[j] * (h[j, nx - 2] - h_old[j, nx - 1])
+        j0, j1 = tj * tile, min(tj * tile + tile, ny)
+        if not near[tj, 0]:
+            west[j0:j1] = False
+        if not near[tj, ntx - 1]:
+            east[j0:j1] = False
     for ti in range(ntx):
-        if near[0, ti]:
-            for i in range(ti * tile, min(ti * tile + tile, nx)):
-                if ob[i]:
-                    h[0, i] = h_old[1, i] + kb[i] * (h[1, i] - h_old[0, i])
-    for ti in range(ntx):
-        if near[last_j, ti]:
-            for i in range(ti * tile, min(ti * tile + tile, nx)):
-                if ot[i]:
-                    h[ny - 1, i] = h_old[ny - 2, i] + kt[i] * (h[ny - 2, i] - h_old[ny - 1, i])
-    for tj in range(nty):
-        west, east = near[tj, 0], near[tj, last_i]
-        if not (west or east):
-            continue
-        for j in range(tj * tile, min(tj * tile + tile, ny)):
-            if west and ol[j]:
-                v[j, 0] = (h[j, 0] - h_old[j, 0]) / dt
-            if east and orr[j]:
-                v[j, nx - 1] = (h[j, nx - 1] - h_old[j, nx - 1]) / dt
-    for ti in range(ntx):
-        bottom, top = near[0, ti], near[last_j, ti]
-        if not (bottom or top):
-            continue
-        for i in range(ti * tile, min(ti * tile + tile, nx)):
-            if bottom and ob[i]:
-                v[0, i] = (h[0, i] - h_old[0, i]) / dt
-            if top and ot[i]:
-                v[ny - 1, i] = (h[ny - 1, i] - h_old[ny - 1, i]) / dt
+        i0, i1 = ti * tile, min(ti * tile + tile, nx)
+        if not near[0, ti]:
+            south[i0:i1] = False
+        if not near[nty - 1, ti]:
+            north[i0:i1] = False
+    _one_way(h_old, h, v, kl, kr, kb, kt, west, east, south, north, dt)
 
 
 class NumbaKernels:
