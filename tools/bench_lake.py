@@ -58,7 +58,7 @@ several times the pond's moving columns (above). A moving column also costs the 
 in the run, the tiled step takes 0.8 ns per stepped column and step on the pond, whose four arrays
 (2.6 MB) stay in the caches, and 2.6 ns on the lake, whose moving water (15 to 40 MB of its 77 MB
 of arrays) streams from memory. The lake's absorbing edges (92 m of them, each row of the side
-edges on a page of its own) visit only the tiles that moved and their neighbours: 41 to 44 ms over
+edges on a page of its own) visit only the tiles that moved and their neighbours: about 50 ms over
 the throw, timed in the run, against 77 to 260 ms when every edge cell was visited at every step
 (most of a lake's edge is at rest, where the condition gives zeros again). An earlier round the row
 kernel came to vectorise in the tiled spans (see "Water paths"): on this machine, run in turn with
