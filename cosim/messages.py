@@ -101,7 +101,7 @@ class Message:
             if not math.isfinite(getattr(self, name)):
                 return name
         for name in arrays:
-            value = getattr(self, name)
+            value = np.asarray(getattr(self, name))  # as given: an array, or a list where one was declared
             if value.size and not np.isfinite(value).all():
                 return name
         return None
@@ -124,8 +124,8 @@ def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], boo
     and float arrays) is finite, in one expression, with no loop over the fields (it runs for every
     output of every step). A small fixed 1-D array (at most 16 values) is summed as Python floats,
     far cheaper than a numpy reduction, any other by ``np.add.reduce`` (without ``ndarray.sum``'s
-    Python wrapper). A value of another form (a nested list, a scalar where an array was declared)
-    makes it answer False, and the caller looks field by field."""
+    Python wrapper). A value it cannot sum so (a nested list, a scalar where an array was declared)
+    makes it answer False, and :meth:`Message.first_nonfinite` looks field by field."""
     floats, arrays = _finiteness_plan(message_type)
     specs = {s.name: s for s in message_type.__cosim_fields__}
     terms = [f"m.{name}" for name in floats]

@@ -1,5 +1,6 @@
-"""The finiteness guard every output passes (``Message.first_nonfinite``): it names the first field
-holding NaN or infinity, in a float, a small array or a large one, whatever form the value came in."""
+"""The finiteness guard every output passes (``Message.first_nonfinite``): it names the field holding
+NaN or infinity, in a float, a small array or a large one (the float fields first, then the arrays,
+each in declaration order), also when an array came as another shape or as a list."""
 
 from __future__ import annotations
 
@@ -50,10 +51,11 @@ def test_a_large_array_is_named():
     assert _patch(height=height).first_nonfinite() == "height"
 
 
-def test_the_first_bad_field_in_declaration_order_is_named():
+def test_the_float_fields_come_first_then_the_arrays_in_declaration_order():
     torque = np.array([0.0, math.inf, 0.0])
     force = np.array([math.nan, 0.0, 0.0])
     assert Wrench(force, torque).first_nonfinite() == "force"
+    assert _state(position=np.array([math.nan, 0.0, 0.0]), speed=math.inf).first_nonfinite() == "speed"
 
 
 def test_huge_finite_values_whose_sum_overflows_are_finite():
@@ -62,8 +64,13 @@ def test_huge_finite_values_whose_sum_overflows_are_finite():
 
 
 def test_a_value_of_another_shape_is_still_checked():
-    """A (2, 3) array where a 3-vector was declared still has its NaN found."""
+    """A (2, 3) array where a 3-vector was declared, or a list where a grid was, still has its NaN or
+    infinity found."""
     odd = np.ones((2, 3))
     odd[1, 1] = math.nan
     assert _state(velocity=odd).first_nonfinite() == "velocity"
     assert _state(velocity=np.ones((2, 3))).first_nonfinite() is None
+    grid = [[0.0] * 71 for _ in range(23)]
+    assert _patch(height=grid).first_nonfinite() is None
+    grid[5][7] = math.inf
+    assert _patch(height=grid).first_nonfinite() == "height"

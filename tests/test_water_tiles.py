@@ -58,16 +58,34 @@ def test_a_stone_throw_tiled_is_the_dense_step_bit_for_bit(case):
 
 @pytest.mark.parametrize("tile", [1, 3, 5])
 def test_absorbing_edges_visit_only_moving_tiles_and_match_the_dense_step(tile):
-    """The absorbing edges (one-way condition and sponge) of a tiled step visit only the tiles it
-    stepped; with tiles of 1, 3 and 5 cells on a 151 x 67 grid (a last tile one or two cells wide,
-    so an edge cell's inner neighbour lies in another tile) the waves reach the edges, which were at
-    rest, and the state is the dense step's exactly."""
+    """The absorbing edges (one-way condition and sponge) of a tiled step visit only the tiles that
+    may hold moving water; with tiles of 1, 3 and 5 cells on a 151 x 67 grid (a last tile one or
+    two cells wide, so an edge cell's inner neighbour lies in another tile) the waves reach the
+    edges, which were at rest, and the state is the dense step's exactly."""
     edges = dict(boundary="absorbing", sponge_cells=4, nx=151, ny=67)
     dense = run(pond(0, **edges), 220, stone_input)
     tiled = run(pond(tile, **edges), 220, stone_input)
     assert np.array_equal(tiled.get_state()["h"], dense.get_state()["h"])
     assert np.array_equal(tiled.get_state()["v"], dense.get_state()["v"])
     assert 0.0 < tiled.tiles.mean_fraction() < 1.0  # some of the edge was at rest some of the time
+
+
+@pytest.mark.parametrize(("cell", "corner"), [((2, 1), (0, 0)), ((1, 2), (0, 0)), ((2, 6), (0, 7)),
+                                             ((6, 5), (7, 7)), ((5, 1), (7, 0))])
+def test_a_corner_moved_only_through_the_cell_diagonally_inside_it_matches_the_dense_step(cell, corner):
+    """With tiles of one cell, a corner's edge condition reads its neighbour's new value, which
+    reads the cell diagonally inside the corner: water set next to that cell moves the corner in
+    the very first step although no tile beside the corner was stepped."""
+    h = np.zeros((8, 8))
+    h[cell] = 1e-3
+    states = []
+    for tile in (0, 1):
+        surface = pond(tile, nx=8, ny=8)
+        surface.set_state(surface.get_state() | {"h": h})
+        states.append(run(surface, 1).get_state())
+    assert states[0]["h"][corner] != 0.0  # the dense step moves the corner in the first step
+    assert np.array_equal(states[1]["h"], states[0]["h"])
+    assert np.array_equal(states[1]["v"], states[0]["v"])
 
 
 def test_a_bump_tiled_is_the_dense_step_bit_for_bit():

@@ -51,8 +51,9 @@ class Boundary:
     def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float,
                    moving: tuple[np.ndarray, int] | None = None) -> None:
         """Modify the new state (h, v) in place; ``h_old`` is the state before the step. ``moving``,
-        from a step by tiles (components.water.tiles): the tiles it stepped, (nty, ntx) bool, and
-        their side [cells]; every other tile is at rest (zeros) before and after the step."""
+        from a step by tiles (:meth:`components.water.tiles.Tiles.moving`): the tiles that may hold
+        moving water, (nty, ntx) bool, and their side [cells]; every other tile, and every tile
+        around it, is at rest (zeros) before and after the step."""
 
 
 class Reflecting(Boundary):
@@ -108,7 +109,7 @@ class Absorbing(Boundary):
     def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float,
                    moving: tuple[np.ndarray, int] | None = None) -> None:
         if moving is not None:
-            # water at rest stays at rest under both: only the stepped tiles' edges are visited
+            # water at rest stays at rest under both: only the edges of tiles that may move are visited
             self.kernels.one_way_moving(h_old, h, v, *self.coefficients(dt), *self._open, dt, *moving)
             if self.width:
                 self.kernels.sponge_moving(h, v, self.sx, self.sy, self.width, dt, *moving)

@@ -489,11 +489,12 @@ def _sponge_moving(h, v, sx, sy, width, dt, near, tile):  # pragma: no cover - c
 @njit(cache=True)
 def _one_way_moving(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt, near, tile):  # pragma: no cover - compiled
     # _one_way on the edge cells of the tiles marked in ``near`` (nty, ntx) only: its open-edge
-    # masks narrowed to those tiles. An edge cell and the inner neighbour it reads lie in the same
-    # tile or in two neighbouring ones; ``near`` marks every tile stepped and every neighbour of
-    # one, so where it is not marked both cells are at rest before and after the step (zeros) and
-    # the condition gives zero again. On a lake most of the edge, whose rows lie on distinct memory
-    # pages, is then not visited.
+    # masks narrowed to those tiles. An edge cell reads its inner neighbour (and a corner, written
+    # twice, the cell diagonally inside it through its neighbour's new value), which lie in the
+    # same tile or in one around it; ``near`` marks every tile stepped and the eight around each
+    # (Tiles.moving), so where it is not marked they are all at rest before and after the step
+    # (zeros) and the condition gives zero again. On a lake most of the edge, whose rows lie on
+    # distinct memory pages, is then not visited.
     ny, nx = h.shape
     nty, ntx = near.shape
     west, east, south, north = ol.copy(), orr.copy(), ob.copy(), ot.copy()
@@ -513,7 +514,8 @@ def _one_way_moving(h_old, h, v, kl, kr, kb, kt, ol, orr, ob, ot, dt, near, tile
 
 
 class NumbaKernels:
-    """The compiled kernel set (same functions as :mod:`components.water.kernels_numpy`)."""
+    """The compiled kernel set (same functions as :mod:`components.water.kernels_numpy`, and the
+    ``*_moving`` variants of the edge conditions for the step by tiles, which has no numpy twin)."""
 
     def __init__(self, name: str, parallel: bool):
         self.NAME = name

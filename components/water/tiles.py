@@ -19,8 +19,10 @@ What makes a tile active, per step from state n to n + 1 (``plan``):
   :meth:`reset`).
 
 The step kernel writes the new columns of the tiles it steps and, row by row while the row is in
-cache, whether each of them holds anything but zeros. A boundary that rewrites the edge cells afterwards
-(absorbing) has the edge tiles it stepped scanned again (:meth:`rescan_edges`).
+cache, whether each of them holds anything but zeros. A boundary that rewrites the edge cells
+afterwards (absorbing) visits only the tiles that may hold moving water, those stepped and the
+eight around each (:meth:`moving`), and has those along the edges scanned again
+(:meth:`rescan_edges`).
 
 Only the explicit ``wave`` model on a uniform grid (all wet, one wave speed) is stepped this way:
 the implicit ``shallow_water`` model couples whole rows and columns in each solve (a disturbance
@@ -68,6 +70,17 @@ def _plan(nz, nz_prev, step):  # pragma: no cover - compiled
             step[tj, ti] = on
             count += on
     return count
+
+
+@njit(cache=True)
+def _dilate8(step, near):  # pragma: no cover - compiled
+    # near = step dilated by its eight neighbours
+    nty, ntx = step.shape
+    near[:, :] = False
+    for tj in range(nty):
+        for ti in range(ntx):
+            if step[tj, ti]:
+                near[max(tj - 1, 0):tj + 2, max(ti - 1, 0):ti + 2] = True
 
 
 @njit(cache=True)
@@ -193,6 +206,7 @@ class Tiles:
         self._step = np.zeros(grid, dtype=np.bool_)
         self._marked = np.zeros(grid, dtype=np.bool_)
         self._near = np.zeros(grid, dtype=np.bool_)
+        self._near_done = False  # _near holds the dilation of the last step's tiles
         self._all_rest = np.zeros(grid, dtype=np.bool_)
         self._none = np.zeros((0, 0), dtype=np.bool_)
         self.steps = 0  # tiled steps taken
@@ -223,24 +237,28 @@ class Tiles:
         tiles not at rest, into (h_out, v_out); the other tiles of h_out, v_out already hold zeros."""
         n = int(_plan(self.nz, self.nz_prev, self._step))
         _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, self._step, self.tile, self._nz_next)
-        _plan(self._step, self._all_rest, self._near)  # the stepped tiles and their neighbours
+        self._near_done = False
         self.steps += 1
         self.stepped += n
         self.peak = max(self.peak, n)
         self.last = n
 
     def moving(self) -> tuple[np.ndarray, int]:
-        """The tiles the last :meth:`wave_step` stepped and their neighbours ((nty, ntx) bool), and
-        the tiles' side [cells]: every other tile was at rest before the step and is after it, and
-        so are its neighbours, so that a boundary condition reading a cell and the next one (an edge
-        cell and its inner neighbour) finds only zeros there and leaves zeros."""
+        """The tiles that may hold moving water around the last :meth:`wave_step`: those it stepped
+        and the eight around each ((nty, ntx) bool), and the tiles' side [cells]. Every other tile
+        was at rest before the step and is after it, and so is every tile around it, so a boundary
+        condition reading a cell and the cells next to it (an edge cell, its inner neighbour and, at
+        a corner, the one diagonally inside) finds only zeros there and leaves zeros."""
+        if not self._near_done:
+            _dilate8(self._step, self._near)
+            self._near_done = True
         return self._near, self.tile
 
     def rescan_edges(self, h: np.ndarray, v: np.ndarray, band: int) -> None:
         """After a boundary rewrote the cells within ``band`` cells of the edges of (h, v), the new
-        state: the flags of the edge tiles that were stepped, and of their neighbours (an edge cell
-        reads the next one, which may lie in a stepped tile), are read again."""
-        _scan(h, v, self.tile, self._nz_next, self._near, max(band, 1))
+        state: the flags of the edge tiles that may hold moving water (:meth:`moving`: an edge
+        condition may write into a tile beside a stepped one) are read again."""
+        _scan(h, v, self.tile, self._nz_next, self.moving()[0], max(band, 1))
 
     def finish_step(self) -> None:
         """The new state becomes the current one: its flags too."""
