@@ -9,7 +9,7 @@ import pytest
 from components.messages import OccupiedHeight
 from components.water import GaussianBump, WaterParams, WaterSurface
 from components.water.diagnostics import energy, volume
-from components.water.tiles import Tiles
+from components.water.tiles import Tiles, _rescan_edges
 from cosim.runner import run_scene
 from cosim.scenario import load
 
@@ -86,6 +86,25 @@ def test_a_corner_moved_only_through_the_cell_diagonally_inside_it_matches_the_d
     assert states[0]["h"][corner] != 0.0  # the dense step moves the corner in the first step
     assert np.array_equal(states[1]["h"], states[0]["h"])
     assert np.array_equal(states[1]["v"], states[0]["v"])
+
+
+@pytest.mark.parametrize("cell", [(0, 9), (20, 0), (20, 29), (22, 13), (1, 28)])
+def test_the_edge_rescan_finds_what_an_edge_condition_wrote_into_a_tile_flagged_at_rest(cell):
+    """After the edge condition, a tile the step left flagged at rest is read in its band of edge
+    cells only, and flagged moving if one of them now moves; a tile flagged moving is read whole and
+    flagged at rest if the condition brought it to rest. Tiles of 8 on a 23 x 30 grid (a last row
+    and column of narrower tiles), a band of 2 cells."""
+    h, v = np.zeros((23, 30)), np.zeros((23, 30))
+    h[cell] = 1e-6
+    everywhere = np.ones((3, 4), dtype=np.bool_)
+    flags = np.zeros((3, 4), dtype=np.bool_)
+    _rescan_edges(h, v, 8, flags, everywhere, 2)
+    expected = np.zeros((3, 4), dtype=np.bool_)
+    expected[cell[0] // 8, cell[1] // 8] = True
+    assert np.array_equal(flags, expected)
+    h[cell] = 0.0
+    _rescan_edges(h, v, 8, flags, everywhere, 2)
+    assert not flags.any()
 
 
 def test_a_bump_tiled_is_the_dense_step_bit_for_bit():

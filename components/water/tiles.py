@@ -136,24 +136,14 @@ def _any_nonzero(h, v, j0, j1, i0, i1):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _scan(h, v, tile, nz, only, band):  # pragma: no cover - compiled
-    # nz[t] = tile t holds a non-zero column; with ``only``, just the tiles it marks that lie within
-    # ``band`` cells of an edge of the grid (the rest of nz is kept)
+def _scan(h, v, tile, nz):  # pragma: no cover - compiled
+    # nz[t] = tile t holds a non-zero column
     ny, nx = h.shape
     nty, ntx = nz.shape
     for tj in range(nty):
-        j0 = tj * tile
-        j1 = min(j0 + tile, ny)
-        edge_row = j0 < band or j1 > ny - band
         for ti in range(ntx):
-            i0 = ti * tile
-            i1 = min(i0 + tile, nx)
-            if only.shape[0] > 0:
-                if not only[tj, ti]:
-                    continue
-                if not (edge_row or i0 < band or i1 > nx - band):
-                    continue
-            nz[tj, ti] = _any_nonzero(h, v, j0, j1, i0, i1)
+            nz[tj, ti] = _any_nonzero(h, v, tj * tile, min(tj * tile + tile, ny), ti * tile,
+                                      min(ti * tile + tile, nx))
 
 
 @njit(cache=True)
@@ -185,6 +175,35 @@ def _sums(h, v, tile, step):  # pragma: no cover - compiled
     return sh, sv, sdx, sdy
 
 
+@njit(cache=True)
+def _rescan_edges(h, v, tile, nz, only, band):  # pragma: no cover - compiled
+    # After a boundary rewrote the cells within ``band`` of the grid's edges: the flags of the tiles
+    # marked in ``only`` that reach into that band. A tile flagged moving is scanned whole (the
+    # boundary may have brought it to rest); one flagged at rest held only zeros before the boundary,
+    # which changed only the band, so its band cells alone decide.
+    ny, nx = h.shape
+    nty, ntx = nz.shape
+    for tj in range(nty):
+        j0 = tj * tile
+        j1 = min(j0 + tile, ny)
+        edge_row = j0 < band or j1 > ny - band
+        for ti in range(ntx):
+            i0 = ti * tile
+            i1 = min(i0 + tile, nx)
+            if not only[tj, ti] or not (edge_row or i0 < band or i1 > nx - band):
+                continue
+            if nz[tj, ti]:
+                nz[tj, ti] = _any_nonzero(h, v, j0, j1, i0, i1)
+                continue
+            # the band's part of the tile: its rows near the bottom and top edges, then its columns
+            # near the left and right edges
+            found = (_any_nonzero(h, v, j0, min(j1, band), i0, i1)
+                     or _any_nonzero(h, v, max(j0, ny - band), j1, i0, i1)
+                     or _any_nonzero(h, v, j0, j1, i0, min(i1, band))
+                     or _any_nonzero(h, v, j0, j1, max(i0, nx - band), i1))
+            nz[tj, ti] = found
+
+
 class Tiles:
     """Which tiles of an (ny, nx) grid are at rest, and the tiled wave step.
 
@@ -208,7 +227,6 @@ class Tiles:
         self._near = np.zeros(grid, dtype=np.bool_)
         self._near_done = False  # _near holds the dilation of the last step's tiles
         self._all_rest = np.zeros(grid, dtype=np.bool_)
-        self._none = np.zeros((0, 0), dtype=np.bool_)
         self.steps = 0  # tiled steps taken
         self.stepped = 0  # tiles stepped, summed over those steps
         self.peak = 0  # most tiles stepped in one step
@@ -221,7 +239,7 @@ class Tiles:
 
     def reset(self, h: np.ndarray, v: np.ndarray) -> None:
         """Flags of a state (h, v) given from outside, whose spare buffers hold zeros."""
-        _scan(h, v, self.tile, self.nz, self._none, 0)
+        _scan(h, v, self.tile, self.nz)
         self.nz_prev[:] = False
 
     def touch(self, i0: int, i1: int, j0: int, j1: int) -> None:
@@ -258,7 +276,7 @@ class Tiles:
         """After a boundary rewrote the cells within ``band`` cells of the edges of (h, v), the new
         state: the flags of the edge tiles that may hold moving water (:meth:`moving`: an edge
         condition may write into a tile beside a stepped one) are read again."""
-        _scan(h, v, self.tile, self._nz_next, self.moving()[0], max(band, 1))
+        _rescan_edges(h, v, self.tile, self._nz_next, self.moving()[0], max(band, 1))
 
     def finish_step(self) -> None:
         """The new state becomes the current one: its flags too."""
