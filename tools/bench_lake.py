@@ -58,9 +58,12 @@ several times the pond's moving columns (above). A moving column also costs the 
 in the run, the tiled step takes 0.8 ns per stepped column and step on the pond, whose four arrays
 (2.6 MB) stay in the caches, and 2.6 ns on the lake, whose moving water (15 to 40 MB of its 77 MB
 of arrays) streams from memory. The lake's absorbing edges (92 m of them, each row of the side
-edges on a page of its own) visit only the tiles that moved and their neighbours: about 50 ms over
-the throw, timed in the run, against 77 to 260 ms when every edge cell was visited at every step
-(most of a lake's edge is at rest, where the condition gives zeros again). An earlier round the row
+edges on a page of its own) visit only the tiles that moved and those around them, and the bottom
+and top edges go by runs of columns, not by masks: 53 to 64 ms over the throw in a fresh process,
+against 101 to 160 ms when every edge cell was visited at every step (most of a lake's edge is at
+rest, where the condition gives zeros again). Masks were tried first and cost more than they saved:
+a vectorised loop whose masks are off, over edge pages the lake has never written, took 1.2 ms a
+call against 12 us once the pages are mapped. An earlier round the row
 kernel came to vectorise in the tiled spans (see "Water paths"): on this machine, run in turn with
 the code before it, the tiled step went from 4.2-5.4 to 0.8 ns a column on the pond and from 8.9 to
 2.6 ns on the lake, and lake / pond from 5.4-6.2 (loops of 6.2 s and 1.0-1.2 s) to 3.7. Stepping
