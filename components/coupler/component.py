@@ -183,7 +183,9 @@ class WaterCoupler(Component):
         if problems:
             raise ValueError("effects: " + "; ".join(problems))
         self.flags = effect_mask(p.effects)
-        # fixed by the parameters: the ring displacement, and the effects read against the local surface
+        # fixed by the parameters: whether the ring displacement is on, and the effects evaluated
+        # against the local surface: all of them, except the buoyancy when the ring is on (it is
+        # then evaluated against the rest level, see _ring)
         self._ring_on = bool(self.flags & DISPLACEMENT) and p.displacement_mode == "ring"
         self._local = self.flags & ~BUOYANCY if self._ring_on else self.flags
         compiled.start()
@@ -381,13 +383,13 @@ class WaterCoupler(Component):
         water = (x0, y0, float(patch.cell), height, wvel, bottom, held if held.shape == height.shape else None)
         met = water
         self._planing_share = planing_share(body, self.params.g)
-        if self._ring_mode() and not assumed:
+        if self._ring_on and not assumed:
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
-                               self._b_geo, self._stats, self._local_flags())
-        ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_mode() else None
+                               self._b_geo, self._stats, self._local)
+        ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_on else None
         if assumed and ring is not None:
             ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
         if ring is not None:
@@ -625,18 +627,10 @@ class WaterCoupler(Component):
                 return held
         # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
         # the surface it meets during a contact was in the window before it touched down (met_surface)
-        lookahead = p.lookahead if self._ring_mode() else 0.0
+        lookahead = p.lookahead if self._ring_on else 0.0
         ahead_x, ahead_y = vel[0] * lookahead, vel[1] * lookahead
         return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
                             cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0))
-
-    def _local_flags(self) -> int:
-        """The effects evaluated against the local surface: all of them, except the buoyancy when the
-        ring displacement is on (it is then evaluated against the rest level, see :meth:`_ring`)."""
-        return self._local
-
-    def _ring_mode(self) -> bool:
-        return self._ring_on
 
     def _rest_pass(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
                    b_rest: np.ndarray, waterline: np.ndarray, stats: np.ndarray) -> np.ndarray:
@@ -841,12 +835,12 @@ class WaterCoupler(Component):
         total = stats0[:size].copy()
         b_scratch = np.zeros_like(self._b_geo)
         s_scratch = np.zeros(kernel.N_STATS)
-        ring_mode = self._ring_mode()
+        ring_mode = self._ring_on
         ring_scratch = _ring_scratch(b_scratch.shape) if ring_mode else None
         is_disk = body.shape == Shape.DISK
         radius, thick = float(body.radius), float(body.thickness)
         gravity = np.array([0.0, 0.0, -self.params.g])
-        flags = self._local_flags()
+        flags = self._local
         current = stats0[:size].copy()
         for i in range(n):
             if i > 0:
