@@ -546,7 +546,7 @@ class WaterCoupler(Component):
             j_lo = int(res[step_kernel.R_J_LO])
             j_hi = int(res[step_kernel.R_J_HI])
             occupied = OccupiedHeight(i0 + i_lo, j0 + j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy(),
-                                      already_displaced=self._start_in_water and not held.any())
+                                      already_displaced=self._already_displaced(held))
         if self._start_in_water and (occupied.b.size == 0 or held.any()):
             self._start_in_water = False  # dry at the water's first patch, or the water holds it now
         return {"wrench": Wrench(np.array(force), np.array(torque)), "occupied": occupied, "request": request,
