@@ -36,6 +36,7 @@ would be pointless, so this component overrides the base class's substep loop.)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
@@ -413,12 +414,7 @@ class WaterCoupler(Component):
             return quiet
         under = self._top_under(pos, low, water) if volume > 0.0 else None
         fraction = self._submerged_fraction(body, volume, math.nan if under is None else under)
-        contact = WaterContact(
-            wetted=bool(volume > 0.0 or area > 0.0),
-            submerged_fraction=fraction,
-            wetted_area=area,
-            buoyancy=mean[0:3].copy(), pressure=mean[6:9].copy(), friction=mean[12:15].copy(),
-            wave_drag=mean[18:21].copy(), depth=float(depth), dissipated_energy=self.dissipated)
+        contact = self._contact(volume, area, fraction, mean, float(depth))
         if ring is not None:
             occupied = self._empty_occupied if ring.window is None else OccupiedHeight(
                 int(patch.i0) + ring.window[0], int(patch.j0) + ring.window[1], ring.window[2],
@@ -451,6 +447,18 @@ class WaterCoupler(Component):
             quiet["request"] = request
             return quiet
         return None
+
+    def _contact(self, volume: float, area: float, fraction: float, stats: Sequence[float],
+                 depth: float) -> WaterContact:
+        """The contact report from this step's submerged ``volume`` [m^3], wetted ``area`` [m^2],
+        submerged ``fraction`` [-], the effects' forces in ``stats`` (kernel.S_* layout, an array or
+        the numbers read back as floats) and the ``depth`` [m] of the body's lowest point."""
+        b, p, f, w = kernel.S_BUOYANCY, kernel.S_PRESSURE, kernel.S_FRICTION, kernel.S_WAVE
+        return WaterContact(
+            wetted=bool(volume > 0.0 or area > 0.0), submerged_fraction=fraction, wetted_area=area,
+            buoyancy=np.array(stats[b:b + 3]), pressure=np.array(stats[p:p + 3]),
+            friction=np.array(stats[f:f + 3]), wave_drag=np.array(stats[w:w + 3]), depth=depth,
+            dissipated_energy=self.dissipated)
 
     @staticmethod
     def _submerged_fraction(body: BodyState, volume: float, top_under: float) -> float:
@@ -532,13 +540,7 @@ class WaterCoupler(Component):
         if quiet is not None:
             return quiet
         fraction = self._submerged_fraction(body, volume, res[step_kernel.R_TOP_UNDER])
-        b = kernel.S_BUOYANCY
-        p, f, w = kernel.S_PRESSURE, kernel.S_FRICTION, kernel.S_WAVE
-        contact = WaterContact(
-            wetted=volume > 0.0 or area > 0.0, submerged_fraction=fraction, wetted_area=area,
-            buoyancy=np.array(stats[b:b + 3]), pressure=np.array(stats[p:p + 3]),
-            friction=np.array(stats[f:f + 3]), wave_drag=np.array(stats[w:w + 3]), depth=depth,
-            dissipated_energy=self.dissipated)
+        contact = self._contact(volume, area, fraction, stats, depth)
         occupied = self._empty_occupied
         i_lo = int(res[step_kernel.R_I_LO])
         i_hi = int(res[step_kernel.R_I_HI])
