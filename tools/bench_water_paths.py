@@ -173,7 +173,8 @@ def main(argv: list[str] | None = None) -> int:
         "uniform step goes by tiles, so that water at rest costs nothing; with every tile moving, as here, "
         f"it takes {tiled:.2f}x the dense step. A sloped "
         "bed reads two more arrays than the uniform step (the face "
-        "coefficients), positional smoothing is one more pass over h (without reading weights when the "
+        "coefficients, in single precision: half the bytes of doubles), positional smoothing is one "
+        "more pass over h (without reading weights when the "
         "pond has no dry land), and a body's blur passes work only on its window.",
         "",
     ])
