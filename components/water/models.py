@@ -131,7 +131,7 @@ class WaveModel(Model):
         if grid.c2_uniform is None:
             # The per-face step is limited by memory traffic: at 512 x 512 its two coefficient
             # arrays are a third of the bytes it moves. Held in single precision (a relative
-            # rounding of 3e-8 on g d, far below what the bed's own resolution means), they cut
+            # rounding of at most 6e-8 on g d, far below what the bed's own resolution means), they cut
             # that step by about a fifth; the arithmetic stays double.
             self.ax = _single(self.ax)
             self.ay = _single(self.ay)
