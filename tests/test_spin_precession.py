@@ -3,9 +3,12 @@ spins, and the water's friction slows it (tools/spin_precession.py, docs/validat
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
-from tools.spin_precession import azimuth_deg, free_throw
+from tools.spin_precession import axis_moved_deg, azimuth_deg, free_throw
 
 
 @pytest.fixture(scope="module")
@@ -43,3 +46,17 @@ def test_more_spin_more_skips(throws):
     """Where the spin limits the skips (Bocquet 2003), more spin gives more: the free reference throw
     skips more often at 65 rev/s than at 10."""
     assert throws[65.0][0] > throws[10.0][0] >= 1
+
+
+@pytest.mark.parametrize("spin", [10.0, 65.0])
+def test_a_contact_moves_the_axis_by_the_torque_impulse_over_the_angular_momentum(first_contacts, spin):
+    """Euler's equations: the water's torque impulse across the axis turns the spin's angular momentum
+    L by |T_across| / L radians, and the axis follows it (within 15%: the axis nutates about L, more
+    at 10 rev/s). The turn about the vertical is larger still, that angle over the sine of the tilt."""
+    c = first_contacts[spin]
+    n = c.axis_before
+    across = c.torque - np.dot(c.torque, n) * n
+    expected = math.degrees(float(np.linalg.norm(across)) / c.spin_before)
+    assert expected > 5.0
+    assert axis_moved_deg(c) == pytest.approx(expected, rel=0.15)
+    assert turn(c) > 2.0 * axis_moved_deg(c)

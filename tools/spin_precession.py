@@ -52,6 +52,7 @@ class Contact:
     axis_after: np.ndarray | None = None
     spin_before: float = math.nan  # angular momentum about the axis [kg m^2/s]
     spin_after: float = math.nan
+    tilt_min: float = math.nan  # the axis's smallest angle from the vertical while wetted [deg]
 
 
 class ContactLog(BaseObserver):
@@ -70,6 +71,8 @@ class ContactLog(BaseObserver):
             self.axis = np.asarray(body_axis(msg.orientation), dtype=float)
             self.spin = float(msg.inertia[2] * np.dot(msg.angular_velocity, self.axis))
             last = self.contacts[-1] if self.contacts else None
+            if last is not None and self.wetted:
+                last.tilt_min = min(last.tilt_min, tilt_deg(self.axis))
             if last is not None and last.axis_after is None and not self.wetted and t - last.end >= MERGE_GAP:
                 last.axis_after, last.spin_after = self.axis, self.spin
         elif component == "coupler" and port == "contact":
@@ -78,7 +81,8 @@ class ContactLog(BaseObserver):
                 if last is not None and t - last.end < MERGE_GAP:
                     last.end, last.axis_after = math.nan, None  # a flicker: the same contact goes on
                 else:
-                    self.contacts.append(Contact(t, axis_before=self.axis, spin_before=self.spin))
+                    self.contacts.append(Contact(t, axis_before=self.axis, spin_before=self.spin,
+                                                 tilt_min=tilt_deg(self.axis)))
             elif not msg.wetted and self.wetted:
                 self.contacts[-1].end = t
             self.wetted = msg.wetted
@@ -108,21 +112,33 @@ def free_throw(spin_rev_s: float) -> tuple[int, list[Contact]]:
     return sim.components["stages"].track.skips, log.contacts
 
 
-def contact_row(c: Contact) -> str:
-    """'turn / tilt after / lever' of one contact."""
-    if c.axis_after is None:
-        return "never leaves the water"
+def axis_moved_deg(c: Contact) -> float:
+    """Angle [deg] between the axis before and after a contact: how far the spin's angular momentum
+    turned (its turn about the vertical is this over the sine of the tilt, larger where the tilt is small)."""
+    assert c.axis_before is not None and c.axis_after is not None
+    return math.degrees(math.acos(max(-1.0, min(1.0, float(np.dot(c.axis_before, c.axis_after))))))
+
+
+def lever_m(c: Contact) -> float:
+    """Lever arm [m] of the water's torque: torque impulse across the axis over force impulse along it."""
     n = c.axis_before
     along = float(np.dot(c.force, n))
     across = c.torque - np.dot(c.torque, n) * n
-    lever = float(np.linalg.norm(across)) / along if along > 0 else math.nan
-    turn = (azimuth_deg(c.axis_after) - azimuth_deg(n) + 180.0) % 360.0 - 180.0
-    return f"{turn:+.0f} deg, tilt {tilt_deg(c.axis_after):.0f} deg, lever {lever * 1e3:.0f} mm"
+    return float(np.linalg.norm(across)) / along if along > 0 else math.nan
+
+
+def contact_row(c: Contact) -> str:
+    """'turn about the vertical / axis moved / tilt: lowest, after / lever' of one contact."""
+    if c.axis_after is None:
+        return "never leaves the water"
+    turn = (azimuth_deg(c.axis_after) - azimuth_deg(c.axis_before) + 180.0) % 360.0 - 180.0
+    return (f"{turn:+.0f} deg (moved {axis_moved_deg(c):.0f}), tilt {c.tilt_min:.0f} then "
+            f"{tilt_deg(c.axis_after):.0f} deg, lever {lever_m(c) * 1e3:.0f} mm")
 
 
 def table(spins: list[float]) -> str:
-    rows = ["| spin [rev/s] | skips | " + " | ".join(f"contact {k + 1}: axis turn, tilt after, lever"
-                                                  for k in range(CONTACTS_SHOWN)) + " |",
+    head = "axis turn (moved), tilt lowest then after, lever"
+    rows = ["| spin [rev/s] | skips | " + " | ".join(f"contact {k + 1}: {head}" for k in range(CONTACTS_SHOWN)) + " |",
             "|---|---|" + "---|" * CONTACTS_SHOWN]
     for spin in spins:
         skips, contacts = free_throw(spin)
@@ -179,9 +195,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.markdown:
         replace_section(args.markdown, "spin-precession",
                         "The free reference throw (`python tools/spin_precession.py`): per contact, the turn of "
-                        "the spin axis about the vertical, its tilt from the vertical after the contact, and "
-                        "the lever arm of the water's torque (torque impulse across the axis over force "
-                        "impulse along it).\n\n" + text)
+                        "the spin axis about the vertical and, in brackets, the angle it moved through (the turn "
+                        "of the spin's angular momentum; the turn about the vertical is that over the sine of "
+                        "the tilt, so it is largest where the tilt dips), the axis's tilt from the vertical at "
+                        "its lowest during the contact and after it, and the lever arm of the water's torque "
+                        "(torque impulse across the axis over force impulse along it).\n\n" + text)
     return 0
 
 
