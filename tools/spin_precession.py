@@ -127,6 +127,87 @@ def lever_m(c: Contact) -> float:
     return float(np.linalg.norm(across)) / along if along > 0 else math.nan
 
 
+class AttitudeTrace(BaseObserver):
+    """The stone's axis at every state it publishes until ``until`` [s], and whether it is wetted."""
+
+    def __init__(self, until: float):
+        self.until = until
+        self.times: list[float] = []
+        self.axes: list[np.ndarray] = []
+        self.wet: list[bool] = []
+        self.wetted = False
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg) -> None:
+        t = time_ns * 1e-9
+        if component == "coupler" and port == "contact":
+            self.wetted = bool(msg.wetted)
+        elif component == "stone" and port == "state" and t <= self.until:
+            self.times.append(t)
+            self.axes.append(np.asarray(body_axis(msg.orientation), dtype=float))
+            self.wet.append(self.wetted)
+
+
+def first_contact_trace(spin_rev_s: float, until: float = 0.16) -> AttitudeTrace:
+    """The free reference throw's axis from its release through its first contact (0.074-0.12 s)."""
+    sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
+            "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0",
+            f"until={until!r}"]
+    trace = AttitudeTrace(until)
+    Simulation(load(ROOT / "scenarios" / "skip.yaml", sets), observers=[trace]).run()
+    return trace
+
+
+FIGURE_SPINS = [10.0, 14.0, 30.0, 65.0]  # [rev/s]
+
+
+def figure(path: Path, spins: list[float] = FIGURE_SPINS) -> None:
+    """The axis through the first contact at each spin, as a PNG: its tilt from the vertical against
+    time, and the path of its tip seen from above (a lean of 20 deg towards -x, the back of the
+    throw, before the contact)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax_t, ax_p) = plt.subplots(1, 2, figsize=(10.0, 4.3), dpi=120)
+    colors = ["#c0392b", "#e67e22", "#1f5f8b", "#27ae60"]
+    for spin, color in zip(spins, colors, strict=False):
+        trace = first_contact_trace(spin)
+        t = np.array(trace.times) * 1e3
+        axes = np.array(trace.axes)
+        wet = np.array(trace.wet)
+        ax_t.plot(t, [tilt_deg(a) for a in axes], color=color, lw=1.6, label=f"{spin:g} rev/s")
+        tip = np.degrees(np.arcsin(np.clip(axes[:, :2], -1.0, 1.0)))  # the tip's lean along x and y [deg]
+        ax_p.plot(tip[:, 0], tip[:, 1], color=color, lw=1.0, alpha=0.5)
+        ax_p.plot(np.where(wet, tip[:, 0], np.nan), np.where(wet, tip[:, 1], np.nan), color=color, lw=2.2,
+                  label=f"{spin:g} rev/s")
+        ax_p.plot(tip[-1, 0], tip[-1, 1], "o", color=color, ms=4)
+    wetted = [k for k, w in enumerate(trace.wet) if w]
+    if wetted:
+        ax_t.axvspan(trace.times[wetted[0]] * 1e3, trace.times[wetted[-1]] * 1e3, color="#9ecae1", alpha=0.35,
+                     lw=0, label=f"first contact ({spins[-1]:g} rev/s)")
+    ax_t.set_xlabel("time [ms]")
+    ax_t.set_ylabel("tilt of the axis from the vertical [deg]")
+    ax_t.set_title("Tilt through the first contact", fontsize=10)
+    ax_t.grid(alpha=0.3)
+    ax_t.legend(fontsize=8)
+    ring = np.linspace(0.0, 2.0 * math.pi, 200)
+    ax_p.plot(20.0 * np.cos(ring), 20.0 * np.sin(ring), color="0.6", ls=":", lw=1.0, label="tilt 20 deg")
+    ax_p.plot(0.0, 0.0, "+", color="0.3")
+    ax_p.set_aspect("equal")
+    ax_p.set_xlabel("lean of the axis along the throw (x) [deg]")
+    ax_p.set_ylabel("lean across it (y) [deg]")
+    ax_p.set_title("Path of the axis seen from above (thick: wetted; dot: 0.16 s)", fontsize=10)
+    ax_p.grid(alpha=0.3)
+    ax_p.legend(fontsize=8, loc="upper right")
+    fig.suptitle("Free reference throw (slate R = 5 cm, 8 m/s, attack 20 deg): the water's torque turns "
+                 "the spin axis", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def contact_row(c: Contact) -> str:
     """'turn about the vertical / axis moved / tilt: lowest, after / lever' of one contact."""
     if c.axis_after is None:
@@ -186,9 +267,14 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--markdown", type=Path, help="rewrite the spin-precession section of this page")
     ap.add_argument("--throws", action="store_true", help="count the skips of the survey's free throws instead")
+    ap.add_argument("--figure", type=Path, help="draw the axis through the first contact into this PNG")
     args = ap.parse_args(argv)
     if args.throws:
         print(survey())
+        return 0
+    if args.figure:
+        figure(args.figure)
+        print(f"wrote {args.figure}")
         return 0
     text = table(SPINS)
     print(text)
