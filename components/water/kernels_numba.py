@@ -419,17 +419,10 @@ def _sponge_cell(h, v, sx, sy, j, i, dt):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _sponge(h, v, sx, sy, width, dt):  # pragma: no cover - compiled
-    # Only the cells of the layer are visited (the interior factor is exactly 1).
+    # Only the cells of the layer are visited (the interior factor is exactly 1): _sponge_moving
+    # with the whole grid as one tile.
     ny, nx = h.shape
-    for j in range(ny):
-        if j < width or j >= ny - width:
-            for i in range(nx):
-                _sponge_cell(h, v, sx, sy, j, i, dt)
-        else:
-            for i in range(min(width, nx)):
-                _sponge_cell(h, v, sx, sy, j, i, dt)
-            for i in range(max(nx - width, width), nx):
-                _sponge_cell(h, v, sx, sy, j, i, dt)
+    _sponge_moving(h, v, sx, sy, width, dt, np.ones((1, 1), dtype=np.bool_), max(ny, nx, 1))
 
 
 
@@ -511,9 +504,9 @@ def _runs(flags, tile, n):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _sponge_moving(h, v, sx, sy, width, dt, near, tile):  # pragma: no cover - compiled
-    # _sponge over the cells of the tiles marked in ``near`` (nty, ntx) only: every other tile is
-    # at rest (zeros) before and after the step, which the layer's factor leaves as they are. Each
-    # cell's arithmetic is _sponge's; rows and columns go by tiles (no division per cell).
+    # The sponge layer over the cells of the tiles marked in ``near`` (nty, ntx) only: every other
+    # tile is at rest (zeros) before and after the step, which the layer's factor leaves as they
+    # are. Rows and columns go by tiles (no division per cell).
     ny, nx = h.shape
     nty, ntx = near.shape
     for tj in range(nty):
