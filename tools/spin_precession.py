@@ -101,11 +101,18 @@ def tilt_deg(axis: np.ndarray) -> float:
     return math.degrees(math.acos(max(-1.0, min(1.0, float(axis[2])))))
 
 
+def free_throw_scene(spin_rev_s: float, *overrides: str):
+    """The reference throw with a free attitude and ``spin_rev_s``, on a pond wide enough (4 m) for
+    the curve the spin gives, without viewer channels; ``overrides`` as ``cosim run --set``."""
+    sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
+            "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0",
+            *overrides]
+    return load(ROOT / "scenarios" / "skip.yaml", sets)
+
+
 def free_throw(spin_rev_s: float) -> tuple[int, list[Contact]]:
     """Skips and contacts of the free reference throw at ``spin_rev_s``."""
-    sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
-            "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0"]
-    scene = load(ROOT / "scenarios" / "skip.yaml", sets)
+    scene = free_throw_scene(spin_rev_s)
     log = ContactLog(scene.dt)
     sim = Simulation(scene, observers=[log])
     sim.run()
@@ -149,11 +156,8 @@ class AttitudeTrace(BaseObserver):
 
 def first_contact_trace(spin_rev_s: float, until: float = 0.16) -> AttitudeTrace:
     """The free reference throw's axis from its release through its first contact (0.074-0.12 s)."""
-    sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
-            "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0",
-            f"until={until!r}"]
     trace = AttitudeTrace(until)
-    Simulation(load(ROOT / "scenarios" / "skip.yaml", sets), observers=[trace]).run()
+    Simulation(free_throw_scene(spin_rev_s, f"until={until!r}"), observers=[trace]).run()
     return trace
 
 

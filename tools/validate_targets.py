@@ -69,13 +69,11 @@ def sphere_critical_angle(relative_density: float, speed: float = 5.0) -> float:
 
 def free_reference_throw(spin_rev_s: float) -> int:
     """Skips of the reference throw (scenarios/skip.yaml) with a free attitude and a person's spin,
-    on a pond wide enough for the curve the spin gives (4 m)."""
-    from cosim.scenario import load
+    on a pond wide enough for the curve the spin gives (tools/spin_precession.py's throw)."""
     from cosim.scheduler import Simulation
+    from tools.spin_precession import free_throw_scene
 
-    sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
-            "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0"]
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", sets))
+    sim = Simulation(free_throw_scene(spin_rev_s))
     sim.run()
     return sim.components["stages"].track.skips
 
