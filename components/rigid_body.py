@@ -26,6 +26,7 @@ Options:
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -40,7 +41,7 @@ from components.rigid.shapes import mass_properties, shape_volume
 from components.rigid.vec import ZERO, Vec, add, as_vec, norm, scale
 from cosim.component import Component, Port
 from cosim.messages import Message
-from cosim.params import param
+from cosim.params import param, require_valid
 
 Vec3Param = tuple[float, float, float]
 # (the `noqa: RUF009` below: param() returns a dataclasses.field with an immutable default)
@@ -92,12 +93,35 @@ class RigidBodyParams:
             problems.append(("angular_velocity", "is set by scripted_tilt_deg (with spin); leave it 0"))
         for name in ("scripted_tilt_deg", "scripted_velocity"):
             problems += [(name, p) for p in keyframe_problems(getattr(self, name))]
-        problems += self._energy_problems()
+        if not any(name == "thickness" for name, _ in problems):  # a flat disk has no volume: said above
+            problems += self._mass_problems() or self._energy_problems()
         return problems
 
     def shape_id(self) -> Shape:
         """The shape as the messages name it."""
         return Shape.DISK if self.shape == "disk" else Shape.SPHERE
+
+    def _mass_problems(self) -> list[tuple[str, str]]:
+        """A body whose volume, mass or moment of inertia is not a positive, finite, normal float (a
+        radius of 1e103 m, a thickness of 1e-310 m) would fail in its setup: refuse it here, naming the
+        parameter that takes it out of range."""
+        def out(value: float) -> bool:  # a subnormal float too: dividing by it overflows
+            return not (math.isfinite(value) and value >= sys.float_info.min)
+
+        r, e = self.radius, self.thickness
+        volume = shape_volume(self.shape_id(), r, e)
+        if out(volume):
+            name = "thickness" if self.shape == "disk" and not out(r * r) else "radius"
+            return [(name, f"gives the body a volume of {volume:g} m^3, not a positive, finite, normal float "
+                           f"(got {getattr(self, name)!r})")]
+        mass = self.mass if self.mass is not None else self.density * volume
+        if out(mass):
+            return [("density", f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
+                                f"(got {self.density!r})")]
+        if out(mass * r * r):
+            return [("radius", f"gives the body a moment of inertia of {mass * r * r:g} kg m^2, not a positive "
+                               f"finite float (got {r!r})")]
+        return []
 
     def _energy_problems(self) -> list[tuple[str, str]]:
         """A start whose kinetic energy overflows a float (a speed or spin of 1e150 and more) would
@@ -128,6 +152,7 @@ class RigidBody(Component):
 
     def setup(self) -> None:
         p: RigidBodyParams = self.params
+        require_valid(p)
         self.shape = p.shape_id()
         self.body = mass_properties(self.shape, p.radius, p.thickness, density=p.density, mass=p.mass)
         self.integrate = get_integrator(p.integrator)

@@ -167,6 +167,14 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     return obj
 
 
+def require_valid(params: Any) -> None:
+    """Raise ValueError with the rules across fields that ``params`` breaks (its ``check()``), for
+    a component built in code rather than from a scene, which :func:`build` checks."""
+    problems = params.check()
+    if problems:
+        raise ValueError("; ".join(f"{name}: {text}" for name, text in problems))
+
+
 def describe(cls: type) -> list[tuple[str, str, str, str]]:
     """(name, type, default, unit + doc) rows for documentation and ``cosim components``."""
     hints = typing.get_type_hints(cls)

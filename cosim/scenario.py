@@ -665,7 +665,9 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         try:
             built_components[comp_name] = cfg.build()
         except Exception as exc:  # a component that cannot be built from valid-looking parameters
-            problems.append(f"components.{comp_name}: cannot be built from these values: {type(exc).__name__}: {exc}")
+            what = ("a number in its set-up leaves a float's range" if isinstance(exc, ArithmeticError)
+                    else "cannot be built from these values")
+            problems.append(f"components.{comp_name}: {what}: {type(exc).__name__}: {exc}")
     if problems:
         raise ScenarioError(problems, source)
     _check_stability(scene, built_components, problems)

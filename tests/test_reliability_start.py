@@ -3,12 +3,14 @@ the scene loads (bad input), below the pond's bed at the water's first patch (a 
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
 
+from cosim.component import Component
 from cosim.errors import ScenarioError, SimulationError
-from cosim.scenario import load
+from cosim.scenario import load, loads
 from cosim.scheduler import Simulation
 
 SCENES = Path(__file__).resolve().parents[1] / "scenarios"
@@ -36,8 +38,37 @@ def test_a_stone_starting_under_water_above_the_bed_runs():
     assert sim.run().status in ("ok", "stopped")
 
 
+class OverflowingSetUp(Component):
+    """A component whose set-up leaves a float's range: a failure no field's own range check sees."""
+
+    def setup(self) -> None:
+        math.exp(1000.0)
+
+
 def test_a_component_that_cannot_be_built_from_its_values_is_named():
-    """A radius of 1e-300 m passes each field's range check but gives a massless stone: the error
-    names the component that cannot be built, not just 'components'."""
-    with pytest.raises(ScenarioError, match=r"components\.stone: cannot be built from these values: .*mass"):
-        load(SCENES / "skip.yaml", ["components.stone.radius=1e-300"])
+    """The error names the component that cannot be built, not just 'components', and says why."""
+    scene = ("name: overflow\ndt: 0.001\nuntil: 0.01\n"
+             "components:\n  thing: {type: 'tests.test_reliability_start:OverflowingSetUp'}\n")
+    with pytest.raises(ScenarioError, match=r"components\.thing: a number in its set-up leaves a float's range: "
+                                            r"OverflowError: math range error"):
+        loads(scene)
+
+
+@pytest.mark.parametrize(("override", "problem"), [
+    ("components.stone.radius=1e-300", "components.stone.radius: gives the body a volume of 0 m^3, not a "
+                                       "positive, finite, normal float (got 1e-300)"),
+    ("components.stone.radius=1e200", "components.stone.radius: gives the body a volume of inf m^3, not a "
+                                      "positive, finite, normal float (got 1e+200)"),
+    ("components.stone.thickness=1e-320", "components.stone.thickness: gives the body a volume of 7.90505e-323 "
+                                          "m^3, not a positive, finite, normal float (got 1e-320)"),
+    ("components.stone.density=1e-310", "components.stone.density: gives the body a mass of 4.71239e-315 kg, "
+                                        "not a positive, finite, normal float (got 1e-310)"),
+    ("components.pond.depth=1e308", "components.pond.depth: must be <= 100000 m (got 1e+308)"),
+    ("components.pond.wave_speed=1e308", "components.pond.wave_speed: must be <= 10000 m/s (got 1e+308)"),
+])
+def test_a_scene_whose_numbers_leave_a_floats_range_is_refused_naming_the_parameter(override, problem):
+    """Values each field accepts alone but whose mass, volume or wave arithmetic would overflow or
+    vanish (the stone's mass of 1e-315 kg would turn every force into infinity at its first step)."""
+    with pytest.raises(ScenarioError) as caught:
+        load(SCENES / "skip.yaml", [override])
+    assert str(caught.value).endswith(problem)

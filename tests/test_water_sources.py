@@ -53,3 +53,13 @@ def test_window_is_clipped_to_the_grid():
     msg = drop(x=-0.1, y=0.1, start=0.0).step(0, 30 * MS, {})["occupied"]
     assert (msg.i0, msg.j0) == (0, 17)
     assert msg.b.shape == (4, 4)
+
+
+@pytest.mark.parametrize("place", [dict(x=0.5), dict(y=-0.2), dict(origin_x=1e20)])
+def test_a_drop_that_misses_the_grid_is_refused_with_the_grid(place):
+    """A disk wholly off the water would displace nothing (and a grid 1e20 m away made an empty window
+    of object dtype that the recording refused): the parameters say where the grid is."""
+    with pytest.raises(ValueError, match=r"x: the drop at \(.*\) m, radius 0\.03 m, misses the water grid, "
+                                         r"x .* to .* m and y .* to .* m"):
+        drop(**place)
+    drop(x=0.12)  # its disk reaches the last column's outer half: accepted

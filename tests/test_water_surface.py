@@ -60,6 +60,16 @@ def test_initial_bump_is_a_nested_mapping():
         "components.pond.initial.width: missing (required, a number)"]
 
 
+def test_initial_trough_shallower_than_the_depth():
+    """A trough reaching the bed leaves no water there: refused, with the depth it was compared with
+    (a bump may be as high as one likes; one whose energy overflows fails at t = 0, tests/stability)."""
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": -0.49, "width": 0.02}}) == []
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 2.0, "width": 0.02}}) == []
+    assert problems_of({"depth": 0.2, "initial": {"x": 0.0, "y": 0.0, "amplitude": -0.2, "width": 0.02}}) == [
+        "components.pond.initial: a trough must be shallower than the depth 0.2 m: one reaching the bed leaves "
+        "no water (got amplitude -0.2 m)"]
+
+
 def test_direct_construction_checks_the_parameters():
     """Building the component in code with a bad name fails with the same message."""
     with pytest.raises(ValueError, match="model: must be one of 'wave', 'shallow_water'"):

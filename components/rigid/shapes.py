@@ -42,10 +42,13 @@ class MassProperties:
 
 
 def shape_volume(shape: Shape, radius: float, thickness: float) -> float:
-    """Volume [m^3] of a disk (pi R^2 e) or a sphere (4/3 pi R^3)."""
+    """Volume [m^3] of a disk (pi R^2 e) or a sphere (4/3 pi R^3); inf where it overflows a float."""
     if shape is Shape.DISK:
         return math.pi * radius * radius * thickness
-    return 4.0 / 3.0 * math.pi * radius ** 3
+    try:
+        return 4.0 / 3.0 * math.pi * radius ** 3
+    except OverflowError:  # a float power that overflows raises where a product gives inf
+        return math.inf
 
 
 def disk_inertia(mass: float, radius: float, thickness: float) -> tuple[float, float, float]:

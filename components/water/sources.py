@@ -25,7 +25,7 @@ from components.messages import OccupiedHeight
 from components.water.grid import CELL_MAX, CELL_MIN
 from cosim.component import Component, Port
 from cosim.messages import Message
-from cosim.params import param
+from cosim.params import param, require_valid
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,17 @@ class DropParams:
     nx: int = param(128, ge=1, doc="cells of the water grid along x")
     ny: int = param(128, ge=1, doc="cells of the water grid along y")
 
+    def check(self) -> list[tuple[str, str]]:
+        """A drop whose disk misses the water grid would displace nothing: refused, with the grid's extent."""
+        half = 0.5 * self.cell
+        x_lo, x_hi = self.origin_x - half, self.origin_x + (self.nx - 0.5) * self.cell
+        y_lo, y_hi = self.origin_y - half, self.origin_y + (self.ny - 0.5) * self.cell
+        if (self.x + self.radius <= x_lo or self.x - self.radius >= x_hi
+                or self.y + self.radius <= y_lo or self.y - self.radius >= y_hi):
+            return [("x", f"the drop at ({self.x:g}, {self.y:g}) m, radius {self.radius:g} m, misses the water "
+                          f"grid, x {x_lo:g} to {x_hi:g} m and y {y_lo:g} to {y_hi:g} m")]
+        return []
+
 
 def _smoothstep(u: float) -> float:
     u = min(max(u, 0.0), 1.0)
@@ -60,6 +71,7 @@ class DropSource(Component):
 
     def setup(self) -> None:
         p = self.params
+        require_valid(p)
         i0 = max(math.floor((p.x - p.radius - p.origin_x) / p.cell), 0)
         i1 = min(math.ceil((p.x + p.radius - p.origin_x) / p.cell) + 1, p.nx)
         j0 = max(math.floor((p.y - p.radius - p.origin_y) / p.cell), 0)

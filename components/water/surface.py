@@ -52,13 +52,13 @@ from components.messages import HeightPatch, OccupiedHeight, PatchRequest, Water
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import energy, surface_energy, volume
-from components.water.grid import CELL_MAX, CELL_MIN, build_grid, holds_one_value
+from components.water.grid import CELL_MAX, CELL_MIN, DEPTH_MAX, WAVE_SPEED_MAX, build_grid, holds_one_value
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
 from components.water.windows import apply_window, patch_arrays
 from cosim.component import Component, Port
 from cosim.messages import Message
-from cosim.params import param
+from cosim.params import param, require_valid
 from cosim.timebase import NS_PER_S
 
 KERNELS: dict[str, Any] = {"numba": kernels_numba.SERIAL, "numpy": kernels_numpy}
@@ -90,14 +90,15 @@ class WaterParams:
     nx: int = param(128, ge=2, doc="cells along x")
     ny: int = param(128, ge=2, doc="cells along y")
     cell: float = param(0.01, unit="m", ge=CELL_MIN, le=CELL_MAX, doc="cell size s (1 um to 10 km)")
-    depth: float = param(0.5, unit="m", gt=0, doc="rest depth at the centre of the grid")
+    depth: float = param(0.5, unit="m", gt=0, le=DEPTH_MAX, doc="rest depth at the centre of the grid (at most 100 km)")
     origin_x: float = param(0.0, unit="m", doc="x of the centre of cell (0, 0)")
     origin_y: float = param(0.0, unit="m", doc="y of the centre of cell (0, 0)")
     rest_level: float = param(0.0, unit="m", doc="z of the undisturbed surface")
     bottom_slope: tuple[float, float] = param(
         (0.0, 0.0), unit="m/m", doc="bed slope (dz/dx, dz/dy); cells with the bed above rest level are dry")
     model: str = param("wave", doc="wave (explicit) or shallow_water (implicit, Kass-Miller)")
-    wave_speed: float | None = param(None, unit="m/s", gt=0, doc="fixed wave speed c; default sqrt(g d)")
+    wave_speed: float | None = param(None, unit="m/s", gt=0, le=WAVE_SPEED_MAX,
+                                     doc="fixed wave speed c; default sqrt(g d) (at most 10 km/s)")
     boundary: str = param("reflecting", doc="reflecting (closed basin) or absorbing (open water)")
     sponge_cells: int = param(0, ge=0, doc="absorbing boundary: width of an extra sponge layer [cells]")
     damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= max(0, 1 - k_v dt)")
@@ -134,6 +135,9 @@ class WaterParams:
                 problems.append(("bodies", f"each must be a name of letters, digits and _ (got {name!r} at {k})"))
         if len(set(self.bodies)) != len(self.bodies):
             problems.append(("bodies", f"must not repeat a name (got {list(self.bodies)})"))
+        if self.initial is not None and not self.initial.amplitude > -self.depth:
+            problems.append(("initial", f"a trough must be shallower than the depth {self.depth:g} m: one reaching "
+                                        f"the bed leaves no water (got amplitude {self.initial.amplitude:g} m)"))
         if self.field_window is not None and min(self.field_window) <= 0:
             problems.append(("field_window", f"must be two sizes > 0 [m] (got {list(self.field_window)})"))
         if self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
@@ -199,9 +203,7 @@ class WaterSurface(Component):
 
     def setup(self) -> None:
         p = self.params
-        problems = p.check()
-        if problems:
-            raise ValueError("; ".join(f"{name}: {text}" for name, text in problems))
+        require_valid(p)
         self.grid = g = build_grid(p.nx, p.ny, p.cell, p.depth, origin_x=p.origin_x, origin_y=p.origin_y,
                                    rest_level=p.rest_level, bottom_slope=p.bottom_slope,
                                    wave_speed=p.wave_speed)
