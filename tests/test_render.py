@@ -92,6 +92,8 @@ def test_unknown_formats_and_times_are_bad_input(skip_path, tmp_path, capsys):
     late = ["--from", "2", "--to", "3"]
     assert main(["render", str(skip_path), "-o", str(tmp_path / "x.gif"), *late, "-q"]) == 2
     assert "outside the recorded" in capsys.readouterr().err
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.png"), "--at", "100", "-q"]) == 2
+    assert "frame time 100 s is outside the recorded" in capsys.readouterr().err  # not its last frame
     assert list(tmp_path.iterdir()) == []
 
 

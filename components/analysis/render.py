@@ -690,7 +690,8 @@ def _frame_times(output: Path, options: RenderOptions, begin: float, end: float,
     ``--from`` to ``--to`` (else ``begin`` to ``end``) otherwise; RenderError outside ``begin`` ..
     ``end`` (the ``what`` recording's span)."""
     if output.suffix.lower() == ".png":
-        times = np.array([min(default_at() if options.at is None else options.at, end)])
+        # the default moment may fall after a short run's end: then its last frame; a chosen one is checked
+        times = np.array([min(default_at(), end) if options.at is None else options.at])
     else:
         t0 = begin if options.start is None else options.start
         t1 = end if options.stop is None else options.stop
@@ -698,8 +699,9 @@ def _frame_times(output: Path, options: RenderOptions, begin: float, end: float,
             raise RenderError(f"--to ({t1:g} s) must not be before --from ({t0:g} s)")
         times = frame_times(t0, t1, options.fps, options.speed)
     if times[0] < begin or times[-1] > end + 1e-9:
-        raise RenderError(f"frame times {times[0]:g} .. {times[-1]:g} s are outside the {what} "
-                          f"{begin:g} .. {end:g} s")
+        asked = (f"frame time {times[0]:g} s is" if len(times) == 1
+                 else f"frame times {times[0]:g} .. {times[-1]:g} s are")
+        raise RenderError(f"{asked} outside the {what} {begin:g} .. {end:g} s")
     return times
 
 
