@@ -118,6 +118,11 @@ class RigidBodyParams:
         if out(mass):
             return [("density", f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
                                 f"(got {self.density!r})")]
+        weight = mass * max(abs(g) for g in self.gravity)
+        if not math.isfinite(weight):
+            name = "mass" if self.mass is not None else "density"
+            return [(name, f"gives the body a weight of {weight:g} N, not a finite float "
+                           f"(got {getattr(self, name)!r})")]
         if out(mass * r * r):
             return [("radius", f"gives the body a moment of inertia of {mass * r * r:g} kg m^2, not a positive "
                                f"finite float (got {r!r})")]
@@ -132,8 +137,11 @@ class RigidBodyParams:
         # products, not powers: a float power that overflows raises where a product gives inf
         spun = "spin" if self.spin else "angular_velocity"
         terms = {"velocity": 0.5 * mass * sum(v * v for v in self.velocity), spun: 0.5 * mass * rim * rim}
-        return [(name, f"makes the stone's kinetic energy overflow a float (got {getattr(self, name)!r})")
-                for name, energy in terms.items() if not math.isfinite(energy)]
+        kinetic = [(name, f"makes the stone's kinetic energy overflow a float (got {getattr(self, name)!r})")
+                   for name, energy in terms.items() if not math.isfinite(energy)]
+        height = mass * sum(abs(g * x) for g, x in zip(self.gravity, self.position, strict=True))
+        return kinetic + ([] if math.isfinite(height) else [
+            ("position", f"makes the stone's potential energy overflow a float (got {self.position!r})")])
 
 
 def _array(values: Vec | quat.Quat) -> np.ndarray:

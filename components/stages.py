@@ -276,11 +276,11 @@ class StageMonitor(Component):
 
     def summary(self) -> list[str]:
         # named after the monitor ("stages" in most scenes), so that several monitors tell theirs apart
-        lines = [f"{self.name}: {' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)}"]
+        timeline = ' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)
+        lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the body was seen)'}"]
         start = self.track.start_x
-        travelled = self.final_x - start if not math.isnan(start) else math.nan
-        lines.append(f"skips: {self.track.skips}; distance travelled: {travelled:.2f} m; "
-                     f"final stage: {self._outcome()}")
+        travelled = f"{self.final_x - start:.2f} m" if not math.isnan(start) else "none yet"
+        lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {self._outcome()}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
         for r in self.records:

@@ -27,6 +27,7 @@ from dataclasses import MISSING
 from typing import Any, Literal
 
 _REQUIRED = MISSING
+INT_LIMIT = 2**63  # an int parameter is an int64 where the arithmetic runs
 
 
 def param(default: Any = _REQUIRED, *, unit: str = "", doc: str = "", gt: float | None = None,
@@ -105,6 +106,8 @@ def convert(tp: Any, value: Any, path: str, problems: list[str]) -> Any:
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
             problems.append(f"{path}: must be an integer (got {_show(value)})")
+        elif not -INT_LIMIT <= value < INT_LIMIT:  # counts and sizes reach numpy and the kernels as int64
+            problems.append(f"{path}: must be a 64-bit integer, below 2^63 in size (got {value})")
         return value
     if tp is bool:
         if not isinstance(value, bool):

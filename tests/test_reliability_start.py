@@ -65,6 +65,17 @@ def test_a_component_that_cannot_be_built_from_its_values_is_named():
                                         "not a positive, finite, normal float (got 1e-310)"),
     ("components.pond.depth=1e308", "components.pond.depth: must be <= 100000 m (got 1e+308)"),
     ("components.pond.wave_speed=1e308", "components.pond.wave_speed: must be <= 10000 m/s (got 1e+308)"),
+    ("components.pond.rest_level=-1e308", "components.pond.rest_level: must be >= -1e+06 m (got -1e+308)"),
+    ("components.pond.field_rate=1e308", "components.pond.field_rate: must be <= 1e+06 Hz (got 1e+308)"),
+    ("components.coupler.water_level=1e308", "components.coupler.water_level: must be <= 1e+06 m (got 1e+308)"),
+    ("components.stone.mass=1e308", "components.stone.mass: gives the body a weight of inf N, not a finite float "
+                                    "(got 1e+308)"),
+    ("components.pond.displacement_smoothing=5000", "components.pond.displacement_smoothing: must be <= 1000 "
+                                                    "(got 5000)"),
+    ("components.pond.ny=99999999999999999999", "components.pond.ny: must be a 64-bit integer, below 2^63 in "
+                                                "size (got 99999999999999999999)"),
+    ("components.stone.position=[0, 0, 1e308]", "components.stone.position: makes the stone's potential energy "
+                                                "overflow a float (got (0.0, 0.0, 1e+308))"),
 ])
 def test_a_scene_whose_numbers_leave_a_floats_range_is_refused_naming_the_parameter(override, problem):
     """Values each field accepts alone but whose mass, volume or wave arithmetic would overflow or
@@ -72,3 +83,11 @@ def test_a_scene_whose_numbers_leave_a_floats_range_is_refused_naming_the_parame
     with pytest.raises(ScenarioError) as caught:
         load(SCENES / "skip.yaml", [override])
     assert str(caught.value).endswith(problem)
+
+
+def test_a_body_far_longer_than_wide_starts_over_a_bounded_stand_in_for_the_water():
+    """Before the water's first patch the coupler assumes still water over the body's footprint, at
+    most 64 columns along it: a disk 100 km thick (tilted, so its footprint is 34 km long) once asked
+    for 10^13 columns of 6 mm there and never started; now it runs."""
+    sim = Simulation(load(SCENES / "skip.yaml", ["components.stone.thickness=1e5", "until=0.002"]))
+    assert sim.run().status == "ok"

@@ -262,3 +262,11 @@ def test_a_slow_stone_barely_touching_waits_for_the_buoyancy_to_tell():
     out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
                     (body(0.5, 0.0, 0.3, -0.1), water(True, 0.001), None)])
     assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]
+
+
+def test_a_monitor_that_never_saw_the_body_says_so_in_words():
+    """A run that failed before the monitor's first step (another component at t = 0) prints no empty
+    timeline and no 'nan m': it says there is no stage and no distance yet."""
+    assert StageMonitor("stages", StageMonitor.Params()).summary() == [
+        "stages: no stage yet (the run ended before the body was seen)",
+        "skips: 0; distance travelled: none yet; final stage: none"]

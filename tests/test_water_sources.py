@@ -63,3 +63,12 @@ def test_a_drop_that_misses_the_grid_is_refused_with_the_grid(place):
                                          r"x .* to .* m and y .* to .* m"):
         drop(**place)
     drop(x=0.12)  # its disk reaches the last column's outer half: accepted
+
+
+def test_a_drop_smaller_than_a_micrometre_is_refused():
+    """A radius of 1e-320 m made every column's distance over it overflow (numpy warnings): refused."""
+    from cosim.params import build
+
+    problems: list[str] = []
+    build(DropParams, {"radius": 1e-320}, "drop", problems)
+    assert problems == ["drop.radius: must be >= 1e-06 m (got 9.99989e-321)"]

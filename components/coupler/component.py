@@ -150,7 +150,8 @@ class WaterCouplerParams:
     lookahead: float = param(0.06, unit="s", ge=0,
                              doc="the requested window reaches as far ahead as the body moves in this time "
                                  "(a contact's length: the surface it meets is the one it saw coming)")
-    water_level: float = param(0.0, unit="m", doc="rest level assumed until the first patch arrives")
+    water_level: float = param(0.0, unit="m", ge=-1e6, le=1e6,  # as a water's rest level (1000 km)
+                               doc="rest level assumed until the first patch arrives (within 1000 km of z = 0)")
     wave_allowance: float = param(0.05, unit="m", ge=0,
                                   doc="highest crest above rest level; a body above it is far")
     quiet_above: float = param(0.01, unit="m", ge=0,
@@ -870,8 +871,9 @@ class WaterCoupler(Component):
 
     def _assumed_still_water(self, pos: np.ndarray, half: tuple[float, float], level: float) -> HeightPatch:
         """Still water at the rest ``level`` over the body's footprint (columns of an eighth of its
-        radius, the bed far below), standing in for the water until its first patch arrives."""
-        cell = max(min(half) / 8.0, 1e-3)
+        smaller half-extent, at most 64 along the larger, the bed far below), standing in for the
+        water until its first patch arrives."""
+        cell = max(min(half) / 8.0, max(half) / 64.0, 1e-3)  # a rod 1e20 m long: 64 columns, not 1e22
         ni = math.ceil(2.0 * half[0] / cell) + 5
         nj = math.ceil(2.0 * half[1] / cell) + 5
         shape = (nj, ni)

@@ -28,6 +28,7 @@ WATER_DENSITY = 1000.0  # [kg/m^3], rho_w of physics.md
 # lakes (a cell of 1e-300 m has a square of 0, one of 1e160 m an infinite one)
 CELL_MIN, CELL_MAX = 1e-6, 1e4
 DEPTH_MAX = 1e5  # [m] a rest depth of at most 100 km (the deepest ocean is 11 km): g d stays a float
+LEVEL_MAX = 1e6  # [m] |z| of a rest level: 1000 km, beyond any water; heights there still resolve 1e-10 m
 WAVE_SPEED_MAX = 1e4  # [m/s] a fixed wave speed of at most 10 km/s (sqrt(g d) at DEPTH_MAX is 1 km/s)
 
 

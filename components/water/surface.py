@@ -52,7 +52,7 @@ from components.messages import HeightPatch, OccupiedHeight, PatchRequest, Water
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import energy, surface_energy, volume
-from components.water.grid import CELL_MAX, CELL_MIN, DEPTH_MAX, WAVE_SPEED_MAX, build_grid, holds_one_value
+from components.water.grid import CELL_MAX, CELL_MIN, DEPTH_MAX, LEVEL_MAX, WAVE_SPEED_MAX, build_grid, holds_one_value
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
 from components.water.windows import apply_window, patch_arrays
@@ -93,7 +93,8 @@ class WaterParams:
     depth: float = param(0.5, unit="m", gt=0, le=DEPTH_MAX, doc="rest depth at the centre of the grid (at most 100 km)")
     origin_x: float = param(0.0, unit="m", doc="x of the centre of cell (0, 0)")
     origin_y: float = param(0.0, unit="m", doc="y of the centre of cell (0, 0)")
-    rest_level: float = param(0.0, unit="m", doc="z of the undisturbed surface")
+    rest_level: float = param(0.0, unit="m", ge=-LEVEL_MAX, le=LEVEL_MAX,
+                              doc="z of the undisturbed surface (within 1000 km of z = 0)")
     bottom_slope: tuple[float, float] = param(
         (0.0, 0.0), unit="m/m", doc="bed slope (dz/dx, dz/dy); cells with the bed above rest level are dry")
     model: str = param("wave", doc="wave (explicit) or shallow_water (implicit, Kass-Miller)")
@@ -103,11 +104,12 @@ class WaterParams:
     sponge_cells: int = param(0, ge=0, doc="absorbing boundary: width of an extra sponge layer [cells]")
     damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= max(0, 1 - k_v dt)")
     smoothing: float = param(0.0, unit="1/s", ge=0, doc="positional smoothing rate k_p")
-    displacement_smoothing: int = param(0, ge=0, doc="blur passes spreading each displacement change")
+    displacement_smoothing: int = param(0, ge=0, le=1000, doc="blur passes spreading each displacement change")
     initial: GaussianBump | None = param(None, doc="initial bump {x, y, amplitude, width}")
     patch_margin: int = param(1, ge=0, doc="cells added around the requested window")
     field_every: int = param(0, ge=0, doc="publish the whole field every N steps (0: never)")
-    field_rate: float = param(0.0, unit="Hz", ge=0, doc="or publish it at this frame rate (0: never)")
+    field_rate: float = param(0.0, unit="Hz", ge=0, le=1e6,
+                              doc="or publish it at this frame rate (0: never; at most 1 MHz)")
     field_window: tuple[float, float] | None = param(
         None, unit="m", doc="the published field covers this (x, y) size around the bodies, following the "
                             "last water they asked for (none: the whole surface)")
