@@ -133,7 +133,9 @@ class RigidBodyParams:
         fail at the first step with infinities: refuse it here, naming the parameter."""
         volume = shape_volume(self.shape_id(), self.radius, self.thickness)
         mass = self.mass if self.mass is not None else self.density * volume
-        rim = self.radius * (abs(self.spin) + math.sqrt(sum(w * w for w in self.angular_velocity)))
+        # the farthest point from the centre: a moment of inertia is at most mass x its distance squared
+        reach = math.hypot(self.radius, 0.5 * self.thickness) if self.shape == "disk" else self.radius
+        rim = reach * (abs(self.spin) + math.sqrt(sum(w * w for w in self.angular_velocity)))
         # products, not powers: a float power that overflows raises where a product gives inf
         spun = "spin" if self.spin else "angular_velocity"
         terms = {"velocity": 0.5 * mass * sum(v * v for v in self.velocity), spun: 0.5 * mass * rim * rim}

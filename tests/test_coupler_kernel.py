@@ -225,6 +225,16 @@ def test_ring_displacement_lies_outside_the_body():
     assert r.min() > R and r.max() < R + 3.5 * cell
 
 
+def test_a_body_covering_the_whole_window_keeps_its_displaced_volume_in_place():
+    """With no water around the body in the window (a disk wider than the patch) the ring has no band
+    to push into: each column keeps its own volume, exactly (its shares once divided by zero)."""
+    cell = 0.01
+    b = body(position=(0.0, 0.0, 0.0), radius=1.0)  # 2 m across, over a 30 cm patch
+    _, out = run(b, still_water(cell), effects=["displacement"])
+    occ = out["occupied"]
+    assert occ.b.shape == (30, 30) and np.all(occ.b == pytest.approx(0.5 * E, rel=1e-12))
+
+
 def test_skipping_disk_pushes_water_from_its_wet_trailing_edge():
     """A pitched disk wet only at its trailing edge displaces water behind its centre, not ahead."""
     cell = 0.01

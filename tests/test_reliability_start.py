@@ -74,6 +74,8 @@ def test_a_component_that_cannot_be_built_from_its_values_is_named():
                                                     "(got 5000)"),
     ("components.pond.ny=99999999999999999999", "components.pond.ny: must be a 64-bit integer, below 2^63 in "
                                                 "size (got 99999999999999999999)"),
+    ("components.coupler.face_elements=100000", "components.coupler.face_elements: must be <= 1024 (got 100000)"),
+    ("components.coupler.lookahead=1e308", "components.coupler.lookahead: must be <= 10 s (got 1e+308)"),
     ("components.stone.position=[0, 0, 1e308]", "components.stone.position: makes the stone's potential energy "
                                                 "overflow a float (got (0.0, 0.0, 1e+308))"),
 ])
@@ -91,3 +93,10 @@ def test_a_body_far_longer_than_wide_starts_over_a_bounded_stand_in_for_the_wate
     for 10^13 columns of 6 mm there and never started; now it runs."""
     sim = Simulation(load(SCENES / "skip.yaml", ["components.stone.thickness=1e5", "until=0.002"]))
     assert sim.run().status == "ok"
+
+
+def test_a_spinning_disk_whose_thickness_makes_its_energy_overflow_is_refused():
+    """Its moment of inertia about a diameter grows with the thickness squared: a disk 1e100 m thick
+    spun at 1e80 rad/s, whose energy the radius alone would keep finite, is refused at its spin."""
+    with pytest.raises(ScenarioError, match=r"components\.stone\.spin: makes the stone's kinetic energy overflow"):
+        load(SCENES / "skip.yaml", ["components.stone.thickness=1e100", "components.stone.spin=1e80"])

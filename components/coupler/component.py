@@ -138,16 +138,16 @@ class WaterCouplerParams:
     displacement_mode: Literal["ring", "column"] = param(
         "ring", doc="ring: displaced volume around the body, buoyancy at the water's level there "
                     "(energy-consistent); column: Mueller's b under it, buoyancy at the surface there")
-    ring_cells: float = param(1.5, gt=0, doc="width of the displacement band [cells]")
-    smoothing: int = param(0, ge=0, doc="volume-conserving [1,2,1] smoothing passes of the displacement")
-    column_subsamples: int = param(0, ge=0, doc="sub-cells per column side (0: automatic from R/cell)")
-    face_elements: int = param(16, ge=2, doc="disk face tiling: squares across a diameter")
-    rim_elements: int = param(48, ge=3, doc="disk rim tiling: strips around the rim")
-    sphere_bands: int = param(24, ge=2, doc="sphere tiling: equal-area latitude bands")
+    ring_cells: float = param(1.5, gt=0, le=100, doc="width of the displacement band [cells]")
+    smoothing: int = param(0, ge=0, le=1000, doc="volume-conserving [1,2,1] smoothing passes of the displacement")
+    column_subsamples: int = param(0, ge=0, le=64, doc="sub-cells per column side (0: automatic from R/cell)")
+    face_elements: int = param(16, ge=2, le=1024, doc="disk face tiling: squares across a diameter")
+    rim_elements: int = param(48, ge=3, le=4096, doc="disk rim tiling: strips around the rim")
+    sphere_bands: int = param(24, ge=2, le=1024, doc="sphere tiling: equal-area latitude bands")
     wet_ramp: float = param(5e-4, unit="m", gt=0,
                             doc="least depth over which a level element goes from dry to wet")
-    margin_cells: int = param(4, ge=0, doc="request margin around the footprint [cells]")
-    lookahead: float = param(0.06, unit="s", ge=0,
+    margin_cells: int = param(4, ge=0, le=1000, doc="request margin around the footprint [cells]")
+    lookahead: float = param(0.06, unit="s", ge=0, le=10,
                              doc="the requested window reaches as far ahead as the body moves in this time "
                                  "(a contact's length: the surface it meets is the one it saw coming)")
     water_level: float = param(0.0, unit="m", ge=-1e6, le=1e6,  # as a water's rest level (1000 km)

@@ -769,6 +769,16 @@ def _column_factors(dx, dy, outline, moments, multinomial, out):
     for m in range(RING_TERMS):
         out[m] *= multinomial[m]
         total += out[m] * moments[m]
+    if not total > 0.0:
+        # on the outline with the whole band straight across (every share (1 - 1)^p = 0): spread
+        # evenly, as a column at the centre does; with no band at all the factors go unused
+        _monomials(0.0, 0.0, 1.0, out)
+        total = 0.0
+        for m in range(RING_TERMS):
+            out[m] *= multinomial[m]
+            total += out[m] * moments[m]
+        if not total > 0.0:
+            return
     for m in range(RING_TERMS):
         out[m] /= total
 
