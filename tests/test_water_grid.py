@@ -39,6 +39,15 @@ def test_empty_or_outside_request_gives_no_window():
     assert g.window(20.0, 30.0, 0.0, 1.0) is None
 
 
+def test_a_request_far_beyond_the_float_range_of_the_grid_is_clipped_like_any_other():
+    """A grid 1e308 m from the body: the request's cell index overflows a float, and is still a
+    window clipped to the grid (none here; all of it from the other side), not an OverflowError."""
+    far = build_grid(10, 10, 0.01, 1.0, origin_x=1e308)
+    assert far.window(0.0, 1.0, 0.0, 0.05) is None
+    behind = build_grid(10, 10, 0.01, 1.0, origin_x=-1e308)
+    assert behind.window(-1e308, 1e308, 0.0, 0.05) == (0, 10, 0, 6)
+
+
 def test_non_finite_request_is_an_error():
     """A request with NaN or infinite bounds is refused, naming the rectangle."""
     g = build_grid(10, 10, 1.0, 1.0)

@@ -28,6 +28,7 @@ WATER_DENSITY = 1000.0  # [kg/m^3], rho_w of physics.md
 # lakes (a cell of 1e-300 m has a square of 0, one of 1e160 m an infinite one)
 CELL_MIN, CELL_MAX = 1e-6, 1e4
 DEPTH_MAX = 1e5  # [m] a rest depth of at most 100 km (the deepest ocean is 11 km): g d stays a float
+INDEX_LIMIT = 2.0**62  # a cell index beyond any grid, as a float: farther requests are clipped to it
 LEVEL_MAX = 1e6  # [m] |z| of a rest level: 1000 km, beyond any water; heights there still resolve 1e-10 m
 WAVE_SPEED_MAX = 1e4  # [m/s] a fixed wave speed of at most 10 km/s (sqrt(g d) at DEPTH_MAX is 1 km/s)
 
@@ -94,15 +95,21 @@ class Grid:
         if x_min > x_max or y_min > y_max:
             return None
         s = self.cell
-        i0 = math.floor((x_min - self.origin_x) / s + 0.5) - margin
-        i1 = math.floor((x_max - self.origin_x) / s + 0.5) + margin + 1
-        j0 = math.floor((y_min - self.origin_y) / s + 0.5) - margin
-        j1 = math.floor((y_max - self.origin_y) / s + 0.5) + margin + 1
+        i0 = _cell_index(x_min, self.origin_x, s) - margin
+        i1 = _cell_index(x_max, self.origin_x, s) + margin + 1
+        j0 = _cell_index(y_min, self.origin_y, s) - margin
+        j1 = _cell_index(y_max, self.origin_y, s) + margin + 1
         i0, i1 = max(i0, 0), min(i1, self.nx)
         j0, j1 = max(j0, 0), min(j1, self.ny)
         if i0 >= i1 or j0 >= j1:
             return None
         return i0, i1, j0, j1
+
+
+def _cell_index(q: float, origin: float, cell: float) -> int:
+    """Index of the cell whose square holds coordinate ``q`` [m] (``origin``: the centre of cell 0),
+    clipped to +-INDEX_LIMIT: a coordinate 1e308 m from the grid overflows to infinity."""
+    return math.floor(min(max((q - origin) / cell + 0.5, -INDEX_LIMIT), INDEX_LIMIT))
 
 
 def is_broadcast(a: np.ndarray) -> bool:
