@@ -101,6 +101,11 @@ class RigidBodyParams:
         """The shape as the messages name it."""
         return Shape.DISK if self.shape == "disk" else Shape.SPHERE
 
+    def _volume_and_mass(self) -> tuple[float, float]:
+        """Volume [m^3] and mass [kg] (the given mass, else density x volume); inf where they overflow."""
+        volume = shape_volume(self.shape_id(), self.radius, self.thickness)
+        return volume, self.mass if self.mass is not None else self.density * volume
+
     def _mass_problems(self) -> list[tuple[str, str]]:
         """A body whose volume, mass or moment of inertia is not a positive, finite, normal float (a
         radius of 1e103 m, a thickness of 1e-310 m) would fail in its setup: refuse it here, naming the
@@ -108,13 +113,12 @@ class RigidBodyParams:
         def out(value: float) -> bool:  # a subnormal float too: dividing by it overflows
             return not (math.isfinite(value) and value >= sys.float_info.min)
 
-        r, e = self.radius, self.thickness
-        volume = shape_volume(self.shape_id(), r, e)
+        r = self.radius
+        volume, mass = self._volume_and_mass()
         if out(volume):
             name = "thickness" if self.shape == "disk" and not out(r * r) else "radius"
             return [(name, f"gives the body a volume of {volume:g} m^3, not a positive, finite, normal float "
                            f"(got {getattr(self, name)!r})")]
-        mass = self.mass if self.mass is not None else self.density * volume
         if out(mass):
             return [("density", f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
                                 f"(got {self.density!r})")]
@@ -124,15 +128,14 @@ class RigidBodyParams:
             return [(name, f"gives the body a weight of {weight:g} N, not a finite float "
                            f"(got {getattr(self, name)!r})")]
         if out(mass * r * r):
-            return [("radius", f"gives the body a moment of inertia of {mass * r * r:g} kg m^2, not a positive "
-                               f"finite float (got {r!r})")]
+            return [("radius", f"gives the body a moment of inertia of {mass * r * r:g} kg m^2, not a positive, "
+                               f"finite, normal float (got {r!r})")]
         return []
 
     def _energy_problems(self) -> list[tuple[str, str]]:
         """A start whose kinetic energy overflows a float (a speed or spin of 1e150 and more) would
         fail at the first step with infinities: refuse it here, naming the parameter."""
-        volume = shape_volume(self.shape_id(), self.radius, self.thickness)
-        mass = self.mass if self.mass is not None else self.density * volume
+        _, mass = self._volume_and_mass()
         # the farthest point from the centre: a moment of inertia is at most mass x its distance squared
         reach = math.hypot(self.radius, 0.5 * self.thickness) if self.shape == "disk" else self.radius
         rim = reach * (abs(self.spin) + math.sqrt(sum(w * w for w in self.angular_velocity)))
