@@ -179,6 +179,11 @@ def test_scene_file_and_sweep_file_problems(tmp_path):
         load_sweep(write_sweep(tmp_path, "scene: nowhere.yaml\naxes: {dt: [0.001]}\n"))
     with pytest.raises(ScenarioError, match=r"missing\.yaml: no such file"):
         load_sweep(tmp_path / "missing.yaml")
+    itself = write_sweep(tmp_path, "scene: sweep.yaml\naxes: {dt: [0.001]}\n")  # a sweep naming itself
+    assert itself.name == "sweep.yaml"
+    with pytest.raises(ScenarioError, match=r"scene: 'sweep\.yaml' is a sweep file \(it has axes and no "
+                                            r"components\), not the scene a sweep varies"):
+        load_sweep(itself)
     with pytest.raises(ScenarioError, match=r"a sweep must be a mapping with at least 'scene' and 'axes' "
                                             r"\(got nothing\)"):
         loads_sweep("")

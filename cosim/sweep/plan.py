@@ -416,6 +416,10 @@ def _base_scene(data: dict[str, Any], base_dir: Path, source: str,
         scene_data = yaml.safe_load(text)
     except yaml.YAMLError:
         scene_data = None  # the scene's own validation reports it, with the line
+    if isinstance(scene_data, dict) and "axes" in scene_data and "components" not in scene_data:
+        problems.append(f"scene: {spec!r} is a sweep file (it has axes and no components), not the scene "
+                        "a sweep varies")
+        return None
     return text, str(path), scene_data if isinstance(scene_data, dict) else {}
 
 
