@@ -201,6 +201,8 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     try:
         sim.restore(cp)
     except (ValueError, KeyError) as exc:
-        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at "
-                             f"{stamp / NS_PER_S:g} s: {exc}") from None
+        why = (f"it holds no {exc.args[0]!r}, which this scene's components restore (a component or setting "
+               "changed by --set?)" if isinstance(exc, KeyError) else str(exc))
+        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s: "
+                             f"{why}") from None
     return sim, stamp

@@ -96,6 +96,17 @@ def test_replay_errors_are_clear(recording):
         restart_simulation(recording, -1_000_000)
 
 
+def test_a_checkpoint_missing_what_a_component_restores_is_named(recording, monkeypatch):
+    """A checkpoint whose component state lacks a key the scene's component reads (a component or
+    setting changed by --set) names the key, not just the KeyError's bare 'total'."""
+    broken = [(stamp, {**cp, "components": {**cp["components"], "acc": {**cp["components"]["acc"], "state": {}}}})
+              for stamp, cp in recording.checkpoints()]
+    monkeypatch.setattr(recording, "checkpoints", lambda: broken)
+    with pytest.raises(RecordingError, match=r"cannot restart from the checkpoint at 0\.06 s: it holds no 'total', "
+                                             r"which this scene's components restore"):
+        restart_simulation(recording, 60_000_000)
+
+
 def test_a_restart_after_the_recorded_end_is_refused_with_the_end_named(recording):
     """--from beyond the run's end (0.1 s here) is an error naming both times, not a silent restart
     from the run's last checkpoint; the end itself is still a time within the run."""

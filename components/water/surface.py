@@ -363,10 +363,10 @@ class WaterSurface(Component):
         self._displaced_before = float(state.get("displaced_before", 0.0))
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
-        if state.get("model") is not None:
+        if state.get("model"):
             self.model.set_state(state["model"])
-        else:  # a state built by hand (no "model" entry, or None): the model starts from it
-            self.model.reset(self._h, self._v)
+        else:  # a state built by hand, or saved by a model that keeps none (a restart with another model):
+            self.model.reset(self._h, self._v)  # the model starts from the columns
 
     # --- the step -------------------------------------------------------------------------------
 
