@@ -58,7 +58,8 @@ class RigidBodyParams:
     shape: Literal["disk", "sphere"] = param("disk", doc="thin disk (axis along body z) or sphere")
     radius: float = param(0.05, unit="m", gt=0)
     thickness: float = param(0.005, unit="m", ge=0, doc="disk thickness (ignored for a sphere)")
-    density: float = param(2700.0, unit="kg/m^3", gt=0, doc="sets the mass unless mass is given")
+    density: float = param(2700.0, unit="kg/m^3", gt=0, le=1e6,
+                           doc="sets the mass unless mass is given (at most 1e6: osmium is 22,590)")
     mass: float | None = param(None, unit="kg", gt=0, doc="overrides the density")
     position: Vec3Param = param((0.0, 0.0, 0.1), unit="m", doc="initial centre of mass")
     velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="m/s", doc="initial velocity")

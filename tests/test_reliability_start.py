@@ -75,6 +75,10 @@ def test_a_component_that_cannot_be_built_from_its_values_is_named():
     ("components.pond.ny=99999999999999999999", "components.pond.ny: must be a 64-bit integer, below 2^63 in "
                                                 "size (got 99999999999999999999)"),
     ("components.coupler.face_elements=100000", "components.coupler.face_elements: must be <= 1024 (got 100000)"),
+    ("components.coupler.g=1e-320", "components.coupler.g: must be 0 (weightless) or at least 1e-06 m/s^2 "
+                                    "(got 9.99989e-321)"),
+    ("components.coupler.c_l=1e308", "components.coupler.c_l: must be <= 1000 (got 1e+308)"),
+    ("components.stone.density=1e308", "components.stone.density: must be <= 1e+06 kg/m^3 (got 1e+308)"),
     ("components.coupler.lookahead=1e308", "components.coupler.lookahead: must be <= 10 s (got 1e+308)"),
     ("components.stone.position=[0, 0, 1e308]", "components.stone.position: makes the stone's potential energy "
                                                 "overflow a float (got (0.0, 0.0, 1e+308))"),

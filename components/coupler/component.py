@@ -116,22 +116,30 @@ class _Ring(NamedTuple):
     window: tuple[int, int, np.ndarray] | None  # (i_lo, j_lo, b) in patch indices [m]; None: nothing
 
 
+COEFFICIENT_MAX = 1e3  # [-] a force coefficient's upper bound: the published ones are of order 1
+
+
 @dataclass(frozen=True)
 class WaterCouplerParams:
     """Parameters of the water coupler (SI units; coefficients from physics.md section 3)."""
 
     effects: list[str] = param(ALL_EFFECTS, doc=_EFFECTS_DOC)
     rho: float = param(RHO_WATER, unit="kg/m^3", gt=0, doc="water density")
-    g: float = param(GRAVITY, unit="m/s^2", ge=0, doc="gravity (buoyancy and the substep predictor)")
-    c_l: float = param(C_LIFT, ge=0, doc="pressure coefficient C_L of the Rosellini/Clanet law")
-    c_n: float = param(0.0, ge=0, doc="Newtonian coefficient C_N of the faces (0 = off; 1.4 per Nagahiro & Hayakawa)")
-    c_b: float = param(C_IMPACT, ge=0, doc="impact pressure coefficient C_B of a blunt body (a sphere): "
-                                            "1/2 rho C_B (u.n)^2 where it advances into the water")
-    c_f: float = param(C_FRICTION, ge=0, doc="skin friction coefficient C_f")
-    c_w: float = param(C_WAVE, ge=0, doc="capillary-gravity wave drag coefficient C_W")
-    c_min: float = param(C_MIN, unit="m/s", ge=0, doc="minimum capillary-gravity wave speed")
-    c_d_disk: float = param(C_DRAG_DISK, ge=0, doc="pressure drag coefficient of a submerged disk (face on)")
-    c_d_sphere: float = param(C_DRAG_SPHERE, ge=0, doc="pressure drag coefficient of a submerged sphere")
+    g: float = param(GRAVITY, unit="m/s^2", ge=0, le=1e4,
+                     doc="gravity (buoyancy and the substep predictor; 0, or 1e-6 to 1e4 m/s^2)")
+    c_l: float = param(C_LIFT, ge=0, le=COEFFICIENT_MAX, doc="pressure coefficient C_L of the Rosellini/Clanet law")
+    c_n: float = param(0.0, ge=0, le=COEFFICIENT_MAX,
+                       doc="Newtonian coefficient C_N of the faces (0 = off; 1.4 per Nagahiro & Hayakawa)")
+    c_b: float = param(C_IMPACT, ge=0, le=COEFFICIENT_MAX,
+                       doc="impact pressure coefficient C_B of a blunt body (a sphere): "
+                           "1/2 rho C_B (u.n)^2 where it advances into the water")
+    c_f: float = param(C_FRICTION, ge=0, le=COEFFICIENT_MAX, doc="skin friction coefficient C_f")
+    c_w: float = param(C_WAVE, ge=0, le=COEFFICIENT_MAX, doc="capillary-gravity wave drag coefficient C_W")
+    c_min: float = param(C_MIN, unit="m/s", ge=0, le=1e3, doc="minimum capillary-gravity wave speed")
+    c_d_disk: float = param(C_DRAG_DISK, ge=0, le=COEFFICIENT_MAX,
+                            doc="pressure drag coefficient of a submerged disk (face on)")
+    c_d_sphere: float = param(C_DRAG_SPHERE, ge=0, le=COEFFICIENT_MAX,
+                              doc="pressure drag coefficient of a submerged sphere")
     closure_depth: float = param(CLOSURE_DEPTH, unit="m", gt=0,
                                  doc="the planing law fades out as the body's top goes this far under the "
                                      "surface (the water closes over it); below, the body is submerged")
@@ -159,7 +167,10 @@ class WaterCouplerParams:
                                    "publishes its unchanged outputs once, then holds them")
 
     def check(self) -> list[tuple[str, str]]:
-        return [("effects", p) for p in unknown_effects(self.effects)]
+        problems = [("effects", p) for p in unknown_effects(self.effects)]
+        if 0.0 < self.g < 1e-6:  # a gravity of 1e-320 overflowed the planing share's Froude number
+            problems.append(("g", f"must be 0 (weightless) or at least 1e-06 m/s^2 (got {self.g:g})"))
+        return problems
 
 
 class WaterCoupler(Component):
