@@ -546,11 +546,13 @@ class WaterSurface(Component):
         g, size = self.grid, self.params.field_window
         if size is None:
             return 0, g.nx, 0, g.ny
-        ni = min(g.nx, max(2, round(size[0] / g.cell)))
-        nj = min(g.ny, max(2, round(size[1] / g.cell)))
-        if self._follow is not None:
-            ci = (self._follow[0] - g.origin_x) / g.cell
-            cj = (self._follow[1] - g.origin_y) / g.cell
+        # sizes and places clipped to the grid before rounding: 1e308 m over a cell overflows to inf
+        ni = min(g.nx, max(2, round(min(size[0] / g.cell, g.nx))))
+        nj = min(g.ny, max(2, round(min(size[1] / g.cell, g.ny))))
+        if self._follow is not None:  # (a centre this far off the grid puts the window at its edge anyway)
+            far_i, far_j = g.nx + ni + FIELD_WINDOW_STEP, g.ny + nj + FIELD_WINDOW_STEP
+            ci = min(max((self._follow[0] - g.origin_x) / g.cell, -far_i), g.nx + far_i)
+            cj = min(max((self._follow[1] - g.origin_y) / g.cell, -far_j), g.ny + far_j)
         else:
             ci, cj = (g.nx - 1) / 2, (g.ny - 1) / 2
         i0 = min(max(FIELD_WINDOW_STEP * round((ci - ni / 2) / FIELD_WINDOW_STEP), 0), g.nx - ni)
