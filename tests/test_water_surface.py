@@ -275,6 +275,14 @@ def test_state_round_trip_reproduces_the_run_bit_for_bit(model):
     assert np.array_equal(a.get_state()["h"], b.get_state()["h"])
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_bump_far_off_the_grid_leaves_it_flat_without_a_warning():
+    """A grid 1e308 m from its bump: the squared distance overflows to inf and the height is exactly
+    0, without numpy's overflow warning on stderr."""
+    p = pond(origin_x=1e308)
+    assert not p.get_state()["h"].any()
+
+
 def test_a_state_saved_by_one_model_restarts_another():
     """A checkpoint of the explicit model restored into the implicit one (a restart that switches
     models, ``cosim replay --from T --set components.pond.model=shallow_water``): the implicit model

@@ -235,8 +235,9 @@ class WaterSurface(Component):
         if p.initial is not None:
             x, y = g.centres()
             bump = p.initial
-            r2 = (x - bump.x) ** 2 + (y - bump.y) ** 2
-            self._h += np.where(g.wet, bump.amplitude * np.exp(-r2 / (2.0 * bump.width**2)), 0.0)
+            with np.errstate(over="ignore"):  # a bump 1e308 m off: its square is inf, its height exactly 0
+                r2 = (x - bump.x) ** 2 + (y - bump.y) ** 2
+                self._h += np.where(g.wet, bump.amplitude * np.exp(-r2 / (2.0 * bump.width**2)), 0.0)
         self.model.reset(self._h, self._v)
         if self.tiles is not None:
             self.tiles.reset(self._h, self._v)
