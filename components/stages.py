@@ -212,7 +212,8 @@ class StageMonitor(Component):
             self.left_at = now
             self.timeline.append((now, LEFT_POND))
             x, y = float(body.position[0]), float(body.position[1])
-            self.request_stop(f"stone left the pond at x = {x:.3g} m, y = {y:.3g} m (no water under it "
+            where = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
+            self.request_stop(f"stone {where} at x = {x:.3g} m, y = {y:.3g} m (no water under it "
                               f"since t = {self.outside_since:.4g} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:

@@ -121,6 +121,16 @@ def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
     assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
 
 
+def test_a_stone_that_never_touched_the_water_missed_it_rather_than_left_it():
+    """Thrown beside the pond (or with the pond elsewhere), the stone is dry below the water level
+    without ever having touched water: the stop reason says it missed the water, not that it left."""
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.002))
+    drive(m, [(body(0.1 * k, 0.05 - 0.02 * k, 5.0, -1.0), water(False, depth=0.02 * k - 0.05), None)
+              for k in range(8)])
+    assert m.stop_reason is not None and "stone missed the water at x = 0.5 m" in m.stop_reason
+    assert m.metrics()["outcome"] == "left-pond"
+
+
 def test_a_short_dry_spell_below_the_level_is_not_leaving():
     """A body that starts under water is dry until the water's first patch arrives: shorter than
     outside_after, so nothing is decided."""
