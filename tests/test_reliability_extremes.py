@@ -32,9 +32,9 @@ ESCAPED = re.compile(r"ZeroDivisionError|OverflowError|FloatingPointError|Runtim
 
 def _values(tp) -> tuple[str, ...]:
     """The extreme values of a parameter of type ``tp`` as --set text (none for other types)."""
-    args = [a for a in typing.get_args(tp) if a is not type(None)]
-    if typing.get_origin(tp) is typing.Union or type(None) in typing.get_args(tp):
-        tp = args[0] if len(args) == 1 else tp
+    optional = [a for a in typing.get_args(tp) if a is not type(None)]
+    if type(None) in typing.get_args(tp) and len(optional) == 1:  # X | None: X's values
+        tp = optional[0]
     if tp is float:
         return FLOATS
     if tp is int:
