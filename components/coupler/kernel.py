@@ -762,23 +762,18 @@ def _column_factors(dx, dy, outline, moments, multinomial, out):
     (``moments``: the band's factors summed over it)."""
     tx, ty, sx, sy, a1, a2 = outline
     q, c, s = _polar(dx, dy, tx, ty, sx, sy, a1, a2)
-    q = min(q, 1.0)
-    # (1 + q (c X + s Y))^p = sum_m multinomial_m (q c)^a (q s)^b X^a Y^b
-    _monomials(q * c, q * s, 1.0, out)
     total = 0.0
-    for m in range(RING_TERMS):
-        out[m] *= multinomial[m]
-        total += out[m] * moments[m]
-    if not total > 0.0:
-        # on the outline with the whole band straight across (every share (1 - 1)^p = 0): spread
-        # evenly, as a column at the centre does; with no band at all the factors go unused
-        _monomials(0.0, 0.0, 1.0, out)
+    for scale in (min(q, 1.0), 0.0):
+        # (1 + q (c X + s Y))^p = sum_m multinomial_m (q c)^a (q s)^b X^a Y^b
+        _monomials(scale * c, scale * s, 1.0, out)
         total = 0.0
         for m in range(RING_TERMS):
             out[m] *= multinomial[m]
             total += out[m] * moments[m]
-        if not total > 0.0:
-            return
+        if total > 0.0:
+            break
+        # on the outline with the whole band straight across (every share (1 - 1)^p = 0): spread
+        # evenly, as a column at the centre does (a band's weights sum to more than 0)
     for m in range(RING_TERMS):
         out[m] /= total
 
@@ -805,7 +800,8 @@ def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, w
     rocking one from the side going down. Returns (band j, band i, column j, column i, column
     factors (columns, RING_TERMS), band factors (band, RING_TERMS)): the share of band column k in
     column c's volume is sum_m column[c, m] band[k, m], and a column's shares sum to 1 (see
-    RING_TERMS). No band column in the window: an empty band (each column then keeps its volume).
+    RING_TERMS). No band column in the window: an empty band (each column then keeps its volume, and
+    the column factors are left unset: nothing reads them).
     The factors are written into ``work`` (1-D) when it is large enough ((columns + band) x
     RING_TERMS values), else into arrays of their own. Only the columns i_lo..i_hi, j_lo..j_hi of
     b_geo are read: it is zero outside them.
@@ -836,8 +832,9 @@ def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, w
         for i in range(i_lo, i_hi + 1):
             if b_geo[j, i] > 0.0:
                 cj[c], ci[c] = j, i
-                _column_factors(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, moments,
-                                multinomial, columns[c])
+                if n > 0:  # with no band each column keeps its volume: its factors would go unused
+                    _column_factors(x0 + i * cell - centre[0], y0 + j * cell - centre[1], outline, moments,
+                                    multinomial, columns[c])
                 c += 1
     return jj[:n], ii[:n], cj, ci, columns, band
 
