@@ -92,8 +92,13 @@ class Model:
         self.damping = damping
         self.closed = closed
         s2 = grid.cell * grid.cell
-        self.ax = _per_face(grid.kx, s2)  # (ny, nx-1) [1/s^2]
-        self.ay = _per_face(grid.ky, s2)  # (ny-1, nx) [1/s^2]
+        dtype = self.face_dtype(grid)
+        self.ax = _per_face(grid.kx, s2, dtype)  # (ny, nx-1) [1/s^2]
+        self.ay = _per_face(grid.ky, s2, dtype)  # (ny-1, nx) [1/s^2]
+
+    def face_dtype(self, grid: Grid) -> type:
+        """The type the face coefficients are held in (the arithmetic is double either way)."""
+        return np.float64
 
     def max_stable_step(self) -> float:
         """Largest stable step [s] (inf for an unconditionally stable model)."""
@@ -120,16 +125,15 @@ class WaveModel(Model):
     name = "wave"
     explicit = True
 
+    def face_dtype(self, grid: Grid) -> type:
+        # The per-face step (a grid that is not uniform) is limited by memory traffic: at 512 x 512
+        # its two coefficient arrays are a third of the bytes it moves. Held in single precision (a
+        # relative rounding of at most 6e-8 on g d, far below what the bed's own resolution means),
+        # they cut that step by about a fifth.
+        return np.float32 if grid.c2_uniform is None else np.float64
+
     def __init__(self, grid: Grid, kernels: Any, damping: float = 0.0, closed: bool = True):
         super().__init__(grid, kernels, damping, closed)
-        if grid.c2_uniform is None:
-            # The per-face step is limited by memory traffic: at 512 x 512 its two coefficient
-            # arrays are a third of the bytes it moves. Held in single precision (a relative
-            # rounding of at most 6e-8 on g d, far below what the bed's own resolution means), they cut
-            # that step by about a fifth; the arithmetic stays double.
-            s2 = grid.cell * grid.cell
-            self.ax = _per_face(grid.kx, s2, np.float32)
-            self.ay = _per_face(grid.ky, s2, np.float32)
         # Gershgorin: the operator's eigenvalues are below max over cells of 2 sum_f a_f, and the
         # leapfrog needs dt^2 lambda <= 4. On a uniform grid (4 faces of c^2/s^2) this is exactly
         # c dt / s <= 1/sqrt(2). Computed once: the bound depends only on the grid. A compact grid's
