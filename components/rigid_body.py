@@ -120,14 +120,14 @@ class RigidBodyParams:
             name = "thickness" if self.shape == "disk" and not out(r * r) else "radius"
             return [(name, f"gives the body a volume of {volume:g} m^3, not a positive, finite, normal float "
                            f"(got {getattr(self, name)!r})")]
+        source = "mass" if self.mass is not None else "density"  # the parameter the mass comes from
         if out(mass):
-            return [("density", f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
-                                f"(got {self.density!r})")]
+            return [(source, f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
+                             f"(got {getattr(self, source)!r})")]
         weight = mass * max(abs(g) for g in self.gravity)
         if not math.isfinite(weight):
-            name = "mass" if self.mass is not None else "density"
-            return [(name, f"gives the body a weight of {weight:g} N, not a finite float "
-                           f"(got {getattr(self, name)!r})")]
+            return [(source, f"gives the body a weight of {weight:g} N, not a finite float "
+                             f"(got {getattr(self, source)!r})")]
         if out(mass * r * r):
             return [("radius", f"gives the body a moment of inertia of {mass * r * r:g} kg m^2, not a positive, "
                                f"finite, normal float (got {r!r})")]

@@ -68,6 +68,8 @@ def test_a_component_that_cannot_be_built_from_its_values_is_named():
     ("components.pond.rest_level=-1e308", "components.pond.rest_level: must be >= -1e+06 m (got -1e+308)"),
     ("components.pond.field_rate=1e308", "components.pond.field_rate: must be <= 1e+06 Hz (got 1e+308)"),
     ("components.coupler.water_level=1e308", "components.coupler.water_level: must be <= 1e+06 m (got 1e+308)"),
+    ("components.stone.mass=1e-320", "components.stone.mass: gives the body a mass of 9.99989e-321 kg, not a "
+                                     "positive, finite, normal float (got 1e-320)"),
     ("components.stone.mass=1e308", "components.stone.mass: gives the body a weight of inf N, not a finite float "
                                     "(got 1e+308)"),
     ("components.pond.displacement_smoothing=5000", "components.pond.displacement_smoothing: must be <= 1000 "
