@@ -104,6 +104,14 @@ class Component:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
         return math.inf
 
+    def input_max_age(self, port: str) -> tuple[float, str] | None:
+        """How long [s] a message on input ``port`` may stay the latest before it misleads this
+        component, and the parameter that sets it; None when any age will do. The scene is refused
+        when the port's source publishes less often (its step, plus a tick over a delayed edge): a
+        coupler, for instance, asks the water for a window reaching only ``lookahead`` seconds ahead
+        of the body. Default: any age."""
+        return None
+
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """Problems with what this component will receive at t = 0, as plain sentences; the scene is
         refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then

@@ -537,6 +537,25 @@ def _check_stability(scene: Scene, built: dict[str, Component], problems: list[s
                             f"(on_unstable: error); lower dt or every, or set on_unstable: substep")
 
 
+def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    """Each input port whose component bounds its age (:meth:`~cosim.component.Component.input_max_age`)
+    is fed at least that often."""
+    for edge in scene.connections:
+        bound = built[edge.target].input_max_age(edge.target_port)
+        if bound is None:
+            continue
+        max_age, param_name = bound
+        held = scene.dt * (scene.components[edge.source].every + edge.delay)  # how long each message stays
+        if held > max_age * (1.0 + 1e-9):
+            most = math.floor(max_age / scene.dt * (1.0 + 1e-9)) - edge.delay
+            faster = (f"components.{edge.source}.every at most {most}" if most >= 1
+                      else f"a base step dt of at most {max_age / (1 + edge.delay):.6g} s")
+            problems.append(
+                f"components.{edge.target}: its input {edge.target_port!r} comes from {edge.source} every "
+                f"{held:.6g} s, longer than the {max_age:.6g} s it can bridge ({param_name}); use {faster}, "
+                f"or components.{edge.target}.{param_name} of at least {held:.6g} s")
+
+
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each component's :meth:`~cosim.component.Component.check_start` on what it will receive at
     t = 0: for each input port, its source's initial output (a direct edge) or the edge's ``initial``
@@ -671,6 +690,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     if problems:
         raise ScenarioError(problems, source)
     _check_stability(scene, built_components, problems)
+    _check_freshness(scene, built_components, problems)
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)

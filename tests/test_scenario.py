@@ -41,6 +41,13 @@ def test_overrides_apply_before_validation():
         loads(GOOD, overrides=["components.g.gain=abc"])
 
 
+def test_an_input_as_old_as_its_component_allows_is_taken():
+    """A source stepping exactly as often as its target can bridge loads (the bound is inclusive)."""
+    text = scene_with('g: {type: "tests.toys:Gain", every: 3}\nacc: {type: "tests.toys:Accumulator", '
+                      'max_age: 0.003}', "[g.out -> acc.x]")
+    assert loads(text).components["g"].every == 3
+
+
 def scene_with(components: str, connections: str = "[]", extra: str = "") -> str:
     """A small scene around the given component lines (one per line) and connections."""
     body = "\n".join(f"  {line}" for line in components.strip().splitlines())
@@ -106,6 +113,19 @@ MALFORMED = {
         scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Source"}\ng: {type: "tests.toys:Gain"}',
                    "[a.out -> g.x, b.out -> g.x]"),
         r"connections: input g\.x is connected 2 times .* but Scalar is not additive"),
+    "input older than its component can use": (
+        scene_with('g: {type: "tests.toys:Gain", every: 4}\nacc: {type: "tests.toys:Accumulator", max_age: 0.003}',
+                   "[g.out -> acc.x]"),
+        r"components\.acc: its input 'x' comes from g every 0\.004 s, longer than the 0\.003 s it can bridge "
+        r"\(max_age\); use components\.g\.every at most 3, or components\.acc\.max_age of at least 0\.004 s"),
+    "input older than its component can use, over a delayed edge": (
+        scene_with('g: {type: "tests.toys:Gain", every: 3}\nacc: {type: "tests.toys:Accumulator", max_age: 0.003}',
+                   "[{from: g.out, to: acc.x, delay: 1, initial: {value: 0}}]"),
+        r"components\.acc: its input 'x' comes from g every 0\.004 s, .* use components\.g\.every at most 2,"),
+    "input older than its component can use at any every": (
+        scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator", max_age: 0.0005}',
+                   "[g.out -> acc.x]"),
+        r"components\.acc: its input 'x' comes from g every 0\.001 s, .* use a base step dt of at most 0\.0005 s,"),
     "unstable step with on_unstable error": (
         scene_with('acc: {type: "tests.toys:Accumulator", stable_step: 0.0005}'),
         r"components\.acc: step 0\.001 s exceeds its stable step 0\.0005 s \(on_unstable: error\)"),

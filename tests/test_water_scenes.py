@@ -61,6 +61,19 @@ def test_too_long_a_step_is_refused_at_load_time():
         load(SCENES / "wave_pulse.yaml", overrides=["dt=0.004", "until=0.1"])
 
 
+def test_a_water_answering_less_often_than_the_look_ahead_is_refused():
+    """The coupler asks for a window reaching 60 ms ahead of the stone; a water stepping every 0.5 s
+    leaves the stone beyond its last patch (it then fell through as if off the pond's edge, and the
+    summary said it had left the pond over the middle of it). At 120 ticks of 0.5 ms it loads."""
+    skip = SCENES / "skip.yaml"
+    with pytest.raises(ScenarioError, match=r"components\.coupler: its input 'water' comes from pond every 0\.5 s, "
+                       r"longer than the 0\.06 s it can bridge \(lookahead\); use components\.pond\.every at most "
+                       r"120, or components\.coupler\.lookahead of at least 0\.5 s"):
+        load(skip, overrides=["components.pond.every=1000"])
+    assert load(skip, overrides=["components.pond.every=120"]).components["pond"].every == 120
+    assert load(skip, overrides=["components.pond.every=1000", "components.coupler.lookahead=0.5"])
+
+
 def test_too_long_a_step_can_be_substepped():
     """With on_unstable: substep the same scene runs, two substeps per step, and keeps its volume."""
     scene = load(SCENES / "wave_pulse.yaml", overrides=["dt=0.004", "until=0.2", "on_unstable=substep"])

@@ -93,9 +93,13 @@ class Accumulator(Component):
     class Params:
         stop_at: float = param(math.inf)
         stable_step: float = param(math.inf, unit="s", gt=0)
+        max_age: float = param(math.inf, unit="s", gt=0, doc="the oldest input x it can use")
 
     inputs = {"x": Port(Scalar)}
     outputs = {"total": Port(Scalar)}
+
+    def input_max_age(self, port):
+        return None if math.isinf(self.params.max_age) else (self.params.max_age, "max_age")
 
     def setup(self) -> None:
         self.total = 0.0

@@ -282,6 +282,14 @@ class WaterCoupler(Component):
         self.met.set_state(state)
         self._start_in_water = bool(state.get("start_in_water", False))
 
+    def input_max_age(self, port: str) -> tuple[float, str] | None:
+        """The water's patch must come at least every ``lookahead`` seconds when the window is asked
+        for that far ahead (the displacement ring on): a patch kept longer no longer reaches the
+        body, which would fall through the water as if off its edge."""
+        if port == "water" and self._ring_on and self.params.lookahead > 0:
+            return self.params.lookahead, "lookahead"
+        return None
+
     def max_stable_step(self) -> float:
         """Largest stable step [s] from the last evaluated state (inf when the body is far from water).
 
