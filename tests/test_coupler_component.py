@@ -413,11 +413,16 @@ def test_a_body_in_the_water_before_the_first_patch_meets_still_water():
 def test_a_stone_thrown_with_a_huge_step_meets_the_water_instead_of_falling_through_it():
     """With dt = 50 ms the water's first patch comes after the stone reaches it: the stone still
     hits the water (and sinks, such a step being far too coarse to skip), it does not 'leave the
-    pond' 1.5 m into an 8 m pond."""
+    pond' 1.5 m into an 8 m pond. The water then answers every 0.2 s (4 ticks): longer than the
+    coupler's 60 ms look-ahead, which the scene refuses, so the look-ahead is raised to match."""
+    from cosim.errors import ScenarioError
     from cosim.scenario import load
     from cosim.scheduler import Simulation
 
-    sim = Simulation(load(Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml", ["dt=0.05"]))
+    skip = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    with pytest.raises(ScenarioError, match=r"comes from pond every 0\.2 s, longer than the 0\.06 s"):
+        load(skip, ["dt=0.05"])
+    sim = Simulation(load(skip, ["dt=0.05", "components.coupler.lookahead=0.2"]))
     sim.run()
     stages = [name for _, name in sim.components["stages"].timeline]
     assert "hit" in stages and "left-pond" not in stages
