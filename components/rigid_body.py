@@ -51,6 +51,14 @@ Vec3Param = tuple[float, float, float]
 RK4_MAX_ROTATION_PER_STEP = 0.5
 
 
+MAX_INERTIA_RATIO = 1e8
+"""A body's largest moment of inertia over its smallest, at most. The spin about the axis is worked
+out from the angular momentum, whose round-off across the axis (1e-16 of it) is this ratio larger
+there: beyond about 1/sqrt(machine epsilon) it is no longer small, and a long rod's spin grows
+without bound (a disk 1e20 m thick and 2.5 cm across failed at its fifth step)."""
+MAX_THICKNESS_PER_RADIUS = math.sqrt(6.0 * (MAX_INERTIA_RATIO - 0.5))  # I_d / I_a = 1/2 + e^2 / (6 R^2)
+
+
 @dataclass(frozen=True)
 class RigidBodyParams:
     """Parameters of a RigidBody (SI units; angles in degrees in fields ending ``_deg``)."""
@@ -131,6 +139,12 @@ class RigidBodyParams:
         if out(mass * r * r):
             return [("radius", f"gives the body a moment of inertia of {mass * r * r:g} kg m^2, not a positive, "
                                f"finite, normal float (got {r!r})")]
+        if self.shape == "disk" and self.thickness > MAX_THICKNESS_PER_RADIUS * r:
+            return [("thickness", f"makes a rod {self.thickness / r:.3g} times as long as its radius, whose moments "
+                                  f"of inertia are more than {MAX_INERTIA_RATIO:g} apart: round-off in its "
+                                  f"angular momentum would swamp its spin; at most {MAX_THICKNESS_PER_RADIUS:.0f} "
+                                  f"times the radius, {MAX_THICKNESS_PER_RADIUS * r:.4g} m here "
+                                  f"(got {self.thickness!r})")]
         return []
 
     def _energy_problems(self) -> list[tuple[str, str]]:
