@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+from collections.abc import Sequence
 from typing import Annotated
 
 import numpy as np
@@ -77,6 +78,49 @@ class Wrench(Message):
     @staticmethod
     def zero() -> Wrench:
         return Wrench(np.zeros(3), np.zeros(3))
+
+
+@message
+class AddedMass(Message):
+    """The water a submerged body carries along as it accelerates (added mass), in the body's frame
+    (symmetry axis z), for the body to add to its own inertia: the water's force -M_a a then acts
+    without the lag of a held force, which would make a light body unstable.
+
+    axial, radial: along the axis and across it [kg]; axial_inertia, diameter_inertia: about the
+    axis and about a diameter [kg m^2]. All zero while the body is not under water.
+    """
+
+    axial: float
+    radial: float
+    axial_inertia: float
+    diameter_inertia: float
+
+    @staticmethod
+    def zero() -> AddedMass:
+        return AddedMass(0.0, 0.0, 0.0, 0.0)
+
+    def values(self) -> tuple[float, float, float, float]:
+        """(axial, radial, axial_inertia, diameter_inertia): the message compared by value."""
+        return (self.axial, self.radial, self.axial_inertia, self.diameter_inertia)
+
+    def carried(self, mass: float, inertia: Sequence[float], axis: Sequence[float], force: Sequence[float],
+                torque: Sequence[float]) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The force [N] and torque [N m] (world frame) that give a body of ``mass`` [kg] and principal
+        moments ``inertia`` (I_d, I_d, I_a) [kg m^2], symmetry axis ``axis`` (world), the
+        accelerations ``force`` and ``torque`` give it together with this water: (M + M_a) a = F, so
+        M a = M (M + M_a)^-1 F, along the axis and across it. What it takes off ``force`` is the
+        water's -M_a a, with no lag. (The turning part scales the torque about each principal axis,
+        leaving out the gyroscopic term of the added inertia.)"""
+        f = _split_scale(axis, force, mass / (mass + self.axial), mass / (mass + self.radial))
+        i_d, i_a = inertia[0], inertia[2]
+        t = _split_scale(axis, torque, i_a / (i_a + self.axial_inertia), i_d / (i_d + self.diameter_inertia))
+        return f, t
+
+
+def _split_scale(axis: Sequence[float], h: Sequence[float], along: float, across: float) -> tuple[float, float, float]:
+    """``along`` (h.n) n + ``across`` (h - (h.n) n) for the unit vector n = ``axis``."""
+    k = (along - across) * (h[0] * axis[0] + h[1] * axis[1] + h[2] * axis[2])
+    return (across * h[0] + k * axis[0], across * h[1] + k * axis[1], across * h[2] + k * axis[2])
 
 
 @message

@@ -3,6 +3,9 @@
 Ports:
 - ``wrench`` (Wrench): the summed external force [N] and torque about the centre of mass [N m], world
   frame, held constant over the step (water forces, a push). Gravity is added by the body itself.
+- ``added_mass`` (AddedMass): the water a submerged body carries along (from a WaterCoupler through a
+  ``delay: 1`` edge), added to the body's mass and inertia over the step: the total force and torque
+  then accelerate body and water together (:meth:`components.messages.AddedMass.carried`).
 - ``impulse`` (Impulse, event): contact impulses and position corrections, applied once at the start
   of the step, before integrating (from SolidGround through a ``delay: 1`` edge).
 - ``state`` (BodyState, out): the state at the end of the step, every field filled.
@@ -32,7 +35,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from components.messages import BodyState, Impulse, Shape, Wrench
+from components.messages import AddedMass, BodyState, Impulse, Shape, Wrench
 from components.rigid import quaternion as quat
 from components.rigid.dynamics import RigidState, apply_impulse, kinetic_energy, potential_energy
 from components.rigid.integrators import get_integrator, unknown_integrator
@@ -174,6 +177,7 @@ class RigidBody(Component):
     Params = RigidBodyParams
     inputs = {
         "wrench": Port(Wrench, "external force and torque about the centre of mass, held over the step"),
+        "added_mass": Port(AddedMass, "the water carried along, added to the body's inertia over the step"),
         "impulse": Port(Impulse, "contact impulses, applied once at the start of the step", event=True),
     }
     outputs = {"state": Port(BodyState, "state at the end of the step")}
@@ -231,6 +235,10 @@ class RigidBody(Component):
             f = wrench.force.tolist()  # type: ignore[attr-defined]
             w = self.weight
             forces = ((w[0] + f[0], w[1] + f[1], w[2] + f[2]), tuple(wrench.torque.tolist()))  # type: ignore[attr-defined]
+        added = inputs.get("added_mass")
+        if added is not None and any(added.values()):  # type: ignore[attr-defined]
+            forces = added.carried(self.body.mass, self.body.inertia, quat.body_axis(s.orientation),  # type: ignore[attr-defined]
+                                   forces[0], forces[1])
         s = self.integrate(self.body, s, forces, t, dt, self.rotate)
         if self.tilt_script is not None:
             q = quat.from_axis_angle(self.tilt_axis, math.radians(self.tilt_script.value(t + dt)[0]))

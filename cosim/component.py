@@ -112,6 +112,12 @@ class Component:
         of the body. Default: any age."""
         return None
 
+    def needed_outputs(self) -> dict[str, str]:
+        """Outputs that must feed some input for this component's settings to mean anything, each
+        with what needs it (a coupler's added mass acts only through the body's port). The scene is
+        refused when one feeds nothing. Default: none."""
+        return {}
+
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """Problems with what this component will receive at t = 0, as plain sentences; the scene is
         refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then

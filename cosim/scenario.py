@@ -556,6 +556,15 @@ def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[s
                 f"or components.{edge.target}.{param_name} of at least {held:.6g} s")
 
 
+def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    """Each output a component needs consumed (:meth:`~cosim.component.Component.needed_outputs`)
+    feeds at least one input."""
+    for name, comp in built.items():
+        for port, why in comp.needed_outputs().items():
+            if not any(edge.source == name and edge.source_port == port for edge in scene.connections):
+                problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
+
+
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each component's :meth:`~cosim.component.Component.check_start` on what it will receive at
     t = 0: for each input port, its source's initial output (a direct edge) or the edge's ``initial``
@@ -691,6 +700,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         raise ScenarioError(problems, source)
     _check_stability(scene, built_components, problems)
     _check_freshness(scene, built_components, problems)
+    _check_needed_outputs(scene, built_components, problems)
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)

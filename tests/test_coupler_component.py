@@ -17,6 +17,7 @@ import pytest
 from components.coupler import EFFECTS, WaterCoupler, WaterCouplerParams
 from components.coupler.fixtures import body, disk_at_depth, pitched, still_water
 from components.messages import (
+    AddedMass,
     BodyState,
     HeightPatch,
     OccupiedHeight,
@@ -46,11 +47,12 @@ def step(coupler, b, patch, k=0, **kw):
 
 
 def test_ports_and_type_names():
-    """Inputs body/water and outputs wrench/occupied/request/contact carry the physics messages;
-    the type is reachable as WaterCoupler and as Coupler."""
+    """Inputs body/water and outputs wrench/occupied/request/contact/added_mass carry the physics
+    messages; the type is reachable as WaterCoupler and as Coupler."""
     assert {k: p.type for k, p in WaterCoupler.inputs.items()} == {"body": BodyState, "water": HeightPatch}
     assert {k: p.type for k, p in WaterCoupler.outputs.items()} == {
-        "wrench": Wrench, "occupied": OccupiedHeight, "request": PatchRequest, "contact": WaterContact}
+        "wrench": Wrench, "occupied": OccupiedHeight, "request": PatchRequest, "contact": WaterContact,
+        "added_mass": AddedMass}
     assert resolve("WaterCoupler") is WaterCoupler
     assert resolve("Coupler") is WaterCoupler
 
@@ -60,7 +62,7 @@ def test_scene_parameters_reject_unknown_effects_listing_the_valid_ones():
     problems: list[str] = []
     build(WaterCouplerParams, {"effects": ["buoyancy", "lift"]}, "components.contact", problems)
     assert problems == ["components.contact.effects: unknown effect 'lift' (valid: displacement, buoyancy, "
-                        "pressure, friction, wave_drag)"]
+                        "pressure, friction, wave_drag, added_mass)"]
 
 
 def test_constructing_with_an_unknown_effect_fails():
@@ -70,9 +72,12 @@ def test_constructing_with_an_unknown_effect_fails():
 
 
 def test_initial_outputs_are_quiet():
-    """At t = 0: zero wrench, empty occupied window, empty request, dry contact."""
+    """At t = 0: zero wrench, empty occupied window, empty request, dry contact; with the added mass
+    named, no water carried along either."""
     out = WaterCoupler("c").initial_outputs()
-    assert set(out) == set(WaterCoupler.outputs)
+    assert set(out) == set(WaterCoupler.outputs) - {"added_mass"}  # not named: the default forces only
+    carried = WaterCoupler("c", WaterCouplerParams(effects=["buoyancy", "added_mass"])).initial_outputs()
+    assert set(carried) == set(WaterCoupler.outputs) and not any(carried["added_mass"].values())
     assert not out["wrench"].force.any() and not out["wrench"].torque.any()
     assert out["occupied"].b.size == 0
     assert out["request"].x_min > out["request"].x_max
@@ -83,7 +88,7 @@ def test_far_body_costs_no_column_work():
     """A body high above the water gets a zero wrench, an empty window and request, and no work."""
     c = WaterCoupler("c")
     out = step(c, body(position=(0.0, 0.0, 1.0), velocity=(5.0, 0.0, -1.0)), still_water())
-    assert set(out) == set(WaterCoupler.outputs)
+    assert set(out) == set(WaterCoupler.outputs) - {"added_mass"}
     assert c.work == {"columns": 0, "elements": 0}
     assert not out["wrench"].force.any()
     assert out["occupied"].b.size == 0
@@ -137,10 +142,11 @@ def test_each_effect_can_be_switched_off_alone():
 
 
 def test_no_effects_means_no_work_but_all_outputs():
-    """With no effect named the coupler does no column or element work and still publishes every port."""
+    """With no effect named the coupler does no column or element work and still publishes every port
+    of the forces (the added mass has a port of its own, published with its effect)."""
     c = WaterCoupler("c", WaterCouplerParams(effects=[]))
     out = step(c, skipping_disk(depth=0.02), still_water())
-    assert set(out) == set(WaterCoupler.outputs)
+    assert set(out) == set(WaterCoupler.outputs) - {"added_mass"}
     assert c.work == {"columns": 0, "elements": 0}
     assert not out["wrench"].force.any()
     assert out["occupied"].b.size == 0

@@ -11,17 +11,20 @@ from components.coupler.effects import (
 )
 
 
-def test_the_five_effects_in_canonical_order():
-    """The registry holds displacement, buoyancy, pressure, friction, wave_drag with distinct bits."""
-    assert list(EFFECTS) == ["displacement", "buoyancy", "pressure", "friction", "wave_drag"]
+def test_the_six_effects_in_canonical_order():
+    """The registry holds displacement, buoyancy, pressure, friction, wave_drag, added_mass with
+    distinct bits."""
+    assert list(EFFECTS) == ["displacement", "buoyancy", "pressure", "friction", "wave_drag", "added_mass"]
     bits = [e.bit for e in EFFECTS.values()]
-    assert len(set(bits)) == 5 and all(b & (b - 1) == 0 for b in bits)
+    assert len(set(bits)) == 6 and all(b & (b - 1) == 0 for b in bits)
 
 
-def test_work_kinds_partition_the_effects():
-    """Each effect needs column work or element work, never neither."""
+def test_work_kinds_partition_the_forces():
+    """Each force needs column work or element work, never neither; the added mass is no force of
+    its own (it rides on the submergence the others find)."""
     assert COLUMN_MASK & ELEMENT_MASK == 0
-    assert COLUMN_MASK | ELEMENT_MASK == effect_mask(list(EFFECTS))
+    assert COLUMN_MASK | ELEMENT_MASK == effect_mask([name for name in EFFECTS if name != "added_mass"])
+    assert not (COLUMN_MASK | ELEMENT_MASK) & EFFECTS["added_mass"].bit
 
 
 def test_mask_of_names():
@@ -33,7 +36,7 @@ def test_mask_of_names():
 def test_unknown_effect_lists_the_valid_ones():
     """An unknown name is an error naming it and every valid effect."""
     with pytest.raises(ValueError, match=r"unknown effect 'lift' \(valid: displacement, buoyancy, pressure, "
-                                         r"friction, wave_drag\)"):
+                                         r"friction, wave_drag, added_mass\)"):
         effect_mask(["buoyancy", "lift"])
 
 

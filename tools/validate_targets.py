@@ -3,8 +3,8 @@
     python tools/validate_targets.py                                  # the table on stdout (~6 min, 2 cores)
     python tools/validate_targets.py --markdown docs/validation.md    # also rewrite its sections and figure
 
-The default model is what a scene gets without choosing: the WaterCoupler with all five effects
-(displacement, buoyancy, pressure, friction, wave drag) and its default coefficients, the stage
+The default model is the reference skip's: the WaterCoupler with all six effects (displacement,
+buoyancy, pressure, friction, wave drag, added mass) and its default coefficients, the stage
 monitor's default bounce criterion (the stone rises with its lowest point 2 mm clear of the water).
 Throws are those of the experiments (components/analysis/experiments.py). Besides the table, this
 writes the magic-angle section (its curve at 5 mm and 1 cm columns, and the force law alone, from

@@ -66,6 +66,7 @@ components:
     field_rate: 0
   coupler:
     type: WaterCoupler
+    effects: [displacement, buoyancy, pressure, friction, wave_drag, added_mass]
   stages:
     type: StageMonitor
     stop_after: 0.0
@@ -74,6 +75,8 @@ connections:
   - stone.state -> coupler.body
   - pond.patch -> coupler.water
   - {{from: coupler.wrench, to: stone.wrench, delay: 1, initial: {{force: [0, 0, 0], torque: [0, 0, 0]}}}}
+  - {{from: coupler.added_mass, to: stone.added_mass, delay: 1,
+     initial: {{axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}}}
   - {{from: coupler.occupied, to: pond.occupied, delay: 1, initial: {{i0: 0, j0: 0, b: []}}}}
   - {{from: coupler.request, to: pond.request, delay: 1, initial: {{x_min: 1, x_max: 0, y_min: 1, y_max: 0}}}}
   - stone.state -> stages.body
@@ -92,8 +95,8 @@ def start(speed: float, alpha_deg: float, beta_deg: float) -> tuple[np.ndarray, 
 def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell: float = 0.005,
                 spin_rev_s: float | None = None, until: float = 0.6,
                 clearance: float = TAKEOFF_CLEARANCE) -> Scene:
-    """One throw of the disk over a 0.8 m x 0.2 m pond of ``cell`` columns (the default effects,
-    all five); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a number frees
+    """One throw of the disk over a 0.8 m x 0.2 m pond of ``cell`` columns (every effect on, the
+    reference skip's six); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a number frees
     it with that spin [rev/s] about the disk's axis."""
     x, v = start(speed, alpha_deg, beta_deg)
     length, width = 0.8, 0.2  # [m] a contact lasts a few centimetres of travel

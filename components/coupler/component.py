@@ -8,6 +8,8 @@ Ports (see DESIGN.md section 3)::
             --> occupied (OccupiedHeight, to the water: absolute displacement b_ij; empty when dry)
             --> request  (PatchRequest, to the water: the body's footprint at its next position)
             --> contact  (WaterContact, to the stage monitor, plots and energy books)
+            --> added_mass (AddedMass, to the body through a delayed edge: the water a submerged
+                            body carries along, for its inertia; effect ``added_mass``)
 
 One step: read the body state and the patch; if the body is far from the water, publish a zero
 wrench, an empty occupied window and an empty request at once (no column work). Otherwise evaluate
@@ -44,7 +46,10 @@ import numpy as np
 
 from components import compiled
 from components.coupler import kernel, step_kernel
+from components.coupler.added_mass import ZERO as ZERO_ADDED_MASS
+from components.coupler.added_mass import AddedMassBook, full_added_mass, scaled
 from components.coupler.effects import (
+    ADDED_MASS,
     BUOYANCY,
     COLUMN_MASK,
     DISPLACEMENT,
@@ -75,6 +80,7 @@ from components.coupler.geometry import (
 )
 from components.coupler.met_surface import MetSurface, planing_share
 from components.messages import (
+    AddedMass,
     BodyState,
     HeightPatch,
     OccupiedHeight,
@@ -94,7 +100,8 @@ MAX_AUTO_SUBSAMPLES = 16  # cap of the automatic sub-cells per column side [-]
 SUBSAMPLES_PER_RADIUS = 12.0  # automatic sub-cells: about this many samples per body radius [-]
 DEFAULT_MARGIN = 0.05  # request margin before the first patch tells the cell size [m]
 
-ALL_EFFECTS = list(EFFECTS)
+ALL_EFFECTS = [name for name in EFFECTS if name != "added_mass"]  # the default: the forces; added_mass is
+# named where the body takes it (its own port, connected in the scene)
 _EFFECTS_DOC = "effects switched on, by name: " + ", ".join(EFFECTS)
 
 
@@ -186,6 +193,8 @@ class WaterCoupler(Component):
         "occupied": Port(OccupiedHeight, "displaced height b_ij (absolute); empty when dry"),
         "request": Port(PatchRequest, "the window of water needed next step"),
         "contact": Port(WaterContact, "what the water did this step"),
+        "added_mass": Port(AddedMass, "the water a submerged body carries along, for the body's inertia "
+                                      "(effect added_mass; published when it changes)"),
     }
 
     # --- lifecycle -------------------------------------------------------------------------------
@@ -196,6 +205,9 @@ class WaterCoupler(Component):
         if problems:
             raise ValueError("effects: " + "; ".join(problems))
         self.flags = effect_mask(p.effects)
+        # the added mass is no force of the kernels: the body takes it on its own port
+        self.added_mass_on = bool(self.flags & ADDED_MASS)
+        self.flags &= ~ADDED_MASS
         # fixed by the parameters: whether the ring displacement is on, and the effects evaluated
         # against the local surface: all of them, except the buoyancy when the ring is on (it is
         # then evaluated against the rest level, see _ring)
@@ -248,6 +260,9 @@ class WaterCoupler(Component):
         self._held_request: PatchRequest | None = None  # the window the water holds from us
         self.met = MetSurface()  # the surface the body met, which the surface effects read
         self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
+        self._submerged = 0.0  # how far this step's body is a submerged one, 0 to 1 (1 - _planing)
+        self._added_book = AddedMassBook()
+        self._added_sent = ZERO_ADDED_MASS  # the added mass the body holds
 
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
@@ -255,8 +270,11 @@ class WaterCoupler(Component):
         The body's state is not known before its first step, so the first step requests the window
         (one step of lag, covered by the margin).
         """
-        return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
-                "request": self._empty_request, "contact": self._dry_contact(-math.inf)}
+        outputs = {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
+                   "request": self._empty_request, "contact": self._dry_contact(-math.inf)}
+        if self.added_mass_on:
+            outputs["added_mass"] = ZERO_ADDED_MASS
+        return outputs
 
     def get_state(self) -> dict[str, Any]:
         prev = None
@@ -267,7 +285,8 @@ class WaterCoupler(Component):
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max],
-                "start_in_water": self._start_in_water}
+                "start_in_water": self._start_in_water, **self._added_book.get_state(),
+                "added_mass_sent": list(self._added_sent.values())}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.rest_level = float(state["rest_level"])
@@ -281,6 +300,16 @@ class WaterCoupler(Component):
         self._prev = None if prev is None else {k: [float(x) for x in v] for k, v in prev.items()}
         self.met.set_state(state)
         self._start_in_water = bool(state.get("start_in_water", False))
+        self._added_book.set_state(state)
+        sent = [float(v) for v in state.get("added_mass_sent", [0.0] * 4)]
+        self._added_sent = AddedMass(*sent) if any(sent) else ZERO_ADDED_MASS
+
+    def needed_outputs(self) -> dict[str, str]:
+        if not self.added_mass_on:
+            return {}
+        return {"added_mass": "effect added_mass acts only through it: connect it to the body's added_mass "
+                              f"input, e.g. {{from: {self.name}.added_mass, to: <body>.added_mass, delay: 1, "
+                              "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}"}
 
     def input_max_age(self, port: str) -> tuple[float, str] | None:
         """The water's patch must come at least every ``lookahead`` seconds when the window is asked
@@ -308,10 +337,22 @@ class WaterCoupler(Component):
     # --- stepping ---------------------------------------------------------------------------------
 
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        return self._publishable(self._advance(dt, 1, inputs))
+        return self._with_added_mass(inputs.get("body"), self._publishable(self._advance(dt, 1, inputs)))
 
     def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        return self._publishable(self._advance(dt, n, inputs))
+        return self._with_added_mass(inputs.get("body"), self._publishable(self._advance(dt, n, inputs)))
+
+    def _with_added_mass(self, body: BodyState | None, outputs: dict[str, Message]) -> dict[str, Message]:
+        """``outputs`` with this step's added mass when it differs from the one the body holds
+        (effect added_mass): the body's, scaled by how far it is a submerged one."""
+        if not self.added_mass_on or body is None:
+            return outputs
+        added = scaled(full_added_mass(body.shape, body.radius, self.params.rho), self._submerged)
+        self._added_book.hold(body, added)
+        if added.values() != self._added_sent.values():
+            self._added_sent = added
+            outputs["added_mass"] = added
+        return outputs
 
     def _publishable(self, outputs: dict[str, Message]) -> dict[str, Message]:
         """Idle outputs (zero wrench, empty windows, a dry report) are published once when the body
@@ -359,6 +400,9 @@ class WaterCoupler(Component):
             # there, and the body falls through as off any edge of the water
             self.rest_level, self.cell = float(patch.rest_level), float(patch.cell)
         self._account_work(pos, omega, dt)
+        self._submerged = 0.0
+        if self.added_mass_on:
+            self.dissipated += self._added_book.settle(body, dt)
         # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest
         z_bottom = float(pos[2]) - r_bound
         level = self.rest_level
@@ -410,6 +454,8 @@ class WaterCoupler(Component):
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
                                self._b_geo, self._stats, self._local)
+        if self.added_mass_on:
+            self._submerged = 1.0 - self._planing(pos, low, met)
         ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_on else None
         if assumed and ring is not None:
             ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
@@ -545,6 +591,7 @@ class WaterCoupler(Component):
         res = numbers[step_kernel.NUM_RESULTS:step_kernel.NUM_RESULTS + step_kernel.N_RESULTS]
         z_low, half_x, half_y = numbers[step_kernel.NUM_POSE + 2:step_kernel.NUM_POSE + step_kernel.N_POSE]
         self.bound = res[step_kernel.R_BOUND]
+        self._submerged = 1.0 - res[step_kernel.R_PLANING]
         vx, vy = float(vel[0]), float(vel[1])
         request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), (half_x, half_y), (vx, vy), dt)
         self.work = {"columns": int(numbers[kernel.S_COLUMNS]), "elements": int(numbers[kernel.S_ELEMENTS])}
@@ -863,6 +910,10 @@ class WaterCoupler(Component):
         radius, thick = float(body.radius), float(body.thickness)
         gravity = np.array([0.0, 0.0, -self.params.g])
         flags = self._local
+        # the water the body carries along, as the body will take it (AddedMass.carried)
+        added = (scaled(full_added_mass(body.shape, radius, self.params.rho), self._submerged)
+                 if self.added_mass_on else ZERO_ADDED_MASS)
+        carried = any(added.values())
         current = stats0[:size].copy()
         for i in range(n):
             if i > 0:
@@ -879,7 +930,13 @@ class WaterCoupler(Component):
                 total += current
             force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
             torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
-            v = v + (force / mass + gravity) * h
+            if carried:
+                f, t = added.carried(mass, inertia_body.tolist(), quat_to_matrix(q)[:, 2].tolist(),
+                                     (force + mass * gravity).tolist(), torque.tolist())
+                v = v + np.array(f) / mass * h
+                torque = np.array(t)
+            else:
+                v = v + (force / mass + gravity) * h
             if not body.attitude_locked:
                 axes = quat_to_matrix(q)
                 inertia = axes @ np.diag(inertia_body) @ axes.T

@@ -27,6 +27,7 @@ BUOYANCY = 2
 PRESSURE = 4
 FRICTION = 8
 WAVE_DRAG = 16
+ADDED_MASS = 32
 
 EFFECTS: dict[str, Effect] = {
     e.name: e
@@ -41,6 +42,8 @@ EFFECTS: dict[str, Effect] = {
                "tangential skin friction on wetted faces, -1/2 rho C_f |u| u_t dA"),
         Effect("wave_drag", WAVE_DRAG, True, False,
                "capillary-gravity wave drag against the horizontal velocity above c_min"),
+        Effect("added_mass", ADDED_MASS, False, False,
+               "the water a submerged body carries along, added to its inertia (published as AddedMass)"),
     )
 }
 """All effects by name, in their canonical order."""
