@@ -285,8 +285,9 @@ class WaterCoupler(Component):
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max],
-                "start_in_water": self._start_in_water, **self._added_book.get_state(),
-                "added_mass_sent": list(self._added_sent.values())}
+                "start_in_water": self._start_in_water,
+                **({**self._added_book.get_state(), "added_mass_sent": list(self._added_sent.values())}
+                   if self.added_mass_on else {})}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.rest_level = float(state["rest_level"])
