@@ -83,8 +83,12 @@ class AddedMassBook:
                 + _split_dot(n, dw, mean_w, added.axial_inertia, added.diameter_inertia))
 
     def hold(self, body: BodyState, published: AddedMass) -> None:
-        """Remember this step's state and the added mass the body will take from it."""
+        """Remember this step's state and the added mass the body will take from it (no state
+        while there is none: :meth:`settle` then has nothing to count)."""
         self.added = published
+        if published is ZERO:
+            self.state = None
+            return
         self.state = (body.position.tolist(), body.velocity.tolist(), body.angular_velocity.tolist(),
                       _axis(body.orientation.tolist()))
 

@@ -348,7 +348,9 @@ class WaterCoupler(Component):
         (effect added_mass): the body's, scaled by how far it is a submerged one."""
         if not self.added_mass_on or body is None:
             return outputs
-        added = scaled(full_added_mass(body.shape, body.radius, self.params.rho), self._submerged)
+        share = self._submerged
+        added = ZERO_ADDED_MASS if share <= 0.0 else scaled(full_added_mass(body.shape, body.radius,
+                                                                             self.params.rho), share)
         self._added_book.hold(body, added)
         if added.values() != self._added_sent.values():
             self._added_sent = added
