@@ -198,6 +198,8 @@ class RigidBody(Component):
         inertia.flags.writeable = False  # shared by every published message
         self._inertia = inertia
         self.state = self._initial_state()
+        self._added_seen: Message | None = None  # the added mass last received, and whether it is any
+        self._added_active = False
 
     def _initial_state(self) -> RigidState:
         p: RigidBodyParams = self.params
@@ -236,7 +238,9 @@ class RigidBody(Component):
             w = self.weight
             forces = ((w[0] + f[0], w[1] + f[1], w[2] + f[2]), tuple(wrench.torque.tolist()))  # type: ignore[attr-defined]
         added = inputs.get("added_mass")
-        if added is not None and any(added.values()):  # type: ignore[attr-defined]
+        if added is not self._added_seen:  # a new message (the latest is held: most steps it is not)
+            self._added_seen, self._added_active = added, added is not None and any(added.values())  # type: ignore[attr-defined]
+        if self._added_active:
             forces = added.carried(self.body.mass, self.body.inertia, quat.body_axis(s.orientation),  # type: ignore[attr-defined]
                                    forces[0], forces[1])
         s = self.integrate(self.body, s, forces, t, dt, self.rotate)

@@ -349,6 +349,9 @@ class WaterCoupler(Component):
         if not self.added_mass_on or body is None:
             return outputs
         share = self._submerged
+        if share <= 0.0 and self._added_sent is ZERO_ADDED_MASS:  # out of the water, as the body knows
+            self._added_book.hold(body, ZERO_ADDED_MASS)
+            return outputs
         added = ZERO_ADDED_MASS if share <= 0.0 else scaled(full_added_mass(body.shape, body.radius,
                                                                              self.params.rho), share)
         self._added_book.hold(body, added)
