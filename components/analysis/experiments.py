@@ -25,7 +25,7 @@ import numpy as np
 from components.messages import BodyState
 from components.rigid.quaternion import body_axis
 from cosim.scenario import Scene, loads
-from cosim.scheduler import Simulation
+from cosim.scheduler import BaseObserver, Simulation
 
 RADIUS = 0.025  # [m] Clanet et al.'s aluminium disk
 THICKNESS = 0.00275  # [m]
@@ -219,3 +219,98 @@ def critical_speed(alpha_deg: float, *, lo: float = 1.0, hi: float = 6.0, step: 
         else:
             a = mid
     return 0.5 * (a + b), below
+
+
+# --- a body released under water (added mass) ----------------------------------------------------
+
+RELEASE_SCENE = """
+name: release
+dt: 0.0005
+until: {until}
+components:
+  body:
+    type: RigidBody
+    shape: {shape}
+    radius: {radius!r}
+    thickness: {thickness!r}
+    density: {density!r}
+    position: [0.2, 0.2, -0.2]
+  pond:
+    type: WaterSurface
+    nx: 40
+    ny: 40
+    cell: 0.01
+    depth: 0.5
+    boundary: absorbing
+    every: 4
+    field_rate: 0
+  coupler:
+    type: WaterCoupler
+    effects: [displacement, buoyancy, pressure, friction{added}]
+connections:
+  - body.state -> coupler.body
+  - pond.patch -> coupler.water
+  - {{from: coupler.wrench, to: body.wrench, delay: 1, initial: {{force: [0, 0, 0], torque: [0, 0, 0]}}}}
+  - {{from: coupler.occupied, to: pond.occupied, delay: 1, initial: {{i0: 0, j0: 0, b: []}}}}
+  - {{from: coupler.request, to: pond.request, delay: 1, initial: {{x_min: 1, x_max: 0, y_min: 1, y_max: 0}}}}
+{connection}
+"""
+RELEASE_RADIUS = 0.02  # [m] of the released sphere and disk
+RELEASE_THICKNESS = 0.006  # [m] of the released disk (a slate)
+SLATE = 2650.0  # [kg/m^3]
+
+
+@dataclass(frozen=True)
+class Release:
+    """A body let go at rest 20 cm under a still pond: by time [ns], its vertical velocity [m/s] and
+    its energy [J] (kinetic plus potential plus what the water took, the coupler's books)."""
+
+    vz: dict[int, float]
+    energy: dict[int, float]
+
+    def acceleration(self, start_ms: float = 5.0, end_ms: float = 15.0) -> float:
+        """The mean vertical acceleration [m/s^2] between two times after the release (the first step
+        is gravity's alone: the coupler's answer reaches the body a step late)."""
+        start, end = round(start_ms * 1e6), round(end_ms * 1e6)
+        return (self.vz[end] - self.vz[start]) / ((end - start) * 1e-9)
+
+
+def release_under_water(shape: str, *, density: float = SLATE, added_mass: bool = True,
+                        until: float = 0.02) -> Release:
+    """A sphere or a disk (face down) of ``density`` [kg/m^3] released at rest under a still pond of
+    1 cm columns, with the effects of a submerged body (and its added mass unless ``added_mass`` is
+    False)."""
+    connection = ("  - {from: coupler.added_mass, to: body.added_mass, delay: 1, "
+                  "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
+    text = RELEASE_SCENE.format(until=until, shape=shape, radius=RELEASE_RADIUS, thickness=RELEASE_THICKNESS,
+                                density=density, added=", added_mass" if added_mass else "",
+                                connection=connection if added_mass else "")
+    log = _ReleaseLog()
+    Simulation(loads(text, source="release"), observers=[log]).run()
+    return Release(log.vz, {t: log.energy[t] + w for t, w in log.water.items() if t in log.energy})
+
+
+def release_exact(shape: str, density: float = SLATE, water: float = 1000.0) -> tuple[float, float]:
+    """The starting acceleration [m/s^2] of :func:`release_under_water` in potential flow, with the
+    added mass and without it: g (M - rho V) / (M + M_a) (Lamb, Hydrodynamics, sections 92, 108:
+    M_a = half the displaced water for a sphere, 8/3 rho R^3 for a disk moving face on)."""
+    r, e = RELEASE_RADIUS, RELEASE_THICKNESS
+    volume = 4.0 / 3.0 * math.pi * r**3 if shape == "sphere" else math.pi * r**2 * e
+    added = 0.5 * water * volume if shape == "sphere" else 8.0 / 3.0 * water * r**3
+    mass = density * volume
+    net = GRAVITY * (water * volume - mass)
+    return net / (mass + added), net / mass
+
+
+class _ReleaseLog(BaseObserver):
+    def __init__(self) -> None:
+        self.vz: dict[int, float] = {}
+        self.energy: dict[int, float] = {}
+        self.water: dict[int, float] = {}
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg) -> None:
+        if component == "body" and port == "state":
+            self.vz[time_ns] = float(msg.velocity[2])
+            self.energy[time_ns] = msg.kinetic_energy + msg.potential_energy
+        elif component == "coupler" and port == "contact":
+            self.water[time_ns] = msg.dissipated_energy
