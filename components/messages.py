@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 from collections.abc import Sequence
 from typing import Annotated
 
@@ -103,6 +104,13 @@ class AddedMass(Message):
         """(axial, radial, axial_inertia, diameter_inertia): the message compared by value."""
         return (self.axial, self.radial, self.axial_inertia, self.diameter_inertia)
 
+    def problem(self) -> str | None:
+        """What makes this no added mass (a value negative or not finite), or None."""
+        for (name, unit), value in zip(_ADDED_MASS_FIELDS, self.values(), strict=True):
+            if not (value >= 0.0 and math.isfinite(value)):
+                return f"{name} = {value!r} {unit}: an added mass is finite and at least 0"
+        return None
+
     def carried(self, mass: float, inertia: Sequence[float], axis: Sequence[float], force: Sequence[float],
                 torque: Sequence[float]) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """The force [N] and torque [N m] (world frame) that give a body of ``mass`` [kg] and principal
@@ -115,6 +123,9 @@ class AddedMass(Message):
         i_d, i_a = inertia[0], inertia[2]
         t = _split_scale(axis, torque, i_a / (i_a + self.axial_inertia), i_d / (i_d + self.diameter_inertia))
         return f, t
+
+
+_ADDED_MASS_FIELDS = (("axial", "kg"), ("radial", "kg"), ("axial_inertia", "kg m^2"), ("diameter_inertia", "kg m^2"))
 
 
 def _split_scale(axis: Sequence[float], h: Sequence[float], along: float, across: float) -> tuple[float, float, float]:

@@ -201,6 +201,13 @@ class RigidBody(Component):
         self._added_seen: Message | None = None  # the added mass last received, and whether it is any
         self._added_active = False
 
+    def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
+        """An added mass it starts with (a connection's initial value) must be one."""
+        added = inputs.get("added_mass")
+        problem = added.problem() if isinstance(added, AddedMass) else None
+        return [] if problem is None else [f"its input 'added_mass' starts with {problem} (the initial value of "
+                                           "the connection into it)"]
+
     def _initial_state(self) -> RigidState:
         p: RigidBodyParams = self.params
         tilt = p.tilt_deg if self.tilt_script is None else self.tilt_script.value(0.0)[0]
@@ -239,6 +246,9 @@ class RigidBody(Component):
             forces = ((w[0] + f[0], w[1] + f[1], w[2] + f[2]), tuple(wrench.torque.tolist()))  # type: ignore[attr-defined]
         added = inputs.get("added_mass")
         if added is not self._added_seen:  # a new message (the latest is held: most steps it is not)
+            problem = None if added is None else added.problem()  # type: ignore[attr-defined]
+            if problem is not None:
+                raise ValueError(f"input 'added_mass': {problem}")
             self._added_seen, self._added_active = added, added is not None and any(added.values())  # type: ignore[attr-defined]
         if self._added_active:
             forces = added.carried(self.body.mass, self.body.inertia, quat.body_axis(s.orientation),  # type: ignore[attr-defined]
