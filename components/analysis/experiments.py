@@ -1,6 +1,7 @@
 """The published experiments as runnable throws: the Clanet/Rosellini aluminium disk thrown at still
 water through the full co-simulation (RigidBody + WaterSurface + WaterCoupler with every effect +
-StageMonitor), and what each throw did.
+StageMonitor), and what each throw did; and a body let go under water, whose start tests the added
+mass against potential flow (:func:`release_under_water`).
 
 Used by ``tools/validate_targets.py`` and the tests that hold the
 model to the published values (``tests/test_validation_targets.py``). The experiment: Clanet, Hersen &
@@ -96,8 +97,8 @@ def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell:
                 spin_rev_s: float | None = None, until: float = 0.6,
                 clearance: float = TAKEOFF_CLEARANCE) -> Scene:
     """One throw of the disk over a 0.8 m x 0.2 m pond of ``cell`` columns (every effect on, the
-    reference skip's six); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a number frees
-    it with that spin [rev/s] about the disk's axis."""
+    reference skip's six); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a
+    number frees it with that spin [rev/s] about the disk's axis."""
     x, v = start(speed, alpha_deg, beta_deg)
     length, width = 0.8, 0.2  # [m] a contact lasts a few centimetres of travel
     wave_speed = math.sqrt(GRAVITY * DEPTH)
