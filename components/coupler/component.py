@@ -102,7 +102,8 @@ DEFAULT_MARGIN = 0.05  # request margin before the first patch tells the cell si
 
 ALL_EFFECTS = [name for name in EFFECTS if name != "added_mass"]  # the default: the forces; added_mass is
 # named where the body takes it (its own port, connected in the scene)
-_EFFECTS_DOC = "effects switched on, by name: " + ", ".join(EFFECTS)
+_EFFECTS_DOC = ("effects switched on, by name: " + ", ".join(EFFECTS)
+                + " (added_mass acts through the body's added_mass input: connect it; not in the default)")
 
 
 def _ro(a: np.ndarray) -> np.ndarray:
