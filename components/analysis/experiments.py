@@ -256,6 +256,9 @@ connections:
   - {{from: coupler.request, to: pond.request, delay: 1, initial: {{x_min: 1, x_max: 0, y_min: 1, y_max: 0}}}}
 {connection}
 """
+RELEASE_ADDED_MASS = ("  - {from: coupler.added_mass, to: body.added_mass, delay: 1, "
+                      "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
+"""The connection that takes the added mass to the body, for :data:`RELEASE_SCENE`'s ``connection``."""
 RELEASE_RADIUS = 0.02  # [m] of the released sphere and disk
 RELEASE_THICKNESS = 0.006  # [m] of the released disk (a slate)
 SLATE = 2650.0  # [kg/m^3]
@@ -281,11 +284,9 @@ def release_under_water(shape: str, *, density: float = SLATE, added_mass: bool 
     """A sphere or a disk (face down) of ``density`` [kg/m^3] released at rest under a still pond of
     1 cm columns, with the effects of a submerged body (and its added mass unless ``added_mass`` is
     False)."""
-    connection = ("  - {from: coupler.added_mass, to: body.added_mass, delay: 1, "
-                  "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
     text = RELEASE_SCENE.format(until=until, shape=shape, radius=RELEASE_RADIUS, thickness=RELEASE_THICKNESS,
                                 density=density, added=", added_mass" if added_mass else "",
-                                connection=connection if added_mass else "")
+                                connection=RELEASE_ADDED_MASS if added_mass else "")
     log = _ReleaseLog()
     Simulation(loads(text, source="release"), observers=[log]).run()
     return Release(log.vz, {t: log.energy[t] + w for t, w in log.water.items() if t in log.energy})
