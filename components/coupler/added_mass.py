@@ -30,6 +30,7 @@ import math
 from typing import Any
 
 from components.messages import AddedMass, BodyState, Shape
+from components.rigid.quaternion import body_axis
 
 ZERO = AddedMass.zero()
 
@@ -65,7 +66,7 @@ class AddedMassBook:
     """
 
     def __init__(self) -> None:
-        self.added: AddedMass = ZERO  # the added mass published last step, held by the body since
+        self.added: AddedMass = ZERO  # the added mass of the last step, the one the body holds
         self.state: tuple[list[float], ...] | None = None  # (position, velocity, omega, axis) then
 
     def settle(self, body: BodyState, dt: float) -> float:
@@ -90,7 +91,7 @@ class AddedMassBook:
             self.state = None
             return
         self.state = (body.position.tolist(), body.velocity.tolist(), body.angular_velocity.tolist(),
-                      _axis(body.orientation.tolist()))
+                      list(body_axis(tuple(body.orientation.tolist()))))
 
     def get_state(self) -> dict[str, Any]:
         return {"added_mass": list(self.added.values()),
@@ -101,12 +102,6 @@ class AddedMassBook:
         self.added = ZERO if not any(values) else AddedMass(*values)
         before = state.get("added_mass_from")
         self.state = None if before is None else tuple([float(x) for x in v] for v in before)
-
-
-def _axis(q: list[float]) -> list[float]:
-    """The body's z axis in the world frame from its orientation (w, x, y, z)."""
-    w, x, y, z = q
-    return [2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)]
 
 
 def _split_dot(n: list[float], a: list[float], b: list[float], along: float, across: float) -> float:

@@ -262,8 +262,7 @@ class WaterCoupler(Component):
         self.met = MetSurface()  # the surface the body met, which the surface effects read
         self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
         self._submerged = 0.0  # how far this step's body is a submerged one, 0 to 1 (1 - _planing)
-        self._added_book = AddedMassBook()
-        self._added_sent = ZERO_ADDED_MASS  # the added mass the body holds
+        self._added_book = AddedMassBook()  # also the added mass the body holds (the last published)
 
     def initial_outputs(self) -> dict[str, Message]:
         """At t = 0: zero wrench, empty occupied window and request, a dry contact report.
@@ -287,8 +286,7 @@ class WaterCoupler(Component):
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max],
                 "start_in_water": self._start_in_water,
-                **({**self._added_book.get_state(), "added_mass_sent": list(self._added_sent.values())}
-                   if self.added_mass_on else {})}
+                **(self._added_book.get_state() if self.added_mass_on else {})}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.rest_level = float(state["rest_level"])
@@ -303,8 +301,6 @@ class WaterCoupler(Component):
         self.met.set_state(state)
         self._start_in_water = bool(state.get("start_in_water", False))
         self._added_book.set_state(state)
-        sent = [float(v) for v in state.get("added_mass_sent", [0.0] * 4)]
-        self._added_sent = AddedMass(*sent) if any(sent) else ZERO_ADDED_MASS
 
     def needed_outputs(self) -> dict[str, str]:
         if not self.added_mass_on:
@@ -349,17 +345,20 @@ class WaterCoupler(Component):
         (effect added_mass): the body's, scaled by how far it is a submerged one."""
         if not self.added_mass_on or body is None:
             return outputs
-        share = self._submerged
-        if share <= 0.0 and self._added_sent is ZERO_ADDED_MASS:  # out of the water, as the body knows
-            self._added_book.hold(body, ZERO_ADDED_MASS)
-            return outputs
-        added = ZERO_ADDED_MASS if share <= 0.0 else scaled(full_added_mass(body.shape, body.radius,
-                                                                             self.params.rho), share)
+        held = self._added_book.added  # published before, held by the body since
+        added = self._carried_water(body)
         self._added_book.hold(body, added)
-        if added.values() != self._added_sent.values():
-            self._added_sent = added
+        if added is not held and added.values() != held.values():
             outputs["added_mass"] = added
         return outputs
+
+    def _carried_water(self, body: BodyState) -> AddedMass:
+        """The added mass of ``body`` this step: its full one scaled by how far it is a submerged one
+        (none, and nothing worked out, while it is not under water)."""
+        share = self._submerged
+        if share <= 0.0:
+            return ZERO_ADDED_MASS
+        return scaled(full_added_mass(body.shape, body.radius, self.params.rho), share)
 
     def _publishable(self, outputs: dict[str, Message]) -> dict[str, Message]:
         """Idle outputs (zero wrench, empty windows, a dry report) are published once when the body
@@ -918,8 +917,7 @@ class WaterCoupler(Component):
         gravity = np.array([0.0, 0.0, -self.params.g])
         flags = self._local
         # the water the body carries along, as the body will take it (AddedMass.carried)
-        added = (scaled(full_added_mass(body.shape, radius, self.params.rho), self._submerged)
-                 if self.added_mass_on else ZERO_ADDED_MASS)
+        added = self._carried_water(body) if self.added_mass_on else ZERO_ADDED_MASS
         carried = any(added.values())
         current = stats0[:size].copy()
         for i in range(n):
