@@ -173,13 +173,14 @@ _T = typing.TypeVar("_T", bound=type)
 
 def message(cls: _T) -> _T:
     """Class decorator: make ``cls`` a frozen dataclass message and record its field layout."""
+    own_init = "__init__" in vars(cls)  # a class's own __init__ is kept, as dataclass keeps it
     cls = dataclass(frozen=True, eq=False)(cls)
     hints = typing.get_type_hints(cls, include_extras=True)
     specs = tuple(
         _field_spec(f.name, hints[f.name], cls.__name__) for f in dataclasses.fields(cls)
     )
     cls.__cosim_fields__ = specs
-    fast = _fast_init(cls)
+    fast = None if own_init else _fast_init(cls)
     if fast is not None:
         cls.__init__ = fast
     return cls

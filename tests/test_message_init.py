@@ -94,3 +94,16 @@ def test_a_keyword_only_field_keeps_the_dataclass_init():
     assert Keyed(value=2.0).value == 2.0
     with pytest.raises(TypeError):
         Keyed(2.0)  # type: ignore[misc]
+
+
+def test_a_class_with_its_own_init_keeps_it():
+    @message
+    class Doubled(Message):
+        """A message type that builds itself."""
+
+        value: float
+
+        def __init__(self, value: float) -> None:
+            object.__setattr__(self, "value", 2.0 * value)
+
+    assert Doubled(1.5).value == 3.0
