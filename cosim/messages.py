@@ -199,8 +199,8 @@ def _fast_init(cls: type) -> Any:
     if any("__slots__" in vars(c) for c in cls.__mro__[:-1]):
         return None
     fields = dataclasses.fields(cls)
-    if any(not f.init or f.kw_only for f in fields) or any(
-            isinstance(v, dataclasses.InitVar) for v in getattr(cls, "__annotations__", {}).values()):
+    # __dataclass_fields__ also holds the pseudo-fields (InitVar, ClassVar) that fields() leaves out
+    if any(not f.init or f.kw_only for f in fields) or len(cls.__dataclass_fields__) != len(fields):
         return None
     env: dict[str, Any] = {"_MISSING": dataclasses.MISSING}
     params, body = [], []

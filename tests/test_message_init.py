@@ -107,3 +107,18 @@ def test_a_class_with_its_own_init_keeps_it():
             object.__setattr__(self, "value", 2.0 * value)
 
     assert Doubled(1.5).value == 3.0
+
+
+def test_an_init_only_variable_keeps_the_dataclass_init():
+    @message
+    class Scaled(Message):
+        """A field set from an init-only scale."""
+
+        value: float
+        scale: dataclasses.InitVar[float] = 1.0
+
+        def __post_init__(self, scale: float) -> None:
+            object.__setattr__(self, "value", self.value * scale)
+
+    assert Scaled(2.0, 3.0).value == 6.0
+    assert Scaled(2.0).value == 2.0
