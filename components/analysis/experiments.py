@@ -170,6 +170,45 @@ def run_throw(scene: Scene) -> ThrowOutcome:
     return ThrowOutcome(bounced, contact, span, tilt_change)
 
 
+@dataclass(frozen=True)
+class AttackHistory:
+    """A throw's attack angle along its motion over time, from its touchdown on (for figures)."""
+
+    time_s: np.ndarray  # [s] since the touchdown
+    attack_deg: np.ndarray  # along the horizontal motion: nose-up positive [deg]
+    wetted: np.ndarray  # bool: the coupler reported the disk wetted
+    outcome: ThrowOutcome  # what :func:`run_throw` says of the same throw
+
+
+def attack_history(scene: Scene, after_s: float = 0.03) -> AttackHistory:
+    """The attack angle of ``scene``'s throw (from :func:`throw_scene`) from its touchdown to
+    ``after_s`` [s] past its first bounce or sink (or the scene's end)."""
+    sim = Simulation(scene)
+    sim.initialize()
+    stages = sim.components["stages"]
+    stone = sim.components["stone"]
+    contact = {r.name: r for r in sim.runners}["coupler"].slots["contact"]
+    times: list[float] = []
+    attacks: list[float] = []
+    wetted: list[bool] = []
+    touched_at = None
+    stop_at = scene.until_ns
+    while sim.time_ns < stop_at:
+        sim.step()
+        if touched_at is None and stages.track.in_contact:
+            touched_at = sim.time_ns
+        if touched_at is None:
+            continue
+        report = contact.entries[-1][1] if contact.entries else None
+        times.append((sim.time_ns - touched_at) * 1e-9)
+        attacks.append(_attack_along_motion(stone.body_state()))
+        wetted.append(bool(report is not None and report.wetted))
+        ended = stages.track.skips or (stages.stage is not None and stages.stage.name == "SINK")
+        if ended and stop_at == scene.until_ns:
+            stop_at = min(stop_at, sim.time_ns + round(after_s * 1e9))
+    return AttackHistory(np.array(times), np.array(attacks), np.array(wetted), run_throw(scene))
+
+
 def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = SPHERE_RADIUS,
                        cell: float = 0.005, until: float = 0.4) -> Scene:
     """A sphere of ``radius`` [m] and ``relative_density`` thrown at ``theta_deg`` below the horizontal
