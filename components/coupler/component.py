@@ -458,10 +458,11 @@ class WaterCoupler(Component):
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
+        planing = self._planing(pos, low, met)
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
-                               self._b_geo, self._stats, self._local)
+                               self._b_geo, self._stats, self._local, planing)
         if self.added_mass_on:
-            self._submerged = 1.0 - self._planing(pos, low, met)
+            self._submerged = 1.0 - planing
         ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_on else None
         if assumed and ring is not None:
             ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
@@ -627,10 +628,12 @@ class WaterCoupler(Component):
         return {"wrench": Wrench(np.array(force), np.array(torque)), "occupied": occupied, "request": request,
                 "contact": contact}
 
-    def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags):
+    def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags,
+                  planing):
+        """The named effects' forces on ``body`` over ``water`` into ``stats``, the pressure following
+        the planing law in the share ``planing`` (:meth:`_planing` of the same pose and water)."""
         p = self.params
         x0, y0, cell, height, wvel, bottom, _ = water
-        planing = self._planing(pos, low, water)
         c_d = p.c_d_disk if body.shape == Shape.DISK else p.c_d_sphere
         kernel.evaluate(
             int(body.shape), float(body.radius), float(body.thickness),
@@ -927,7 +930,7 @@ class WaterCoupler(Component):
                 low = lowest_point(is_disk, x, axis, radius, thick)
                 half = disk_half_extents(axis, radius, thick) if is_disk else (radius, radius)
                 stats = self._evaluate(body, x, v, w, axes, half, low, met, elements, nsub,
-                                       b_scratch, s_scratch, flags)
+                                       b_scratch, s_scratch, flags, self._planing(x, low, met))
                 if ring_mode:
                     self._add_hydrostatics(stats, self._ring(body, x, axes, half, low, water, elements,
                                                              nsub, ring_scratch))
