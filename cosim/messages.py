@@ -194,11 +194,14 @@ def _fast_init(cls: type) -> Any:
     every component builds messages every step. The instances stay frozen: only
     ``__init__`` writes the dict, as ``dataclasses`` documents for frozen classes. Same signature,
     defaults and ``__post_init__``; None (keep the dataclass's) for a field this does not handle
-    (``init=False``, keyword-only, an ``InitVar``) or a class whose instances have no dict.
+    (``init=False``, keyword-only, an ``InitVar`` or ``ClassVar``, a name starting with ``_`` or
+    ``self``, which the generated code uses) or a class whose instances have no dict.
     """
     if any("__slots__" in vars(c) for c in cls.__mro__[:-1]):
         return None
     fields = dataclasses.fields(cls)
+    if any(f.name == "self" or f.name.startswith("_") for f in fields):
+        return None
     # __dataclass_fields__ also holds the pseudo-fields (InitVar, ClassVar) that fields() leaves out
     if any(not f.init or f.kw_only for f in fields) or len(cls.__dataclass_fields__) != len(fields):
         return None

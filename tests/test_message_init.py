@@ -122,3 +122,15 @@ def test_an_init_only_variable_keeps_the_dataclass_init():
 
     assert Scaled(2.0, 3.0).value == 6.0
     assert Scaled(2.0).value == 2.0
+
+
+def test_fields_named_like_the_generated_codes_own_names_keep_the_dataclass_init():
+    @message
+    class Odd(Message):
+        """Field names the generated __init__ would clash with."""
+
+        _d: float
+        self: float = 2.0
+
+    odd = Odd(1.0)
+    assert (odd._d, odd.self) == (1.0, 2.0)
