@@ -1,6 +1,6 @@
 """scenarios/ricochet.yaml: Johnson & Reid's sphere ricochet as a scene a user runs and watches. Up to
-its first ricochet it is the validation's throw (components.analysis.experiments), and it
-ricochets below the critical angle and dives above it, as the description says."""
+its first ricochet it is a throw of the validation's bisection (components.analysis.experiments),
+and it ricochets below the critical angle and dives above it, as the description says."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ SCENE = Path(__file__).resolve().parents[1] / "scenarios" / "ricochet.yaml"
 
 
 def test_the_scene_is_the_validation_throw_at_15_deg():
-    """Below Johnson & Reid's 18 deg: it ricochets, to the bit as the table's sphere throw does
+    """Below Johnson & Reid's 18 deg: it ricochets, to the bit as the validation's sphere throw at 15 deg does
     (the scene's longer pond and its viewer field change nothing before the first ricochet)."""
     scene = ex.run_throw(load(SCENE))
     table = ex.run_throw(ex.sphere_throw_scene(20.0, 15.0, 1.0))
