@@ -134,40 +134,7 @@ def _attack_along_motion(state: BodyState) -> float:
 
 def run_throw(scene: Scene) -> ThrowOutcome:
     """Run ``scene`` (from :func:`throw_scene`) to the first bounce or sink."""
-    sim = Simulation(scene)
-    sim.initialize()
-    stages = sim.components["stages"]
-    stone = sim.components["stone"]
-    end = scene.until_ns
-    coupler_contact = {r.name: r for r in sim.runners}["coupler"].slots["contact"]
-    touched_at = None
-    wetted_from = wetted_until = None
-    attacks: list[float] = []
-    tilt0 = None
-    tilt_change = 0.0
-    bounced = False
-    while sim.time_ns < end:
-        sim.step()
-        state = stone.body_state()
-        wet = stages.track.in_contact
-        if wet and touched_at is None:
-            touched_at = sim.time_ns
-        report = coupler_contact.entries[-1][1] if coupler_contact.entries else None
-        if report is not None and report.wetted:
-            wetted_from = sim.time_ns if wetted_from is None else wetted_from
-            wetted_until = sim.time_ns
-        if touched_at is not None:
-            attacks.append(_attack_along_motion(state))
-            tilt0 = state.attack_angle_deg if tilt0 is None else tilt0
-            tilt_change = max(tilt_change, abs(state.attack_angle_deg - tilt0))
-        if stages.track.skips:
-            bounced = True
-            break
-        if stages.stage is not None and stages.stage.name == "SINK":
-            break
-    contact = 0.0 if wetted_from is None else (wetted_until - wetted_from) * 1e-9
-    span = (min(attacks), max(attacks), attacks[-1]) if attacks else (math.nan,) * 3
-    return ThrowOutcome(bounced, contact, span, tilt_change)
+    return _throw(scene, None)[0]
 
 
 @dataclass(frozen=True)
@@ -183,30 +150,60 @@ class AttackHistory:
 def attack_history(scene: Scene, after_s: float = 0.03) -> AttackHistory:
     """The attack angle of ``scene``'s throw (from :func:`throw_scene`) from its touchdown to
     ``after_s`` [s] past its first bounce or sink (or the scene's end)."""
+    outcome, times, attacks, wetted = _throw(scene, after_s)
+    return AttackHistory(np.array(times), np.array(attacks), np.array(wetted), outcome)
+
+
+def _throw(scene: Scene, after_s: float | None) -> tuple[ThrowOutcome, list[float], list[float], list[bool]]:
+    """Run ``scene`` to its first bounce or sink, and on for ``after_s`` [s] when it is a number: the
+    throw's outcome (up to the bounce or sink), and from its touchdown on, each step's time since the
+    touchdown [s], attack angle along the motion [deg] and whether the coupler reported it wetted
+    (kept only with ``after_s``)."""
     sim = Simulation(scene)
     sim.initialize()
     stages = sim.components["stages"]
     stone = sim.components["stone"]
-    contact = {r.name: r for r in sim.runners}["coupler"].slots["contact"]
-    times: list[float] = []
-    attacks: list[float] = []
-    wetted: list[bool] = []
+    end = scene.until_ns
+    coupler_contact = {r.name: r for r in sim.runners}["coupler"].slots["contact"]
     touched_at = None
-    stop_at = scene.until_ns
-    while sim.time_ns < stop_at:
+    wetted_from = wetted_until = None
+    attacks: list[float] = []
+    tilt0 = None
+    tilt_change = 0.0
+    bounced = ended = False
+    times: list[float] = []
+    history: list[float] = []
+    wetted: list[bool] = []
+    while sim.time_ns < end:
         sim.step()
-        if touched_at is None and stages.track.in_contact:
+        state = stone.body_state()
+        if stages.track.in_contact and touched_at is None:
             touched_at = sim.time_ns
-        if touched_at is None:
+        report = coupler_contact.entries[-1][1] if coupler_contact.entries else None
+        wet = report is not None and bool(report.wetted)
+        attack = _attack_along_motion(state) if touched_at is not None else math.nan
+        if after_s is not None and touched_at is not None:
+            times.append((sim.time_ns - touched_at) * 1e-9)
+            history.append(attack)
+            wetted.append(wet)
+        if ended:
             continue
-        report = contact.entries[-1][1] if contact.entries else None
-        times.append((sim.time_ns - touched_at) * 1e-9)
-        attacks.append(_attack_along_motion(stone.body_state()))
-        wetted.append(bool(report is not None and report.wetted))
-        ended = stages.track.skips or (stages.stage is not None and stages.stage.name == "SINK")
-        if ended and stop_at == scene.until_ns:
-            stop_at = min(stop_at, sim.time_ns + round(after_s * 1e9))
-    return AttackHistory(np.array(times), np.array(attacks), np.array(wetted), run_throw(scene))
+        if wet:
+            wetted_from = sim.time_ns if wetted_from is None else wetted_from
+            wetted_until = sim.time_ns
+        if touched_at is not None:
+            attacks.append(attack)
+            tilt0 = state.attack_angle_deg if tilt0 is None else tilt0
+            tilt_change = max(tilt_change, abs(state.attack_angle_deg - tilt0))
+        bounced = bool(stages.track.skips)
+        ended = bounced or (stages.stage is not None and stages.stage.name == "SINK")
+        if ended:
+            if after_s is None:
+                break
+            end = min(end, sim.time_ns + round(after_s * 1e9))
+    contact = 0.0 if wetted_from is None else (wetted_until - wetted_from) * 1e-9
+    span = (min(attacks), max(attacks), attacks[-1]) if attacks else (math.nan,) * 3
+    return ThrowOutcome(bounced, contact, span, tilt_change), times, history, wetted
 
 
 def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = SPHERE_RADIUS,
