@@ -10,7 +10,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 GUST_MODEL = ROOT / "scenarios" / "models" / "wind_gust.py"
-SKIP_SCENE = ROOT / "scenarios" / "skip.yaml"
+SKIP_SCENE = ROOT / "scenarios" / "held_skip.yaml"
 
 GUST_MAPPING = """
     inputs:

@@ -20,7 +20,7 @@ from cosim.docsection import replace_section
 from cosim.scenario import load
 
 ROOT = Path(__file__).resolve().parent.parent
-SKIP = ROOT / "scenarios" / "skip.yaml"
+SKIP = ROOT / "scenarios" / "held_skip.yaml"
 COLUMNS = ["group", "variant", "wall (x fastest)", "trajectory error, skips [mm]",
            "trajectory error, whole run [mm]", "skips (ref", "skip distance error [mm]",
            "energy error [% of E0]", "end", "settings"]

@@ -92,7 +92,7 @@ def test_a_flat_throw_called_sunk_has_sunk():
     from cosim.scenario import load
     from cosim.scheduler import Simulation
 
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", ["components.stone.tilt_deg=0"]))
+    sim = Simulation(load(ROOT / "scenarios" / "held_skip.yaml", ["components.stone.tilt_deg=0"]))
     sim.run()
     state = sim.components["stone"].body_state()
     assert sim.components["stages"].stage.name == "SINK"
@@ -105,7 +105,7 @@ def test_a_steep_throw_counts_only_real_skips():
     from cosim.scenario import load
     from cosim.scheduler import Simulation
 
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", ["components.stone.velocity=[5.657, 0, -5.657]"]))
+    sim = Simulation(load(ROOT / "scenarios" / "held_skip.yaml", ["components.stone.velocity=[5.657, 0, -5.657]"]))
     sim.run()
     records = sim.components["stages"].records
     assert records

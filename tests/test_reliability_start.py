@@ -28,14 +28,14 @@ def test_a_body_touching_the_ground_at_the_start_is_accepted():
 
 
 def test_a_stone_starting_below_the_pond_bed_fails_at_the_first_patch_naming_the_bed():
-    sim = Simulation(load(SCENES / "skip.yaml", ["components.stone.position=[0.3, 0.5, -10]",
+    sim = Simulation(load(SCENES / "held_skip.yaml", ["components.stone.position=[0.3, 0.5, -10]",
                                                   "components.stone.velocity=[0, 0, 0]"]))
     with pytest.raises(SimulationError, match=r"coupler.*starts 9\.45 m below the water's bed"):
         sim.run()
 
 
 def test_a_stone_starting_under_water_above_the_bed_runs():
-    sim = Simulation(load(SCENES / "skip.yaml", ["components.stone.position=[0.3, 0.5, -0.2]",
+    sim = Simulation(load(SCENES / "held_skip.yaml", ["components.stone.position=[0.3, 0.5, -0.2]",
                                                   "components.stone.velocity=[0, 0, 0]", "until=0.05"]))
     assert sim.run().status in ("ok", "stopped")
 
@@ -91,7 +91,7 @@ def test_a_scene_whose_numbers_leave_a_floats_range_is_refused_naming_the_parame
     """Values each field accepts alone but whose mass, volume or wave arithmetic would overflow or
     vanish (the stone's mass of 1e-315 kg would turn every force into infinity at its first step)."""
     with pytest.raises(ScenarioError) as caught:
-        load(SCENES / "skip.yaml", [override])
+        load(SCENES / "held_skip.yaml", [override])
     assert str(caught.value).endswith(problem)
 
 

@@ -237,7 +237,7 @@ def test_each_effect_can_be_switched_off_alone(removed):
     speed; in every other case it skips as usual."""
     short = ["until=0.45"]
     kept = [e for e in EFFECTS if e != removed]
-    sim, _ = run("skip", overrides=[*short, f"components.coupler.effects=[{','.join(kept)}]"])
+    sim, _ = run("held_skip", overrides=[*short, f"components.coupler.effects=[{','.join(kept)}]"])
     stages = sim.components["stages"]
     labels = [label for _, label in stages.timeline]
     if removed == "pressure":
@@ -251,7 +251,7 @@ def test_each_effect_can_be_switched_off_alone(removed):
         assert np.abs(pond.height).max() == 0.0
     else:
         assert np.abs(pond.height).max() > 1e-4
-    full, _ = run("skip", overrides=short)
+    full, _ = run("held_skip", overrides=short)
     base = full.components["stages"].records[0].speed_out
     out = stages.records[0].speed_out
     if removed in ("friction", "wave_drag"):

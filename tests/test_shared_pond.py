@@ -57,9 +57,9 @@ EXTRA_EDGES = """  - NAME.state -> NAME_water.body
 
 
 def skip_on_named_ports(extra_body: str = "") -> str:
-    """scenarios/skip.yaml with its pond's ports named for the stone (``bodies: [stone]``), and
+    """scenarios/held_skip.yaml with its pond's ports named for the stone (``bodies: [stone]``), and
     optionally a second slate ``extra_body`` far above the pond with its own coupler and ports."""
-    text = (SCENES / "skip.yaml").read_text()
+    text = (SCENES / "held_skip.yaml").read_text()
     bodies = "[stone]" if not extra_body else f"[stone, {extra_body}]"
     text = text.replace("    boundary: absorbing\n", f"    boundary: absorbing\n    bodies: {bodies}\n", 1)
     for port in ("occupied", "request"):
@@ -74,14 +74,14 @@ def skip_on_named_ports(extra_body: str = "") -> str:
 
 @pytest.fixture(scope="module")
 def reference_skip():
-    return run(load(SCENES / "skip.yaml", ["until=0.7"]), "stone")[0]
+    return run(load(SCENES / "held_skip.yaml", ["until=0.7"]), "stone")[0]
 
 
 @pytest.mark.parametrize("extra", ["", "ball"])
 def test_one_body_on_a_shared_pond_is_todays_skip_bit_for_bit(reference_skip, extra):
-    """The reference skip with its pond's ports named for the stone, alone or beside a second body
-    that never reaches the water, follows exactly the track of scenarios/skip.yaml."""
-    scene = loads(skip_on_named_ports(extra), SCENES / "skip.yaml", ["until=0.7"])
+    """The held skip with its pond's ports named for the stone, alone or beside a second body
+    that never reaches the water, follows exactly the track of scenarios/held_skip.yaml."""
+    scene = loads(skip_on_named_ports(extra), SCENES / "held_skip.yaml", ["until=0.7"])
     track, sim = run(scene, "stone")
     assert sim.components["stages"].track.skips == 3
     assert np.array_equal(track, reference_skip)

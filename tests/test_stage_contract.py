@@ -76,8 +76,8 @@ class _Tracer(BaseObserver):
 
 
 def throw(*overrides: str) -> Trace:
-    """The reference scene with ``overrides``, run to its end with every step traced."""
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", list(overrides)))
+    """The held skip (scenarios/held_skip.yaml) with ``overrides``, run to its end with every step traced."""
+    sim = Simulation(load(ROOT / "scenarios" / "held_skip.yaml", list(overrides)))
     tracer = _Tracer()
     sim.observers.append(tracer)
     sim.run()
@@ -209,16 +209,16 @@ def test_brushing_a_crest_while_still_rising_is_no_new_skip():
 
 
 def test_a_pumice_stone_skips_then_floats_where_slate_sinks():
-    """The reference throw with a stone half as dense as water: it skips, slows, and ends afloat
+    """The held throw with a stone half as dense as water: it skips, slows, and ends afloat
     (its lowest point under the surface, its top above), reported as float, not sink; the slate of
     the same throw sinks."""
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml",
+    sim = Simulation(load(ROOT / "scenarios" / "held_skip.yaml",
                           ["components.stone.density=500", "record.visual_rate=0"]))
     sim.run()
     stages = sim.components["stages"]
     assert stages.stage is StageId.FLOAT and stages.track.skips >= 3
     z = float(sim.components["stone"].state[0][2])
     assert -0.003 < z < 0.003  # afloat: a 6 mm disk half as dense as water rides half under
-    slate = Simulation(load(ROOT / "scenarios" / "skip.yaml", ["record.visual_rate=0"]))
+    slate = Simulation(load(ROOT / "scenarios" / "held_skip.yaml", ["record.visual_rate=0"]))
     slate.run()
     assert slate.components["stages"].stage is StageId.SINK

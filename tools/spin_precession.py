@@ -1,11 +1,11 @@
-"""How far each contact turns the spin axis of the free reference throw, at a range of spins
+"""How far each contact turns the spin axis of the thin slate thrown free, at a range of spins
 (docs/validation.md, section 2).
 
     python tools/spin_precession.py                                  # the table on stdout (~1 min)
     python tools/spin_precession.py --markdown docs/validation.md    # also rewrite its section
     python tools/spin_precession.py --throws                         # skips of 120 free throws (~3 min)
 
-The reference throw (scenarios/skip.yaml) with its attitude free and a spin about its axis, on a
+The held skip's throw (scenarios/held_skip.yaml: the 6 mm slate at 20 deg) with its attitude free and a spin about its axis, on a
 pond 4 m wide. For each spin: the skips; per contact, the turn of the spin axis about the vertical
 (the azimuth of its tilt, degrees), its tilt from the vertical after the contact, and the lever
 arm of the water's torque: the part of the torque impulse across the axis over the force impulse
@@ -102,16 +102,16 @@ def tilt_deg(axis: np.ndarray) -> float:
 
 
 def free_throw_scene(spin_rev_s: float, *overrides: str):
-    """The reference throw with a free attitude and ``spin_rev_s``, on a pond wide enough (4 m) for
+    """The held skip's throw with a free attitude and ``spin_rev_s``, on a pond wide enough (4 m) for
     the curve the spin gives, without viewer channels; ``overrides`` as ``cosim run --set``."""
     sets = ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
             "components.stone.position=[0.3, 2.0, 0.15]", "components.pond.ny=400", "record.visual_rate=0",
             *overrides]
-    return load(ROOT / "scenarios" / "skip.yaml", sets)
+    return load(ROOT / "scenarios" / "held_skip.yaml", sets)
 
 
 def free_throw(spin_rev_s: float) -> tuple[int, list[Contact]]:
-    """Skips and contacts of the free reference throw at ``spin_rev_s``."""
+    """Skips and contacts of the thin slate thrown free at ``spin_rev_s``."""
     scene = free_throw_scene(spin_rev_s)
     log = ContactLog(scene.dt)
     sim = Simulation(scene, observers=[log])
@@ -155,7 +155,7 @@ class AttitudeTrace(BaseObserver):
 
 
 def first_contact_trace(spin_rev_s: float, until: float = 0.16) -> AttitudeTrace:
-    """The free reference throw's axis from its release through its first contact (0.074-0.12 s)."""
+    """The thin slate's axis, thrown free, from its release through its first contact (0.074-0.12 s)."""
     trace = AttitudeTrace(until)
     Simulation(free_throw_scene(spin_rev_s, f"until={until!r}"), observers=[trace]).run()
     return trace
@@ -204,7 +204,7 @@ def figure(path: Path, spins: list[float] = FIGURE_SPINS) -> None:
     ax_p.set_title("Path of the axis seen from above (thick: wetted; dot: 0.16 s)", fontsize=10)
     ax_p.grid(alpha=0.3)
     ax_p.legend(fontsize=8, loc="upper right")
-    fig.suptitle("Free reference throw (slate R = 5 cm, 8 m/s, attack 20 deg): the water's torque turns "
+    fig.suptitle("Thin slate thrown free (R = 5 cm, 6 mm, 8 m/s, attack 20 deg): the water's torque turns "
                  "the spin axis", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -253,7 +253,7 @@ def survey_throw(throw: tuple) -> int:
             f"components.stone.position=[0.3, 3.0, {height!r}]", f"components.stone.velocity=[{vx!r}, 0, {vz!r}]",
             f"components.stone.tilt_deg={attack!r}", "components.pond.nx=2000", "components.pond.ny=600",
             "record.visual_rate=0", "until=4"]
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", sets))
+    sim = Simulation(load(ROOT / "scenarios" / "held_skip.yaml", sets))
     sim.run()
     return sim.components["stages"].track.skips
 
@@ -284,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.markdown:
         replace_section(args.markdown, "spin-precession",
-                        "The free reference throw (`python tools/spin_precession.py`): per contact, the turn of "
+                        "The thin slate thrown free (`python tools/spin_precession.py`): per contact, the turn of "
                         "the spin axis about the vertical and, in brackets, the angle it moved through (the turn "
                         "of the spin's angular momentum; the turn about the vertical is that over the sine of "
                         "the tilt, so it is largest where the tilt dips), the axis's tilt from the vertical at "

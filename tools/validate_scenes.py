@@ -107,9 +107,10 @@ def flattening() -> str:
     return "\n".join(rows)
 
 
-def skip_impulses() -> list[tuple]:
-    """Per skip of the reference skip (scenarios/skip.yaml): its SkipRecord and the water's impulses
-    over the contact [N s]: the friction's along x, all of the water's along x, and along z."""
+def skip_impulses(name: str = "held_skip") -> list[tuple]:
+    """Per skip of the scene ``scenarios/<name>.yaml`` (by default the held skip: the slate at 20 deg,
+    its attitude held): its SkipRecord and the water's impulses over the contact [N s]: the
+    friction's along x, all of the water's along x, and along z."""
     class Contacts(BaseObserver):
         def __init__(self):
             self.rows = []
@@ -121,7 +122,7 @@ def skip_impulses() -> list[tuple]:
             elif component == "coupler" and port == "contact" and self.body is not None:
                 self.rows.append((time_ns / 1e9, msg, self.body))
 
-    scene = load(SCENES / "skip.yaml")
+    scene = load(SCENES / f"{name}.yaml")
     watch = Contacts()
     sim = Simulation(scene, observers=[watch])
     sim.run()

@@ -948,8 +948,10 @@ class WaterCoupler(Component):
             if not body.attitude_locked:
                 axes = quat_to_matrix(q)
                 inertia = axes @ np.diag(inertia_body) @ axes.T
-                w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h
+                with np.errstate(over="ignore", invalid="ignore"):
+                    w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h
             x = x + v * h
+            _check_predicted_motion(v, w, i, n, h)
             q = _rotate(q, w * h)
         return total / n
 
@@ -997,6 +999,20 @@ def _ring_scratch(shape: tuple[int, int]) -> dict[str, np.ndarray]:
     """Work arrays of WaterCoupler._ring over a patch of ``shape``."""
     return {"b_rest": np.zeros(shape), "waterline": np.zeros((3, *shape)), "b_out": np.zeros(shape),
             "stats": np.zeros(kernel.N_STATS), "lifted": np.zeros(3)}
+
+
+def _check_predicted_motion(v: np.ndarray, w: np.ndarray, i: int, n: int, h: float) -> None:
+    """Refuse, in words, a substep prediction whose velocity ``v`` [m/s] or angular velocity ``w``
+    [rad/s] has left a float's range (substep ``i`` of ``n``, each ``h`` [s] long): the water's
+    forces on the body change it faster than the substeps can follow (a body kilometres across
+    dropped deep into the water does)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        speed, spin = float(np.sqrt(v @ v)), float(np.sqrt(w @ w))
+    if math.isfinite(speed) and math.isfinite(spin):
+        return
+    raise ValueError(f"the body's motion over this step left a float's range after {i + 1} of {n} substeps "
+                     f"of {h:.3g} s (velocity {speed:.3g} m/s, angular velocity {spin:.3g} rad/s): the water's "
+                     "forces on it change it faster than the step can follow; a smaller body or a smaller dt")
 
 
 def _rotate(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:
