@@ -13,7 +13,8 @@ its load, ratios much less):
   median over the rounds of (coupled batch / bare batch). The pond is the one
   ``tools/bench_water.py`` times (cell 0.01 m, depth 0.5 m, reflecting walls, every column stepped:
   ``tile: 0``; tiled, the bare pond at rest would not be stepped at all).
-* **The coupler's share of the reference skip.** ``scenarios/skip.yaml`` with recording off, the
+* **The coupler's share of the held skip.** ``scenarios/held_skip.yaml`` (the scene the target was set
+  on) with recording off, the
   wall time spent inside the coupler's steps (``WaterCoupler.step``, timed around each call) over
   the wall time of the whole run loop, median over the repeats.
 """
@@ -36,12 +37,12 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load, loads  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
 
-SKIP = ROOT / "scenarios" / "skip.yaml"
+SKIP = ROOT / "scenarios" / "held_skip.yaml"
 CELL = 0.01  # [m] as tools/bench_water.py
 DEPTH = 0.5  # [m] as tools/bench_water.py
 DT = 0.001  # [s] c dt / s = 0.22 at c = sqrt(g d): the water steps every tick
 TARGETS = {256: 1.5, 512: 1.2}  # coupled / bare step at most (issue 15, DESIGN.md section 5)
-SHARE_TARGET = 0.30  # the coupler's share of the reference skip's loop at most
+SHARE_TARGET = 0.30  # the coupler's share of the held skip's loop at most
 
 _POND = f"""
   pond:
@@ -100,7 +101,7 @@ compiled pass each (`components/water/windows.py`).
 - The benchmark's pond steps every column (`tile: 0`, as `tools/bench_water.py`): tiled, the bare
   pond at rest is not stepped at all and the ratio would say nothing.
 
-Where the time goes now. The coupler's step on the reference skip takes about 90 us (97 us before
+Where the time goes now. The coupler's step on the held skip takes about 90 us (97 us before
 the changes of this round, the same runs), of which the compiled call is about 40 us; the rest is
 Python: reading the four inputs, the met surface's read, the request, building four messages, and
 the framework's checks of each (`Message.first_nonfinite`, now one generated expression per message
@@ -117,7 +118,7 @@ Building the messages. A frozen dataclass's own `__init__` stores each field thr
 `object.__setattr__`; `cosim.messages.message` now generates an `__init__` that writes the
 instance's dict (the instances stay frozen). The body's 14-field state takes 0.72 us to build
 instead of 2.52 us, the coupler's contact report 0.60 instead of 1.86 (best of 21 batches, warm).
-Over the reference skip's messages (4,302 body states, 4,301 contact reports, 3,524 wrenches, 3,090
+Over the held skip's messages (4,302 body states, 4,301 contact reports, 3,524 wrenches, 3,090
 occupied heights, 1,061 patches) that is about 17 ms of a loop of about 1.1 s on the machine of
 these runs: 1.5%, inside the noise of whole runs there (the two versions run in turn, eight pairs,
 differed by -28% to +40% pair by pair), so the figures above stand."""
@@ -171,7 +172,7 @@ class StepTimer:
 
 
 def skip_share() -> tuple[float, float]:
-    """(coupler's share of the loop, loop wall [s]) of one reference skip, recording off."""
+    """(coupler's share of the loop, loop wall [s]) of one held skip, recording off."""
     sim = Simulation(load(SKIP))
     timers = [StepTimer(c) for c in sim.components.values() if isinstance(c, WaterCoupler)]
     start = time.perf_counter()
@@ -184,7 +185,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=15, help="alternating batches per grid")
     parser.add_argument("--batch", type=int, default=100, help="ticks per batch")
-    parser.add_argument("--repeats", type=int, default=5, help="runs of the reference skip")
+    parser.add_argument("--repeats", type=int, default=5, help="runs of the held skip")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the coupler section of this file")
     args = parser.parse_args()
     Simulation(load(SKIP, overrides=["until=0.05"])).run()  # kernels loaded from numba's cache
@@ -214,7 +215,7 @@ def main() -> None:
         "|---|---:|---:|---:|---:|---|",
         *rows,
         "",
-        f"The reference skip (`scenarios/skip.yaml`, recording off), {args.repeats} runs: the coupler's "
+        f"The held skip (`scenarios/held_skip.yaml`, recording off), {args.repeats} runs: the coupler's "
         f"steps take **{share:.0%}** of the run loop (median; target at most {SHARE_TARGET:.0%}: "
         f"{share_verdict}), the loop {wall:.2f} s.",
         "",

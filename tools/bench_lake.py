@@ -1,6 +1,6 @@
-"""The reference throw on a lake against the same throw on its own pond, and a lake's memory.
+"""The held skip's throw on a lake against the same throw on its own pond, and a lake's memory.
 
-Runs ``scenarios/skip.yaml`` (recording off) on its 8 m x 1 m pond and on a 40 m x 6 m lake of the
+Runs ``scenarios/held_skip.yaml`` (recording off) on its 8 m x 1 m pond and on a 40 m x 6 m lake of the
 same 1 cm columns (the stone over open water: 5 m of lake behind it, 2.5 m either side), in turn, for
 several rounds in one process, and reports the wall time of the run loop of each (``RunResult.wall_s``,
 compilation excluded), the ratio lake / pond as the median of each round's own ratio and best against
@@ -30,7 +30,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 
-SCENE = ROOT / "scenarios" / "skip.yaml"
+SCENE = ROOT / "scenarios" / "held_skip.yaml"
 POND: list[str] = []  # the scene as it is: 800 x 100 cells
 LAKE = ["components.pond.nx=4000", "components.pond.ny=600", "components.pond.origin_x=-5",
         "components.pond.origin_y=-2.5", "components.pond.field_window=[8, 3]"]
@@ -148,7 +148,7 @@ def report(rounds: int) -> str:
         f"One run of `python tools/bench_lake.py --rounds {rounds} --write docs/performance.md` "
         f"(2 cores shared with other jobs; load average {load_avg:.1f} at the end).",
         "",
-        "The reference throw (`scenarios/skip.yaml`, recording off) on its own 8 m x 1 m pond and on a "
+        "The held skip's throw (`scenarios/held_skip.yaml`, recording off) on its own 8 m x 1 m pond and on a "
         "40 m x 6 m lake of the same 1 cm columns (2.4 million, 30 times the pond), in turn, "
         f"{rounds} rounds; wall time of the run loop:",
         "",

@@ -1,9 +1,9 @@
-"""Where the reference skip's time goes: each component's share of the run loop, and the functions
+"""Where the held skip's time goes: each component's share of the run loop, and the functions
 that take it.
 
     python tools/profile_skip.py [--runs 5] [--write docs/performance.md]
 
-Two measures of ``scenarios/skip.yaml`` with recording off (the physics alone), after a warm-up run
+Two measures of ``scenarios/held_skip.yaml`` (the benchmarks' scene) with recording off (the physics alone), after a warm-up run
 that loads the kernels from numba's disk cache:
 
 * **Shares** (``--runs`` runs, median): every component's ``step`` is wrapped in a timer; the rest
@@ -38,7 +38,7 @@ from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
 from tools.bench_coupler import StepTimer  # noqa: E402
 
-SCENE = ROOT / "scenarios" / "skip.yaml"
+SCENE = ROOT / "scenarios" / "held_skip.yaml"
 SECTION = "profile"
 FUNCTIONS_SHOWN = 12
 
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     text = report(args.runs)
     print(text)
     if args.write:
-        replace_section(Path(args.write), SECTION, "## Where the reference skip's time goes\n\n" + text)
+        replace_section(Path(args.write), SECTION, "## Where the held skip's time goes\n\n" + text)
     return 0
 
 
