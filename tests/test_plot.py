@@ -220,3 +220,26 @@ def test_plot_into_something_that_is_not_a_folder_is_bad_input(skip_path, tmp_pa
     assert main(["plot", str(skip_path), "-o", str(target)]) == 2
     assert "not a folder" in capsys.readouterr().err
     assert target.read_text() == "not a folder\n"
+
+
+def test_a_path_that_curves_sideways_is_also_drawn_from_above(run, tmp_path):
+    """The reference skip, spun, curves to the left: its trajectory figure has a second panel with
+    the recorded x-y of every state and a mark at each skip's touchdown; the scripted straight
+    throw has the side view alone."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    path = tmp_path / "curving.mcap"
+    run_scene(load(scene, ["record.visual_rate=0", "record.checkpoint_every=0", "until=1.2"]), path, progress=False)
+    curving = load_run(path)
+    assert np.ptp(curving.body.position[:, 1]) > 0.05
+    fig = figure_trajectory(curving)
+    assert len(fig.axes) == 2
+    above = fig.axes[1]
+    (lines,) = [c for c in above.collections if isinstance(c, LineCollection)]
+    starts = np.array([seg[0] for seg in lines.get_segments()])
+    assert np.array_equal(starts, curving.body.position[:-1, :2])
+    marks = [line for line in above.lines if line.get_marker() == "o"]
+    assert [float(m.get_xdata()[0]) for m in marks] == [s.touchdown_x for s in curving.skips]
+    assert len(figure_trajectory(run).axes) == 1

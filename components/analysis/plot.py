@@ -1,8 +1,9 @@
 """``cosim plot``: PNG figures of a recorded run.
 
 - ``trajectory.png``: side view (x, z) of the body's path coloured by stage, the water line, and
-  the touchdown of each skip; for a body that stays in place (a drop, a bounce) its height over
-  time instead, with each ground contact marked;
+  the touchdown of each skip, with the path seen from above (x, y) beneath it when it leaves its
+  line sideways (a spinning stone curves); for a body that stays in place (a drop, a bounce) its
+  height over time instead, with each ground contact marked;
 - ``motion.png``: speed and attack angle over time, on the stage spans;
 - ``energy.png``: kinetic and potential energy, the energy dissipated by the water and the ground
   (when those are recorded), and their sum;
@@ -37,6 +38,7 @@ MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
 FIGSIZE = (10.0, 4.5)  # [in]
 SIDE_VIEW_MIN_TRAVEL = 0.5  # [fraction of the height range] of horizontal travel for a side view
+TOP_VIEW_MIN_SPREAD = 0.01  # [m] sideways spread of the path from which it is also drawn from above
 PATH_COLOR = "#404040"  # the path without a stage monitor
 
 
@@ -74,14 +76,22 @@ def against_time(run: RunData) -> bool:
     return travel < SIDE_VIEW_MIN_TRAVEL * max(float(np.ptp(pos[:, 2])), 2 * run.body.radius)
 
 
+def from_above(run: RunData) -> bool:
+    """Whether the path is also drawn seen from above: a side view whose path spreads sideways (y)
+    by :data:`TOP_VIEW_MIN_SPREAD` or more."""
+    return not against_time(run) and float(np.ptp(run.body.position[:, 1])) >= TOP_VIEW_MIN_SPREAD
+
+
 def figure_trajectory(run: RunData) -> Figure:
     """The path, one segment per pair of states, coloured by the stage at its start (one colour
     without a stage monitor): a side view x-z, or the height over time for a body that stays in
     place (:func:`against_time`). The water line is drawn when the run has water, each ground
-    contact's start is marked when it has a ground."""
+    contact's start is marked when it has a ground. A path that curves sideways is drawn seen from
+    above too, in a second panel beneath (:func:`from_above`)."""
     body = run.body
-    fig = Figure(figsize=FIGSIZE, layout="constrained")
-    ax = fig.add_subplot()
+    above = from_above(run)
+    fig = Figure(figsize=(FIGSIZE[0], FIGSIZE[1] * 1.5) if above else FIGSIZE, layout="constrained")
+    ax = fig.add_subplot(2, 1, 1) if above else fig.add_subplot()
     by_time = against_time(run)
     path = np.column_stack([body.t if by_time else body.position[:, 0], body.position[:, 2]])
     stages = stage_per_sample(run)
@@ -117,7 +127,31 @@ def figure_trajectory(run: RunData) -> Figure:
     elif has_water or len(touches):
         ax.legend(loc="upper right", fontsize="small")
     ax.grid(True, alpha=0.3)
+    if above:
+        _draw_from_above(fig.add_subplot(2, 1, 2, sharex=ax), run, colors)
     return fig
+
+
+def _draw_from_above(ax, run: RunData, colors) -> None:
+    """The path x-y into ``ax`` in the side view's ``colors``, each skip's touchdown marked; y to
+    its own scale (a curve of centimetres over metres of travel would not show at equal scales)."""
+    body = run.body
+    xy = body.position[:, :2]
+    ax.add_collection(LineCollection(np.stack([xy[:-1], xy[1:]], axis=1), colors=colors, linewidths=2.0))
+    for skip in run.skips:
+        y = float(np.interp(skip.touchdown_time, body.t, xy[:, 1]))
+        ax.plot(skip.touchdown_x, y, "o", color="0.3", markersize=4)
+        ax.annotate(f"{skip.heading_deg:+.1f} deg", (skip.touchdown_x, y), textcoords="offset points",
+                    xytext=(3, 4), fontsize="x-small", color="0.35")
+    ax.autoscale_view()
+    lo, hi = float(np.min(xy[:, 1])), float(np.max(xy[:, 1]))
+    pad = 0.1 * (hi - lo)
+    ax.set_ylim(lo - pad, hi + pad)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title("seen from above (y to its own scale): each skip's touchdown and its heading after it",
+                 fontsize="medium")
+    ax.grid(True, alpha=0.3)
 
 
 def _ground_touches(run: RunData) -> np.ndarray:
