@@ -3,8 +3,8 @@ that take it.
 
     python tools/profile_skip.py [--runs 5] [--write docs/performance.md]
 
-Two measures of ``scenarios/held_skip.yaml`` (the benchmarks' scene) with recording off (the physics alone), after a warm-up run
-that loads the kernels from numba's disk cache:
+Two measures of ``scenarios/held_skip.yaml`` (the benchmarks' scene) with recording off (the physics
+alone), after a warm-up run that loads the kernels from numba's disk cache:
 
 * **Shares** (``--runs`` runs, median): every component's ``step`` is wrapped in a timer; the rest
   of the loop (gathering inputs, delivering outputs, the scheduler's bookkeeping) is the scheduler's.

@@ -26,7 +26,8 @@ from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
-POND = ["components.pond.nx=2400", "components.pond.ny=400", "components.stone.position=[0.3, 2.0, 0.10]",
+START_Y = 2.0  # [m] the throw's line, mid-pond
+POND = ["components.pond.nx=2400", "components.pond.ny=400", f"components.stone.position=[0.3, {START_Y}, 0.10]",
         "record.visual_rate=0"]  # 24 m x 4 m: the held throw planes on for 20 m
 THROWS = (  # (label, overrides)
     ("reference skip: 15 mm, free, 12 rev/s", []),
@@ -67,7 +68,8 @@ def table(runs: list[Path3]) -> str:
         takeoffs = ", ".join(f"{r.takeoff_angle_deg:.1f}" for r in run.stages.records) or "-"
         end = [name for _, name in run.stages.timeline][-1]
         x, y = run.position[-1, :2]
-        rows.append(f"| {label} | {run.stages.track.skips} | {takeoffs} | {end} at x = {x:.1f} m, y = {y - 2.0:+.2f} m |")
+        where = f"{end} at x = {x:.1f} m, y = {y - START_Y:+.2f} m"
+        rows.append(f"| {label} | {run.stages.track.skips} | {takeoffs} | {where} |")
     return "\n".join(rows)
 
 
@@ -84,7 +86,7 @@ def figure(path: Path, runs: list[Path3]) -> None:
         n = run.stages.track.skips
         text = f"{label}: {n} skip{'' if n == 1 else 's'}"
         side.plot(p[:, 0], p[:, 2], color=color, lw=1.6, label=text)
-        above.plot(p[:, 0], p[:, 1] - 2.0, color=color, lw=1.6)
+        above.plot(p[:, 0], p[:, 1] - START_Y, color=color, lw=1.6)
     side.axhline(0.0, color="#3a7bd5", lw=0.8, ls="--")
     side.set_ylabel("height z [m]")
     side.set_title("The reference throw (11 m/s, 6 deg down, nose up 8 deg) three ways", fontsize=10)

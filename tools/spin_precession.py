@@ -5,11 +5,12 @@
     python tools/spin_precession.py --markdown docs/validation.md    # also rewrite its section
     python tools/spin_precession.py --throws                         # skips of 120 free throws (~3 min)
 
-The held skip's throw (scenarios/held_skip.yaml: the 6 mm slate at 20 deg) with its attitude free and a spin about its axis, on a
-pond 4 m wide. For each spin: the skips; per contact, the turn of the spin axis about the vertical
-(the azimuth of its tilt, degrees), its tilt from the vertical after the contact, and the lever
-arm of the water's torque: the part of the torque impulse across the axis over the force impulse
-along it (mm), the distance from the centre at which the planing load acts on average.
+The held skip's throw (scenarios/held_skip.yaml: the 6 mm slate at 20 deg) with its attitude free
+and a spin about its axis, on a pond 4 m wide. For each spin: the skips; per contact, the turn of
+the spin axis about the vertical (the azimuth of its tilt, degrees), its tilt from the vertical
+after the contact, and the lever arm of the water's torque: the part of the torque impulse across
+the axis over the force impulse along it (mm), the distance from the centre at which the planing
+load acts on average.
 """
 
 from __future__ import annotations
