@@ -305,5 +305,12 @@ class RigidBody(Component):
     def summary(self) -> list[str]:
         x, _, v, _ = self.state
         msg = self.body_state()
-        return [f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s, "
-                f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy:.4g} J"]
+        line = (f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s, "
+                f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy:.4g} J")
+        thrown = self.params.spin
+        if thrown != 0.0 and not self.params.lock_attitude:
+            # a thrown stone's spin, which the water's friction takes away (a held attitude keeps it)
+            now = sum(w * a for w, a in zip(msg.angular_velocity.tolist(), quat.body_axis(msg.orientation),
+                                            strict=True))
+            line += f", spin {now / (2 * math.pi):.3g} rev/s (thrown at {thrown / (2 * math.pi):.3g})"
+        return [line]

@@ -85,9 +85,11 @@ def test_held_the_same_throw_skips_lower(reference):
 
 def test_the_waters_friction_slows_the_spin(reference_run):
     """The skin friction on the wetted trailing edge takes spin away: by the time the stone sinks it
-    turns slower than thrown, and still the same way."""
+    turns slower than thrown, and still the same way, as the run's summary reports."""
     stone = reference_run.components["stone"]
     thrown = load(SKIP).components["stone"].params.spin
     state = stone.body_state()
     spin = float(np.dot(state.angular_velocity, body_axis(state.orientation)))
     assert 0.0 < spin < 0.99 * thrown
+    (line,) = stone.summary()  # and the run's summary says so
+    assert line.endswith(f", spin {spin / (2 * math.pi):.3g} rev/s (thrown at {thrown / (2 * math.pi):.3g})")
