@@ -73,9 +73,10 @@ PERSONS_SPINS = (10.0, 14.0)  # [rev/s] the spins a person gives a stone
 
 
 def reference_throw_on_a_long_pond(spin_rev_s: float | None) -> tuple[int, str]:
-    """(skips, final stage) of the reference throw (scenarios/skip.yaml) over a pond 16 m x 6 m, long
-    and wide enough that no throw here leaves it: free with ``spin_rev_s``, or with its attitude
-    held (None)."""
+    """(skips, how the run ended: its last stage or "left-pond") of the reference throw
+    (scenarios/skip.yaml) over a pond 16 m x 6 m, long and wide enough for every free throw here,
+    free with ``spin_rev_s``, or with its attitude held (None: it planes on after its skips and
+    leaves the pond's far end)."""
     from cosim.scenario import load
     from cosim.scheduler import Simulation
 
@@ -88,7 +89,7 @@ def reference_throw_on_a_long_pond(spin_rev_s: float | None) -> tuple[int, str]:
     sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", sets))
     sim.run()
     monitor = sim.components["stages"]
-    return monitor.track.skips, monitor.stage.name.lower()
+    return monitor.track.skips, monitor.timeline[-1][1]
 
 
 # bodies let go under water: (shape, density [kg/m^3], the span the acceleration is measured over [ms],
@@ -182,8 +183,10 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
     def at(spin: float) -> int:
         return series[spin][0]
 
-    ends = {end for _, end in series.values()}
+    ends = {series[s][1] for s in SPIN_SERIES}
     capped = "" if ends <= {"sink"} else f" (ends: {', '.join(sorted(ends))})"
+    if series[None][1] != "sink":
+        capped += f"; held, it then {'planes off the far end' if series[None][1] == 'left-pond' else series[None][1]}"
     rows.append(f"| Bocquet 2003; Clanet et al. 2004 | where the spin limits the skips, their count grows with "
                 f"the spin (like R Omega^2 / g) up to what the speed allows; at the experiments' 65 rev/s the "
                 f"attitude is held (the reference skip, free, on a 16 m x 6 m pond) | "
