@@ -7,19 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from cosim.scenario import loads
-from cosim.scheduler import Simulation
-from cosim.sweep.plan import load_sweep
+from tests.sweep_points import skips_at
 
 SWEEP = Path(__file__).resolve().parents[1] / "scenarios" / "sweeps" / "spin.yaml"
-
-
-def _skips(spin: float, attack: float) -> int:
-    sweep = load_sweep(SWEEP)
-    point = next(p for p in sweep.points if p.values == {"spin": spin, "attack": attack})
-    sim = Simulation(loads(sweep.scene_text, source=sweep.scene_source, overrides=[*sweep.fixed, *point.overrides]))
-    sim.run()
-    return sim.components["stages"].track.skips
 
 
 @pytest.mark.parametrize(("spin", "attack", "skips"), [
@@ -30,4 +20,4 @@ def _skips(spin: float, attack: float) -> int:
     (10, 20.0, 1),  # spun, its lean turns, and it does not bounce again
 ])
 def test_the_throws_the_description_names(spin, attack, skips):
-    assert _skips(spin, attack) == skips
+    assert skips_at(SWEEP, spin=spin, attack=attack) == skips
