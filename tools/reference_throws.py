@@ -23,7 +23,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from cosim.scenario import load  # noqa: E402
-from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
+from cosim.scheduler import Simulation  # noqa: E402
+from tools.validate_scenes import Watch  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
 START_Y = 2.0  # [m] the throw's line, mid-pond
@@ -45,28 +46,20 @@ class Path3:
     stages: object
 
 
-class _Positions(BaseObserver):
-    def __init__(self) -> None:
-        self.rows: list[np.ndarray] = []
-
-    def on_exchange(self, time_ns: int, component: str, port: str, msg) -> None:
-        if component == "stone" and port == "state":
-            self.rows.append(np.array(msg.position, dtype=float))
-
-
 def throw(overrides: list[str]) -> Path3:
     """The reference skip with ``overrides`` on the long pond, run to its end."""
-    watch = _Positions()
+    watch = Watch(["stone.state"])
     sim = Simulation(load(SCENE, [*POND, *overrides]), observers=[watch])
     sim.run()
-    return Path3(np.array(watch.rows), sim.components["stages"])
+    return Path3(np.array([state.position for _, state in watch.seen["stone.state"]], dtype=float),
+                 sim.components["stages"])
 
 
 def table(runs: list[Path3]) -> str:
     rows = ["| throw | skips | take-off angles [deg] | end |", "|---|---:|---|---|"]
     for (label, _), run in zip(THROWS, runs, strict=True):
         takeoffs = ", ".join(f"{r.takeoff_angle_deg:.1f}" for r in run.stages.records) or "-"
-        end = [name for _, name in run.stages.timeline][-1]
+        end = run.stages.timeline[-1][1]
         x, y = run.position[-1, :2]
         where = f"{end} at x = {x:.1f} m, y = {y - START_Y:+.2f} m"
         rows.append(f"| {label} | {run.stages.track.skips} | {takeoffs} | {where} |")
