@@ -172,17 +172,14 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
                 f"every speed, mu = (C sin a + C_f cos a) / (C cos a - C_f sin a) | {mu:.3f} | "
                 f"{min(ratios):.3f}-{max(ratios):.3f} over {len(ratios)} skips | "
                 f"{_held(all(abs(r / mu - 1) <= 0.1 for r in ratios))} |")
-    free = {s: series[s][0] for s in PERSONS_SPINS}
+    skips_at = {spin: n for spin, (n, _) in series.items()}  # None: the attitude held
+    free = {s: skips_at[s] for s in PERSONS_SPINS}
     rows.append(f"| Bocquet 2003; Rosellini et al. 2005 | a thrown stone held by a person's spin skips several "
                 f"times (the reference skip, free, at {', '.join(f'{s:g}' for s in free)} rev/s) | several skips, more "
                 f"with more spin | {', '.join(str(n) for n in free.values())} skips | "
                 f"{_held(min(free.values()) >= 3)} |")
-    held = series[None][0]
-    counts = [series[s][0] for s in SPIN_SERIES]
-
-    def at(spin: float) -> int:
-        return series[spin][0]
-
+    held = skips_at[None]
+    counts = [skips_at[s] for s in SPIN_SERIES]
     ends = {series[s][1] for s in SPIN_SERIES}
     capped = "" if ends <= {"sink"} else f" (ends: {', '.join(sorted(ends))})"
     if series[None][1] != "sink":
@@ -192,7 +189,7 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
                 f"attitude is held (the reference skip, free, on a 16 m x 6 m pond) | "
                 f"grows, reaching the held attitude's {held} skips by 65 rev/s | {', '.join(map(str, counts))} "
                 f"skips at {', '.join(f'{s:g}' for s in SPIN_SERIES)} rev/s{capped} | "
-                f"{_held(counts == sorted(counts) and at(65.0) > at(10.0) and at(65.0) >= held)} |")
+                f"{_held(counts == sorted(counts) and skips_at[65.0] > skips_at[10.0] and skips_at[65.0] >= held)} |")
     # Bocquet's stone keeps its attitude: the held skip is his case, the free reference skip the thrown one
     losses = {"reference skip (free)": [r.speed_in ** 2 - r.speed_out ** 2 for r in reference],
               "held skip": [r.speed_in ** 2 - r.speed_out ** 2 for r, _, _, _ in skips]}
