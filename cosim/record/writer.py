@@ -29,6 +29,7 @@ not wanted).
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import signal
@@ -64,7 +65,8 @@ class SinkError(CosimError):
     that fitted (when not even its end fits, it is removed and the target keeps what it held)."""
 
 
-_OS_ERROR = re.compile(r"Os \{ code: (\d+)")  # how the SDK's MCAP writer reports a failed write
+# how a failed write is reported: by the SDK's MCAP writer over a path, or by _File below
+_OS_ERROR = re.compile(r"Os \{ code: (\d+)|\[Errno (\d+)\]")
 
 
 def _reason(text: str) -> str:
@@ -72,9 +74,24 @@ def _reason(text: str) -> str:
     first failed write (disk full, file too large...), else its last line."""
     match = _OS_ERROR.search(text)
     if match:
-        return os.strerror(int(match.group(1)))
+        return os.strerror(int(match.group(1) or match.group(2)))
     lines = text.strip().splitlines()
     return lines[-1] if lines else ""
+
+
+class _File(io.FileIO):
+    """The recording's file as the MCAP writer writes it, keeping the first write the system refused
+    (the disk full, a file-size limit): the writer itself then reports only that a write failed."""
+
+    failure: OSError | None = None
+
+    def write(self, data: Any) -> int | None:
+        try:
+            return super().write(data)
+        except OSError as exc:
+            if self.failure is None:
+                self.failure = exc
+            raise
 
 
 class _Apply:
@@ -87,8 +104,14 @@ class _Apply:
         self.part, self.final = part, final
         self._foxglove = foxglove
         self.context = foxglove.Context()  # this file's own channels, apart from any live view
+        # The private file exists already (created empty and locked by the simulating process): it is
+        # opened as it is, not truncated. On ext4, closing a file that was truncated to nothing and
+        # written again waits for its blocks to be allocated (the file system's guard for programs
+        # that rewrite a file in place): about 40 ms for the reference skip's 40 MB, which the
+        # simulating process would wait for at the end of every recorded run.
+        self.file = _File(part, "r+")  # closed in finish() or abandon()
         self.writer = foxglove.open_mcap(
-            part, allow_overwrite=True, context=self.context,
+            self.file, context=self.context,
             writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd, compression_level=ZSTD_LEVEL,
                                             compression_threads=0, profile="", chunk_size=262144))
         self.schemas: dict[int, Any] = {}
@@ -142,8 +165,26 @@ class _Apply:
         return 0
 
     def finish(self) -> None:
-        self.writer.close()
+        """Finish the file and move it onto its target; the system's own error (``[Errno N] ...``)
+        when it refused a write."""
+        try:
+            self.writer.close()
+        except Exception:
+            if self.file.failure is not None:
+                raise self.file.failure from None
+            raise
+        finally:
+            self.file.close()
         finish(self.part, self.final)
+
+    def abandon(self) -> None:
+        """Close the writer and the file, whatever state they are in (the file is dropped anyway)."""
+        try:
+            self.writer.close()
+        except Exception:
+            pass
+        finally:
+            self.file.close()
 
 
 _PACKAGE_ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the cosim package
@@ -356,10 +397,7 @@ class InProcessSink(_Sink):
 
     def discard(self) -> None:
         """Close and remove the private file (the target keeps what it held)."""
-        try:
-            self._apply.writer.close()
-        except Exception:  # the file is dropped anyway
-            pass
+        self._apply.abandon()
         self.claim.release(remove=True)
 
 
@@ -512,10 +550,7 @@ class ProcessSink(_Sink):
             out.finish()
         except BaseException as exc:
             if out is not None:
-                try:
-                    out.writer.close()
-                except Exception:  # the file is dropped anyway
-                    pass
+                out.abandon()
             if new is not None:
                 new.release(remove=True)
             old.release(remove=True)
