@@ -235,3 +235,20 @@ def test_packed_records_render_the_same_bytes_from_a_copy_of_the_batch(msgs, gap
     assert offset == len(copy)
     event("non-finite floats" if not all(np.isfinite([m.x, *m.v, *m.grid.ravel()]).all() for m in msgs)
           else "finite")
+
+
+def test_the_writer_writes_into_the_private_file_as_it_was_created(tmp_path):
+    """The private file the simulating process created (and locked) is written as it is, not
+    truncated on opening: on ext4 closing a file truncated to nothing waits for its blocks to be
+    allocated, which every recorded run would wait for at its end. The finished file is a whole
+    recording under the target's name."""
+    part, target = tmp_path / "run.mcap.x.part", tmp_path / "run.mcap"
+    part.write_bytes(b"\0" * 4096)  # stands for what a truncation would drop
+    out = writer._Apply(str(part), str(target))
+    try:
+        assert part.stat().st_size == 4096
+    finally:
+        out.finish()
+    assert not part.exists()
+    with open(target, "rb") as f:
+        assert list(make_reader(f).iter_messages()) == []

@@ -169,6 +169,7 @@ class _Apply:
         when it refused a write."""
         try:
             self.writer.close()
+            self.file.truncate()  # the recording ends where the writer stopped (nothing stale after it)
         except Exception:
             if self.file.failure is not None:
                 raise self.file.failure from None
