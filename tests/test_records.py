@@ -206,35 +206,42 @@ def test_any_operations_come_back_in_order(ops, size, batch):
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.lists(operations, max_size=40), st.integers(1, 2000), st.integers(1, 8))
-def test_a_stage_gathering_in_fresh_buffers_sends_the_same_batches(ops, size, batch):
+@given(st.lists(operations, max_size=40), st.integers(1, 2000), st.integers(1, 8), st.sampled_from([0, 3000]))
+def test_a_stage_gathering_in_fresh_buffers_sends_the_same_batches(ops, size, batch, fresh_max):
     """A stage given a fresh buffer after each batch (as a ring's free space) sends exactly the
     batches of one with its own buffer, asks for a buffer only when a record comes, and sends each
-    batch from the buffer it was given (a record larger than the stage from one of its own)."""
+    batch from the buffer it was given (a record larger than the stage from one of its own, or, a
+    byte string or other record up to ``fresh_max`` bytes, from a fresh buffer of its exact size)."""
     fixed, want = staged(size, batch)
     given_out: list[memoryview] = []
     got: list[bytes] = []
 
     def fresh(n: int) -> memoryview:
-        assert (n == size and not given_out) or given_out[-1] is None
+        assert (n == size or size < n <= fresh_max) and (not given_out or given_out[-1] is None)
         given_out.append(memoryview(bytearray(n)))
         return given_out[-1]
+
+    from_given = []
 
     def send(view: memoryview) -> None:
         if given_out and given_out[-1] is not None and view.obj is given_out[-1].obj:
             given_out.append(None)  # that buffer is spent
+            from_given.append(view.nbytes)
+            if view.nbytes > size:  # a large record in a buffer of its own size: all of it
+                assert view.nbytes <= fresh_max and view.nbytes == len(view.obj)
         else:
             assert view.nbytes > size
         got.append(bytes(view))
 
-    ringed = Stage(size, batch, send, fresh=fresh)
+    ringed = Stage(size, batch, send, fresh=fresh, fresh_max=fresh_max)
     for op in ops:
         add(fixed, op)
         add(ringed, op)
     fixed.flush()
     ringed.flush()
     assert got == want
-    assert len([b for b in given_out if b is not None]) == len([b for b in got if len(b) <= size])
+    assert len([b for b in given_out if b is not None]) == len(from_given)
+    assert len([n for n in from_given if n <= size]) == len([b for b in got if len(b) <= size])
 
 
 def test_a_batch_is_sent_once_it_holds_batch_bytes_and_larger_records_still_fit_the_stage():

@@ -41,7 +41,8 @@ class Stage:
     """Records gathered into a buffer of ``size`` bytes and handed to ``send`` (a memoryview, valid
     only during the call) once ``batch`` records or ``batch_bytes`` bytes are in it (so the receiver
     stays close behind), when the next record does not fit, or on :meth:`flush`. A record larger
-    than the buffer is sent alone, from a buffer of its own.
+    than the buffer is sent alone, from a buffer of its own (or, up to ``fresh_max`` bytes, from
+    space ``fresh`` gives for it alone).
 
     The buffer is allocated once, or, with ``fresh``, asked for anew after each batch is sent:
     ``fresh(size)`` gives ``size`` bytes to gather the next batch in (a ring's free space in shared
@@ -51,9 +52,12 @@ class Stage:
     """
 
     def __init__(self, size: int, batch: int, send: Callable[[memoryview], None], batch_bytes: int | None = None,
-                 fresh: Callable[[int], memoryview] | None = None):
+                 fresh: Callable[[int], memoryview] | None = None, fresh_max: int = 0):
         self.size = size
         self.fresh = fresh
+        # a BYTES or OTHER record larger than the stage but at most this large is written straight
+        # into space of its own that ``fresh`` gives (a checkpoint of a large pond: no copy on the way)
+        self.fresh_max = fresh_max if fresh is not None else 0
         self.view = memoryview(bytearray(size)) if fresh is None else _NO_ROOM
         self.offset = 0
         self.count = 0
@@ -113,7 +117,12 @@ class Stage:
         raws = [memoryview(part).cast("B") for part in parts]
         n = sum(raw.nbytes for raw in raws)
         needed = HEADER.size + LENGTH.size + n
-        view, start = (self.view, self.offset) if self._room(needed) else (memoryview(bytearray(needed)), 0)
+        if self._room(needed):
+            view, start = self.view, self.offset
+        elif needed <= self.fresh_max:
+            view, start = self.fresh(needed), 0  # type: ignore[misc]  (fresh_max is 0 without fresh)
+        else:
+            view, start = memoryview(bytearray(needed)), 0
         HEADER.pack_into(view, start, kind, channel, time_ns)
         at = start + HEADER.size
         LENGTH.pack_into(view, at, n)

@@ -54,6 +54,9 @@ STAGE_BYTES = 4 << 20
 # shared memory between the simulating and the writer process: reused, so its pages stay mapped;
 # four stages long, so that the simulation goes on while the writer is a few batches behind
 RING_BYTES = 16 << 20
+# a checkpoint (or other record) larger than the stage, up to this size, is written straight into the
+# ring: at most half of it, so that such a record never waits for the writer to have read the whole ring
+FRESH_MAX_BYTES = RING_BYTES // 2
 WRITER_TIMEOUT_S = 600.0  # longest wait for the writer to finish a file on close
 ZSTD_LEVEL = 1  # chunk compression: within 1% of the default level's size, at two thirds of its cost
 
@@ -312,7 +315,7 @@ class _Sink:
     def __init__(self, fresh: Callable[[int], memoryview] | None = None) -> None:
         """``fresh``: where the stage gathers each batch (see :class:`cosim.codec.records.Stage`)."""
         self._ids = _Ids()
-        self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES, fresh)
+        self.stage = Stage(STAGE_BYTES, BATCH, self._send, BATCH_BYTES, fresh, fresh_max=FRESH_MAX_BYTES)
         self.add_message_record = self.stage.add_message  # type: ignore[method-assign]
         self.directory: list[tuple] = []  # every schema, channel, metadata and attachment record, in order
         # the recorder's last word for a recording salvaged after its writer died: called with the
