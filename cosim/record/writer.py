@@ -113,10 +113,14 @@ class _Apply:
         # that rewrite a file in place): about 40 ms for the reference skip's 40 MB, which the
         # simulating process would wait for at the end of every recorded run.
         self.file = _File(part, "r+")  # closed in finish() or abandon()
-        self.writer = foxglove.open_mcap(
-            self.file, context=self.context,
-            writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd, compression_level=ZSTD_LEVEL,
-                                            compression_threads=0, profile="", chunk_size=262144))
+        try:
+            self.writer = foxglove.open_mcap(
+                self.file, context=self.context,
+                writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd, compression_level=ZSTD_LEVEL,
+                                                compression_threads=0, profile="", chunk_size=262144))
+        except BaseException:
+            self.file.close()
+            raise
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
         # channel id -> its log(data, log_time): the SDK's compiled channel's own, without the Python
