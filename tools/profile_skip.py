@@ -1,10 +1,11 @@
-"""Where the held skip's time goes: each component's share of the run loop, and the functions
-that take it.
+"""Where a skip's time goes: each component's share of the run loop, and the functions that take it.
 
     python tools/profile_skip.py [--runs 5] [--write docs/performance.md]
 
-Two measures of ``scenarios/held_skip.yaml`` (the benchmarks' scene) with recording off (the physics
-alone), after a warm-up run that loads the kernels from numba's disk cache:
+Two scenes, each with recording off (the physics alone), after a warm-up run that loads the kernels
+from numba's disk cache: the reference skip (``scenarios/skip.yaml``, the free spinning throw on its
+14 m x 2.5 m pond) and the held skip (``scenarios/held_skip.yaml``, the benchmarks' scene, whose
+figures compare across rounds). Two measures of each:
 
 * **Shares** (``--runs`` runs, median): every component's ``step`` is wrapped in a timer; the rest
   of the loop (gathering inputs, delivering outputs, the scheduler's bookkeeping) is the scheduler's.
@@ -38,14 +39,17 @@ from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
 from tools.bench_coupler import StepTimer  # noqa: E402
 
-SCENE = ROOT / "scenarios" / "held_skip.yaml"
-SECTION = "profile"
+# (the doc section, its title, the scene)
+SCENES = (
+    ("profile-reference", "Where the reference skip's time goes", ROOT / "scenarios" / "skip.yaml"),
+    ("profile", "Where the held skip's time goes", ROOT / "scenarios" / "held_skip.yaml"),
+)
 FUNCTIONS_SHOWN = 12
 
 
-def shares() -> tuple[dict[str, float], float, str]:
+def shares(scene: Path) -> tuple[dict[str, float], float, str]:
     """(seconds per component type and 'scheduler', loop wall [s], the run's status line) of one run."""
-    sim = Simulation(load(SCENE, ["record.visual_rate=0"]))
+    sim = Simulation(load(scene, ["record.visual_rate=0"]))
     timers = {name: (type(comp).__name__, StepTimer(comp)) for name, comp in sim.components.items()}
     start = time.perf_counter()
     result = sim.run()
@@ -70,9 +74,9 @@ def _where(filename: str) -> str:
     return path.name
 
 
-def functions(top: int) -> tuple[list[tuple[str, int, float, float]], float]:
+def functions(scene: Path, top: int) -> tuple[list[tuple[str, int, float, float]], float]:
     """([(function, calls, own seconds, cumulative seconds)], total profiled seconds) of one run."""
-    sim = Simulation(load(SCENE, ["record.visual_rate=0"]))
+    sim = Simulation(load(scene, ["record.visual_rate=0"]))
     profile = cProfile.Profile()
     profile.enable()
     sim.run()
@@ -85,17 +89,17 @@ def functions(top: int) -> tuple[list[tuple[str, int, float, float]], float]:
     return rows[:top], stats.total_tt  # type: ignore[attr-defined]
 
 
-def report(runs: int) -> str:
-    Simulation(load(SCENE, ["until=0.05", "record.visual_rate=0"])).run()  # kernels from the disk cache
+def report(scene: Path, runs: int) -> str:
+    Simulation(load(scene, ["until=0.05", "record.visual_rate=0"])).run()  # kernels from the disk cache
     load_before = os.getloadavg()[0]
-    measured = [shares() for _ in range(runs)]
-    top, total = functions(FUNCTIONS_SHOWN)
+    measured = [shares(scene) for _ in range(runs)]
+    top, total = functions(scene, FUNCTIONS_SHOWN)
     load_after = os.getloadavg()[0]
     kinds = list(measured[0][0])
     share = {k: statistics.median(m[0][k] / m[1] for m in measured) for k in kinds}
     wall = statistics.median(m[1] for m in measured)
     lines = [
-        f"`{SCENE.relative_to(ROOT)}` with recording off ({measured[0][2]}), {runs} runs, median; load "
+        f"`{scene.relative_to(ROOT)}` with recording off ({measured[0][2]}), {runs} runs, median; load "
         f"average {load_before:.1f} before, {load_after:.1f} after (2 cores shared with other jobs); "
         f"`python tools/profile_skip.py --write docs/performance.md`:",
         "",
@@ -117,12 +121,13 @@ def report(runs: int) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
-    parser.add_argument("--write", metavar="MARKDOWN", help="update the profile section of this file")
+    parser.add_argument("--write", metavar="MARKDOWN", help="update the two profile sections of this file")
     args = parser.parse_args(argv)
-    text = report(args.runs)
-    print(text)
-    if args.write:
-        replace_section(Path(args.write), SECTION, "## Where the held skip's time goes\n\n" + text)
+    for section, title, scene in SCENES:
+        text = f"## {title}\n\n" + report(scene, args.runs)
+        print(text + "\n")
+        if args.write:
+            replace_section(Path(args.write), section, text)
     return 0
 
 
