@@ -52,9 +52,13 @@ def _chord(shape, dx, dy, ax, ay, az, radius, thickness):
     return sphere_chord(dx, dy, radius)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def sample_surface(x, y, x0, y0, cell, height, wvel):
-    """Bilinear water height and vertical velocity at (x, y); ok is False outside the patch."""
+    """Bilinear water height and vertical velocity at (x, y); ok is False outside the patch.
+
+    Inlined where it is called: it runs for every surface element of a body at every step, and a
+    call with the two arrays as arguments takes and drops a reference on each: a third of the
+    sampling's time (700 samples in a compiled loop, called against inlined, bit for bit)."""
     nj, ni = height.shape
     fx = (x - x0) / cell
     fy = (y - y0) / cell
