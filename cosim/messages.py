@@ -88,8 +88,8 @@ class Message:
         """Name of the first float field (or array) holding NaN or infinity, or None.
 
         Fast path (:func:`_finite_check`, generated once per type): one sum over every float value
-        is finite exactly when each value is (barring an overflow of huge finite values, which the
-        slow path then rules out field by field).
+        (an array's values squared) is finite exactly when each value is (barring an overflow of
+        huge finite values, which the slow path then rules out field by field).
         """
         check = _CHECKS.get(type(self))
         if check is None:
@@ -123,9 +123,11 @@ def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], boo
     """A function generated for ``message_type``: whether the sum of all its float values (fields
     and float arrays) is finite, in one expression, with no loop over the fields (it runs for every
     output of every step). A small fixed 1-D array (at most 16 values) is summed as Python floats,
-    far cheaper than a numpy reduction, any other by ``np.add.reduce`` (without ``ndarray.sum``'s
-    Python wrapper). A value it cannot sum so (a nested list, a scalar where an array was declared)
-    makes it answer False, and :meth:`Message.first_nonfinite` looks field by field."""
+    far cheaper than a numpy reduction, any other as the dot product with itself (``np.vdot``, the
+    sum of its squares: non-finite exactly when a value is, or when a value passes about 1e154;
+    the vectorised product takes half the time of ``np.add.reduce`` on a water patch's 27 x 66
+    values). A value it cannot sum so (a nested list, a scalar where an array was declared) makes it
+    answer False, and :meth:`Message.first_nonfinite` looks field by field."""
     floats, arrays = _finiteness_plan(message_type)
     specs = {s.name: s for s in message_type.__cosim_fields__}
     terms = [f"m.{name}" for name in floats]
@@ -133,9 +135,9 @@ def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], boo
         array = specs[name].array
         assert array is not None
         small = array.fixed_size is not None and len(array.shape) == 1 and array.fixed_size <= _SMALL_ARRAY
-        terms.append(f"sum(m.{name}.tolist())" if small else f"_reduce(m.{name}, None)")
+        terms.append(f"sum(m.{name}.tolist())" if small else f"_vdot(m.{name}, m.{name})")
     body = " + ".join(["0.0", *terms])
-    env: dict[str, Any] = {"_isfinite": math.isfinite, "_reduce": np.add.reduce}
+    env: dict[str, Any] = {"_isfinite": math.isfinite, "_vdot": np.vdot}
     exec("def check(m):\n"
          "    try:\n"
          f"        return _isfinite({body})\n"

@@ -59,8 +59,13 @@ def test_the_float_fields_come_first_then_the_arrays_in_declaration_order():
 
 
 def test_huge_finite_values_whose_sum_overflows_are_finite():
-    """The fast path sums every value; an overflow of that sum is not a non-finite field."""
+    """The fast path sums every value (a grid's squared); an overflow of that sum is not a non-finite
+    field, and a non-finite value among huge ones is still found."""
     assert _state(position=np.array([1e308, 1e308, 1e308]), speed=1e308).first_nonfinite() is None
+    huge = np.full((23, 71), 1e200)  # its squares overflow
+    assert _patch(height=huge).first_nonfinite() is None
+    huge[4, 9] = -math.inf
+    assert _patch(height=huge).first_nonfinite() == "height"
 
 
 def test_a_value_of_another_shape_is_still_checked():
