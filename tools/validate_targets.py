@@ -222,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
         # sphere-speeds section shows every speed
         sphere_jobs = {(sg, u): pool.submit(sphere_critical_angle, sg, u) for sg in (1.0, 2.65) for u in SPHERE_SPEEDS}
         series_jobs = {s: pool.submit(reference_throw_on_a_long_pond, s) for s in (None, *SPIN_SERIES)}
-        held_jobs = {s: pool.submit(reference_throw_on_a_long_pond, s, True) for s in SPIN_SERIES}
+        # held and not spun is the series' own held run (None): not run twice
+        held_jobs = {s: pool.submit(reference_throw_on_a_long_pond, s, True) for s in SPIN_SERIES if s != 0.0}
         release_jobs = {key: pool.submit(_release, key) for key in RELEASES}
         skips = skip_impulses("held_skip")
         reference = [r for r, _, _, _ in skip_impulses("skip")]
@@ -233,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
         tau = [f.result().contact_s for f in contact_jobs]
         spheres = {key: f.result() for key, f in sphere_jobs.items()}
         series = {s: f.result() for s, f in series_jobs.items()}
-        held_series = {s: f.result()[0] for s, f in held_jobs.items()}
+        held_series = {s: series[None][0] if s == 0.0 else held_jobs[s].result()[0] for s in SPIN_SERIES}
         releases = {key: f.result() for key, f in release_jobs.items()}
     contact = (tau[0], tau[1], math.log(tau[1] / tau[0]) / math.log(7.0 / 3.5))
     table = targets(curves, betas, regimes, contact, spheres, skips, reference, series, held_series, releases)
