@@ -88,8 +88,9 @@ class Message:
         """Name of the first float field (or array) holding NaN or infinity, or None.
 
         Fast path (:func:`_finite_check`, generated once per type): one sum over every float value
-        (an array's values squared) is finite exactly when each value is (barring an overflow of
-        huge finite values, which the slow path then rules out field by field).
+        (an array's values or their squares, :func:`_array_sum`) is finite exactly when each value
+        is (barring an overflow of huge finite values, which the slow path then rules out field by
+        field).
         """
         check = _CHECKS.get(type(self))
         if check is None:
@@ -109,6 +110,25 @@ class Message:
 
 _CHECKS: dict[type, typing.Callable[[Message], bool]] = {}
 _SMALL_ARRAY = 16  # a fixed 1-D array of at most this many floats is summed as Python floats
+# The most values whose squares are summed as a dot product. OpenBLAS (numpy's wheels) computes a
+# longer dot product on its worker threads, which then keep spinning, waiting for more work: one
+# water field checked ten times a second kept a second core busy for the whole run, taken from the
+# recording's writer or from another job.
+_DOT_MAX = 10_000
+
+
+def _array_sum(values: Any) -> float:
+    """A number that is finite when every value of the float array ``values`` is (barring an
+    overflow of huge finite values): up to _DOT_MAX values the dot product with itself (``np.vdot``:
+    the vectorised product takes half the time of a reduction on a water patch's 27 x 66 values),
+    beyond that their sum (``np.add.reduce``, on this thread)."""
+    if values.size <= _DOT_MAX:
+        return _vdot(values, values)
+    return _reduce(values, None)
+
+
+_vdot = np.vdot
+_reduce = np.add.reduce
 
 
 def _finiteness_plan(message_type: type[Message]) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -123,11 +143,9 @@ def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], boo
     """A function generated for ``message_type``: whether the sum of all its float values (fields
     and float arrays) is finite, in one expression, with no loop over the fields (it runs for every
     output of every step). A small fixed 1-D array (at most 16 values) is summed as Python floats,
-    far cheaper than a numpy reduction, any other as the dot product with itself (``np.vdot``, the
-    sum of its squares: non-finite exactly when a value is, or when a value passes about 1e154;
-    the vectorised product takes half the time of ``np.add.reduce`` on a water patch's 27 x 66
-    values). A value it cannot sum so (a nested list, a scalar where an array was declared) makes it
-    answer False, and :meth:`Message.first_nonfinite` looks field by field."""
+    far cheaper than a numpy reduction, any other by :func:`_array_sum`. A value it cannot sum so (a
+    nested list, a scalar where an array was declared) makes it answer False, and
+    :meth:`Message.first_nonfinite` looks field by field."""
     floats, arrays = _finiteness_plan(message_type)
     specs = {s.name: s for s in message_type.__cosim_fields__}
     terms = [f"m.{name}" for name in floats]
@@ -135,9 +153,9 @@ def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], boo
         array = specs[name].array
         assert array is not None
         small = array.fixed_size is not None and len(array.shape) == 1 and array.fixed_size <= _SMALL_ARRAY
-        terms.append(f"sum(m.{name}.tolist())" if small else f"_vdot(m.{name}, m.{name})")
+        terms.append(f"sum(m.{name}.tolist())" if small else f"_array_sum(m.{name})")
     body = " + ".join(["0.0", *terms])
-    env: dict[str, Any] = {"_isfinite": math.isfinite, "_vdot": np.vdot}
+    env: dict[str, Any] = {"_isfinite": math.isfinite, "_array_sum": _array_sum}
     exec("def check(m):\n"
          "    try:\n"
          f"        return _isfinite({body})\n"

@@ -5,6 +5,7 @@ each in declaration order), also when an array came as another shape or as a lis
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -79,3 +80,19 @@ def test_a_value_of_another_shape_is_still_checked():
     assert _patch(height=grid).first_nonfinite() is None
     grid[5][7] = math.inf
     assert _patch(height=grid).first_nonfinite() == "height"
+
+
+def test_a_large_grid_is_checked_on_the_calling_thread():
+    """A grid too long for a single-threaded dot product (a pond's whole field, 600 x 600) is
+    summed on this thread: no worker thread of the BLAS library is woken, which would then spin for
+    a tenth of a second after each call, a second core kept busy through a run that checks a field
+    ten times a second. Its NaN is still found."""
+    field = np.zeros((600, 600))
+    patch = _patch(height=field, velocity=field, bottom=field - 0.3)
+    for _ in range(5):
+        assert patch.first_nonfinite() is None
+    idle = time.process_time()
+    time.sleep(0.3)
+    assert time.process_time() - idle < 0.05  # this process's CPU while it sleeps: no thread spinning
+    field[599, 0] = math.nan
+    assert patch.first_nonfinite() == "height"
