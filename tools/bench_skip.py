@@ -8,6 +8,7 @@ those measured in this run, and where the CPU time went (the simulating process,
 The recorded wall time includes closing the file.
 
     python tools/bench_skip.py [--repeats 7] [--busy] [--write docs/performance.md]
+    python tools/bench_skip.py --scene scenarios/held_skip.yaml     # another scene, figures on stdout
 
 With ``--busy`` another job keeps one core busy throughout the timed runs (a process spinning in a
 loop), as on a shared machine: the simulation, the recording's writer process and that job then
@@ -57,9 +58,9 @@ def _writer_cpu(before: float) -> float:
     return _children_cpu() - before
 
 
-def timed_run(overrides: list[str], record: bool) -> tuple[float, float, float, float]:
+def timed_run(overrides: list[str], record: bool, scene_file: Path = SCENE) -> tuple[float, float, float, float]:
     """(simulated s, wall s, CPU s of this process, CPU s of the writer process) of one run."""
-    scene = load(SCENE, overrides=overrides)
+    scene = load(scene_file, overrides=overrides)
     with tempfile.TemporaryDirectory() as tmp:
         cpu, writer, start = time.process_time(), _children_cpu(), time.perf_counter()
         outcome = run_scene(scene, Path(tmp) / "skip.mcap" if record else None, progress=False)
@@ -78,7 +79,11 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--busy", action="store_true", help="keep one core busy with another job meanwhile")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the reference-skip section of this file")
+    parser.add_argument("--scene", type=Path, default=SCENE,
+                        help="the scene to run (default: the reference skip; another one's figures are not written)")
     args = parser.parse_args()
+    if args.write and args.scene.resolve() != SCENE:
+        parser.error(f"--write updates the reference skip's sections; {args.scene} is another scene")
     busy = subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) if args.busy else None
     try:
         report(args)
@@ -90,14 +95,14 @@ def main() -> None:
 
 def report(args: argparse.Namespace) -> None:
     for overrides, record in RUNS.values():  # compile / load kernels, import the writer's modules
-        run_scene(load(SCENE, overrides=["until=0.05", *overrides]),
+        run_scene(load(args.scene, overrides=["until=0.05", *overrides]),
                   Path(tempfile.mkdtemp()) / "warm.mcap" if record else None, progress=False)
     load_before = os.getloadavg()[0]
     samples: dict[str, list[tuple[float, float, float]]] = {name: [] for name in RUNS}
     sim_s = 0.0
     for _ in range(args.repeats):
         for name, (overrides, record) in RUNS.items():
-            sim_s, wall, cpu, writer = timed_run(overrides, record)
+            sim_s, wall, cpu, writer = timed_run(overrides, record, args.scene)
             samples[name].append((wall, cpu, writer))
     load_after = os.getloadavg()[0]
     best = {name: min(w for w, _, _ in runs) for name, runs in samples.items()}
@@ -120,13 +125,17 @@ def report(args: argparse.Namespace) -> None:
         ratios = [run[0] / base[0] for run, base in zip(samples[name], samples[off], strict=True)]
         return f"{(statistics.median(ratios) - 1.0) * 100:+.0f}%"
 
+    scene = args.scene.resolve()
+    name = scene.relative_to(ROOT).as_posix() if scene.is_relative_to(ROOT) else str(args.scene)
+    command = "python tools/bench_skip.py" + (" --busy" if args.busy else "") + (
+        " --write docs/performance.md" if scene == SCENE else f" --scene {name}")
     text = "\n".join([
-        "## The reference skip" + (", with another job on one core" if args.busy else ""),
+        ("## The reference skip" if scene == SCENE else f"## {name}")
+        + (", with another job on one core" if args.busy else ""),
         "",
-        f"`scenarios/skip.yaml` ({sim_s:.3g} s simulated until the stone sinks), {args.repeats} runs of each "
+        f"`{name}` ({sim_s:.3g} s simulated until the stone sinks), {args.repeats} runs of each "
         "kind in turn in one process" + (", while another job kept one core busy" if args.busy else "")
-        + f" (load average {load_before:.1f} before, {load_after:.1f} after), "
-        f"`python tools/bench_skip.py{' --busy' if args.busy else ''} --write docs/performance.md`:",
+        + f" (load average {load_before:.1f} before, {load_after:.1f} after), `{command}`:",
         "",
         "| run | best wall [s] | median wall [s] | real-time factor (best) | CPU, simulating process [s] "
         "(median) | CPU, writer process [s] (median) |",
