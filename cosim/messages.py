@@ -115,6 +115,8 @@ _SMALL_ARRAY = 16  # a fixed 1-D array of at most this many floats is summed as 
 # water field checked ten times a second kept a second core busy for the whole run, taken from the
 # recording's writer or from another job.
 _DOT_MAX = 10_000
+_vdot = np.vdot
+_reduce = np.add.reduce
 
 
 def _array_sum(values: Any) -> float:
@@ -125,10 +127,6 @@ def _array_sum(values: Any) -> float:
     if values.size <= _DOT_MAX:
         return _vdot(values, values)
     return _reduce(values, None)
-
-
-_vdot = np.vdot
-_reduce = np.add.reduce
 
 
 def _finiteness_plan(message_type: type[Message]) -> tuple[tuple[str, ...], tuple[str, ...]]:
