@@ -196,3 +196,45 @@ def test_met_surface_read_is_the_numpy_form():
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
         met.in_contact = reference["in_contact"] = step >= 0
+
+
+def test_the_met_surface_made_in_the_step_is_the_one_read_before_it():
+    """In contact, the usual step makes the met surface inside its one compiled call
+    (``MetSurface.plan`` then ``step_kernel.met_ring_step``): through a run of steps with the window
+    moving and the planing share below and at 1, every number and plane it writes equals
+    ``MetSurface.read`` followed by ``ring_step``, bit for bit, and the met surface it leaves is the
+    same."""
+    coupler = WaterCoupler("fused")
+    b = BODIES["planing disk"]
+    planned, read = MetSurface(), MetSurface()
+    rng = np.random.default_rng(7)
+    for step, (di, dj, share) in enumerate([(0, 0, 1.0), (1, 0, 0.999), (3, -1, 1.0), (4, 1, 0.3), (6, 0, 1.0)]):
+        live = wavy(still_water(half_width=0.12, i0=5 + di, j0=5 + dj), 0.003, step % 2 == 0)
+        height = live.height + 1e-4 * rng.standard_normal(live.height.shape)
+        velocity = live.velocity + 1e-3 * rng.standard_normal(live.height.shape)
+        held = live.occupied if live.occupied.shape == height.shape else height
+        x = _inputs(coupler, b, live)
+        elements = x.elements
+        outputs = []
+        for met, fused in ((planned, True), (read, False)):
+            scratch = step_kernel.RingScratch(height.shape, 0.0)
+            common = (int(b.shape), x.body_vector, coupler._prm_disk, coupler.flags, coupler._local, x.nsub,
+                      0.0, share, x.water[0], x.water[1], live.cell)
+            tail = (height, velocity, live.bottom, held, held is not height, elements.pos, elements.nrm,
+                    elements.area, elements.t1, elements.t2, elements.world_fixed, scratch.planes,
+                    scratch.numbers, scratch.work_for(elements.area.shape[0]))
+            if fused:
+                freeze, mi0, mj0, m_h, m_v, fr_h, fr_v, met_h, met_v = met.plan(live.i0, live.j0, height,
+                                                                                 velocity, share)
+                step_kernel.met_ring_step(freeze, live.i0, live.j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
+                                          *common, met_h, met_v, *tail)
+            else:
+                met_h, met_v = met.read(live.i0, live.j0, height, velocity, share)
+                step_kernel.ring_step(*common, met_h, met_v, *tail)
+            outputs.append((scratch.numbers.copy(), scratch.planes.copy(), met_h.copy(), met_v.copy()))
+            met.in_contact = True
+        for got, want in zip(*outputs, strict=True):
+            np.testing.assert_array_equal(got, want)
+        assert planned._met[:2] == read._met[:2]
+        np.testing.assert_array_equal(planned._met[2], read._met[2])
+        np.testing.assert_array_equal(planned._met[3], read._met[3])

@@ -224,6 +224,10 @@ class WaterCoupler(Component):
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
         self._scratch: step_kernel.RingScratch | None = None  # work arrays of the one-call step
         self._prm = self._parameter_vector()
+        # the same with the submerged drag coefficient of each shape in, for the usual step
+        self._prm_disk, self._prm_sphere = self._prm.copy(), self._prm.copy()
+        self._prm_disk[step_kernel.P_C_D] = self.params.c_d_disk
+        self._prm_sphere[step_kernel.P_C_D] = self.params.c_d_sphere
         self._zero_wrench = Wrench(_ZERO3, _ZERO3)
         self._empty_occupied = OccupiedHeight(0, 0, _EMPTY_GRID)
         self._empty_request = PatchRequest.empty()
@@ -564,69 +568,69 @@ class WaterCoupler(Component):
     def _ring_advance(self, body: BodyState, bv: np.ndarray, patch: HeightPatch, dt: float
                       ) -> dict[str, Message]:
         """The usual step of :meth:`_advance` (the ring displacement, one step at a time, a patch in
-        hand, no smoothing): the body's pose, :meth:`_evaluate`, :meth:`_ring`,
-        :meth:`_add_hydrostatics` and :meth:`_stability_bound` in one call of
-        :func:`step_kernel.ring_step`, whose numbers are read back once as Python floats to build the
-        four messages; the same outputs as the general path, bit for bit."""
+        hand, no smoothing): the met surface (:meth:`MetSurface.plan`), the body's pose,
+        :meth:`_evaluate`, :meth:`_ring`, :meth:`_add_hydrostatics` and :meth:`_stability_bound` in
+        one call of :func:`step_kernel.met_ring_step`, whose numbers are read back once as Python
+        floats to steer, and whose stats are copied once for the messages' arrays; the same outputs
+        as the general path, bit for bit."""
         pos, vel = body.position, body.velocity
-        radius = float(body.radius)
         level = self.rest_level
         cell = float(patch.cell)
         i0, j0 = int(patch.i0), int(patch.j0)
         height = np.ascontiguousarray(patch.height, dtype=np.float64)
         wvel = np.ascontiguousarray(patch.velocity, dtype=np.float64)
-        bottom = np.ascontiguousarray(patch.bottom, dtype=np.float64)
         held = np.ascontiguousarray(patch.occupied, dtype=np.float64)
         has_held = held.shape == height.shape
         elements = self._elements_for(body)
         share = self._planing_share = planing_share(body, self.params.g)
-        met_h, met_v = self.met.read(i0, j0, height, wvel, share)
+        freeze, mi0, mj0, m_h, m_v, fr_h, fr_v, met_h, met_v = self.met.plan(i0, j0, height, wvel, share)
         scratch = self._scratch
         if scratch is None or scratch.shape != height.shape or scratch.rest_level != level:
             scratch = self._scratch = step_kernel.RingScratch(height.shape, level)
         shape = int(body.shape)
-        prm = self._prm
-        prm[step_kernel.P_C_D] = self.params.c_d_disk if shape == Shape.DISK else self.params.c_d_sphere
-        step_kernel.ring_step(
-            shape, bv, prm, self.flags, self._local, self._subsamples(radius, cell), level, share,
+        numbers = scratch.numbers
+        step_kernel.met_ring_step(
+            freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
+            shape, bv, self._prm_disk if shape == Shape.DISK else self._prm_sphere, self.flags, self._local,
+            self._subsamples(float(body.radius), cell), level, share,
             float(patch.origin_x + patch.i0 * patch.cell), float(patch.origin_y + patch.j0 * patch.cell), cell,
-            met_h, met_v, height, wvel, bottom, held if has_held else height, has_held,
+            met_h, met_v, height, wvel, np.ascontiguousarray(patch.bottom, dtype=np.float64),
+            held if has_held else height, has_held,
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.world_fixed,
-            scratch.planes, scratch.numbers, scratch.work_for(elements.area.shape[0]))
-        numbers = scratch.numbers.tolist()
-        stats = numbers[step_kernel.NUM_STATS:step_kernel.NUM_STATS + kernel.S_TOTAL + 6]
-        res = numbers[step_kernel.NUM_RESULTS:step_kernel.NUM_RESULTS + step_kernel.N_RESULTS]
-        z_low, half_x, half_y = numbers[step_kernel.NUM_POSE + 2:step_kernel.NUM_POSE + step_kernel.N_POSE]
-        self.bound = res[step_kernel.R_BOUND]
-        self._submerged = 1.0 - res[step_kernel.R_PLANING]
-        vx, vy = float(vel[0]), float(vel[1])
-        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), (half_x, half_y), (vx, vy), dt)
-        self.work = {"columns": int(numbers[kernel.S_COLUMNS]), "elements": int(numbers[kernel.S_ELEMENTS])}
-        force = stats[kernel.S_TOTAL:kernel.S_TOTAL + 3]
-        torque = stats[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
-        self._prev = {"force": force, "torque": torque, "position": pos.tolist(),
+            scratch.planes, numbers, scratch.work_for(elements.area.shape[0]))
+        steer = numbers[kernel.S_VOLUME:kernel.S_SURFACE_LOW + 1].tolist()
+        volume, area, h_low = steer[0], steer[kernel.S_AREA - kernel.S_VOLUME], steer[-1]
+        (planing, top_under, self.bound, i_lo, i_hi, j_lo, j_hi, displaced,
+         _) = numbers[step_kernel.NUM_RESULTS:step_kernel.NUM_RESULTS + step_kernel.N_RESULTS].tolist()
+        z_low, half_x, half_y = numbers[step_kernel.NUM_POSE + 2:step_kernel.NUM_POSE + step_kernel.N_POSE].tolist()
+        self._submerged = 1.0 - planing
+        px, py = pos[:2].tolist()
+        vx, vy = vel[:2].tolist()
+        request = self._request((px + vx * dt, py + vy * dt), (half_x, half_y), (vx, vy), dt)
+        self.work = {"columns": int(steer[kernel.S_COLUMNS - kernel.S_VOLUME]),
+                     "elements": int(steer[kernel.S_ELEMENTS - kernel.S_VOLUME])}
+        wrench = numbers[kernel.S_TOTAL:kernel.S_TOTAL + 6].tolist()
+        self._prev = {"force": wrench[:3], "torque": wrench[3:], "position": pos.tolist(),
                       "omega": body.angular_velocity.tolist()}
-        h_low = numbers[kernel.S_SURFACE_LOW]
         depth = (level if math.isnan(h_low) else h_low) - z_low
-        volume = numbers[kernel.S_VOLUME]
-        area = numbers[kernel.S_AREA]
-        quiet = self._quiet_when_clear(volume, area, res[step_kernel.R_DISPLACED], depth, request)
+        quiet = self._quiet_when_clear(volume, area, displaced, depth, request)
         if quiet is not None:
             return quiet
-        fraction = self._submerged_fraction(body, volume, res[step_kernel.R_TOP_UNDER])
-        contact = self._contact(volume, area, fraction, stats, depth)
+        forces = numbers[:kernel.S_TOTAL + 6].copy()  # the messages' arrays are views of one copy
+        contact = WaterContact(
+            volume > 0.0 or area > 0.0, self._submerged_fraction(body, volume, top_under), area,
+            forces[kernel.S_BUOYANCY:kernel.S_BUOYANCY + 3], forces[kernel.S_PRESSURE:kernel.S_PRESSURE + 3],
+            forces[kernel.S_FRICTION:kernel.S_FRICTION + 3], forces[kernel.S_WAVE:kernel.S_WAVE + 3], depth,
+            self.dissipated)
         occupied = self._empty_occupied
-        i_lo = int(res[step_kernel.R_I_LO])
-        i_hi = int(res[step_kernel.R_I_HI])
         if i_lo <= i_hi:
-            j_lo = int(res[step_kernel.R_J_LO])
-            j_hi = int(res[step_kernel.R_J_HI])
+            i_lo, i_hi, j_lo, j_hi = int(i_lo), int(i_hi), int(j_lo), int(j_hi)
             occupied = OccupiedHeight(i0 + i_lo, j0 + j_lo, scratch.b_out[j_lo:j_hi + 1, i_lo:i_hi + 1].copy(),
                                       already_displaced=self._already_displaced(held))
         if self._start_in_water and (occupied.b.size == 0 or held.any()):
             self._start_in_water = False  # dry at the water's first patch, or the water holds it now
-        return {"wrench": Wrench(np.array(force), np.array(torque)), "occupied": occupied, "request": request,
-                "contact": contact}
+        return {"wrench": Wrench(forces[kernel.S_TOTAL:kernel.S_TOTAL + 3], forces[kernel.S_TOTAL + 3:]),
+                "occupied": occupied, "request": request, "contact": contact}
 
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags,
                   planing):

@@ -110,6 +110,23 @@ class MetSurface:
         self._met = (i0, j0, h, v)
         return blend if share < 1.0 else (h, v)
 
+    def plan(self, i0: int, j0: int, height: np.ndarray, velocity: np.ndarray, share: float) -> tuple:
+        """:meth:`read` for a compiled step that makes the surface itself
+        (:func:`components.coupler.step_kernel.met_ring_step`): (freeze, mi0, mj0, m_h, m_v, fr_h,
+        fr_v, met_h, met_v), the arguments of :func:`_freeze` and the arrays the surface effects
+        then read. Out of contact freeze is False and met_h, met_v are the live ``height`` and
+        ``velocity`` (the other arrays are the same two, unused). The state moves on as
+        :meth:`read` moves it, so the call must follow before the next one."""
+        met = self._met
+        if not self.in_contact or met is None:
+            self._met = (i0, j0, height, velocity)
+            return False, i0, j0, height, velocity, height, velocity, height, velocity
+        mi0, mj0, m_h, m_v = met
+        (h, v), blend = self._work_arrays(height.shape, m_h)
+        self._met = (i0, j0, h, v)
+        out_h, out_v = blend if share < 1.0 else (h, v)
+        return True, mi0, mj0, m_h, m_v, h, v, out_h, out_v
+
     def _work_arrays(self, shape: tuple[int, int], held: np.ndarray):
         """A pair of (nj, ni) arrays for this step's frozen window that are not ``held`` (the one
         kept from last step, read while the new one is written), and a pair for the blend."""

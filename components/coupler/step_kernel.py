@@ -23,6 +23,7 @@ from numba import njit
 from components.coupler import kernel
 from components.coupler.effects import BUOYANCY, DISPLACEMENT
 from components.coupler.geometry import quat_to_matrix
+from components.coupler.met_surface import _freeze
 
 # parameter vector (float64), set once per component
 P_RHO = 0
@@ -276,6 +277,23 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
     _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share)
     results[R_BOUND] = stability_bound(body, stats, prm)
+
+
+@njit(cache=True)
+def met_ring_step(freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
+                  shape, body, prm, flags, local_flags, nsub, rest_level, share,
+                  x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
+                  el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, planes, numbers, work):
+    """:func:`ring_step` over the met surface made in the same call: when ``freeze``, the patch at
+    (i0, j0) with the window the body met (m_h, m_v at (mi0, mj0)) frozen into fr_h, fr_v and, when
+    ``share`` < 1, blended with the live surface into met_h, met_v (met_surface._freeze; the arrays
+    :meth:`met_surface.MetSurface.plan` hands out), else met_h, met_v as given (the live patch).
+    One dispatch instead of two, the same arithmetic."""
+    if freeze:
+        _freeze(i0, j0, height, wvel, mi0, mj0, m_h, m_v, fr_h, fr_v, share, met_h, met_v)
+    ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
+              x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
+              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, planes, numbers, work)
 
 
 @njit(cache=True)
