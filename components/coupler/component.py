@@ -223,6 +223,7 @@ class WaterCoupler(Component):
         self._still: tuple[np.ndarray, np.ndarray] | None = None  # flat patch at the rest level
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
         self._scratch: step_kernel.RingScratch | None = None  # work arrays of the one-call step
+        self._bv = np.empty(step_kernel.N_BODY)  # the usual step's body vector, filled each step
         self._prm = self._parameter_vector()
         # the same with the submerged drag coefficient of each shape in, for the usual step
         self._prm_disk, self._prm_sphere = self._prm.copy(), self._prm.copy()
@@ -423,9 +424,9 @@ class WaterCoupler(Component):
             if self.cell != 0.0:
                 self._start_in_water = False  # dry with the water known: whatever it displaces later is new
             return self._idle(level - z_bottom)
-        bv = self._body_vector(body)
         if n == 1 and patch is not None and patch.height.size != 0 and self._ring_on and not self.params.smoothing:
-            return self._ring_advance(body, bv, patch, dt)  # the usual step
+            return self._ring_advance(body, _fill_body_vector(self._bv, body), patch, dt)  # the usual step
+        bv = self._body_vector(body)
         vx, vy = float(vel[0]), float(vel[1])
         assumed = False
         axes = np.empty((3, 3))
@@ -560,10 +561,9 @@ class WaterCoupler(Component):
         return self._start_in_water and not held.any()
 
     def _body_vector(self, body: BodyState) -> np.ndarray:
-        """The body's pose, motion and mass as :mod:`step_kernel`'s body vector (B_* layout)."""
-        return np.array([*body.position.tolist(), *body.orientation.tolist(), *body.velocity.tolist(),
-                         *body.angular_velocity.tolist(), body.radius, body.thickness, body.mass,
-                         min(body.inertia.tolist())])
+        """The body's pose, motion and mass as :mod:`step_kernel`'s body vector (B_* layout): a new
+        array (the usual step fills the one it keeps, :attr:`_bv`, with the same values)."""
+        return _fill_body_vector(np.empty(step_kernel.N_BODY), body)
 
     def _ring_advance(self, body: BodyState, bv: np.ndarray, patch: HeightPatch, dt: float
                       ) -> dict[str, Message]:
@@ -997,6 +997,19 @@ class WaterCoupler(Component):
         if not math.isfinite(depth):
             depth = -1.0e9  # no body yet: far above any water (a finite stand-in)
         return WaterContact(False, 0.0, 0.0, _ZERO3, _ZERO3, _ZERO3, _ZERO3, depth, self.dissipated)
+
+
+def _fill_body_vector(bv: np.ndarray, body: BodyState) -> np.ndarray:
+    """``bv`` (step_kernel.N_BODY,) filled with ``body``'s pose, motion and mass (B_* layout)."""
+    bv[step_kernel.B_POS:step_kernel.B_POS + 3] = body.position
+    bv[step_kernel.B_QUAT:step_kernel.B_QUAT + 4] = body.orientation
+    bv[step_kernel.B_VEL:step_kernel.B_VEL + 3] = body.velocity
+    bv[step_kernel.B_OMEGA:step_kernel.B_OMEGA + 3] = body.angular_velocity
+    bv[step_kernel.B_RADIUS] = body.radius
+    bv[step_kernel.B_THICKNESS] = body.thickness
+    bv[step_kernel.B_MASS] = body.mass
+    bv[step_kernel.B_INERTIA_MIN] = min(body.inertia.tolist())
+    return bv
 
 
 def _ring_scratch(shape: tuple[int, int]) -> dict[str, np.ndarray]:
