@@ -82,11 +82,12 @@ HOW = """How the coupler's step runs. Everything it computes over the columns an
 (the body's pose, the planing share, the forces of the named effects against the met surface, the
 body under the rest level, the ring's map, deposit and lift, the hydrostatics, the stability bound)
 is one compiled call, `components.coupler.step_kernel.ring_step`, into three work blocks the
-component keeps (grid planes, numbers, work); the frozen surface the planing law reads is overlaid
-and blended in one compiled pass (`met_surface._freeze`); the usual step
-(`WaterCoupler._ring_advance`) reads the call's numbers back once, as Python floats, and builds the
-four messages from them. The water takes a body's occupied height, and reads its patch, in one
-compiled pass each (`components/water/windows.py`).
+component keeps (grid planes, numbers, work). The usual step (`WaterCoupler._ring_advance`) calls it
+through `step_kernel.met_ring_step`, which first makes the surface the planing law reads (the
+frozen window overlaid on the live patch and blended, `met_surface._freeze`) in the same call; it
+fills a body vector it keeps, reads the call's numbers back once, as Python floats, and builds the
+four messages, their force arrays views of one copy of the stats. The water takes a body's occupied
+height, and reads its patch, in one compiled pass each (`components/water/windows.py`).
 
 - The ring's shares matrix (occupied columns x band columns) is never formed: a column's share of
   a band column is a polynomial of degree 4 in the band column's direction, so the deposit and the
@@ -103,7 +104,7 @@ compiled pass each (`components/water/windows.py`).
 
 Where the time goes now. The coupler's step on the held skip takes about 90 us (97 us before
 the changes of this round, the same runs), of which the compiled call is about 40 us; the rest is
-Python: reading the four inputs, the met surface's read, the request, building four messages, and
+Python: reading the four inputs, the met surface's bookkeeping, the request, building four messages, and
 the framework's checks of each (`Message.first_nonfinite`, now one generated expression per message
 type; the checks of all outputs still take about 9% of the skip's loop in a sampling profile,
 `py-spy record` over six runs). The water, meanwhile, got 5x cheaper on
