@@ -102,8 +102,9 @@ height, and reads its patch, in one compiled pass each (`components/water/window
 - The benchmark's pond steps every column (`tile: 0`, as `tools/bench_water.py`): tiled, the bare
   pond at rest is not stepped at all and the ratio would say nothing.
 
-Where the time goes now. The coupler's step on the held skip takes about 90 us (97 us before
-the changes of this round, the same runs), of which the compiled call is about 40 us; the rest is
+Where the time goes. On the machine as it was two rounds ago, the coupler's step on the held skip
+took about 90 us, of which the compiled call was about 40 us (on the slower machine of the last two
+rounds, 155 us and 64 us); the rest is
 Python: reading the four inputs, the met surface's bookkeeping, the request, building four messages, and
 the framework's checks of each (`Message.first_nonfinite`, now one generated expression per message
 type; the checks of all outputs still take about 9% of the skip's loop in a sampling profile,
