@@ -276,8 +276,10 @@ class RigidBody(Component):
             attack = math.degrees(math.atan2(math.hypot(n[0], n[1]), abs(n[2])))
         else:
             attack = 0.0
+        # the four vectors as views of one array: one array made a step instead of four
+        packed = np.array((*x, *q, *v, *w), dtype=np.float64)
         return BodyState(
-            _array(x), _array(q), _array(v), _array(w), self.shape, body.radius, body.thickness,
+            packed[0:3], packed[3:7], packed[7:10], packed[10:13], self.shape, body.radius, body.thickness,
             body.mass, self._inertia, attack, norm(v),
             kinetic_energy(body.mass, body.inertia, self.state),
             potential_energy(body.mass, self.gravity, x), not self.rotate)
