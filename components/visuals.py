@@ -17,6 +17,7 @@ recorder's visual deriver finds them for any component publishing these types, a
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
@@ -88,10 +89,24 @@ def water_colors(height_above_mean: np.ndarray) -> np.ndarray:
     """Shaded blue by height above the mean level: troughs dark, crests light (N,) -> (N, 4).
 
     Heights are rounded to :data:`COLOR_LEVELS` steps per :data:`WAVE_SCALE` first: the eye cannot
-    tell finer shades apart, and a small palette keeps the recorded surface compressible.
+    tell finer shades apart, and a small palette keeps the recorded surface compressible. Each
+    shade is looked up in that palette (:func:`_water_palette`), the colour ramp of the rounded
+    height, not ramped anew for every vertex of every frame.
     """
-    level = np.round(np.asarray(height_above_mean) / WAVE_SCALE * COLOR_LEVELS) / COLOR_LEVELS
-    return color_ramp(level, WATER_STOPS)
+    lo, palette = _water_palette()
+    steps = np.round(np.asarray(height_above_mean, dtype=float).ravel() / WAVE_SCALE * COLOR_LEVELS)
+    return palette[np.clip(steps, lo, lo + len(palette) - 1).astype(np.intp) - lo]
+
+
+@lru_cache(maxsize=1)
+def _water_palette() -> tuple[int, np.ndarray]:
+    """(the lowest shade's step, the colours (n, 4) of steps lo .. lo + n - 1 of 1 / COLOR_LEVELS
+    of WAVE_SCALE): every shade between the stops; beyond them the end colours hold."""
+    lo = math.floor(WATER_STOPS[0][0] * COLOR_LEVELS)
+    hi = math.ceil(WATER_STOPS[-1][0] * COLOR_LEVELS)
+    palette = color_ramp(np.arange(lo, hi + 1) / COLOR_LEVELS, WATER_STOPS)
+    palette.flags.writeable = False
+    return lo, palette
 
 
 def water_field(component: str, port: str, msg: WaterField) -> list:

@@ -123,10 +123,20 @@ def repeated_vectors(field_number: int, sub_fields: Sequence[int], values: np.nd
     if k != len(sub_fields):
         raise ValueError(f"expected {len(sub_fields)} columns, got {k}")
     rec = _vector_template(field_number, tuple(sub_fields), n).copy()
-    at = rec.shape[1] - 9 * k + 1  # the first double, after its one-byte tag
+    # each row's doubles seen in place (unaligned, after their tags): copied as doubles, not byte by byte
+    doubles = rec.view(_doubles_dtype(rec.shape[1], k)).reshape(n)
     for j in range(k):
-        rec[:, at + 9 * j: at + 9 * j + 8] = arr[:, j:j + 1].view(np.uint8).reshape(n, 8)
+        doubles[f"v{j}"] = arr[:, j]
     return rec.tobytes()
+
+
+@lru_cache(maxsize=16)
+def _doubles_dtype(row: int, k: int) -> np.dtype:
+    """A record of ``row`` bytes whose fields v0 .. v{k-1} are the ``k`` little-endian doubles of a
+    :func:`repeated_vectors` row, each after its one-byte tag at the row's end."""
+    first = row - 9 * k + 1
+    return np.dtype({"names": [f"v{j}" for j in range(k)], "formats": ["<f8"] * k,
+                     "offsets": [first + 9 * j for j in range(k)], "itemsize": row})
 
 
 @lru_cache(maxsize=16)
