@@ -7,14 +7,17 @@ import pytest
 
 from components.messages import Shape, SkipRecord, Stage, StageId, WaterField
 from components.visuals import (
+    COLOR_LEVELS,
     SURFACE_SIDE,
+    WATER_STOPS,
+    WAVE_SCALE,
     body_state,
     skip_record,
     stage,
     water_colors,
     water_field,
 )
-from cosim.view.items import Arrow, Cube, Cylinder, Entity, LogLine, Sphere, Trail, Transform, decimation
+from cosim.view.items import Arrow, Cube, Cylinder, Entity, LogLine, Sphere, Trail, Transform, color_ramp, decimation
 from tests.viewer_toys import ScriptedStone
 
 
@@ -92,6 +95,19 @@ def test_crests_are_lighter_than_troughs():
     brightness = colors[:, :3].sum(axis=1)
     assert np.all(np.diff(brightness) > 0)
     assert np.all(colors[:, 2] >= colors[:, 0])  # blue throughout
+
+
+def test_water_shades_are_the_colour_ramp_of_the_rounded_height():
+    """Each vertex's colour, looked up in the palette of shades, is the colour ramp of its height
+    rounded to COLOR_LEVELS steps per WAVE_SCALE, bit for bit, in the troughs, on the crests, at the
+    mean level (both zeros) and far beyond the ends of the ramp."""
+    rng = np.random.default_rng(5)
+    heights = np.concatenate([rng.standard_normal(2000) * WAVE_SCALE, rng.standard_normal(200) * 1.0,
+                              [0.0, -0.0, WAVE_SCALE, -WAVE_SCALE, 0.5 * WAVE_SCALE / COLOR_LEVELS, 1e6, -1e6]])
+    ramped = color_ramp(np.round(heights / WAVE_SCALE * COLOR_LEVELS) / COLOR_LEVELS, WATER_STOPS)
+    shaded = water_colors(heights)
+    assert shaded.shape == (len(heights), 4)
+    assert np.array_equal(shaded.view(np.uint64), ramped.view(np.uint64))
 
 
 def test_every_stage_change_is_a_log_line():
