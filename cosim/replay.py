@@ -10,6 +10,7 @@ before a time, optionally with changed settings, ready to run on.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 from cosim.codec.json_codec import codec_for
@@ -44,17 +45,25 @@ class ReplayReport:
     messages_compared: int
     divergence: Divergence | None
     cut_off_ns: int | None = None  # the recording has no final status (the run was cut off): replayed up to here
+    step_seconds: float = 0.0  # wall time of the component's steps but the first [s] (that one loads compiled code)
 
     @property
     def ok(self) -> bool:
         return self.divergence is None
 
+    def per_step_us(self) -> float | None:
+        """The component's own cost [us] a step on its recorded inputs, alone (None under two steps)."""
+        return self.step_seconds / (self.steps - 1) * 1e6 if self.steps > 1 else None
+
     def __str__(self) -> str:
         cut = ("" if self.cut_off_ns is None else
                f" (the recording is incomplete: replayed up to its last output, t = {self.cut_off_ns / NS_PER_S:g} s)")
         if self.ok:
+            cost = self.per_step_us()
+            took = ("" if cost is None else f"; {cost:.3g} us a step" if cost < 1000 else
+                    f"; {cost / 1000:.3g} ms a step")
             return (f"{self.component}: {self.steps} steps replayed, {self.messages_compared} outputs "
-                    f"identical bit for bit{cut}")
+                    f"identical bit for bit{took}{cut}")
         return f"{self.component}: {self.divergence} (after {self.steps} steps){cut}"
 
 
@@ -164,11 +173,17 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         bad.cut_off_ns = cut_off
         return bad
     steps = 0
+    seconds = 0.0  # in the component's steps, the first one left out
+    clock = time.perf_counter
     for tick in range(0, end_tick, every):
         start, end = tick * dt_ns, (tick + every) * dt_ns
         for src in sources:
             src.advance(tick)
-        outputs = comp.step(start, end - start, gather(plan, start, end), cfg.on_unstable)
+        inputs = gather(plan, start, end)
+        began = clock()
+        outputs = comp.step(start, end - start, inputs, cfg.on_unstable)
+        if steps:
+            seconds += clock() - began
         steps += 1
         bad = compare(end, outputs, steps)
         if bad:
@@ -176,7 +191,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             return bad
         if comp.stop_reason is not None and end >= stop_ns:
             break
-    return ReplayReport(name, steps, compared, None, cut_off)
+    return ReplayReport(name, steps, compared, None, cut_off, seconds)
 
 
 def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None = None,
