@@ -28,7 +28,7 @@ def test_the_coupler_alone_publishes_what_it_published_in_the_run(tmp_path):
     n = bench.capture(steps_file, seen)
     assert n == len(seen) > 4000  # the whole held skip: flight, four contacts, glide
     steps = pickle.loads(steps_file.read_bytes())
-    coupler = bench._fresh_coupler(bench.ROOT)
+    coupler = bench._fresh_coupler()
     wet = 0
     for (t_ns, dt_ns, inputs, args, kwargs), published in zip(steps, seen, strict=True):
         again = coupler.step(t_ns, dt_ns, inputs, *args, **kwargs)

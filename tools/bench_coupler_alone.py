@@ -68,21 +68,23 @@ def capture(path: Path, outputs: list | None = None) -> int:
     return len(steps)
 
 
-def _fresh_coupler(root: Path):
-    """A coupler of the held skip, initialised, as the run had it before its first step."""
+def _fresh_coupler():
+    """A coupler of the held skip, initialised, as the run had it before its first step: built by the
+    code imported (this checkout's or, in a worker, the other revision's) from this checkout's scene,
+    so that two revisions' couplers are set up alike."""
     from cosim.scenario import load
     from cosim.scheduler import Simulation
 
-    sim = Simulation(load(root / SCENE, OVERRIDES))
+    sim = Simulation(load(ROOT / SCENE, OVERRIDES))
     sim.initialize()
     return sim.components["coupler"]
 
 
-def one_pass(root: Path, steps: list[tuple], time_compiled: bool = False) -> tuple[float, float]:
+def one_pass(steps: list[tuple], time_compiled: bool = False) -> tuple[float, float]:
     """(wall [s] of all the steps, of which in the compiled call [s]; 0 unless ``time_compiled``)."""
     from components.coupler import step_kernel
 
-    coupler = _fresh_coupler(root)
+    coupler = _fresh_coupler()
     compiled = 0.0
     restore = None
     if time_compiled:
@@ -107,13 +109,13 @@ def one_pass(root: Path, steps: list[tuple], time_compiled: bool = False) -> tup
     return wall, compiled
 
 
-def measure(root: Path, steps_file: Path, passes: int) -> dict:
-    """The figures of ``root``'s coupler over the captured steps (run in this process)."""
+def measure(steps_file: Path, passes: int) -> dict:
+    """The figures of the imported coupler over the captured steps (run in this process)."""
     with steps_file.open("rb") as f:
         steps = pickle.load(f)
-    one_pass(root, steps)  # warm: kernels loaded from the disk cache, tilings built
-    walls = [one_pass(root, steps)[0] for _ in range(passes)]
-    wall, compiled = one_pass(root, steps, time_compiled=True)
+    one_pass(steps)  # warm: kernels loaded from the disk cache, tilings built
+    walls = [one_pass(steps)[0] for _ in range(passes)]
+    wall, compiled = one_pass(steps, time_compiled=True)
     return {"steps": len(steps), "walls": walls, "compiled_share": compiled / wall}
 
 
@@ -138,14 +140,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--passes and --pairs must be at least 1")
     if args.measure:
         _import_from(Path(args.measure))
-        print(json.dumps(measure(Path(args.measure), Path(args.steps), args.passes)))
+        print(json.dumps(measure(Path(args.steps), args.passes)))
         return 0
     _import_from(ROOT)
     with tempfile.TemporaryDirectory() as tmp:
         steps_file = Path(tmp) / "steps.pickle"
         n = capture(steps_file)
         if not args.against:
-            figures = measure(ROOT, steps_file, args.passes)
+            figures = measure(steps_file, args.passes)
             best, median = min(figures["walls"]), statistics.median(figures["walls"])
             print(f"the coupler alone over the held skip's {n} steps, {args.passes} passes: "
                   f"{best / n * 1e6:.1f} us a step (best), {median / n * 1e6:.1f} us (median); "
