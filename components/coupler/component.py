@@ -38,7 +38,6 @@ would be pointless, so this component overrides the base class's substep loop.)
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
@@ -492,7 +491,7 @@ class WaterCoupler(Component):
             return quiet
         under = self._top_under(pos, low, water) if volume > 0.0 else None
         fraction = self._submerged_fraction(body, volume, math.nan if under is None else under)
-        contact = self._contact(volume, area, fraction, mean, float(depth))
+        contact = self._contact(volume, area, fraction, mean[:kernel.S_TOTAL + 6].copy(), float(depth))
         if ring is not None:
             occupied = self._empty_occupied if ring.window is None else OccupiedHeight(
                 int(patch.i0) + ring.window[0], int(patch.j0) + ring.window[1], ring.window[2],
@@ -526,17 +525,17 @@ class WaterCoupler(Component):
             return quiet
         return None
 
-    def _contact(self, volume: float, area: float, fraction: float, stats: Sequence[float],
+    def _contact(self, volume: float, area: float, fraction: float, forces: np.ndarray,
                  depth: float) -> WaterContact:
         """The contact report from this step's submerged ``volume`` [m^3], wetted ``area`` [m^2],
-        submerged ``fraction`` [-], the effects' forces in ``stats`` (kernel.S_* layout, an array or
-        the numbers read back as floats) and the ``depth`` [m] of the body's lowest point."""
+        submerged ``fraction`` [-], the effects' forces in ``forces`` (kernel.S_* layout, an array
+        the report keeps: its force arrays are views of it) and the ``depth`` [m] of the body's
+        lowest point."""
         b, p, f, w = kernel.S_BUOYANCY, kernel.S_PRESSURE, kernel.S_FRICTION, kernel.S_WAVE
         return WaterContact(
             wetted=bool(volume > 0.0 or area > 0.0), submerged_fraction=fraction, wetted_area=area,
-            buoyancy=np.array(stats[b:b + 3]), pressure=np.array(stats[p:p + 3]),
-            friction=np.array(stats[f:f + 3]), wave_drag=np.array(stats[w:w + 3]), depth=depth,
-            dissipated_energy=self.dissipated)
+            buoyancy=forces[b:b + 3], pressure=forces[p:p + 3], friction=forces[f:f + 3],
+            wave_drag=forces[w:w + 3], depth=depth, dissipated_energy=self.dissipated)
 
     @staticmethod
     def _submerged_fraction(body: BodyState, volume: float, top_under: float) -> float:
@@ -617,11 +616,7 @@ class WaterCoupler(Component):
         if quiet is not None:
             return quiet
         forces = numbers[:kernel.S_TOTAL + 6].copy()  # the messages' arrays are views of one copy
-        contact = WaterContact(
-            volume > 0.0 or area > 0.0, self._submerged_fraction(body, volume, top_under), area,
-            forces[kernel.S_BUOYANCY:kernel.S_BUOYANCY + 3], forces[kernel.S_PRESSURE:kernel.S_PRESSURE + 3],
-            forces[kernel.S_FRICTION:kernel.S_FRICTION + 3], forces[kernel.S_WAVE:kernel.S_WAVE + 3], depth,
-            self.dissipated)
+        contact = self._contact(volume, area, self._submerged_fraction(body, volume, top_under), forces, depth)
         occupied = self._empty_occupied
         if i_lo <= i_hi:
             i_lo, i_hi, j_lo, j_hi = int(i_lo), int(i_hi), int(j_lo), int(j_hi)

@@ -100,23 +100,19 @@ class MetSurface:
         new to the window live), blended with the live surface by ``share`` (:func:`planing_share`).
 
         The arrays returned are the surface's own work arrays, valid until the next read."""
-        met = self._met
-        if not self.in_contact or met is None:
-            self._met = (i0, j0, height, velocity)
-            return height, velocity
-        mi0, mj0, m_h, m_v = met
-        (h, v), blend = self._work_arrays(height.shape, m_h)
-        _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v, share, blend[0], blend[1])
-        self._met = (i0, j0, h, v)
-        return blend if share < 1.0 else (h, v)
+        freeze, mi0, mj0, m_h, m_v, h, v, out_h, out_v = self.plan(i0, j0, height, velocity, share)
+        if freeze:
+            _freeze(i0, j0, height, velocity, mi0, mj0, m_h, m_v, h, v, share, out_h, out_v)
+        return out_h, out_v
 
     def plan(self, i0: int, j0: int, height: np.ndarray, velocity: np.ndarray, share: float) -> tuple:
-        """:meth:`read` for a compiled step that makes the surface itself
-        (:func:`components.coupler.step_kernel.met_ring_step`): (freeze, mi0, mj0, m_h, m_v, fr_h,
-        fr_v, met_h, met_v), the arguments of :func:`_freeze` and the arrays the surface effects
-        then read. Out of contact freeze is False and met_h, met_v are the live ``height`` and
-        ``velocity`` (the other arrays are the same two, unused). The state moves on as
-        :meth:`read` moves it, so the call must follow before the next one."""
+        """:meth:`read` but for the freeze itself, for a compiled step that makes the surface in its
+        own call (:func:`components.coupler.step_kernel.met_ring_step`): (freeze, mi0, mj0, m_h, m_v,
+        fr_h, fr_v, met_h, met_v), the arguments of :func:`_freeze` (met_h, met_v its blend, written
+        when ``share`` < 1, else fr_h, fr_v themselves) and the arrays the surface effects then read.
+        Out of contact freeze is False and met_h, met_v are the live ``height`` and ``velocity``
+        (the other arrays are the same two, unused). The state moves on as if the freeze were done,
+        so it must follow before the next call."""
         met = self._met
         if not self.in_contact or met is None:
             self._met = (i0, j0, height, velocity)
