@@ -33,3 +33,26 @@ def test_the_strong_throw_skips_ten_times_over_25_m():
     assert metrics["skips"] >= 10
     assert metrics["distance"] >= 25.0
     assert metrics["outcome"] == "sink" and metrics["reached_edge"] == 0
+
+
+WIDE = ["components.lake.ny=2400", "components.lake.origin_y=-12.0"]  # 24 m: no curving throw leaves it
+
+
+def _skips(overrides: list[str], until: float) -> tuple[int, list[float]]:
+    """(skips, take-off angles [deg]) of the lake's throw with ``overrides``, run to ``until`` [s]."""
+    outcome = run_scene(load(LAKE, overrides=[*WIDE, f"until={until}", *overrides]), None, progress=False)
+    stages = outcome.simulation.components["stages"]
+    return stages.metrics()["skips"], [s.takeoff_angle_deg for s in stages.records]
+
+
+@pytest.mark.slow
+def test_at_65_rev_s_the_free_slate_skips_twice_where_the_held_one_skips_ten_times():
+    """docs/validation.md, section 2: the lake's throw spun at the experiments' 65 rev/s. Held, its
+    spin costs it one skip of eleven; free, its first contact already turns it off the held path
+    (a flatter take-off) and it skips twice."""
+    spin = "components.stone.spin=408"
+    held, held_angles = _skips([spin], 3.0)  # ten skips by t = 2.4 s
+    free, free_angles = _skips([spin, "components.stone.lock_attitude=false"], 3.0)
+    assert held == 10
+    assert free == 2
+    assert free_angles[0] < held_angles[0] - 1.5  # 6.1 against 8.0 deg
