@@ -19,9 +19,11 @@ from typing import Any
 
 from mcap.reader import make_reader
 
+from cosim.codec import state_proto
 from cosim.codec.json_codec import codec_for, decode_state
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import ProtoError, proto_codec_for
+from cosim.codec.state_proto import decode_checkpoint
 from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
@@ -204,12 +206,15 @@ class Recording:
 
     def checkpoints(self) -> list[tuple[int, dict[str, Any]]]:
         """(time_ns, checkpoint) pairs, in time order."""
-        if CHECKPOINT_TOPIC not in self.channels:
+        channel = self.channels.get(CHECKPOINT_TOPIC)
+        if channel is None:
             return []
+        # protobuf (cosim.codec.state_proto); JSON in recordings made before it
+        decode = decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
         out = []
         for _, stamp, data in self.raw([CHECKPOINT_TOPIC]):
             try:
-                out.append((stamp, decode_state(data)))
+                out.append((stamp, decode(data)))
             except Exception as exc:
                 raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
                                      f"({_short(exc)})") from None

@@ -7,7 +7,8 @@ Layout of a recording:
   JSON with a ``jsonschema`` schema for the others (a ``str`` field: stages, events, the status);
   log_time = publish_time = simulation time [ns]; a per-channel sequence number.
 - ``/cosim/events``: framework events (substepping switched on, ...), ``cosim.Event``.
-- ``/cosim/checkpoint``: full restart states every ``record.checkpoint_every`` seconds.
+- ``/cosim/checkpoint``: full restart states every ``record.checkpoint_every`` seconds, as protobuf
+  ``cosim.Checkpoint`` (:mod:`cosim.codec.state_proto`: each array's raw bytes).
 - ``/cosim/status``: the final status record (ok, stopped, failed, interrupted), always written.
 - metadata ``cosim`` (version, scene name, source, overrides, command line, dt) and the scene YAML
   as the attachment ``scene.yaml``, so a recording is self-describing and replayable.
@@ -36,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from cosim.codec import state_proto
 from cosim.codec.json_codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for, plain_state
 from cosim.codec.jsontext import RecordLayout
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
@@ -252,9 +254,8 @@ class Recorder(BaseObserver):
         self._mark()  # the step's records are whole: the writer keeps them should this process die
 
     def write_checkpoint(self, sim: Simulation) -> None:
-        channel = self._channel(CHECKPOINT_TOPIC, "cosim.Checkpoint", SCHEMA_ENCODING,
-                                json.dumps({"title": "cosim.Checkpoint", "type": "object"}).encode(),
-                                MESSAGE_ENCODING)
+        channel = self._channel(CHECKPOINT_TOPIC, state_proto.SCHEMA_NAME, state_proto.ENCODING,
+                                state_proto.SCHEMA, state_proto.ENCODING)
         self.sink.add_state(channel, sim.time_ns, plain_state(sim.checkpoint()))
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:

@@ -33,8 +33,8 @@ from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
 
-from cosim.codec.jsontext import state_text
 from cosim.codec.records import BYTES, MESSAGE, OTHER, iter_records, read_other
+from cosim.codec.state_proto import state_bytes
 
 # a record inside a chunk: opcode, length; a message record's fixed part: channel id, sequence,
 # log time, publish time (the MCAP specification). Read here rather than with mcap's breakup_chunk,
@@ -122,7 +122,7 @@ def ring_messages(batch: memoryview, renderers: dict[int, Any]) -> Iterator[tupl
         elif kind == OTHER:
             record = read_other(payload)
             if record[0] == "state":
-                yield record[1], record[2], state_text(record[3])
+                yield record[1], record[2], state_bytes(record[3])
         else:
             raise ValueError(f"unknown record kind {kind}")
 

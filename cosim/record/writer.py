@@ -8,8 +8,9 @@ checkpoint into plain data, :func:`cosim.codec.json_codec.plain_state`), gathers
 the free space of a ring in shared memory (:class:`cosim.codec.records.Stage`,
 :mod:`cosim.record.ring`) and hands them over in batches; the writer copies each payload, writes
 the JSON text of the others with :mod:`cosim.codec.jsontext` (the same functions
-:func:`cosim.codec.json_codec.encode` uses, so the bytes do not depend on where they are made), and
-the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment
+:func:`cosim.codec.json_codec.encode` uses, so the bytes do not depend on where they are made) and
+each checkpoint's protobuf (:func:`cosim.codec.state_proto.state_bytes`: its arrays' bytes copied
+once), and the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment
 and metadata indexes). The writer imports nothing else of cosim, so it starts in a few tens of
 milliseconds, and is kept off the simulation's core (:class:`WriterPlacement`). It also makes
 recordings sturdier: if the simulating process dies, the writer sees its control pipe close and
@@ -38,8 +39,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from cosim.codec.jsontext import RecordLayout, Renderer, renderer, state_text
+from cosim.codec.jsontext import RecordLayout, Renderer, renderer
 from cosim.codec.records import BYTES, MESSAGE, OTHER, Stage, Write, iter_records, read_other
+from cosim.codec.state_proto import state_bytes
 from cosim.errors import CosimError
 from cosim.record.output import Claim, claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
@@ -151,7 +153,7 @@ class _Apply:
         checkpoint; the number of messages written (1 for a checkpoint, else 0)."""
         op = record[0]
         if op == "state":
-            self.logs[record[1]](state_text(record[3]), record[2])
+            self.logs[record[1]](state_bytes(record[3]), record[2])
             return 1
         if op == "schema":
             self.schemas[record[1]] = self._foxglove.Schema(name=record[2], encoding=record[3], data=record[4])

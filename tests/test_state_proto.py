@@ -1,0 +1,115 @@
+"""Checkpoints as protobuf (cosim.codec.state_proto): the same state as the JSON form, bit for bit,
+readable by any protobuf reader from the recording's own schema, and JSON checkpoints of older
+recordings still read."""
+
+import math
+import pickle
+
+import hypothesis.extra.numpy as hnp
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from cosim.codec.json_codec import decode_state, encode_state, plain_state
+from cosim.codec.state_proto import SCHEMA, SCHEMA_NAME, decode_checkpoint, state_bytes
+
+floats = st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([-0.0, 5e-324, 1.7976931348623157e308])
+states = st.recursive(
+    st.none() | st.booleans() | st.integers(-2**70, 2**70) | floats | st.text(max_size=5)
+    | hnp.arrays(st.sampled_from([np.float64, np.float32, np.int64, np.int32, np.bool_]),
+                 hnp.array_shapes(min_dims=0, max_dims=3, min_side=0, max_side=3)),
+    lambda children: st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=3), children, max_size=3),
+    max_leaves=12)
+
+
+def same(a, b) -> bool:
+    """Equal bit for bit: arrays by dtype, shape and bytes; floats by their bits."""
+    if isinstance(a, np.ndarray):
+        return isinstance(b, np.ndarray) and a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    if isinstance(a, dict):
+        return isinstance(b, dict) and list(a) == list(b) and all(same(a[k], b[k]) for k in a)
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(map(same, a, b))
+    if isinstance(a, float):
+        return isinstance(b, float) and np.float64(a).tobytes() == np.float64(b).tobytes()
+    return type(a) is type(b) and a == b
+
+
+@given(states)
+def test_a_checkpoint_reads_back_as_the_json_form_does(value):
+    """Whatever plain state holds (NaN payloads, -0.0, ints beyond 64 bits, empty and 0-d arrays,
+    strings reading 'nan'), the protobuf form gives back exactly what the JSON form gives."""
+    assert same(decode_checkpoint(state_bytes(plain_state(value))), decode_state(encode_state(value)))
+
+
+def test_an_array_goes_out_as_its_raw_bytes():
+    """A 1 MB array makes a checkpoint of 1 MB and a few bytes (base64 text would be 4/3 of it),
+    whichever buffer type holds it when it is written (the writer process gets memoryviews)."""
+    h = np.random.default_rng(1).normal(size=(500, 250))
+    plain = plain_state({"pond": {"h": h, "steps": 3}})
+    data = state_bytes(plain)
+    assert h.nbytes < len(data) < h.nbytes + 100
+    assert h.tobytes() in data
+    buffers: list = []
+    out_of_band = pickle.dumps(plain, protocol=5, buffer_callback=lambda b: buffers.append(b.raw()))
+    in_ring = pickle.loads(out_of_band, buffers=[memoryview(bytearray(b)) for b in buffers])  # as the writer reads it
+    assert state_bytes(in_ring) == data
+    assert state_bytes(pickle.loads(pickle.dumps(plain, protocol=5))) == data  # in band: bytes
+    back = decode_checkpoint(data)["pond"]["h"]
+    assert back.tobytes() == h.tobytes() and back.flags.writeable
+
+
+def test_the_schema_decodes_a_checkpoint_in_a_protobuf_reader():
+    """The recording's schema is a FileDescriptorSet any protobuf reader builds the message from: it
+    parses a checkpoint and writes it back byte for byte."""
+    pytest.importorskip("google.protobuf")
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    pool = descriptor_pool.DescriptorPool()
+    for file in descriptor_pb2.FileDescriptorSet.FromString(SCHEMA).file:
+        pool.Add(file)
+    checkpoint = message_factory.GetMessageClass(pool.FindMessageTypeByName(SCHEMA_NAME))
+    state = {"pond": {"h": np.arange(6.0).reshape(2, 3), "steps": -4, "model": {"c": 0.5, "on": True}},
+             "stone": [1.5, None, "label", 2**70, math.inf]}
+    data = state_bytes(plain_state(state))
+    parsed = checkpoint.FromString(data)
+    assert parsed.SerializeToString() == data
+    pond = {e.key: e.value for e in parsed.state.map.entries}["pond"]
+    h = {e.key: e.value for e in pond.map.entries}["h"].array
+    assert (h.dtype, list(h.shape), h.data) == ("<f8", [2, 3], state["pond"]["h"].tobytes())
+    assert parsed.state.map.entries[1].value.list.items[3].big_integer == str(2**70)
+
+
+@pytest.mark.parametrize("payload", [b"", b"\x0a\x02\x08\x01", b"\x0a\x03\x0d\x00\x00", b"{\"a\": 1}"])
+def test_what_is_not_a_checkpoint_is_refused(payload):
+    with pytest.raises(ValueError):
+        decode_checkpoint(payload)
+
+
+def test_json_checkpoints_of_an_older_recording_still_read(tmp_path, monkeypatch):
+    """A recording made before checkpoints were protobuf holds them as JSON (message encoding
+    ``json``): they read back as they were written, and a recording now holds them as protobuf."""
+    from pathlib import Path
+
+    from cosim.record import recorder as rec
+    from cosim.record.reader import Recording
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene_file = Path(__file__).resolve().parents[1] / "scenarios" / "ping_pong.yaml"
+    run_scene(load(scene_file, overrides=["until=2.0"]), tmp_path / "new.mcap", progress=False)
+
+    def json_checkpoint(self, sim):  # the recorder as it was
+        channel = self._channel(rec.CHECKPOINT_TOPIC, "cosim.Checkpoint", "jsonschema",
+                                b'{"title": "cosim.Checkpoint", "type": "object"}', "json")
+        self.sink.add_message(channel, sim.time_ns, encode_state(sim.checkpoint()))
+
+    monkeypatch.setattr(rec.Recorder, "write_checkpoint", json_checkpoint)
+    run_scene(load(scene_file, overrides=["until=2.0"]), tmp_path / "old.mcap", progress=False)
+
+    old, new = Recording(tmp_path / "old.mcap"), Recording(tmp_path / "new.mcap")
+    assert old.channels[rec.CHECKPOINT_TOPIC].message_encoding == "json"
+    assert new.channels[rec.CHECKPOINT_TOPIC].message_encoding == "protobuf"
+    assert [t for t, _ in old.checkpoints()] == [t for t, _ in new.checkpoints()] == [0, 10**9, 2 * 10**9]
+    assert all(same(a, b) for (_, a), (_, b) in zip(old.checkpoints(), new.checkpoints(), strict=True))
