@@ -2,7 +2,7 @@
 bytes as they are. Encoding is standard library only (the recording's writer process runs it).
 
 Why: a checkpoint is mostly arrays (the pond's heights and velocities: 5.6 MB each time for the
-reference skip). Written as JSON, their base64 text cost the writer process about a third of its CPU,
+reference skip). Written as JSON, their base64 text cost the writer process about a quarter of its CPU,
 which on a machine whose other core is busy is the run's wall time, and made the file's checkpoints
 a third larger before compression. As protobuf an array goes out as its raw little-endian bytes,
 copied once; the structure around it (components, names, numbers) is a small tree of ``Value``
@@ -131,16 +131,16 @@ def _value(value: Any, out: list[Any]) -> int:
         size = 0
         for key, item in value.items():
             entry: list[Any] = []
-            n = _text(1, key, entry)
             body: list[Any] = []
-            n += _wrap(2, body, _value(item, body), entry)
+            n = _text(1, key, entry)
+            n += _wrap(2, body, _value(item, body), entry)  # body is filled before _wrap reads it
             size += _wrap(1, entry, n, inner)
         return _wrap(MAP, inner, size, out)
     if kind is list:
         size = 0
         for item in value:
             body = []
-            size += _wrap(1, body, _value(item, body), inner)
+            size += _wrap(1, body, _value(item, body), inner)  # body is filled before _wrap reads it
         return _wrap(LIST, inner, size, out)
     raise TypeError(f"checkpoint value of type {kind.__name__} is not plain state")
 
