@@ -36,6 +36,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from cosim.codec.protowire import I32, I64, LEN, VARINT, ProtoError, fields_on_wire, varint
+from cosim.codec.protowire import int_field as _int_field
+from cosim.codec.protowire import len_field as _len_field
+from cosim.codec.protowire import tag as _tag
 from cosim.codec.records import BYTES, HEADER, LENGTH, Write
 from cosim.messages import FieldKind, FieldSpec, Message, fields_of
 
@@ -48,7 +52,7 @@ INLINE_ELEMENTS = 16  # a fixed-shape array of at most this many elements is pac
 _TYPE_DOUBLE, _TYPE_FLOAT, _TYPE_BOOL = 1, 2, 8
 _TYPE_FIXED64, _TYPE_FIXED32, _TYPE_SFIXED32, _TYPE_SFIXED64 = 6, 7, 15, 16
 _LABEL_OPTIONAL, _LABEL_REPEATED = 1, 3
-_VARINT, _I64, _LEN, _I32 = 0, 1, 2, 5  # wire types
+_VARINT, _I64, _LEN, _I32 = VARINT, I64, LEN, I32  # wire types
 
 # array dtype -> (protobuf type, struct code of one element)
 _ELEMENTS = {"float64": (_TYPE_DOUBLE, "d"), "float32": (_TYPE_FLOAT, "f"), "int64": (_TYPE_SFIXED64, "q"),
@@ -60,62 +64,6 @@ _SCALARS = {FieldKind.FLOAT: (_TYPE_DOUBLE, "d"), FieldKind.INT: (_TYPE_SFIXED64
 _WIRE_OF = {_TYPE_DOUBLE: _I64, _TYPE_SFIXED64: _I64, _TYPE_FIXED64: _I64, _TYPE_FLOAT: _I32,
             _TYPE_SFIXED32: _I32, _TYPE_FIXED32: _I32, _TYPE_BOOL: _VARINT}
 _LITTLE_ENDIAN = sys.byteorder == "little"
-
-
-class ProtoError(ValueError):
-    """A payload or a schema that does not decode."""
-
-
-def varint(n: int) -> bytes:
-    """The protobuf varint of a non-negative integer."""
-    out = bytearray()
-    while n > 0x7F:
-        out.append((n & 0x7F) | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)
-
-
-def _tag(number: int, wire: int) -> bytes:
-    return varint(number << 3 | wire)
-
-
-def _read_varint(data: Any, at: int) -> tuple[int, int]:
-    n = shift = 0
-    while True:
-        if at >= len(data) or shift > 63:
-            raise ProtoError("truncated or overlong varint")
-        b = data[at]
-        at += 1
-        n |= (b & 0x7F) << shift
-        if b < 0x80:
-            return n, at
-        shift += 7
-
-
-def fields_on_wire(data: Any) -> list[tuple[int, int, Any]]:
-    """(field number, wire type, value) of every field of a protobuf payload, in wire order: an int
-    for a varint, the raw bytes (a memoryview) for the other wire types."""
-    view = memoryview(data).cast("B")
-    out = []
-    at, end = 0, len(view)
-    while at < end:
-        key, at = _read_varint(view, at)
-        number, wire = key >> 3, key & 7
-        if wire == _VARINT:
-            value, at = _read_varint(view, at)
-        elif wire in (_I64, _I32):
-            n = 8 if wire == _I64 else 4
-            value, at = view[at:at + n], at + n
-        elif wire == _LEN:
-            n, at = _read_varint(view, at)
-            value, at = view[at:at + n], at + n
-        else:
-            raise ProtoError(f"field {number}: wire type {wire} is not written by cosim")
-        if at > end:
-            raise ProtoError(f"field {number}: truncated")
-        out.append((number, wire, value))
-    return out
 
 
 # --- the layout of a type ------------------------------------------------------------------------
@@ -175,14 +123,6 @@ def layout_of(specs: tuple[FieldSpec, ...]) -> ProtoLayout | None:
 
 
 # --- the schema: a FileDescriptorSet, written by hand ---------------------------------------------
-
-def _len_field(number: int, payload: bytes) -> bytes:
-    return _tag(number, _LEN) + varint(len(payload)) + payload
-
-
-def _int_field(number: int, value: int) -> bytes:
-    return _tag(number, _VARINT) + varint(value)
-
 
 def schema_bytes(type_name: str, layout: ProtoLayout) -> bytes:
     """A serialized ``google.protobuf.FileDescriptorSet`` holding the message ``cosim.<type_name>``

@@ -40,41 +40,40 @@ import pickle
 import struct
 from typing import Any
 
+from cosim.codec.protowire import (
+    I64,
+    LEN,
+    VARINT,
+    ProtoError,
+    fields_on_wire,
+    int_field,
+    len_field,
+    read_varint,
+    tag,
+    varint,
+)
+
 SCHEMA_NAME = "cosim.Checkpoint"
 ENCODING = "protobuf"  # schema and message encoding
 
 _RAW = (bytes, bytearray, memoryview, pickle.PickleBuffer)  # an array's bytes, wherever plain state is read
 _DOUBLE = struct.Struct("<d")
 _INT64_MIN, _INT64_MAX = -(1 << 63), (1 << 63) - 1
-_VARINT, _I64, _LEN = 0, 1, 2  # wire types
 
 # field numbers of Value's oneof
 NUMBER, INTEGER, TEXT, FLAG, NULL, LIST, MAP, ARRAY, BIG_INTEGER = range(1, 10)
 
 
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while n > 0x7F:
-        out.append((n & 0x7F) | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)
-
-
-def _key(number: int, wire: int) -> bytes:
-    return _varint(number << 3 | wire)
-
-
-_NUMBER_KEY = _key(NUMBER, _I64)
-_INTEGER_KEY = _key(INTEGER, _VARINT)
-_FLAG_TRUE, _FLAG_FALSE = _key(FLAG, _VARINT) + b"\x01", _key(FLAG, _VARINT) + b"\x00"
-_NULL = _key(NULL, _VARINT) + b"\x01"
+_NUMBER_KEY = tag(NUMBER, I64)
+_INTEGER_KEY = tag(INTEGER, VARINT)
+_FLAG_TRUE, _FLAG_FALSE = tag(FLAG, VARINT) + b"\x01", tag(FLAG, VARINT) + b"\x00"
+_NULL = tag(NULL, VARINT) + b"\x01"
 
 
 def _wrap(number: int, pieces: list[Any], size: int, out: list[Any]) -> int:
     """Append field ``number`` holding ``pieces`` (``size`` bytes) as a length-delimited field; its
     size on the wire."""
-    head = _key(number, _LEN) + _varint(size)
+    head = tag(number, LEN) + varint(size)
     out.append(head)
     out.extend(pieces)
     return len(head) + size
@@ -108,7 +107,7 @@ def _value(value: Any, out: list[Any]) -> int:
         return 2
     if kind is int:
         if _INT64_MIN <= value <= _INT64_MAX:
-            data = _INTEGER_KEY + _varint((value << 1) ^ (value >> 63))  # zigzag: sint64
+            data = _INTEGER_KEY + varint((value << 1) ^ (value >> 63))  # zigzag: sint64
             out.append(data)
             return len(data)
         return _text(BIG_INTEGER, str(value), out)
@@ -120,7 +119,7 @@ def _value(value: Any, out: list[Any]) -> int:
     inner: list[Any] = []
     if kind is dict and _is_array(value):
         size = _text(1, value["__ndarray__"], inner)
-        dims = b"".join(_varint(int(d)) for d in value["shape"])
+        dims = b"".join(varint(int(d)) for d in value["shape"])
         if dims:
             size += _wrap(2, [dims], len(dims), inner)
         data = _bytes_of(value["base64"])
@@ -160,13 +159,11 @@ def decode_checkpoint(payload: Any) -> Any:
     """The state of a ``cosim.Checkpoint`` payload: dicts, lists, numbers, strings and numpy arrays
     (each a copy of its bytes), as :func:`cosim.codec.json_codec.decode_state` gives it from JSON.
     Raises ValueError when the payload is not one."""
-    from cosim.codec.proto_codec import ProtoError, fields_on_wire
-
     try:
         fields = fields_on_wire(payload)
     except ProtoError as exc:
         raise ValueError(f"not a checkpoint: {exc}") from None
-    states = [raw for number, wire, raw in fields if number == 1 and wire == _LEN]
+    states = [raw for number, wire, raw in fields if number == 1 and wire == LEN]
     if len(states) != 1:
         raise ValueError("not a checkpoint: no state, or more than one")
     return _value_in(states[0])
@@ -176,13 +173,12 @@ def _value_in(data: Any) -> Any:
     import numpy as np
 
     from cosim.codec.json_codec import _float_in
-    from cosim.codec.proto_codec import fields_on_wire
 
     fields = fields_on_wire(data)
     if len(fields) != 1:
         raise ValueError(f"a checkpoint value holds {len(fields)} fields, not one")
     number, wire, raw = fields[0]
-    expected = _I64 if number == NUMBER else _VARINT if number in (INTEGER, FLAG, NULL) else _LEN
+    expected = I64 if number == NUMBER else VARINT if number in (INTEGER, FLAG, NULL) else LEN
     if wire != expected or not NUMBER <= number <= BIG_INTEGER:
         raise ValueError(f"a checkpoint value has field {number} of wire type {wire}")
     if number == NUMBER:
@@ -198,11 +194,11 @@ def _value_in(data: Any) -> Any:
     if number == BIG_INTEGER:
         return int(str(raw, "utf-8"))
     if number == LIST:
-        return [_value_in(item) for n, w, item in fields_on_wire(raw) if n == 1 and w == _LEN]
+        return [_value_in(item) for n, w, item in fields_on_wire(raw) if n == 1 and w == LEN]
     if number == MAP:
         out = {}
         for n, w, entry in fields_on_wire(raw):
-            if n != 1 or w != _LEN:
+            if n != 1 or w != LEN:
                 continue
             parts = {k: v for k, _, v in fields_on_wire(entry)}
             out[str(parts.get(1, b""), "utf-8")] = _value_in(parts[2])
@@ -215,27 +211,12 @@ def _value_in(data: Any) -> Any:
     dims = memoryview(parts.get(2, b"")).cast("B")
     at = 0
     while at < len(dims):
-        d = shift = 0
-        while True:
-            b = dims[at]
-            at += 1
-            d |= (b & 0x7F) << shift
-            shift += 7
-            if b < 0x80:
-                break
+        d, at = read_varint(dims, at)
         shape.append(d)
     return np.frombuffer(parts.get(3, b""), dtype=dtype).reshape(shape).copy()
 
 
 # --- the schema -----------------------------------------------------------------------------------------
-
-def _len_field(number: int, payload: bytes) -> bytes:
-    return _key(number, _LEN) + _varint(len(payload)) + payload
-
-
-def _int_field(number: int, value: int) -> bytes:
-    return _key(number, _VARINT) + _varint(value)
-
 
 # google/protobuf/descriptor.proto: FieldDescriptorProto.Type and .Label
 _T_DOUBLE, _T_INT64, _T_BOOL, _T_STRING, _T_MESSAGE, _T_BYTES, _T_SINT64 = 1, 3, 8, 9, 11, 12, 18
@@ -244,19 +225,19 @@ _OPTIONAL, _REPEATED = 1, 3
 
 def _field(name: str, number: int, kind: int, label: int = _OPTIONAL, type_name: str = "",
            oneof: int | None = None) -> bytes:
-    out = (_len_field(1, name.encode()) + _int_field(3, number) + _int_field(4, label) + _int_field(5, kind)
-           + (_len_field(6, f".cosim.{type_name}".encode()) if type_name else b"")
-           + (_int_field(9, oneof) if oneof is not None else b"") + _len_field(10, name.encode()))
-    return _len_field(2, out)
+    out = (len_field(1, name.encode()) + int_field(3, number) + int_field(4, label) + int_field(5, kind)
+           + (len_field(6, f".cosim.{type_name}".encode()) if type_name else b"")
+           + (int_field(9, oneof) if oneof is not None else b"") + len_field(10, name.encode()))
+    return len_field(2, out)
 
 
 def _message(name: str, *fields: bytes, oneof: str = "") -> bytes:
-    return _len_field(4, _len_field(1, name.encode()) + b"".join(fields)
-                      + (_len_field(8, _len_field(1, oneof.encode())) if oneof else b""))
+    return len_field(4, len_field(1, name.encode()) + b"".join(fields)
+                      + (len_field(8, len_field(1, oneof.encode())) if oneof else b""))
 
 
-SCHEMA = _len_field(1, (
-    _len_field(1, b"cosim/Checkpoint.proto") + _len_field(2, b"cosim")
+SCHEMA = len_field(1, (
+    len_field(1, b"cosim/Checkpoint.proto") + len_field(2, b"cosim")
     + _message("Checkpoint", _field("state", 1, _T_MESSAGE, type_name="Value"))
     + _message("Value",
                _field("number", NUMBER, _T_DOUBLE, oneof=0), _field("integer", INTEGER, _T_SINT64, oneof=0),
@@ -270,5 +251,5 @@ SCHEMA = _len_field(1, (
     + _message("Entry", _field("key", 1, _T_STRING), _field("value", 2, _T_MESSAGE, type_name="Value"))
     + _message("Array", _field("dtype", 1, _T_STRING), _field("shape", 2, _T_INT64, _REPEATED),
                _field("data", 3, _T_BYTES))
-    + _len_field(12, b"proto3")))
+    + len_field(12, b"proto3")))
 """The serialized ``FileDescriptorSet`` of ``cosim.Checkpoint`` (and the messages it holds)."""
