@@ -81,7 +81,8 @@ def test_the_schema_decodes_a_checkpoint_in_a_protobuf_reader():
     assert parsed.state.map.entries[1].value.list.items[3].big_integer == str(2**70)
 
 
-@pytest.mark.parametrize("payload", [b"", b"\x0a\x02\x08\x01", b"\x0a\x03\x0d\x00\x00", b"{\"a\": 1}"])
+@pytest.mark.parametrize("payload", [b"", b"\x0a\x02\x08\x01", b"\x0a\x03\x0d\x00\x00", b"{\"a\": 1}",
+                                     b"\x0a\x04\x3a\x02\x0a\x00", b"\x0a\x05\x3a\x03\x0a\x01\x0a"])
 def test_what_is_not_a_checkpoint_is_refused(payload):
     with pytest.raises(ValueError):
         decode_checkpoint(payload)

@@ -170,10 +170,6 @@ def decode_checkpoint(payload: Any) -> Any:
 
 
 def _value_in(data: Any) -> Any:
-    import numpy as np
-
-    from cosim.codec.json_codec import _float_in
-
     fields = fields_on_wire(data)
     if len(fields) != 1:
         raise ValueError(f"a checkpoint value holds {len(fields)} fields, not one")
@@ -201,11 +197,17 @@ def _value_in(data: Any) -> Any:
             if n != 1 or w != LEN:
                 continue
             parts = {k: v for k, _, v in fields_on_wire(entry)}
+            if 2 not in parts:
+                raise ValueError("a checkpoint map entry has no value")
             out[str(parts.get(1, b""), "utf-8")] = _value_in(parts[2])
         if len(out) == 1 and "__float__" in out:  # a non-finite float, written as JSON writes it
+            from cosim.codec.json_codec import _float_in
+
             return _float_in(out["__float__"])
         return out
-    parts = {k: v for k, _, v in fields_on_wire(raw)}  # ARRAY
+    import numpy as np  # ARRAY (numpy only where a checkpoint is read back)
+
+    parts = {k: v for k, _, v in fields_on_wire(raw)}
     dtype = np.dtype(str(parts.get(1, b""), "utf-8"))
     shape: list[int] = []
     dims = memoryview(parts.get(2, b"")).cast("B")
