@@ -223,22 +223,22 @@ class WaterCoupler(Component):
         self._zero_contact_cache: tuple[float, WaterContact] | None = None
         self._scratch: step_kernel.RingScratch | None = None  # work arrays of the one-call step
         self._bv = np.empty(step_kernel.N_BODY)  # the usual step's body vector, filled each step
-        self._prm = self._parameter_vector()
-        # the same with the submerged drag coefficient of each shape in, for the usual step
-        self._prm_disk, self._prm_sphere = self._prm.copy(), self._prm.copy()
-        self._prm_disk[step_kernel.P_C_D] = self.params.c_d_disk
-        self._prm_sphere[step_kernel.P_C_D] = self.params.c_d_sphere
+        # the parameter vector of each shape (its submerged drag coefficient in)
+        self._prm_disk = self._parameter_vector(self.params.c_d_disk)
+        self._prm_sphere = self._parameter_vector(self.params.c_d_sphere)
         self._zero_wrench = Wrench(_ZERO3, _ZERO3)
         self._empty_occupied = OccupiedHeight(0, 0, _EMPTY_GRID)
         self._empty_request = PatchRequest.empty()
         self.work = {"columns": 0, "elements": 0}
         self._reset_state()
 
-    def _parameter_vector(self) -> np.ndarray:
-        """The scalar parameters as :mod:`step_kernel`'s parameter vector (P_* layout)."""
+    def _parameter_vector(self, c_d: float) -> np.ndarray:
+        """The scalar parameters as :mod:`step_kernel`'s parameter vector (P_* layout), with ``c_d``
+        the submerged drag coefficient of the body's shape."""
         p = self.params
         prm = np.zeros(step_kernel.N_PARAMS)
         for index, value in ((step_kernel.P_RHO, p.rho), (step_kernel.P_G, p.g), (step_kernel.P_C_L, p.c_l),
+                             (step_kernel.P_C_D, c_d),
                              (step_kernel.P_C_N, p.c_n), (step_kernel.P_C_B, p.c_b), (step_kernel.P_C_F, p.c_f),
                              (step_kernel.P_C_W, p.c_w),
                              (step_kernel.P_C_MIN, p.c_min), (step_kernel.P_WET_RAMP, p.wet_ramp),
@@ -590,7 +590,7 @@ class WaterCoupler(Component):
         numbers = scratch.numbers
         step_kernel.met_ring_step(
             freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
-            shape, bv, self._prm_disk if shape == Shape.DISK else self._prm_sphere, self.flags, self._local,
+            shape, bv, self._parameters_of(shape), self.flags, self._local,
             self._subsamples(float(body.radius), cell), level, share,
             float(patch.origin_x + patch.i0 * patch.cell), float(patch.origin_y + patch.j0 * patch.cell), cell,
             met_h, met_v, height, wvel, np.ascontiguousarray(patch.bottom, dtype=np.float64),
@@ -886,7 +886,11 @@ class WaterCoupler(Component):
     def _stability_bound(self, body: BodyState, stats: np.ndarray) -> float:
         """The step bound of :meth:`max_stable_step` [s] from this step's stats: the compiled step's
         own rule (motion, damping and spring bounds), for the steps taken outside it."""
-        return float(step_kernel.stability_bound(self._body_vector(body), stats, self._prm))
+        return float(step_kernel.stability_bound(self._body_vector(body), stats, self._parameters_of(body.shape)))
+
+    def _parameters_of(self, shape: int) -> np.ndarray:
+        """The parameter vector (P_* layout) of a body of ``shape``."""
+        return self._prm_disk if shape == Shape.DISK else self._prm_sphere
 
     def _motion_bound(self, body: BodyState) -> float:
         v, w = body.velocity.tolist(), body.angular_velocity.tolist()
