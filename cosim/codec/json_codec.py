@@ -489,7 +489,9 @@ def plain_state(value: Any) -> Any:
 def _state_in(value: Any) -> Any:
     if isinstance(value, dict):
         if "__ndarray__" in value:
-            raw = base64.b64decode(value["base64"])
+            raw = value["base64"]  # the array's bytes: as base64 text in JSON, raw from a protobuf checkpoint
+            if isinstance(raw, str):
+                raw = base64.b64decode(raw)
             return np.frombuffer(raw, dtype=np.dtype(value["__ndarray__"])).reshape(value["shape"]).copy()
         if "__float__" in value:
             return _float_in(value["__float__"])

@@ -153,7 +153,7 @@ def state_bytes(plain: Any) -> bytes:
     return b"".join(out)
 
 
-# --- reading back (numpy) ------------------------------------------------------------------------------
+# --- reading back ------------------------------------------------------------------------------
 
 def decode_checkpoint(payload: Any) -> Any:
     """The state of a ``cosim.Checkpoint`` payload: dicts, lists, numbers, strings and numpy arrays
@@ -166,10 +166,13 @@ def decode_checkpoint(payload: Any) -> Any:
     states = [raw for number, wire, raw in fields if number == 1 and wire == LEN]
     if len(states) != 1:
         raise ValueError("not a checkpoint: no state, or more than one")
-    return _value_in(states[0])
+    from cosim.codec.json_codec import _state_in  # numpy: only where a checkpoint is read back
+
+    return _state_in(_value_in(states[0]))
 
 
 def _value_in(data: Any) -> Any:
+    """The plain state (:func:`cosim.codec.json_codec.plain_state`'s form) of a ``Value`` message."""
     fields = fields_on_wire(data)
     if len(fields) != 1:
         raise ValueError(f"a checkpoint value holds {len(fields)} fields, not one")
@@ -200,22 +203,15 @@ def _value_in(data: Any) -> Any:
             if 2 not in parts:
                 raise ValueError("a checkpoint map entry has no value")
             out[str(parts.get(1, b""), "utf-8")] = _value_in(parts[2])
-        if len(out) == 1 and "__float__" in out:  # a non-finite float, written as JSON writes it
-            from cosim.codec.json_codec import _float_in
-
-            return _float_in(out["__float__"])
         return out
-    import numpy as np  # ARRAY (numpy only where a checkpoint is read back)
-
-    parts = {k: v for k, _, v in fields_on_wire(raw)}
-    dtype = np.dtype(str(parts.get(1, b""), "utf-8"))
+    parts = {k: v for k, _, v in fields_on_wire(raw)}  # ARRAY: as plain_state holds it, its bytes raw
     shape: list[int] = []
     dims = memoryview(parts.get(2, b"")).cast("B")
     at = 0
     while at < len(dims):
         d, at = read_varint(dims, at)
         shape.append(d)
-    return np.frombuffer(parts.get(3, b""), dtype=dtype).reshape(shape).copy()
+    return {"__ndarray__": str(parts.get(1, b""), "utf-8"), "shape": shape, "base64": parts.get(3, b"")}
 
 
 # --- the schema -----------------------------------------------------------------------------------------
