@@ -36,10 +36,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from cosim.codec.protowire import I32, I64, LEN, VARINT, ProtoError, fields_on_wire, varint
-from cosim.codec.protowire import int_field as _int_field
-from cosim.codec.protowire import len_field as _len_field
-from cosim.codec.protowire import tag as _tag
+from cosim.codec.protowire import I32, I64, LEN, VARINT, ProtoError, fields_on_wire, int_field, len_field, tag, varint
 from cosim.codec.records import BYTES, HEADER, LENGTH, Write
 from cosim.messages import FieldKind, FieldSpec, Message, fields_of
 
@@ -52,7 +49,6 @@ INLINE_ELEMENTS = 16  # a fixed-shape array of at most this many elements is pac
 _TYPE_DOUBLE, _TYPE_FLOAT, _TYPE_BOOL = 1, 2, 8
 _TYPE_FIXED64, _TYPE_FIXED32, _TYPE_SFIXED32, _TYPE_SFIXED64 = 6, 7, 15, 16
 _LABEL_OPTIONAL, _LABEL_REPEATED = 1, 3
-_VARINT, _I64, _LEN, _I32 = VARINT, I64, LEN, I32  # wire types
 
 # array dtype -> (protobuf type, struct code of one element)
 _ELEMENTS = {"float64": (_TYPE_DOUBLE, "d"), "float32": (_TYPE_FLOAT, "f"), "int64": (_TYPE_SFIXED64, "q"),
@@ -61,8 +57,8 @@ _ELEMENTS = {"float64": (_TYPE_DOUBLE, "d"), "float32": (_TYPE_FLOAT, "f"), "int
 _ELEMENT_DTYPES = {kind: np.dtype(name).newbyteorder("<") for name, (kind, _) in _ELEMENTS.items()}
 _SCALARS = {FieldKind.FLOAT: (_TYPE_DOUBLE, "d"), FieldKind.INT: (_TYPE_SFIXED64, "q"),
             FieldKind.ENUM: (_TYPE_SFIXED64, "q"), FieldKind.BOOL: (_TYPE_BOOL, "?")}
-_WIRE_OF = {_TYPE_DOUBLE: _I64, _TYPE_SFIXED64: _I64, _TYPE_FIXED64: _I64, _TYPE_FLOAT: _I32,
-            _TYPE_SFIXED32: _I32, _TYPE_FIXED32: _I32, _TYPE_BOOL: _VARINT}
+_WIRE_OF = {_TYPE_DOUBLE: I64, _TYPE_SFIXED64: I64, _TYPE_FIXED64: I64, _TYPE_FLOAT: I32,
+            _TYPE_SFIXED32: I32, _TYPE_FIXED32: I32, _TYPE_BOOL: VARINT}
 _LITTLE_ENDIAN = sys.byteorder == "little"
 
 
@@ -127,14 +123,14 @@ def layout_of(specs: tuple[FieldSpec, ...]) -> ProtoLayout | None:
 def schema_bytes(type_name: str, layout: ProtoLayout) -> bytes:
     """A serialized ``google.protobuf.FileDescriptorSet`` holding the message ``cosim.<type_name>``
     (proto3: repeated numbers are packed)."""
-    fields = b"".join(_len_field(2, _len_field(1, f.name.encode()) + _int_field(3, f.number)
-                                 + _int_field(4, _LABEL_REPEATED if f.repeated else _LABEL_OPTIONAL)
-                                 + _int_field(5, f.type) + _len_field(10, f.name.encode()))
+    fields = b"".join(len_field(2, len_field(1, f.name.encode()) + int_field(3, f.number)
+                                 + int_field(4, _LABEL_REPEATED if f.repeated else _LABEL_OPTIONAL)
+                                 + int_field(5, f.type) + len_field(10, f.name.encode()))
                       for f in layout.fields)
-    message = _len_field(1, type_name.encode()) + fields
-    file = (_len_field(1, f"{PACKAGE}/{type_name}.proto".encode()) + _len_field(2, PACKAGE.encode())
-            + _len_field(4, message) + _len_field(12, b"proto3"))
-    return _len_field(1, file)
+    message = len_field(1, type_name.encode()) + fields
+    file = (len_field(1, f"{PACKAGE}/{type_name}.proto".encode()) + len_field(2, PACKAGE.encode())
+            + len_field(4, message) + len_field(12, b"proto3"))
+    return len_field(1, file)
 
 
 def layout_from_schema(data: bytes, schema_name: str) -> ProtoLayout:
@@ -172,11 +168,11 @@ def layout_from_schema(data: bytes, schema_name: str) -> ProtoLayout:
 _PREFIXES_KEPT = 1024  # sizes remembered per array field
 
 
-def _prefix(seen: dict[int, bytes], tag: bytes, n: int) -> bytes:
-    """The tag and length of an array field of ``n`` bytes, remembered in ``seen``."""
+def _prefix(seen: dict[int, bytes], key: bytes, n: int) -> bytes:
+    """The tag (``key``) and length of an array field of ``n`` bytes, remembered in ``seen``."""
     if len(seen) >= _PREFIXES_KEPT:
         seen.clear()
-    prefix = seen[n] = tag + varint(n)
+    prefix = seen[n] = key + varint(n)
     return prefix
 
 
@@ -207,14 +203,14 @@ def _compile_writer(specs: tuple[FieldSpec, ...], layout: ProtoLayout) -> Write:
         if field.name in shapes:  # a free-shape array's shape
             name = shapes[field.name]
             ndim = len(by_name[name].array.shape)  # type: ignore[union-attr]
-            constant(_tag(field.number, _LEN) + varint(8 * ndim))
+            constant(tag(field.number, LEN) + varint(8 * ndim))
             codes.append("q" * ndim)
             values.append(f"*a_{name}.shape")
             continue
         spec = by_name[field.name]
         if spec.kind in _SCALARS:
             wire = _WIRE_OF[field.type]
-            constant(_tag(field.number, wire))
+            constant(tag(field.number, wire))
             codes.append(_SCALARS[spec.kind][1])
             values.append(f"m.{spec.name}")
             continue
@@ -231,7 +227,7 @@ def _compile_writer(specs: tuple[FieldSpec, ...], layout: ProtoLayout) -> Write:
             else:
                 pre += [f"i_{spec.name} = {value}", f"if i_{spec.name}.shape != {shape!r}: return -1",
                         f"v_{spec.name} = i_{spec.name}.ravel().tolist()"]
-            constant(_tag(field.number, _LEN) + varint(n * dtype.itemsize))  # type: ignore[operator]
+            constant(tag(field.number, LEN) + varint(n * dtype.itemsize))  # type: ignore[operator]
             codes.append(code * n)  # type: ignore[operator]
             values.append(f"*v_{spec.name}")
             continue
@@ -247,7 +243,7 @@ def _compile_writer(specs: tuple[FieldSpec, ...], layout: ProtoLayout) -> Write:
             env[f"_little_{spec.name}"] = dtype.newbyteorder("<")
             pre.append(f"{a} = {a}.astype(_little_{spec.name})")
         # the tag and length bytes of each size met so far (a run sends few sizes, many times each)
-        env[f"_t_{spec.name}"] = _tag(field.number, _LEN)
+        env[f"_t_{spec.name}"] = tag(field.number, LEN)
         env[f"_seen_{spec.name}"] = {}
         pre += [f"n_{spec.name} = {a}.nbytes",
                 f"l_{spec.name} = _seen_{spec.name}.get(n_{spec.name})",
@@ -372,7 +368,7 @@ def _decoder(codec: ProtoCodec, layout: ProtoLayout) -> Callable[[Any], Message]
             value = struct.unpack("<q", raw)[0]
             return spec.enum_type(value) if spec.enum_type is not None else value
         assert spec.array is not None
-        if wire != _LEN or field.type not in _ELEMENT_DTYPES:
+        if wire != LEN or field.type not in _ELEMENT_DTYPES:
             raise ProtoError(f"{name}: field {spec.name!r} is not a packed array")
         dtype = np.dtype(spec.array.dtype)
         wire_dtype = _ELEMENT_DTYPES[field.type]
@@ -394,7 +390,7 @@ def _decoder(codec: ProtoCodec, layout: ProtoLayout) -> Callable[[Any], Message]
             if field is None:
                 continue  # a field this version of the type no longer has
             if field.name in shape_fields:
-                if wire != _LEN or raw.nbytes % 8:
+                if wire != LEN or raw.nbytes % 8:
                     raise ProtoError(f"{name}: field {field.name!r} is not a packed shape")
                 shapes[field.name] = tuple(int(d) for d in np.frombuffer(raw, dtype="<i8"))
                 continue

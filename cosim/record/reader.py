@@ -23,7 +23,6 @@ from cosim.codec import state_proto
 from cosim.codec.json_codec import codec_for, decode_state
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import ProtoError, proto_codec_for
-from cosim.codec.state_proto import decode_checkpoint
 from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
@@ -210,7 +209,7 @@ class Recording:
         if channel is None:
             return []
         # protobuf (cosim.codec.state_proto); JSON in recordings made before it
-        decode = decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
+        decode = state_proto.decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
         out = []
         for _, stamp, data in self.raw([CHECKPOINT_TOPIC]):
             try:
