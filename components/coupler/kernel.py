@@ -528,8 +528,19 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 rz = axes[2, 0] * u + axes[2, 1] * v + axes[2, 2] * w
                 t1z = axes[2, 0] * el_t1[k, 0] + axes[2, 1] * el_t1[k, 1] + axes[2, 2] * el_t1[k, 2]
                 t2z = axes[2, 0] * el_t2[k, 0] + axes[2, 1] * el_t2[k, 1] + axes[2, 2] * el_t2[k, 2]
+            # the element's height range along each of its two sides; a level one goes from dry to
+            # wet over at least wet_ramp. A disk face's squares are alike along both sides (its
+            # tiling maps onto itself by a quarter turn), so that least range goes to the smaller of
+            # the two, whichever side it lies along: kept on the second side, it made a spinning
+            # disk's wetting depend on how far the disk had turned against its own tiling (the same
+            # throw laid along y skipped differently from along x). A rim strip's and a sphere
+            # band's second side is their height (the thickness, the band's step): it keeps the ramp.
             w1 = abs(t1z)
-            w2 = max(abs(t2z), wet_ramp)
+            w2 = abs(t2z)
+            if w1 < w2 and shape == SHAPE_DISK and abs(el_nrm[k, 2]) > 0.5:
+                w1 = max(w1, wet_ramp)
+            else:
+                w2 = max(w2, wet_ramp)
             half = 0.5 * (w1 + w2)
             pz = cz + rz
             if pz - half >= hmax:
