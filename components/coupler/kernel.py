@@ -528,6 +528,8 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 rz = axes[2, 0] * u + axes[2, 1] * v + axes[2, 2] * w
                 t1z = axes[2, 0] * el_t1[k, 0] + axes[2, 1] * el_t1[k, 1] + axes[2, 2] * el_t1[k, 2]
                 t2z = axes[2, 0] * el_t2[k, 0] + axes[2, 1] * el_t2[k, 1] + axes[2, 2] * el_t2[k, 2]
+            # a disk's face (its normal along the axis, in the body frame), not its rim
+            face = shape == SHAPE_DISK and abs(el_nrm[k, 2]) > 0.5
             # the element's height range along each of its two sides; a level one goes from dry to
             # wet over at least wet_ramp. A disk face's squares are alike along both sides (its
             # tiling maps onto itself by a quarter turn), so that least range goes to the smaller of
@@ -537,7 +539,7 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             # band's second side is their height (the thickness, the band's step): it keeps the ramp.
             w1 = abs(t1z)
             w2 = abs(t2z)
-            if w1 < w2 and shape == SHAPE_DISK and abs(el_nrm[k, 2]) > 0.5:
+            if face and w1 < w2:
                 w1 = max(w1, wet_ramp)
             else:
                 w2 = max(w2, wet_ramp)
@@ -575,7 +577,7 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 if un > 0.0:
                     speed = math.sqrt(ux * ux + uy * uy + uz * uz)
                     p = planing * pressure_magnitude(speed, un, rho, c_lin, c_sq)
-                    if p > 0.0 and shape == SHAPE_DISK and abs(nx * ax + ny * ay + nz * az) > 0.5:
+                    if p > 0.0 and face:
                         # a disk face: its planing load is spread towards the spray root below
                         pl_f[n_pl, 0] = -p * fa * nx
                         pl_f[n_pl, 1] = -p * fa * ny
