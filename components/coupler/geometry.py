@@ -156,7 +156,11 @@ class Elements:
     of mass, in the body frame (disk) or the world frame (sphere, which is tiled once in the world:
     its surface looks the same in any attitude); area: (N,) [m^2]; t1, t2: (N, 3) the element's two
     sides as vectors [m] (their z components in the world give the element's height range, for
-    partial wetting).
+    partial wetting); sub: (N, S, 3) a disk face square's pieces, ``FACE_SUBDIVISION`` per side
+    (S = its square): each piece's centroid (du, dv) [m] from the element's centroid along body x
+    and y, and its share of the element's area [-] (zero outside the disk), so that where on the
+    element its wetted part lies, and the planing pressure's weight there, are resolved finer than
+    the element (kernel._element_pass); S = 0 for a sphere's bands.
     """
 
     pos: np.ndarray
@@ -164,11 +168,15 @@ class Elements:
     area: np.ndarray
     t1: np.ndarray
     t2: np.ndarray
+    sub: np.ndarray
     world_fixed: bool
 
     @property
     def total_area(self) -> float:
         return float(self.area.sum())
+
+
+FACE_SUBDIVISION = 4  # pieces per side of a disk face's square (Elements.sub)
 
 
 @lru_cache(maxsize=16)
@@ -177,28 +185,44 @@ def disk_elements(radius: float, thickness: float, across: int = 16, rim: int = 
     """Both faces of a disk as ``across x across`` squares clipped to the circle, plus ``rim`` strips.
 
     A clipped square keeps its true area and centroid (computed on an ``oversample``-fine grid), so
-    the face area is pi R^2 to ~1e-4 and the face's first moments are right.
+    the face area is pi R^2 to ~1e-4 and the face's first moments are right; so does each of its
+    ``FACE_SUBDIVISION x FACE_SUBDIVISION`` pieces (``Elements.sub``; ``oversample`` a multiple of
+    it).
 
     Cached: the same disk's tiling (about 13 ms to build) is shared by every coupler of a process,
     the runs of a sweep's worker among them. Its arrays are read, never written.
     """
     if across < 2 or rim < 3:
         raise ValueError(f"disk tiling needs across >= 2 and rim >= 3 (got {across}, {rim})")
+    m = FACE_SUBDIVISION
+    if oversample % m:
+        raise ValueError(f"disk tiling needs oversample a multiple of {m} (got {oversample})")
     side = 2.0 * radius / across
     sub = (np.arange(oversample) + 0.5) / oversample * side
-    us, vs, areas = [], [], []
+    k = oversample // m  # samples per piece side
+    us, vs, areas, pieces = [], [], [], []
     for i in range(across):
         for j in range(across):
             x = -radius + i * side + sub
             y = -radius + j * side + sub
-            gx, gy = np.meshgrid(x, y)
+            gx, gy = np.meshgrid(x, y, indexing="ij")
             inside = gx * gx + gy * gy <= radius * radius
             count = int(inside.sum())
             if count == 0:
                 continue
-            us.append(float(gx[inside].mean()))
-            vs.append(float(gy[inside].mean()))
+            u0, v0 = float(gx[inside].mean()), float(gy[inside].mean())
+            us.append(u0)
+            vs.append(v0)
             areas.append(count / oversample**2 * side * side)
+            piece = np.zeros((m * m, 3))
+            for a in range(m):
+                for b in range(m):
+                    block = (slice(a * k, (a + 1) * k), slice(b * k, (b + 1) * k))
+                    mask = inside[block]
+                    n = int(mask.sum())
+                    if n:
+                        piece[a * m + b] = (gx[block][mask].mean() - u0, gy[block][mask].mean() - v0, n / count)
+            pieces.append(piece)
     u = np.array(us)
     v = np.array(vs)
     a = np.array(areas)
@@ -221,8 +245,9 @@ def disk_elements(radius: float, thickness: float, across: int = 16, rim: int = 
         area.append(np.full(rim, arc * thickness))
         t1.append(np.column_stack([-arc * s, arc * c, np.zeros(rim)]))
         t2.append(np.tile([0.0, 0.0, thickness], (rim, 1)))
+    sub = np.concatenate([np.array(pieces), np.array(pieces), np.zeros((rim if thickness > 0 else 0, m * m, 3))])
     return Elements(*(np.ascontiguousarray(np.concatenate(x)) for x in (pos, nrm, area, t1, t2)),
-                    world_fixed=False)
+                    sub=np.ascontiguousarray(sub), world_fixed=False)
 
 
 @lru_cache(maxsize=16)
@@ -253,8 +278,9 @@ def sphere_elements(radius: float, bands: int = 24) -> Elements:
         t1.append(np.column_stack([-arc * s, arc * c, np.zeros(n_az)]))
         # the band's meridian side: its z range is exactly the band's z step
         t2.append(np.column_stack([np.zeros(n_az), np.zeros(n_az), np.full(n_az, radius * dz)]))
+    n = sum(len(x) for x in area)
     return Elements(*(np.ascontiguousarray(np.concatenate(x)) for x in (pos, nrm, area, t1, t2)),
-                    world_fixed=True)
+                    sub=np.zeros((n, 0, 3)), world_fixed=True)
 
 
 @njit(cache=True)

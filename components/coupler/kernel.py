@@ -16,7 +16,7 @@ from numba import njit
 
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
 from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
-from components.coupler.geometry import box_coverage, box_density, disk_chord, sphere_chord
+from components.coupler.geometry import FACE_SUBDIVISION, box_coverage, box_density, disk_chord, sphere_chord
 
 SHAPE_DISK = 0
 SHAPE_SPHERE = 1
@@ -98,63 +98,122 @@ SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^p from the trailing edge 
 # al.'s fig. 3 (p = 2, Savitsky's steady 3/4, lets a 65 rev/s disk lose 4 deg of attack) [-]
 
 
+PLANING_PLACE = 7  # values per element of pl_r: lever arm (3), element index, level over its centre, its two height ranges
+
+
 @njit(cache=True)
-def spray_root_weights(s, load, forward):
-    """Weights [-] of the planing pressure of wetted elements at places ``s`` [m] along the flow
-    (the trailing edge lowest) carrying ``load`` [N] each, keeping ``sum w load = sum load``.
+def _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp):
+    """The wetted share [-] of element ``k``'s piece ``q`` (its share of the element's area times
+    the fraction of it below a level ``t`` [m] above the element's centre): a piece is the element
+    shrunk by FACE_SUBDIVISION, its height ranges the element's ``w1``, ``w2`` over that (the
+    smaller at least ``wet_ramp / FACE_SUBDIVISION``, as the element's at least ``wet_ramp``), its
+    centre ``du zx + dv zy`` above the element's."""
+    share = el_sub[k, q, 2]
+    if share <= 0.0:
+        return 0.0
+    m = FACE_SUBDIVISION
+    if t >= 0.5 * (w1 + w2):  # the whole element is under the level
+        return share
+    tau = el_sub[k, q, 0] * zx + el_sub[k, q, 1] * zy
+    p1 = w1 / m
+    p2 = w2 / m
+    if p1 < p2:
+        p1 = max(p1, wet_ramp / m)
+    else:
+        p2 = max(p2, wet_ramp / m)
+    return share * box_coverage(t - tau, p1, p2)
+
+
+@njit(cache=True)
+def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, zy, wet_ramp, s_lo, s_hi, forward):
+    """Add the planing loads of a disk's face elements (pl_*, ``n_pl`` of them) to the wrench ``fp``
+    (6,), each spread over its wet pieces (Elements.sub) with the weight of the spray root, and
+    scaled so that their sum is unchanged.
 
     A planing surface is not pressed evenly: the pressure peaks where the water meets it, at the
     spray root along the front of the wetted area (Wagner 1932), and the centre of pressure of a
     planing plate lies at 3/4 of the wetted length from its trailing edge at speed (Savitsky 1964,
-    "Hydrodynamic design of planing hulls"), not at half. With xi = (s - s_trailing) / (s_root -
-    s_trailing), the weight (1 - f) + f (p + 1) xi^p (p = SPRAY_ROOT_POWER) puts it there for a
-    plate planing forward (f = ``forward`` = 1, the flow along the surface) and keeps the even
-    pressure of a body meeting the water head on (f = 0). The total force is unchanged: C_L and
-    the law stay the measured ones, only the place they act moves."""
-    n = s.shape[0]
-    w = np.ones(n)
-    if n < 2 or forward <= 0.0:
-        return w
-    lo = s[0]
-    hi = s[0]
-    for k in range(1, n):
-        lo = min(lo, s[k])
-        hi = max(hi, s[k])
-    if hi - lo <= 0.0:
-        return w
+    "Hydrodynamic design of planing hulls"), not at half. With xi a piece's place between ``s_lo``
+    (the trailing edge) and ``s_hi`` (the spray root) [m] along the flow, the weight
+    (1 - f) + f (p + 1) xi^p (p = SPRAY_ROOT_POWER) puts it there for a plate planing forward
+    (f = ``forward`` = 1, the flow along the surface) and keeps the even pressure of a body meeting
+    the water head on (f = 0). The total force is unchanged: C_L and the law stay the measured ones,
+    only the place they act moves.
+
+    Piece by piece, because the weight changes across a square: with each square's load at its
+    centroid, weighted by its centroid's place between the outermost wet centroids, the centre of
+    pressure of a 5 cm stone's face moved with how its 6 mm squares lay against the waterline, by up
+    to 2.8 mm along the flow and 2.3 mm across it with the trailing edge 1 mm under, and with the
+    spin the stone's attitude turned by the tiling, not the water (tests/test_planing_centre.py:
+    within 0.3 mm along and 0.1 mm across now)."""
+    p = SPRAY_ROOT_POWER
+    span = s_hi - s_lo
+    if not span > 0.0 or forward <= 0.0:
+        forward = 0.0  # no extent along the flow: the pressure even over the wetted area
+        span = 1.0
     total = 0.0
     weighted = 0.0
-    for k in range(n):
-        xi = (s[k] - lo) / (hi - lo)
-        w[k] = (1.0 - forward) + forward * (SPRAY_ROOT_POWER + 1) * xi ** SPRAY_ROOT_POWER
-        total += load[k]
-        weighted += w[k] * load[k]
-    if weighted == 0.0 or total == 0.0:
-        return np.ones(n)
-    scale = total / weighted
-    for k in range(n):
-        w[k] *= scale
-    return w
+    acc = np.zeros(6)
+    for i in range(n_pl):
+        k = int(pl_r[i, 3])
+        t = pl_r[i, 4]
+        w1 = pl_r[i, 5]
+        w2 = pl_r[i, 6]
+        s_el = pl_s[i]
+        wet = 0.0
+        mean_w = 0.0
+        du = 0.0
+        dv = 0.0
+        for q in range(el_sub.shape[1]):
+            c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+            if c <= 0.0:
+                continue
+            xi = (s_el + el_sub[k, q, 0] * sx + el_sub[k, q, 1] * sy - s_lo) / span
+            xi = min(1.0, max(0.0, xi))
+            wq = c * ((1.0 - forward) + forward * (p + 1) * xi ** p)
+            wet += c
+            mean_w += wq
+            du += wq * el_sub[k, q, 0]
+            dv += wq * el_sub[k, q, 1]
+        if wet <= 0.0 or mean_w <= 0.0:
+            # no piece under the level (the element's own fraction is wider): at its centroid
+            xi = min(1.0, max(0.0, (s_el - s_lo) / span))
+            mean_w = (1.0 - forward) + forward * (p + 1) * xi ** p
+            ox = oy = oz = 0.0
+        else:
+            du /= mean_w
+            dv /= mean_w
+            mean_w /= wet
+            ox = axes[0, 0] * du + axes[0, 1] * dv
+            oy = axes[1, 0] * du + axes[1, 1] * dv
+            oz = axes[2, 0] * du + axes[2, 1] * dv
+        total += pl_m[i]
+        weighted += mean_w * pl_m[i]
+        add_wrench(acc, pl_r[i, 0] + ox, pl_r[i, 1] + oy, pl_r[i, 2] + oz,
+                   mean_w * pl_f[i, 0], mean_w * pl_f[i, 1], mean_w * pl_f[i, 2])
+    scale = total / weighted if weighted > 0.0 and total > 0.0 else 1.0
+    for q in range(6):
+        fp[q] += scale * acc[q]
 
 
 @njit(cache=True)
 def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
              x0, y0, cell, height, wvel, bottom,
-             el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+             el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
              rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
              b_geo, waterline, stats, planing, c_d):
     """:func:`evaluate_into` with work arrays of its own."""
     n_el = el_area.shape[0]
     evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
-                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
-                  np.empty((n_el, 3)), np.empty((n_el, 3)), np.empty(n_el), np.empty(n_el))
+                  np.empty((n_el, 3)), np.empty((n_el, PLANING_PLACE)), np.empty(n_el), np.empty(n_el))
 
 
 @njit(cache=True)
 def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
                   x0, y0, cell, height, wvel, bottom,
-                  el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                  el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                   b_geo, waterline, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """Water forces on one body state over one patch; see the module docstring.
@@ -169,8 +228,9 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
     stats (N_STATS,); and, unless it is
     empty, waterline (3, nj, ni): per column, the area [m^2] of its sub-columns the surface cuts
     through the body and that area's first moments about the centre, sum dx a and sum dy a [m^3].
-    pl_f, pl_r (N, 3), pl_s, pl_m (N,): work arrays for the elements' planing loads (force, lever
-    arm, place along the flow, magnitude), N the number of elements.
+    pl_f (N, 3), pl_r (N, PLANING_PLACE), pl_s, pl_m (N,): work arrays for the elements' planing
+    loads (force; lever arm and what places the load on the element's pieces; place along the flow;
+    magnitude), N the number of elements.
     """
     empty, hmax = _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell)
     if empty:
@@ -181,7 +241,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
 
@@ -189,7 +249,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
 @njit(cache=True)
 def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low,
                        z_low, x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2,
-                       world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
+                       el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                        b_geo, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m,
                        rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats, box):
     """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
@@ -230,7 +290,7 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
     if do_rest:
@@ -475,7 +535,7 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
 
 @njit(cache=True)
 def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                   wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``."""
     cx, cy, cz = centre[0], centre[1], centre[2]
@@ -494,8 +554,9 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             c_lin, c_sq = 0.0, c_b
         vx, vy, vz = velocity[0], velocity[1], velocity[2]
         n_el = el_area.shape[0]
-        # the planing pressure of each element (force, lever arm, place along the flow: pl_*), weighted
-        # towards the spray root once all are known (see spray_root_weights)
+        # the planing pressure of each disk face element (force, lever arm, place along the flow:
+        # pl_*), weighted towards the spray root once the wetted area's extent along the flow is known
+        # (see _spread_planing), piece by piece of the element (Elements.sub)
         n_pl = 0
         # the direction from the wetted area's trailing edge towards its spray root: away from the
         # lowest point (a disk's wetted area is the segment around it, cut by the waterline across
@@ -508,6 +569,13 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             hy /= reach
         elif hspeed > 0.0:
             hx, hy = vx / hspeed, vy / hspeed
+        # a face piece's offset (du, dv) along body x and y moves it by du sx + dv sy along the flow
+        # and by du zx + dv zy in height
+        sx, sy = axes[0, 0] * hx + axes[1, 0] * hy, axes[0, 1] * hx + axes[1, 1] * hy
+        zx, zy = axes[2, 0], axes[2, 1]
+        n_sub = el_sub.shape[1]
+        s_lo = math.inf
+        s_hi = -math.inf
         do_p = (flags & PRESSURE) != 0
         do_f = (flags & FRICTION) != 0
         fp = np.zeros(6)
@@ -556,7 +624,17 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             t = h - pz
             if t <= -half:
                 continue
-            frac = box_coverage(t, w1, w2)
+            if face and t < half and n_sub > 0:
+                # a disk face's square partly under: its wetted fraction summed over its pieces, each
+                # under by its own height range; a square clipped by the rim is then wetted where
+                # its part of the disk lies, not as a whole square about its centroid would be
+                frac = 0.0
+                for q in range(n_sub):
+                    frac += _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+                if frac <= 0.0:
+                    continue
+            else:
+                frac = box_coverage(t, w1, w2)
             nel += 1
             a_el = el_area[k]
             fa = frac * a_el
@@ -585,9 +663,20 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                         pl_r[n_pl, 0] = rx
                         pl_r[n_pl, 1] = ry
                         pl_r[n_pl, 2] = rz
-                        pl_s[n_pl] = rx * hx + ry * hy
+                        pl_r[n_pl, 3] = k
+                        pl_r[n_pl, 4] = t
+                        pl_r[n_pl, 5] = w1
+                        pl_r[n_pl, 6] = w2
+                        s_el = rx * hx + ry * hy
+                        pl_s[n_pl] = s_el
                         pl_m[n_pl] = p * fa
                         n_pl += 1
+                        # the wetted area's extent along the flow, from its wet pieces
+                        for q in range(n_sub):
+                            if _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp) > 0.0:
+                                s_q = s_el + el_sub[k, q, 0] * sx + el_sub[k, q, 1] * sy
+                                s_lo = min(s_lo, s_q)
+                                s_hi = max(s_hi, s_q)
                     elif p > 0.0:
                         # the rim, or a sphere: the pressure where it acts
                         add_wrench(fp, rx, ry, rz, -p * fa * nx, -p * fa * ny, -p * fa * nz)
@@ -624,10 +713,8 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             # planing: the body skims forward, faster than its own gravity waves (a Froude number
             # U / sqrt(g L) above 1); a floating or dropped body presses the water evenly
             forward = hspeed * hspeed / (hspeed * hspeed + vz * vz + 2.0 * g * radius)
-            weights = spray_root_weights(pl_s[:n_pl], pl_m[:n_pl], forward)
-            for k in range(n_pl):
-                wk = weights[k]
-                add_wrench(fp, pl_r[k, 0], pl_r[k, 1], pl_r[k, 2], wk * pl_f[k, 0], wk * pl_f[k, 1], wk * pl_f[k, 2])
+            _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, zy, wet_ramp,
+                            s_lo, s_hi, forward)
         if do_p:
             for q in range(6):
                 stats[S_PRESSURE + q] = fp[q]

@@ -126,18 +126,20 @@ class RingScratch:
         return self.work
 
 
-PLANING_PER_ELEMENT = 8  # values of the planing work arrays per surface element (pl_f, pl_r: 3; pl_s, pl_m: 1)
+PLANING_PER_ELEMENT = 5 + kernel.PLANING_PLACE  # values of the planing work arrays per surface element
+# (pl_f: 3; pl_r: kernel.PLANING_PLACE; pl_s, pl_m: 1)
 
 
 @njit(cache=True)
 def _planing_arrays(work, n):
-    """pl_f, pl_r (n, 3), pl_s, pl_m (n,) of kernel.evaluate_into and the rest of ``work`` (room for
-    the ring's factors)."""
+    """pl_f (n, 3), pl_r (n, kernel.PLANING_PLACE), pl_s, pl_m (n,) of kernel.evaluate_into and the
+    rest of ``work`` (room for the ring's factors)."""
+    r = kernel.PLANING_PLACE
     pl_f = work[0:3 * n].reshape((n, 3))
-    pl_r = work[3 * n:6 * n].reshape((n, 3))
-    pl_s = work[6 * n:7 * n]
-    pl_m = work[7 * n:8 * n]
-    return pl_f, pl_r, pl_s, pl_m, work[8 * n:]
+    pl_r = work[3 * n:(3 + r) * n].reshape((n, r))
+    pl_s = work[(3 + r) * n:(4 + r) * n]
+    pl_m = work[(4 + r) * n:(5 + r) * n]
+    return pl_f, pl_r, pl_s, pl_m, work[(5 + r) * n:]
 
 
 @njit(cache=True)
@@ -198,7 +200,7 @@ def stability_bound(body, stats, prm):
 @njit(cache=True)
 def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
               x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, planes, numbers, work):
+              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, planes, numbers, work):
     """The forces of the named effects on the body over one patch, with the ring displacement.
 
     body (N_BODY,), prm (N_PARAMS,); met_h, met_v: the surface the surface effects read (the met
@@ -247,7 +249,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     # passes over the columns in one loop
     kernel.evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
                               x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
-                              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed,
+                              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
                               rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_B], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
                               prm[P_WET_RAMP], local_flags, nsub, b_geo, stats, planing, prm[P_C_D],
                               pl_f, pl_r, pl_s, pl_m,
@@ -283,7 +285,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
 def met_ring_step(freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
                   shape, body, prm, flags, local_flags, nsub, rest_level, share,
                   x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-                  el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, planes, numbers, work):
+                  el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, planes, numbers, work):
     """:func:`ring_step` over the met surface made in the same call: when ``freeze``, the patch at
     (i0, j0) with the window the body met (m_h, m_v at (mi0, mj0)) frozen into fr_h, fr_v and, when
     ``share`` < 1, blended with the live surface into met_h, met_v (met_surface._freeze; the arrays
@@ -293,7 +295,7 @@ def met_ring_step(freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
         _freeze(i0, j0, height, wvel, mi0, mj0, m_h, m_v, fr_h, fr_v, share, met_h, met_v)
     ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
               x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-              el_pos, el_nrm, el_area, el_t1, el_t2, world_fixed, planes, numbers, work)
+              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, planes, numbers, work)
 
 
 @njit(cache=True)
