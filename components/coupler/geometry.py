@@ -160,7 +160,9 @@ class Elements:
     (S = its square): each piece's centroid (du, dv) [m] from the element's centroid along body x
     and y, and its share of the element's area [-] (zero outside the disk), so that where on the
     element its wetted part lies, and the planing pressure's weight there, are resolved finer than
-    the element (kernel._element_pass); S = 0 for a sphere's bands.
+    the element (kernel._element_pass); S = 0 for a sphere's bands. whole: (N,) 1.0 for a face
+    square the rim does not clip (its pieces a regular grid of equal shares, which the kernel sums in
+    closed form), else 0.0.
     """
 
     pos: np.ndarray
@@ -169,6 +171,7 @@ class Elements:
     t1: np.ndarray
     t2: np.ndarray
     sub: np.ndarray
+    whole: np.ndarray
     world_fixed: bool
 
     @property
@@ -245,9 +248,12 @@ def disk_elements(radius: float, thickness: float, across: int = 16, rim: int = 
         area.append(np.full(rim, arc * thickness))
         t1.append(np.column_stack([-arc * s, arc * c, np.zeros(rim)]))
         t2.append(np.tile([0.0, 0.0, thickness], (rim, 1)))
-    sub = np.concatenate([np.array(pieces), np.array(pieces), np.zeros((rim if thickness > 0 else 0, m * m, 3))])
+    n_rim = rim if thickness > 0 else 0
+    sub = np.concatenate([np.array(pieces), np.array(pieces), np.zeros((n_rim, m * m, 3))])
+    whole = np.array([float(np.all(piece[:, 2] == 1.0 / (m * m))) for piece in pieces])
     return Elements(*(np.ascontiguousarray(np.concatenate(x)) for x in (pos, nrm, area, t1, t2)),
-                    sub=np.ascontiguousarray(sub), world_fixed=False)
+                    sub=np.ascontiguousarray(sub), whole=np.concatenate([whole, whole, np.zeros(n_rim)]),
+                    world_fixed=False)
 
 
 @lru_cache(maxsize=16)
@@ -280,7 +286,7 @@ def sphere_elements(radius: float, bands: int = 24) -> Elements:
         t2.append(np.column_stack([np.zeros(n_az), np.zeros(n_az), np.full(n_az, radius * dz)]))
     n = sum(len(x) for x in area)
     return Elements(*(np.ascontiguousarray(np.concatenate(x)) for x in (pos, nrm, area, t1, t2)),
-                    sub=np.zeros((n, 0, 3)), world_fixed=True)
+                    sub=np.zeros((n, 0, 3)), whole=np.zeros(n), world_fixed=True)
 
 
 @njit(cache=True)

@@ -125,7 +125,41 @@ def _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp):
 
 
 @njit(cache=True)
-def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, zy, wet_ramp, s_lo, s_hi, forward):
+def _binomial(n, k):
+    """n choose k, as a float."""
+    c = 1.0
+    for j in range(k):
+        c = c * (n - j) / (j + 1)
+    return c
+
+
+@njit(cache=True)
+def _grid_moments(a, b, even, odd_u, odd_v):
+    """Moments of a whole face square's 4 x 4 pieces, equal shares at offsets (i, j) pitches from
+    its centre (i, j in -1.5, -0.5, 0.5, 1.5), whose places along the flow are a i + b j [-] from
+    the centre's: even[n] = mean of (a i + b j)^n, odd_u[n] = mean of (a i + b j)^n i, odd_v[n] =
+    mean of (a i + b j)^n j, for n = 0 .. len - 1. Then the mean over the pieces of (x + a i + b j)^p
+    is sum_n C(p, n) x^(p - n) even[n], and of it times i or j the same with odd_u or odd_v."""
+    for n in range(even.shape[0]):
+        even[n] = 0.0
+        odd_u[n] = 0.0
+        odd_v[n] = 0.0
+    for ii in range(4):
+        i = ii - 1.5
+        for jj in range(4):
+            j = jj - 1.5
+            d = a * i + b * j
+            dn = 1.0 / 16.0
+            for n in range(even.shape[0]):
+                even[n] += dn
+                odd_u[n] += dn * i
+                odd_v[n] += dn * j
+                dn *= d
+
+
+@njit(cache=True)
+def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, axes, sx, sy, zx, zy, wet_ramp,
+                    s_lo, s_hi, forward):
     """Add the planing loads of a disk's face elements (pl_*, ``n_pl`` of them) to the wrench ``fp``
     (6,), each spread over its wet pieces (Elements.sub) with the weight of the spray root, and
     scaled so that their sum is unchanged.
@@ -145,7 +179,8 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, 
     pressure of a 5 cm stone's face moved with how its 6 mm squares lay against the waterline, by up
     to 2.8 mm along the flow and 2.3 mm across it with the trailing edge 1 mm under, and with the
     spin the stone's attitude turned by the tiling, not the water (tests/test_planing_centre.py:
-    within 0.3 mm along and 0.1 mm across now)."""
+    within 0.3 mm along and 0.1 mm across now). A whole square wholly under (el_whole) is summed in
+    closed form over its 4 x 4 grid of pieces (:func:`_grid_moments`), the same sum."""
     p = SPRAY_ROOT_POWER
     span = s_hi - s_lo
     if not span > 0.0 or forward <= 0.0:
@@ -154,12 +189,41 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, 
     total = 0.0
     weighted = 0.0
     acc = np.zeros(6)
+    grid_side = -1.0
+    even = np.zeros(p + 1)
+    odd_u = np.zeros(p + 1)
+    odd_v = np.zeros(p + 1)
     for i in range(n_pl):
         k = int(pl_r[i, 3])
         t = pl_r[i, 4]
         w1 = pl_r[i, 5]
         w2 = pl_r[i, 6]
         s_el = pl_s[i]
+        if el_whole[k] > 0.0 and t >= 0.5 * (w1 + w2):
+            quarter = 0.25 * el_t1[k, 0]  # the pieces' pitch [m]
+            if el_t1[k, 0] != grid_side:
+                grid_side = el_t1[k, 0]
+                _grid_moments(quarter * sx / span, quarter * sy / span, even, odd_u, odd_v)
+            x = (s_el - s_lo) / span
+            mean_w = 0.0
+            su = 0.0
+            sv = 0.0
+            for j in range(p + 1):  # sum over j of C(p, j) x^(p - j) times the grid's j-th moments
+                c = _binomial(p, j) * x ** (p - j)
+                mean_w += c * even[j]
+                su += c * odd_u[j]
+                sv += c * odd_v[j]
+            mean_w = (1.0 - forward) + forward * (p + 1) * mean_w
+            du = forward * (p + 1) * quarter * su / mean_w
+            dv = forward * (p + 1) * quarter * sv / mean_w
+            ox = axes[0, 0] * du + axes[0, 1] * dv
+            oy = axes[1, 0] * du + axes[1, 1] * dv
+            oz = axes[2, 0] * du + axes[2, 1] * dv
+            total += pl_m[i]
+            weighted += mean_w * pl_m[i]
+            add_wrench(acc, pl_r[i, 0] + ox, pl_r[i, 1] + oy, pl_r[i, 2] + oz,
+                       mean_w * pl_f[i, 0], mean_w * pl_f[i, 1], mean_w * pl_f[i, 2])
+            continue
         wet = 0.0
         mean_w = 0.0
         du = 0.0
@@ -199,13 +263,13 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, 
 @njit(cache=True)
 def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
              x0, y0, cell, height, wvel, bottom,
-             el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
+             el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
              rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
              b_geo, waterline, stats, planing, c_d):
     """:func:`evaluate_into` with work arrays of its own."""
     n_el = el_area.shape[0]
     evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
-                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
+                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
                   np.empty((n_el, 3)), np.empty((n_el, PLANING_PLACE)), np.empty(n_el), np.empty(n_el))
 
@@ -213,7 +277,7 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
 @njit(cache=True)
 def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
                   x0, y0, cell, height, wvel, bottom,
-                  el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
+                  el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                   b_geo, waterline, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """Water forces on one body state over one patch; see the module docstring.
@@ -241,7 +305,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
 
@@ -249,7 +313,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
 @njit(cache=True)
 def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low,
                        z_low, x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2,
-                       el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
+                       el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
                        b_geo, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m,
                        rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats, box):
     """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
@@ -290,7 +354,7 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
     if do_rest:
@@ -535,7 +599,7 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
 
 @njit(cache=True)
 def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f,
                   wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``."""
     cx, cy, cz = centre[0], centre[1], centre[2]
@@ -574,6 +638,7 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
         sx, sy = axes[0, 0] * hx + axes[1, 0] * hy, axes[0, 1] * hx + axes[1, 1] * hy
         zx, zy = axes[2, 0], axes[2, 1]
         n_sub = el_sub.shape[1]
+        piece_wet = np.zeros(n_sub)  # the wetted shares of a partly wet face square's pieces
         s_lo = math.inf
         s_hi = -math.inf
         do_p = (flags & PRESSURE) != 0
@@ -630,7 +695,8 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 # its part of the disk lies, not as a whole square about its centroid would be
                 frac = 0.0
                 for q in range(n_sub):
-                    frac += _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+                    piece_wet[q] = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+                    frac += piece_wet[q]
                 if frac <= 0.0:
                     continue
             else:
@@ -672,11 +738,17 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                         pl_m[n_pl] = p * fa
                         n_pl += 1
                         # the wetted area's extent along the flow, from its wet pieces
-                        for q in range(n_sub):
-                            if _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp) > 0.0:
-                                s_q = s_el + el_sub[k, q, 0] * sx + el_sub[k, q, 1] * sy
-                                s_lo = min(s_lo, s_q)
-                                s_hi = max(s_hi, s_q)
+                        if t >= half and el_whole[k] > 0.0:
+                            # all under, its outermost pieces 3/8 of a side from its centre
+                            reach_s = 0.375 * el_t1[k, 0] * (abs(sx) + abs(sy))
+                            s_lo = min(s_lo, s_el - reach_s)
+                            s_hi = max(s_hi, s_el + reach_s)
+                        else:
+                            for q in range(n_sub):
+                                if (piece_wet[q] if t < half else el_sub[k, q, 2]) > 0.0:
+                                    s_q = s_el + el_sub[k, q, 0] * sx + el_sub[k, q, 1] * sy
+                                    s_lo = min(s_lo, s_q)
+                                    s_hi = max(s_hi, s_q)
                     elif p > 0.0:
                         # the rim, or a sphere: the pressure where it acts
                         add_wrench(fp, rx, ry, rz, -p * fa * nx, -p * fa * ny, -p * fa * nz)
@@ -713,8 +785,8 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             # planing: the body skims forward, faster than its own gravity waves (a Froude number
             # U / sqrt(g L) above 1); a floating or dropped body presses the water evenly
             forward = hspeed * hspeed / (hspeed * hspeed + vz * vz + 2.0 * g * radius)
-            _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, axes, sx, sy, zx, zy, wet_ramp,
-                            s_lo, s_hi, forward)
+            _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, axes, sx, sy, zx, zy,
+                            wet_ramp, s_lo, s_hi, forward)
         if do_p:
             for q in range(6):
                 stats[S_PRESSURE + q] = fp[q]

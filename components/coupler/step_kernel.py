@@ -200,7 +200,7 @@ def stability_bound(body, stats, prm):
 @njit(cache=True)
 def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
               x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, planes, numbers, work):
+              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, planes, numbers, work):
     """The forces of the named effects on the body over one patch, with the ring displacement.
 
     body (N_BODY,), prm (N_PARAMS,); met_h, met_v: the surface the surface effects read (the met
@@ -249,7 +249,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     # passes over the columns in one loop
     kernel.evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y,
                               x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom,
-                              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed,
+                              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
                               rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_B], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
                               prm[P_WET_RAMP], local_flags, nsub, b_geo, stats, planing, prm[P_C_D],
                               pl_f, pl_r, pl_s, pl_m,
@@ -285,7 +285,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
 def met_ring_step(freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
                   shape, body, prm, flags, local_flags, nsub, rest_level, share,
                   x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-                  el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, planes, numbers, work):
+                  el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, planes, numbers, work):
     """:func:`ring_step` over the met surface made in the same call: when ``freeze``, the patch at
     (i0, j0) with the window the body met (m_h, m_v at (mi0, mj0)) frozen into fr_h, fr_v and, when
     ``share`` < 1, blended with the live surface into met_h, met_v (met_surface._freeze; the arrays
@@ -295,7 +295,7 @@ def met_ring_step(freeze, i0, j0, mi0, mj0, m_h, m_v, fr_h, fr_v,
         _freeze(i0, j0, height, wvel, mi0, mj0, m_h, m_v, fr_h, fr_v, share, met_h, met_v)
     ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
               x0, y0, cell, met_h, met_v, height, wvel, bottom, held, has_held,
-              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, world_fixed, planes, numbers, work)
+              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, planes, numbers, work)
 
 
 @njit(cache=True)
