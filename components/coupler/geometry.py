@@ -17,7 +17,10 @@ Two samplings, each chosen for what it feeds:
   centres) and is wet by the fraction of its area below that surface (:func:`box_coverage`), so the
   wetted area, and every force on it, varies continuously as the body moves across cells and the
   waterline sweeps across elements. Forces are then independent of the water's cell size, and a
-  stone smaller than one cell is handled like any other.
+  stone smaller than one cell is handled like any other. A disk face's square is also cut into
+  4 x 4 pieces (``Elements.sub``): a partly wet square is wetted piece by piece, and its planing
+  load placed piece by piece, so that neither follows how the tiling lies against the waterline as
+  the disk turns about its axis.
 """
 
 from __future__ import annotations
