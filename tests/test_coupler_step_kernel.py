@@ -221,7 +221,8 @@ def test_the_met_surface_made_in_the_step_is_the_one_read_before_it():
             common = (int(b.shape), x.body_vector, coupler._prm_disk, coupler.flags, coupler._local, x.nsub,
                       0.0, share, x.water[0], x.water[1], live.cell)
             tail = (height, velocity, live.bottom, held, held is not height, elements.pos, elements.nrm,
-                    elements.area, elements.t1, elements.t2, elements.sub, elements.whole, elements.world_fixed, scratch.planes,
+                    elements.area, elements.t1, elements.t2, elements.sub, elements.whole, elements.world_fixed,
+                    scratch.planes,
                     scratch.numbers, scratch.work_for(elements.area.shape[0]))
             if fused:
                 freeze, mi0, mj0, m_h, m_v, fr_h, fr_v, met_h, met_v = met.plan(live.i0, live.j0, height,

@@ -103,3 +103,27 @@ def test_the_planing_centre_does_not_turn_with_the_tiling(depth):
         across.append(model[1] - exact[1])
     assert np.abs(along).max() < 5e-4, f"along the flow, mm: {np.round(1e3 * np.array(along), 2)}"
     assert np.abs(across).max() < 5e-4, f"across the flow, mm: {np.round(1e3 * np.array(across), 2)}"
+
+
+@pytest.mark.parametrize(("x", "sx", "sy"), [(0.3, 0.8, 0.6), (0.9, -0.28, 0.96), (0.1, 1.0, 0.0)])
+def test_a_whole_square_wholly_under_sums_its_pieces_in_closed_form(x, sx, sy):
+    """The closed form of the spray root's weight over a whole square's pieces (kernel._grid_moments)
+    is the sum over the pieces one by one (kernel._pieces_weight): mean weight and where it acts. (A
+    whole square wholly under lies within the wetted area's extent, so none of its pieces' places is
+    clipped to 0 or 1, which the closed form does not do.)"""
+    from components.coupler.geometry import FACE_SUBDIVISION, disk_elements
+    from components.coupler.kernel import _binomial, _grid_moments, _pieces_weight
+
+    el = disk_elements(R, E)
+    k = int(np.flatnonzero(el.whole)[0])
+    side, span, forward, p = el.t1[k, 0], 0.03, 0.9, SPRAY_ROOT_POWER
+    a, b = sx / span, sy / span
+    looped = _pieces_weight(el.sub, k, 1.0, 1e-3, 1e-3, x, a, b, 0.0, 0.0, 5e-4, forward)
+    pitch = side / FACE_SUBDIVISION
+    even, odd_u, odd_v = np.zeros(p + 1), np.zeros(p + 1), np.zeros(p + 1)
+    _grid_moments(pitch * a, pitch * b, even, odd_u, odd_v)
+    c = np.array([_binomial(p, j) * x ** (p - j) for j in range(p + 1)])
+    mean_w = (1 - forward) + forward * (p + 1) * (c @ even)
+    lever = forward * (p + 1) * pitch / mean_w
+    closed = (mean_w, lever * (c @ odd_u), lever * (c @ odd_v))
+    np.testing.assert_allclose(closed, looped, rtol=1e-9, atol=1e-15)

@@ -109,7 +109,7 @@ def test_turned_about_its_own_axis_it_is_the_same_throw(along_x, phase_deg):
     """The stone started turned about its own axis: its first two skips leave the water within
     0.5 deg of the throw's and touch down within 5 mm (a start 0.1 mm higher moves them by 0.2 deg
     and 0.4 mm; the third skip, after two flights, is as sensitive to either)."""
-    turned, sim = run(*turned_about_its_axis(phase_deg))
+    _, sim = run(*turned_about_its_axis(phase_deg))
     skips, turned_skips = along_x[1].components["stages"].records, sim.components["stages"].records
     assert len(turned_skips) == 3
     for a, b in zip(skips[:2], turned_skips[:2], strict=True):

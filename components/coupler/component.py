@@ -595,7 +595,8 @@ class WaterCoupler(Component):
             float(patch.origin_x + patch.i0 * patch.cell), float(patch.origin_y + patch.j0 * patch.cell), cell,
             met_h, met_v, height, wvel, np.ascontiguousarray(patch.bottom, dtype=np.float64),
             held if has_held else height, has_held,
-            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole, elements.world_fixed,
+            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole,
+            elements.world_fixed,
             scratch.planes, numbers, scratch.work_for(elements.area.shape[0]))
         steer = numbers[kernel.S_VOLUME:kernel.S_SURFACE_LOW + 1].tolist()
         volume, area, h_low = steer[0], steer[kernel.S_AREA - kernel.S_VOLUME], steer[-1]
@@ -638,7 +639,8 @@ class WaterCoupler(Component):
             int(body.shape), float(body.radius), float(body.thickness),
             pos, axes, vel, omega, float(half[0]), float(half[1]), low[0], low[1], low[2],
             float(x0), float(y0), cell, height, wvel, bottom,
-            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole, elements.world_fixed,
+            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole,
+            elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_b, p.c_f, p.c_w, p.c_min, p.wet_ramp, flags, nsub,
             b_geo, _NO_WATERLINE, stats, planing, c_d)
         return stats
@@ -722,7 +724,8 @@ class WaterCoupler(Component):
             int(body.shape), float(body.radius), float(body.thickness),
             pos, axes, _ZERO3, _ZERO3, float(half[0]), float(half[1]),
             low[0], low[1], low[2], float(x0), float(y0), cell, flat, still, bottom,
-            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole, elements.world_fixed,
+            elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole,
+            elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_b, p.c_f, p.c_w, p.c_min, p.wet_ramp,
             DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats, 1.0, 0.0)
         return stats

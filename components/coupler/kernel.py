@@ -98,7 +98,8 @@ SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^p from the trailing edge 
 # al.'s fig. 3 (p = 2, Savitsky's steady 3/4, lets a 65 rev/s disk lose 4 deg of attack) [-]
 
 
-PLANING_PLACE = 7  # values per element of pl_r: lever arm (3), element index, level over its centre, its two height ranges
+PLANING_PLACE = 7  # values per element of pl_r: lever arm (3), element index, level over its centre,
+# its two height ranges
 
 
 @njit(cache=True)
@@ -135,26 +136,55 @@ def _binomial(n, k):
 
 @njit(cache=True)
 def _grid_moments(a, b, even, odd_u, odd_v):
-    """Moments of a whole face square's 4 x 4 pieces, equal shares at offsets (i, j) pitches from
-    its centre (i, j in -1.5, -0.5, 0.5, 1.5), whose places along the flow are a i + b j [-] from
-    the centre's: even[n] = mean of (a i + b j)^n, odd_u[n] = mean of (a i + b j)^n i, odd_v[n] =
+    """Moments of a whole face square's m x m pieces (m = FACE_SUBDIVISION), equal shares at offsets
+    (i, j) pitches from its centre (i, j in -(m - 1) / 2 .. (m - 1) / 2), whose places along the flow
+    are a i + b j [-] from the centre's: even[n] = mean of (a i + b j)^n, odd_u[n] = mean of (a i + b j)^n i, odd_v[n] =
     mean of (a i + b j)^n j, for n = 0 .. len - 1. Then the mean over the pieces of (x + a i + b j)^p
     is sum_n C(p, n) x^(p - n) even[n], and of it times i or j the same with odd_u or odd_v."""
     for n in range(even.shape[0]):
         even[n] = 0.0
         odd_u[n] = 0.0
         odd_v[n] = 0.0
-    for ii in range(4):
-        i = ii - 1.5
-        for jj in range(4):
-            j = jj - 1.5
+    m = FACE_SUBDIVISION
+    for ii in range(m):
+        i = ii - 0.5 * (m - 1)
+        for jj in range(m):
+            j = jj - 0.5 * (m - 1)
             d = a * i + b * j
-            dn = 1.0 / 16.0
+            dn = 1.0 / (m * m)
             for n in range(even.shape[0]):
                 even[n] += dn
                 odd_u[n] += dn * i
                 odd_v[n] += dn * j
                 dn *= d
+
+
+@njit(cache=True)
+def _pieces_weight(el_sub, k, t, w1, w2, x, a, b, zx, zy, wet_ramp, forward):
+    """The spray root's mean weight over element ``k``'s wet pieces, and where it puts the load:
+    (mean weight [-], du, dv [m] from the element's centroid along body x and y). ``x``: the
+    centroid's place between the trailing edge (0) and the spray root (1); a piece at (du, dv) lies
+    ``du a + dv b`` further on; t, w1, w2 as :func:`_piece_wet`. No piece under the level (the
+    element's own fraction is wider): the centroid's weight, at the centroid."""
+    p = SPRAY_ROOT_POWER
+    wet = 0.0
+    mean_w = 0.0
+    du = 0.0
+    dv = 0.0
+    for q in range(el_sub.shape[1]):
+        c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+        if c <= 0.0:
+            continue
+        xi = min(1.0, max(0.0, x + el_sub[k, q, 0] * a + el_sub[k, q, 1] * b))
+        wq = c * ((1.0 - forward) + forward * (p + 1) * xi ** p)
+        wet += c
+        mean_w += wq
+        du += wq * el_sub[k, q, 0]
+        dv += wq * el_sub[k, q, 1]
+    if wet <= 0.0 or mean_w <= 0.0:
+        xi = min(1.0, max(0.0, x))
+        return (1.0 - forward) + forward * (p + 1) * xi ** p, 0.0, 0.0
+    return mean_w / wet, du / mean_w, dv / mean_w
 
 
 @njit(cache=True)
@@ -180,7 +210,7 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
     to 2.8 mm along the flow and 2.3 mm across it with the trailing edge 1 mm under, and with the
     spin the stone's attitude turned by the tiling, not the water (tests/test_planing_centre.py:
     within 0.3 mm along and 0.1 mm across now). A whole square wholly under (el_whole) is summed in
-    closed form over its 4 x 4 grid of pieces (:func:`_grid_moments`), the same sum."""
+    closed form over its grid of pieces (:func:`_grid_moments`), the same sum."""
     p = SPRAY_ROOT_POWER
     span = s_hi - s_lo
     if not span > 0.0 or forward <= 0.0:
@@ -198,13 +228,12 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
         t = pl_r[i, 4]
         w1 = pl_r[i, 5]
         w2 = pl_r[i, 6]
-        s_el = pl_s[i]
+        x = (pl_s[i] - s_lo) / span
         if el_whole[k] > 0.0 and t >= 0.5 * (w1 + w2):
-            quarter = 0.25 * el_t1[k, 0]  # the pieces' pitch [m]
+            pitch = el_t1[k, 0] / FACE_SUBDIVISION  # [m] between the pieces' centres
             if el_t1[k, 0] != grid_side:
                 grid_side = el_t1[k, 0]
-                _grid_moments(quarter * sx / span, quarter * sy / span, even, odd_u, odd_v)
-            x = (s_el - s_lo) / span
+                _grid_moments(pitch * sx / span, pitch * sy / span, even, odd_u, odd_v)
             mean_w = 0.0
             su = 0.0
             sv = 0.0
@@ -214,46 +243,14 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
                 su += c * odd_u[j]
                 sv += c * odd_v[j]
             mean_w = (1.0 - forward) + forward * (p + 1) * mean_w
-            du = forward * (p + 1) * quarter * su / mean_w
-            dv = forward * (p + 1) * quarter * sv / mean_w
-            ox = axes[0, 0] * du + axes[0, 1] * dv
-            oy = axes[1, 0] * du + axes[1, 1] * dv
-            oz = axes[2, 0] * du + axes[2, 1] * dv
-            total += pl_m[i]
-            weighted += mean_w * pl_m[i]
-            add_wrench(acc, pl_r[i, 0] + ox, pl_r[i, 1] + oy, pl_r[i, 2] + oz,
-                       mean_w * pl_f[i, 0], mean_w * pl_f[i, 1], mean_w * pl_f[i, 2])
-            continue
-        wet = 0.0
-        mean_w = 0.0
-        du = 0.0
-        dv = 0.0
-        for q in range(el_sub.shape[1]):
-            c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
-            if c <= 0.0:
-                continue
-            xi = (s_el + el_sub[k, q, 0] * sx + el_sub[k, q, 1] * sy - s_lo) / span
-            xi = min(1.0, max(0.0, xi))
-            wq = c * ((1.0 - forward) + forward * (p + 1) * xi ** p)
-            wet += c
-            mean_w += wq
-            du += wq * el_sub[k, q, 0]
-            dv += wq * el_sub[k, q, 1]
-        if wet <= 0.0 or mean_w <= 0.0:
-            # no piece under the level (the element's own fraction is wider): at its centroid
-            xi = min(1.0, max(0.0, (s_el - s_lo) / span))
-            mean_w = (1.0 - forward) + forward * (p + 1) * xi ** p
-            ox = oy = oz = 0.0
+            du = forward * (p + 1) * pitch * su / mean_w
+            dv = forward * (p + 1) * pitch * sv / mean_w
         else:
-            du /= mean_w
-            dv /= mean_w
-            mean_w /= wet
-            ox = axes[0, 0] * du + axes[0, 1] * dv
-            oy = axes[1, 0] * du + axes[1, 1] * dv
-            oz = axes[2, 0] * du + axes[2, 1] * dv
+            mean_w, du, dv = _pieces_weight(el_sub, k, t, w1, w2, x, sx / span, sy / span, zx, zy, wet_ramp, forward)
         total += pl_m[i]
         weighted += mean_w * pl_m[i]
-        add_wrench(acc, pl_r[i, 0] + ox, pl_r[i, 1] + oy, pl_r[i, 2] + oz,
+        add_wrench(acc, pl_r[i, 0] + axes[0, 0] * du + axes[0, 1] * dv, pl_r[i, 1] + axes[1, 0] * du + axes[1, 1] * dv,
+                   pl_r[i, 2] + axes[2, 0] * du + axes[2, 1] * dv,
                    mean_w * pl_f[i, 0], mean_w * pl_f[i, 1], mean_w * pl_f[i, 2])
     scale = total / weighted if weighted > 0.0 and total > 0.0 else 1.0
     for q in range(6):
@@ -269,7 +266,8 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
     """:func:`evaluate_into` with work arrays of its own."""
     n_el = el_area.shape[0]
     evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
-                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
+                  x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole,
+                  world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
                   np.empty((n_el, 3)), np.empty((n_el, PLANING_PLACE)), np.empty(n_el), np.empty(n_el))
 
@@ -305,7 +303,8 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n,
+                      c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
 
@@ -354,7 +353,8 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n,
+                      c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
     if do_rest:
@@ -599,7 +599,8 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
 
 @njit(cache=True)
 def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f,
+                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n,
+                  c_b, c_f,
                   wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
     """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``."""
     cx, cy, cz = centre[0], centre[1], centre[2]
@@ -739,8 +740,8 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                         n_pl += 1
                         # the wetted area's extent along the flow, from its wet pieces
                         if t >= half and el_whole[k] > 0.0:
-                            # all under, its outermost pieces 3/8 of a side from its centre
-                            reach_s = 0.375 * el_t1[k, 0] * (abs(sx) + abs(sy))
+                            # all under, its outermost pieces (m - 1) / 2m of a side from its centre
+                            reach_s = (0.5 - 0.5 / FACE_SUBDIVISION) * el_t1[k, 0] * (abs(sx) + abs(sy))
                             s_lo = min(s_lo, s_el - reach_s)
                             s_hi = max(s_hi, s_el + reach_s)
                         else:
