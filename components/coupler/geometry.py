@@ -160,7 +160,7 @@ class Elements:
     its surface looks the same in any attitude); area: (N,) [m^2]; t1, t2: (N, 3) the element's two
     sides as vectors [m] (their z components in the world give the element's height range, for
     partial wetting); sub: (N, S, 3) a disk face square's pieces, ``FACE_SUBDIVISION`` per side
-    (S = its square): each piece's centroid (du, dv) [m] from the element's centroid along body x
+    (S = FACE_SUBDIVISION^2): each piece's centroid (du, dv) [m] from the element's centroid along body x
     and y, and its share of the element's area [-] (zero outside the disk), so that where on the
     element its wetted part lies, and the planing pressure's weight there, are resolved finer than
     the element (kernel._element_pass); S = 0 for a sphere's bands. whole: (N,) 1.0 for a face
