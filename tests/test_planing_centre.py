@@ -23,7 +23,9 @@ import pytest
 
 from components.coupler import WaterCoupler, WaterCouplerParams
 from components.coupler.fixtures import axis_angle, body, pitched, still_water
+from components.coupler.geometry import quat_to_matrix
 from components.coupler.kernel import SPRAY_ROOT_POWER
+from components.rigid import quaternion
 
 R = 0.05  # [m]
 E = 0.015  # [m]
@@ -34,11 +36,7 @@ G = 9.81
 
 def turned(phase: float) -> np.ndarray:
     """The pitched disk's orientation with its face first turned by ``phase`` [rad] about its axis."""
-    a, b = pitched(ATTACK), axis_angle((0.0, 0.0, 1.0), phase)
-    return np.array([a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-                     a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-                     a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-                     a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
+    return np.array(quaternion.mul(tuple(pitched(ATTACK)), tuple(axis_angle((0.0, 0.0, 1.0), phase))))
 
 
 def lower_face_points(n: int = 1500) -> np.ndarray:
@@ -52,18 +50,11 @@ def lower_face_points(n: int = 1500) -> np.ndarray:
 POINTS = lower_face_points()
 
 
-def rotation(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
 def exact_centre(q: np.ndarray, depth: float) -> tuple[np.ndarray, float]:
     """The load's centre (horizontal, relative to the disk's centre) [m] and the lowest point's
     height below the centre: the planing pressure even over the wetted face but for the spray
     root's weight (1 - f) + f (p + 1) xi^p, xi from the trailing edge (0) to the waterline (1)."""
-    world = POINTS @ rotation(q).T
+    world = POINTS @ quat_to_matrix(q).T
     low = world[:, 2].min()
     wet = world[:, 2] <= low + depth
     xi = (world[wet, 2] - low) / depth
@@ -81,7 +72,7 @@ def model_centre(q: np.ndarray, depth: float, low: float) -> np.ndarray:
     out = c.step(0, 1000, {"body": b, "water": still_water(0.01)})
     force, torque = out["wrench"].force, out["wrench"].torque
     # r = (x, y, z(x, y)) on the lower face's plane through its centre: n . r = -E/2
-    n = rotation(q)[:, 2]
+    n = quat_to_matrix(q)[:, 2]
     # torque = r x F is linear in (x, y) once z is the plane's: solve the horizontal pair
     a = np.zeros((3, 2))
     for k, unit in enumerate(np.eye(3)[:2]):

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from components.rigid import quaternion
 from cosim.scenario import load
 from cosim.scheduler import BaseObserver, Simulation
 
@@ -93,11 +94,8 @@ def turned_about_its_axis(phase_deg: float) -> tuple[str, str]:
     its tilt: the two rotations as the one rotation (tilt_axis, tilt_deg) they make."""
     stone = load(SKIP).components["stone"].params
     tilt, phase = math.radians(stone.tilt_deg), math.radians(phase_deg)
-    ax = np.asarray(stone.tilt_axis, dtype=float)
-    ax /= np.linalg.norm(ax)
-    a = np.array([math.cos(tilt / 2), *(math.sin(tilt / 2) * ax)])
-    b = np.array([math.cos(phase / 2), 0.0, 0.0, math.sin(phase / 2)])
-    q = np.array([a[0] * b[0] - a[1:] @ b[1:], *(a[0] * b[1:] + b[0] * a[1:] + np.cross(a[1:], b[1:]))])
+    q = np.array(quaternion.mul(quaternion.from_axis_angle(tuple(stone.tilt_axis), tilt),
+                                quaternion.from_axis_angle((0.0, 0.0, 1.0), phase)))
     angle = 2.0 * math.atan2(np.linalg.norm(q[1:]), q[0])
     axis = q[1:] / np.linalg.norm(q[1:])
     return f"components.stone.tilt_axis=[{float(axis[0])!r}, {float(axis[1])!r}, {float(axis[2])!r}]", \
