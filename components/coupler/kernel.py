@@ -234,11 +234,16 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
             if el_t1[k, 0] != grid_side:
                 grid_side = el_t1[k, 0]
                 _grid_moments(pitch * sx / span, pitch * sy / span, even, odd_u, odd_v)
+                for j in range(p + 1):  # C(p, j) folded in once, not per square
+                    c = _binomial(p, j)
+                    even[j] *= c
+                    odd_u[j] *= c
+                    odd_v[j] *= c
             mean_w = 0.0
             su = 0.0
             sv = 0.0
             for j in range(p + 1):  # sum over j of C(p, j) x^(p - j) times the grid's j-th moments
-                c = _binomial(p, j) * x ** (p - j)
+                c = x ** (p - j)
                 mean_w += c * even[j]
                 su += c * odd_u[j]
                 sv += c * odd_v[j]
