@@ -153,7 +153,10 @@ class WaterCouplerParams:
     displacement_mode: Literal["ring", "column"] = param(
         "ring", doc="ring: displaced volume around the body, buoyancy at the water's level there "
                     "(energy-consistent); column: Mueller's b under it, buoyancy at the surface there")
-    ring_cells: float = param(1.5, gt=0, le=100, doc="width of the displacement band [cells]")
+    ring_share: float = param(0.5, ge=0, le=100,
+                              doc="half-width of the displacement band as a share of the body's radius (the band "
+                                  "spans twice that outside the outline)")
+    ring_cells: float = param(1.5, gt=0, le=100, doc="least half-width of the displacement band [cells]")
     smoothing: int = param(0, ge=0, le=1000, doc="volume-conserving [1,2,1] smoothing passes of the displacement")
     column_subsamples: int = param(0, ge=0, le=64, doc="sub-cells per column side (0: automatic from R/cell)")
     face_elements: int = param(16, ge=2, le=1024, doc="disk face tiling: squares across a diameter")
@@ -243,6 +246,7 @@ class WaterCoupler(Component):
                              (step_kernel.P_C_W, p.c_w),
                              (step_kernel.P_C_MIN, p.c_min), (step_kernel.P_WET_RAMP, p.wet_ramp),
                              (step_kernel.P_CLOSURE, p.closure_depth), (step_kernel.P_RING_CELLS, p.ring_cells),
+                             (step_kernel.P_RING_SHARE, p.ring_share),
                              (step_kernel.P_DAMPING_SAFETY, DAMPING_SAFETY),
                              (step_kernel.P_SPRING_SAFETY, SPRING_SAFETY),
                              (step_kernel.P_MOTION_FRACTION, MOTION_FRACTION)):
@@ -432,7 +436,8 @@ class WaterCoupler(Component):
         x_low, y_low, z_low, half_x, half_y = step_kernel.body_pose(int(body.shape), bv, axes)
         low = (x_low, y_low, z_low)
         half = (half_x, half_y)
-        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt)
+        request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt,
+                                float(body.radius))
         if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
             # in the water before the water has sent anything: it is still, at the rest level,
             # until its first patch says otherwise (a large step or a slow water would let the
@@ -606,7 +611,7 @@ class WaterCoupler(Component):
         self._submerged = 1.0 - planing
         px, py = pos[:2].tolist()
         vx, vy = vel[:2].tolist()
-        request = self._request((px + vx * dt, py + vy * dt), (half_x, half_y), (vx, vy), dt)
+        request = self._request((px + vx * dt, py + vy * dt), (half_x, half_y), (vx, vy), dt, float(body.radius))
         self.work = {"columns": int(steer[kernel.S_COLUMNS - kernel.S_VOLUME]),
                      "elements": int(steer[kernel.S_ELEMENTS - kernel.S_VOLUME])}
         wrench = numbers[kernel.S_TOTAL:kernel.S_TOTAL + 6].tolist()
@@ -686,14 +691,18 @@ class WaterCoupler(Component):
         return max(1, min(MAX_AUTO_SUBSAMPLES, math.ceil(SUBSAMPLES_PER_RADIUS * cell / radius - 1e-9)))
 
     def _request(self, centre: tuple[float, float], half: tuple[float, float], vel: tuple[float, float],
-                 dt: float) -> PatchRequest:
+                 dt: float, radius: float) -> PatchRequest:
         """The window of water needed next step around the body's horizontal ``centre`` [m] then,
-        for its horizontal velocity ``vel`` [m/s]."""
+        for its horizontal velocity ``vel`` [m/s] and its ``radius`` [m] (the displacement's band)."""
         p = self.params
         if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
             return self._empty_request
-        cells = p.margin_cells + (2.0 * p.ring_cells if self.flags & DISPLACEMENT else 0.0)
-        margin = cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
+        if self.cell > 0:
+            margin = p.margin_cells * self.cell
+            if self.flags & DISPLACEMENT:
+                margin += 2.0 * kernel.band_width(p.ring_cells, p.ring_share, self.cell, radius)
+        else:
+            margin = DEFAULT_MARGIN
         margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
         cx, cy = centre
         held = self._held_request
@@ -757,7 +766,8 @@ class WaterCoupler(Component):
         if rest[kernel.S_VOLUME] <= 0.0:
             return _Ring(rest, np.zeros(3), None)
         ring = kernel.ring_map(int(body.shape), float(body.radius), float(body.thickness), pos, axes,
-                               float(x0), float(y0), cell, work["b_rest"], p.ring_cells * cell)
+                               float(x0), float(y0), cell, work["b_rest"],
+                               kernel.band_width(p.ring_cells, p.ring_share, cell, float(body.radius)))
         i_lo, i_hi, j_lo, j_hi = kernel.ring_deposit(work["b_rest"], *ring, work["b_out"])
         if i_lo > i_hi:
             return _Ring(rest, np.zeros(3), None)

@@ -838,6 +838,18 @@ def _polar(dx, dy, tx, ty, sx, sy, a1, a2):
     return q, u / q, v / q
 
 
+@njit(cache=True, inline="always")
+def band_width(cells, share, cell, radius):
+    """Half-width [m] of the displaced water's band around a body of ``radius`` [m] on columns of
+    ``cell`` [m]: ``share`` of the radius, and at least ``cells`` columns.
+
+    The water a body pushes aside rises within a distance set by the body, not by the columns; a band
+    a fixed number of columns wide is a sharper source the finer the columns, and on 5 mm columns it
+    fed the grid-scale waves that threw a slow, nearly sunk stone back out (docs/accuracy.md). The
+    floor in columns keeps the band resolved on columns coarse against the body."""
+    return max(cells * cell, share * radius)
+
+
 @njit(cache=True)
 def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, width):
     """The band of columns just outside the body's outline: tent weights phi over the distance d

@@ -41,7 +41,8 @@ P_DAMPING_SAFETY = 11
 P_SPRING_SAFETY = 12
 P_MOTION_FRACTION = 13
 P_C_B = 14  # impact pressure coefficient of a blunt body (a sphere)
-N_PARAMS = 15
+P_RING_SHARE = 15  # width of the displacement band [share of the body's radius]
+N_PARAMS = 16
 
 # body vector (float64), filled each step from the BodyState
 B_POS = 0  # (3) [m]
@@ -261,7 +262,8 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
         if rest_stats[kernel.S_VOLUME] > 0.0:
             box = numbers[NUM_BOX:NUM_BOX + 4]
             band_j, band_i, col_j, col_i, columns, band = kernel.ring_map_into(
-                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest, prm[P_RING_CELLS] * cell, share_work,
+                shape, radius, thickness, centre, axes, x0, y0, cell, b_rest,
+                kernel.band_width(prm[P_RING_CELLS], prm[P_RING_SHARE], cell, radius), share_work,
                 int(box[0]), int(box[1]), int(box[2]), int(box[3]))
             results[R_SHARES] = columns.size + band.size
             out_box = numbers[NUM_OUT_BOX:NUM_OUT_BOX + 4]
