@@ -107,9 +107,11 @@ def test_body_near_water_requests_its_next_footprint():
     x_next = 1.0 + 10.0 * DT_NS * 1e-9
     assert req.x_min < x_next - 0.05 and req.x_max > x_next + 0.05
     assert req.y_min < 2.0 - 0.05 and req.y_max > 2.0 + 0.05
-    assert req.x_min > x_next - 0.15
+    # behind: the footprint (5 cm), the margin before the cell size is known (5 cm) and the reach of
+    # the displaced water's band (twice half the radius, 5 cm), the window lagging one step (1 mm)
+    assert req.x_min == pytest.approx(x_next - 0.05 - 0.05 - 0.05 - 10.0 * DT_NS * 1e-9, abs=1e-9)
     assert req.x_max == pytest.approx(x_next + 10.0 * c.params.lookahead + (req.x_min - x_next) * -1, abs=1e-9)
-    assert req.y_max - req.y_min < 0.3
+    assert req.y_max - req.y_min < 0.32
     assert not out["wrench"].force.any()
 
 
@@ -374,7 +376,9 @@ def test_the_ring_buoyancy_counts_the_displacement_the_water_has_not_applied_yet
     mound[ring.j0:ring.j0 + ring.b.shape[0], ring.i0:ring.i0 + ring.b.shape[1]] = ring.b
     applied = step(c, b, patch.replace(height=patch.height + mound, occupied=mound), 2)
     assert archimedes == pytest.approx(1000.0 * 9.81 * math.pi * 0.05**2 * 0.003, rel=0.02)  # 1 cm columns
-    assert fresh["wrench"].force[2] > 1.5 * archimedes
+    # the disk's half volume spread over its band (5 cm wide) raises the water there by about 0.4 of
+    # its immersion
+    assert fresh["wrench"].force[2] > 1.3 * archimedes
     assert applied["wrench"].force[2] == pytest.approx(fresh["wrench"].force[2], rel=1e-12)
 
 

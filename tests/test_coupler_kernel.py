@@ -212,7 +212,8 @@ def test_ring_buoyancy_reads_the_level_of_the_water_around_the_body(rise):
 
 
 def test_ring_displacement_lies_outside_the_body():
-    """In ring mode the displaced water goes to columns outside the body's outline, none under it."""
+    """In ring mode the displaced water goes to columns outside the body's outline, none under it, and
+    no further out than the band reaches (twice its half-width, half the radius: one radius)."""
     cell = 0.01
     b = body(Shape.SPHERE, position=(0.0, 0.0, 0.0), radius=R)
     patch = still_water(cell)
@@ -222,7 +223,8 @@ def test_ring_displacement_lies_outside_the_body():
     x = patch.origin_x + (occ.i0 + ii) * cell
     y = patch.origin_y + (occ.j0 + jj) * cell
     r = np.hypot(x, y)
-    assert r.min() > R and r.max() < R + 3.5 * cell
+    assert r.min() > R and r.max() < 2.0 * R
+    assert r.max() > 2.0 * R - 1.5 * cell  # the band reaches that far
 
 
 def test_a_body_covering_the_whole_window_keeps_its_displaced_volume_in_place():

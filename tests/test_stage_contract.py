@@ -88,7 +88,7 @@ def throw(*overrides: str) -> Trace:
 
 THROWS = {
     "flat": ["components.stone.tilt_deg=0"],  # face flat on the water: it slaps in and sinks
-    "steep": ["components.stone.velocity=[5.657, 0, -5.657]"],  # 8 m/s, 45 deg down: under, back out once
+    "steep": ["components.stone.velocity=[6.820, 0, -7.314]"],  # 10 m/s, 47 deg down: under, back out once
     "grazing": ["components.stone.velocity=[7.9988, 0, -0.1396]", "until=0.8"],  # 8 m/s, 1 deg down
     "sinking": ["components.stone.velocity=[1.5, 0, -0.3]"],  # too slow to skip
     "dropped": ["components.stone.velocity=[0, 0, -3]", "components.stone.tilt_deg=0"],  # straight down

@@ -697,12 +697,11 @@ class WaterCoupler(Component):
         p = self.params
         if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
             return self._empty_request
-        if self.cell > 0:
-            margin = p.margin_cells * self.cell
-            if self.flags & DISPLACEMENT:
-                margin += 2.0 * kernel.band_width(p.ring_cells, p.ring_share, self.cell, radius)
-        else:
-            margin = DEFAULT_MARGIN
+        # the band reaches twice its half-width outside the outline (its floor in columns waits for
+        # the first patch to tell the cell size)
+        margin = p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
+        if self.flags & DISPLACEMENT:
+            margin += 2.0 * kernel.band_width(p.ring_cells, p.ring_share, self.cell, radius)
         margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
         cx, cy = centre
         held = self._held_request
