@@ -51,7 +51,7 @@ from components import compiled
 from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
-from components.water.diagnostics import energy, surface_energy, volume
+from components.water.diagnostics import surface_energy, volume
 from components.water.grid import CELL_MAX, CELL_MIN, DEPTH_MAX, LEVEL_MAX, WAVE_SPEED_MAX, build_grid, holds_one_value
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
@@ -97,7 +97,8 @@ class WaterParams:
                               doc="z of the undisturbed surface (within 1000 km of z = 0)")
     bottom_slope: tuple[float, float] = param(
         (0.0, 0.0), unit="m/m", doc="bed slope (dz/dx, dz/dy); cells with the bed above rest level are dry")
-    model: str = param("wave", doc="wave (explicit) or shallow_water (implicit, Kass-Miller)")
+    model: str = param("wave", doc="wave (explicit), shallow_water (implicit, Kass-Miller) or airy (water's "
+                                   "dispersion, each basin mode stepped exactly; a flat bed only; slower)")
     wave_speed: float | None = param(None, unit="m/s", gt=0, le=WAVE_SPEED_MAX,
                                      doc="fixed wave speed c; default sqrt(g d) (at most 10 km/s)")
     boundary: str = param("reflecting", doc="reflecting (closed basin) or absorbing (open water)")
@@ -142,6 +143,12 @@ class WaterParams:
                                         f"the bed leaves no water (got amplitude {self.initial.amplitude:g} m)"))
         if self.field_window is not None and min(self.field_window) <= 0:
             problems.append(("field_window", f"must be two sizes > 0 [m] (got {list(self.field_window)})"))
+        if self.model == "airy" and tuple(self.bottom_slope) != (0.0, 0.0):
+            problems.append(("bottom_slope", f"must be [0, 0] with model airy, whose modes are those of a "
+                                             f"flat bed (got {list(self.bottom_slope)})"))
+        if self.model == "airy" and self.wave_speed is not None:
+            problems.append(("wave_speed", f"must be left out with model airy: each wave's speed comes from "
+                                           f"its length and the depth (got {self.wave_speed:g} m/s)"))
         if self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
             problems.append(("sponge_cells", f"must be < min(nx, ny) / 2 = {min(self.nx, self.ny) / 2:g} "
                                              f"for an absorbing boundary (got {self.sponge_cells})"))
@@ -280,7 +287,7 @@ class WaterSurface(Component):
         """Lattice wave energy [J] (see :mod:`components.water.diagnostics`; by tiles: :meth:`_tile_sums`)."""
         if self.tiles is not None:
             return self._tile_sums()[1]
-        return energy(self.grid, self._h, self._v)
+        return self.model.energy(self._h, self._v)
 
     def _tile_sums(self) -> tuple[float, float]:
         """Volume [m^3] and lattice energy [J] summed over the water not at rest only (the rest
@@ -305,8 +312,8 @@ class WaterSurface(Component):
         change = (self.volume() - self.initial_volume) / self.initial_volume
         return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {p.boundary} edges; "
                 f"volume change {change:+.3g} (relative); surface energy "
-                f"{surface_energy(self.grid, self._h):.3g} J (1/2 rho g sum eta^2 s^2; the model's lattice "
-                f"invariant {self.energy():.3g} J); {self._activity()}"]
+                f"{surface_energy(self.grid, self._h):.3g} J (1/2 rho g sum eta^2 s^2; the model's "
+                f"{self.model.invariant} {self.energy():.3g} J); {self._activity()}"]
 
     def _activity(self) -> str:
         """How much of the water was stepped: the share of tiles, peak and mean over the steps."""

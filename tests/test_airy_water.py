@@ -1,0 +1,121 @@
+"""The ``airy`` water model: water's dispersion, omega^2 = g k tanh(k d), each basin mode stepped exactly.
+
+The height field's other models carry every wave at sqrt(g d); real short waves are far slower
+(deep water: c = sqrt(g / k), a group half that). These tests hold the model to the exact
+dispersion relation of linear water waves (Airy; Lamb 1932, section 228), its invariants, and what
+it changes for a body: a stone gliding just under the surface at the pond's sqrt(g d) no longer
+resonates with its own waves.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from components.water import WaterParams, WaterSurface
+from components.water.grid import GRAVITY, build_grid
+from components.water.models import AiryModel
+from components.water.surface import GaussianBump
+from cosim.errors import ScenarioError
+from cosim.scenario import load
+from cosim.scheduler import BaseObserver, Simulation
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _mode(nx: int, m: int) -> np.ndarray:
+    """The basin's m-th standing mode along x (a cosine with zero slope at both walls), (2, nx)."""
+    i = np.arange(nx)
+    return np.tile(np.cos(math.pi * m * (i + 0.5) / nx), (2, 1))
+
+
+@pytest.mark.parametrize(("cell", "depth", "m"), [
+    (0.01, 0.5, 40),    # 5 cm waves on 0.5 m of water: deep, c = sqrt(g / k) = 0.28 m/s
+    (0.05, 0.1, 4),     # 2.5 m waves on 0.1 m: shallow, c -> sqrt(g d)
+    (0.01, 0.05, 10),   # 20 cm waves on 5 cm: in between
+])
+def test_a_standing_mode_oscillates_at_airys_frequency(cell, depth, m):
+    nx = 100
+    grid = build_grid(nx, 2, cell, depth)
+    model = AiryModel(grid, None)
+    k = math.pi * m / (nx * cell)
+    omega = math.sqrt(GRAVITY * k * math.tanh(k * depth))
+    h, v = 1e-3 * _mode(nx, m), np.zeros((2, nx))
+    h_out, v_out = np.empty_like(h), np.empty_like(v)
+    dt, steps = 0.37 / omega, 40  # any step: the rotation is exact
+    for _ in range(steps):
+        model.advance(h, v, h_out, v_out, dt)
+        h, v, h_out, v_out = h_out, v_out, h, v
+    t = steps * dt
+    assert h == pytest.approx(1e-3 * math.cos(omega * t) * _mode(nx, m), abs=1e-15)
+    assert v == pytest.approx(-1e-3 * omega * math.sin(omega * t) * _mode(nx, m), abs=1e-14)
+
+
+def test_a_deep_water_packet_travels_at_half_its_phase_speed():
+    """5 cm waves on 0.5 m of water: the packet moves at the group speed sqrt(g / k) / 2 = 0.14 m/s,
+    not at the sqrt(g d) = 2.2 m/s every wave has in the other models."""
+    nx, cell, depth = 600, 0.005, 0.5
+    grid = build_grid(nx, 2, cell, depth)
+    model = AiryModel(grid, None)
+    x = (np.arange(nx) + 0.5) * cell
+    k = 2 * math.pi / 0.05
+    omega = math.sqrt(GRAVITY * k * math.tanh(k * depth))
+    envelope = np.exp(-((x - 0.8) ** 2) / (2 * 0.15**2))
+    h = np.tile(1e-3 * envelope * np.cos(k * x), (2, 1))  # a wave travelling to +x
+    v = np.tile(1e-3 * omega * envelope * np.sin(k * x), (2, 1))
+    h_out, v_out = np.empty_like(h), np.empty_like(v)
+    for _ in range(100):
+        model.advance(h, v, h_out, v_out, 0.01)
+        h, v, h_out, v_out = h_out, v_out, h, v
+    energy = h[0] ** 2 + (v[0] / omega) ** 2
+    centre = float(np.sum(x * energy) / np.sum(energy))
+    group = 0.5 * omega / k * (1 + 2 * k * depth / math.sinh(2 * k * depth))
+    assert centre - 0.8 == pytest.approx(group * 1.0, rel=0.05)
+
+
+def test_volume_and_the_modes_energy_are_kept():
+    pond = WaterSurface("pond", WaterParams(nx=60, ny=40, cell=0.01, depth=0.3, model="airy",
+                                            initial=GaussianBump(x=0.2, y=0.15, amplitude=0.01, width=0.03)))
+    volume, energy = pond.volume(), pond.energy()
+    for _ in range(300):
+        pond.advance(0.004)
+    assert pond.volume() == pytest.approx(volume, rel=1e-14)
+    assert pond.energy() == pytest.approx(energy, rel=1e-10)
+    assert np.abs(pond._h).max() < 0.5 * 0.01  # the bump has spread
+
+
+@pytest.mark.parametrize(("setting", "field"), [("bottom_slope=[0.01, 0]", "bottom_slope"),
+                                                ("wave_speed=0.23", "wave_speed")])
+def test_airy_water_needs_a_flat_bed_at_its_own_speeds(setting, field):
+    with pytest.raises(ScenarioError, match=f"pond.*{field}.*airy"):
+        load(ROOT / "scenarios" / "skip.yaml", ["components.pond.model=airy", f"components.pond.{setting}"])
+
+
+class _SurfacePeak(BaseObserver):
+    def __init__(self):
+        self.peak = 0.0
+
+    def on_exchange(self, time_ns, component, port, msg):
+        if component == "pond" and port == "patch" and msg.velocity.size:
+            self.peak = max(self.peak, float(np.abs(msg.velocity).max()))
+
+
+def _glide_peak(model: str) -> float:
+    """The largest vertical surface speed [m/s] around the reference stone set gliding at 2.2 m/s
+    (the 0.5 m deep pond's sqrt(g d)) with its top 4.5 mm under the surface, over 0.8 s, 1 cm columns."""
+    sets = ["components.stone.position=[0.3, 0.3, -0.012]", "components.stone.velocity=[2.2, 0.0, 0.0]",
+            "components.stone.tilt_deg=3", "components.stone.spin=56.5", "components.pond.nx=250",
+            "components.pond.ny=60", "until=0.8", "record.visual_rate=0", "components.stages.stop_after=0",
+            f"components.pond.model={model}"]
+    peak = _SurfacePeak()
+    Simulation(load(ROOT / "scenarios" / "skip.yaml", sets), observers=[peak]).run()
+    return peak.peak
+
+
+def test_a_stone_gliding_at_the_ponds_wave_speed_does_not_resonate_with_dispersive_water():
+    wave, airy = _glide_peak("wave"), _glide_peak("airy")
+    assert wave > 5.0  # the one-speed water resonates: its surface moves faster than the stone
+    assert airy < 2.2  # dispersive water: slower than the stone that raises it
