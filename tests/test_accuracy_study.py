@@ -103,6 +103,8 @@ def test_the_plan_holds_the_water_step_and_the_domain():
     coarse = next(v for v in variants if v.name == "wave, 2 cm cells")
     p = load(SKIP, overrides=list(coarse.overrides)).components["pond"].params
     assert p.origin_x - p.cell / 2 == pytest.approx(-0.005) and p.nx * p.cell == pytest.approx(8.0)
+    airy = next(v for v in variants if v.name == "airy (dispersive), 1 cm cells")
+    assert load(SKIP, overrides=list(airy.overrides)).components["pond"].params.model == "airy"
     jacobi = next(v for v in variants if v.group == "coupling")
     edges = load(SKIP, overrides=list(jacobi.overrides)).connections
     delayed = {(e.source, e.target, e.target_port) for e in edges if e.delay}

@@ -7,7 +7,7 @@ None, no progress bar) and compared with one reference run, finer in every setti
   seconds through its ``every``;
 - *integrator*: ``semi_implicit_euler`` and ``rk4`` against the scene's own (``verlet`` by default);
 - *water*: the other model (``wave`` / ``shallow_water``), cells twice as large (nx, ny halved, same
-  domain), and half the water step;
+  domain), half the water step, and (on a flat bed) ``airy``, water with its dispersion;
 - *coupling*: Gauss-Seidel (the scene: the coupler reads the body's state of this step) against
   all-delayed edges (Jacobi: the coupler reads the body and the water of the previous step);
 - *effects*: each of the coupler's effects switched off in turn.
@@ -240,6 +240,10 @@ def plan(scene: Any, quick: bool = False) -> tuple[Variant, list[Variant]]:
             sets = () if model == implicit else (f"components.{w}.model={implicit}",)
             variants.append(Variant("water", f"{implicit}, water step {_ms(water_step * 2)}",
                                     (*sets, f"components.{w}.every={every * 2}")))
+            if model != "airy" and tuple(params.bottom_slope) == (0.0, 0.0) and params.wave_speed is None:
+                # water's own dispersion (each wave at its speed) against the one-speed height field
+                variants.append(Variant("water", f"airy (dispersive), {params.cell * 100:g} cm cells",
+                                        (f"components.{w}.model=airy",)))
     if roles.coupler is not None:
         components = scene.instantiate()
         jacobi = [_delayed_edge(scene, roles.body, "state", roles.coupler, "body",
