@@ -21,7 +21,7 @@ from components.water.models import AiryModel
 from components.water.surface import GaussianBump
 from cosim.errors import ScenarioError
 from cosim.scenario import load
-from cosim.scheduler import BaseObserver, Simulation
+from tests.glide_scene import glide
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -94,28 +94,7 @@ def test_airy_water_needs_a_flat_bed_at_its_own_speeds(setting, field):
         load(ROOT / "scenarios" / "skip.yaml", ["components.pond.model=airy", f"components.pond.{setting}"])
 
 
-class _SurfacePeak(BaseObserver):
-    def __init__(self):
-        self.peak = 0.0
-
-    def on_exchange(self, time_ns, component, port, msg):
-        if component == "pond" and port == "patch" and msg.velocity.size:
-            self.peak = max(self.peak, float(np.abs(msg.velocity).max()))
-
-
-def _glide_peak(model: str) -> float:
-    """The largest vertical surface speed [m/s] around the reference stone set gliding at 2.2 m/s
-    (the 0.5 m deep pond's sqrt(g d)) with its top 4.5 mm under the surface, over 0.8 s, 1 cm columns."""
-    sets = ["components.stone.position=[0.3, 0.3, -0.012]", "components.stone.velocity=[2.2, 0.0, 0.0]",
-            "components.stone.tilt_deg=3", "components.stone.spin=56.5", "components.pond.nx=250",
-            "components.pond.ny=60", "until=0.8", "record.visual_rate=0", "components.stages.stop_after=0",
-            f"components.pond.model={model}"]
-    peak = _SurfacePeak()
-    Simulation(load(ROOT / "scenarios" / "skip.yaml", sets), observers=[peak]).run()
-    return peak.peak
-
-
 def test_a_stone_gliding_at_the_ponds_wave_speed_does_not_resonate_with_dispersive_water():
-    wave, airy = _glide_peak("wave"), _glide_peak("airy")
+    (wave, _), (airy, _) = glide(0.01), glide(0.01, "components.pond.model=airy")
     assert wave > 5.0  # the one-speed water resonates: its surface moves faster than the stone
     assert airy < 2.2  # dispersive water: slower than the stone that raises it

@@ -8,16 +8,11 @@ columns), so refining the columns refines the band's shape instead of narrowing 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from components.coupler import kernel
-from cosim.scenario import load
-from cosim.scheduler import BaseObserver, Simulation
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.glide_scene import glide
 
 RADIUS = 0.05  # [m] the reference stone
 
@@ -52,44 +47,9 @@ def test_the_band_has_the_same_place_on_1_cm_and_5_mm_columns():
     assert fine == pytest.approx(0.025, rel=0.2)  # the tent's peak, half a radius outside
 
 
-class _SurfacePeak(BaseObserver):
-    """The largest vertical surface speed [m/s] in the water's patches."""
-
-    def __init__(self):
-        self.peak = 0.0
-
-    def on_exchange(self, time_ns, component, port, msg):
-        if component == "pond" and port == "patch" and msg.velocity.size:
-            self.peak = max(self.peak, float(np.abs(msg.velocity).max()))
-
-
-def _glide(cell: float, ring_share: float = 0.5) -> tuple[float, float]:
-    """The reference stone set moving at 2.2 m/s (the 0.5 m deep pond's wave speed, sqrt(g d)) with
-    its top 4.5 mm under the surface: (the largest vertical surface speed [m/s], the highest its
-    centre rose [m]) over 0.8 s on columns of ``cell`` [m]."""
-    n_x, n_y = round(2.5 / cell), round(0.6 / cell)
-    sets = ["components.stone.position=[0.3, 0.3, -0.012]", "components.stone.velocity=[2.2, 0.0, 0.0]",
-            "components.stone.tilt_deg=3", "components.stone.spin=56.5", f"components.pond.cell={cell}",
-            f"components.pond.nx={n_x}", f"components.pond.ny={n_y}",
-            f"components.pond.every={round(cell / 0.0025)}", "until=0.8", "record.visual_rate=0",
-            "components.stages.stop_after=0", f"components.coupler.ring_share={ring_share}"]
-    peak = _SurfacePeak()
-
-    class _Highest(BaseObserver):
-        z = -np.inf
-
-        def on_exchange(self, time_ns, component, port, msg):
-            if component == "stone" and port == "state":
-                _Highest.z = max(_Highest.z, float(msg.position[2]))
-
-    sim = Simulation(load(ROOT / "scenarios" / "skip.yaml", sets), observers=[peak, _Highest()])
-    sim.run()
-    return peak.peak, _Highest.z
-
-
 def test_a_stone_just_under_the_surface_at_the_wave_speed_is_not_thrown_out_on_fine_columns():
-    fine_peak, fine_top = _glide(0.005)
-    coarse_peak, coarse_top = _glide(0.01)
+    fine_peak, fine_top = glide(0.005)
+    coarse_peak, coarse_top = glide(0.01)
     # it starts at -12 mm and sinks: the water never lifts it to the surface
     assert fine_top < -0.011 and coarse_top < -0.011
     # the same source on both: the finer columns' waves are no more than twice as fast (a band 1.5
