@@ -71,8 +71,9 @@ def test_displacement_raises_the_surface_by_the_occupied_volume():
 
 
 def test_volume_is_conserved_over_a_sloped_bed_with_dry_cells():
-    """A sloped bed with a dry shore also keeps the volume (dry cells are walls)."""
-    for model in MODELS:
+    """A sloped bed with a dry shore also keeps the volume (dry cells are walls); airy water, whose
+    modes are a flat bed's, refuses it (tests/test_airy_water.py)."""
+    for model in (m for m in MODELS if m != "airy"):
         p = pond(model=model, bottom_slope=(0.5, 0.0), depth=0.05,
                  initial=GaussianBump(x=0.1, y=0.2, amplitude=0.01, width=0.03))
         assert not p.grid.wet.all()

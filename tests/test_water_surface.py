@@ -39,7 +39,7 @@ def test_ports_are_declared_with_their_message_types():
 def test_unknown_model_and_boundary_list_the_choices():
     """An unknown model or boundary name is reported with the valid names and the YAML path."""
     problems = problems_of({"model": "navier_stokes", "boundary": "periodic"})
-    assert "components.pond.model: must be one of 'wave', 'shallow_water' (got 'navier_stokes')" in problems
+    assert "components.pond.model: must be one of 'wave', 'shallow_water', 'airy' (got 'navier_stokes')" in problems
     assert "components.pond.boundary: must be one of 'reflecting', 'absorbing' (got 'periodic')" in problems
 
 
