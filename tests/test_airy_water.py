@@ -98,3 +98,22 @@ def test_a_stone_gliding_at_the_ponds_wave_speed_does_not_resonate_with_dispersi
     (wave, _), (airy, _) = glide(0.01), glide(0.01, "components.pond.model=airy")
     assert wave > 5.0  # the one-speed water resonates: its surface moves faster than the stone
     assert airy < 2.2  # dispersive water: slower than the stone that raises it
+
+
+def test_the_memory_check_counts_airys_arrays():
+    """The scene's memory check (WaterSurface.estimate_bytes) covers what an airy pond takes at the
+    peak of a step, so a pond too large for the machine is refused before it runs."""
+    import tracemalloc
+
+    params = WaterParams(nx=600, ny=400, cell=0.01, depth=0.5, model="airy")
+    warm = WaterSurface("warm", WaterParams(nx=8, ny=8, model="airy"))  # imports and first calls, untraced
+    warm.advance(0.002)
+    tracemalloc.start()
+    try:
+        pond = WaterSurface("pond", params)
+        for _ in range(2):
+            pond.advance(0.002)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= WaterSurface.estimate_bytes(params) < 1.5 * peak

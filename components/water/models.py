@@ -298,10 +298,15 @@ class AiryModel(Model):
         cos, sin_over_w, w_sin = self._rotation(dt)
         modes_h = fft.dctn(h, type=2, norm="ortho")
         modes_v = fft.dctn(v, type=2, norm="ortho")
-        new_h = modes_h * cos + modes_v * sin_over_w
-        new_v = (modes_v * cos - modes_h * w_sin) * damping_factor(self.damping, dt)
-        h_out[...] = fft.idctn(new_h, type=2, norm="ortho")
-        v_out[...] = fft.idctn(new_v, type=2, norm="ortho")
+        # the rotation in place, as few arrays of the grid's size as it takes (a lake's is large)
+        new_h = modes_h * cos
+        new_h += modes_v * sin_over_w
+        modes_v *= cos
+        modes_h *= w_sin
+        modes_v -= modes_h
+        modes_v *= damping_factor(self.damping, dt)
+        h_out[...] = fft.idctn(new_h, type=2, norm="ortho", overwrite_x=True)
+        v_out[...] = fft.idctn(modes_v, type=2, norm="ortho", overwrite_x=True)
 
 
 MODELS: dict[str, type[Model]] = {m.name: m for m in (WaveModel, ShallowWaterModel, AiryModel)}
