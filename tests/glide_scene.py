@@ -3,6 +3,7 @@ a body's own waves (tests/test_displacement_band.py, tests/test_airy_water.py)."
 
 from __future__ import annotations
 
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,7 @@ class _Watch(BaseObserver):
             self.top = max(self.top, float(msg.position[2]))
 
 
+@cache  # the same run serves both test files: it is read, never changed
 def glide(cell: float, *sets: str) -> tuple[float, float]:
     """The reference stone (R = 5 cm, 15 mm thick) set moving at 2.2 m/s, the 0.5 m deep pond's
     sqrt(g d), with its top 4.5 mm under the surface, for 0.8 s on a 2.5 m x 0.6 m pond of columns of

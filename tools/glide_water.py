@@ -25,6 +25,7 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
+from components.water.grid import GRAVITY  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
 
@@ -136,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {label} | {trace.skips} | {trace.end} | {peak:.1f} | {speed:.2f} |", flush=True)
     if args.figure:
         depth = load(ROOT / "scenarios" / "skip.yaml").components["pond"].params.depth
-        figure(args.figure, traces, math.sqrt(9.81 * depth))
+        figure(args.figure, traces, math.sqrt(GRAVITY * depth))
         print(f"wrote {args.figure}")
     return 0
 

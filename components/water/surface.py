@@ -202,17 +202,13 @@ class WaterSurface(Component):
     # and velocity, one temporary. Tiled, only the pages of water that has moved are ever touched,
     # so this is the bound for a lake whose every column moves.
     FLAT_ARRAYS_PER_CELL = 8
-    # the airy model's own: each mode's frequency and its step's three factors, and within a step the
-    # transforms of height and velocity, the new height's and scipy's work arrays; it steps every
-    # column, so a lake's pages are all touched. Measured with tracemalloc over a 600 x 400 pond's
-    # steps: 13 arrays' worth at the peak (tests/test_airy_water.py), against the flat bed's 8
-    AIRY_ARRAYS_PER_CELL = 8
 
     @classmethod
     def estimate_bytes(cls, params: WaterParams) -> int:
         flat = holds_one_value(int(params.nx), int(params.ny), params.bottom_slope)
         arrays = cls.FLAT_ARRAYS_PER_CELL if flat else cls.ARRAYS_PER_CELL
-        arrays += cls.AIRY_ARRAYS_PER_CELL if params.model == "airy" else 0
+        model = MODELS.get(params.model)
+        arrays += model.extra_arrays_per_cell if model is not None else 0  # the model's own
         arrays += len(params.bodies) if len(params.bodies) > 1 else 0  # each body's own occupied height
         return int(params.nx) * int(params.ny) * arrays * 8
 
@@ -290,7 +286,8 @@ class WaterSurface(Component):
         return volume(self.grid, self._h, self._b) + self._displaced_before
 
     def energy(self) -> float:
-        """Lattice wave energy [J] (see :mod:`components.water.diagnostics`; by tiles: :meth:`_tile_sums`)."""
+        """The energy [J] the model keeps (:meth:`Model.energy`: the lattice energy of
+        :mod:`components.water.diagnostics`, or airy's modes' energy; by tiles: :meth:`_tile_sums`)."""
         if self.tiles is not None:
             return self._tile_sums()[1]
         return self.model.energy(self._h, self._v)
