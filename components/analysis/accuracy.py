@@ -34,7 +34,7 @@ import math
 import shlex
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -240,8 +240,9 @@ def plan(scene: Any, quick: bool = False) -> tuple[Variant, list[Variant]]:
             sets = () if model == implicit else (f"components.{w}.model={implicit}",)
             variants.append(Variant("water", f"{implicit}, water step {_ms(water_step * 2)}",
                                     (*sets, f"components.{w}.every={every * 2}")))
-            if model != "airy" and tuple(params.bottom_slope) == (0.0, 0.0) and params.wave_speed is None:
-                # water's own dispersion (each wave at its speed) against the one-speed height field
+            if model != "airy" and not replace(params, model="airy").check():
+                # water's own dispersion (each wave at its speed) against the one-speed height field,
+                # where the water's own rules admit it (a flat bed, no set wave speed)
                 variants.append(Variant("water", f"airy (dispersive), {params.cell * 100:g} cm cells",
                                         (f"components.{w}.model=airy",)))
     if roles.coupler is not None:
