@@ -5,7 +5,8 @@ Ports:
   frame, held constant over the step (water forces, a push). Gravity is added by the body itself.
 - ``added_mass`` (AddedMass): the water a submerged body carries along (from a WaterCoupler through a
   ``delay: 1`` edge), added to the body's mass and inertia over the step: the total force and torque
-  then accelerate body and water together (:meth:`components.messages.AddedMass.carried`).
+  then accelerate body and water together (:meth:`components.messages.AddedMass.carried`), and turn
+  them together, Euler's equations with the water's moments added (:meth:`~components.messages.AddedMass.with_inertia`).
 - ``impulse`` (Impulse, event): contact impulses and position corrections, applied once at the start
   of the step, before integrating (from SolidGround through a ``delay: 1`` edge).
 - ``state`` (BodyState, out): the state at the end of the step, every field filled.
@@ -28,6 +29,7 @@ Options:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from dataclasses import dataclass
@@ -250,10 +252,13 @@ class RigidBody(Component):
             if problem is not None:
                 raise ValueError(f"input 'added_mass': {problem}")
             self._added_seen, self._added_active = added, added is not None and any(added.values())  # type: ignore[attr-defined]
+        body = self.body
         if self._added_active:
-            forces = added.carried(self.body.mass, self.body.inertia, quat.body_axis(s.orientation),  # type: ignore[attr-defined]
-                                   forces[0], forces[1])
-        s = self.integrate(self.body, s, forces, t, dt, self.rotate)
+            # the water carried along: the force scaled along the axis and across it, the turning
+            # integrated with the water's moments added (AddedMass.carried, with_inertia)
+            forces = (added.carried(body.mass, quat.body_axis(s.orientation), forces[0]), forces[1])  # type: ignore[attr-defined]
+            body = dataclasses.replace(body, inertia=added.with_inertia(body.inertia))  # type: ignore[attr-defined]
+        s = self.integrate(body, s, forces, t, dt, self.rotate)
         if self.tilt_script is not None:
             q = quat.from_axis_angle(self.tilt_axis, math.radians(self.tilt_script.value(t + dt)[0]))
             s = s._replace(orientation=q, angular_velocity=self._scripted_omega(t + dt, q))

@@ -934,7 +934,7 @@ class WaterCoupler(Component):
         radius, thick = float(body.radius), float(body.thickness)
         gravity = np.array([0.0, 0.0, -self.params.g])
         flags = self._local
-        # the water the body carries along, as the body will take it (AddedMass.carried)
+        # the water the body carries along, as the body will take it (AddedMass.carried, with_inertia)
         added = self._carried_water(body) if self.added_mass_on else ZERO_ADDED_MASS
         carried = any(added.values())
         current = stats0[:size].copy()
@@ -953,16 +953,16 @@ class WaterCoupler(Component):
                 total += current
             force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
             torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
+            moments = inertia_body
             if carried:
-                f, t = added.carried(mass, inertia_body.tolist(), quat_to_matrix(q)[:, 2].tolist(),
-                                     (force + mass * gravity).tolist(), torque.tolist())
+                f = added.carried(mass, quat_to_matrix(q)[:, 2].tolist(), (force + mass * gravity).tolist())
                 v = v + np.array(f) / mass * h
-                torque = np.array(t)
+                moments = np.array(added.with_inertia(inertia_body.tolist()))
             else:
                 v = v + (force / mass + gravity) * h
             if not body.attitude_locked:
                 axes = quat_to_matrix(q)
-                inertia = axes @ np.diag(inertia_body) @ axes.T
+                inertia = axes @ np.diag(moments) @ axes.T
                 with np.errstate(over="ignore", invalid="ignore"):
                     w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h
             x = x + v * h
