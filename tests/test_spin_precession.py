@@ -60,3 +60,17 @@ def test_a_contact_moves_the_axis_by_the_torque_impulse_over_the_angular_momentu
     assert expected > 5.0
     assert axis_moved_deg(c) == pytest.approx(expected, rel=0.15)
     assert turn(c) > 2.0 * axis_moved_deg(c)
+
+
+@pytest.mark.slow
+def test_the_lake_throws_axis_is_turned_by_the_planing_load_behind_its_centre():
+    """The lake's throw free at 65 rev/s (tools/spin_precession.py --lake, docs/validation.md section
+    2): its planing load acts 20-30 mm behind the centre of the 5 cm disk in its first contact, and
+    the pressure alone turns the axis there as every effect together does (within 1.5 deg)."""
+    from tools.spin_precession import lake_throw, lever_m
+
+    _, every = lake_throw(65.0)
+    _, pressure = lake_throw(65.0, 'components.coupler.effects=["pressure"]')
+    assert 0.020 < lever_m(every[0]) < 0.030
+    assert axis_moved_deg(pressure[0]) == pytest.approx(axis_moved_deg(every[0]), abs=1.5)
+    assert axis_moved_deg(every[0]) > 10.0

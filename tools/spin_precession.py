@@ -4,6 +4,7 @@
     python tools/spin_precession.py                                  # the table on stdout (~1 min)
     python tools/spin_precession.py --markdown docs/validation.md    # also rewrite its section
     python tools/spin_precession.py --throws                         # skips of 120 free throws (~3 min)
+    python tools/spin_precession.py --lake                           # the lake's throw free (~2 min)
 
 The held skip's throw (scenarios/held_skip.yaml: the 6 mm slate at 20 deg) with its attitude free
 and a spin about its axis, on a pond 4 m wide. For each spin: the skips; per contact, the turn of
@@ -120,6 +121,32 @@ def free_throw(spin_rev_s: float) -> tuple[int, list[Contact]]:
     return sim.components["stages"].track.skips, log.contacts
 
 
+LAKE_SPINS = (65.0, 150.0)  # [rev/s] the experiments' spin, and more than twice it
+
+
+def lake_throw(spin_rev_s: float, *overrides: str) -> tuple[int, list[Contact]]:
+    """Skips and contacts of scenarios/lake.yaml's throw (the 6 mm slate at 18 m/s) with its
+    attitude free and ``spin_rev_s``, on the lake made 24 m wide so that no curving throw leaves it."""
+    scene = load(ROOT / "scenarios" / "lake.yaml",
+                 ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
+                  "components.lake.ny=2400", "components.lake.origin_y=-12.0", "record.visual_rate=0", *overrides])
+    log = ContactLog(scene.dt)
+    sim = Simulation(scene, observers=[log])
+    sim.run()
+    return sim.components["stages"].track.skips, log.contacts
+
+
+def lake_table() -> str:
+    """Per contact of the lake's throw, free at LAKE_SPINS, with every effect and with the pressure
+    alone: what turns the axis."""
+    rows = [header("spin [rev/s] | effects | skips")]
+    for spin in LAKE_SPINS:
+        for label, overrides in (("all", ()), ("pressure alone", ('components.coupler.effects=["pressure"]',))):
+            skips, contacts = lake_throw(spin, *overrides)
+            rows.append(f"| {spin:g} | {label} | {skips} | " + contact_cells(contacts) + " |")
+    return "\n".join(rows)
+
+
 def axis_moved_deg(c: Contact) -> float:
     """Angle [deg] between the axis before and after a contact: how far the spin's angular momentum
     turned (its turn about the vertical is this over the sine of the tilt, larger where the tilt is small)."""
@@ -222,15 +249,25 @@ def contact_row(c: Contact) -> str:
             f"{tilt_deg(c.axis_after):.0f} deg, lever {lever_m(c) * 1e3:.0f} mm")
 
 
-def table(spins: list[float]) -> str:
+def header(first: str) -> str:
+    """The table's two header lines: ``first`` (its leading columns, "|"-separated), then the
+    contacts' columns."""
     head = "axis turn (moved), tilt lowest then after, lever"
-    rows = ["| spin [rev/s] | skips | " + " | ".join(f"contact {k + 1}: {head}" for k in range(CONTACTS_SHOWN)) + " |",
-            "|---|---|" + "---|" * CONTACTS_SHOWN]
+    contacts = " | ".join(f"contact {k + 1}: {head}" for k in range(CONTACTS_SHOWN))
+    return f"| {first} | {contacts} |\n|" + "---|" * (first.count("|") + 1 + CONTACTS_SHOWN)
+
+
+def contact_cells(contacts: list[Contact]) -> str:
+    """The first CONTACTS_SHOWN contacts' cells, "|"-separated (empty ones after the last)."""
+    cells = [contact_row(c) for c in contacts[:CONTACTS_SHOWN]]
+    return " | ".join(cells + [""] * (CONTACTS_SHOWN - len(cells)))
+
+
+def table(spins: list[float]) -> str:
+    rows = [header("spin [rev/s] | skips")]
     for spin in spins:
         skips, contacts = free_throw(spin)
-        cells = [contact_row(c) for c in contacts[:CONTACTS_SHOWN]]
-        cells += [""] * (CONTACTS_SHOWN - len(cells))
-        rows.append(f"| {spin:g} | {skips} | " + " | ".join(cells) + " |")
+        rows.append(f"| {spin:g} | {skips} | " + contact_cells(contacts) + " |")
     return "\n".join(rows)
 
 
@@ -273,7 +310,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--markdown", type=Path, help="rewrite the spin-precession section of this page")
     ap.add_argument("--throws", action="store_true", help="count the skips of the survey's free throws instead")
     ap.add_argument("--figure", type=Path, help="draw the axis through the first contact into this PNG")
+    ap.add_argument("--lake", action="store_true",
+                    help="the same for the lake's throw, with every effect and with the pressure alone")
     args = ap.parse_args(argv)
+    if args.lake:
+        print(lake_table())
+        return 0
     if args.throws:
         print(survey())
         return 0
