@@ -202,6 +202,7 @@ class RigidBody(Component):
         self.state = self._initial_state()
         self._added_seen: Message | None = None  # the added mass last received, and whether it is any
         self._added_active = False
+        self._with_water = self.body  # the body as it turns with the water it carries (its own moments: none)
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """An added mass it starts with (a connection's initial value) must be one."""
@@ -252,13 +253,13 @@ class RigidBody(Component):
             if problem is not None:
                 raise ValueError(f"input 'added_mass': {problem}")
             self._added_seen, self._added_active = added, added is not None and any(added.values())  # type: ignore[attr-defined]
-        body = self.body
+            # the body turning with the water's moments added (AddedMass.with_inertia), once a message
+            self._with_water = (dataclasses.replace(self.body, inertia=added.with_inertia(self.body.inertia))  # type: ignore[attr-defined]
+                                if self._added_active else self.body)
         if self._added_active:
-            # the water carried along: the force scaled along the axis and across it, the turning
-            # integrated with the water's moments added (AddedMass.carried, with_inertia)
-            forces = (added.carried(body.mass, quat.body_axis(s.orientation), forces[0]), forces[1])  # type: ignore[attr-defined]
-            body = dataclasses.replace(body, inertia=added.with_inertia(body.inertia))  # type: ignore[attr-defined]
-        s = self.integrate(body, s, forces, t, dt, self.rotate)
+            # the water carried along: the force scaled along the axis and across it (AddedMass.carried)
+            forces = (added.carried(self.body.mass, quat.body_axis(s.orientation), forces[0]), forces[1])  # type: ignore[attr-defined]
+        s = self.integrate(self._with_water, s, forces, t, dt, self.rotate)
         if self.tilt_script is not None:
             q = quat.from_axis_angle(self.tilt_axis, math.radians(self.tilt_script.value(t + dt)[0]))
             s = s._replace(orientation=q, angular_velocity=self._scripted_omega(t + dt, q))

@@ -937,6 +937,7 @@ class WaterCoupler(Component):
         # the water the body carries along, as the body will take it (AddedMass.carried, with_inertia)
         added = self._carried_water(body) if self.added_mass_on else ZERO_ADDED_MASS
         carried = any(added.values())
+        moments = np.array(added.with_inertia(inertia_body.tolist())) if carried else inertia_body
         current = stats0[:size].copy()
         for i in range(n):
             if i > 0:
@@ -953,11 +954,9 @@ class WaterCoupler(Component):
                 total += current
             force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
             torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
-            moments = inertia_body
             if carried:
                 f = added.carried(mass, quat_to_matrix(q)[:, 2].tolist(), (force + mass * gravity).tolist())
                 v = v + np.array(f) / mass * h
-                moments = np.array(added.with_inertia(inertia_body.tolist()))
             else:
                 v = v + (force / mass + gravity) * h
             if not body.attitude_locked:
