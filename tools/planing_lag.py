@@ -32,7 +32,15 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from components.coupler.forces import C_FRICTION, C_LIFT, GRAVITY, RHO_WATER, segment_area  # noqa: E402
+from components.coupler.forces import (  # noqa: E402
+    C_FRICTION,
+    C_LIFT,
+    GRAVITY,
+    RHO_WATER,
+    friction_factor,
+    pressure_magnitude,
+    segment_area,
+)
 
 WAGNER_RISE = math.pi / 2.0 - 1.0  # the 2-D pile-up ahead of a flat face over its geometric depth [-]
 DT = 2e-5  # [s] the point model's step (semi-implicit Euler)
@@ -84,10 +92,9 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
             area = segment_area(disk.radius, wetted)
             speed_now = math.hypot(vx, vz)
             un = vx * nx + vz * nz
-            if un > 0.0:
-                p = 0.5 * RHO_WATER * C_LIFT * speed_now * un
-                fx, fz = -p * area * nx, -p * area * nz
-            friction = 0.5 * RHO_WATER * C_FRICTION * speed_now * area
+            p = pressure_magnitude(speed_now, un, RHO_WATER, C_LIFT, 0.0)  # 0 unless the face advances
+            fx, fz = -p * area * nx, -p * area * nz
+            friction = friction_factor(speed_now, RHO_WATER, C_FRICTION) * area
             fx -= friction * (vx - un * nx)
             fz -= friction * (vz - un * nz)
             if entry is None:

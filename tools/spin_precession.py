@@ -4,7 +4,7 @@
     python tools/spin_precession.py                                  # the table on stdout (~1 min)
     python tools/spin_precession.py --markdown docs/validation.md    # also rewrite its section
     python tools/spin_precession.py --throws                         # skips of 120 free throws (~3 min)
-    python tools/spin_precession.py --lake                           # the lake's throw free (~2 min)
+    python tools/spin_precession.py --lake                           # the lake's throw free (~1 min)
 
 The held skip's throw (scenarios/held_skip.yaml: the 6 mm slate at 20 deg) with its attitude free
 and a spin about its axis, on a pond 4 m wide. For each spin: the skips; per contact, the turn of
@@ -114,7 +114,11 @@ def free_throw_scene(spin_rev_s: float, *overrides: str):
 
 def free_throw(spin_rev_s: float) -> tuple[int, list[Contact]]:
     """Skips and contacts of the thin slate thrown free at ``spin_rev_s``."""
-    scene = free_throw_scene(spin_rev_s)
+    return logged_run(free_throw_scene(spin_rev_s))
+
+
+def logged_run(scene) -> tuple[int, list[Contact]]:
+    """Skips and contacts of ``scene`` run to its end."""
     log = ContactLog(scene.dt)
     sim = Simulation(scene, observers=[log])
     sim.run()
@@ -127,13 +131,10 @@ LAKE_SPINS = (65.0, 150.0)  # [rev/s] the experiments' spin, and more than twice
 def lake_throw(spin_rev_s: float, *overrides: str) -> tuple[int, list[Contact]]:
     """Skips and contacts of scenarios/lake.yaml's throw (the 6 mm slate at 18 m/s) with its
     attitude free and ``spin_rev_s``, on the lake made 24 m wide so that no curving throw leaves it."""
-    scene = load(ROOT / "scenarios" / "lake.yaml",
-                 ["components.stone.lock_attitude=false", f"components.stone.spin={2 * math.pi * spin_rev_s!r}",
-                  "components.lake.ny=2400", "components.lake.origin_y=-12.0", "record.visual_rate=0", *overrides])
-    log = ContactLog(scene.dt)
-    sim = Simulation(scene, observers=[log])
-    sim.run()
-    return sim.components["stages"].track.skips, log.contacts
+    return logged_run(load(ROOT / "scenarios" / "lake.yaml",
+                           ["components.stone.lock_attitude=false",
+                            f"components.stone.spin={2 * math.pi * spin_rev_s!r}", "components.lake.ny=2400",
+                            "components.lake.origin_y=-12.0", "record.visual_rate=0", *overrides]))
 
 
 def lake_table() -> str:
