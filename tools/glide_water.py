@@ -5,7 +5,9 @@
 The reference skip (scenarios/skip.yaml, recording off) run whole on the `wave` model's 1 cm and
 5 mm columns, on 5 mm columns with the displaced water's band 1.5 columns wide (its width before it
 became half the body's radius: `components.coupler.ring_share=0`), and on the `airy` model's 1 cm
-columns (water with its dispersion). For each: the largest vertical surface speed in the stone's
+columns (water with its dispersion), and on the `wave` model's 1 cm columns with one wave speed
+set to that of the ripples the stone makes (a deep-water wave as long as the stone is wide,
+0.40 m/s, instead of the long waves' sqrt(g d) = 2.2 m/s). For each: the largest vertical surface speed in the stone's
 window at each water step, against time, with the stone's horizontal speed and the pond's sqrt(g d)
 beside it, so the resonance of the one-speed water as the gliding stone passes through its wave
 speed shows. The table on stdout is each run's peak after the skips and the skips themselves.
@@ -25,17 +27,25 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
+from components.coupler.forces import RHO_WATER, SURFACE_TENSION  # noqa: E402
 from components.water.grid import GRAVITY  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
 
 FINE = ("components.pond.cell=0.005", "components.pond.nx=2800", "components.pond.ny=500",
         "components.pond.every=2")
+# [m/s] the phase speed of a deep-water capillary-gravity wave as long as the reference stone is wide
+# (lambda = 2 R = 10 cm): c^2 = g lambda / 2 pi + 2 pi gamma / (rho lambda)
+RIPPLE_LENGTH = 0.10
+RIPPLE_SPEED = math.sqrt(GRAVITY * RIPPLE_LENGTH / (2 * math.pi)
+                         + 2 * math.pi * SURFACE_TENSION / (RHO_WATER * RIPPLE_LENGTH))
 RUNS = (  # (label, overrides, colour)
     ("wave, 1 cm columns (the scene)", (), "#1f5f8b"),
     ("wave, 5 mm columns", FINE, "#2e8b57"),
     ("wave, 5 mm columns, band 1.5 columns wide (before)", (*FINE, "components.coupler.ring_share=0"), "#c0392b"),
     ("airy (dispersive), 1 cm columns", ("components.pond.model=airy",), "#e67e22"),
+    (f"wave, 1 cm columns, one speed of {RIPPLE_SPEED:.2f} m/s (a ripple as long as the stone is wide)",
+     (f"components.pond.wave_speed={RIPPLE_SPEED!r}",), "#8e44ad"),
 )
 AFTER_SKIPS = 0.95  # [s] the third contact is over by then
 STILL = 1e-3  # [m/s] a window whose surface moves slower than this is not drawn
@@ -105,13 +115,15 @@ def figure(path: Path, traces: list[Trace], wave_speed: float) -> None:
         top.semilogy(*_broken(trace.t, trace.surface), color=color, lw=1.1, label=label)
     top.set_ylim(STILL, None)
     top.set_ylabel("largest vertical surface speed\nin the stone's window [m/s]")
-    top.set_title("The reference skip's water: one wave speed resonates with the gliding stone, "
-                  "dispersive water does not", fontsize=9.5)
+    top.set_title("The reference skip's water: the long waves' speed resonates with the gliding stone;\n"
+                  "dispersive water does not, nor does one speed set to the stone's own ripples'", fontsize=9.5)
     top.grid(alpha=0.3, which="both")
     top.legend(fontsize=7.5, loc="upper left")
     scene = traces[0]
     bottom.plot(scene.t, scene.stone, color="0.2", lw=1.2, label="the stone's horizontal speed (1 cm, wave)")
     bottom.axhline(wave_speed, color="#c0392b", lw=1.0, ls="--", label=f"sqrt(g d) = {wave_speed:.1f} m/s")
+    bottom.axhline(RIPPLE_SPEED, color="#8e44ad", lw=1.0, ls=":",
+                   label=f"a 10 cm ripple's speed, {RIPPLE_SPEED:.2f} m/s")
     bottom.set_xlabel("time [s]")
     bottom.set_ylabel("[m/s]")
     bottom.grid(alpha=0.3)
