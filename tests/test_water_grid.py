@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from components.water.grid import GRAVITY, build_grid
+from components.water.grid import GRAVITY, SURFACE_TENSION, WATER_DENSITY, build_grid, wave_speed_of
 
 
 def test_cell_centres_follow_origin_and_cell_size():
@@ -88,3 +88,19 @@ def test_given_wave_speed_applies_on_every_wet_face():
     g = build_grid(8, 3, 0.1, 0.2, bottom_slope=(0.05, 0.0), wave_speed=2.0)
     assert g.c2_uniform == 4.0
     assert np.all(g.kx == 4.0)
+
+
+def test_a_waves_speed_follows_from_its_length_and_the_depth():
+    """grid.wave_speed_of is linear water waves' dispersion, gravity and capillarity together
+    (Lamb 1932, section 267): long waves run at sqrt(g d), deep-water ripples at
+    sqrt(g / k + gamma k / rho), and the slowest of all, c_min = (4 g gamma / rho)^(1/4) = 0.23 m/s,
+    is the wave 2 pi sqrt(gamma / (rho g)) = 1.7 cm long."""
+    assert wave_speed_of(1e4, 0.5) == pytest.approx(math.sqrt(GRAVITY * 0.5), rel=1e-6)
+    k = 2 * math.pi / 0.1  # tanh(k d) = 1 to round-off at d = 0.5 m
+    ripple = math.sqrt(GRAVITY / k + SURFACE_TENSION * k / WATER_DENSITY)
+    assert wave_speed_of(0.1, 0.5) == pytest.approx(ripple, rel=1e-12)
+    assert ripple == pytest.approx(0.40, abs=0.005)
+    slowest = 2 * math.pi * math.sqrt(SURFACE_TENSION / (WATER_DENSITY * GRAVITY))
+    c_min = (4 * GRAVITY * SURFACE_TENSION / WATER_DENSITY) ** 0.25
+    assert wave_speed_of(slowest, 0.5) == pytest.approx(c_min, rel=1e-12)
+    assert min(wave_speed_of(slowest * 1.05, 0.5), wave_speed_of(slowest / 1.05, 0.5)) > c_min

@@ -7,6 +7,7 @@ import pytest
 
 from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
 from components.water import GaussianBump, WaterParams, WaterSurface
+from components.water.grid import GRAVITY, wave_speed_of
 from cosim.codec.json_codec import codec_for, decode_state, encode_state
 from cosim.messages import messages_equal
 from cosim.params import build
@@ -41,6 +42,23 @@ def test_unknown_model_and_boundary_list_the_choices():
     problems = problems_of({"model": "navier_stokes", "boundary": "periodic"})
     assert "components.pond.model: must be one of 'wave', 'shallow_water', 'airy' (got 'navier_stokes')" in problems
     assert "components.pond.boundary: must be one of 'reflecting', 'absorbing' (got 'periodic')" in problems
+
+
+def test_a_wave_length_sets_the_one_wave_speed():
+    """``wave_length`` gives the one-speed models the speed of waves that long at the rest depth
+    (grid.wave_speed_of); with ``wave_speed`` too it is refused; airy, which runs every length at its
+    own speed, keeps its own."""
+    pond = WaterSurface("pond", WaterParams(nx=8, ny=8, cell=0.01, depth=0.5, wave_length=0.1))
+    assert pond.grid.c2_uniform == wave_speed_of(0.1, 0.5) ** 2
+    assert np.all(pond.grid.kx == wave_speed_of(0.1, 0.5) ** 2)
+    long = WaterSurface("pond", WaterParams(nx=8, ny=8, cell=0.01, depth=0.5))
+    assert long.grid.c2_uniform == GRAVITY * 0.5
+    airy = WaterParams(nx=8, ny=8, cell=0.01, depth=0.5, model="airy", wave_length=0.1)
+    assert airy.check() == [] and WaterSurface.wave_speed(airy) is None
+    assert problems_of({"nx": 8, "ny": 8, "wave_speed": 0.3, "wave_length": 0.1}) == [
+        "components.pond.wave_length: give wave_speed or wave_length, not both (got wave_speed 0.3 m/s, "
+        "wave_length 0.1 m)"]
+    assert problems_of({"nx": 8, "ny": 8, "wave_length": 0.0}) == ["components.pond.wave_length: must be > 0 m (got 0)"]
 
 
 def test_parameter_rules_are_all_reported():

@@ -34,6 +34,9 @@ ALUMINIUM = 2700.0  # [kg/m^3]
 GRAVITY = 9.81  # [m/s^2]
 START_HEIGHT = 0.0105  # [m] of the lowest point above the water at the start
 DEPTH = 0.3  # [m] of the still water
+# [m] the water's one wave speed is that of ripples as long as the disk is wide (0.30 m/s), as in the
+# stone scenes (WaterSurface's wave_length; docs/accuracy.md)
+RIPPLE_LENGTH = 2 * RADIUS
 BASE_STEP = 1e-4  # [s] of the co-simulation (the coupler substeps where it must)
 TAKEOFF_CLEARANCE = 0.002  # [m] the stage monitor's default: a bounce rises this far clear of the water
 SPHERE_RADIUS = 0.01  # [m] of the sphere of Johnson & Reid's ricochet throws
@@ -60,6 +63,7 @@ components:
     ny: {ny}
     cell: {cell!r}
     depth: {depth}
+    wave_length: {wave_length!r}
     origin_x: {ox!r}
     origin_y: {oy!r}
     boundary: absorbing
@@ -95,10 +99,11 @@ def start(speed: float, alpha_deg: float, beta_deg: float) -> tuple[np.ndarray, 
 
 def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell: float = 0.005,
                 spin_rev_s: float | None = None, until: float = 0.6,
-                clearance: float = TAKEOFF_CLEARANCE) -> Scene:
+                clearance: float = TAKEOFF_CLEARANCE, ripple_length: float = RIPPLE_LENGTH) -> Scene:
     """One throw of the disk over a 0.8 m x 0.2 m pond of ``cell`` columns (every effect on, the
     reference skip's six); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a
-    number frees it with that spin [rev/s] about the disk's axis."""
+    number frees it with that spin [rev/s] about the disk's axis; ``ripple_length`` [m] the waves whose
+    speed the water's one speed is (the body's width)."""
     x, v = start(speed, alpha_deg, beta_deg)
     length, width = 0.8, 0.2  # [m] a contact lasts a few centimetres of travel
     wave_speed = math.sqrt(GRAVITY * DEPTH)
@@ -108,6 +113,7 @@ def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell:
     text = SCENE.format(dt=BASE_STEP, until=until, radius=RADIUS, thickness=THICKNESS, density=ALUMINIUM,
                         x=x.tolist(), v=v.tolist(), alpha=float(alpha_deg), attitude=attitude,
                         nx=round(length / cell), ny=round(width / cell), cell=cell, depth=DEPTH,
+                        wave_length=ripple_length,
                         ox=-0.1 + 0.5 * cell, oy=-0.5 * width + 0.5 * cell, water_every=water_every,
                         clearance=clearance)
     return loads(text, source="clanet_throw")
@@ -210,7 +216,7 @@ def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, 
                        cell: float = 0.005, until: float = 0.4) -> Scene:
     """A sphere of ``radius`` [m] and ``relative_density`` thrown at ``theta_deg`` below the horizontal
     onto still water (Johnson & Reid's ricochet), over the same pond as the disk."""
-    text = throw_scene(speed, 0.0, theta_deg, cell=cell, until=until).text
+    text = throw_scene(speed, 0.0, theta_deg, cell=cell, until=until, ripple_length=2 * radius).text
     x, _ = start(speed, 0.0, theta_deg)
     disk = (f"    shape: disk\n    radius: {RADIUS}\n    thickness: {THICKNESS}\n    density: {ALUMINIUM}\n"
             f"    position: [0.0, 0.0, {float(x[2])!r}]")

@@ -52,7 +52,17 @@ from components.messages import HeightPatch, OccupiedHeight, PatchRequest, Water
 from components.water import kernels_numba, kernels_numpy
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import surface_energy, volume
-from components.water.grid import CELL_MAX, CELL_MIN, DEPTH_MAX, LEVEL_MAX, WAVE_SPEED_MAX, build_grid, holds_one_value
+from components.water.grid import (
+    CELL_MAX,
+    CELL_MIN,
+    DEPTH_MAX,
+    LEVEL_MAX,
+    WAVE_LENGTH_MAX,
+    WAVE_SPEED_MAX,
+    build_grid,
+    holds_one_value,
+    wave_speed_of,
+)
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
 from components.water.windows import apply_window, patch_arrays
@@ -101,6 +111,12 @@ class WaterParams:
                                    "dispersion, each basin mode stepped exactly; a flat bed only; slower)")
     wave_speed: float | None = param(None, unit="m/s", gt=0, le=WAVE_SPEED_MAX,
                                      doc="fixed wave speed c; default sqrt(g d) (at most 10 km/s)")
+    wave_length: float | None = param(
+        None, unit="m", gt=0, le=WAVE_LENGTH_MAX,
+        doc="or the speed of water waves this long at the rest depth (gravity and capillarity, "
+            "grid.wave_speed_of): the one speed given to the waves that matter, a skipping stone's "
+            "ripples as long as it is wide instead of the long waves' sqrt(g d); model airy, which runs "
+            "every length at its own speed, has no use for it")
     boundary: str = param("reflecting", doc="reflecting (closed basin) or absorbing (open water)")
     sponge_cells: int = param(0, ge=0, doc="absorbing boundary: width of an extra sponge layer [cells]")
     damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= max(0, 1 - k_v dt)")
@@ -149,6 +165,9 @@ class WaterParams:
         if self.model == "airy" and self.wave_speed is not None:
             problems.append(("wave_speed", f"must be left out with model airy: each wave's speed comes from "
                                            f"its length and the depth (got {self.wave_speed:g} m/s)"))
+        if self.wave_speed is not None and self.wave_length is not None:
+            problems.append(("wave_length", f"give wave_speed or wave_length, not both (got wave_speed "
+                                            f"{self.wave_speed:g} m/s, wave_length {self.wave_length:g} m)"))
         if self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
             problems.append(("sponge_cells", f"must be < min(nx, ny) / 2 = {min(self.nx, self.ny) / 2:g} "
                                              f"for an absorbing boundary (got {self.sponge_cells})"))
@@ -203,6 +222,14 @@ class WaterSurface(Component):
     # so this is the bound for a lake whose every column moves.
     FLAT_ARRAYS_PER_CELL = 8
 
+    @staticmethod
+    def wave_speed(params: WaterParams) -> float | None:
+        """The one wave speed [m/s] the parameters fix (``wave_speed``, or that of waves
+        ``wave_length`` long at the rest depth); None: each face's sqrt(g d), or airy's own speeds."""
+        if params.wave_length is not None and params.model != "airy":
+            return wave_speed_of(params.wave_length, params.depth)
+        return params.wave_speed
+
     @classmethod
     def estimate_bytes(cls, params: WaterParams) -> int:
         flat = holds_one_value(int(params.nx), int(params.ny), params.bottom_slope)
@@ -217,7 +244,7 @@ class WaterSurface(Component):
         require_valid(p)
         self.grid = g = build_grid(p.nx, p.ny, p.cell, p.depth, origin_x=p.origin_x, origin_y=p.origin_y,
                                    rest_level=p.rest_level, bottom_slope=p.bottom_slope,
-                                   wave_speed=p.wave_speed)
+                                   wave_speed=self.wave_speed(p))
         self.kernels = kernels_numba.PARALLEL if p.parallel and p.backend == "numba" else KERNELS[p.backend]
         if p.backend == "numba":
             compiled.start()
