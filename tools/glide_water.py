@@ -2,14 +2,15 @@
 
     python tools/glide_water.py --figure docs/figures/glide_water.png     # ~2 min on 2 cores
 
-The reference skip (scenarios/skip.yaml, recording off) run whole on the `wave` model's 1 cm and
-5 mm columns, on 5 mm columns with the displaced water's band 1.5 columns wide (its width before it
-became half the body's radius: `components.coupler.ring_share=0`), and on the `airy` model's 1 cm
-columns (water with its dispersion), and on the `wave` model's 1 cm columns with one wave speed
-set to that of the ripples the stone makes (a deep-water wave as long as the stone is wide,
-0.40 m/s, instead of the long waves' sqrt(g d) = 2.2 m/s). For each: the largest vertical surface speed in the stone's
-window at each water step, against time, with the stone's horizontal speed and the pond's sqrt(g d)
-beside it, so the resonance of the one-speed water as the gliding stone passes through its wave
+The reference skip (scenarios/skip.yaml, recording off) run whole: as the scene is, its water's
+one wave speed that of the ripples the stone makes (`wave_length`: a wave as long as the stone is
+wide, 0.40 m/s), on 1 cm and 5 mm columns; with the long waves' speed sqrt(g d) = 2.2 m/s instead
+(`wave_length` unset, the scenes' water before), on 1 cm and 5 mm columns, and on 5 mm columns with
+the displaced water's band 1.5 columns wide too (its width before it became half the body's radius:
+`components.coupler.ring_share=0`); and on the `airy` model's 1 cm columns (water with its
+dispersion, every length at its own speed). For each: the largest vertical surface speed in the
+stone's window at each water step, against time, with the stone's horizontal speed and both wave
+speeds beside it, so the resonance of the long-wave water as the gliding stone passes through its
 speed shows. The table on stdout is each run's peak after the skips and the skips themselves.
 """
 
@@ -27,25 +28,22 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from components.coupler.forces import RHO_WATER, SURFACE_TENSION  # noqa: E402
+from components.water import WaterSurface  # noqa: E402
 from components.water.grid import GRAVITY  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
 
 FINE = ("components.pond.cell=0.005", "components.pond.nx=2800", "components.pond.ny=500",
         "components.pond.every=2")
-# [m/s] the phase speed of a deep-water capillary-gravity wave as long as the reference stone is wide
-# (lambda = 2 R = 10 cm): c^2 = g lambda / 2 pi + 2 pi gamma / (rho lambda)
-RIPPLE_LENGTH = 0.10
-RIPPLE_SPEED = math.sqrt(GRAVITY * RIPPLE_LENGTH / (2 * math.pi)
-                         + 2 * math.pi * SURFACE_TENSION / (RHO_WATER * RIPPLE_LENGTH))
+LONG = ("components.pond.wave_length=null",)  # the long waves' sqrt(g d)
 RUNS = (  # (label, overrides, colour)
-    ("wave, 1 cm columns (the scene)", (), "#1f5f8b"),
-    ("wave, 5 mm columns", FINE, "#2e8b57"),
-    ("wave, 5 mm columns, band 1.5 columns wide (before)", (*FINE, "components.coupler.ring_share=0"), "#c0392b"),
+    ("wave, 1 cm columns (the scene: the stone's ripples' speed)", (), "#1f5f8b"),
+    ("wave, 5 mm columns (the ripples' speed)", FINE, "#2e8b57"),
     ("airy (dispersive), 1 cm columns", ("components.pond.model=airy",), "#e67e22"),
-    (f"wave, 1 cm columns, one speed of {RIPPLE_SPEED:.2f} m/s (a ripple as long as the stone is wide)",
-     (f"components.pond.wave_speed={RIPPLE_SPEED!r}",), "#8e44ad"),
+    ("wave, 1 cm columns, the long waves' sqrt(g d) (before)", LONG, "#8e44ad"),
+    ("wave, 5 mm columns, the long waves' sqrt(g d) (before)", (*FINE, *LONG), "#7f8c8d"),
+    ("wave, 5 mm columns, sqrt(g d), band 1.5 columns wide (before)",
+     (*FINE, *LONG, "components.coupler.ring_share=0"), "#c0392b"),
 )
 AFTER_SKIPS = 0.95  # [s] the third contact is over by then
 STILL = 1e-3  # [m/s] a window whose surface moves slower than this is not drawn
@@ -102,8 +100,9 @@ def _broken(t: list[float], values: list[float], gap: float = 0.01) -> tuple[np.
     return np.array(times), np.array(out)
 
 
-def figure(path: Path, traces: list[Trace], wave_speed: float) -> None:
-    """Surface speed against time for every run (log scale), the stone's speed and sqrt(g d) below."""
+def figure(path: Path, traces: list[Trace], long_speed: float, ripple_speed: float) -> None:
+    """Surface speed against time for every run (log scale); below, the stone's speed, the long
+    waves' sqrt(g d) and the scene's ripple speed [m/s]."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -115,15 +114,16 @@ def figure(path: Path, traces: list[Trace], wave_speed: float) -> None:
         top.semilogy(*_broken(trace.t, trace.surface), color=color, lw=1.1, label=label)
     top.set_ylim(STILL, None)
     top.set_ylabel("largest vertical surface speed\nin the stone's window [m/s]")
-    top.set_title("The reference skip's water: the long waves' speed resonates with the gliding stone;\n"
-                  "dispersive water does not, nor does one speed set to the stone's own ripples'", fontsize=9.5)
+    top.set_title("The reference skip's water: at the long waves' speed it resonates with the gliding stone;\n"
+                  "at the speed of the stone's own ripples (the scene), as in dispersive water, it does not",
+                  fontsize=9.5)
     top.grid(alpha=0.3, which="both")
     top.legend(fontsize=7.5, loc="upper left")
     scene = traces[0]
     bottom.plot(scene.t, scene.stone, color="0.2", lw=1.2, label="the stone's horizontal speed (1 cm, wave)")
-    bottom.axhline(wave_speed, color="#c0392b", lw=1.0, ls="--", label=f"sqrt(g d) = {wave_speed:.1f} m/s")
-    bottom.axhline(RIPPLE_SPEED, color="#8e44ad", lw=1.0, ls=":",
-                   label=f"a 10 cm ripple's speed, {RIPPLE_SPEED:.2f} m/s")
+    bottom.axhline(long_speed, color="#8e44ad", lw=1.0, ls="--", label=f"sqrt(g d) = {long_speed:.1f} m/s")
+    bottom.axhline(ripple_speed, color="#1f5f8b", lw=1.0, ls=":",
+                   label=f"the scene's: a 10 cm ripple's, {ripple_speed:.2f} m/s")
     bottom.set_xlabel("time [s]")
     bottom.set_ylabel("[m/s]")
     bottom.grid(alpha=0.3)
@@ -148,8 +148,8 @@ def main(argv: list[str] | None = None) -> int:
         peak, speed = (trace.surface[k], trace.stone[k]) if k is not None else (math.nan, math.nan)
         print(f"| {label} | {trace.skips} | {trace.end} | {peak:.1f} | {speed:.2f} |", flush=True)
     if args.figure:
-        depth = load(ROOT / "scenarios" / "skip.yaml").components["pond"].params.depth
-        figure(args.figure, traces, math.sqrt(GRAVITY * depth))
+        params = load(ROOT / "scenarios" / "skip.yaml").components["pond"].params
+        figure(args.figure, traces, math.sqrt(GRAVITY * params.depth), WaterSurface.wave_speed(params))
         print(f"wrote {args.figure}")
     return 0
 
