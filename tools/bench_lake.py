@@ -52,9 +52,16 @@ energy are summed over the moving tiles. `WaterSurface.estimate_bytes` counts 8 
 on a flat bed (the bound if every column moved), 16 otherwise.
 
 Why the lake still costs more than the pond. The pond's absorbing edges are 0.5 m either side of
-the throw; the lake keeps every wave the stone leaves, and they spread at c = sqrt(g d) = 2.2 m/s in
-every direction, so by the end of the throw the moving water covers a fifth of the lake on average,
-several times the pond's moving columns (above). A moving column also costs the lake more: timed
+the throw; the lake keeps every wave the stone leaves. Its water runs them at the speed of the
+stone's ripples (0.40 m/s, `wave_length`: docs/accuracy.md), so the waves themselves stay within
+about a metre of the throw, but the explicit step carries a vanishing precursor ahead of every
+wavefront, one column per water step (5 m/s), and the exact test for rest keeps awake every tile it
+reaches: at t = 2 s on the 40 m x 6 m lake, of its 2250 whole 32 x 32 tiles 532 held a non-zero
+column, and 179, 147, 135 and 120 a column moving by more than 1e-30 m, 1e-15 m, 1 nm and 1 um
+(|h|, or |v| x 50 ms). With the long waves' speed sqrt(g d) = 2.2 m/s, the scenes' water before,
+the waves themselves spread over the lake: 841 tiles held a non-zero column and 682, 655, 633 and
+627 those, and the moving water covered a fifth of the lake on average against about a seventh now
+(`--set components.pond.wave_length=null`). A moving column also costs the lake more: timed
 in the run, the tiled step takes 0.8 ns per stepped column and step on the pond, whose four arrays
 (2.6 MB) stay in the caches, and 2.6 ns on the lake, whose moving water (15 to 40 MB of its 77 MB
 of arrays) streams from memory. The lake's absorbing edges (92 m of them, each row of the side
@@ -69,24 +76,13 @@ the code before it, the tiled step went from 4.2-5.4 to 0.8 ns a column on the p
 2.6 ns on the lake, and lake / pond from 5.4-6.2 (loops of 6.2 s and 1.0-1.2 s) to 3.7. Stepping
 the moving water in place (one pair of arrays, a saved row for the stencil) would halve its
 footprint; tried here on a 600 x 4000 grid, it took as long as the two-buffer step (2.2 ns a column
-either way, dense), so the step is not held by the bytes alone. The exact test for
-rest keeps a little more awake: the explicit scheme carries a vanishing precursor ahead of each
-wavefront (down to 1e-300 m). A threshold would not change the picture, because behind the precursor
-the wavefront is sharp: at t = 2 s on the 40 m x 6 m lake, of its 2250 whole 32 x 32 tiles 840 held
-a non-zero column, and 632, 630, 626, 619 and 506 held a column moving by more than 1 nm, 0.1 um, 1
-um, 10 um and 0.1 mm (|h|, or |v| x 50 ms). Within 1.5x the pond's loop the lake could step about
-100,000 columns per water step on average at its 2.6 ns (the run outside the water costs about what
-the pond's does), against about 500,000 moving now; even a 0.1 mm threshold, far above what the stone can feel,
-keeps 80% of them. The 1.5 target is not met: the water the throw sets moving covers that much of
-the lake, and stepping it costs what it costs.
-Part of that spread is the wave model's, not the lake's: its columns carry waves of every length at
-the long-wave speed sqrt(g d) (physics.md, section 1), where real ripples of the stone's size are
-deep-water waves and travel slower, at sqrt(g lambda / 2 pi) (0.28 m/s for 5 cm, 0.4 m/s for 10 cm,
-their energy at half that). A dispersive water model would keep the moving water of a real lake
-much closer to the stone; it is not in this project.
+either way, dense), so the step is not held by the bytes alone. A rest threshold far below round-off would put most of the
+precursor's tiles back to rest (1e-30 m: a whole tile at that height holds 1e-31 m^3, beneath the
+round-off of the lake's volume), at the price of the bit-for-bit agreement with the dense step
+that the tests hold now; it is not done. The 1.5 target is not met.
 
 `scenarios/lake.yaml` (50 m x 6 m, 3 million columns, the slate at 18 m/s, spun at 20 rev/s): 11
-skips over 34.7 m, curving 2 m to the left; the moving water covers 53% of the lake's tiles on
+skips over 34.7 m, curving 2 m to the left; the moving water covers 44% of the lake's tiles on
 average over its 4.5 s, and the viewer's surface is an 8 m x 3 m window that follows the stone
 (`field_window`), not the whole lake."""
 
