@@ -19,7 +19,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def pond(tile: int, **overrides) -> WaterSurface:
-    params = dict(nx=160, ny=70, cell=0.01, depth=0.5, boundary="absorbing", tile=tile) | overrides
+    """A pond stepped by tiles of ``tile`` cells (0: densely); only exact zeros rest unless
+    ``rest_below`` is given, so that the tiled step is the dense one bit for bit."""
+    params = dict(nx=160, ny=70, cell=0.01, depth=0.5, boundary="absorbing", tile=tile, rest_below=0.0) | overrides
     return WaterSurface("pond", WaterParams(**params))
 
 
@@ -182,17 +184,56 @@ def test_touch_marks_the_tiles_of_a_window():
 
 def test_the_reference_skip_tiled_is_the_dense_skip():
     """The coupled throw (stone, coupler, water) over its first skips: the stone's state is the same
-    bit for bit whether the pond is stepped by tiles or densely."""
+    bit for bit whether the pond is stepped by tiles (only exact zeros resting) or densely."""
     finals = []
     for tile in (0, 32):
         scene = load(ROOT / "scenarios" / "skip.yaml",
-                     overrides=["until=0.45", "components.pond.field_rate=0", f"components.pond.tile={tile}"])
+                     overrides=["until=0.45", "components.pond.field_rate=0", f"components.pond.tile={tile}",
+                                "components.pond.rest_below=0"])
         outcome = run_scene(scene, None, progress=False)
         stone = outcome.simulation.components["stone"].get_state()
         water = outcome.simulation.components["pond"].get_state()
         finals.append((stone, water["h"]))
     (stone_d, h_d), (stone_t, h_t) = finals
     assert np.array_equal(h_d, h_t)
+    for key, value in stone_d.items():
+        assert np.array_equal(np.asarray(value), np.asarray(stone_t[key])), key
+
+
+@pytest.mark.parametrize("boundary", ["absorbing", "reflecting"])
+def test_the_precursor_rests_below_rest_below_and_the_water_stays_the_dense_waters(boundary):
+    """On water as slow as a stone's ripples (0.4 m/s) most of the tiles the explicit step's vanishing
+    precursor reaches hold nothing above 1e-30 m. The default ``rest_below`` sets them to rest: the
+    tiled step then steps far fewer tiles than with exact rest, and every column is still the dense
+    step's to round-off (a wave set to rest by mistake would be off by its whole height), the volume
+    its own to 1e-14."""
+    slow = dict(nx=320, ny=160, wave_speed=0.4, boundary=boundary,
+                initial=GaussianBump(x=0.5, y=0.8, amplitude=2e-3, width=0.03))
+    dense, exact = pond(0, **slow), pond(16, **slow)
+    resting = pond(16, **slow, rest_below=WaterParams().rest_below)
+    for surface in (dense, exact, resting):
+        run(surface, 300)
+    assert WaterParams().rest_below == 1e-30
+    assert resting.tiles.stepped < 0.6 * exact.tiles.stepped
+    h, v = dense.get_state()["h"], dense.get_state()["v"]
+    assert np.abs(resting.get_state()["h"] - h).max() <= 1e-15 * np.abs(h).max()
+    assert np.abs(resting.get_state()["v"] - v).max() <= 1e-15 * np.abs(v).max()
+    assert resting.volume() == pytest.approx(dense.volume(), rel=1e-14)
+
+
+def test_the_held_skip_with_its_resting_tiles_is_the_dense_skip():
+    """The held skip as its scene is (tiles, ``rest_below`` 1e-30 m, its ripple-speed water) and
+    stepped densely: the same four skips and the stone's state at the end the same bit for bit,
+    since the planing law reads the water the stone met, not the far water's round-off."""
+    finals = []
+    for tile in (0, 32):
+        scene = load(ROOT / "scenarios" / "held_skip.yaml",
+                     overrides=["components.pond.field_rate=0", f"components.pond.tile={tile}"])
+        outcome = run_scene(scene, None, progress=False)
+        sim = outcome.simulation
+        finals.append((sim.components["stone"].get_state(), sim.components["stages"].track.skips))
+    (stone_d, skips_d), (stone_t, skips_t) = finals
+    assert skips_d == skips_t == 4
     for key, value in stone_d.items():
         assert np.array_equal(np.asarray(value), np.asarray(stone_t[key])), key
 

@@ -64,7 +64,7 @@ from components.water.grid import (
     wave_speed_of,
 )
 from components.water.models import MODELS, WaveModel
-from components.water.tiles import DEFAULT_TILE, Tiles, tiling_applies
+from components.water.tiles import DEFAULT_TILE, REST_BELOW, Tiles, tiling_applies
 from components.water.windows import apply_window, patch_arrays
 from cosim.component import Component, Port
 from cosim.messages import Message
@@ -136,6 +136,12 @@ class WaterParams:
                                               "with its neighbours at rest costs nothing (0: every column every "
                                               "step; shallow_water, smoothing, a sloped bed and the numpy or "
                                               "parallel kernels always step every column)")
+    rest_below: float = param(
+        REST_BELOW, unit="m", ge=0, le=1e-3,
+        doc="the tiled step sets a stepped tile to rest once every column moves by at most this (|h| [m], "
+            "|v| [m/s]): the explicit step's vanishing precursor ahead of each wave then costs nothing; "
+            "1e-30 m is far below any wave's round-off (0: only exact zeros rest, and the tiled step is "
+            "the dense one bit for bit)")
     bodies: list[str] = param([], doc="bodies sharing this water, each on its own ports occupied_<name>, "
                                       "request_<name>, patch_<name> (empty: one body on occupied, request, patch)")
 
@@ -260,7 +266,7 @@ class WaterSurface(Component):
         shape = g.shape
         self._h = np.zeros(shape)
         self._v = np.zeros(shape)
-        self.tiles = Tiles(shape, p.tile) if tiling_applies(
+        self.tiles = Tiles(shape, p.tile, p.rest_below) if tiling_applies(
             tile=p.tile, model=p.model, uniform=g.c2_uniform is not None, smoothing=p.smoothing,
             backend=p.backend, parallel=p.parallel) else None
         # spare buffers: each step writes into them, then they swap. Tiled, a tile left at rest

@@ -5,8 +5,15 @@ may be narrower). A tile is *at rest* when every one of its columns has h = 0 an
 On a uniform bed with no input, the explicit step of :class:`components.water.models.WaveModel`
 maps a cell at rest whose four neighbours are at rest to exactly (0, 0) (the Laplacian of zeros is
 0, so v' = (0 + kdt 0) damp = 0 and h' = 0 + dt 0 = 0), so a tile at rest whose four neighbouring
-tiles are at rest can be left as it is: the result is the dense step's, bit for bit, and the
-test is exact (all zeros), never a threshold.
+tiles are at rest can be left as it is.
+
+The explicit step carries a vanishing precursor ahead of every wavefront, one column per step
+(down to 1e-300 m), and on slow water most of the tiles it reaches hold nothing else. A stepped
+tile whose every column moves by at most ``rest`` (|h| [m] and |v| [m/s]) is therefore set to
+zeros and rests. The default, 1e-30 m (WaterParams.rest_below), is eleven orders of magnitude
+below the round-off of a millimetre wave's heights, and a whole tile of 1 cm columns at that
+height holds 1e-31 m^3, beneath the round-off of any pond's volume. With ``rest`` = 0 only exact
+zeros rest, and the result is the dense step's, bit for bit.
 
 What makes a tile active, per step from state n to n + 1 (``plan``):
 
@@ -37,6 +44,7 @@ from numba import njit
 
 from components.water.kernels_numba import wave_uniform_span
 
+REST_BELOW = 1e-30  # [m] a stepped tile moving by no more than this rests (see above)
 DEFAULT_TILE = 32  # cells per tile side: 8 KiB of each array per tile, a wake is followed to within 32 cm at 1 cm
 
 
@@ -84,11 +92,12 @@ def _dilate8(step, near):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, step, tile, nz_out):  # pragma: no cover - compiled
+def _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, step, tile, nz_out, rest):  # pragma: no cover - compiled
     # Rows run outermost, and each run of neighbouring stepped tiles along a row is one span of the
     # dense step's own row kernel (kernels_numba.wave_uniform_span), so the stepped tiles hold the
-    # dense step's bits; whether a tile holds anything but zeros is read back from the row just
-    # written (in cache), stopping at the first non-zero column.
+    # dense step's bits; whether a tile holds a column moving by more than ``rest`` (|h| [m] or
+    # |v| [m/s]; 0: anything but zeros) is read back from the row just written (in cache), stopping
+    # at the first such column. A stepped tile with none is set to zeros: it rests.
     ny, nx = h.shape
     nty, ntx = step.shape
     for tj in range(nty):
@@ -120,10 +129,18 @@ def _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, step, tile, nz_out):  # pragm
                     if nz_out[tj, t]:
                         continue
                     for i in range(t * tile, min(t * tile + tile, nx)):
-                        if ho[i] != 0.0 or vo[i] != 0.0:
+                        # written so that a NaN counts as moving, never as at rest
+                        if not (abs(ho[i]) <= rest and abs(vo[i]) <= rest):
                             nz_out[tj, t] = True
                             break
                 ti = run_end
+        if rest > 0.0:
+            for ti in range(ntx):
+                if step[tj, ti] and not nz_out[tj, ti]:
+                    i0 = ti * tile
+                    i1 = min(i0 + tile, nx)
+                    h_out[j0:j1, i0:i1] = 0.0
+                    v_out[j0:j1, i0:i1] = 0.0
 
 
 @njit(cache=True)
@@ -212,9 +229,10 @@ class Tiles:
     run's summary.
     """
 
-    def __init__(self, shape: tuple[int, int], tile: int):
+    def __init__(self, shape: tuple[int, int], tile: int, rest: float = 0.0):
         ny, nx = shape
         self.tile = tile
+        self.rest = rest  # a stepped tile whose every column moves by at most this rests (0: only zeros)
         self.shape = shape
         self.nty = -(-ny // tile)
         self.ntx = -(-nx // tile)
@@ -252,9 +270,10 @@ class Tiles:
     def wave_step(self, h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray,
                   kdt: float, dt: float, damp: float) -> None:
         """The uniform wave step (see :meth:`components.water.models.WaveModel.advance`) of the
-        tiles not at rest, into (h_out, v_out); the other tiles of h_out, v_out already hold zeros."""
+        tiles not at rest, into (h_out, v_out); the other tiles of h_out, v_out already hold zeros.
+        A stepped tile whose every column then moves by at most ``rest`` is set to zeros."""
         n = int(_plan(self.nz, self.nz_prev, self._step))
-        _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, self._step, self.tile, self._nz_next)
+        _wave_tiles(h, v, h_out, v_out, kdt, dt, damp, self._step, self.tile, self._nz_next, self.rest)
         self._near_done = False
         self.steps += 1
         self.stepped += n
