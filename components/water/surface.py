@@ -22,9 +22,11 @@ One step, from t to t + dt:
    bodies last asked for (a lake's viewer shows the stone, not a decimated lake).
 
 A lake: the ``wave`` model on a flat bed is stepped by tiles of ``tile`` x ``tile`` columns
-(:mod:`components.water.tiles`); water exactly at rest, with its neighbours at rest, is not stepped
-and (its pages never written) takes no memory. The result is the dense step's bit for bit;
-``tile: 0``, ``shallow_water``, smoothing, a sloped bed and the numpy or parallel kernels step every
+(:mod:`components.water.tiles`); water at rest, with its neighbours at rest, is not stepped and (its
+pages never written) takes no memory. A stepped tile moving by no more than ``rest_below`` (1e-30 m,
+far below any wave's round-off) is set to rest, so the explicit step's vanishing precursor ahead of
+each wave costs nothing; the result is the dense step's to round-off (bit for bit with
+``rest_below: 0``). ``tile: 0``, ``shallow_water``, smoothing, a sloped bed and the numpy or parallel kernels step every
 column. The summary and the field's ``active_fraction`` say how much of the water moved.
 
 Several bodies on one pond: ``bodies: [stone, ball]`` gives each body its own three ports,
