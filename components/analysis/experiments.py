@@ -106,8 +106,10 @@ def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell:
     speed the water's one speed is (the body's width)."""
     x, v = start(speed, alpha_deg, beta_deg)
     length, width = 0.8, 0.2  # [m] a contact lasts a few centimetres of travel
-    wave_speed = math.sqrt(GRAVITY * DEPTH)
-    water_every = max(1, math.floor(0.5 * cell / wave_speed / BASE_STEP))  # c dt / s <= 0.5
+    # the water's step as the long waves' sqrt(g d) would need it (c dt / s <= 0.5): kept at the
+    # ripples' slower speed too, so the throws' water steps as it always has
+    long_wave_speed = math.sqrt(GRAVITY * DEPTH)
+    water_every = max(1, math.floor(0.5 * cell / long_wave_speed / BASE_STEP))
     attitude = ("lock_attitude: true" if spin_rev_s is None
                 else f"lock_attitude: false\n    spin: {2.0 * math.pi * spin_rev_s!r}")
     text = SCENE.format(dt=BASE_STEP, until=until, radius=RADIUS, thickness=THICKNESS, density=ALUMINIUM,

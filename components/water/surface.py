@@ -139,7 +139,7 @@ class WaterParams:
                                               "step; shallow_water, smoothing, a sloped bed and the numpy or "
                                               "parallel kernels always step every column)")
     rest_below: float = param(
-        REST_BELOW, unit="m", ge=0, le=1e-3,
+        REST_BELOW, unit="m", ge=0, le=1e-6,  # a micrometre; more would put real ripples to rest
         doc="the tiled step sets a stepped tile to rest once every column moves by at most this (|h| [m], "
             "|v| [m/s]): the explicit step's vanishing precursor ahead of each wave then costs nothing; "
             "1e-30 m is far below any wave's round-off (0: only exact zeros rest, and the tiled step is "
