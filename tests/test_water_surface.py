@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -323,9 +325,17 @@ def test_set_state_checks_the_grid_shape():
 
 
 def test_summary_names_model_grid_and_volume_change():
-    """The closing summary line names the model, grid, edges, volume change and energy."""
+    """The closing summary line names the model, grid, the waves' speed and why, edges, volume
+    change and energy."""
     (line,) = pond().summary()
-    assert line.startswith("pond: wave on 20 x 16 cells of 0.01 m, reflecting edges; volume change")
+    depth = pond().params.depth
+    speed = f"{math.sqrt(GRAVITY * depth):.2g}"
+    assert line.startswith(f"pond: wave on 20 x 16 cells of 0.01 m, waves at sqrt(g d) = {speed} m/s (at the "
+                           "rest depth), reflecting edges; volume change")
+    (ripples,) = WaterSurface("pond", WaterParams(nx=8, ny=8, depth=0.5, wave_length=0.1)).summary()
+    assert "waves at 0.4 m/s (those 0.1 m long)" in ripples
+    (airy,) = WaterSurface("pond", WaterParams(nx=8, ny=8, depth=0.5, model="airy")).summary()
+    assert "each wave length at its own speed" in airy
 
 
 def test_components_with_compiled_kernels_start_numba_when_built(monkeypatch):

@@ -58,6 +58,7 @@ from components.water.grid import (
     CELL_MAX,
     CELL_MIN,
     DEPTH_MAX,
+    GRAVITY,
     LEVEL_MAX,
     WAVE_LENGTH_MAX,
     WAVE_SPEED_MAX,
@@ -348,10 +349,22 @@ class WaterSurface(Component):
     def summary(self) -> list[str]:
         g, p = self.grid, self.params
         change = (self.volume() - self.initial_volume) / self.initial_volume
-        return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {p.boundary} edges; "
-                f"volume change {change:+.3g} (relative); surface energy "
+        return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {self._waves()}, "
+                f"{p.boundary} edges; volume change {change:+.3g} (relative); surface energy "
                 f"{surface_energy(self.grid, self._h):.3g} J (1/2 rho g sum eta^2 s^2; the model's "
                 f"{self.model.invariant} {self.energy():.3g} J); {self._activity()}"]
+
+    def _waves(self) -> str:
+        """At what speed the water ran its waves, and why that speed."""
+        p = self.params
+        if p.model == "airy":
+            return "each wave length at its own speed"
+        c = self.wave_speed(p)
+        if c is None:
+            return f"waves at sqrt(g d) = {math.sqrt(GRAVITY * p.depth):.2g} m/s (at the rest depth)"
+        if p.wave_length is not None:
+            return f"waves at {c:.2g} m/s (those {p.wave_length:g} m long)"
+        return f"waves at {c:.2g} m/s (set)"
 
     def _activity(self) -> str:
         """How much of the water was stepped: the share of tiles, peak and mean over the steps."""
