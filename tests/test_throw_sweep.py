@@ -13,11 +13,12 @@ SWEEP = Path(__file__).resolve().parents[1] / "scenarios" / "sweeps" / "throw.ya
 
 
 @pytest.mark.parametrize(("spin", "attack", "skips"), [
-    (0, 8, 2),    # without spin, twice
+    (0, 8, 1),    # without spin, once
     (10, 8, 3),   # the scene's own throw: three times
     (30, 8, 3),   # and still three times at 30 rev/s ...
     (65, 8, 3),   # ... and at 65
     (10, 4, 3),   # flatter, at 10 rev/s: three times
+    (14, 4, 4),   # at 14 rev/s four times
     (65, 4, 1),   # and at 65 rev/s once: the count scatters rather than grows
 ])
 def test_the_throws_the_description_names(spin, attack, skips):
