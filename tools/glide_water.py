@@ -33,7 +33,7 @@ from components.water.grid import GRAVITY  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
 
-FINE = ("components.pond.cell=0.005", "components.pond.nx=2800", "components.pond.ny=500",
+FINE = ("components.pond.cell=0.005", "components.pond.nx=2800", "components.pond.ny=700",
         "components.pond.every=2")
 LONG = ("components.pond.wave_length=null",)  # the long waves' sqrt(g d)
 RUNS = (  # (label, overrides, colour)

@@ -4,7 +4,7 @@
 
 Two scenes, each with recording off (the physics alone), after a warm-up run that loads the kernels
 from numba's disk cache: the reference skip (``scenarios/skip.yaml``, the free spinning throw on its
-14 m x 2.5 m pond) and the held skip (``scenarios/held_skip.yaml``, the benchmarks' scene, whose
+14 m x 3.5 m pond) and the held skip (``scenarios/held_skip.yaml``, the benchmarks' scene, whose
 figures compare across rounds). Two measures of each:
 
 * **Shares** (``--runs`` runs, median): every component's ``step`` is wrapped in a timer; the rest
