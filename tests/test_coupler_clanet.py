@@ -2,9 +2,10 @@
 
 An aluminium disk (R = 2.5 cm, e = 2.75 mm) with its attitude locked (the 65 rev/s high-spin limit)
 thrown at beta = 20 degrees bounces above a critical speed that is lowest near alpha = 20 degrees,
-about 2.5 m/s. With the default coefficients the model's U_min(alpha) is 3.65, 2.52, 2.32, 2.30,
-2.39, 2.54, 3.09, 3.53 m/s at alpha = 5, 10, 15, 20, 25, 30, 40, 45 degrees (bisection, 0.015 m/s).
-These tests bracket the minimum: a bounce at 2.7 m/s for alpha = 20 degrees only.
+about 2.5 m/s. With the default coefficients the model's U_min(alpha) is the table "The force law
+alone" of docs/validation.md (its minimum 2.23-2.24 m/s at 17.5-20 degrees, leaving the water moving
+up at all; `python tools/validate_magic_angle.py`). These tests bracket the minimum: a bounce at
+2.7 m/s for alpha = 20 degrees only.
 
 The body is moved here by the held wrench (semi-implicit Euler, 0.05 ms), as RigidBody does with a
 delayed wrench edge; the water is still (a fresh flat patch every step).
