@@ -94,7 +94,13 @@ class Component:
         return {}
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Restore a state produced by :meth:`get_state`."""
+        """Restore a state produced by :meth:`get_state` (or :meth:`checkpoint_state`)."""
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The state a checkpoint records: :meth:`get_state` unless a component gives a smaller form
+        of the same state, which its :meth:`set_state` then takes as well (the water leaves out its
+        columns at rest)."""
+        return self.get_state()
 
     def initial_outputs(self) -> dict[str, Message]:
         """What the component publishes at t = 0, before the first tick (e.g. a body's initial state)."""

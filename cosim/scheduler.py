@@ -326,7 +326,7 @@ class Simulation:
         return {
             "tick": self.tick,
             "dt_ns": self.dt_ns,
-            "components": {r.name: {"state": r.comp.get_state(), "step_count": r.comp.step_count}
+            "components": {r.name: {"state": r.comp.checkpoint_state(), "step_count": r.comp.step_count}
                            for r in self.runners},
             # only the ports some edge reads: the others' past messages cannot change what follows
             "slots": {f"{r.name}.{port}": [[stamp, codec_for(type(msg)).encode(msg).decode()]

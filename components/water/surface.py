@@ -51,7 +51,7 @@ import numpy as np
 
 from components import compiled
 from components.messages import HeightPatch, OccupiedHeight, PatchRequest, WaterField
-from components.water import kernels_numba, kernels_numpy
+from components.water import kernels_numba, kernels_numpy, sparse
 from components.water.boundaries import BOUNDARIES
 from components.water.diagnostics import surface_energy, volume
 from components.water.grid import (
@@ -381,11 +381,18 @@ class WaterSurface(Component):
     # --- state ----------------------------------------------------------------------------------
 
     def get_state(self) -> dict[str, Any]:
+        return {"h": self._h.copy(), "v": self._v.copy(), **self._state_but_surface()}
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The state with the surface packed (``surface``: the blocks of columns not at rest, see
+        :mod:`components.water.sparse`): a checkpoint of a pond mostly at rest is mostly not written."""
+        tile = self.tiles.tile if self.tiles is not None else sparse.BLOCK
+        return {"surface": sparse.pack(self._h, self._v, tile), **self._state_but_surface()}
+
+    def _state_but_surface(self) -> dict[str, Any]:
         # one body: its window of the occupied height; several: each body's own (their sum is the total)
         w = self._occupants[0].window if len(self._occupants) == 1 else None
         return {
-            "h": self._h.copy(),
-            "v": self._v.copy(),
             **_window_state(self._b, w),
             "steps": self._steps,
             "next_frame": self._next_frame,
@@ -397,12 +404,15 @@ class WaterSurface(Component):
 
     def set_state(self, state: dict[str, Any]) -> None:
         shape = self.grid.shape
-        for key in ("h", "v"):
-            arr = np.asarray(state[key])
-            if arr.shape != shape:
-                raise ValueError(f"state {key!r} has shape {arr.shape}, the grid is {shape}")
-        np.copyto(self._h, state["h"])
-        np.copyto(self._v, state["v"])
+        if "surface" in state:  # a checkpoint's packed surface (checkpoint_state)
+            sparse.unpack(state["surface"], self._h, self._v)
+        else:
+            for key in ("h", "v"):
+                arr = np.asarray(state[key])
+                if arr.shape != shape:
+                    raise ValueError(f"state {key!r} has shape {arr.shape}, the grid is {shape}")
+            np.copyto(self._h, state["h"])
+            np.copyto(self._v, state["v"])
         self._b[:] = 0.0
         if len(self._occupants) == 1:
             self._occupants[0].window = _put_window(self._b, state["b_window"], state["b"])
