@@ -50,7 +50,7 @@ def unpack(packed: dict[str, Any], h: np.ndarray, v: np.ndarray) -> None:
     ValueError naming what does not fit when it is not a packing of grids of their shape."""
     ny, nx = (int(n) for n in packed["shape"])
     if (ny, nx) != h.shape or h.shape != v.shape:
-        raise ValueError(f"packed surface has shape {(ny, nx)}, the grid is {h.shape}")
+        raise ValueError(f"the checkpoint's water surface has shape {(ny, nx)}, the grid is {h.shape}")
     tile = int(packed["tile"])
     mask = np.asarray(packed["mask"])
     if tile < 1 or mask.shape != (-(-ny // tile), -(-nx // tile)):
