@@ -84,8 +84,8 @@ footprint; tried here on a 600 x 4000 grid, it took as long as the two-buffer st
 either way, dense), so the step is not held by the bytes alone.
 
 `scenarios/lake.yaml` (50 m x 6 m, 3 million columns, the slate at 18 m/s, spun at 20 rev/s): 11
-skips over 34.7 m, curving 2 m to the left; the moving water covers 19% of the lake's tiles on
-average over its 4.5 s, and the viewer's surface is an 8 m x 3 m window that follows the stone
+skips over 36.6 m, curving 1.2 m to the left; the moving water covers 21% of the lake's tiles on
+average over its 4.7 s, and the viewer's surface is an 8 m x 3 m window that follows the stone
 (`field_window`), not the whole lake."""
 
 
