@@ -56,16 +56,16 @@ def unpack(packed: dict[str, Any], h: np.ndarray, v: np.ndarray) -> None:
     if tile < 1 or mask.shape != (-(-ny // tile), -(-nx // tile)):
         raise ValueError(f"packed surface: a mask of shape {mask.shape} does not tile {(ny, nx)} by {tile}")
     blocks = _blocks(mask, ny, nx, tile)
+    shapes = [(rows.stop - rows.start, cols.stop - cols.start) for rows, cols in blocks]
     hs, vs = np.asarray(packed["h"], dtype=np.float64), np.asarray(packed["v"], dtype=np.float64)
-    size = sum((b[0].stop - b[0].start) * (b[1].stop - b[1].start) for b in blocks)
+    size = sum(a * b for a, b in shapes)
     if hs.shape != (size,) or vs.shape != (size,):
         raise ValueError(f"packed surface: {hs.size} heights and {vs.size} velocities for {size} columns")
     h[:] = 0.0
     v[:] = 0.0
     at = 0
-    for rows, cols in blocks:
-        n = (rows.stop - rows.start) * (cols.stop - cols.start)
-        shape = (rows.stop - rows.start, cols.stop - cols.start)
-        h[rows, cols] = hs[at:at + n].reshape(shape)
-        v[rows, cols] = vs[at:at + n].reshape(shape)
+    for block, shape in zip(blocks, shapes, strict=True):
+        n = shape[0] * shape[1]
+        h[block] = hs[at:at + n].reshape(shape)
+        v[block] = vs[at:at + n].reshape(shape)
         at += n
