@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import mmap
 import os
 import pickle
 import random
@@ -323,6 +324,31 @@ def test_a_batch_larger_than_the_ring_comes_off_the_pipe(local):
     assert put.error is None
     assert [type(p) for p in parts] == [bytes, bytes]
     assert b"".join(parts) == big and [len(p) for p in parts] == [RING, 2 * RING]
+
+
+def test_prefault_makes_the_ring_resident_and_changes_none_of_its_bytes():
+    """The consumer's prefault allocates the whole ring's memory (the shared memory file then holds
+    every page, where before it held only the pages written) without touching what the producer has
+    put there; where the system cannot, it says so and nothing changes."""
+    size = 64 * mmap.PAGESIZE
+    pair = Local(size)
+    try:
+        gen = pair.consumer.batches()
+        batch = [os.urandom(3 * mmap.PAGESIZE), b"tail"]
+        pair.producer.put(batch)
+        before = os.fstat(pair.producer.fd).st_blocks * 512  # bytes allocated (tmpfs, or a temporary file)
+        assert before < size  # only the pages written so far
+        done = pair.consumer.prefault()
+        after = os.fstat(pair.producer.fd).st_blocks * 512
+        if done:
+            assert after >= size
+        else:  # an older kernel: the producer's writes fault the pages in, as without the call
+            assert after == before
+        assert [bytes(p) for p in next(gen)] == batch
+        pair.producer.put([b"next"])
+        assert [bytes(p) for p in next(gen)] == [b"next"]
+    finally:
+        pair.cleanup()
 
 
 # --- backpressure ---------------------------------------------------------------------------------------

@@ -51,6 +51,8 @@ _TALLY = struct.Struct("<QQ")  # a batch's number, the consumer's count before i
 TALLIES = 256  # batches whose tally is kept (the ring holds far fewer whole batches)
 _TALLIES_AT = 64  # bytes into the control block
 CONTROL_BYTES = _TALLIES_AT + TALLIES * _TALLY.size
+MADV_POPULATE_WRITE = getattr(mmap, "MADV_POPULATE_WRITE", 23)  # Linux 5.14 and later
+_PREFAULT_CHUNK = 1 << 20  # [bytes] the ring is made resident this much at a time, from its end
 
 
 class RingError(RuntimeError):
@@ -288,6 +290,26 @@ class RingConsumer:
         self.control_fd, self.ack_fd = control_fd, ack_fd
         self._position = 0  # stream position read up to (mirrors the producer's head)
         self._number = 0  # the number of the batch last given (or next to be)
+
+    def prefault(self) -> bool:
+        """Make the whole ring resident, as the producer's first lap through it would (False where
+        the system cannot: the producer's writes then fault the pages in as before).
+
+        Shared memory is allocated (and zeroed) page by page as it is first written, a few
+        milliseconds per 16 MiB; done here, in the consumer's process, that work is off the
+        producer's thread, whose first touch of each page then only maps it. From the ring's end
+        backwards, so as to stay out of the producer's way: it starts at the ring's beginning.
+        Nothing in the ring changes (the pages are faulted in as if for writing, without a write).
+        """
+        if not hasattr(self._map, "madvise"):
+            return False
+        try:
+            for end in range(self.size, 0, -_PREFAULT_CHUNK):
+                start = max(0, end - _PREFAULT_CHUNK)
+                self._map.madvise(MADV_POPULATE_WRITE, start, end - start)
+        except (OSError, ValueError, OverflowError):  # an older kernel, or no such advice here
+            return False
+        return True
 
     def batches(self) -> Iterator[list[Any]]:
         """Each batch's parts (memoryviews into the ring, valid until the next batch is asked for),

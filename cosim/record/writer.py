@@ -226,6 +226,7 @@ def writer_main(argv: list[str]) -> int:
     # after the standard library, as site processing would put them (nothing there may shadow it)
     sys.path.extend(d for d in site_dirs.split(os.pathsep) if d and d not in sys.path)
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
+    ring.prefault()  # the ring's memory allocated here rather than in the simulating process's writes
     sink = _Apply(part, final)
     written = 0
     try:
