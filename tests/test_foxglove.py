@@ -11,7 +11,14 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
 from google.protobuf.descriptor_pb2 import FileDescriptorSet
 
-from cosim.view.foxglove import FoxgloveEncoder, arrow_orientation, repeated_vectors, scene_update, to_protobuf
+from cosim.view.foxglove import (
+    FoxgloveEncoder,
+    arrow_orientation,
+    repeated_vectors,
+    scene_update,
+    schema_data,
+    to_protobuf,
+)
 from cosim.view.items import Arrow, Cube, Cylinder, Entity, LineStrip, LogLine, Sphere, Transform, TriangleList
 
 T = 1_234_567_890_123  # [ns]
@@ -47,6 +54,23 @@ def test_items_become_the_exact_foxglove_schemas():
         names = {f"{fd.package}.{mt.name}" for fd in FileDescriptorSet.FromString(m.schema_data).file
                  for mt in fd.message_type}
         assert m.schema_name in names
+
+
+def test_schemas_are_the_bytes_mcap_protobufs_own_builder_gives():
+    """The viewer channels' schemas are built here, without importing an MCAP writer, byte for byte
+    as the MCAP protobuf support builds them (recordings stay byte-identical), every file a
+    dependency once and before the files that import it."""
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from foxglove_schemas_protobuf.Log_pb2 import Log
+    from mcap_protobuf.schema import build_file_descriptor_set
+
+    for cls in (SceneUpdate, FrameTransforms, Log):
+        data = schema_data(cls)
+        assert data == build_file_descriptor_set(cls).SerializeToString()
+        names = [fd.name for fd in FileDescriptorSet.FromString(data).file]
+        assert len(names) == len(set(names)) and names[-1] == cls.DESCRIPTOR.file.name
+        for at, fd in enumerate(FileDescriptorSet.FromString(data).file):
+            assert set(fd.dependency) <= set(names[:at])
 
 
 def test_payload_timestamps_equal_the_frame_time():

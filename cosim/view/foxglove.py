@@ -1,6 +1,6 @@
 """Visual items (:mod:`cosim.view.items`) as Foxglove messages: ``foxglove.SceneUpdate``,
 ``foxglove.FrameTransforms`` and ``foxglove.Log`` protobufs, from the ``foxglove-schemas-protobuf``
-package, with schemas from ``mcap-protobuf-support`` (the ``[viz]`` extra).
+package (the ``[viz]`` extra), with their schemas as MCAP wants them (:func:`schema_data`).
 
 Per frame, the entities of one topic go into one SceneUpdate, all transforms of one topic into one
 FrameTransforms, and each log line into one Log. Every payload timestamp (SceneEntity.timestamp,
@@ -32,9 +32,10 @@ from foxglove_schemas_protobuf.Pose_pb2 import Pose
 from foxglove_schemas_protobuf.SceneEntity_pb2 import SceneEntity
 from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrimitive
+from google.protobuf.descriptor import FileDescriptor
+from google.protobuf.descriptor_pb2 import FileDescriptorSet
 from google.protobuf.message import Message as ProtoMessage
 from google.protobuf.timestamp_pb2 import Timestamp
-from mcap_protobuf.schema import build_file_descriptor_set
 
 from cosim.record.recorder import DerivedMessage
 from cosim.timebase import NS_PER_S
@@ -50,8 +51,23 @@ VIEWER_SCHEMAS = ("foxglove.SceneUpdate", "foxglove.FrameTransforms", "foxglove.
 
 @cache
 def schema_data(message_class: type[ProtoMessage]) -> bytes:
-    """The serialized FileDescriptorSet of a protobuf message class (its MCAP schema data)."""
-    return build_file_descriptor_set(message_class).SerializeToString()
+    """The serialized FileDescriptorSet of a protobuf message class (its MCAP schema data): the
+    files it depends on, each once and before the files that import it, then its own file. The same
+    bytes as ``mcap_protobuf.schema.build_file_descriptor_set`` gives, built here because importing
+    that module imports an MCAP writer (10 ms of a short run's start), which the simulating process
+    never uses: its writer process writes the file."""
+    files = FileDescriptorSet()
+    seen: set[str] = set()
+
+    def add(file: FileDescriptor) -> None:
+        for dependency in file.dependencies:
+            if dependency.name not in seen:
+                seen.add(dependency.name)
+                add(dependency)
+        file.CopyToProto(files.file.add())
+
+    add(message_class.DESCRIPTOR.file)
+    return files.SerializeToString()
 
 
 def timestamp(time_ns: int) -> Timestamp:
