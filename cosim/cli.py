@@ -139,6 +139,19 @@ def _record_overrides(args: argparse.Namespace) -> list[str]:
     return sets
 
 
+def _prestart_writer(command: str | None, argv: list[str]) -> None:
+    """``cosim run`` that records: start the recording's writer process before anything else loads,
+    so that it starts, and imports what it makes the viewer channels with, while this process
+    imports, loads the scene and its kernels (:func:`cosim.record.writer.prestart`); a short run
+    would otherwise wait for it at its end. Not for ``--no-record`` or ``--help``."""
+    if command != "run" or any(a in ("--no-record", "-h", "--help") for a in argv):
+        return
+    from cosim.record.writer import prestart
+    from cosim.view.channels import RECIPE_MODULE
+
+    prestart(preloads=(RECIPE_MODULE,))
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from cosim.runner import format_summary, run_scene
     from cosim.scenario import load
@@ -534,6 +547,7 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
     argv = [a for a in argv if a != "--debug"]
     command = _command(argv)
     try:
+        _prestart_writer(command, argv)
         parser = build_parser(command)
         args = parser.parse_args(argv)
         return args.func(args)

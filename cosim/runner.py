@@ -63,20 +63,31 @@ def _signals_interrupt(sim: Simulation) -> Iterator[None]:
             signal.signal(s, h)
 
 
+VIEWER_PACKAGES = ("google.protobuf", "foxglove_schemas_protobuf")  # what the viewer channels need ([viz])
+
+
 def default_derivers(scene: Scene) -> list[Any]:
     """Viewer-channel derivers for a recording of ``scene``: Foxglove scene, transform and log
-    channels at ``record.visual_rate`` frames per second (none at rate 0, or without the ``[viz]``
-    extra, which is said once as a warning)."""
+    channels at ``record.visual_rate`` frames per second, made in the recording's writer process
+    where it can (:class:`cosim.view.channels.RecordedVisuals`); none at rate 0, or without the
+    ``[viz]`` extra, which is said once as a warning."""
     rate = scene.record.visual_rate
     if rate <= 0:
         return []
-    try:
-        from cosim.view.foxglove import visual_deriver
-    except ImportError as exc:
-        warnings.warn(f"no viewer channels: {exc.name or exc} is not installed "
-                      "(pip install 'cosim[viz]'; or set record.visual_rate: 0)", stacklevel=2)
-        return []
-    return [visual_deriver(rate, physics_topics(scene))]
+    from importlib.util import find_spec
+
+    for name in VIEWER_PACKAGES:
+        try:
+            found = find_spec(name) is not None
+        except ImportError:  # its parent package is missing
+            found = False
+        if not found:
+            warnings.warn(f"no viewer channels: {name} is not installed "
+                          "(pip install 'cosim[viz]'; or set record.visual_rate: 0)", stacklevel=2)
+            return []
+    from cosim.view.channels import RecordedVisuals
+
+    return [RecordedVisuals(rate, physics_topics(scene))]
 
 
 def check_channel_patterns(scene: Scene) -> None:
@@ -136,10 +147,10 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     finished = False
     try:
         if output is not None:
-            # the recorder first, so that its writer process starts while the viewer channels'
-            # modules load (a short run waits at its end for the writer to finish the file)
-            recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs)
-            recorder.derivers = default_derivers(scene) if derivers is None else list(derivers)
+            # the writer process starts here, while the run's kernels load (a short run waits at its
+            # end for the writer to finish the file); it imports what deriving viewer channels needs
+            recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs,
+                                derivers=default_derivers(scene) if derivers is None else list(derivers))
             for deriver in recorder.derivers:  # components may override their looks (Component.visuals)
                 if hasattr(deriver, "bind"):
                     deriver.bind(sim.components)

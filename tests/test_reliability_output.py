@@ -180,16 +180,17 @@ def test_the_writer_killed_mid_run_is_one_line_and_leaves_the_recording_salvaged
     assert f"status: failed at t = {status.time:g} s" in capsys.readouterr().out
 
 
-# above the shared-memory ring (its memory file counts against the limit too), below PAINT's 36 MB recording
+# above the shared-memory ring (its memory file counts against the limit too), below PAINT's 96 MB recording
 FILE_LIMIT = RING_BYTES + (8 << 20)
+PAINT_FRAMES = 800
 
 PAINT = """
 dt: 0.001
-until: 0.3
+until: %g
 components:
   p: {type: "tests.test_recording_paths:Painter"}
 record: {visual_rate: 0}
-"""
+""" % (PAINT_FRAMES / 1000)
 
 
 def _small_file_limit() -> None:
@@ -213,7 +214,7 @@ def test_a_full_disk_is_one_line_and_keeps_what_fitted(tmp_path, capsys):
     status = rec.status()
     assert status.status == "failed" and os.strerror(27) in status.reason
     kept = rec.messages("/p/frame", Frame)
-    assert 0 < len(kept) < 300 and f"at t = {kept[-1][0] / 1e9:g} s" in line
+    assert 0 < len(kept) < PAINT_FRAMES and f"at t = {kept[-1][0] / 1e9:g} s" in line
     room = tmp_path / "room.mcap"
     run_scene(loads(PAINT), room, progress=False)
     assert list(rec.raw(["/p/frame"])) == list(Recording(room).raw(["/p/frame"]))[:len(kept)]

@@ -13,7 +13,8 @@ Layout of a recording:
 - metadata ``cosim`` (version, scene name, source, overrides, command line, dt) and the scene YAML
   as the attachment ``scene.yaml``, so a recording is self-describing and replayable.
 - extra channels from *derivers* (viewer channels, computed from the exchanged messages and never
-  fed back into the physics) and opt-in ``/perf/...`` wall-clock channels.
+  fed back into the physics; made by the writer process from the recorded messages where it can,
+  :mod:`cosim.record.derive`) and opt-in ``/perf/...`` wall-clock channels.
 
 The output path is checked first (:func:`cosim.record.output.check_output`: never the scene, a folder,
 a device or a file that is not a recording); the file is written to a private ``NAME.<random>.part``
@@ -33,7 +34,6 @@ import fnmatch
 import json
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -42,8 +42,10 @@ from cosim.codec.json_codec import MESSAGE_ENCODING, SCHEMA_ENCODING, codec_for,
 from cosim.codec.jsontext import RecordLayout
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import proto_codec_for
+from cosim.codec.wire import wire_codec
 from cosim.errors import RecordingError
 from cosim.messages import Message, message
+from cosim.record.derive import DerivedMessage
 from cosim.record.output import check_output
 from cosim.record.writer import open_sink
 from cosim.scenario import Scene
@@ -93,24 +95,15 @@ def topic_of(component: str, port: str) -> str:
     return f"/{component}/{port}"
 
 
-@dataclass
-class DerivedMessage:
-    """A message a deriver wants written: topic, schema name/encoding/bytes, message encoding, data."""
-
-    topic: str
-    schema_name: str
-    schema_encoding: str
-    schema_data: bytes
-    message_encoding: str
-    data: bytes
-
-
 Deriver = Callable[[int, str, str, Message], Iterable[DerivedMessage]]
 """Called with (time_ns, component, port, msg) for every exchange; yields extra messages to write.
 A deriver may also have ``watches(component, port, message_type) -> bool``: False when it never
 derives anything from that port's messages, which are then not shown to it at all; and
 ``due_ns(component, port) -> int``: the time [ns] before which it derives nothing more from that
-port (its next frame), so that the messages before it are not shown to it either."""
+port (its next frame), so that the messages before it are not shown to it either. One that the
+writer can stand in for has ``writer_recipe`` (``(module, function, args)``: the writer's own copy
+is ``module.function(*args)``) and ``in_writer(component, port, message_type) -> bool``: whether
+the copy can derive that port's channels from its recorded messages (:mod:`cosim.record.derive`)."""
 
 
 class Recorder(BaseObserver):
@@ -134,14 +127,18 @@ class Recorder(BaseObserver):
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise RecordingError(f"{self.path}: cannot create its folder ({exc.strerror or exc})") from None
+        # the modules a writer process imports as it starts, for the viewer channels it will derive
+        preloads = tuple(dict.fromkeys(d.writer_recipe[0] for d in self.derivers
+                                       if getattr(d, "writer_recipe", None) is not None))
         try:
-            self.sink = open_sink(self.path, background)
+            self.sink = open_sink(self.path, background, preloads)
         except OSError as exc:  # an output path that cannot be written is bad input, said plainly
             raise RecordingError(f"{self.path}: cannot write the recording ({exc.strerror or exc})") from None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._routes: dict[tuple[str, str], list] = {}
         self._wanted: dict[str, bool] = {}
+        self._in_writer: dict[int, str] = {}  # id of a deriver the writer makes channels for -> its name there
         self._closed = False
         self._sim: Simulation | None = None  # the run, once it has started
         self._steps0 = 0  # its component steps when it started
@@ -195,14 +192,32 @@ class Recorder(BaseObserver):
     # --- observer interface ----------------------------------------------------------------------------
 
     def _route(self, component: str, port: str, msg: Message) -> list:
-        """[channel (None when not recorded), write, count, encode, the derivers watching, the time
-        the next of them is due [ns]] of an output port."""
+        """[channel (None when not recorded), write, count, encode, the derivers watching here, the
+        time the next of them is due [ns]] of an output port. A deriver that the writer can stand in
+        for derives there instead, from this port's recorded messages (:mod:`cosim.record.derive`)."""
         topic = f"/{component}/{port}"
-        codec = wire_codec(type(msg))
-        channel = self._message_channel(topic, type(msg)) if self.wanted(topic) else None
-        watching = tuple(d for d in self.derivers
-                         if getattr(d, "watches", None) is None or d.watches(component, port, type(msg)))
-        return [channel, codec.write, 0, codec.encode, watching, 0]
+        msg_type = type(msg)
+        codec = wire_codec(msg_type)
+        channel = self._message_channel(topic, msg_type) if self.wanted(topic) else None
+        watching = []
+        for d in self.derivers:
+            if (channel is not None and self.every == 1 and getattr(d, "writer_recipe", None) is not None
+                    and d.in_writer(component, port, msg_type)):
+                self._derive_in_writer(d, channel, component, port, msg_type)
+            elif getattr(d, "watches", None) is None or d.watches(component, port, msg_type):
+                watching.append(d)
+        return [channel, codec.write, 0, codec.encode, tuple(watching), 0]
+
+    def _derive_in_writer(self, deriver: Any, channel: int, component: str, port: str, msg_type: type) -> None:
+        """Have the writer derive from ``channel``'s messages (those of ``/component/port``) as
+        ``deriver`` would here."""
+        name = self._in_writer.get(id(deriver))
+        if name is None:
+            name = self._in_writer[id(deriver)] = f"d{len(self._in_writer)}"
+            patterns = None if self.patterns is None else tuple(self.patterns)
+            self.sink.add_derivation(("deriver", name, deriver.writer_recipe, patterns))
+        type_path = (msg_type.__module__, msg_type.__qualname__)
+        self.sink.add_derivation(("derive", name, channel, component, port, type_path))
 
     def on_exchange(self, time_ns: int, component: str, port: str, msg: Message) -> None:
         # one dict lookup per exchange: the port's channel, codec and derivers are resolved once;
@@ -301,12 +316,6 @@ class Recorder(BaseObserver):
         if not self._closed:
             self._closed = True
             self.sink.discard()
-
-
-def wire_codec(msg_type: type[Message]) -> Any:
-    """The codec of a type's recorded form: protobuf where the type has it, else JSON (both have
-    ``write`` packing a record and ``encode`` giving the payload)."""
-    return proto_codec_for(msg_type) or codec_for(msg_type)
 
 
 def physics_topics(scene: Scene) -> frozenset[str]:

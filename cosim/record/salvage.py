@@ -153,20 +153,27 @@ class Salvaged:
 
 class _Target(Protocol):
     """What :func:`rebuild` writes to (:class:`cosim.record.writer._Apply`): records applied with
-    ``apply``, messages logged through ``logs[channel](data, log_time)``, and the ``renderers`` of
-    the channels' packed records."""
+    ``apply``, messages logged through ``logs[channel](data, log_time)``, the ``renderers`` of the
+    channels' packed records, and ``after(channel, log_time, data)`` writing what is derived from a
+    message where the recording is written (:mod:`cosim.record.derive`)."""
 
     logs: dict[int, Callable[[bytes, int], None]]
     renderers: dict[int, Any]
 
     def apply(self, record: tuple) -> int: ...
 
+    def after(self, channel: int, time_ns: int, data: bytes) -> None: ...
+
 
 def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Sequence[tuple[int, memoryview]],
             tallies: dict[int, int]) -> Salvaged:
     """Write to ``out`` what a writer that died left: the ``directory`` (the schema, channel, metadata
     and attachment records the run sent, in order), the messages complete in its file ``part``, and
-    the rest from the ring's ``held`` batches (see :func:`resume_point`)."""
+    the rest from the ring's ``held`` batches (see :func:`resume_point`).
+
+    The viewer channels the writer derived from the recorded messages (on channels the directory
+    does not name: :mod:`cosim.record.derive`) are not copied from the file but derived again, as
+    each message is written: the same messages, to the end of what is salvaged."""
     for record in directory:
         out.apply(record)
     by_topic = {record[2]: record[1] for record in directory if record[0] == "channel"}
@@ -175,15 +182,16 @@ def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Se
 
     def log(channel: int, time_ns: int, data: bytes) -> None:
         logs[channel](data, time_ns)
+        out.after(channel, time_ns, data)
         kept.messages += 1
         kept.end_ns = max(kept.end_ns, time_ns)
         kept.channels.add(channel)
 
-    written = 0  # messages in the file (the stream's first ones), whether or not their channel is known
+    written = 0  # messages of the stream the run sent that are in the file (its first ones)
     for topic, time_ns, data in complete_messages(part):
-        written += 1
         channel = by_topic.get(topic)
-        if channel is not None:
+        if channel is not None:  # (not one the writer derived: those are not in the stream)
+            written += 1
             log(channel, time_ns, data)
     kept.from_file = kept.messages
     start = resume_point(held, tallies, written)

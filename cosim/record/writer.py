@@ -11,8 +11,12 @@ the JSON text of the others with :mod:`cosim.codec.jsontext` (the same functions
 :func:`cosim.codec.json_codec.encode` uses, so the bytes do not depend on where they are made) and
 each checkpoint's protobuf (:func:`cosim.codec.state_proto.state_bytes`: its arrays' bytes copied
 once), and the file with the Foxglove SDK's MCAP writer (compiled; zstd chunks with chunk, message, attachment
-and metadata indexes). The writer imports nothing else of cosim, so it starts in a few tens of
-milliseconds, and is kept off the simulation's core (:class:`WriterPlacement`). It also makes
+and metadata indexes). It also makes the viewer channels from the recorded messages
+(:mod:`cosim.record.derive`), so the simulating process neither makes the frames nor imports the
+viewer modules. The writer starts in a few tens of milliseconds, and imports what it makes the
+viewer channels with on a thread of its own as it starts (``preloads``); ``cosim run`` starts it
+before anything else (:func:`prestart`), and hands it the file once it is known (:meth:`_Writer.hand_over`).
+It is kept off the simulation's core (:class:`WriterPlacement`). It also makes
 recordings sturdier: if the simulating process dies, the writer sees its control pipe close and
 still finishes a valid, indexed file, with the records of every step the simulation had completed
 (those it had not yet sent too: the recorder marks each step in the ring, :meth:`ProcessSink.mark`).
@@ -35,6 +39,7 @@ import os
 import re
 import signal
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -43,6 +48,7 @@ from cosim.codec.jsontext import RecordLayout, Renderer, renderer
 from cosim.codec.records import BYTES, MESSAGE, OTHER, Stage, Write, iter_records, read_other
 from cosim.codec.state_proto import state_bytes
 from cosim.errors import CosimError
+from cosim.record.derive import Derivation, preload, relay_warnings, relayed_warnings
 from cosim.record.output import Claim, claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
 
@@ -54,8 +60,10 @@ BATCH_BYTES = 2 << 20
 # the space a batch is gathered in (in the ring, for the writer process): a water field fits whole
 STAGE_BYTES = 4 << 20
 # shared memory between the simulating and the writer process: reused, so its pages stay mapped;
-# four stages long, so that the simulation goes on while the writer is a few batches behind
-RING_BYTES = 16 << 20
+# sixteen stages long, so that the simulation goes on while the writer is some batches behind: a writer
+# started with the run imports the viewer modules first (about 0.2 s), while the reference skip
+# sends 30 MB in its first 0.16 s (a 16 MiB ring held it up by 0.1 s)
+RING_BYTES = 64 << 20
 # a checkpoint (or other record) larger than the stage, up to this size, is written straight into the
 # ring: at most half of it, so that such a record never waits for the writer to have read the whole ring
 FRESH_MAX_BYTES = RING_BYTES // 2
@@ -129,24 +137,37 @@ class _Apply:
         # wrapper's checks (a microsecond a message, which the writer pays for every exchange)
         self.logs: dict[int, Callable[[bytes, int], None]] = {}
         self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
+        self.derivation: Derivation | None = None  # the viewer channels made here, once asked for
+        self.derived: dict[int, list] = {}  # channel id -> the ports derived from its messages (the derivation's)
 
     def apply_batch(self, batch: memoryview) -> int:
-        """Write every record of a batch (see :mod:`cosim.codec.records`); the number of messages
-        written."""
-        logs = self.logs
+        """Write every record of a batch (see :mod:`cosim.codec.records`), and the channels derived
+        from its messages here (:mod:`cosim.record.derive`); the number of the batch's messages
+        written (the derived ones not counted: the ring's tally and the salvage count the stream)."""
+        logs, derived = self.logs, self.derived
         count = 0
         for kind, channel, time_ns, payload in iter_records(batch, self.renderers):
             if kind == MESSAGE:
                 logs[channel](payload, time_ns)
                 count += 1
+                if channel in derived:
+                    self.after(channel, time_ns, payload)
             elif kind == BYTES:
-                logs[channel](bytes(payload), time_ns)
+                data = bytes(payload)
+                logs[channel](data, time_ns)
                 count += 1
+                if channel in derived:
+                    self.after(channel, time_ns, data)
             elif kind == OTHER:
                 count += self.apply(read_other(payload))
             else:
                 raise SinkError(f"unknown record kind {kind}")
         return count
+
+    def after(self, channel: int, time_ns: int, data: bytes) -> None:
+        """A message of ``channel`` was written: write the viewer channels derived from it here."""
+        if self.derivation is not None and channel in self.derived:
+            self.derivation.after(channel, time_ns, data)
 
     def apply(self, record: tuple) -> int:
         """Write a record other than a message: a schema, a channel, metadata, an attachment, a
@@ -155,6 +176,11 @@ class _Apply:
         if op == "state":
             self.logs[record[1]](state_bytes(record[3]), record[2])
             return 1
+        if op in ("deriver", "derive"):
+            if self.derivation is None:
+                self.derivation = Derivation(self, self.derived)
+            self.derivation.apply(record)
+            return 0
         if op == "schema":
             self.schemas[record[1]] = self._foxglove.Schema(name=record[2], encoding=record[3], data=record[4])
         elif op == "channel":
@@ -209,9 +235,26 @@ def _site_dirs() -> str:
     return os.pathsep.join(d for d in dirs if d and os.path.isdir(d))
 
 
+def _take_file(handover_fd: int) -> tuple[str, str, int] | None:
+    """(private name, final name, locked descriptor) of the file handed over (:meth:`_Writer.hand_over`),
+    or None when the simulating process closed the socket without one."""
+    import socket
+
+    with socket.socket(fileno=handover_fd) as sock:
+        data, fds, _, _ = socket.recv_fds(sock, 1 << 16, 1)
+    if not data or not fds:
+        return None
+    part, final = (os.fsdecode(name) for name in data.split(b"\0"))
+    return part, final, fds[0]
+
+
 def writer_main(argv: list[str]) -> int:
-    """Body of the writer process: apply batches from the ring until the simulating process closes
-    the control pipe, then finish the file.
+    """Body of the writer process: take the file to write, apply batches from the ring until the
+    simulating process closes the control pipe, then finish the file.
+
+    The process may be started before the run knows its file (:func:`prestart`): it then imports
+    what deriving viewer channels needs and makes the ring resident while the simulating process
+    starts, and waits for the file to be handed over.
 
     The simulating process closing the pipe, on purpose or by dying, is the signal to finish, so the
     writer ignores Ctrl-C and SIGTERM meant for the simulation. One that died leaves the records of
@@ -221,12 +264,23 @@ def writer_main(argv: list[str]) -> int:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    # lock_fd: the lock on the private file, held open (and so held) until this process exits
-    part, final, ring_fd, ring_size, control_fd, ack_fd, _lock_fd, site_dirs = argv
+    ring_fd, ring_size, control_fd, ack_fd, site_dirs, preloads, handover_fd = argv
     # after the standard library, as site processing would put them (nothing there may shadow it)
-    sys.path.extend(d for d in site_dirs.split(os.pathsep) if d and d not in sys.path)
+    folders = [d for d in site_dirs.split(os.pathsep) if d]
+    sys.path.extend(d for d in folders if d not in sys.path)
+    relay_warnings()  # a deriver's warnings (a visuals function switched off) reach the user
+    if preloads:  # what deriving viewer channels here needs, imported while the simulation starts
+        import threading
+
+        threading.Thread(target=preload, args=(preloads.split(","), folders), daemon=True).start()
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     ring.prefault()  # the ring's memory allocated here rather than in the simulating process's writes
+    # the file: its private name, its final one, and the lock on it (held open, and so held, until
+    # this process exits); none when the simulating process ended without a recording for it
+    handed = _take_file(int(handover_fd))
+    if handed is None:
+        return 0
+    part, final, _lock_fd = handed
     sink = _Apply(part, final)
     written = 0
     try:
@@ -368,6 +422,11 @@ class _Sink:
         """A checkpoint, as :func:`cosim.codec.json_codec.plain_state` gives it (its arrays already copied)."""
         self.stage.add_other(("state", channel, time_ns, plain))
 
+    def add_derivation(self, record: tuple) -> None:
+        """A ``deriver`` or ``derive`` record (:mod:`cosim.record.derive`): viewer channels the
+        writer derives from the recorded messages (kept for a salvage, which derives them again)."""
+        self._other(record)
+
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         self._other(("metadata", name, dict(data)))
 
@@ -412,53 +471,120 @@ class InProcessSink(_Sink):
         self.claim.release(remove=True)
 
 
+class _Writer:
+    """A writer process, started: its ring, its error output (a file, read back only if it fails or
+    relays warnings: a pipe could fill and block it), and the socket its file is handed over on."""
+
+    def __init__(self, preloads: tuple[str, ...]):
+        import socket
+        import subprocess  # here and below, not at import: the writer process imports this module too
+        import tempfile
+
+        self.preloads = preloads
+        self.errors = tempfile.TemporaryFile()
+        # the writer imports this package from where this process found it
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
+        self.ring = RingProducer(RING_BYTES)
+        control_r, control_w = os.pipe()
+        ack_r, ack_w = os.pipe()
+        self.handover, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)  # one message
+        try:
+            self.proc = subprocess.Popen(
+                # -P: the working folder must not shadow anything on the writer's path
+                # -S: no site processing (its .pth files cost tens of milliseconds of every short run's
+                # wait for the writer); the packages the writer needs are found through _site_dirs()
+                [sys.executable, "-S", "-P", "-m", "cosim.record.writer", str(self.ring.fd), str(RING_BYTES),
+                 str(control_r), str(ack_w), _site_dirs(), ",".join(preloads), str(theirs.fileno())],
+                pass_fds=(self.ring.fd, control_r, ack_w, theirs.fileno()), stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL, stderr=self.errors, start_new_session=True, env=env)
+        except BaseException:
+            for end in (control_w, ack_r):
+                os.close(end)
+            self.handover.close()
+            self.ring.close()
+            self.errors.close()
+            raise
+        finally:
+            os.close(control_r)
+            os.close(ack_w)
+            theirs.close()
+        self.ring.connect(control_w, ack_r)
+        self.placement = WriterPlacement(self.proc.pid)
+
+    def hand_over(self, part: Path, final: Path, lock_fd: int) -> bool:
+        """Give the writer its file (the private one, locked by ``lock_fd``, and the final name); False
+        when it has gone."""
+        import socket
+
+        try:
+            socket.send_fds(self.handover, [os.fsencode(part) + b"\0" + os.fsencode(final)], [lock_fd])
+        except OSError:
+            return False
+        finally:
+            self.handover.close()
+        return True
+
+    def abandon(self) -> None:
+        """Stop a writer that was never handed a file."""
+        self.handover.close()
+        self.proc.kill()
+        self.proc.wait(WRITER_TIMEOUT_S)
+        self.ring.hang_up()
+        self.ring.close()
+        self.errors.close()
+
+
+_spare: _Writer | None = None  # a writer started ahead of the run that will use it (prestart)
+
+
+def prestart(preloads: tuple[str, ...] = ()) -> None:
+    """Start the writer process of the next recording now, before its file is known: a program that
+    will record (``cosim run``) calls this first, so that the writer's start, the import of what it
+    derives viewer channels with (``preloads``) and its ring's allocation happen while the program
+    itself starts, not at the run's end (a short run waits for the writer to finish its file). A
+    spare that is never used ends when this process does."""
+    global _spare
+    if _spare is None:
+        _spare = _Writer(preloads)
+
+
+def _writer(preloads: tuple[str, ...]) -> _Writer:
+    """The spare writer (:func:`prestart`) if there is one, else a new one."""
+    global _spare
+    spare, _spare = _spare, None
+    return spare if spare is not None else _Writer(preloads)
+
+
 class ProcessSink(_Sink):
     """Sends records in batches to a writer process (this module run with ``python -m``: it shares no
     threads or locks with the simulation, and starts while the simulation does), through a ring in
     shared memory (:mod:`cosim.record.ring`)."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, preloads: tuple[str, ...] = ()):
+        """``preloads``: modules the writer imports as it starts, for the viewer channels it will
+        derive (:mod:`cosim.record.derive`)."""
         # batches are gathered in the ring itself, so they reach the writer without a copy
         super().__init__(self._reserve)
         self.path = path
         self._failed: str | None = None  # the line saying how the writer failed, once it has
         # a path that cannot be written fails at once, in this process (the private file is created
-        # here, empty, and locked; the writer opens it by name and inherits the lock)
+        # here, empty, and locked; the writer opens it by name and holds the lock too)
         self.claim = claim(path)
         try:
-            self._start()
+            writer = _writer(preloads)
+            if not writer.hand_over(self.claim.part, path, self.claim.fd):  # a spare that died
+                writer.abandon()
+                writer = _Writer(preloads)
+                if not writer.hand_over(self.claim.part, path, self.claim.fd):
+                    writer.abandon()
+                    raise OSError("the recording writer process ended as it started")
         except BaseException:
             self.claim.release(remove=True)
             raise
-
-    def _start(self) -> None:
-        import subprocess  # here and below, not at import: the writer process imports this module too
-        import tempfile
-
-        part, path = self.claim.part, self.path
-        # the writer's own errors go to a file, read back only if it fails (a pipe could fill and block it)
-        self._errors = tempfile.TemporaryFile()
-        # the writer imports this package from where this process found it
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
-        self._ring = RingProducer(RING_BYTES)
-        control_r, control_w = os.pipe()
-        ack_r, ack_w = os.pipe()
-        try:
-            self._proc = subprocess.Popen(
-                # -P: the working folder must not shadow anything on the writer's path
-                # -S: no site processing (its .pth files cost tens of milliseconds of every short run's
-                # wait for the writer); the packages the writer needs are found through _site_dirs()
-                [sys.executable, "-S", "-P", "-m", "cosim.record.writer", str(part), str(path), str(self._ring.fd),
-                 str(RING_BYTES), str(control_r), str(ack_w), str(self.claim.fd), _site_dirs()],
-                pass_fds=(self._ring.fd, control_r, ack_w, self.claim.fd), stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, stderr=self._errors, start_new_session=True, env=env)
-        finally:
-            os.close(control_r)
-            os.close(ack_w)
-        self._ring.connect(control_w, ack_r)
+        self._proc, self._ring, self._errors = writer.proc, writer.ring, writer.errors
         self._marked = self._ring.marked
-        self._placement = WriterPlacement(self._proc.pid)
+        self._placement = writer.placement
 
     @property
     def writer_pid(self) -> int:
@@ -619,6 +745,7 @@ class ProcessSink(_Sink):
             # (a writer killed after moving the finished file into place, before it could say so, finished it)
             if self._failed is not None or (not finished and self.claim.part.exists()):
                 raise SinkError(self._failure())  # the ring is still open here: the salvage reads it
+            self._relay()
         finally:
             self._ring.close()
             self._errors.close()
@@ -627,6 +754,17 @@ class ProcessSink(_Sink):
 
         threading.Thread(target=self._proc.wait, daemon=True).start()
         self.claim.release(remove=False)
+
+    def _relay(self) -> None:
+        """Give again, here, the warnings the writer relayed (a visuals function of a viewer channel
+        it derived that failed and was switched off)."""
+        try:
+            self._errors.seek(0)
+            text = self._errors.read().decode(errors="replace")
+        except (OSError, ValueError):
+            return
+        for category, message in relayed_warnings(text):
+            warnings.warn(message, category, stacklevel=4)
 
     def discard(self) -> None:
         """Stop the writer and remove the private file (the target keeps what it held; a recording
@@ -638,10 +776,10 @@ class ProcessSink(_Sink):
         self.claim.release(remove=True)
 
 
-def open_sink(path: Path, background: bool = True) -> InProcessSink | ProcessSink:
+def open_sink(path: Path, background: bool = True, preloads: tuple[str, ...] = ()) -> InProcessSink | ProcessSink:
     """A sink writing ``path`` (via a private ``path.<random>.part``, moved onto it when finished:
-    :mod:`cosim.record.output`)."""
-    return ProcessSink(path) if background else InProcessSink(path)
+    :mod:`cosim.record.output`); ``preloads``: modules a writer process imports as it starts."""
+    return ProcessSink(path, preloads) if background else InProcessSink(path)
 
 
 if __name__ == "__main__":

@@ -37,9 +37,10 @@ from google.protobuf.descriptor_pb2 import FileDescriptorSet
 from google.protobuf.message import Message as ProtoMessage
 from google.protobuf.timestamp_pb2 import Timestamp
 
-from cosim.record.recorder import DerivedMessage
+from cosim.record.derive import DerivedMessage
 from cosim.timebase import NS_PER_S
 from cosim.view import items as v
+from cosim.view.lookup import installed_visuals
 
 SCHEMA_ENCODING = "protobuf"
 MESSAGE_ENCODING = "protobuf"
@@ -324,6 +325,31 @@ class FoxgloveEncoder:
         return [DerivedMessage(topic, cls.DESCRIPTOR.full_name, SCHEMA_ENCODING, schema_data(cls),
                                MESSAGE_ENCODING, data)
                 for topic, cls, data in to_wire(time_ns, items)]
+
+
+def warm_up() -> None:
+    """Load every installed visuals function and encode one frame of every kind of item, so that a
+    process about to derive viewer channels (a recording's writer, :func:`cosim.record.derive.preload`)
+    pays its first-use costs (the looks' modules, the schemas, the protobuf classes) ahead of the
+    run's first frames, not at a short run's end."""
+    for ep in installed_visuals().values():
+        try:
+            ep.load()
+        except Exception:  # a broken plugin is said when its port is first derived
+            pass
+    for cls in (SceneUpdate, FrameTransforms, Log):
+        schema_data(cls)
+    white = (1.0, 1.0, 1.0, 1.0)
+    surface = v.height_field_mesh(np.zeros((2, 2)), 0.0, 0.0, 1.0, colors=lambda z: np.ones((z.size, 4)))
+    items: list[v.Item] = [
+        v.Transform(v.WORLD, "warm", (0.0, 0.0, 0.0), v.IDENTITY),
+        v.Entity("/warm", "body", "warm", (v.Cylinder((1.0, 1.0, 1.0), white), v.Cube((1.0, 1.0, 1.0), white),
+                                           v.Sphere((1.0, 1.0, 1.0), white))),
+        v.Entity("/warm", "lines", v.WORLD, (v.LineStrip(np.zeros((2, 3)), white, 0.1),
+                                             v.Arrow((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), white), surface)),
+        v.LogLine(v.LOG_TOPIC, "info", "warm", "warm"),
+    ]
+    FoxgloveEncoder().encode(0, items)
 
 
 def visual_deriver(rate: float, reserved_topics: frozenset[str] = frozenset()) -> v.VisualDeriver:

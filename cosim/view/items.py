@@ -40,15 +40,14 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cache, lru_cache
-from importlib.metadata import EntryPoint
 from typing import Any, Protocol
 
 import numpy as np
 
 from cosim.messages import Message
 from cosim.timebase import NS_PER_S
+from cosim.view.lookup import installed_visuals, type_key
 
-VISUALS_GROUP = "cosim.visuals"
 WORLD = "world"  # the fixed frame every viewer item is ultimately placed in
 TF_TOPIC = "/tf"
 LOG_TOPIC = "/log"
@@ -263,11 +262,6 @@ def _mesh_grid(shape: tuple[int, int], max_side: int, origin_x: float, origin_y:
 _REGISTERED: dict[type, VisualsFunction] = {}
 
 
-def type_key(message_type: type) -> str:
-    """The registry name of a message type: its module and qualified name."""
-    return f"{message_type.__module__}.{message_type.__qualname__}"
-
-
 def register(message_type: type[Message], function: VisualsFunction) -> None:
     """Register the visuals of a message type in this process (entry points do it for packages)."""
     _REGISTERED[message_type] = function
@@ -284,21 +278,12 @@ def every_message(function: VisualsFunction) -> VisualsFunction:
     return function
 
 
-@cache
-def _entry_points() -> dict[str, EntryPoint]:
-    # from the one scan of the installed packages that the component registry and numba's start
-    # share (a scan costs 5-10 ms, for one group as for all)
-    from cosim.registry import installed_entry_points
-
-    return {ep.name: ep for ep in installed_entry_points().select(group=VISUALS_GROUP)}
-
-
 def visuals_for(message_type: type) -> VisualsFunction | None:
     """The registered visuals function of a message type, or None (entry points load lazily)."""
     found = _REGISTERED.get(message_type)
     if found is not None:
         return found
-    ep = _entry_points().get(type_key(message_type))
+    ep = installed_visuals().get(type_key(message_type))
     return None if ep is None else ep.load()
 
 

@@ -1,0 +1,199 @@
+"""The viewer channels of a recording made in its writer process (cosim.record.derive,
+cosim.view.channels): the same file, byte for byte, as when the simulating process makes them; a
+simulating process that never imports the viewer modules; a salvage that makes them again; warnings
+that reach the user; and the writer started ahead of the run (cosim.record.writer.prestart).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import pytest
+
+from cosim.record import writer
+from cosim.record.derive import DerivedMessage, relayed_warnings
+from cosim.record.reader import Recording
+from cosim.record.recorder import Recorder, physics_topics
+from cosim.record.writer import SinkError
+from cosim.runner import default_derivers, run_scene
+from cosim.scenario import load, loads
+from cosim.scheduler import Simulation
+from cosim.view.items import VisualsWarning
+from tests.test_reliability_salvage import KillWriter
+
+pytest.importorskip("foxglove_schemas_protobuf", reason="the viewer channels need the [viz] extra")
+
+ROOT = Path(__file__).resolve().parents[1]
+SKIP = ROOT / "scenarios" / "skip.yaml"
+WAIT_S = 60  # longest wait for another process to get somewhere (never a measured time)
+VIEWER_MODULES = ("cosim.view.foxglove", "cosim.view.items", "components.visuals", "foxglove_schemas_protobuf",
+                  "google.protobuf")
+
+FALL = """
+name: fall
+dt: 0.001
+until: 30
+components:
+  ball: {type: RigidBody, shape: sphere, radius: 0.05, position: [0, 0, 1], velocity: [1, 0.5, 3]}
+record: {visual_rate: 60, checkpoint_every: 0}
+"""
+
+
+def record(path: Path, scene, derivers: list) -> Recorder:
+    """Run ``scene`` recording to ``path`` with ``derivers``; the recorder (closed)."""
+    sim = Simulation(scene)
+    recorder = Recorder(path, scene, derivers=derivers)
+    for deriver in derivers:
+        deriver.bind(sim.components)
+    sim.observers.append(recorder)
+    try:
+        assert sim.run(scene.until_ns).status in ("ok", "stopped")
+    finally:
+        recorder.close()
+    return recorder
+
+
+def test_viewer_channels_made_by_the_writer_are_the_bytes_made_here(tmp_path):
+    """The reference skip's first 0.25 s (the stone, the water's fields, the stage log): recorded
+    with the default viewer channels, which the writer derives from the recorded stone states, water
+    fields and stages, and with the same deriver called in the simulating process: one file, byte
+    for byte (a message decoded from its record is the one published, and each frame is written
+    right after the message it came from either way)."""
+    from cosim.view.foxglove import visual_deriver
+
+    scene = load(SKIP, overrides=["until=0.25"])
+    there = record(tmp_path / "there.mcap", scene, default_derivers(scene))
+    derived = sorted((r[3], r[4]) for r in there.sink.directory if r[0] == "derive")
+    assert derived == [("pond", "field"), ("stages", "skip"), ("stages", "stage"), ("stone", "state")]
+    here = record(tmp_path / "here.mcap", scene, [visual_deriver(scene.record.visual_rate, physics_topics(scene))])
+    assert not [r for r in here.sink.directory if r[0] in ("deriver", "derive")]
+    rec = Recording(tmp_path / "there.mcap")
+    assert {"/tf", "/scene/stone", "/scene/stone/trail", "/scene/pond", "/log"} <= set(rec.channels)
+    assert rec.channels["/scene/pond"].count > 0 and rec.channels["/tf"].count > 5
+    assert (tmp_path / "there.mcap").read_bytes() == (tmp_path / "here.mcap").read_bytes()
+
+
+def test_the_ports_the_writer_cannot_derive_are_derived_here(tmp_path):
+    """A port recorded one message in every few (``record.every``) and one not recorded at all
+    (``record.channels``) keep their viewer channels, made in the simulating process: the same frames
+    as with every message recorded."""
+    full = loads(FALL, overrides=["until=0.5"])
+    every = loads(FALL, overrides=["until=0.5", "record.every=3"])
+    unrecorded = loads(FALL, overrides=["until=0.5", "record.channels=['/tf', '/scene/*']"])
+    frames = {}
+    for name, scene in (("full", full), ("every", every), ("unrecorded", unrecorded)):
+        recorder = record(tmp_path / f"{name}.mcap", scene, default_derivers(scene))
+        in_writer = [r for r in recorder.sink.directory if r[0] == "derive"]
+        assert bool(in_writer) == (name == "full"), name
+        rec = Recording(tmp_path / f"{name}.mcap")
+        frames[name] = list(rec.raw(["/tf", "/scene/ball", "/scene/ball/trail"]))
+    assert len(frames["full"]) > 2 * 30  # 60 frames/s for 0.5 s on /tf and the trail (the ball itself once)
+    assert frames["every"] == frames["full"] and frames["unrecorded"] == frames["full"]
+    assert "/ball/state" not in Recording(tmp_path / "unrecorded.mcap").channels
+
+
+def test_a_recorded_run_never_imports_the_viewer_modules_here(tmp_path):
+    """The simulating process of a run recorded with viewer channels imports none of the viewer
+    modules (the writer makes the frames), and the recording holds the frames."""
+    out = tmp_path / "fall.mcap"
+    code = ("import sys\n"
+            "from cosim.runner import run_scene\n"
+            "from cosim.scenario import loads\n"
+            f"run_scene(loads({FALL!r}, overrides=['until=0.2']), {str(out)!r}, progress=False)\n"
+            f"print(sorted(m for m in sys.modules if m.startswith({VIEWER_MODULES!r})))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=WAIT_S, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+    assert Recording(out).channels["/scene/ball/trail"].count >= 12  # 60 frames/s for 0.2 s
+
+
+def test_a_salvaged_recording_has_its_viewer_channels_made_again(tmp_path):
+    """The writer killed mid-run: the salvaged recording's viewer channels, made again from the
+    salvaged messages (the writer's own, on channels the simulating process never knew, are not
+    copied), are the uninterrupted run's up to where it ends."""
+    scene = loads(FALL)
+    out = tmp_path / "k.mcap"
+    with pytest.raises(SinkError):
+        run_scene(scene, out, progress=False, simulation=Simulation(scene, observers=[KillWriter(5000, 100_000)]))
+    rec = Recording(out)
+    assert rec.status().status == "failed"
+    end_ns = rec.end_ns
+    reference = run_scene(loads(FALL, overrides=[f"until={end_ns / 1e9}"]), tmp_path / "ref.mcap", progress=False)
+    want = Recording(reference.recording)
+    for topic in ("/tf", "/scene/ball/trail", "/scene/ball/velocity"):
+        got = list(rec.raw([topic]))
+        expected = [m for m in want.raw([topic]) if m[1] <= end_ns]
+        assert got == expected[:len(got)] and len(expected) - len(got) <= 1, topic
+        assert len(got) > 60 * 4  # the salvage reaches past 4 s at 60 frames/s
+
+
+class Complaining:
+    """A deriver the writer makes (``writer_recipe``): warns once, and writes one message per
+    message of ``/ball/state``."""
+
+    def __init__(self) -> None:
+        self.writer_recipe = ("tests.test_recorded_visuals", "Complaining", ())
+        self._warned = False
+
+    def bind(self, components) -> None:
+        pass
+
+    def in_writer(self, component, port, message_type) -> bool:
+        return port == "state"
+
+    def watches(self, component, port, message_type) -> bool:
+        return False
+
+    def __call__(self, time_ns, component, port, msg):
+        if not self._warned:
+            self._warned = True
+            warnings.warn("visuals of /ball/state failed and are switched off: a test", VisualsWarning, stacklevel=2)
+        yield DerivedMessage("/complaints", "demo.C", "jsonschema", b"{}", "json", b"{}")
+
+
+def test_a_warning_in_the_writer_reaches_the_user(tmp_path):
+    """A deriver's warning in the writer process is given again in the simulating process when the
+    recording closes, and what it derived is recorded."""
+    scene = loads(FALL, overrides=["until=0.05", "record.visual_rate=0"])
+    with pytest.warns(VisualsWarning, match="visuals of /ball/state failed and are switched off: a test"):
+        record(tmp_path / "c.mcap", scene, [Complaining()])
+    assert Recording(tmp_path / "c.mcap").channels["/complaints"].count == 51  # the first state and 50 steps
+    assert relayed_warnings("noise\ncosim-warning\tcosim.view.items:VisualsWarning\ta\tb\n"
+                            "cosim-warning\tno.such:Thing\tc\n") == [
+        (VisualsWarning, "a\tb"), (RuntimeWarning, "the recording writer: no.such:Thing: c")]
+
+
+def test_a_writer_started_ahead_is_the_one_the_recording_uses(tmp_path):
+    """prestart(): the next recording is written by that process; one never used ends with the
+    process that started it, leaving nothing behind."""
+    writer.prestart(())
+    spare = writer._spare
+    try:
+        recorder = record(tmp_path / "a.mcap", loads(FALL, overrides=["until=0.01"]), [])
+        assert recorder.sink.writer_pid == spare.proc.pid and writer._spare is None
+    finally:
+        writer._spare = None
+    assert Recording(tmp_path / "a.mcap").status().status == "ok"
+    code = "from cosim.record import writer\nwriter.prestart(('cosim.view.foxglove',))\nprint(writer._spare.proc.pid)\n"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=WAIT_S, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    pid = int(done.stdout)
+    deadline = time.monotonic() + WAIT_S
+    while _alive(pid):
+        assert time.monotonic() < deadline, "the unused writer is still running"
+        time.sleep(0.01)
+    assert os.listdir(tmp_path) == ["a.mcap"]
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process (not a zombie) of that id exists."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(") ")[-1][0] != "Z"
+    except FileNotFoundError:
+        return False
