@@ -113,9 +113,12 @@ def test_a_recorded_run_never_imports_the_viewer_modules_here(tmp_path):
 
 
 def test_a_salvaged_recording_has_its_viewer_channels_made_again(tmp_path):
-    """The writer killed mid-run: the salvaged recording's viewer channels, made again from the
-    salvaged messages (the writer's own, on channels the simulating process never knew, are not
-    copied), are the uninterrupted run's up to where it ends."""
+    """The writer killed mid-run, in its second recording (kept from the first): the salvaged
+    recording's viewer channels, made again from the salvaged messages (the writer's own, on channels
+    the simulating process never knew, are not copied), are the uninterrupted run's up to where it
+    ends."""
+    first = record(tmp_path / "first.mcap", loads(FALL, overrides=["until=0.05"]), [])
+    assert writer._spare is not None and writer._spare.proc.pid == first.sink.writer_pid
     scene = loads(FALL)
     out = tmp_path / "k.mcap"
     with pytest.raises(SinkError):
@@ -168,17 +171,24 @@ def test_a_warning_in_the_writer_reaches_the_user(tmp_path):
         (VisualsWarning, "a\tb"), (RuntimeWarning, "the recording writer: no.such:Thing: c")]
 
 
-def test_a_writer_started_ahead_is_the_one_the_recording_uses(tmp_path):
-    """prestart(): the next recording is written by that process; one never used ends with the
-    process that started it, leaving nothing behind."""
-    writer.prestart(())
+def test_a_writer_started_ahead_is_the_one_the_recording_uses_and_is_kept(tmp_path):
+    """prestart(): the next recording is written by that process, which is then kept for the next
+    one (each file whole and closed as it ends); one never used ends with the process that started
+    it, leaving nothing behind."""
+    writer._keep(writer._writer(()))  # whatever writer this process has is let go or kept...
     spare = writer._spare
-    try:
-        recorder = record(tmp_path / "a.mcap", loads(FALL, overrides=["until=0.01"]), [])
-        assert recorder.sink.writer_pid == spare.proc.pid and writer._spare is None
-    finally:
-        writer._spare = None
-    assert Recording(tmp_path / "a.mcap").status().status == "ok"
+    writer._spare = None
+    spare.close()  # ...and let go: the next one is started here
+    writer.prestart(())
+    started = writer._spare
+    first = record(tmp_path / "a.mcap", loads(FALL, overrides=["until=0.01"]), [])
+    assert first.sink.writer_pid == started.proc.pid and writer._spare is started
+    assert Recording(tmp_path / "a.mcap").status().status == "ok"  # whole, under its name, as it closed
+    second = record(tmp_path / "b.mcap", loads(FALL, overrides=["until=0.02"]), default_derivers(loads(FALL)))
+    assert second.sink.writer_pid == started.proc.pid and writer._spare is started
+    rec = Recording(tmp_path / "b.mcap")
+    assert rec.status().status == "ok" and rec.channels["/ball/state"].count == 21
+    assert rec.channels["/scene/ball/trail"].count == 2  # frames at 0 and 1/60 s
     code = "from cosim.record import writer\nwriter.prestart(('cosim.view.foxglove',))\nprint(writer._spare.proc.pid)\n"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=WAIT_S, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
@@ -187,7 +197,7 @@ def test_a_writer_started_ahead_is_the_one_the_recording_uses(tmp_path):
     while _alive(pid):
         assert time.monotonic() < deadline, "the unused writer is still running"
         time.sleep(0.01)
-    assert os.listdir(tmp_path) == ["a.mcap"]
+    assert sorted(os.listdir(tmp_path)) == ["a.mcap", "b.mcap"]
 
 
 def _alive(pid: int) -> bool:

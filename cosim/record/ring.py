@@ -13,7 +13,10 @@ part's length as ``<Q``. An offset of :data:`INLINE` means the parts follow on t
 batch larger than the ring). Acknowledgements (consumer -> producer): ``<Q``, the stream position
 read up to, or :data:`FINISHED` as the consumer's last word. When the ring is full the producer waits
 for the consumer; when the producer's end of the control pipe closes (on purpose or because the
-process died) the consumer's iteration ends.
+process died) the consumer's iteration ends. A producer may also end one stream of batches and
+start another on the same ring (:meth:`RingProducer.end_stream`: an offset of :data:`END`, answered
+with :data:`FINISHED` once the consumer is done with the stream), as a writer process kept for the
+next recording does.
 
 Either side can die part-way, and the other can still save what it holds. After the ring's bytes,
 the shared memory holds a small control block (:data:`CONTROL_BYTES`):
@@ -41,6 +44,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 INLINE = (1 << 64) - 1  # control offset: the batch's parts follow on the pipe
+END = (1 << 64) - 2  # control offset: the stream of batches ends here, the ring stays for the next one
 FINISHED = (1 << 64) - 1  # acknowledgement: the consumer has done all it had to (e.g. finished a file)
 _HEAD = struct.Struct("<QI")
 _LENGTH = struct.Struct("<Q")
@@ -241,6 +245,22 @@ class RingProducer:
                 self._tail = last
         self._acks = data[whole:]
 
+    def end_stream(self) -> bool:
+        """End this stream of batches and wait until the consumer has done all it had to with it
+        (:meth:`RingConsumer.finish_stream`), keeping the ring and both pipes for another stream; True
+        then, False when the consumer has gone (its batches are still :meth:`held`)."""
+        self.marked[1] = 0  # ending on purpose: nothing is left unsent
+        try:
+            _write_all(self.control_fd, _HEAD.pack(END, 0))
+            while not self.finished:
+                self._read_acks(wait=True)
+        except (RingError, OSError):
+            return False
+        self.finished = False
+        self._tail = self._head  # the consumer read the whole stream before it finished
+        self._held.clear()  # a later stream's salvage must not reach back into this one
+        return True
+
     def hang_up(self) -> bool:
         """Close the control pipe (the consumer then finishes) and read the consumer's last
         acknowledgements until it closes its end (so it never waits on a full pipe). True when its
@@ -290,6 +310,7 @@ class RingConsumer:
         self.control_fd, self.ack_fd = control_fd, ack_fd
         self._position = 0  # stream position read up to (mirrors the producer's head)
         self._number = 0  # the number of the batch last given (or next to be)
+        self.ended = False  # the last stream of batches ended with END (the producer goes on)
 
     def prefault(self) -> bool:
         """Make the whole ring resident, as the producer's first lap through it would (False where
@@ -313,12 +334,17 @@ class RingConsumer:
 
     def batches(self) -> Iterator[list[Any]]:
         """Each batch's parts (memoryviews into the ring, valid until the next batch is asked for),
-        until the producer closes the control pipe."""
+        until the producer ends the stream (:attr:`ended` then True: answer with
+        :meth:`finish_stream`) or closes the control pipe."""
+        self.ended = False
         while True:
             head = _read_exact(self.control_fd, _HEAD.size)
             if head is None:
                 return
             offset, count = _HEAD.unpack(head)
+            if offset == END:
+                self.ended = True
+                return
             lengths = _read_exact(self.control_fd, _LENGTH.size * count) if count else b""
             if lengths is None:
                 return
@@ -346,6 +372,18 @@ class RingConsumer:
                     _write_all(self.ack_fd, _LENGTH.pack(self._position))
                 except OSError:  # the producer has gone: read on to the batches it has already sent
                     self.ack_fd = -1
+
+    def start_stream(self) -> None:
+        """Note a count of 0 before the next batch: the first of a new stream, whose counts start
+        over (the batches' numbers go on)."""
+        number = self._number
+        _TALLY.pack_into(self._map, self.size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, 0)
+
+    def finish_stream(self) -> None:
+        """Tell the producer this side has done all it had to with the stream that ended, and wait
+        for the next one (see :meth:`RingProducer.end_stream`)."""
+        if self.ack_fd >= 0:
+            _write_all(self.ack_fd, _LENGTH.pack(FINISHED))
 
     def tally(self, count: int) -> None:
         """Note ``count`` (what this side has done so far, e.g. messages written) as its count before

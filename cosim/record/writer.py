@@ -41,6 +41,7 @@ import signal
 import sys
 import warnings
 from collections.abc import Callable
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -235,13 +236,16 @@ def _site_dirs() -> str:
     return os.pathsep.join(d for d in dirs if d and os.path.isdir(d))
 
 
-def _take_file(handover_fd: int) -> tuple[str, str, int] | None:
-    """(private name, final name, locked descriptor) of the file handed over (:meth:`_Writer.hand_over`),
-    or None when the simulating process closed the socket without one."""
+def _take_file(handover: Any) -> tuple[str, str, int] | None:
+    """(private name, final name, locked descriptor) of the next file handed over on the socket
+    ``handover`` (:meth:`_Writer.hand_over`), or None when the simulating process closed it (it
+    ended, or will record no more)."""
     import socket
 
-    with socket.socket(fileno=handover_fd) as sock:
-        data, fds, _, _ = socket.recv_fds(sock, 1 << 16, 1)
+    try:
+        data, fds, _, _ = socket.recv_fds(handover, 1 << 16, 1)
+    except OSError:
+        return None
     if not data or not fds:
         return None
     part, final = (os.fsdecode(name) for name in data.split(b"\0"))
@@ -250,11 +254,13 @@ def _take_file(handover_fd: int) -> tuple[str, str, int] | None:
 
 def writer_main(argv: list[str]) -> int:
     """Body of the writer process: take the file to write, apply batches from the ring until the
-    simulating process closes the control pipe, then finish the file.
+    simulating process ends the stream (then finish the file and wait for the next one) or closes
+    the control pipe (then finish the file and exit).
 
     The process may be started before the run knows its file (:func:`prestart`): it then imports
     what deriving viewer channels needs and makes the ring resident while the simulating process
-    starts, and waits for the file to be handed over.
+    starts, and waits for the file to be handed over. Kept for the simulating process's next
+    recording (:meth:`ProcessSink.close`), it has all that done already.
 
     The simulating process closing the pipe, on purpose or by dying, is the signal to finish, so the
     writer ignores Ctrl-C and SIGTERM meant for the simulation. One that died leaves the records of
@@ -262,6 +268,8 @@ def writer_main(argv: list[str]) -> int:
     After each batch the writer tallies the messages written so far in the ring's control block, so
     that should it die, the simulating process knows what it had taken (:mod:`cosim.record.salvage`).
     """
+    import socket
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     ring_fd, ring_size, control_fd, ack_fd, site_dirs, preloads, handover_fd = argv
@@ -275,29 +283,36 @@ def writer_main(argv: list[str]) -> int:
         threading.Thread(target=preload, args=(preloads.split(","), folders), daemon=True).start()
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     ring.prefault()  # the ring's memory allocated here rather than in the simulating process's writes
-    # the file: its private name, its final one, and the lock on it (held open, and so held, until
-    # this process exits); none when the simulating process ended without a recording for it
-    handed = _take_file(int(handover_fd))
-    if handed is None:
-        return 0
-    part, final, _lock_fd = handed
-    sink = _Apply(part, final)
-    written = 0
-    try:
-        for (batch,) in ring.batches():
-            written += sink.apply_batch(batch)
-            ring.tally(written)
-        unsent = ring.unsent()  # the simulating process died: the steps it completed but had not sent
-        if unsent is not None:
-            sink.apply_batch(unsent)
-    finally:
+    handover = socket.socket(fileno=int(handover_fd))
+    while True:
+        # the file: its private name, its final one, and the lock on it (held open, and so held,
+        # until it is finished); none when the simulating process records no more
+        handed = _take_file(handover)
+        if handed is None:
+            return 0
+        part, final, lock_fd = handed
+        ring.start_stream()
+        sink = _Apply(part, final)
+        written = 0
         try:
-            sink.finish()
-        except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
-            print(f"cannot finish the file: {exc}", file=sys.stderr, flush=True)
-            return 1
-    ring.finish()  # the file is complete under its final name: the simulating process need not wait for the exit
-    return 0
+            for (batch,) in ring.batches():
+                written += sink.apply_batch(batch)
+                ring.tally(written)
+            if not ring.ended:  # the simulating process died: the steps it completed but had not sent
+                unsent = ring.unsent()
+                if unsent is not None:
+                    sink.apply_batch(unsent)
+        finally:
+            try:
+                sink.finish()
+            except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
+                print(f"cannot finish the file: {exc}", file=sys.stderr, flush=True)
+                return 1
+        if not ring.ended:
+            ring.finish()  # the file is complete under its final name: the simulating process need not wait
+            return 0
+        os.close(lock_fd)
+        ring.finish_stream()  # the file is complete: the simulating process may hand over the next one
 
 
 class WriterPlacement:
@@ -481,7 +496,9 @@ class _Writer:
         import tempfile
 
         self.preloads = preloads
+        self.owner = os.getpid()  # a process forked from this one may not use it
         self.errors = tempfile.TemporaryFile()
+        self.errors_read = 0  # bytes of it read back (new_errors)
         # the writer imports this package from where this process found it
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
@@ -513,17 +530,35 @@ class _Writer:
         self.placement = WriterPlacement(self.proc.pid)
 
     def hand_over(self, part: Path, final: Path, lock_fd: int) -> bool:
-        """Give the writer its file (the private one, locked by ``lock_fd``, and the final name); False
-        when it has gone."""
+        """Give the writer its next file (the private one, locked by ``lock_fd``, and the final name);
+        False when it has gone."""
         import socket
 
         try:
             socket.send_fds(self.handover, [os.fsencode(part) + b"\0" + os.fsencode(final)], [lock_fd])
         except OSError:
             return False
-        finally:
-            self.handover.close()
         return True
+
+    def new_errors(self) -> str:
+        """What the writer wrote on its error output since last asked."""
+        try:
+            self.errors.seek(self.errors_read)
+            data = self.errors.read()
+        except (OSError, ValueError):
+            return ""
+        self.errors_read += len(data)
+        return data.decode(errors="replace")
+
+    def close(self) -> None:
+        """Let the writer go (it exits once it sees the socket and the ring's pipes closed)."""
+        self.handover.close()
+        self.ring.hang_up()
+        self.ring.close()
+        self.errors.close()
+        import threading
+
+        threading.Thread(target=self.proc.wait, daemon=True).start()  # reaped in the background
 
     def abandon(self) -> None:
         """Stop a writer that was never handed a file."""
@@ -535,7 +570,9 @@ class _Writer:
         self.errors.close()
 
 
-_spare: _Writer | None = None  # a writer started ahead of the run that will use it (prestart)
+# a writer ready for this process's next recording: started ahead of it (prestart), or kept from the
+# last one (ProcessSink.close)
+_spare: _Writer | None = None
 
 
 def prestart(preloads: tuple[str, ...] = ()) -> None:
@@ -545,15 +582,46 @@ def prestart(preloads: tuple[str, ...] = ()) -> None:
     itself starts, not at the run's end (a short run waits for the writer to finish its file). A
     spare that is never used ends when this process does."""
     global _spare
-    if _spare is None:
+    if _spare is None or _spare.owner != os.getpid():
         _spare = _Writer(preloads)
+        _let_go_at_exit()
 
 
 def _writer(preloads: tuple[str, ...]) -> _Writer:
-    """The spare writer (:func:`prestart`) if there is one, else a new one."""
+    """The spare writer (:func:`prestart`, or the last recording's) if there is one, else a new one."""
     global _spare
     spare, _spare = _spare, None
-    return spare if spare is not None else _Writer(preloads)
+    if spare is not None and spare.owner == os.getpid():
+        return spare
+    return _Writer(preloads)
+
+
+def _keep(writer: _Writer) -> None:
+    """Keep a writer that finished its file for this process's next recording (one is kept)."""
+    global _spare
+    if _spare is None and writer.owner == os.getpid():
+        _spare = writer
+        _let_go_at_exit()
+    else:
+        writer.close()
+
+
+@cache
+def _let_go_at_exit() -> None:
+    """At this process's exit, let the spare writer go and reap it (it exits as its socket closes)."""
+    import atexit
+
+    def let_go() -> None:
+        global _spare
+        spare, _spare = _spare, None
+        if spare is not None and spare.owner == os.getpid():
+            spare.close()
+            try:
+                spare.proc.wait(WRITER_TIMEOUT_S)
+            except Exception:
+                pass
+
+    atexit.register(let_go)
 
 
 class ProcessSink(_Sink):
@@ -582,6 +650,7 @@ class ProcessSink(_Sink):
         except BaseException:
             self.claim.release(remove=True)
             raise
+        self._writer = writer
         self._proc, self._ring, self._errors = writer.proc, writer.ring, writer.errors
         self._marked = self._ring.marked
         self._placement = writer.placement
@@ -624,11 +693,7 @@ class ProcessSink(_Sink):
         except subprocess.TimeoutExpired:
             self._proc.kill()
             code = self._proc.wait(WRITER_TIMEOUT_S)
-        try:
-            self._errors.seek(0)
-            text = self._errors.read().decode(errors="replace")
-        except (OSError, ValueError):
-            text = ""
+        text = self._writer.new_errors()  # (what it wrote since its last file: a writer may be kept)
         reason = _reason(text)
         if code < 0:
             try:
@@ -733,38 +798,35 @@ class ProcessSink(_Sink):
             self._ring.close()
 
     def close(self) -> None:
-        """Send what is left, close the ring, and wait until the writer has finished the file; a
-        SinkError when it could not (its message says whether the recording was salvaged)."""
+        """Send what is left, end the ring's stream, and wait until the writer has finished the file;
+        a SinkError when it could not (its message says whether the recording was salvaged). The
+        writer is kept for this process's next recording (:func:`_keep`)."""
+        finished = False
         try:
             try:
                 self.flush()
                 self._placement.anywhere()  # this process only waits from now on
             finally:
                 self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
-                finished = self._ring.hang_up()
+                finished = self._failed is None and self._ring.end_stream()
             # (a writer killed after moving the finished file into place, before it could say so, finished it)
             if self._failed is not None or (not finished and self.claim.part.exists()):
                 raise SinkError(self._failure())  # the ring is still open here: the salvage reads it
-            self._relay()
+            relayed = relayed_warnings(self._writer.new_errors())
         finally:
-            self._ring.close()
-            self._errors.close()
-        # the file is complete; the writer's exit is reaped in the background
-        import threading
+            if not finished:
+                self._ring.hang_up()
+                self._ring.close()
+                self._errors.close()
+                import threading
 
-        threading.Thread(target=self._proc.wait, daemon=True).start()
+                threading.Thread(target=self._proc.wait, daemon=True).start()  # reaped in the background
         self.claim.release(remove=False)
-
-    def _relay(self) -> None:
-        """Give again, here, the warnings the writer relayed (a visuals function of a viewer channel
-        it derived that failed and was switched off)."""
-        try:
-            self._errors.seek(0)
-            text = self._errors.read().decode(errors="replace")
-        except (OSError, ValueError):
-            return
-        for category, message in relayed_warnings(text):
-            warnings.warn(message, category, stacklevel=4)
+        _keep(self._writer)
+        # the warnings the writer relayed (a visuals function of a viewer channel it derived that
+        # failed and was switched off), given again here
+        for category, message in relayed:
+            warnings.warn(message, category, stacklevel=2)
 
     def discard(self) -> None:
         """Stop the writer and remove the private file (the target keeps what it held; a recording
@@ -773,6 +835,7 @@ class ProcessSink(_Sink):
         self._hang_up()
         self._proc.wait(WRITER_TIMEOUT_S)
         self._errors.close()
+        self._writer.handover.close()
         self.claim.release(remove=True)
 
 
