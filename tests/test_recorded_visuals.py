@@ -207,3 +207,18 @@ def _alive(pid: int) -> bool:
             return f.read().split(") ")[-1][0] != "Z"
     except FileNotFoundError:
         return False
+
+
+def test_a_kept_writer_writes_relative_paths_where_the_run_is(tmp_path, monkeypatch):
+    """A writer kept from a recording made in one folder writes the next one, named relative to the
+    folder the process has moved to since, there."""
+    (tmp_path / "one").mkdir()
+    (tmp_path / "two").mkdir()
+    monkeypatch.chdir(tmp_path / "one")
+    first = record(Path("a.mcap"), loads(FALL, overrides=["until=0.01"]), [])
+    monkeypatch.chdir(tmp_path / "two")
+    second = record(Path("runs") / "b.mcap", loads(FALL, overrides=["until=0.01"]), [])
+    assert second.sink.writer_pid == first.sink.writer_pid
+    assert (tmp_path / "one" / "a.mcap").is_file()
+    assert Recording(tmp_path / "two" / "runs" / "b.mcap").status().status == "ok"
+    assert sorted(p.name for p in (tmp_path / "two").rglob("*")) == ["b.mcap", "runs"]

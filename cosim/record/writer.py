@@ -531,11 +531,13 @@ class _Writer:
 
     def hand_over(self, part: Path, final: Path, lock_fd: int) -> bool:
         """Give the writer its next file (the private one, locked by ``lock_fd``, and the final name);
-        False when it has gone."""
+        False when it has gone. The names go absolute: the writer's working folder is the one this
+        process had when it started the writer."""
         import socket
 
+        names = os.fsencode(os.path.abspath(part)) + b"\0" + os.fsencode(os.path.abspath(final))
         try:
-            socket.send_fds(self.handover, [os.fsencode(part) + b"\0" + os.fsencode(final)], [lock_fd])
+            socket.send_fds(self.handover, [names], [lock_fd])
         except OSError:
             return False
         return True
