@@ -13,6 +13,15 @@ The recorded wall time includes closing the file.
 With ``--busy`` another job keeps one core busy throughout the timed runs (a process spinning in a
 loop), as on a shared machine: the simulation, the recording's writer process and that job then
 share the two cores.
+
+In one process, every recording after the warm-up is written by the writer process kept from the
+one before (``cosim.record.writer``), as in any process that records more than once (a sweep's
+worker, a notebook, the tests). With ``--fresh`` each run is instead a one-off ``cosim run`` as a
+user types it, in a fresh process, timed from its start to its exit: its start-up (the writer
+started first), the run and the file's finishing; the CPU column is that process's and its writer's
+together (the writer ends, and is waited for, as the process exits).
+
+    python tools/bench_skip.py --fresh [--busy] [--write docs/performance.md]
 """
 
 from __future__ import annotations
@@ -31,6 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from cosim.docsection import replace_section  # noqa: E402
+from cosim.record import writer as writer_module  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 
@@ -58,15 +68,38 @@ def _writer_cpu(before: float) -> float:
     return _children_cpu() - before
 
 
+def _kept_writer() -> tuple[int, float]:
+    """(pid, CPU s so far) of the writer process kept for this process's next recording
+    (``cosim.record.writer``), or (0, 0.0) when none is kept."""
+    kept = writer_module._spare
+    if kept is None:
+        return 0, 0.0
+    try:
+        with open(f"/proc/{kept.proc.pid}/stat") as f:
+            fields = f.read().rsplit(") ", 1)[1].split()
+    except (OSError, IndexError):
+        return kept.proc.pid, 0.0
+    return kept.proc.pid, (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime, stime
+
+
 def timed_run(overrides: list[str], record: bool, scene_file: Path = SCENE) -> tuple[float, float, float, float]:
-    """(simulated s, wall s, CPU s of this process, CPU s of the writer process) of one run."""
+    """(simulated s, wall s, CPU s of this process, CPU s of the writer process) of one run. The
+    writer is the one kept from the last recording when there is one (its CPU counted from this
+    run's start), else one started for this run (all of its CPU)."""
     scene = load(scene_file, overrides=overrides)
     with tempfile.TemporaryDirectory() as tmp:
-        cpu, writer, start = time.process_time(), _children_cpu(), time.perf_counter()
+        pid, kept_cpu = _kept_writer()
+        cpu, children, start = time.process_time(), _children_cpu(), time.perf_counter()
         outcome = run_scene(scene, Path(tmp) / "skip.mcap" if record else None, progress=False)
         wall = time.perf_counter() - start
         cpu = time.process_time() - cpu
-        writer = _writer_cpu(writer) if record else 0.0
+        writer = 0.0
+        if record:
+            now_pid, now_cpu = _kept_writer()
+            if now_pid:  # kept again: this run's share of its CPU
+                writer = now_cpu - (kept_cpu if now_pid == pid else 0.0)
+            else:  # let go at the end of the run, and reaped
+                writer = _writer_cpu(children)
     return outcome.result.time_ns / 1e9, wall, cpu, writer
 
 
@@ -78,6 +111,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--busy", action="store_true", help="keep one core busy with another job meanwhile")
+    parser.add_argument("--fresh", action="store_true", help="each run a one-off `cosim run` in a fresh process")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the reference-skip section of this file")
     parser.add_argument("--scene", type=Path, default=SCENE,
                         help="the scene to run (default: the reference skip; another one's figures are not written)")
@@ -93,15 +127,37 @@ def main() -> None:
             busy.wait()
 
 
+def _cosim() -> list[str]:
+    """The command a user runs: the console script beside this interpreter, else ``python -m``."""
+    script = Path(sys.executable).with_name("cosim")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "cosim.cli"]
+
+
+def fresh_run(overrides: list[str], record: bool, scene_file: Path) -> tuple[float, float, float]:
+    """(wall s, CPU s of the process and its writer, 0.0) of a one-off ``cosim run`` of the scene in a
+    fresh process."""
+    sets = [arg for o in overrides for arg in ("--set", o)]
+    with tempfile.TemporaryDirectory() as tmp:
+        output = ["-o", str(Path(tmp) / "skip.mcap")] if record else ["--no-record"]
+        children, start = _children_cpu(), time.perf_counter()
+        subprocess.run([*_cosim(), "run", str(scene_file), "-q", *sets, *output], check=True, cwd=tmp,
+                       stdout=subprocess.DEVNULL)
+        wall = time.perf_counter() - start
+    return wall, _children_cpu() - children, 0.0
+
+
 def report(args: argparse.Namespace) -> None:
     for overrides, record in RUNS.values():  # compile / load kernels, import the writer's modules
         run_scene(load(args.scene, overrides=["until=0.05", *overrides]),
                   Path(tempfile.mkdtemp()) / "warm.mcap" if record else None, progress=False)
+    sim_s = timed_run([], False, args.scene)[0] if args.fresh else 0.0
     load_before = os.getloadavg()[0]
     samples: dict[str, list[tuple[float, float, float]]] = {name: [] for name in RUNS}
-    sim_s = 0.0
     for _ in range(args.repeats):
         for name, (overrides, record) in RUNS.items():
+            if args.fresh:
+                samples[name].append(fresh_run(overrides, record, args.scene))
+                continue
             sim_s, wall, cpu, writer = timed_run(overrides, record, args.scene)
             samples[name].append((wall, cpu, writer))
     load_after = os.getloadavg()[0]
@@ -113,7 +169,7 @@ def report(args: argparse.Namespace) -> None:
         cpu = statistics.median(c for _, c, _ in runs)
         writer = statistics.median(w for _, _, w in runs)
         rows.append(f"| {name} | {best[name]:.3f} | {median[name]:.3f} | {sim_s / best[name]:.2f} | "
-                    f"{cpu:.2f} | {writer:.2f} |")
+                    f"{cpu:.2f} | {'-' if args.fresh else f'{writer:.2f}'} |")
 
     def cost(name: str, of: dict[str, float]) -> str:
         return f"{(of[name] / of[off] - 1.0) * 100:+.0f}%"
@@ -127,18 +183,22 @@ def report(args: argparse.Namespace) -> None:
 
     scene = args.scene.resolve()
     name = scene.relative_to(ROOT).as_posix() if scene.is_relative_to(ROOT) else str(args.scene)
-    command = "python tools/bench_skip.py" + (" --busy" if args.busy else "") + (
+    command = "python tools/bench_skip.py" + (" --fresh" if args.fresh else "") + (" --busy" if args.busy else "") + (
         " --write docs/performance.md" if scene == SCENE else f" --scene {name}")
+    where = ("as a one-off `cosim run` each, in a fresh process (start-up and the file's finishing included; "
+             "the real-time factor counts them too)" if args.fresh else "in one process")
     text = "\n".join([
         ("## The reference skip" if scene == SCENE else f"## {name}")
-        + (", with another job on one core" if args.busy else ""),
+        + (", one-off runs" if args.fresh else "") + (", with another job on one core" if args.busy else ""),
         "",
         f"`{name}` ({sim_s:.3g} s simulated until the stone sinks), {args.repeats} runs of each "
-        "kind in turn in one process" + (", while another job kept one core busy" if args.busy else "")
+        f"kind in turn {where}" + (", while another job kept one core busy" if args.busy else "")
         + f" (load average {load_before:.1f} before, {load_after:.1f} after), `{command}`:",
         "",
-        "| run | best wall [s] | median wall [s] | real-time factor (best) | CPU, simulating process [s] "
-        "(median) | CPU, writer process [s] (median) |",
+        ("| run | best wall [s] | median wall [s] | real-time factor (best) | CPU, the process and its writer "
+         "together [s] (median) | |" if args.fresh else
+         "| run | best wall [s] | median wall [s] | real-time factor (best) | CPU, simulating process [s] "
+         "(median) | CPU, writer process [s] (median) |"),
         "|---|---:|---:|---:|---:|---:|",
         *rows,
         "",
@@ -151,7 +211,7 @@ def report(args: argparse.Namespace) -> None:
     ])
     print(text)
     if args.write:
-        replace_section(args.write, "skip-busy" if args.busy else "skip", text)
+        replace_section(args.write, "skip" + ("-fresh" if args.fresh else "") + ("-busy" if args.busy else ""), text)
 
 
 if __name__ == "__main__":
