@@ -144,7 +144,8 @@ def _prestart_writer(command: str | None, argv: list[str]) -> None:
     so that it starts, and imports what it makes the viewer channels with, while this process
     imports, loads the scene and its kernels (:func:`cosim.record.writer.prestart`); a short run
     would otherwise wait for it at its end. Not for ``--no-record`` or ``--help``."""
-    if command != "run" or any(a in ("--no-record", "-h", "--help") for a in argv):
+    # (argparse takes an unambiguous abbreviation, --no-rec, as the option itself)
+    if command != "run" or any(a in ("-h", "--help") or (len(a) > 5 and "--no-record".startswith(a)) for a in argv):
         return
     from cosim.record.writer import prestart
     from cosim.view.channels import RECIPE_MODULE

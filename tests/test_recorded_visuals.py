@@ -7,6 +7,7 @@ that reach the user; and the writer started ahead of the run (cosim.record.write
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -15,15 +16,18 @@ from pathlib import Path
 
 import pytest
 
+from components.rigid_body import RigidBody
+from cosim.record import ring as ring_module
 from cosim.record import writer
 from cosim.record.derive import DerivedMessage, relayed_warnings
 from cosim.record.reader import Recording
 from cosim.record.recorder import Recorder, physics_topics
+from cosim.record.ring import RingConsumer, RingProducer
 from cosim.record.writer import SinkError
 from cosim.runner import default_derivers, run_scene
 from cosim.scenario import load, loads
 from cosim.scheduler import Simulation
-from cosim.view.items import VisualsWarning
+from cosim.view.items import LOG_TOPIC, LogLine, VisualsWarning
 from tests.test_reliability_salvage import KillWriter
 
 pytest.importorskip("foxglove_schemas_protobuf", reason="the viewer channels need the [viz] extra")
@@ -222,3 +226,121 @@ def test_a_kept_writer_writes_relative_paths_where_the_run_is(tmp_path, monkeypa
     assert (tmp_path / "one" / "a.mcap").is_file()
     assert Recording(tmp_path / "two" / "runs" / "b.mcap").status().status == "ok"
     assert sorted(p.name for p in (tmp_path / "two").rglob("*")) == ["b.mcap", "runs"]
+
+
+class Failing(Complaining):
+    """A deriver the writer makes that raises at its 20th message."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.writer_recipe = ("tests.test_recorded_visuals", "Failing", ())
+        self.calls = 0
+
+    def __call__(self, time_ns, component, port, msg):
+        self.calls += 1
+        if self.calls == 20:
+            raise ValueError("cannot draw this")
+        return [DerivedMessage("/drawn", "demo.D", "jsonschema", b"{}", "json", b"{}")]
+
+
+def test_a_deriver_failing_in_the_writer_leaves_the_recording_whole(tmp_path):
+    """A deriver that fails in the writer process switches its port off with a warning given to the
+    user; the writer goes on, and the recording holds every exchange and its status."""
+    scene = loads(FALL, overrides=["until=0.05", "record.visual_rate=0"])
+    with pytest.warns(RuntimeWarning, match=r"viewer channels of /ball/state are not made from t = 0.019 s: "
+                                            r"ValueError: cannot draw this"):
+        record(tmp_path / "f.mcap", scene, [Failing()])
+    rec = Recording(tmp_path / "f.mcap")
+    assert rec.status().status == "ok" and rec.channels["/ball/state"].count == 51
+    assert rec.channels["/drawn"].count == 19
+
+
+class DrawnBall(RigidBody):
+    """A body that draws itself (a log line per frame): its looks need the component itself."""
+
+    def visuals(self, port, msg):
+        return [LogLine(LOG_TOPIC, "info", "drawn", f"at {float(msg.position[2]):.3f} m")]
+
+
+def test_a_component_that_draws_itself_has_every_viewer_channel_made_here(tmp_path):
+    """One component drawing itself: every viewer channel of the run is made in the simulating
+    process (none split between the two processes), the installed looks of the other body too."""
+    scene = loads(FALL.replace("components:\n", "components:\n  drawn: {type: \"tests.test_recorded_visuals:"
+                               "DrawnBall\", shape: sphere, radius: 0.05}\n"), overrides=["until=0.2"])
+    recorder = record(tmp_path / "d.mcap", scene, default_derivers(scene))
+    assert not [r for r in recorder.sink.directory if r[0] in ("deriver", "derive")]
+    rec = Recording(tmp_path / "d.mcap")
+    assert rec.channels["/scene/ball/trail"].count == 13 and rec.channels["/log"].count == 13
+
+
+def test_a_stream_ended_on_the_ring_starts_the_next_count_over():
+    """end_stream: the producer notes a count of 0 before the next stream's first batch, so that a
+    salvage of that stream finds where to start even if the consumer died before it noted it."""
+    producer = RingProducer(1 << 16)
+    consumer = RingConsumer(producer.fd, producer.size, -1, -1)
+    control_r, control_w = os.pipe()
+    ack_r, ack_w = os.pipe()
+    producer.connect(control_w, ack_r)
+    consumer = RingConsumer(producer.fd, producer.size, control_r, ack_w)
+    try:
+        for _ in range(3):
+            producer.put([b"x" * 100])
+        batches = consumer.batches()
+        for count, _batch in enumerate(batches, start=1):
+            consumer.tally(count * 10)
+            if count == 3:
+                break
+        os.write(ack_w, (2**64 - 1).to_bytes(8, "little"))  # FINISHED, as the consumer answers END
+        assert producer.end_stream()
+        assert producer.tallies()[3] == 0 and producer.held() == []
+    finally:
+        producer.close()
+        for fd in (control_r, ack_r, ack_w):
+            os.close(fd)
+
+
+def test_ctrl_c_while_closing_ends_the_writer_and_does_not_hang(tmp_path, monkeypatch):
+    """Ctrl-C as the recording closes, once the stream's end is sent: close() raises it at once,
+    and the writer ends (it is neither waited for forever nor kept)."""
+    scene = loads(FALL, overrides=["until=0.05"])
+    sim = Simulation(scene)
+    recorder = Recorder(tmp_path / "c.mcap", scene, derivers=[])
+    sim.observers.append(recorder)
+    sim.run(scene.until_ns)
+
+    def interrupted(self):
+        ring_module._write_all(self.control_fd, ring_module._HEAD.pack(ring_module.END, 0))
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(RingProducer, "end_stream", interrupted)
+    signal.alarm(WAIT_S)  # a hang fails the test instead of stalling the run
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            recorder.close()
+        proc = recorder.sink._proc
+        assert proc.wait(WAIT_S) is not None and writer._spare is not recorder.sink._writer
+    finally:
+        signal.alarm(0)
+
+
+def test_a_process_with_a_kept_writer_exits_while_a_forked_child_lives(tmp_path):
+    """A process that recorded (its writer kept) and then forked a child still exits while the
+    child lives: the child forgets the writer, and the parent stops it as it exits (it used to wait
+    for the writer, which waited for the child's copy of its socket to close)."""
+    code = ("import os, sys, time\n"
+            "from cosim.runner import run_scene\n"
+            "from cosim.scenario import loads\n"
+            f"run_scene(loads({FALL!r}, overrides=['until=0.01']), {str(tmp_path / 'p.mcap')!r}, progress=False)\n"
+            "child = os.fork()\n"
+            "if child == 0:\n"
+            "    os.close(1); os.close(2)\n"
+            "    time.sleep(1000)\n"
+            "    os._exit(0)\n"
+            "print(child, flush=True)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=WAIT_S, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    child = int(done.stdout)
+    try:
+        assert _alive(child)  # the parent ended first
+    finally:
+        os.kill(child, signal.SIGKILL)

@@ -28,6 +28,7 @@ from __future__ import annotations
 import fnmatch
 import importlib
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -102,28 +103,50 @@ class Derivation:
         self._next = DERIVED_KEYS
 
     def apply(self, record: tuple) -> None:
-        """Take a ``deriver`` or ``derive`` record."""
-        if record[0] == "deriver":
-            _, name, recipe, patterns = record
-            self.derivers[name] = (make_deriver(recipe), None if patterns is None else tuple(patterns))
-        else:
+        """Take a ``deriver`` or ``derive`` record. One that cannot be followed (a recipe or a
+        message type that does not import here) leaves its channels unmade, with a warning: the
+        recording itself goes on."""
+        ensure_site()
+        try:
+            if record[0] == "deriver":
+                _, name, recipe, patterns = record
+                self.derivers[name] = None  # until it is made
+                self.derivers[name] = (make_deriver(recipe), None if patterns is None else tuple(patterns))
+                return
             from cosim.codec.wire import wire_codec
 
             _, name, channel, component, port, type_path = record
-            deriver, patterns = self.derivers[name]
+            made = self.derivers.get(name)
+            if made is None:  # its deriver could not be made (said when it failed)
+                return
+            deriver, patterns = made
             decode = wire_codec(message_type(type_path)).decode
-            self.ports.setdefault(channel, []).append(_Port(component, port, decode, deriver, patterns))
+        except Exception as exc:
+            what = f"deriver {record[2][:2]}" if record[0] == "deriver" else f"/{record[3]}/{record[4]}"
+            _warn_unmade(what, exc)
+            return
+        self.ports.setdefault(channel, []).append(_Port(component, port, decode, deriver, patterns))
 
     def after(self, channel: int, time_ns: int, data: bytes) -> None:
         """The message ``data`` of ``channel`` at ``time_ns`` has been written: write what the
-        derivers make of it."""
-        for p in self.ports.get(channel, ()):
+        derivers make of it. A port whose message cannot be decoded, or whose deriver fails, is
+        switched off with a warning (the deriver's own looks failing are its business: it says so in
+        the log channel); the recording goes on."""
+        for p in tuple(self.ports.get(channel, ())):
             if time_ns < p.due_ns:
                 continue
-            for extra in p.deriver(time_ns, p.component, p.port, p.decode(data)):
-                if p.patterns is None or any(fnmatch.fnmatchcase(extra.topic, q) for q in p.patterns):
-                    self.target.logs[self._channel(extra)](extra.data, time_ns)
-            p.due_ns = p.deriver.due_ns(p.component, p.port) if hasattr(p.deriver, "due_ns") else time_ns
+            try:
+                made = list(p.deriver(time_ns, p.component, p.port, p.decode(data)))
+                p.due_ns = p.deriver.due_ns(p.component, p.port) if hasattr(p.deriver, "due_ns") else time_ns
+                for extra in made:
+                    if p.patterns is None or any(fnmatch.fnmatchcase(extra.topic, q) for q in p.patterns):
+                        self.target.logs[self._channel(extra)](extra.data, time_ns)
+            except Exception as exc:
+                ports = self.ports[channel]
+                ports.remove(p)
+                if not ports:
+                    del self.ports[channel]
+                _warn_unmade(f"/{p.component}/{p.port}", exc, time_ns)
 
     def _channel(self, extra: Any) -> int:
         """The writer's key of a derived message's channel, registered on first use."""
@@ -142,16 +165,40 @@ class Derivation:
         return self._next
 
 
-def preload(modules: Iterable[str], site_dirs: Iterable[str] = ()) -> None:
-    """Import what deriving will need (run in the writer process while the simulation starts): the
-    ``modules`` (the derivers' recipes'), each then asked to ``warm_up()`` if it can (its first-use
-    costs: what it loads lazily), with the site folders' ``.pth`` entries (an editable install's
-    path) that the writer starts without. Failures are left for the deriving itself to meet and
-    report."""
-    import site
+def _warn_unmade(what: str, exc: Exception, time_ns: int | None = None) -> None:
+    when = "" if time_ns is None else f" from t = {time_ns / 1e9:g} s"
+    warnings.warn(f"viewer channels of {what} are not made{when}: {type(exc).__name__}: {exc}",
+                  RuntimeWarning, stacklevel=3)
 
-    for folder in site_dirs:
-        site.addsitedir(folder)
+
+_site = {"folders": (), "done": False}  # the site folders whose .pth entries deriving needs, once
+_site_lock = threading.Lock()
+
+
+def use_site_dirs(folders: Iterable[str]) -> None:
+    """The site folders (a writer process starts without their ``.pth`` entries: an editable
+    install's path) to read before anything is derived here (:func:`ensure_site`)."""
+    _site["folders"] = tuple(folders)
+
+
+def ensure_site() -> None:
+    """Read the site folders' ``.pth`` entries, once, before a deriver or a message type is imported
+    (whichever thread comes first: the preload or the first records)."""
+    with _site_lock:
+        if not _site["done"]:
+            import site
+
+            for folder in _site["folders"]:
+                site.addsitedir(folder)
+            _site["done"] = True
+
+
+def preload(modules: Iterable[str]) -> None:
+    """Import what deriving will need (run in the writer process while the simulation starts): the
+    site folders' ``.pth`` entries (:func:`ensure_site`) and the ``modules`` (the derivers'
+    recipes'), each then asked to ``warm_up()`` if it can (its first-use costs: what it loads
+    lazily). Failures are left for the deriving itself to meet and report."""
+    ensure_site()
     for module in modules:
         try:
             warm_up = getattr(importlib.import_module(module), "warm_up", None)

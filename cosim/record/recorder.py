@@ -200,8 +200,11 @@ class Recorder(BaseObserver):
         codec = wire_codec(msg_type)
         channel = self._message_channel(topic, msg_type) if self.wanted(topic) else None
         watching = []
+        # the writer sees only what is recorded: with every exchange recorded in full it may derive,
+        # else every viewer channel is made here (a topic such as /tf is never made in both processes)
+        in_full = self.patterns is None and self.every == 1
         for d in self.derivers:
-            if (channel is not None and self.every == 1 and getattr(d, "writer_recipe", None) is not None
+            if (in_full and getattr(d, "writer_recipe", None) is not None
                     and d.in_writer(component, port, msg_type)):
                 self._derive_in_writer(d, channel, component, port, msg_type)
             elif getattr(d, "watches", None) is None or d.watches(component, port, msg_type):

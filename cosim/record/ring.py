@@ -259,6 +259,10 @@ class RingProducer:
         self.finished = False
         self._tail = self._head  # the consumer read the whole stream before it finished
         self._held.clear()  # a later stream's salvage must not reach back into this one
+        # the next stream's count starts over before its first batch (the consumer notes it too, as it
+        # takes the stream; noted here, it holds should the consumer die before)
+        number = self._sent
+        _TALLY.pack_into(self._map, self.size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, 0)
         return True
 
     def hang_up(self) -> bool:

@@ -49,7 +49,14 @@ from cosim.codec.jsontext import RecordLayout, Renderer, renderer
 from cosim.codec.records import BYTES, MESSAGE, OTHER, Stage, Write, iter_records, read_other
 from cosim.codec.state_proto import state_bytes
 from cosim.errors import CosimError
-from cosim.record.derive import Derivation, preload, relay_warnings, relayed_warnings
+from cosim.record.derive import (
+    RELAY_TAG,
+    Derivation,
+    preload,
+    relay_warnings,
+    relayed_warnings,
+    use_site_dirs,
+)
 from cosim.record.output import Claim, claim, finish
 from cosim.record.ring import RingConsumer, RingError, RingProducer
 
@@ -86,6 +93,7 @@ _OS_ERROR = re.compile(r"Os \{ code: (\d+)|\[Errno (\d+)\]")
 def _reason(text: str) -> str:
     """The cause of a writer failure from its error output: the operating system's words for the
     first failed write (disk full, file too large...), else its last line."""
+    text = "\n".join(line for line in text.splitlines() if not line.startswith(RELAY_TAG))  # not its warnings
     match = _OS_ERROR.search(text)
     if match:
         return os.strerror(int(match.group(1) or match.group(2)))
@@ -277,10 +285,11 @@ def writer_main(argv: list[str]) -> int:
     folders = [d for d in site_dirs.split(os.pathsep) if d]
     sys.path.extend(d for d in folders if d not in sys.path)
     relay_warnings()  # a deriver's warnings (a visuals function switched off) reach the user
+    use_site_dirs(folders)  # their .pth entries, read before anything is derived here
     if preloads:  # what deriving viewer channels here needs, imported while the simulation starts
         import threading
 
-        threading.Thread(target=preload, args=(preloads.split(","), folders), daemon=True).start()
+        threading.Thread(target=preload, args=(preloads.split(","),), daemon=True).start()
     ring = RingConsumer(int(ring_fd), int(ring_size), int(control_fd), int(ack_fd))
     ring.prefault()  # the ring's memory allocated here rather than in the simulating process's writes
     handover = socket.socket(fileno=int(handover_fd))
@@ -302,12 +311,20 @@ def writer_main(argv: list[str]) -> int:
                 unsent = ring.unsent()
                 if unsent is not None:
                     sink.apply_batch(unsent)
-        finally:
-            try:
-                sink.finish()
-            except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
-                print(f"cannot finish the file: {exc}", file=sys.stderr, flush=True)
-                return 1
+        except Exception:
+            # a record this process cannot write: the file is left as it is, for the simulating
+            # process to salvage (with what the ring still holds) and say so; it is not passed off
+            # as finished
+            import traceback
+
+            traceback.print_exc()
+            sink.abandon()
+            return 2
+        try:
+            sink.finish()
+        except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
+            print(f"cannot finish the file: {exc}", file=sys.stderr, flush=True)
+            return 1
         if not ring.ended:
             ring.finish()  # the file is complete under its final name: the simulating process need not wait
             return 0
@@ -553,23 +570,34 @@ class _Writer:
         return data.decode(errors="replace")
 
     def close(self) -> None:
-        """Let the writer go (it exits once it sees the socket and the ring's pipes closed)."""
+        """Let go of a writer that has no file (between recordings, or never handed one): it is
+        stopped, since a process forked from this one may hold its socket open, and reaped."""
         self.handover.close()
+        try:
+            self.proc.kill()
+            self.proc.wait(WRITER_TIMEOUT_S)
+        except Exception:  # already gone
+            pass
         self.ring.hang_up()
         self.ring.close()
         self.errors.close()
-        import threading
 
-        threading.Thread(target=self.proc.wait, daemon=True).start()  # reaped in the background
+    def forget(self) -> None:
+        """In a process forked from the one that started the writer: close this process's copies of
+        its socket, pipes and memory (the writer stays the parent's)."""
+        self.handover.close()
+        for fd in (self.ring.control_fd, self.ring.ack_fd):
+            if fd >= 0:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+        self.ring.control_fd = self.ring.ack_fd = -1
+        self.ring.close()
 
     def abandon(self) -> None:
-        """Stop a writer that was never handed a file."""
-        self.handover.close()
-        self.proc.kill()
-        self.proc.wait(WRITER_TIMEOUT_S)
-        self.ring.hang_up()
-        self.ring.close()
-        self.errors.close()
+        """Stop a writer that was never handed a file (or did not take it)."""
+        self.close()
 
 
 # a writer ready for this process's next recording: started ahead of it (prestart), or kept from the
@@ -610,7 +638,8 @@ def _keep(writer: _Writer) -> None:
 
 @cache
 def _let_go_at_exit() -> None:
-    """At this process's exit, let the spare writer go and reap it (it exits as its socket closes)."""
+    """At this process's exit, let the spare writer go (:meth:`_Writer.close`); in a process forked
+    from this one, forget it (:meth:`_Writer.forget`)."""
     import atexit
 
     def let_go() -> None:
@@ -618,12 +647,15 @@ def _let_go_at_exit() -> None:
         spare, _spare = _spare, None
         if spare is not None and spare.owner == os.getpid():
             spare.close()
-            try:
-                spare.proc.wait(WRITER_TIMEOUT_S)
-            except Exception:
-                pass
+
+    def forget_in_child() -> None:
+        global _spare
+        spare, _spare = _spare, None
+        if spare is not None:
+            spare.forget()
 
     atexit.register(let_go)
+    os.register_at_fork(after_in_child=forget_in_child)
 
 
 class ProcessSink(_Sink):
@@ -815,8 +847,14 @@ class ProcessSink(_Sink):
             if self._failed is not None or (not finished and self.claim.part.exists()):
                 raise SinkError(self._failure())  # the ring is still open here: the salvage reads it
             relayed = relayed_warnings(self._writer.new_errors())
+        except BaseException:
+            if finished:  # the file is whole, but closing was interrupted (Ctrl-C): the writer is let go
+                self._writer.close()
+                self.claim.release(remove=False)
+            raise
         finally:
             if not finished:
+                self._writer.handover.close()  # a writer waiting for its next file ends too
                 self._ring.hang_up()
                 self._ring.close()
                 self._errors.close()
@@ -824,7 +862,8 @@ class ProcessSink(_Sink):
 
                 threading.Thread(target=self._proc.wait, daemon=True).start()  # reaped in the background
         self.claim.release(remove=False)
-        _keep(self._writer)
+        if finished:
+            _keep(self._writer)
         # the warnings the writer relayed (a visuals function of a viewer channel it derived that
         # failed and was switched off), given again here
         for category, message in relayed:

@@ -4,12 +4,13 @@
 second, :func:`cosim.runner.default_derivers`). For a port whose message type has its looks from an
 installed package (the ``cosim.visuals`` entry points), the writer process makes the frames from the
 recorded messages (:mod:`cosim.record.derive`), off the simulation's core; this process then never
-imports the viewer modules at all. The others it makes here, as a
-:func:`cosim.view.foxglove.visual_deriver` does: a component that overrides its own looks
-(``Component.visuals``, which needs the component itself), a message type whose looks were
-registered in this process only (:func:`cosim.view.items.register`), and a port the recording keeps
-only some messages of (``record.every``) or none (``record.channels``), since the writer sees only
-what is recorded. Either way the frames are the same, byte for byte.
+imports the viewer modules at all. It makes them all here instead, as a
+:func:`cosim.view.foxglove.visual_deriver` does, when a component overrides its own looks
+(``Component.visuals``, which needs the component itself), when looks were registered in this
+process only (:func:`cosim.view.items.register`), and when the recording keeps only some messages
+(``record.every``) or some channels (``record.channels``), since the writer sees only what is
+recorded: all or none, so that a topic such as ``/tf`` is never made by both. Either way the frames
+are the same, byte for byte.
 """
 
 from __future__ import annotations
@@ -36,17 +37,29 @@ class RecordedVisuals:
         self.writer_recipe = (RECIPE_MODULE, "visual_deriver", (rate, tuple(sorted(self.reserved_topics))))
         self.components: dict[str, Any] = {}
         self._here: Any = None  # the deriver for the ports made here, once one is
+        self._writer_makes: bool | None = None  # whether the writer makes the run's frames (in_writer)
 
     def bind(self, components: dict[str, Any]) -> None:
         """Give the running components (their ``visuals`` overrides take precedence)."""
         self.components = dict(components)
+        self._writer_makes = None
         if self._here is not None:
             self._here.bind(self.components)
 
     def in_writer(self, component: str, port: str, message_type: type) -> bool:
-        """Whether the writer process can make this port's frames from its recorded messages (the
-        recorder asks only of ports it records in full)."""
-        return self._looks(component, message_type) == "installed"
+        """Whether the writer process makes this port's frames from its recorded messages (the
+        recorder asks only when it records every exchange in full). All of them or none: as soon as
+        one component draws itself or looks are registered in this process, every port is made here,
+        so that a topic such as ``/tf`` is never made by both processes (decided at the first port
+        asked about, for the run)."""
+        if self._writer_makes is None:
+            from cosim.component import Component
+
+            items = sys.modules.get("cosim.view.items")  # not imported: nothing was registered
+            self._writer_makes = not (
+                any(type(c).visuals is not Component.visuals for c in self.components.values())
+                or (items is not None and bool(items._REGISTERED)))
+        return self._writer_makes and self._looks(component, message_type) == "installed"
 
     def _looks(self, component: str, message_type: type) -> str | None:
         """Who gives a port's looks: "component" (its own ``visuals``), "registered" (in this
