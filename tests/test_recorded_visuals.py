@@ -179,10 +179,9 @@ def test_a_writer_started_ahead_is_the_one_the_recording_uses_and_is_kept(tmp_pa
     """prestart(): the next recording is written by that process, which is then kept for the next
     one (each file whole and closed as it ends); one never used ends with the process that started
     it, leaving nothing behind."""
-    writer._keep(writer._writer(()))  # whatever writer this process has is let go or kept...
-    spare = writer._spare
-    writer._spare = None
-    spare.close()  # ...and let go: the next one is started here
+    spare, writer._spare = writer._spare, None  # the writer this process kept, if any, is let go:
+    if spare is not None:  # the next one is started here
+        spare.close()
     writer.prestart(())
     started = writer._spare
     first = record(tmp_path / "a.mcap", loads(FALL, overrides=["until=0.01"]), [])
