@@ -138,15 +138,16 @@ class Derivation:
             try:
                 made = list(p.deriver(time_ns, p.component, p.port, p.decode(data)))
                 p.due_ns = p.deriver.due_ns(p.component, p.port) if hasattr(p.deriver, "due_ns") else time_ns
-                for extra in made:
-                    if p.patterns is None or any(fnmatch.fnmatchcase(extra.topic, q) for q in p.patterns):
-                        self.target.logs[self._channel(extra)](extra.data, time_ns)
             except Exception as exc:
                 ports = self.ports[channel]
                 ports.remove(p)
                 if not ports:
                     del self.ports[channel]
                 _warn_unmade(f"/{p.component}/{p.port}", exc, time_ns)
+                continue
+            for extra in made:  # (a write the file system refuses is the recording's failure, not the port's)
+                if p.patterns is None or any(fnmatch.fnmatchcase(extra.topic, q) for q in p.patterns):
+                    self.target.logs[self._channel(extra)](extra.data, time_ns)
 
     def _channel(self, extra: Any) -> int:
         """The writer's key of a derived message's channel, registered on first use."""
