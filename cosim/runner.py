@@ -147,8 +147,9 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     finished = False
     try:
         if output is not None:
-            # the writer process starts here, while the run's kernels load (a short run waits at its
-            # end for the writer to finish the file); it imports what deriving viewer channels needs
+            # the writer process starts here (unless cosim run started it first, or this process kept
+            # one from its last recording) and imports what deriving viewer channels needs while the
+            # run's kernels load (a short run waits at its end for the writer to finish the file)
             recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs,
                                 derivers=default_derivers(scene) if derivers is None else list(derivers))
             for deriver in recorder.derivers:  # components may override their looks (Component.visuals)

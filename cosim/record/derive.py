@@ -5,9 +5,9 @@ and every message it reads is recorded: so the writer process can make its chann
 simulating process, on the other core. The recorder (:class:`cosim.record.recorder.Recorder`) sends
 two kinds of records for it, besides the messages:
 
-- ``("deriver", name, recipe, patterns)``: how the writer makes the deriver ``name``, a
-  ``(module, function, args)`` recipe called once, and which derived channels the scene records
-  (``record.channels``; None for all);
+- ``("deriver", name, recipe)``: how the writer makes the deriver ``name``, a
+  ``(module, function, args)`` recipe called once (only for a recording of every exchange and
+  every channel: each viewer channel it makes is recorded);
 - ``("derive", name, channel, component, port, (module, qualname))``: the recorded channel that
   carries the messages of ``/component/port``, of that message type, for deriver ``name``.
 
@@ -25,7 +25,6 @@ simulating process gives it again (:func:`relayed_warnings`).
 
 from __future__ import annotations
 
-import fnmatch
 import importlib
 import sys
 import threading
@@ -70,7 +69,6 @@ class _Port:
     port: str
     decode: Callable[[bytes], Any]
     deriver: Any
-    patterns: tuple[str, ...] | None
     due_ns: int = 0  # the deriver's next frame for this port [ns]: messages before it are not decoded
 
 
@@ -96,7 +94,7 @@ class Derivation:
         """``ports``: the dict to keep the derived ports in, recorded channel -> its ports (the
         target's own, so that it sees at once which channels to show :meth:`after`)."""
         self.target = target
-        self.derivers: dict[str, tuple[Any, tuple[str, ...] | None]] = {}  # name -> (deriver, patterns)
+        self.derivers: dict[str, Any] = {}  # name -> the deriver (None: it could not be made)
         self.ports: dict[int, list[_Port]] = {} if ports is None else ports
         self._channels: dict[str, int] = {}  # derived topic -> the writer's key of its channel
         self._schemas: dict[str, int] = {}  # schema name -> the writer's key of the schema
@@ -109,23 +107,22 @@ class Derivation:
         ensure_site()
         try:
             if record[0] == "deriver":
-                _, name, recipe, patterns = record
+                _, name, recipe = record
                 self.derivers[name] = None  # until it is made
-                self.derivers[name] = (make_deriver(recipe), None if patterns is None else tuple(patterns))
+                self.derivers[name] = make_deriver(recipe)
                 return
             from cosim.codec.wire import wire_codec
 
             _, name, channel, component, port, type_path = record
-            made = self.derivers.get(name)
-            if made is None:  # its deriver could not be made (said when it failed)
+            deriver = self.derivers.get(name)
+            if deriver is None:  # it could not be made (said when it failed)
                 return
-            deriver, patterns = made
             decode = wire_codec(message_type(type_path)).decode
         except Exception as exc:
             what = f"deriver {record[2][:2]}" if record[0] == "deriver" else f"/{record[3]}/{record[4]}"
             _warn_unmade(what, exc)
             return
-        self.ports.setdefault(channel, []).append(_Port(component, port, decode, deriver, patterns))
+        self.ports.setdefault(channel, []).append(_Port(component, port, decode, deriver))
 
     def after(self, channel: int, time_ns: int, data: bytes) -> None:
         """The message ``data`` of ``channel`` at ``time_ns`` has been written: write what the
@@ -146,8 +143,7 @@ class Derivation:
                 _warn_unmade(f"/{p.component}/{p.port}", exc, time_ns)
                 continue
             for extra in made:  # (a write the file system refuses is the recording's failure, not the port's)
-                if p.patterns is None or any(fnmatch.fnmatchcase(extra.topic, q) for q in p.patterns):
-                    self.target.logs[self._channel(extra)](extra.data, time_ns)
+                self.target.logs[self._channel(extra)](extra.data, time_ns)
 
     def _channel(self, extra: Any) -> int:
         """The writer's key of a derived message's channel, registered on first use."""

@@ -217,8 +217,7 @@ class Recorder(BaseObserver):
         name = self._in_writer.get(id(deriver))
         if name is None:
             name = self._in_writer[id(deriver)] = f"d{len(self._in_writer)}"
-            patterns = None if self.patterns is None else tuple(self.patterns)
-            self.sink.add_derivation(("deriver", name, deriver.writer_recipe, patterns))
+            self.sink.add_derivation(("deriver", name, deriver.writer_recipe))
         type_path = (msg_type.__module__, msg_type.__qualname__)
         self.sink.add_derivation(("derive", name, channel, component, port, type_path))
 

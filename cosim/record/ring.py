@@ -77,6 +77,12 @@ def shared_memory_fd(size: int) -> int:
     return fd
 
 
+def _note_tally(shared: Any, size: int, number: int, count: int) -> None:
+    """Note ``count`` as the consumer's count before batch ``number`` in the control block of the
+    shared memory ``shared`` (a ring of ``size`` bytes), in that batch's slot."""
+    _TALLY.pack_into(shared, size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, count)
+
+
 def _size_of(part: Any) -> int:
     """Bytes in a part, whatever its item format (a float64 memoryview, a numpy array, bytes)."""
     return memoryview(part).nbytes
@@ -259,10 +265,8 @@ class RingProducer:
         self.finished = False
         self._tail = self._head  # the consumer read the whole stream before it finished
         self._held.clear()  # a later stream's salvage must not reach back into this one
-        # the next stream's count starts over before its first batch (the consumer notes it too, as it
-        # takes the stream; noted here, it holds should the consumer die before)
-        number = self._sent
-        _TALLY.pack_into(self._map, self.size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, 0)
+        # the next stream's count starts over before its first batch (the batches' numbers go on)
+        _note_tally(self._map, self.size, self._sent, 0)
         return True
 
     def hang_up(self) -> bool:
@@ -377,12 +381,6 @@ class RingConsumer:
                 except OSError:  # the producer has gone: read on to the batches it has already sent
                     self.ack_fd = -1
 
-    def start_stream(self) -> None:
-        """Note a count of 0 before the next batch: the first of a new stream, whose counts start
-        over (the batches' numbers go on)."""
-        number = self._number
-        _TALLY.pack_into(self._map, self.size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, 0)
-
     def finish_stream(self) -> None:
         """Tell the producer this side has done all it had to with the stream that ended, and wait
         for the next one (see :meth:`RingProducer.end_stream`)."""
@@ -392,8 +390,7 @@ class RingConsumer:
     def tally(self, count: int) -> None:
         """Note ``count`` (what this side has done so far, e.g. messages written) as its count before
         the next batch; call it once the batch last given is done with."""
-        number = self._number + 1
-        _TALLY.pack_into(self._map, self.size + _TALLIES_AT + number % TALLIES * _TALLY.size, number, count)
+        _note_tally(self._map, self.size, self._number + 1, count)
 
     def unsent(self) -> memoryview | None:
         """Once :meth:`batches` has ended: the records a producer that died had gathered in the ring

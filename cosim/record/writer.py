@@ -300,7 +300,6 @@ def writer_main(argv: list[str]) -> int:
         if handed is None:
             return 0
         part, final, lock_fd = handed
-        ring.start_stream()
         sink = _Apply(part, final)
         written = 0
         try:
@@ -512,7 +511,6 @@ class _Writer:
         import subprocess  # here and below, not at import: the writer process imports this module too
         import tempfile
 
-        self.preloads = preloads
         self.owner = os.getpid()  # a process forked from this one may not use it
         self.errors = tempfile.TemporaryFile()
         self.errors_read = 0  # bytes of it read back (new_errors)
@@ -595,10 +593,6 @@ class _Writer:
         self.ring.control_fd = self.ring.ack_fd = -1
         self.ring.close()
 
-    def abandon(self) -> None:
-        """Stop a writer that was never handed a file (or did not take it)."""
-        self.close()
-
 
 # a writer ready for this process's next recording: started ahead of it (prestart), or kept from the
 # last one (ProcessSink.close)
@@ -676,10 +670,10 @@ class ProcessSink(_Sink):
         try:
             writer = _writer(preloads)
             if not writer.hand_over(self.claim.part, path, self.claim.fd):  # a spare that died
-                writer.abandon()
+                writer.close()
                 writer = _Writer(preloads)
                 if not writer.hand_over(self.claim.part, path, self.claim.fd):
-                    writer.abandon()
+                    writer.close()
                     raise OSError("the recording writer process ended as it started")
         except BaseException:
             self.claim.release(remove=True)

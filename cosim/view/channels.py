@@ -24,6 +24,20 @@ from cosim.view.lookup import has_installed_visuals
 RECIPE_MODULE = "cosim.view.foxglove"  # where the writer's deriver is made: visual_deriver(rate, reserved)
 
 
+def _draws_itself(comp: Any) -> bool:
+    """Whether a component overrides its own looks (``Component.visuals``)."""
+    from cosim.component import Component
+
+    return type(comp).visuals is not Component.visuals
+
+
+def _registered_here() -> dict[type, Any]:
+    """The looks registered in this process (:func:`cosim.view.items.register`), by message type;
+    none when the viewer items were never imported."""
+    items = sys.modules.get("cosim.view.items")
+    return {} if items is None else items._REGISTERED
+
+
 class RecordedVisuals:
     """The viewer channels at ``rate`` frames/s; ``reserved_topics`` (the physics channels) may not be
     used by viewer items."""
@@ -53,24 +67,16 @@ class RecordedVisuals:
         so that a topic such as ``/tf`` is never made by both processes (decided at the first port
         asked about, for the run)."""
         if self._writer_makes is None:
-            from cosim.component import Component
-
-            items = sys.modules.get("cosim.view.items")  # not imported: nothing was registered
-            self._writer_makes = not (
-                any(type(c).visuals is not Component.visuals for c in self.components.values())
-                or (items is not None and bool(items._REGISTERED)))
+            self._writer_makes = not (any(map(_draws_itself, self.components.values())) or _registered_here())
         return self._writer_makes and self._looks(component, message_type) == "installed"
 
     def _looks(self, component: str, message_type: type) -> str | None:
         """Who gives a port's looks: "component" (its own ``visuals``), "registered" (in this
         process), "installed" (an installed package), or None (nobody: it has no frames)."""
-        from cosim.component import Component
-
         comp = self.components.get(component)
-        if comp is not None and type(comp).visuals is not Component.visuals:
+        if comp is not None and _draws_itself(comp):
             return "component"
-        items = sys.modules.get("cosim.view.items")  # not imported: nothing was registered
-        if items is not None and message_type in items._REGISTERED:
+        if message_type in _registered_here():
             return "registered"
         return "installed" if has_installed_visuals(message_type) else None
 
