@@ -175,6 +175,45 @@ def test_a_warning_in_the_writer_reaches_the_user(tmp_path):
         (VisualsWarning, "a\tb"), (RuntimeWarning, "the recording writer: no.such:Thing: c")]
 
 
+class KillWriterOnceItWarned(KillWriter):
+    """Kills the recording writer (SIGKILL) at ``tick`` once it has relayed a warning."""
+
+    def _kill(self, sim: Simulation) -> None:
+        (recorder,) = [o for o in sim.observers if isinstance(o, Recorder)]
+        recorder.sink.flush()
+        errors = recorder.sink._writer.errors
+        deadline = time.monotonic() + WAIT_S
+        while b"cosim-warning" not in os.pread(errors.fileno(), 1 << 20, 0):
+            assert time.monotonic() < deadline, "the writer relayed no warning"
+            time.sleep(0.01)
+        super()._kill(sim)
+
+
+def test_a_warning_in_the_writer_reaches_the_user_when_the_recording_fails(tmp_path):
+    """The writer relayed a deriver's warning and was then killed: the run's recording fails (the
+    SinkError, its recording salvaged) and the warning is given once (the salvage, deriving again,
+    meets it too). Under an "error" warnings filter the recording's failure, not the warning, is
+    what is raised, and the warning met again while salvaging does not end the salvage: the
+    recording is kept with its viewer channels."""
+    for action in ("default", "error"):
+        scene = loads(FALL, overrides=["until=0.05", "record.visual_rate=0"])
+        sim = Simulation(scene, observers=[KillWriterOnceItWarned(30)])
+        out = tmp_path / f"{action}.mcap"
+        recorder = Recorder(out, scene, derivers=[Complaining()])
+        sim.observers.append(recorder)
+        with warnings.catch_warnings(record=True) as given:
+            warnings.simplefilter(action)
+            with pytest.raises(SinkError, match="the recording writer was killed"):
+                try:
+                    sim.run(scene.until_ns)
+                finally:
+                    recorder.close()
+        texts = [str(w.message) for w in given if issubclass(w.category, VisualsWarning)]
+        assert texts == ([] if action == "error" else ["visuals of /ball/state failed and are switched off: a test"])
+        rec = Recording(out)
+        assert rec.status().status == "ok" and rec.channels["/complaints"].count == 51  # all salvaged
+
+
 def test_a_writer_started_ahead_is_the_one_the_recording_uses_and_is_kept(tmp_path):
     """prestart(): the next recording is written by that process, which is then kept for the next
     one (each file whole and closed as it ends); one never used ends with the process that started

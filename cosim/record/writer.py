@@ -723,16 +723,23 @@ class ProcessSink(_Sink):
             code = self._proc.wait(WRITER_TIMEOUT_S)
         text = self._writer.new_errors()  # (what it wrote since its last file: a writer may be kept)
         reason = _reason(text)
-        if code < 0:
-            try:
-                name = signal.Signals(-code).name
-            except ValueError:
-                name = f"signal {-code}"
-            self._failed = self._salvage(f"the recording writer was killed ({name})")
-        elif not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
-            self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
-        else:
-            self._failed = self._seal(reason)
+        # the salvage derives the viewer channels again here, so a deriver's warning comes again; it
+        # is held until the file is safe (an "error" filter would have it end the salvage, losing
+        # the recording) and given once with those the writer relayed
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            if code < 0:
+                try:
+                    name = signal.Signals(-code).name
+                except ValueError:
+                    name = f"signal {-code}"
+                self._failed = self._salvage(f"the recording writer was killed ({name})")
+            elif not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
+                self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
+            else:
+                self._failed = self._seal(reason)
+        given = relayed_warnings(text) + [(w.category, str(w.message)) for w in caught]
+        _give(list(dict.fromkeys(given)), failing=True)
         return self._failed
 
     def _seal(self, reason: str) -> str:
@@ -858,10 +865,7 @@ class ProcessSink(_Sink):
         self.claim.release(remove=False)
         if finished:
             _keep(self._writer)
-        # the warnings the writer relayed (a visuals function of a viewer channel it derived that
-        # failed and was switched off), given again here
-        for category, message in relayed:
-            warnings.warn(message, category, stacklevel=2)
+        _give(relayed)
 
     def discard(self) -> None:
         """Stop the writer and remove the private file (the target keeps what it held; a recording
@@ -872,6 +876,20 @@ class ProcessSink(_Sink):
         self._errors.close()
         self._writer.handover.close()
         self.claim.release(remove=True)
+
+
+def _give(relayed: list[tuple[type[Warning], str]], failing: bool = False) -> None:
+    """Give again here the warnings the writer relayed (a visuals function of a viewer channel it
+    derived that failed and was switched off). While the recording itself is ``failing``, a warning
+    that an "error" filter would raise is left out: the recording's failure is what is raised."""
+    for category, message in relayed:
+        if not failing:
+            warnings.warn(message, category, stacklevel=3)
+            continue
+        try:
+            warnings.warn(message, category, stacklevel=3)
+        except Warning:
+            pass
 
 
 def open_sink(path: Path, background: bool = True, preloads: tuple[str, ...] = ()) -> InProcessSink | ProcessSink:
