@@ -7,6 +7,9 @@ import pytest
 
 from components.coupler.fixtures import axis_angle
 from components.coupler.geometry import (
+    FACE_SUBDIVISION,
+    _face_squares,
+    _numpy_sum,
     box_coverage,
     box_density,
     disk_chord,
@@ -89,6 +92,59 @@ def test_disk_tiling_has_the_disk_area_and_no_first_moment():
         assert np.abs(el.area[face] @ el.pos[face, :2]).max() < 1e-12
     assert el.area[~faces].sum() == pytest.approx(2 * math.pi * 0.05 * 0.006, rel=1e-12)
     assert not el.world_fixed
+
+
+def _face_squares_by_numpy(radius, across, oversample):
+    """The face squares as numpy's array calls define them (each mean a ``mean`` of the inside
+    points): the oracle the compiled pass must match bit for bit."""
+    m = FACE_SUBDIVISION
+    side = 2.0 * radius / across
+    sub = (np.arange(oversample) + 0.5) / oversample * side
+    k = oversample // m
+    us, vs, areas, pieces = [], [], [], []
+    for i in range(across):
+        for j in range(across):
+            gx, gy = np.meshgrid(-radius + i * side + sub, -radius + j * side + sub, indexing="ij")
+            inside = gx * gx + gy * gy <= radius * radius
+            count = int(inside.sum())
+            if count == 0:
+                continue
+            u0, v0 = float(gx[inside].mean()), float(gy[inside].mean())
+            piece = np.zeros((m * m, 3))
+            for a in range(m):
+                for b in range(m):
+                    block = (slice(a * k, (a + 1) * k), slice(b * k, (b + 1) * k))
+                    mask = inside[block]
+                    if mask.any():
+                        piece[a * m + b] = (gx[block][mask].mean() - u0, gy[block][mask].mean() - v0,
+                                            mask.sum() / count)
+            us.append(u0)
+            vs.append(v0)
+            areas.append(count / oversample**2 * side * side)
+            pieces.append(piece)
+    return np.array(us), np.array(vs), np.array(areas), np.array(pieces)
+
+
+@pytest.mark.parametrize(("radius", "across", "oversample"),
+                         [(0.05, 16, 16), (0.025, 16, 16), (0.037, 12, 8), (0.05, 16, 32), (0.03, 5, 4)])
+def test_the_compiled_face_tiling_is_numpys_to_the_bit(radius, across, oversample):
+    """The compiled pass over a disk face's squares gives the very numbers numpy's means gave (so
+    every run that tiles a disk is the same, bit for bit), summing as numpy's pairwise sum does."""
+    got = _face_squares(radius, across, oversample, FACE_SUBDIVISION)
+    want = _face_squares_by_numpy(radius, across, oversample)
+    for g, w in zip(got, want, strict=True):
+        assert g.shape == w.shape and np.array_equal(g, w)
+
+
+def test_numpys_sum_is_matched_to_the_bit_at_every_length():
+    """Runs of 1 to 300 values and longer (numpy halves a run past 128), with wide magnitudes, from
+    any start: the same bits as numpy.add.reduce and numpy's mean."""
+    rng = np.random.default_rng(3)
+    for n in [*range(1, 300), 511, 1025, 4096]:
+        values = rng.standard_normal(n + 3) * 10.0 ** rng.integers(-6, 6, n + 3)
+        run = values[3:]
+        assert _numpy_sum(values, 3, n) == np.add.reduce(run), n
+        assert _numpy_sum(values, 3, n) / n == run.mean(), n
 
 
 def test_sphere_tiling_has_the_sphere_area_and_unit_normals():
