@@ -883,13 +883,11 @@ def _give(relayed: list[tuple[type[Warning], str]], failing: bool = False) -> No
     derived that failed and was switched off). While the recording itself is ``failing``, a warning
     that an "error" filter would raise is left out: the recording's failure is what is raised."""
     for category, message in relayed:
-        if not failing:
-            warnings.warn(message, category, stacklevel=3)
-            continue
         try:
             warnings.warn(message, category, stacklevel=3)
         except Warning:
-            pass
+            if not failing:
+                raise
 
 
 def open_sink(path: Path, background: bool = True, preloads: tuple[str, ...] = ()) -> InProcessSink | ProcessSink:
