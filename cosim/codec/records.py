@@ -64,6 +64,10 @@ class Stage:
         self.batch = batch
         self.batch_bytes = size if batch_bytes is None else min(batch_bytes, size)
         self.send = send
+        # where a record that does not fit in the space left is packed first (_add_large): kept and
+        # reused, up to the stage's size, so that packing a water field (a megabyte) neither asks
+        # the system for fresh pages nor takes their faults each time
+        self._scratch = memoryview(bytearray(0))
 
     def add_message(self, write: Write, channel: int, time_ns: int, msg: Any) -> bool:
         """Pack ``msg`` with its codec's ``write``; False, with nothing changed, when it must take the
@@ -91,12 +95,13 @@ class Stage:
         return True
 
     def _add_large(self, write: Write, channel: int, time_ns: int, msg: Any, needed: int) -> bool:
-        """A record that does not fit in the space left: packed into a buffer of its own first (a
-        message can still be refused while its numbers are packed: then nothing has changed), then
+        """A record that does not fit in the space left: packed first into space kept for that
+        (:meth:`_packing_space`; a message can still be refused while its numbers are packed: then
+        nothing has changed), then
         put after the records gathered so far, at the start of the next batch or, larger than the
         stage, sent alone. (With ``fresh``, the first record of each batch comes this way: one
         record's copy a batch.)"""
-        own = memoryview(bytearray(needed))
+        own = self._packing_space(needed)
         if write(msg, own, 0, channel, time_ns) == -1:
             return False
         if not self._room(needed):
@@ -105,6 +110,16 @@ class Stage:
         self.view[self.offset:self.offset + needed] = own
         self._added(self.offset + needed)
         return True
+
+    def _packing_space(self, needed: int) -> memoryview:
+        """``needed`` bytes to pack one record in before it is placed: the kept scratch space (grown
+        as records need, to at most the stage's size), or, for a record larger than the stage, space
+        of its own. Valid until the next record: what is packed there is copied or sent at once."""
+        if needed > self.size:
+            return memoryview(bytearray(needed))
+        if len(self._scratch) < needed:
+            self._scratch = memoryview(bytearray(min(self.size, max(needed, 2 * len(self._scratch), 1 << 16))))
+        return self._scratch[:needed]
 
     def _added(self, end: int) -> None:
         self.offset = end
