@@ -99,13 +99,15 @@ def start(speed: float, alpha_deg: float, beta_deg: float) -> tuple[np.ndarray, 
 
 def throw_scene(speed: float, alpha_deg: float, beta_deg: float = 20.0, *, cell: float = 0.005,
                 spin_rev_s: float | None = None, until: float = 0.6,
-                clearance: float = TAKEOFF_CLEARANCE, ripple_length: float = RIPPLE_LENGTH) -> Scene:
-    """One throw of the disk over a 0.8 m x 0.2 m pond of ``cell`` columns (every effect on, the
-    reference skip's six); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a
+                clearance: float = TAKEOFF_CLEARANCE, ripple_length: float = RIPPLE_LENGTH,
+                length: float = 0.8) -> Scene:
+    """One throw of the disk over a ``length`` x 0.2 m pond of ``cell`` columns (every effect on, the
+    reference skip's six; 0.8 m long: a contact lasts a few centimetres of travel, a longer pond for
+    the skips that follow); ``spin_rev_s`` None holds the attitude (the 65 rev/s high-spin limit), a
     number frees it with that spin [rev/s] about the disk's axis; ``ripple_length`` [m] the waves whose
     speed the water's one speed is (the body's width)."""
     x, v = start(speed, alpha_deg, beta_deg)
-    length, width = 0.8, 0.2  # [m] a contact lasts a few centimetres of travel
+    width = 0.2  # [m]
     # the water's step as the long waves' sqrt(g d) would need it (c dt / s <= 0.5): kept at the
     # ripples' slower speed too, so the throws' water steps as it always has
     long_wave_speed = math.sqrt(GRAVITY * DEPTH)
@@ -212,6 +214,43 @@ def _throw(scene: Scene, after_s: float | None) -> tuple[ThrowOutcome, list[floa
     contact = 0.0 if wetted_from is None else (wetted_until - wetted_from) * 1e-9
     span = (min(attacks), max(attacks), attacks[-1]) if attacks else (math.nan,) * 3
     return ThrowOutcome(bounced, contact, span, tilt_change), times, history, wetted
+
+
+@dataclass(frozen=True)
+class ContactPeak:
+    """One contact of a throw with the water: the peak of the water's vertical force over the stone's
+    weight during it [-] (in g: what an accelerometer riding in the stone reads), and whether it ended
+    in a bounce (else the stone stayed on the water until it sank)."""
+
+    peak_g: float
+    bounced: bool
+
+
+def contact_peaks(scene: Scene) -> list[ContactPeak]:
+    """Every contact of ``scene``'s stone (a scene with a ``stone``, a ``coupler`` and ``stages``, as
+    the stone scenes have) whose end was seen, in order: the contact's peak vertical water force (the
+    coupler's wrench) over M g, and whether the stage monitor saw it bounce or the stone sink after it.
+    A contact still going on when the run ends (the scene's end, the stone off the pond) is left out."""
+    sim = Simulation(scene)
+    sim.initialize()
+    stages = sim.components["stages"]
+    weight = float(sim.components["stone"].body_state().mass) * GRAVITY
+    wrench = {r.name: r for r in sim.runners}["coupler"].slots["wrench"]
+    contacts: list[ContactPeak] = []
+    peak, skips = 0.0, 0
+    while sim.time_ns < scene.until_ns:
+        sim.step()
+        if stages.track.in_contact and wrench.entries:
+            peak = max(peak, float(wrench.entries[-1][1].force[2]) / weight)
+        if stages.track.skips > skips:  # the contact ended in a fly-away
+            contacts.append(ContactPeak(peak, True))
+            peak, skips = 0.0, stages.track.skips
+        if stages.stage is not None and stages.stage.name == "SINK":
+            contacts.append(ContactPeak(peak, False))  # the last contact: the stone stayed on the water
+            break
+        if not math.isnan(stages.left_at):  # off the pond: its contact's end is not seen
+            break
+    return contacts
 
 
 def sphere_throw_scene(speed: float, theta_deg: float, relative_density: float, *, radius: float = SPHERE_RADIUS,
