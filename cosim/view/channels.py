@@ -24,7 +24,7 @@ from cosim.view.lookup import has_installed_visuals
 RECIPE_MODULE = "cosim.view.foxglove"  # where the writer's deriver is made: visual_deriver(rate, reserved)
 
 
-def _draws_itself(comp: Any) -> bool:
+def draws_itself(comp: Any) -> bool:
     """Whether a component overrides its own looks (``Component.visuals``)."""
     from cosim.component import Component
 
@@ -67,14 +67,14 @@ class RecordedVisuals:
         so that a topic such as ``/tf`` is never made by both processes (decided at the first port
         asked about, for the run)."""
         if self._writer_makes is None:
-            self._writer_makes = not (any(map(_draws_itself, self.components.values())) or _registered_here())
+            self._writer_makes = not (any(map(draws_itself, self.components.values())) or _registered_here())
         return self._writer_makes and self._looks(component, message_type) == "installed"
 
     def _looks(self, component: str, message_type: type) -> str | None:
         """Who gives a port's looks: "component" (its own ``visuals``), "registered" (in this
         process), "installed" (an installed package), or None (nobody: it has no frames)."""
         comp = self.components.get(component)
-        if comp is not None and _draws_itself(comp):
+        if comp is not None and draws_itself(comp):
             return "component"
         if message_type in _registered_here():
             return "registered"

@@ -382,10 +382,10 @@ class VisualDeriver:
     # --- internals -------------------------------------------------------------------------------
 
     def _resolve(self, component: str, message_type: type) -> _Slot | None:
-        from cosim.component import Component
+        from cosim.view.channels import draws_itself
 
         comp = self.components.get(component)
-        if comp is not None and type(comp).visuals is not Component.visuals:
+        if comp is not None and draws_itself(comp):
             method = type(comp).visuals
             return _Slot(lambda _name, port, msg: comp.visuals(port, msg),
                          bool(getattr(method, "every_message", False)))
