@@ -19,16 +19,9 @@ import math
 import sys
 from typing import Any
 
-from cosim.view.lookup import has_installed_visuals
+from cosim.view.lookup import draws_itself, has_installed_visuals
 
 RECIPE_MODULE = "cosim.view.foxglove"  # where the writer's deriver is made: visual_deriver(rate, reserved)
-
-
-def draws_itself(comp: Any) -> bool:
-    """Whether a component overrides its own looks (``Component.visuals``)."""
-    from cosim.component import Component
-
-    return type(comp).visuals is not Component.visuals
 
 
 def _registered_here() -> dict[type, Any]:

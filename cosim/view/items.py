@@ -46,7 +46,7 @@ import numpy as np
 
 from cosim.messages import Message
 from cosim.timebase import NS_PER_S
-from cosim.view.lookup import installed_visuals, type_key
+from cosim.view.lookup import draws_itself, installed_visuals, type_key
 
 WORLD = "world"  # the fixed frame every viewer item is ultimately placed in
 TF_TOPIC = "/tf"
@@ -382,8 +382,6 @@ class VisualDeriver:
     # --- internals -------------------------------------------------------------------------------
 
     def _resolve(self, component: str, message_type: type) -> _Slot | None:
-        from cosim.view.channels import draws_itself
-
         comp = self.components.get(component)
         if comp is not None and draws_itself(comp):
             method = type(comp).visuals

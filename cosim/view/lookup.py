@@ -1,5 +1,6 @@
 """Which message types have installed looks: the ``cosim.visuals`` entry points, read without
-importing any of them (nor the viewer machinery of :mod:`cosim.view.items`).
+importing any of them (nor the viewer machinery of :mod:`cosim.view.items`); and which components
+draw themselves (:func:`draws_itself`).
 
 The recorder asks this of every recorded port to decide where its viewer channels are made: from the
 recorded messages in the writer process, when the looks are an installed package's (the writer can
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 from functools import cache
 from importlib.metadata import EntryPoint
+from typing import Any
 
 VISUALS_GROUP = "cosim.visuals"
 
@@ -33,3 +35,11 @@ def installed_visuals() -> dict[str, EntryPoint]:
 def has_installed_visuals(message_type: type) -> bool:
     """Whether an installed package gives this message type's looks."""
     return type_key(message_type) in installed_visuals()
+
+
+def draws_itself(comp: Any) -> bool:
+    """Whether a component overrides its own looks (``Component.visuals``): then they need the
+    component itself, not only its messages."""
+    from cosim.component import Component
+
+    return type(comp).visuals is not Component.visuals
