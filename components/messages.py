@@ -319,6 +319,9 @@ class SkipRecord(Message):
     The sideways curve a spinning stone takes: drift [m], how far the touchdown point lies beside the
     line the stone was thrown along (left of the throw positive); heading_deg, the direction of the
     horizontal velocity at fly-away against the throw's starting direction (turned left positive).
+    peak_g: the largest vertical force of the water on the stone during the contact over its weight
+    [g], what an accelerometer riding in the stone reads (Tang et al. 2021 find a disk bounces when
+    it passes about 4 g, docs/validation.md section 2c).
     """
 
     index: int
@@ -331,3 +334,4 @@ class SkipRecord(Message):
     speed_out: float
     drift: float = 0.0
     heading_deg: float = 0.0
+    peak_g: float = 0.0

@@ -67,6 +67,7 @@ class SkipTracker:
     touchdown_x: float = math.nan
     speed_in: float = math.nan
     in_contact: bool = False
+    peak_g: float = 0.0  # the largest vertical water force over the weight in the current contact [g]
 
 
 def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
@@ -181,6 +182,9 @@ class StageMonitor(Component):
             track.in_contact = True
             track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed
             track.touchdown_y = float(body.position[1])
+            track.peak_g = 0.0
+        if track.in_contact and water is not None:
+            track.peak_g = max(track.peak_g, _vertical_water_force(water) / (float(body.mass) * self.params.gravity))
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
                          self.params.takeoff_clearance, self.params.gravity)
@@ -227,7 +231,7 @@ class StageMonitor(Component):
             takeoff_angle_deg=math.degrees(math.atan2(vz, math.hypot(vx, vy))),
             distance=track.touchdown_x - previous, speed_in=track.speed_in, speed_out=body.speed,
             drift=self._beside_throw_line(track.touchdown_x, track.touchdown_y),
-            heading_deg=_turned_deg(math.atan2(vy, vx) - track.start_heading))
+            heading_deg=_turned_deg(math.atan2(vy, vx) - track.start_heading), peak_g=track.peak_g)
         track.last_touchdown_x = track.touchdown_x
         self.records.append(record)
         return record
@@ -287,13 +291,20 @@ class StageMonitor(Component):
         for r in self.records:
             curve = f"; drift {r.drift:+.2f} m, heading {r.heading_deg:+.1f} deg" if curved else ""
             lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {r.touchdown_time:.3f} s; "
-                         f"contact {r.contact_time * 1e3:.1f} ms; take-off {r.takeoff_angle_deg:.1f} deg; "
+                         f"contact {r.contact_time * 1e3:.1f} ms, peak {r.peak_g:.1f} g; "
+                         f"take-off {r.takeoff_angle_deg:.1f} deg; "
                          f"speed {r.speed_in:.2f} -> {r.speed_out:.2f} m/s{curve}")
         return lines
 
 
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
+
+
+def _vertical_water_force(water: WaterContact) -> float:
+    """The water's vertical force on the body [N]: the sum of its effects' (WaterContact)."""
+    return (float(water.buoyancy[2]) + float(water.pressure[2]) + float(water.friction[2])
+            + float(water.wave_drag[2]))
 
 
 def _turned_deg(angle: float) -> float:

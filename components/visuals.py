@@ -131,7 +131,8 @@ def skip_record(component: str, port: str, msg: SkipRecord) -> list:
     return [LogLine(LOG_TOPIC, "info", component,
                     f"skip {msg.index}: touchdown at x = {msg.touchdown_x:.3f} m, "
                     f"t = {msg.touchdown_time:.4f} s; "
-                    f"contact {msg.contact_time * 1e3:.1f} ms; take-off {msg.takeoff_angle_deg:.1f} deg; "
+                    f"contact {msg.contact_time * 1e3:.1f} ms, peak {msg.peak_g:.1f} g; "
+                    f"take-off {msg.takeoff_angle_deg:.1f} deg; "
                     f"distance {msg.distance:.3f} m; speed {msg.speed_in:.2f} -> {msg.speed_out:.2f} m/s"
                     + (f"; drift {msg.drift:+.3f} m, heading {msg.heading_deg:+.1f} deg"
                        if abs(msg.drift) >= CURVE_DRIFT or abs(msg.heading_deg) >= CURVE_HEADING_DEG else ""))]

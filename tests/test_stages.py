@@ -280,3 +280,31 @@ def test_a_monitor_that_never_saw_the_body_says_so_in_words():
     assert StageMonitor("stages", StageMonitor.Params()).summary() == [
         "stages: no stage yet (the run ended before the body was seen)",
         "skips: 0; distance travelled: none yet; final stage: none"]
+
+
+def test_each_skip_reports_the_peak_of_the_waters_vertical_force_over_the_weight():
+    """A skip's peak_g is the largest sum of the water's vertical forces (buoyancy, pressure,
+    friction, wave drag) during its contact over the stone's weight (mass 0.12 kg here); a force
+    before the touchdown does not count, and the next contact starts from zero."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0))
+
+    def pushed(buoyancy_z: float, pressure_z: float, wetted: bool = True) -> WaterContact:
+        z = np.zeros(3)
+        return WaterContact(wetted, 0.1, 0.001 if wetted else 0.0, np.array([0.0, 0.0, buoyancy_z]),
+                            np.array([1.0, 0.0, pressure_z]), np.array([-0.5, 0.0, 0.25]), z,
+                            0.001 if wetted else -0.05, 0.0)
+
+    weight = 0.12 * m.params.gravity
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), pushed(0.0, 50.0, wetted=False), None),  # dry: not counted
+        (body(0.5, 0.00, 5.0, -1.0), pushed(0.5, 10.0), None),                 # hit
+        (body(0.6, -0.001, 4.8, 0.2), pushed(1.0, 20.0), None),                # the peak: 21.25 N
+        (body(0.65, 0.0, 4.7, 0.6), pushed(0.2, 3.0), None),
+        (body(0.7, 0.01, 4.6, 0.8), pushed(0.0, 0.0, wetted=False), None),     # fly-away
+        (body(0.9, 0.02, 4.6, -0.1), pushed(0.0, 0.0, wetted=False), None),
+        (body(1.5, 0.0, 4.0, -0.5), pushed(0.1, 2.0), None),                   # second contact
+        (body(1.6, 0.01, 3.9, 0.7), pushed(0.0, 0.0, wetted=False), None),     # fly-away
+    ]
+    skips = [o["skip"] for o in drive(m, script) if "skip" in o]
+    assert [s.peak_g for s in skips] == [21.25 / weight, 2.35 / weight]
+    assert "peak 18.1 g" in "\n".join(m.summary())

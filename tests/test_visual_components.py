@@ -122,5 +122,5 @@ def test_every_stage_change_is_a_log_line():
 
 def test_every_skip_is_a_log_line():
     """A finished skip becomes one /log line with its figures."""
-    (line,) = skip_record("monitor", "skip", SkipRecord(2, 0.31, 1.25, 0.038, 13.8, 0.88, 4.19, 4.12))
-    assert line.text.startswith("skip 2: touchdown at x = 1.250 m") and "contact 38.0 ms" in line.text
+    (line,) = skip_record("monitor", "skip", SkipRecord(2, 0.31, 1.25, 0.038, 13.8, 0.88, 4.19, 4.12, peak_g=7.25))
+    assert line.text.startswith("skip 2: touchdown at x = 1.250 m") and "contact 38.0 ms, peak 7.2 g" in line.text
