@@ -227,29 +227,16 @@ class ContactPeak:
 
 
 def contact_peaks(scene: Scene) -> list[ContactPeak]:
-    """Every contact of ``scene``'s stone (a scene with a ``stone``, a ``coupler`` and ``stages``, as
-    the stone scenes have) whose end was seen, in order: the contact's peak vertical water force (the
-    coupler's wrench) over M g, and whether the stage monitor saw it bounce or the stone sink after it.
-    A contact still going on when the run ends (the scene's end, the stone off the pond) is left out."""
+    """Every contact of ``scene``'s stone (a scene with a ``stone`` and a stage monitor ``stages``, as
+    the stone scenes have) whose end was seen, in order: its peak (the stage monitor's, SkipRecord.
+    peak_g) and whether it ended in a bounce or the stone stayed on the water until it sank. A
+    contact still going on when the run ends (the scene's end, the stone off the pond) is left out."""
     sim = Simulation(scene)
-    sim.initialize()
-    stages = sim.components["stages"]
-    weight = float(sim.components["stone"].body_state().mass) * GRAVITY
-    wrench = {r.name: r for r in sim.runners}["coupler"].slots["wrench"]
-    contacts: list[ContactPeak] = []
-    peak, skips = 0.0, 0
-    while sim.time_ns < scene.until_ns:
-        sim.step()
-        if stages.track.in_contact and wrench.entries:
-            peak = max(peak, float(wrench.entries[-1][1].force[2]) / weight)
-        if stages.track.skips > skips:  # the contact ended in a fly-away
-            contacts.append(ContactPeak(peak, True))
-            peak, skips = 0.0, stages.track.skips
-        if stages.stage is not None and stages.stage.name == "SINK":
-            contacts.append(ContactPeak(peak, False))  # the last contact: the stone stayed on the water
-            break
-        if not math.isnan(stages.left_at):  # off the pond: its contact's end is not seen
-            break
+    sim.run()
+    monitor = sim.components["stages"]
+    contacts = [ContactPeak(r.peak_g, True) for r in monitor.records]
+    if monitor.stage is not None and monitor.stage.name == "SINK" and math.isnan(monitor.left_at):
+        contacts.append(ContactPeak(monitor.track.peak_g, False))  # the last contact: it stayed on the water
     return contacts
 
 
