@@ -243,3 +243,18 @@ def test_a_path_that_curves_sideways_is_also_drawn_from_above(run, tmp_path):
     marks = [line for line in above.lines if line.get_marker() == "o"]
     assert [float(m.get_xdata()[0]) for m in marks] == [s.touchdown_x for s in curving.skips]
     assert len(figure_trajectory(run).axes) == 1
+
+
+def test_each_contact_panel_gives_its_peak_against_the_bounce_level(run):
+    """Each contact panel is titled with the contact's peak, the water's largest vertical force over
+    the stone's weight (the stage monitor's SkipRecord.peak_g, within 1%), and draws the 4 M g level
+    above which a disk bounces (Tang et al. 2021)."""
+    import re
+
+    fig = figure_contacts(run)
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    for ax, skip in zip(visible, sorted(run.skips, key=lambda s: s.index), strict=True):
+        shown = float(re.search(r"peak ([0-9.]+) g", ax.get_title()).group(1))
+        assert shown == pytest.approx(skip.peak_g, rel=0.01, abs=0.05)
+        levels = [line for line in ax.lines if line.get_label().startswith("4 M g")]
+        assert len(levels) == 1 and levels[0].get_ydata()[0] == pytest.approx(4.0 * run.body.mass * 9.81)

@@ -37,6 +37,8 @@ from cosim.record.reader import Recording
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
 FIGSIZE = (10.0, 4.5)  # [in]
+GRAVITY = 9.81  # [m/s^2] the unit of a contact's peak (the stage monitor's default)
+BOUNCE_G = 4.0  # [g] a disk bounces once the water's push passes about this (Tang et al. 2021)
 SIDE_VIEW_MIN_TRAVEL = 0.5  # [fraction of the height range] of horizontal travel for a side view
 TOP_VIEW_MIN_SPREAD = 0.01  # [m] sideways spread of the path from which it is also drawn from above
 PATH_COLOR = "#404040"  # the path without a stage monitor
@@ -251,7 +253,9 @@ def contact_intervals(run: RunData) -> list[tuple[float, float]]:
 
 
 def figure_contacts(run: RunData) -> Figure | None:
-    """Forces during each contact (the first :data:`MAX_CONTACTS`), or None without contacts."""
+    """Forces during each contact (the first :data:`MAX_CONTACTS`), each titled with its peak (the
+    water's largest vertical force over the body's weight, in g, as the stage monitor reports it) and
+    drawn against the level a disk bounces above (BOUNCE_G), or None without contacts."""
     intervals = contact_intervals(run)[:MAX_CONTACTS]
     if not intervals:
         return None
@@ -269,9 +273,15 @@ def figure_contacts(run: RunData) -> Figure | None:
         def window(t: np.ndarray, lo: float = lo, hi: float = hi) -> np.ndarray:
             return (t >= lo) & (t <= hi)
 
+        weight = run.body.mass * GRAVITY
+        peak = 0.0  # the water's largest vertical force over the weight during the contact [g]
         for c in run.contacts:
             m = window(c.t)
             ms = (c.t[m] - start) * 1e3
+            during = (c.t >= start) & (c.t <= end)
+            if during.any():
+                vertical = (c.buoyancy + c.pressure + c.friction + c.wave_drag)[during, 2]
+                peak = max(peak, float(vertical.max()) / weight)
             effects = (("pressure z", c.pressure, 2, "-"), ("buoyancy z", c.buoyancy, 2, "-"),
                        ("friction x", c.friction, 0, "--"), ("wave drag x", c.wave_drag, 0, "--"))
             for name, values, axis, style in effects:
@@ -289,7 +299,11 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", label=f"ground friction ({g.topic})")
         ax.axvspan(0.0, (end - start) * 1e3, color="0.9", zorder=0)
         ax.axhline(0.0, color="0.5", linewidth=0.6)
-        ax.set_title(f"contact {k + 1}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms", fontsize="small")
+        if run.contacts:
+            ax.axhline(BOUNCE_G * weight, color="tab:red", linewidth=0.8, linestyle="-.",
+                       label=f"{BOUNCE_G:g} M g: a disk bounces above about this (Tang et al. 2021)")
+        peak_text = f", peak {peak:.1f} g" if run.contacts else ""
+        ax.set_title(f"contact {k + 1}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{peak_text}", fontsize="small")
         ax.set_xlabel("time since touchdown [ms]")
         ax.set_ylabel("force [N]")
         ax.grid(True, alpha=0.3)
