@@ -858,6 +858,12 @@ def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, wi
     cx, cy = centre[0], centre[1]
     tx, ty, sx, sy, a1, a2 = _outline(shape, radius, thickness, axes)
     reach = 2.0 * width + cell
+    # a column surely beyond the band is left before the root and the divisions below: its distance
+    # outside the outline is at least (q - 1) min(a1, a2) (the outline's gradient there is at most
+    # q / min(a1, a2)), so q >= 1 + 2 width / min(a1, a2) puts it 2 width out or more (the margin
+    # keeps the test clear of d's rounding: the columns taken are the same to the bit)
+    far = 1.0 + 2.0 * width / min(a1, a2)
+    far2 = far * far * (1.0 + 1e-9)
     i_lo = max(0, math.floor((cx - radius - reach - x0) / cell))
     i_hi = min(ni - 1, math.ceil((cx + radius + reach - x0) / cell))
     j_lo = max(0, math.floor((cy - radius - reach - y0) / cell))
@@ -877,7 +883,7 @@ def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, wi
             un = (dx * tx + dy * ty) / a1
             vn = (dx * sx + dy * sy) / a2
             q2 = un * un + vn * vn
-            if q2 <= 1.0:
+            if q2 <= 1.0 or q2 >= far2:
                 continue
             q = math.sqrt(q2)
             c, s = un / q, vn / q
@@ -933,8 +939,7 @@ def _monomials(x, y, scale, out):
     out[14] = out[9] * x
 
 
-@njit(cache=True)
-def _multinomials():
+def _multinomials() -> np.ndarray:
     """RING_FOCUS! / (a! b! (RING_FOCUS - a - b)!) per monomial X^a Y^b (RING_TERMS,): (1 + u + v)^p =
     sum of these times u^a v^b."""
     out = np.empty(RING_TERMS)
@@ -947,6 +952,9 @@ def _multinomials():
             out[m] = fact[RING_FOCUS] / (fact[a] * fact[n - a] * fact[RING_FOCUS - n])
             m += 1
     return out
+
+
+MULTINOMIALS = _multinomials()  # a constant of the compiled ring map (made once, not at each call)
 
 
 @njit(cache=True, inline="always")
@@ -1020,7 +1028,7 @@ def ring_map_into(shape, radius, thickness, centre, axes, x0, y0, cell, b_geo, w
         _monomials(cs[k], sn[k], phi[k], band[k])
         for m in range(RING_TERMS):
             moments[m] += band[k, m]
-    multinomial = _multinomials()
+    multinomial = MULTINOMIALS
     c = 0
     for j in range(j_lo, j_hi + 1):
         for i in range(i_lo, i_hi + 1):
