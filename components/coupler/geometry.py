@@ -345,10 +345,7 @@ def disk_elements(radius: float, thickness: float, across: int = 16, rim: int = 
     if oversample % m:
         raise ValueError(f"disk tiling needs oversample a multiple of {m} (got {oversample})")
     side = 2.0 * radius / across
-    us, vs, areas, pieces = _face_squares(float(radius), int(across), int(oversample), m)
-    u = us
-    v = vs
-    a = areas
+    u, v, a, pieces = _face_squares(float(radius), int(across), int(oversample), m)
     a *= math.pi * radius * radius / a.sum()  # remove the residual of the oversampled clipping
     n_face = len(u)
     half_e = 0.5 * thickness
