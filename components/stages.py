@@ -272,6 +272,7 @@ class StageMonitor(Component):
             "first_contact_time": contact[0] if contact else math.nan,
             "mean_contact_time": sum(contact) / len(contact) if contact else math.nan,
             "skip_distances": " ".join(f"{r.distance:.4f}" for r in self.records),
+            "skip_peaks": " ".join(f"{r.peak_g:.2f}" for r in self.records),  # [g] SkipRecord.peak_g
         }
 
     def _outcome(self) -> str:

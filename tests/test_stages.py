@@ -308,3 +308,4 @@ def test_each_skip_reports_the_peak_of_the_waters_vertical_force_over_the_weight
     skips = [o["skip"] for o in drive(m, script) if "skip" in o]
     assert [s.peak_g for s in skips] == [21.25 / weight, 2.35 / weight]
     assert "peak 18.1 g" in "\n".join(m.summary())
+    assert m.metrics()["skip_peaks"] == f"{21.25 / weight:.2f} {2.35 / weight:.2f}"  # a sweep's column
