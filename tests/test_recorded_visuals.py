@@ -355,7 +355,7 @@ def test_ctrl_c_while_closing_ends_the_writer_and_does_not_hang(tmp_path, monkey
     try:
         with pytest.raises(KeyboardInterrupt):
             recorder.close()
-        proc = recorder.sink._proc
+        proc = recorder.sink._writer.proc
         assert proc.wait(WAIT_S) is not None and writer._spare is not recorder.sink._writer
     finally:
         signal.alarm(0)

@@ -568,14 +568,20 @@ class _Writer:
         return data.decode(errors="replace")
 
     def close(self) -> None:
-        """Let go of a writer that has no file (between recordings, or never handed one): it is
-        stopped, since a process forked from this one may hold its socket open, and reaped."""
-        self.handover.close()
+        """Let go of a writer that has no file (between recordings, or never handed one), or whose
+        file is to be dropped: it is stopped, since a process forked from this one may hold its
+        socket open, and reaped."""
         try:
             self.proc.kill()
             self.proc.wait(WRITER_TIMEOUT_S)
         except Exception:  # already gone
             pass
+        self.hang_up()
+
+    def hang_up(self) -> None:
+        """Close this process's ends: the socket (a writer waiting for its next file ends), the ring
+        (a writer still writing finishes its file, and is waited for) and the error file."""
+        self.handover.close()
         self.ring.hang_up()
         self.ring.close()
         self.errors.close()
@@ -679,14 +685,13 @@ class ProcessSink(_Sink):
             self.claim.release(remove=True)
             raise
         self._writer = writer
-        self._proc, self._ring, self._errors = writer.proc, writer.ring, writer.errors
-        self._marked = self._ring.marked
-        self._placement = writer.placement
+        # the writer's parts used on every batch or step, at hand
+        self._ring, self._marked, self._placement = writer.ring, writer.ring.marked, writer.placement
 
     @property
     def writer_pid(self) -> int:
         """The writer process's id."""
-        return self._proc.pid
+        return self._writer.proc.pid
 
     def _reserve(self, n: int) -> memoryview:
         try:
@@ -716,11 +721,12 @@ class ProcessSink(_Sink):
 
         if self._failed is not None:
             return self._failed
+        proc = self._writer.proc
         try:
-            code = self._proc.wait(5)
+            code = proc.wait(5)
         except subprocess.TimeoutExpired:
-            self._proc.kill()
-            code = self._proc.wait(WRITER_TIMEOUT_S)
+            proc.kill()
+            code = proc.wait(WRITER_TIMEOUT_S)
         text = self._writer.new_errors()  # (what it wrote since its last file: a writer may be kept)
         reason = _reason(text)
         # the salvage derives the viewer channels again here, so a deriver's warning comes again; it
@@ -823,15 +829,6 @@ class ProcessSink(_Sink):
             out.apply(("channel", channel, msg.topic, msg.message_encoding, schema, None))
         out.logs[channel](msg.data, time_ns)
 
-    def _hang_up(self) -> bool:
-        """Close the ring (the writer then finishes) and wait until the writer is done; True when it
-        finished the file."""
-        self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
-        try:
-            return self._ring.hang_up()
-        finally:
-            self._ring.close()
-
     def close(self) -> None:
         """Send what is left, end the ring's stream, and wait until the writer has finished the file;
         a SinkError when it could not (its message says whether the recording was salvaged). The
@@ -855,13 +852,10 @@ class ProcessSink(_Sink):
             raise
         finally:
             if not finished:
-                self._writer.handover.close()  # a writer waiting for its next file ends too
-                self._ring.hang_up()
-                self._ring.close()
-                self._errors.close()
+                self._writer.hang_up()
                 import threading
 
-                threading.Thread(target=self._proc.wait, daemon=True).start()  # reaped in the background
+                threading.Thread(target=self._writer.proc.wait, daemon=True).start()  # reaped in the background
         self.claim.release(remove=False)
         if finished:
             _keep(self._writer)
@@ -870,11 +864,8 @@ class ProcessSink(_Sink):
     def discard(self) -> None:
         """Stop the writer and remove the private file (the target keeps what it held; a recording
         already salvaged after the writer died stays)."""
-        self._proc.kill()
-        self._hang_up()
-        self._proc.wait(WRITER_TIMEOUT_S)
-        self._errors.close()
-        self._writer.handover.close()
+        self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
+        self._writer.close()
         self.claim.release(remove=True)
 
 
