@@ -107,8 +107,7 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             # under water, the stone has sunk unless it is rising or the water pushes it back up: a
             # thin stone thrown fast dips wholly under the surface for a few milliseconds while the
             # pressure on it (tens of times its weight) throws it back out
-            push = float(water.buoyancy[2] + water.pressure[2] + water.friction[2])
-            if push <= body.mass * gravity:
+            if _vertical_water_force(water) <= body.mass * gravity:
                 return StageId.SINK
         if previous is StageId.FLY_AWAY and vz >= 0:
             # brushing the water (a crest under the climbing stone) before it has come back down is
