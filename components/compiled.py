@@ -21,6 +21,15 @@ exactly ``np.ndarray`` is never masked (masked arrays are a subclass), so :func:
 such an array without that check, to the same type (tests compare them); any other array still goes
 through numba's own typing.
 
+Loading a kernel from the cache needs almost none of that start. Numba's cache load first starts
+the compiler in full (its typing and lowering registries: some 40 modules of numba's own, about
+0.1 s, a third of ``import numba``), though machine code read from the cache is only linked against
+numba's runtime and C helpers, which are there as soon as the target exists. With no numba
+extension installed (whose ``typeof`` of its own types a cached kernel's arguments might need),
+:func:`start` has a cache load start only the runtime; the first kernel that is really compiled
+starts the compiler in full, as numba always does before compiling, and the machine code run is the
+same either way (tests compare a run's exchanges bit for bit).
+
 Numba's start also looks for its extensions (entry points ``numba_extensions``, name ``init``) with
 a scan of every installed package of its own; :func:`start` looks in the scan the component registry
 has made already (:func:`cosim.registry.installed_entry_points`) and, when there are none, tells numba
@@ -37,7 +46,9 @@ from functools import cache
 
 import numpy as np
 from numba import njit
-from numba.core import errors, types
+from numba.core import caching, errors, types
+from numba.core.cpu import CPUContext
+from numba.core.runtime import rtsys
 from numba.core.typing.typeof import typeof_impl
 from numba.np import numpy_support
 
@@ -87,8 +98,9 @@ def typeof_plain_ndarray(val: np.ndarray, c: object) -> types.Array:
     return types.Array(dtype, val.ndim, numpy_support.map_layout(val), readonly=not val.flags.writeable)
 
 
-def _no_extensions_to_load() -> None:
-    """Spare numba's scan for extensions when the registry's scan found none (see the module's text)."""
+def _no_extensions_to_load() -> bool:
+    """Spare numba's scan for extensions when the registry's scan found none (see the module's text);
+    True when numba has none to load."""
     from numba.core import entrypoints
 
     from cosim.registry import installed_entry_points
@@ -96,13 +108,41 @@ def _no_extensions_to_load() -> None:
     if hasattr(entrypoints, "_already_initialized") and not installed_entry_points().select(
             group="numba_extensions", name="init"):
         entrypoints._already_initialized = True
+        return True
+    return False
+
+
+def _compiler_start_without_probes() -> None:
+    """Have numba's compiler start (whenever it comes) see the probed packages as absent."""
+    full_start = CPUContext.refresh
+
+    def refresh(self: CPUContext) -> None:
+        with _without_probes():
+            full_start(self)
+
+    CPUContext.refresh = refresh
+
+
+def _cache_loads_link_only() -> None:
+    """Have a cache load of a CPU kernel start numba's runtime only, not its whole compiler."""
+    full_load = caching.Cache.load_overload
+
+    def load_overload(self: caching.Cache, sig: object, target_context: object) -> object:
+        if not isinstance(target_context, CPUContext):
+            return full_load(self, sig, target_context)
+        rtsys.initialize(target_context)  # the runtime's symbols, which the cached code links against
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    caching.Cache.load_overload = load_overload
 
 
 @cache
 def start() -> None:
-    """Start numba's compiler and code cache, once per process."""
+    """Start numba's runtime and code cache (its compiler too when a kernel must be compiled), once per process."""
     watch_compiles()  # a run's start-up that compiles leaves garbage to collect (cosim.cli.start_up_done)
     typeof_impl.register(np.ndarray)(typeof_plain_ndarray)
-    _no_extensions_to_load()
-    with _without_probes():
-        _touch(0.0)
+    _compiler_start_without_probes()
+    if _no_extensions_to_load() and hasattr(caching.Cache, "_guard_against_spurious_io_errors"):
+        _cache_loads_link_only()
+    _touch(0.0)  # loads the runtime, or on a cold cache compiles: the compiler's start

@@ -101,3 +101,39 @@ def test_numba_extensions_are_still_loaded_when_installed_and_not_looked_for_aga
     """
     assert run_fresh(code.format(folder=str(tmp_path), installed=True)) == "extension loaded\n2 scans"
     assert run_fresh(code.format(folder=str(tmp_path), installed=False)) == "1 scans"
+
+
+def test_a_kernel_from_the_cache_runs_without_the_compiler_and_a_new_kernel_still_compiles(tmp_path):
+    """After start(), a kernel loaded from numba's disk cache (one that allocates an array, so it needs
+    numba's runtime) runs without numba's compiler starting (its lowering modules stay unimported);
+    a kernel compiled afterwards starts the compiler then, still without the probed packages."""
+    (tmp_path / "ramp_kernel.py").write_text(textwrap.dedent("""
+        import numpy as np
+        from numba import njit
+
+        @njit(cache=True)
+        def ramp(n):
+            out = np.empty(n)
+            for i in range(n):
+                out[i] = 0.5 * i
+            return out
+    """))
+    code = f"""
+        import sys
+        sys.path.insert(0, {str(tmp_path)!r})
+        from components import compiled
+        compiled.start()
+        import ramp_kernel
+        print(ramp_kernel.ramp(4).tolist(), sum(ramp_kernel.ramp.stats.cache_hits.values()),
+              "numba.np.arraymath" in sys.modules)
+    """
+    assert run_fresh(code) == "[0.0, 0.5, 1.0, 1.5] 0 True"  # compiled, so the compiler started
+    again = code + """
+        import numpy as np
+        from numba import njit
+        @njit
+        def total(a):
+            return np.sum(a)
+        print(total(ramp_kernel.ramp(4)), "numba.np.arraymath" in sys.modules, "scipy.linalg" in sys.modules)
+    """
+    assert run_fresh(again).splitlines() == ["[0.0, 0.5, 1.0, 1.5] 1 False", "3.0 True False"]
