@@ -104,18 +104,26 @@ def test_numba_extensions_are_still_loaded_when_installed_and_not_looked_for_aga
 
 
 def test_a_kernel_from_the_cache_runs_without_the_compiler_and_a_new_kernel_still_compiles(tmp_path):
-    """After start(), a kernel loaded from numba's disk cache (one that allocates an array, so it needs
-    numba's runtime) runs without numba's compiler starting (its lowering modules stay unimported);
-    a kernel compiled afterwards starts the compiler then, still without the probed packages."""
+    """After start(), kernels loaded from numba's disk cache (one that allocates an array, so it needs
+    numba's runtime; one with a parallel loop, which needs numba's threads) run without numba's
+    compiler starting (its lowering modules stay unimported); a kernel compiled afterwards starts the
+    compiler then, still without the probed packages."""
     (tmp_path / "ramp_kernel.py").write_text(textwrap.dedent("""
         import numpy as np
-        from numba import njit
+        from numba import njit, prange
 
         @njit(cache=True)
         def ramp(n):
             out = np.empty(n)
             for i in range(n):
                 out[i] = 0.5 * i
+            return out
+
+        @njit(cache=True, parallel=True)
+        def doubled(a):
+            out = np.empty_like(a)
+            for i in prange(a.size):
+                out[i] = 2.0 * a[i]
             return out
     """))
     code = f"""
@@ -124,10 +132,13 @@ def test_a_kernel_from_the_cache_runs_without_the_compiler_and_a_new_kernel_stil
         from components import compiled
         compiled.start()
         import ramp_kernel
-        print(ramp_kernel.ramp(4).tolist(), sum(ramp_kernel.ramp.stats.cache_hits.values()),
-              "numba.np.arraymath" in sys.modules)
+        ramp = ramp_kernel.ramp(4)
+        doubled = ramp_kernel.doubled(ramp)
+        hits = sum(ramp_kernel.ramp.stats.cache_hits.values()) + sum(ramp_kernel.doubled.stats.cache_hits.values())
+        print(ramp.tolist(), doubled.tolist(), hits, "numba.np.arraymath" in sys.modules)
     """
-    assert run_fresh(code) == "[0.0, 0.5, 1.0, 1.5] 0 True"  # compiled, so the compiler started
+    compiled = "[0.0, 0.5, 1.0, 1.5] [0.0, 1.0, 2.0, 3.0]"
+    assert run_fresh(code) == compiled + " 0 True"  # compiled, so the compiler started
     again = code + """
         import numpy as np
         from numba import njit
@@ -136,4 +147,4 @@ def test_a_kernel_from_the_cache_runs_without_the_compiler_and_a_new_kernel_stil
             return np.sum(a)
         print(total(ramp_kernel.ramp(4)), "numba.np.arraymath" in sys.modules, "scipy.linalg" in sys.modules)
     """
-    assert run_fresh(again).splitlines() == ["[0.0, 0.5, 1.0, 1.5] 1 False", "3.0 True False"]
+    assert run_fresh(again).splitlines() == [compiled + " 2 False", "3.0 True False"]
