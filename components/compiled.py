@@ -27,8 +27,8 @@ the compiler in full (its typing and lowering registries: some 40 modules of num
 numba's runtime and C helpers, which are there as soon as the target exists. With no numba
 extension installed (whose ``typeof`` of its own types a cached kernel's arguments might need),
 :func:`start` has a cache load start only the runtime; the first kernel that is really compiled
-starts the compiler in full, as numba always does before compiling, and the machine code run is the
-same either way (tests compare a run's exchanges bit for bit).
+starts the compiler in full, as numba always does before compiling. Either way the code run is the
+machine code the cache holds.
 
 Numba's start also looks for its extensions (entry points ``numba_extensions``, name ``init``) with
 a scan of every installed package of its own; :func:`start` looks in the scan the component registry
