@@ -55,6 +55,8 @@ from numba.np import numpy_support
 from cosim.jit_time import watch_compiles
 
 PROBED = ("scipy.linalg", "cffi")  # imported by numba's start-up only to probe optional features
+_CACHE_LOAD_PARTS = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")  # numba's, used
+# by _cache_loads_link_only: a numba without them loads from its cache its own way
 
 
 @njit(cache=True)
@@ -143,6 +145,6 @@ def start() -> None:
     watch_compiles()  # a run's start-up that compiles leaves garbage to collect (cosim.cli.start_up_done)
     typeof_impl.register(np.ndarray)(typeof_plain_ndarray)
     _compiler_start_without_probes()
-    if _no_extensions_to_load() and hasattr(caching.Cache, "_guard_against_spurious_io_errors"):
+    if _no_extensions_to_load() and all(hasattr(caching.Cache, name) for name in _CACHE_LOAD_PARTS):
         _cache_loads_link_only()
     _touch(0.0)  # loads the runtime, or on a cold cache compiles: the compiler's start
