@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import importlib.abc
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from functools import cache
 
@@ -49,6 +49,7 @@ from numba import njit
 from numba.core import caching, errors, types
 from numba.core.cpu import CPUContext
 from numba.core.runtime import rtsys
+from numba.core.typing.context import Context as TypingContext
 from numba.core.typing.typeof import typeof_impl
 from numba.np import numpy_support
 
@@ -115,14 +116,16 @@ def _no_extensions_to_load() -> bool:
 
 
 def _compiler_start_without_probes() -> None:
-    """Have numba's compiler start (whenever it comes) see the probed packages as absent."""
-    full_start = CPUContext.refresh
+    """Have numba's compiler start (whenever it comes: its typing context's, then its target
+    context's) see the probed packages as absent."""
+    for context in (TypingContext, CPUContext):
+        full_start = context.refresh
 
-    def refresh(self: CPUContext) -> None:
-        with _without_probes():
-            full_start(self)
+        def refresh(self: object, full_start: Callable[[object], None] = full_start) -> None:
+            with _without_probes():
+                full_start(self)
 
-    CPUContext.refresh = refresh
+        context.refresh = refresh
 
 
 def _cache_loads_link_only() -> None:

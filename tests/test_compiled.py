@@ -2,21 +2,32 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
+
+import pytest
 
 
-def run_fresh(code: str) -> str:
-    """Run ``code`` in a new interpreter (nothing imported yet) and return what it printed."""
+def run_fresh(code: str, cache: Path | None = None) -> str:
+    """Run ``code`` in a new interpreter (nothing imported yet; numba's kernel cache in ``cache``
+    when given) and return what it printed."""
+    env = None if cache is None else {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
     done = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
-                          check=True, timeout=300)
+                          check=True, timeout=300, env=env)
     return done.stdout.strip()
 
 
-def test_start_does_not_import_the_probed_packages_and_they_still_work():
-    """After start(), scipy.linalg and cffi are not loaded, import normally, and a kernel calling
-    BLAS (np.dot) still compiles and runs."""
+@pytest.mark.parametrize("cache", ["cold", "warm"])
+def test_start_does_not_import_the_probed_packages_and_they_still_work(cache, tmp_path):
+    """After start(), whether it compiled its own kernel (a cold cache: the compiler starts then)
+    or loaded it, scipy.linalg and cffi are not loaded, import normally, and a kernel calling BLAS
+    (np.dot) still compiles and runs."""
+    folder = tmp_path / "kernels"
+    if cache == "warm":
+        run_fresh("from components import compiled; compiled.start()", folder)
     out = run_fresh("""
         import sys
         import numpy as np
@@ -29,7 +40,7 @@ def test_start_does_not_import_the_probed_packages_and_they_still_work():
         def dot(a, b):
             return np.dot(a, b)
         print(dot(np.arange(3.0), np.arange(3.0)), scipy.linalg.solve(np.eye(2), np.ones(2)).tolist())
-    """)
+    """, folder)
     assert out.splitlines() == ["[]", "5.0 [1.0, 1.0]"]
 
 
