@@ -5,13 +5,15 @@ and libraries); each later kernel only loads its own machine code from the cache
 Components with compiled kernels call :func:`start` in their ``setup``, so a run's wall time and
 real-time factor measure the simulation, not that start-up.
 
-Numba's target context probes two optional packages when it starts: it imports ``scipy.linalg``
-to see whether BLAS is there (for ``np.dot`` and friends) and ``cffi`` to support cffi functions.
-With SciPy 1.17 the first costs about 0.45 s (scipy.linalg clones numpy's namespace, which loads
-numpy.f2py, numpy.ma and numpy.testing), the second about 0.1 s: together more than importing
-numba itself, for features no kernel here uses. :func:`start` therefore starts numba with both
-probes answered "not here"; nothing else is affected: they can be imported normally afterwards, and a
-kernel that does call BLAS still compiles (numba imports SciPy again when it types such a call).
+Numba's compiler probes two optional packages when it starts (its typing and target contexts): it
+imports ``scipy.linalg`` to see whether BLAS is there (for ``np.dot`` and friends) and ``cffi`` to
+support cffi functions. With SciPy 1.17 the first costs about 0.45 s (scipy.linalg clones numpy's
+namespace, which loads numpy.f2py, numpy.ma and numpy.testing), the second about 0.1 s: together
+more than importing numba itself, for features no kernel here uses. :func:`start` therefore has
+that start, whenever it comes (in :func:`start` on a cold cache, else at the first kernel
+compiled), find both absent; nothing else is affected: they can be imported normally afterwards,
+and a kernel that does call BLAS still compiles (numba imports SciPy again when it types such a
+call).
 
 The first call of a kernel with an array of a kind not seen before types that array in Python, and
 numba's typing of arrays first refuses masked arrays with ``isinstance(val, np.ma.MaskedArray)``:
