@@ -105,6 +105,9 @@ RELEASES = (
 # the reference skip (slate), and Clanet's aluminium disk held (the 65 rev/s limit) on an 8 m pond,
 # (speed [m/s], attack, impact [deg])
 PEAK_THROWS = (("held_skip",), ("skip",), (5.0, 20.0, 10.0), (6.0, 15.0, 10.0), (7.0, 20.0, 15.0))
+# and the magic-angle throws about their lowest bouncing speed (2.51 m/s): one steep first contact each
+# (alpha = beta = 20 deg, held), on the 0.8 m pond of the magic-angle table, (speed [m/s], attack, impact)
+STEEP_PEAK_THROWS = ((2.2, 20.0, 20.0), (2.4, 20.0, 20.0), (2.6, 20.0, 20.0), (2.8, 20.0, 20.0))
 BOUNCE_G = (3.8, 4.0)  # Tang et al. 2021: a disk bounces above 3.80 g (about 4 g) and surfs just below
 
 
@@ -114,7 +117,18 @@ def _peaks(key: tuple) -> list:
         from cosim.scenario import load
 
         return ex.contact_peaks(load(ROOT / "scenarios" / f"{key[0]}.yaml", ["record.visual_rate=0"]))
+    if key in STEEP_PEAK_THROWS:
+        return ex.contact_peaks(ex.throw_scene(*key, cell=0.01))
     return ex.contact_peaks(ex.throw_scene(*key, cell=0.01, until=3.0, length=8.0))
+
+
+def bounce_condition(contacts: list) -> tuple[list[float], list[float], bool]:
+    """(peaks of the contacts that bounce, of those the stone surfs on, whether Tang et al.'s condition
+    holds over them: every bounce above 3.8 g, every surf below 4.6 g, 4 g and 15%)."""
+    bounced = [c.peak_g for c in contacts if c.bounced]
+    surfed = [c.peak_g for c in contacts if not c.bounced]
+    holds = bool(surfed) and min(bounced, default=math.inf) > BOUNCE_G[0] and max(surfed) < 1.15 * BOUNCE_G[1]
+    return bounced, surfed, holds
 
 
 def _release(key: tuple) -> float:
@@ -124,6 +138,11 @@ def _release(key: tuple) -> float:
 
 def _held(ok: bool) -> str:
     return "held" if ok else "**not held**"
+
+
+def _span(values: list[float]) -> str:
+    """'lo-hi' of ``values`` to 0.1, or 'none'."""
+    return f"{min(values):.1f}-{max(values):.1f}" if values else "none"
 
 
 def targets(curves, betas, regimes, contact, spheres, skips, reference, series, held_series, releases,
@@ -168,15 +187,22 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
     rows.append(f"| Rosellini et al. 2005, fig. 5 | free disk, no spin, alpha = 35, beta = 20 deg | tumbles "
                 f"nose-down and dives | attack {none.attack_deg[2]:.0f} deg at the end; "
                 f"{'bounces' if none.bounced else 'sinks'} | {_held(not none.bounced and none.attack_deg[2] < 0)} |")
-    bounced = [c.peak_g for cs in peaks.values() for c in cs if c.bounced]
-    surfed = [c.peak_g for cs in peaks.values() for c in cs if not c.bounced]
+    bounced, surfed, skipping_holds = bounce_condition([c for key in PEAK_THROWS for c in peaks[key]])
+    # the steep throws' first contacts (a bounce's later contacts are shallow ones, as the skips')
+    steep = [peaks[key][0] for key in STEEP_PEAK_THROWS if peaks[key]]
+    steep_bounced, steep_surfed, steep_holds = bounce_condition(steep)
+    speeds = [key[0] for key in STEEP_PEAK_THROWS]
+    status = (_held(skipping_holds) if steep_holds or not skipping_holds
+              else "held on the skipping throws; **not held** on the steep first contacts")
     rows.append(f"| Tang et al. 2021, Phys. Fluids 33, 043316 (abstract and reports) | a contact bounces when the "
                 f"disk's vertical acceleration passes about 4 g; just below, it surfs on (planes without leaving) | "
                 f"bounces above {BOUNCE_G[0]:g} g, surfs at about {BOUNCE_G[0]:g} g | the water's peak vertical force "
                 f"over the weight: {len(bounced)} contacts that bounce {min(bounced):.1f}-{max(bounced):.0f} g, "
                 f"{len(surfed)} that the stone surfs on until it sinks {min(surfed):.1f}-{max(surfed):.1f} g (the held "
-                f"and reference skips, the aluminium disk held at 5, 6 and 7 m/s) | "
-                f"{_held(bool(surfed) and min(bounced) > BOUNCE_G[0] and max(surfed) < 1.15 * BOUNCE_G[1])} |")
+                f"and reference skips, the aluminium disk held at 5, 6 and 7 m/s); the magic-angle throws' steep "
+                f"first contacts (alpha = beta = 20 deg, {min(speeds):g}-{max(speeds):g} m/s): "
+                f"{len(steep_bounced)} that bounce {_span(steep_bounced)} g, {len(steep_surfed)} surfed on "
+                f"{_span(steep_surfed)} g (section 2c) | {status} |")
     for (sg, speed), angle in spheres.items():
         if speed not in LAW_SPEEDS:
             continue
@@ -252,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
         # held and not spun is the series' own held run (None): not run twice
         held_jobs = {s: pool.submit(reference_throw_on_a_long_pond, s, True) for s in SPIN_SERIES if s != 0.0}
         release_jobs = {key: pool.submit(_release, key) for key in RELEASES}
-        peak_jobs = {key: pool.submit(_peaks, key) for key in PEAK_THROWS}
+        peak_jobs = {key: pool.submit(_peaks, key) for key in (*PEAK_THROWS, *STEEP_PEAK_THROWS)}
         skips = skip_impulses("held_skip")
         reference = [r for r, _, _, _ in skip_impulses("skip")]
         curves = {cell: [f.result() for f in fs] for cell, fs in curve_jobs.items()}
