@@ -27,7 +27,7 @@ RHO = 1000.0
 
 @pytest.mark.parametrize("shape", ["sphere", "disk"])
 def test_a_body_released_under_water_sinks_as_body_and_water_together(shape):
-    """Released at rest, a slate sphere and a slate disk falling face on (its added mass 2.7 times
+    """Released at rest, a slate sphere and a slate disk falling face on (its added mass 1.07 times
     its own) start at g (M - rho V) / (M + M_a) (potential flow) within 0.5%; without the effect at
     g (M - rho V) / M, 19% and 2.1 times faster."""
     with_it, without_it = ex.release_exact(shape)

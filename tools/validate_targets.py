@@ -95,7 +95,7 @@ def reference_throw_on_a_long_pond(spin_rev_s: float | None, held: bool = False)
 RELEASES = (
     ("sphere", ex.SLATE, (5.0, 15.0), "a slate sphere (R = 2 cm) let go under water starts to sink"),
     ("disk", ex.SLATE, (5.0, 15.0), "a slate disk (R = 2 cm, e = 6 mm) let go face down starts to sink "
-                                    "(M_a = 8/3 rho R^3, 2.7 times its own mass)"),
+                                    "(M_a = 8/3 rho R^3, 1.07 times its own mass)"),
     ("sphere", 200.0, (3.0, 8.0), "a ball of 200 kg/m^3 (R = 2 cm) let go under water starts to rise "
                                   "(M_a 2.5 times its own mass)"),
 )

@@ -20,7 +20,7 @@ surface over the closure depth, :meth:`WaterCoupler._planing`), as the planing l
 
 The coupler publishes M_a (:class:`AddedMass`) and the body adds it to its own inertia, so that
 the force needs no acceleration from the step before: held over a step, -M_a a lags behind a and
-is unstable once M_a exceeds the body's mass (the slate's axial added mass is 2.7 times its own).
+is unstable once M_a exceeds the body's mass (a 6 mm slate's axial added mass is 2.7 times its own).
 :class:`AddedMassBook` counts the work of that force on the body into the coupler's energy books.
 """
 
