@@ -159,3 +159,21 @@ def test_a_kernel_from_the_cache_runs_without_the_compiler_and_a_new_kernel_stil
         print(total(ramp_kernel.ramp(4)), "numba.np.arraymath" in sys.modules, "scipy.linalg" in sys.modules)
     """
     assert run_fresh(again).splitlines() == [compiled + " 2 False", "3.0 True False"]
+
+
+def test_the_reference_skip_from_the_kernel_cache_never_starts_numba_compiler():
+    """A run of the reference skip whose kernels are in numba's disk cache (a second run) loads them
+    all without numba's compiler starting: nothing compiles and numba's lowering modules stay
+    unimported (each process's start-up saves their 0.1 s; a kernel missing from the cache, or a
+    load that starts the compiler, would show here)."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    code = f"""
+        import sys
+        from cosim.jit_time import may_have_compiled
+        from cosim.runner import run_scene
+        from cosim.scenario import load
+        outcome = run_scene(load({str(scene)!r}, ["until=0.15"]), None, progress=False)
+        print(outcome.result.status, may_have_compiled(), "numba.np.arraymath" in sys.modules)
+    """
+    run_fresh(code)  # a cold cache (a fresh checkout) compiles here
+    assert run_fresh(code) == "ok False False"
