@@ -1,7 +1,8 @@
 """Numba's one-time start-up, done when a component is built rather than inside its first steps.
 
-The first compiled kernel a process calls starts numba's compiler and code cache (its target context
-and libraries); each later kernel only loads its own machine code from the cache (milliseconds).
+The first compiled kernel a process calls starts numba (its target context, its runtime and, numba's
+own way even for a kernel read from its cache, its whole compiler); each later kernel only loads its
+own machine code from the cache (milliseconds).
 Components with compiled kernels call :func:`start` in their ``setup``, so a run's wall time and
 real-time factor measure the simulation, not that start-up.
 

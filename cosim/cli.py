@@ -475,8 +475,8 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
-# The cyclic garbage collector while a process starts up: numba's start alone leaves about 100,000
-# objects that every full collection walks again, and loading a scene and its recording's viewer
+# The cyclic garbage collector while a process starts up: importing and starting numba leaves about
+# 85,000 objects that every full collection walks again, and loading a scene and its recording's viewer
 # modules made the collector run often enough to cost 60-90 ms of a 1 ms run (a bare `import numba`
 # pays 15 ms). Start-up makes next to no garbage (under a thousand unreachable objects when the run
 # begins), so it runs without the collector; when the run begins (start_up_done) everything built
