@@ -29,3 +29,20 @@ def test_the_planing_law_gives_back_part_of_the_vertical_speed_and_the_lag_more(
     assert 0.5 < given_back < 0.7
     assert -lagged.vz_out / lagged.vz_in > given_back + 0.1
     assert lagged.t_out - lagged.t_in > law.t_out - law.t_in
+
+
+def test_the_lag_on_the_way_out_only_keeps_the_entry_and_gives_back_more():
+    """Lagged only while the face rises, the aluminium disk's single contact and its steepest
+    bouncing impact stay the law's (within 2%; 40 deg, not 45), the held reference stone's first
+    contact gives back more of its vertical speed than the law, and its speed lost per contact
+    still falls from contact to contact (docs/validation.md, section 2)."""
+    law = pl.throw(pl.MAGIC_DISK, 3.5, 20.0, 20.0, t_end=0.5)[0][0]
+    out = pl.throw(pl.MAGIC_DISK, 3.5, 20.0, 20.0, pl.WAGNER_RISE, t_end=0.5, exit_only=True)[0][0]
+    assert out.t_out - out.t_in == pytest.approx(law.t_out - law.t_in, rel=0.02)
+    assert pl.bounces(pl.MAGIC_DISK, 3.5, 40.0, 20.0, pl.WAGNER_RISE, exit_only=True)
+    assert not pl.bounces(pl.MAGIC_DISK, 3.5, 45.0, 20.0, pl.WAGNER_RISE, exit_only=True)
+    stone = pl.throw(pl.REFERENCE_STONE, 11.0, 6.0, 8.0, pl.WAGNER_RISE, exit_only=True)[0]
+    plain = pl.throw(pl.REFERENCE_STONE, 11.0, 6.0, 8.0)[0]
+    assert -stone[0].vz_out / stone[0].vz_in > -plain[0].vz_out / plain[0].vz_in + 0.05
+    losses = [c.vx_in ** 2 + c.vz_in ** 2 - c.vx_out ** 2 - c.vz_out ** 2 for c in stone[:4]]
+    assert losses == sorted(losses, reverse=True)

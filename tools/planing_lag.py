@@ -2,6 +2,7 @@
 law, with and without a lag of the water piled up ahead of the face (docs/validation.md, section 2).
 
     python tools/planing_lag.py          # ~1 min
+    python tools/planing_lag.py --exit   # and the lag on the way out only
 
 Not the co-simulation: the disk's attitude is held, the water flat and still, and only the two laws
 that decide a bounce act on it, the coupler's planing pressure 1/2 rho C_L |u| (u.n) S and its skin
@@ -18,6 +19,10 @@ follows the depth with a delay of about that crossing time; Hewitt, Balmforth & 
 Mech. 669, 2011) found such a time-varying rise ahead of a planing paddle to be what keeps it
 skipping. Here the depth the law reads is d + kappa (d_lag - d), d_lag relaxing towards d over
 ell / U (ell the wetted length along the face, U the horizontal speed), kappa = pi/2 - 1.
+
+The lag on the way out only (``--exit``): the entry as the law has it, and while the face rises the
+water it pushed up falls away over the same crossing time, the depth read then d + kappa
+max(d_held - d, 0), d_held the depth the face went to, relaxing towards d over ell / U.
 """
 
 from __future__ import annotations
@@ -72,11 +77,12 @@ class Contact:
 
 
 def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: float = 0.0,
-          t_end: float = 3.0) -> tuple[list[Contact], str]:
+          t_end: float = 3.0, exit_only: bool = False) -> tuple[list[Contact], str]:
     """The held disk thrown at ``speed`` [m/s], ``impact_deg`` below the horizontal, nose up by
     ``attack_deg``, touching the water at once: its contacts, and how it ended ("bounced on",
     "sank": its whole face under, "planes": a contact longer than a second, or "flying" at t_end).
-    ``rise``: the pile-up's share kappa (0: the coupler's law as it is)."""
+    ``rise``: the pile-up's share kappa (0: the coupler's law as it is); ``exit_only``: lagged only
+    while the face rises (the module's text)."""
     a = math.radians(attack_deg)
     nx, nz = math.sin(a), -math.cos(a)  # the lower face's outward normal (nose up along +x)
     mass = disk.mass
@@ -85,7 +91,12 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
     contacts: list[Contact] = []
     entry: tuple[float, float, float] | None = None
     while t < t_end:
-        read = depth + rise * (lagged - depth) if rise else depth
+        if not rise:
+            read = depth
+        elif exit_only:
+            read = depth + rise * max(lagged - depth, 0.0) if vz > 0.0 else depth
+        else:
+            read = depth + rise * (lagged - depth)
         fx = fz = 0.0
         if read > 0.0:
             wetted = min(read / math.sin(a), 2.0 * disk.radius)
@@ -106,7 +117,13 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
             entry = None
             if vz <= 0.0:
                 return contacts, "sank"
-        if rise and depth > 0.0:
+        if rise and exit_only:
+            if vz <= 0.0:
+                lagged = max(depth, 0.0)  # going in: the depth as it is, held once the face rises
+            else:
+                wetted = max(min(max(lagged, 1e-9) / math.sin(a), 2.0 * disk.radius), 1e-6)
+                lagged += (depth - lagged) * min(DT * max(vx, 1e-6) / wetted, 1.0)
+        elif rise and depth > 0.0:
             wetted = max(min(depth / math.sin(a), 2.0 * disk.radius), 1e-6)
             lagged += (depth - lagged) * min(DT * max(vx, 1e-6) / wetted, 1.0)
         elif depth <= 0.0:
@@ -120,24 +137,29 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
     return contacts, "flying"
 
 
-def bounces(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: float) -> bool:
-    return bool(throw(disk, speed, impact_deg, attack_deg, rise, t_end=0.5)[0])
+def bounces(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: float,
+            exit_only: bool = False) -> bool:
+    return bool(throw(disk, speed, impact_deg, attack_deg, rise, t_end=0.5, exit_only=exit_only)[0])
 
 
-def u_min(attack_deg: float, rise: float) -> float:
+def u_min(attack_deg: float, rise: float, exit_only: bool = False) -> float:
     """The magic-angle disk's lowest speed [m/s] that bounces at beta = 20 deg (bisected)."""
     lo, hi = 1.0, 6.0
     for _ in range(24):
         mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if bounces(MAGIC_DISK, mid, 20.0, attack_deg, rise) else (mid, hi)
+        lo, hi = (lo, mid) if bounces(MAGIC_DISK, mid, 20.0, attack_deg, rise, exit_only) else (mid, hi)
     return hi
 
 
-def main() -> None:
-    for label, rise in (("the coupler's law", 0.0), (f"with the lagged rise, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE)):
-        single, _ = throw(MAGIC_DISK, 3.5, 20.0, 20.0, rise, t_end=0.5)
-        steepest = max(b for b in range(20, 70, 5) if bounces(MAGIC_DISK, 3.5, b, 20.0, rise))
-        contacts, _ = throw(REFERENCE_STONE, 11.0, 6.0, 8.0, rise)
+def main(argv: list[str] | None = None) -> None:
+    variants = [("the coupler's law", 0.0, False),
+                (f"with the lagged rise, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE, False)]
+    if "--exit" in (sys.argv[1:] if argv is None else argv):
+        variants.append((f"with the rise lagged on the way out only, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE, True))
+    for label, rise, exit_only in variants:
+        single, _ = throw(MAGIC_DISK, 3.5, 20.0, 20.0, rise, t_end=0.5, exit_only=exit_only)
+        steepest = max(b for b in range(20, 70, 5) if bounces(MAGIC_DISK, 3.5, b, 20.0, rise, exit_only))
+        contacts, _ = throw(REFERENCE_STONE, 11.0, 6.0, 8.0, rise, exit_only=exit_only)
         given_back = [-c.vz_out / c.vz_in for c in contacts]
         flights = [b.t_in - a.t_out for a, b in itertools.pairwise(contacts)]
         ratios = [b / a for a, b in itertools.pairwise(flights)]
@@ -147,7 +169,7 @@ def main() -> None:
         print(f"  magic-angle disk, 3.5 m/s, alpha = beta = 20 deg: contact {contact_ms:.1f} ms, "
               f"steepest bouncing impact {steepest} deg")
         print("  U_min [m/s] at alpha = 10, 15, 20, 25, 30, 40 deg: "
-              + ", ".join(f"{u_min(alpha, rise):.2f}" for alpha in (10, 15, 20, 25, 30, 40)))
+              + ", ".join(f"{u_min(alpha, rise, exit_only):.2f}" for alpha in (10, 15, 20, 25, 30, 40)))
         print(f"  reference stone held, 11 m/s, 6 deg down, attack 8 deg: {len(contacts)} contacts; vertical speed "
               "given back " + ", ".join(f"{g:.2f}" for g in given_back[:6]))
         print("    each flight over the one before: " + ", ".join(f"{r:.2f}" for r in ratios[:6])
