@@ -112,7 +112,8 @@ BOUNCE_G = (3.8, 4.0)  # Tang et al. 2021: a disk bounces above 3.80 g (about 4 
 
 
 def _peaks(key: tuple) -> list:
-    """The contacts (components.analysis.experiments.ContactPeak) of one of PEAK_THROWS."""
+    """The contacts (components.analysis.experiments.ContactPeak) of one of PEAK_THROWS or
+    STEEP_PEAK_THROWS."""
     if len(key) == 1:
         from cosim.scenario import load
 
@@ -149,7 +150,7 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
             peaks) -> str:
     """The table's rows. ``series``: {spin [rev/s] (None: held, not spun): (skips, end)} of the
     reference throw free; ``held_series``: {spin: skips} of the same throw held at that spin;
-    ``peaks``: {one of PEAK_THROWS: its contacts}."""
+    ``peaks``: {one of PEAK_THROWS or STEEP_PEAK_THROWS: its contacts}."""
     rows = ["| source | quantity | published | default model | |", "|---|---|---|---|---|"]
     minima = {cell: (float(np.nanmin(v)), ALPHAS[int(np.nanargmin(v))]) for cell, v in curves.items()}
     fmt = "; ".join(f"{u:.2f} m/s at {a:g} deg ({cell * 1e3:g} mm columns)" for cell, (u, a) in minima.items())
