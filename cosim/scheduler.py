@@ -98,6 +98,9 @@ class Interrupted(Exception):
     """Raised from a signal handler to end a run cleanly (Ctrl-C, SIGTERM)."""
 
 
+_KEPT = 2  # messages a port keeps: the newest, and the one before for a delayed edge
+
+
 class _Slot:
     """The last two messages published on one output port, as (stamp_ns, message) pairs."""
 
@@ -109,7 +112,7 @@ class _Slot:
     def publish(self, stamp: int, msg: Message) -> None:
         entries = self.entries
         entries.append((stamp, msg))
-        if len(entries) > 2:
+        if len(entries) > _KEPT:
             del entries[0]
 
 
@@ -126,19 +129,27 @@ class _Edge:
 
     def pick(self, start: int, end: int) -> Message | None:
         chosen: tuple[int, Message] | None = None
+        entries = self.slot.entries
         if self.delayed:
-            for entry in reversed(self.slot.entries):
-                if 0 < entry[0] <= start:
-                    chosen = entry
-                    break
+            # the newest message stamped in (0, start]; usually the last of the slot's two
+            if entries and 0 < entries[-1][0] <= start:
+                chosen = entries[-1]
+            else:
+                for entry in reversed(entries):
+                    if 0 < entry[0] <= start:
+                        chosen = entry
+                        break
             if chosen is None and self.initial is not None:
                 chosen = (0, self.initial)
         else:
-            entries = self.slot.entries
-            for entry in reversed(entries):
-                if entry[0] <= end:
-                    chosen = entry
-                    break
+            # the newest message stamped by ``end``; usually the last of the slot's two
+            if entries and entries[-1][0] <= end:
+                chosen = entries[-1]
+            else:
+                for entry in reversed(entries):
+                    if entry[0] <= end:
+                        chosen = entry
+                        break
             # start-up of a slower source: hold its first value (but never deliver an event early)
             if chosen is None and entries and not self.event:
                 chosen = entries[0]
@@ -252,18 +263,23 @@ class Simulation:
         """Advance one base tick."""
         k = self.tick
         dt_ns = self.dt_ns
+        start = k * dt_ns
         observers = self.observers
         for runner in self.runners:
             every = runner.every
             if k % every:
                 continue
-            start = k * dt_ns
-            end = start + every * dt_ns
+            span = every * dt_ns
+            end = start + span
             comp = runner.comp
-            outputs = comp.step(start, end - start, runner.gather(start, end), runner.on_unstable)
+            outputs = comp.step(start, span, gather(runner.plan, start, end), runner.on_unstable)
             slots = runner.slots
             for port, msg in outputs.items():
-                slots[port].publish(end, msg)
+                # _Slot.publish inline (a call less for every output of every step)
+                entries = slots[port].entries
+                entries.append((end, msg))
+                if len(entries) > _KEPT:
+                    del entries[0]
             if observers:
                 for port, msg in outputs.items():
                     for obs in observers:

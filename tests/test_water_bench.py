@@ -71,3 +71,31 @@ def test_paths_benchmark_writes_every_path_beside_the_uniform_step(tmp_path, cap
         assert f"| 16 x 16 | {name} |" in text
     assert "| 16 x 16 | copy h and v (`np.copyto`) |" in text
     assert "`python tools/bench_water_paths.py --sizes 16 --rounds 1" in text
+
+
+def test_paths_benchmark_judges_each_wave_path_against_the_designs_share_of_the_copy(monkeypatch, tmp_path):
+    """DESIGN.md section 5 asks every path for at least 50% of the copy's throughput: a path under it
+    is named with its share and the target said not met; with every path over it, met."""
+    path = Path(__file__).resolve().parent.parent / "tools" / "bench_water_paths.py"
+    spec = importlib.util.spec_from_file_location("bench_water_paths", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    slow = "sloped bed (a coefficient per face)"
+
+    def measure(n, rounds, min_time):  # the copy 1 s; every path 1.5 s, the sloped bed 2.5 s
+        times = {name: [2.5 if name == slow else 1.5] for name in bench.PATHS}
+        return times, [1.0]
+
+    monkeypatch.setattr(bench, "measure", measure)
+    doc = tmp_path / "performance.md"
+    assert bench.main(["--sizes", "16", "--write", str(doc)]) == 0
+    text = doc.read_text()
+    assert "the paths below it are: sloped bed at 16 x 16 (40%). **Not met**" in text
+    assert "shallow water at 16 x 16" not in text  # judged by its own measure
+
+    def fast(n, rounds, min_time):
+        return {name: [1.5] for name in bench.PATHS}, [1.0]
+
+    monkeypatch.setattr(bench, "measure", fast)
+    assert bench.main(["--sizes", "16", "--write", str(doc)]) == 0
+    assert "every wave path meets it." in doc.read_text()

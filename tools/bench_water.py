@@ -6,9 +6,10 @@
 For each grid size and model, the script times ``WaterSurface.step`` (the whole component step the
 scheduler calls: model, boundary, an empty patch; no field) and, interleaved with it, copying the
 state arrays h and v into two other arrays of the same shape (``np.copyto``). Throughput is cells
-per second; the ratio step / copy is what the design target is about (the `wave` step at 512 x 512
-at >= 40% of the copy). The rounds alternate a short batch of copies and a short batch of steps;
-the ratio reported is the median over rounds of copy time / step time within the round (adjacent
+per second; the ratio step / copy is what the design target is about (DESIGN.md section 5: at least
+50% of the copy for every path; judged here on the `wave` step at 512 x 512, the other paths in
+tools/bench_water_paths.py). The rounds alternate a short batch of copies and a short batch of
+steps; the ratio reported is the median over rounds of copy time / step time within the round (adjacent
 batches see the same machine load, so the ratio survives a shared, noisy machine), the absolute
 figures are the best batch of each. Compiled kernels are warmed up first.
 """
@@ -28,6 +29,8 @@ import numpy as np
 
 from components.water import WaterParams, WaterSurface
 from components.water.kernels_numba import PARALLEL_MIN_CELLS
+
+COPY_TARGET = 0.50  # the step at least this share of the copy's throughput (DESIGN.md section 5)
 
 SECTION = "## Water step throughput"
 BEGIN = "<!-- water-throughput:begin -->"
@@ -113,9 +116,9 @@ def markdown(rows: list[Row], command: str, load: tuple[float, float]) -> str:
               and r.backend == "numba"]  # the default kernels
     verdict = ""
     if target:
-        ok = "meets" if target[0].ratio >= 0.40 else "misses"
+        ok = "meets" if target[0].ratio >= COPY_TARGET else "misses"
         verdict = (f"The `wave` step at 512 x 512 runs at {target[0].ratio:.0%} of the copy throughput: it "
-                   f"{ok} the design target (>= 40%).\n\n")
+                   f"{ok} the design target (>= {COPY_TARGET:.0%}; the other paths: \"Water paths\").\n\n")
     return "\n".join([
         SECTION,
         "",

@@ -9,8 +9,10 @@ smoothing, a body's displacement spread by blur passes, and the implicit shallow
 one ``WaterSurface.step`` on an n x n grid (reflecting edges). The rounds run, back to back, a batch
 of copies of h and v (``np.copyto``), a batch of uniform steps and a batch of each path, so that the
 ratios of one round see the same machine load; each ratio reported is the median over the rounds of
-(path time / uniform time) and (copy time / path time) within the round. The design target: every
-wave path at most 2x the uniform step.
+(path time / uniform time) and (copy time / path time) within the round. Two targets: issue 15's,
+every wave path at most 2x the uniform step; and DESIGN.md section 5's, every path at least 50% of
+copying h and v (the uniform step itself runs at about 60%, so a path meets it only within about
+1.2x the uniform step).
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ from cosim.docsection import replace_section  # noqa: E402
 
 NS = 1_000_000_000
 BODY_CELLS = 11  # side of the occupied window a body sends [cells] (a 5 cm stone over 1 cm columns)
-TARGET = 2.0  # every wave path at most this many uniform steps (DESIGN.md section 5, issue 15)
+TARGET = 2.0  # every wave path at most this many uniform steps (issue 15)
+COPY_TARGET = 0.50  # every path at least this share of the copy's throughput (DESIGN.md section 5)
 # The peer: Matthias Mueller's tenMinutePhysics #20 height-field water demo, measured under node at
 # 256 x 256 (issue 15): its bare water step runs 1.1e8 cells/s, and one floating ball makes its
 # step 2.9x the bare one. A figure quoted, not code: nothing of the demo is in this repository.
@@ -108,6 +111,12 @@ def measure(n: int, rounds: int, min_time: float) -> tuple[dict[str, list[float]
     return times, copies
 
 
+def _wave_path(name: str) -> bool:
+    """Whether the targets judge this row: a wave path alone (not shallow water, which has its own
+    measure, nor two paths at once)."""
+    return not name.startswith("shallow") and "at once" not in name
+
+
 def table(n: int, times: dict[str, list[float]], copies: list[float]) -> list[str]:
     uniform = next(iter(times.values()))
     lines = []
@@ -136,13 +145,19 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     worst = 0.0
     demo = tiled = 0.0
+    below: list[str] = []  # the wave paths under the design's share of the copy
     for n in args.sizes:
         times, copies = measure(n, args.rounds, args.min_time)
         rows += table(n, times, copies)
         uniform = next(iter(times.values()))
         for name, ts in times.items():
-            if not name.startswith("shallow") and "at once" not in name and "tiles" not in name:
+            if not _wave_path(name):
+                continue
+            if "tiles" not in name:
                 worst = max(worst, statistics.median(t / u for t, u in zip(ts, uniform, strict=True)))
+            share = statistics.median(c / t for c, t in zip(copies, ts, strict=True))
+            if share < COPY_TARGET:
+                below.append(f"{name.split(' (')[0]} at {n} x {n} ({share:.0%})")
         tiled = max(tiled, statistics.median(
             t / u for t, u in zip(times["uniform depth, stepped by tiles (the default), every tile moving"], uniform,
                                   strict=True)))
@@ -156,6 +171,11 @@ def main(argv: list[str] | None = None) -> int:
                 f"{DEMO_BALL_RATIO:g}x the bare one), the uniform step here runs {demo:.1f}x the demo's cells per "
                 "second (median step of this run; the coupled step is the coupler's section).\n\n")
     verdict = "meets" if worst <= TARGET else "misses"
+    design = (f"Against the design's own measure (DESIGN.md section 5: every path at least {COPY_TARGET:.0%} of "
+              "copying h and v) " + (f"the paths below it are: {'; '.join(below)}. **Not met**: the uniform "
+                                     "step itself runs near 60% of the copy, and a path that reads more arrays "
+                                     "or makes another pass over h falls below half of it."
+                                     if below else "every wave path meets it."))
     given = argv if argv is not None else sys.argv[1:]
     command = " ".join(["python tools/bench_water_paths.py", *given])
     text = "\n".join([
@@ -176,6 +196,8 @@ def main(argv: list[str] | None = None) -> int:
         "coefficients, in single precision: half the bytes of doubles), positional smoothing is one "
         "more pass over h (without reading weights when the "
         "pond has no dry land), and a body's blur passes work only on its window.",
+        "",
+        design,
         "",
     ])
     print(text)
