@@ -44,8 +44,8 @@ class Boundary:
     def __init__(self, grid: Grid, kernels: Any, sponge_cells: int = 0):
         self.grid = grid
         self.kernels = kernels
-        # how many cells from each edge after_step may rewrite (0: none); a tiled step reads those
-        # tiles again (components.water.tiles)
+        # how many cells from each edge after_step may rewrite (0: none, and a tiled step then
+        # does not call it); a tiled step reads those tiles again (components.water.tiles)
         self.rewritten_band = 0
 
     def after_step(self, h_old: np.ndarray, h: np.ndarray, v: np.ndarray, dt: float,

@@ -483,8 +483,8 @@ class WaterSurface(Component):
         tiles: Tiles = self.tiles  # type: ignore[assignment]
         kdt, damp = model.uniform_factors(dt)
         tiles.wave_step(self._h, self._v, self._h2, self._v2, kdt, dt, damp)
-        self.boundary.after_step(self._h, self._h2, self._v2, dt, moving=tiles.moving())
-        if self.boundary.rewritten_band:
+        if self.boundary.rewritten_band:  # else the boundary writes nothing (reflecting): no call
+            self.boundary.after_step(self._h, self._h2, self._v2, dt, moving=tiles.moving())
             tiles.rescan_edges(self._h2, self._v2, self.boundary.rewritten_band)
         tiles.finish_step()
         self._h, self._h2 = self._h2, self._h
