@@ -381,7 +381,8 @@ def report(exc: BaseException, command: str) -> int:
         print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_FAILED
     if isinstance(exc, KeyboardInterrupt):
-        print(f"error: {what}: interrupted (Ctrl-C)", file=sys.stderr)
+        how = "SIGTERM" if exc.args == ("SIGTERM",) else "Ctrl-C"
+        print(f"error: {what}: interrupted ({how})", file=sys.stderr)
         return EXIT_FAILED
     if isinstance(exc, ModuleNotFoundError) and (exc.name or "").partition(".")[0] in EXTRAS:
         extra = EXTRAS[(exc.name or "").partition(".")[0]]
@@ -404,7 +405,8 @@ def report(exc: BaseException, command: str) -> int:
 
 
 class _CtrlC:
-    """Remembers a Ctrl-C while a command runs: whatever error follows it (an import the signal cut
+    """Remembers a Ctrl-C (or a SIGTERM, which ends a command the same way: its files cleaned up, one
+    line, exit code 1) while a command runs: whatever error follows it (an import the signal cut
     short reports an ImportError, numpy's among them) is then told as the interruption it is.
 
     The KeyboardInterrupt the handler raises can land where Python cannot pass it on: in a callback
@@ -417,12 +419,19 @@ class _CtrlC:
 
     def __init__(self) -> None:
         self.seen = False
+        self.signum = signal.SIGINT  # the signal seen
         self._old: Any = None
+        self._old_term: Any = None
         self._old_hook: Any = None
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.seen = True
-        raise KeyboardInterrupt
+        self.signum = signum
+        raise self.interruption()
+
+    def interruption(self) -> KeyboardInterrupt:
+        """The KeyboardInterrupt that tells the signal seen (a SIGTERM's says so)."""
+        return KeyboardInterrupt("SIGTERM") if self.signum == signal.SIGTERM else KeyboardInterrupt()
 
     def _unraisable(self, unraisable: Any) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt) and self.seen:
@@ -435,6 +444,7 @@ class _CtrlC:
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
             return self
+        self._old_term = signal.signal(signal.SIGTERM, self._handler)
         self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         _CtrlC.active = self
         return self
@@ -442,6 +452,7 @@ class _CtrlC:
     def __exit__(self, *exc: object) -> None:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
+            signal.signal(signal.SIGTERM, self._old_term)
             sys.unraisablehook = self._old_hook
             _CtrlC.active = None
 
@@ -452,7 +463,7 @@ def _run_begins() -> None:
     start_up_done()
     watcher = _CtrlC.active
     if watcher is not None and watcher.seen:
-        raise KeyboardInterrupt
+        raise watcher.interruption()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -569,7 +580,7 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
             # that while a module is being imported) as unhandled even once caught, and the process
             # would then end by SIGINT instead of with this exit code; the next exec() clears the mark
             exec("pass")
-        return report(KeyboardInterrupt() if ctrl_c.seen else exc, command)
+        return report(ctrl_c.interruption() if ctrl_c.seen else exc, command)
 
 
 def _quiet_stdout() -> None:

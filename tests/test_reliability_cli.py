@@ -103,6 +103,26 @@ def test_ctrl_c_in_the_first_half_second_is_one_line(tmp_path, delay):
     assert "interrupted" in one_error_line(err)
 
 
+@pytest.mark.parametrize("delay", [0.1, 0.35])
+def test_sigterm_in_the_first_half_second_is_one_line(tmp_path, delay):
+    """SIGTERM while `cosim run` starts up ends it as Ctrl-C does: exit 1 and one line naming the
+    signal. Before, a SIGTERM before the run's own handler was in place killed the process silently
+    (exit 143)."""
+    long = tmp_path / "long.yaml"
+    long.write_text(SCENE.replace("until: 0.05", "until: 100000"))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
+    interpreter = time.perf_counter() - started
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(long), "-o", str(tmp_path / "l.mcap"),
+                             "-q"], cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    time.sleep(interpreter + delay)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    assert "interrupted" in one_error_line(err) and "SIGTERM" in one_error_line(err)
+
+
 def test_a_live_port_out_of_range_is_bad_input(scene, capsys):
     """--live 99999 exits 2 before anything runs."""
     with pytest.raises(SystemExit) as exit_:

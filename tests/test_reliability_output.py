@@ -256,3 +256,29 @@ def test_figures_on_a_full_disk_are_one_line_and_leave_nothing_half_written(tmp_
     line = one_error_line(err)
     assert line == f"error: {target}: cannot be written ({os.strerror(27)})"  # EFBIG: File too large
     assert not out.exists()  # the folder it made for them goes too
+
+
+def test_sigterm_while_plot_writes_is_one_line_and_leaves_nothing_half_written(tmp_path, capsys, monkeypatch):
+    """A SIGTERM (a job scheduler, `kill`) lands as plot writes its first figure: exit 1, one line
+    saying so, and neither the figure nor its temporary left. Before, the process died of the signal
+    (exit 143, nothing said) and left `trajectory.png.tmp`."""
+    from matplotlib.figure import Figure
+
+    from cosim.cli import main
+    from tests.viewer_toys import record_skip
+
+    recording = tmp_path / "skip.mcap"
+    record_skip(recording, ["until=0.2", "record.visual_rate=0"])
+    out = tmp_path / "figs"
+
+    def terminated_midway(fig, target, **kwargs):
+        Path(target).write_bytes(b"\x89PNG half")
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(2.0)
+        raise AssertionError("the signal did not arrive")
+
+    monkeypatch.setattr(Figure, "savefig", terminated_midway)
+    assert main(["plot", str(recording), "-o", str(out)]) == 1
+    assert one_error_line(capsys.readouterr().err) == "error: cosim plot: interrupted (SIGTERM)"
+    assert not out.exists() or not any(out.iterdir())
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the command's handler is gone with it
