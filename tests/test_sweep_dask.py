@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from cosim.sweep.backends import BackendError, DaskBackend, ProcessBackend
@@ -73,7 +75,7 @@ def test_a_local_dask_cluster_resumes_a_pool_table(tmp_path):
 def test_an_unreachable_scheduler_is_reported(tmp_path):
     """A scheduler that does not answer, or an address that is not one, is a BackendError."""
     with pytest.raises(BackendError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9: "
-                                           r"Timed out"):
+                                           r".*Connection refused"):
         DaskBackend("tcp://127.0.0.1:9", timeout_s=1).start()
     with pytest.raises(BackendError, match=r"cannot reach the Dask scheduler at nowhere: .*port"):
         DaskBackend("nowhere", timeout_s=1).start()
@@ -115,3 +117,52 @@ def test_a_local_cluster_starts_while_the_default_dashboard_port_is_taken():
             backend.close()
     finally:
         blocker.close()
+
+
+def _server(answer: bytes | None):
+    """A TCP server on 127.0.0.1 that accepts and then sends ``answer`` (None: says nothing); its
+    address and a function stopping it."""
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen()
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if answer is not None:
+                conn.sendall(answer)
+
+    threading.Thread(target=serve, daemon=True).start()
+
+    def stop():
+        srv.close()
+        for conn in held:
+            conn.close()
+
+    return f"tcp://127.0.0.1:{srv.getsockname()[1]}", stop
+
+
+@pytest.mark.parametrize(("answer", "said"), [
+    (None, "it accepted the connection but said nothing"),
+    (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", "answered as a web server ('HTTP/1.1 400 Bad Request')"),
+    (b"\xff" * 64, "are not a Dask message"),
+])
+def test_an_address_that_is_no_dask_scheduler_is_named_so(answer, said):
+    """A server that is not a Dask scheduler (a web server, the dashboard's port by mistake): one
+    BackendError saying what answered, within the timeout. Before, Dask's client waited without end
+    on a silent server and read a web server's reply as a message of absurd size ("out of memory")."""
+    address, stop = _server(answer)
+    try:
+        with pytest.raises(BackendError, match=re.escape(f"{address} is not a Dask scheduler: ") + ".*"
+                           + re.escape(said) + r".*port 8786 by default"):
+            DaskBackend(address, timeout_s=2).start()
+    finally:
+        stop()

@@ -18,6 +18,8 @@ import multiprocessing
 import os
 import platform
 import signal
+import socket
+import struct
 import threading
 import time
 from collections.abc import Iterable
@@ -28,6 +30,7 @@ from cosim.errors import CosimError, ScenarioError
 from cosim.timebase import NS_PER_S
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
+DASK_HANDSHAKE_MAX = 1 << 20  # [bytes] more than any scheduler's first message (its handshake, about 60)
 WORKER_JOIN_TIMEOUT_S = 10  # how long a worker gets to leave at each step of ending a pool (s)
 PARENT_POLL_S = 0.2  # how often a pool worker checks that the sweep that started it is still there (s)
 
@@ -271,10 +274,18 @@ class DaskBackend:
                                             dashboard_address="127.0.0.1:0")  # any free port, not 8787
                 self.client = Client(self.cluster)
             else:
-                self.client = Client(self.address, timeout=f"{self.timeout_s or DASK_CONNECT_TIMEOUT_S}s")
+                timeout = self.timeout_s or DASK_CONNECT_TIMEOUT_S
+                probe_scheduler(self.address, timeout)
+                self.client = Client(self.address, timeout=f"{timeout}s")
+        except BackendError:
+            self.close()
+            raise
         except (OSError, TimeoutError, ValueError) as exc:  # unreachable, or not an address
             self.close()
             raise BackendError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
+        except MemoryError:  # its answer read as a Dask message announced an absurd size
+            self.close()
+            raise BackendError(f"{self.address} is not a Dask scheduler: its answer is not Dask's protocol") from None
         try:
             self.worker_versions = self.client.run(versions)
         except Exception as exc:  # e.g. a worker that cannot import cosim cannot even unpickle the call
@@ -325,6 +336,43 @@ class DaskBackend:
         if self.client is not None:
             self.client.cancel(list(futures))
         self.close()
+
+
+def probe_scheduler(address: str, timeout_s: float) -> None:
+    """Check that a ``tcp://HOST:PORT`` address is a Dask scheduler before Dask's client connects
+    (which waits without end on a server that never answers, and reads another server's reply as a
+    message of absurd size): a scheduler speaks first, its handshake an 8-byte little-endian length
+    and a few dozen bytes. Raises :class:`BackendError` naming what answered instead; an address of
+    another protocol (tls://, ucx://) is left to Dask. An unreachable one raises OSError."""
+    scheme, sep, rest = address.partition("://")
+    if sep and scheme != "tcp":
+        return
+    host, _, port = (rest if sep else address).rpartition(":")
+    if not host or not port.isdigit():
+        return  # Dask's own parsing says what is wrong with it
+    hint = "is it the scheduler's address (port 8786 by default), not its dashboard's (8787)?"
+    deadline = time.monotonic() + timeout_s
+    while True:  # a scheduler still starting refuses at first: tried again until the timeout, as Dask does
+        try:
+            conn = socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s)
+            break
+        except ConnectionRefusedError:
+            if time.monotonic() + 0.2 > deadline:
+                raise
+            time.sleep(0.2)
+    with conn:
+        conn.settimeout(min(timeout_s, 5.0))
+        try:
+            first = conn.recv(64)
+        except TimeoutError:
+            raise BackendError(f"{address} is not a Dask scheduler: it accepted the connection but said "
+                               f"nothing (a scheduler speaks first); {hint}") from None
+    if first.startswith(b"HTTP/"):
+        status = first.split(b"\r\n", 1)[0].decode("ascii", "replace")
+        raise BackendError(f"{address} is not a Dask scheduler: it answered as a web server ({status!r}); {hint}")
+    if len(first) < 8 or not 0 < struct.unpack("<Q", first[:8])[0] <= DASK_HANDSHAKE_MAX:
+        raise BackendError(f"{address} is not a Dask scheduler: its first bytes {first[:16]!r} are not a Dask "
+                           f"message; {hint}")
 
 
 def make_backend(dask: str | None = None, workers: int | None = None) -> ProcessBackend | DaskBackend:
