@@ -284,7 +284,8 @@ class StageMonitor(Component):
         timeline = ' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)
         lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the body was seen)'}"]
         start = self.track.start_x
-        travelled = f"{self.final_x - start:.2f} m" if not math.isnan(start) else "none yet"
+        # rounded first: a stone that moved back by less than 5 mm travelled 0.00 m, not -0.00 m
+        travelled = f"{round(self.final_x - start, 2) + 0.0:.2f} m" if not math.isnan(start) else "none yet"
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {self._outcome()}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)

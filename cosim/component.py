@@ -131,6 +131,12 @@ class Component:
         ground, for instance, refuses a body that starts deep inside it. Default: none."""
         return []
 
+    def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
+        """Like :meth:`check_start`, for what only the components feeding this one know before the
+        run: ``sources``, each input port fed by one edge and the component at its other end. A
+        coupler, for instance, refuses a body that starts under its water's bed. Default: none."""
+        return []
+
     @classmethod
     def configure(cls, params: Any, path: str, base_dir: Path, problems: list[str]) -> type[Component] | None:
         """The class a scene builds for ``params``: ``cls`` itself (the default), unless the

@@ -7,6 +7,7 @@ call (tests, sweeps).
 from __future__ import annotations
 
 import fnmatch
+import math
 import signal
 import sys
 import warnings
@@ -201,7 +202,9 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     r = outcome.result
     lines = [f"{scene.name}: {r.status} - {r.reason}"]
     speed = f"wall {r.wall_s:.3g} s; real-time factor {r.real_time_factor:.3g}"
-    if r.compile_s >= COMPILE_NOTE_S:
+    if not (r.simulated_ns > 0 and math.isfinite(r.real_time_factor)):  # nothing simulated, or no time taken
+        speed = f"wall {r.wall_s:.3g} s"
+    elif r.compile_s >= COMPILE_NOTE_S:
         speed = (f"wall {r.wall_s:.3g} s, of which {r.compile_s:.3g} s compiling kernels once (later runs "
                  f"load them from disk); real-time factor {r.real_time_factor:.3g} (compiling left out)")
     since = f" from t = {r.start_ns / NS_PER_S:g} s" if r.start_ns else ""

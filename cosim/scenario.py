@@ -578,15 +578,18 @@ def _check_start(scene: Scene, built: dict[str, Component], problems: list[str])
             initial[name] = {}
     for name, comp in built.items():
         inputs: dict[str, Message | None] = {}
+        sources: dict[str, Component] = {}
         for port in comp.inputs:
             feeding = [c for c in scene.connections if c.target == name and c.target_port == port]
             value = None
             if len(feeding) == 1:
                 edge = feeding[0]
                 value = edge.initial if edge.delay else initial.get(edge.source, {}).get(edge.source_port)
+                if edge.source in built:
+                    sources[port] = built[edge.source]
             inputs[port] = value
         try:
-            found = comp.check_start(inputs)
+            found = comp.check_start(inputs) + comp.check_start_sources(inputs, sources)
         except Exception as exc:
             found = [f"cannot check its start ({type(exc).__name__}: {exc})"]
         problems.extend(f"components.{name}: {problem}" for problem in found)

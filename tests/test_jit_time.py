@@ -106,3 +106,13 @@ def test_a_run_with_progress_says_it_is_compiling(capsys):
     assert capsys.readouterr().err.count("jit: compiling kernels for this checkout (once") == 1
     run_scene(scene, None, progress=False)
     assert "compiling" not in capsys.readouterr().err
+
+
+def test_a_run_that_took_no_time_or_simulated_nothing_prints_no_real_time_factor():
+    """No 'real-time factor inf' (a run that failed before any time passed) nor 0 (nothing simulated):
+    the wall time alone."""
+    scene = loads(SCENE)
+    for wall, ticks in ((0.0, 7), (0.5, 0)):
+        result = RunResult("failed", "x", ticks, ticks * 1_000_000, wall, ticks)
+        line = format_summary(scene, RunOutcome(result, None)).splitlines()[1]
+        assert "real-time factor" not in line and line.endswith(f"wall {wall:.3g} s")

@@ -27,9 +27,22 @@ def test_a_body_touching_the_ground_at_the_start_is_accepted():
     load(SCENES / "ground_bounce.yaml", ["components.disk_flat.position=[0, 0, 0.001]"])
 
 
-def test_a_stone_starting_below_the_pond_bed_fails_at_the_first_patch_naming_the_bed():
-    sim = Simulation(load(SCENES / "held_skip.yaml", ["components.stone.position=[0.3, 0.5, -10]",
-                                                  "components.stone.velocity=[0, 0, 0]"]))
+def test_a_stone_starting_below_the_pond_bed_is_refused_when_the_scene_loads():
+    """Bad input, named before anything runs (before, the run started and failed at the water's
+    first patch, exit 1)."""
+    with pytest.raises(ScenarioError, match=r"components\.coupler: the body starts 9\.45 m below the water's bed "
+                                            r"\(its centre at z = -10 m, the bed under it at z = -0\.5 m\)"):
+        load(SCENES / "held_skip.yaml", ["components.stone.position=[0.3, 0.5, -10]",
+                                         "components.stone.velocity=[0, 0, 0]"])
+
+
+def test_a_stone_below_the_pond_bed_that_no_scene_check_saw_fails_at_the_first_patch_naming_the_bed():
+    """The run's own check stays: a body moved under the bed after the scene's checks (here its
+    state set before the run) still fails the run at the water's first patch, naming the bed."""
+    scene = load(SCENES / "held_skip.yaml", ["until=0.01"])
+    sim = Simulation(scene)
+    stone = sim.components["stone"]
+    stone.state = stone.state._replace(position=(0.3, 0.5, -10.0), velocity=(0.0, 0.0, 0.0))
     with pytest.raises(SimulationError, match=r"coupler.*starts 9\.45 m below the water's bed"):
         sim.run()
 

@@ -309,3 +309,13 @@ def test_each_skip_reports_the_peak_of_the_waters_vertical_force_over_the_weight
     assert [s.peak_g for s in skips] == [21.25 / weight, 2.35 / weight]
     assert "peak 18.1 g" in "\n".join(m.summary())
     assert m.metrics()["skip_peaks"] == f"{21.25 / weight:.2f} {2.35 / weight:.2f}"  # a sweep's column
+
+
+def test_a_body_that_moved_back_by_less_than_the_last_digit_travelled_zero_not_minus_zero():
+    """The summary rounds the distance before printing it: a body that drifted 3 mm back says
+    0.00 m (not -0.00 m), one that went 6 mm back -0.01 m."""
+    for back, said in ((0.003, "0.00 m"), (0.006, "-0.01 m")):
+        m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+        drive(m, [(body(0.5, 0.3, 0.0, 0.0), water(False), None),
+                  (body(0.5 - back, 0.3, 0.0, 0.0), water(False), None)])
+        assert m.summary()[1].startswith(f"skips: 0; distance travelled: {said};")

@@ -310,6 +310,22 @@ class WaterCoupler(Component):
         self._start_in_water = bool(state.get("start_in_water", False))
         self._added_book.set_state(state)
 
+    def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
+        """A body that starts wholly under the bed of the water feeding it (its bounding sphere's top
+        below the bed under its centre) is a mistake in the scene: refused when the scene loads, as
+        :meth:`_check_not_under_the_bed` refuses it at the water's first patch otherwise."""
+        body, water = inputs.get("body"), sources.get("water")
+        bed_at = getattr(water, "bed_at", None)
+        if not isinstance(body, BodyState) or bed_at is None:
+            return []
+        x, y, z = (float(c) for c in body.position)
+        bed = bed_at(x, y)
+        top = z + math.hypot(float(body.radius), 0.5 * float(body.thickness))
+        if bed is None or not top < bed:
+            return []
+        return [f"the body starts {bed - top:.4g} m below the water's bed (its centre at z = {z:.4g} m, the bed "
+                f"under it at z = {bed:.4g} m): start it above the bed"]
+
     def needed_outputs(self) -> dict[str, str]:
         if not self.added_mass_on:
             return {}

@@ -343,6 +343,15 @@ class WaterSurface(Component):
         energy = g.column_mass * (0.5 * sum_v2 + 0.5 * c2 * (sum_dx2 + sum_dy2) / s2)
         return volume, energy
 
+    def bed_at(self, x: float, y: float) -> float | None:
+        """The bed's height z [m] under (x, y) (its cell's), or None off the grid."""
+        g = self.grid
+        i = round((x - g.origin_x) / g.cell)
+        j = round((y - g.origin_y) / g.cell)
+        if not (0 <= i < g.nx and 0 <= j < g.ny):
+            return None
+        return float(g.bed[j, i])
+
     def max_stable_step(self) -> float:
         return self.model.max_stable_step()
 
