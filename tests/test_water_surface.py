@@ -81,10 +81,15 @@ def test_initial_bump_is_a_nested_mapping():
 
 
 def test_initial_trough_shallower_than_the_depth():
-    """A trough reaching the bed leaves no water there: refused, with the depth it was compared with
-    (a bump may be as high as one likes; one whose energy overflows fails at t = 0, tests/stability)."""
+    """A trough reaching the bed leaves no water there: refused, with the depth it was compared with; a
+    bump may be higher than the pond is deep, up to 1 km (one of 1e300 m overflowed the energy's
+    squares and printed numpy's warning before the run failed)."""
     assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": -0.49, "width": 0.02}}) == []
     assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 2.0, "width": 0.02}}) == []
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 1000.0, "width": 0.02}}) == []
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 1e300, "width": 0.02}}) == [
+        "components.pond.initial: a bump must be at most 1000 m high, no pond's waves are higher (got amplitude "
+        "1e+300 m)"]
     assert problems_of({"depth": 0.2, "initial": {"x": 0.0, "y": 0.0, "amplitude": -0.2, "width": 0.02}}) == [
         "components.pond.initial: a trough must be shallower than the depth 0.2 m: one reaching the bed leaves "
         "no water (got amplitude -0.2 m)"]

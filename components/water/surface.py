@@ -77,6 +77,7 @@ from cosim.timebase import NS_PER_S
 KERNELS: dict[str, Any] = {"numba": kernels_numba.SERIAL, "numpy": kernels_numpy}
 """Kernel sets by name: the compiled one and the pure-numpy reference."""
 
+MAX_BUMP = 1000.0  # [m] the highest initial bump taken: far above any pond's, far below where squares overflow
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
 FIELD_WINDOW_STEP = 32  # [cells] the field window's corner moves in steps of this many cells
 BLUR_WEIGHT = 0.125  # weight of each neighbour difference in one displacement blur pass (<= 1/8: monotone)
@@ -166,6 +167,9 @@ class WaterParams:
         if self.initial is not None and not self.initial.amplitude > -self.depth:
             problems.append(("initial", f"a trough must be shallower than the depth {self.depth:g} m: one reaching "
                                         f"the bed leaves no water (got amplitude {self.initial.amplitude:g} m)"))
+        elif self.initial is not None and not self.initial.amplitude <= MAX_BUMP:
+            problems.append(("initial", f"a bump must be at most {MAX_BUMP:g} m high, no pond's waves are higher "
+                                        f"(got amplitude {self.initial.amplitude:g} m)"))
         if self.field_window is not None and min(self.field_window) <= 0:
             problems.append(("field_window", f"must be two sizes > 0 [m] (got {list(self.field_window)})"))
         if self.model == "airy" and tuple(self.bottom_slope) != (0.0, 0.0):
