@@ -44,7 +44,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def number_arg(kind: type[int] | type[float], what: str, *, above: float | None = None,
-               at_least: float | None = None, unit: str = "") -> Callable[[str], Any]:
+               at_least: float | None = None, at_most: float | None = None, unit: str = "") -> Callable[[str], Any]:
     """An argparse type reading ``kind`` with an optional bound, for every subcommand's options;
     a bad value is a one-line error naming what was expected and what was given."""
     def parse(text: str) -> Any:
@@ -58,6 +58,8 @@ def number_arg(kind: type[int] | type[float], what: str, *, above: float | None 
             raise argparse.ArgumentTypeError(f"must be > {above:g}{unit}, got {text}")
         if at_least is not None and not value >= at_least:
             raise argparse.ArgumentTypeError(f"must be >= {at_least:g}{unit}, got {text}")
+        if at_most is not None and not value <= at_most:
+            raise argparse.ArgumentTypeError(f"must be <= {at_most:g}{unit}, got {text}")
         return value
     return parse
 

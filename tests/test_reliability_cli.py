@@ -287,3 +287,27 @@ def test_an_example_component_without_its_input_is_refused_before_the_run(tmp_pa
         assert "components.ping: required input 'inp' (Number) is not connected" in one_error_line(
             capsys.readouterr().err)
     assert not (tmp_path / "r.mcap").exists()
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["plot", "--dpi", "100000"], "argument --dpi: must be <= 1200, got 100000"),
+    (["render", "--width", "100000"], "argument --width: must be <= 7680 px, got 100000"),
+    (["render", "--fps", "1e6"], "argument --fps: must be <= 240, got 1e6"),
+    (["render", "--speed", "1e-9"], "frames (0.1 s of the run at --speed 1e-09 and --fps 30), more than 100000"),
+])
+def test_pictures_too_large_to_make_are_bad_input(tmp_path, capsys, argv, said):
+    """A resolution, width, frame rate or slow motion that would not fit in memory: exit 2 and one
+    line naming the option and its bound (before: 'out of memory', exit 1, after minutes of work)."""
+    from tests.viewer_toys import record_skip
+
+    recording = tmp_path / "skip.mcap"
+    record_skip(recording, ["until=0.1", "record.visual_rate=0"])
+    out = tmp_path / ("figs" if argv[0] == "plot" else "skip.gif")
+    command = [argv[0], str(recording), "-o", str(out), *argv[1:]] + (["-q"] if argv[0] == "render" else [])
+    try:
+        code = main(command)
+    except SystemExit as exit_:
+        code = exit_.code
+    assert code == 2
+    assert said in one_error_line(capsys.readouterr().err)
+    assert not out.exists()

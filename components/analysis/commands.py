@@ -10,7 +10,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from cosim.cli import positive_int, positive_number, seconds
+from cosim.cli import number_arg, positive_number, seconds
+
+# the pictures' sizes, bounded where a figure or a video would no longer fit in memory
+DPI = number_arg(int, "a resolution in dots per inch", at_least=10, at_most=1200)
+WIDTH = number_arg(int, "a width in pixels", at_least=16, at_most=7680, unit=" px")
+FPS = number_arg(float, "frames per second", above=0, at_most=240)
 
 EXIT_OK, EXIT_BAD_INPUT = 0, 2
 
@@ -23,7 +28,7 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", metavar="DIR",
                    help="folder for the PNGs (default: RUN-plots/ beside the recording)")
     p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
-    p.add_argument("--dpi", type=positive_int, default=120, help="resolution of the PNGs (default 120)")
+    p.add_argument("--dpi", type=DPI, default=120, help="resolution of the PNGs (default 120, at most 1200)")
     p.set_defaults(func=cmd_plot)
 
 
@@ -51,8 +56,8 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="skip.gif, skip.mp4 (needs ffmpeg or the [video] extra) or frame.png (one frame)")
-    p.add_argument("--fps", type=positive_number, default=30.0, help="frames per second (default 30)")
-    p.add_argument("--width", type=positive_int, default=800, help="width in pixels (default 800)")
+    p.add_argument("--fps", type=FPS, default=30.0, help="frames per second (default 30, at most 240)")
+    p.add_argument("--width", type=WIDTH, default=800, help="width in pixels (default 800, 16 to 7680)")
     p.add_argument("--speed", type=positive_number, default=1.0,
                    help="simulated seconds per second of video (default 1; 0.25 is a slow motion)")
     p.add_argument("--view", choices=("follow", "fixed"), default="follow",

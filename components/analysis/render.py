@@ -621,10 +621,17 @@ def _writer(path: Path, fps: float, size: tuple[int, int]) -> _Writer:
 
 # --- the command ----------------------------------------------------------------------------------
 
+MAX_FRAMES = 100_000  # an hour of video at 30 frames a second is more than any run needs
+
+
 def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
-    """Frame times [s] from t0 to t1 (inclusive when on the grid), ``speed / fps`` apart."""
+    """Frame times [s] from t0 to t1 (inclusive when on the grid), ``speed / fps`` apart; a
+    :class:`RenderError` when they would be more than :data:`MAX_FRAMES`."""
     step = speed / fps
     n = math.floor((t1 - t0) / step + 1e-9) + 1
+    if n > MAX_FRAMES:
+        raise RenderError(f"{n:.3g} frames ({t1 - t0:g} s of the run at --speed {speed:g} and --fps {fps:g}), more "
+                          f"than {MAX_FRAMES}: raise --speed, lower --fps or shorten --from/--to")
     return t0 + step * np.arange(max(n, 1))
 
 
