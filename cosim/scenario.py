@@ -444,7 +444,20 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
     return Connection(src, sport, dst, dport, delay, initial)
 
 
-def _check_inputs(components: dict[str, type[Component]], edges: list[Connection], problems: list[str]) -> None:
+def _written_target(item: Any) -> tuple[str, str] | None:
+    """The (component, port) a connection as written feeds, whether or not it is a valid one."""
+    if isinstance(item, str):
+        match = EDGE_RE.match(item)
+        return (match.group(3), match.group(4)) if match else None
+    value = item.get("to") if isinstance(item, dict) else None
+    match = re.match(r"^\s*(\w+)\.(\w+)\s*$", value) if isinstance(value, str) else None
+    return (match.group(1), match.group(2)) if match else None
+
+
+def _check_inputs(components: dict[str, type[Component]], edges: list[Connection], problems: list[str],
+                  written: set[tuple[str, str]] = frozenset()) -> None:  # type: ignore[assignment]
+    """Inputs fed several times that do not add up, and required inputs left unconnected (those in
+    ``written``, fed by a connection the scene writes but that was refused, are not said again)."""
     fed: dict[tuple[str, str], list[Connection]] = {}
     for edge in edges:
         fed.setdefault((edge.target, edge.target_port), []).append(edge)
@@ -455,7 +468,7 @@ def _check_inputs(components: dict[str, type[Component]], edges: list[Connection
                             f"({'; '.join(map(str, feeding))}) but {port_type.__name__} is not additive")
     for name, cls in components.items():
         for port, spec in cls.inputs.items():
-            if spec.required and (name, port) not in fed:
+            if spec.required and (name, port) not in fed and (name, port) not in written:
                 problems.append(f"components.{name}: required input {port!r} ({spec.type.__name__}) "
                                 "is not connected")
 
@@ -657,7 +670,9 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         edge = _connection(i, item, classes, names, problems, spelled)
         if edge is not None:
             edges.append(edge)
-    _check_inputs(classes, edges, problems)
+    # an input the scene does connect, by a connection refused above, is not also "not connected"
+    written = {end for end in map(_written_target, raw_edges) if end is not None}
+    _check_inputs(classes, edges, problems, written)
 
     record = RecordConfig()
     raw_record = data.get("record", {}) or {}

@@ -196,3 +196,21 @@ def test_a_value_that_is_no_finite_number_is_one_problem_not_also_out_of_bounds(
     with pytest.raises(ScenarioError) as err:
         load("scenarios/skip.yaml", overrides=["components.stone.radius=.nan"])
     assert err.value.problems == ["components.stone.radius: must be finite (got nan)"]
+
+
+@pytest.mark.parametrize(("change", "problem"), [
+    (("ping.out -> pong.inp", "ping.outt -> pong.inp"),
+     "connections[0].from: ping (cosim.examples:Ping) has no output port 'outt' (outputs: out)"),
+    (('ping: {type: "cosim.examples:Ping"}', 'ping: {type: "NoSuchType"}'),
+     "components.ping.type: unknown component type 'NoSuchType'"),
+])
+def test_a_refused_connection_is_not_also_said_to_leave_its_input_unconnected(change, problem):
+    """A connection refused for its source (a misspelled port, an unknown type) is the one problem:
+    the input it feeds is connected in the scene, so 'required input ... is not connected' is not said
+    of it (it was, after every such mistake)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "scenarios" / "ping_pong.yaml").read_text()
+    with pytest.raises(ScenarioError) as info:
+        loads(text.replace(*change))
+    assert len(info.value.problems) == 1 and info.value.problems[0].startswith(problem)
