@@ -258,3 +258,17 @@ def test_each_contact_panel_gives_its_peak_against_the_bounce_level(run):
         assert shown == pytest.approx(skip.peak_g, rel=0.01, abs=0.05)
         levels = [line for line in ax.lines if line.get_label().startswith("4 M g")]
         assert len(levels) == 1 and levels[0].get_ydata()[0] == pytest.approx(4.0 * run.body.mass * 9.81)
+
+
+def test_a_recording_without_contact_channels_says_so_rather_than_that_nothing_touched(tmp_path, capsys):
+    """A run recorded with only the stone's channels (--record '/stone/*') did touch the water: the
+    contacts figure is skipped because the channels are not in the recording, and plot says that
+    (it said 'no contact in this run')."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    out = tmp_path / "part.mcap"
+    assert main(["run", str(scene), "--until", "0.1", "-o", str(out), "--record", "/stone/*", "-q"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(out), "-o", str(tmp_path / "figs")]) == 0
+    said = capsys.readouterr().out
+    assert "skipped contacts.png: the recording holds no contact channel (WaterContact or GroundContact)" in said
+    assert "no contact in this run" not in said

@@ -366,7 +366,10 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
         for name, make in FIGURES.items():
             fig = make(run)
             if fig is None:
-                skipped.append((name, "no contact in this run"))
+                # a run without contacts, or a recording that left their channels out (--record)
+                why = ("no contact in this run" if run.contacts or run.grounds
+                       else "the recording holds no contact channel (WaterContact or GroundContact)")
+                skipped.append((name, why))
                 continue
             path = out_dir / name
             _save(fig, path, dpi)
