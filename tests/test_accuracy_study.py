@@ -148,3 +148,17 @@ def test_a_scene_without_a_stone_is_bad_input(tmp_path, capsys):
     assert code == 2
     assert "no RigidBody" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("where", ["a_file", "a_file/inside"])
+def test_an_output_that_cannot_be_a_folder_is_bad_input_before_any_run(tmp_path, capsys, monkeypatch, where):
+    """-o naming a file, or a folder under one: exit 2 and one line at once, no run made (it ran
+    every variant and then failed writing the figure)."""
+    import components.analysis.accuracy as accuracy
+
+    (tmp_path / "a_file").write_text("x")
+    monkeypatch.setattr(accuracy, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    scene = str(Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml")
+    assert main(["bench", "accuracy", scene, "--quick", "-o", str(tmp_path / where)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {tmp_path / where}: ") and ("not a folder" in err or "is a file" in err)

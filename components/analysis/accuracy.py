@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import shlex
 import sys
 import time
@@ -590,10 +591,33 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_accuracy)
 
 
+def output_folder_problem(out_dir: Path) -> str | None:
+    """Why the study could not write into ``out_dir`` (its figure and page), or None: the folder, or
+    the nearest of its parents that exists, must be a folder this process may write in."""
+    here = out_dir
+    while not here.exists():
+        if here.parent == here:
+            return None
+        here = here.parent
+    if not here.is_dir():
+        return ("not a folder; cosim bench accuracy writes a folder (-o DIR)" if here == out_dir
+                else f"cannot be made: {here} is a file, not a folder")
+    if not os.access(here, os.W_OK | os.X_OK):
+        return f"cannot be written: no permission to write in {here}"
+    page = out_dir / "accuracy.md"
+    if page.exists() and not page.is_file():
+        return f"{page} is not a file"
+    return None
+
+
 def cmd_accuracy(args: argparse.Namespace) -> int:
     from cosim.errors import ScenarioError
 
     repeats = args.repeats or (1 if args.quick else 2)
+    problem = output_folder_problem(Path(args.output))
+    if problem is not None:  # said before the study's minutes of runs, not after them
+        print(f"error: {args.output}: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     started = time.perf_counter()
     try:
         study = run_study(args.scene, quick=args.quick, repeats=repeats, until=args.until,
