@@ -176,6 +176,8 @@ def _array(values: Vec | quat.Quat) -> np.ndarray:
 class RigidBody(Component):
     """A thin disk or a sphere: Newton-Euler dynamics with gravity, held wrenches and impulses."""
 
+    start_only_params = frozenset({"position", "velocity", "angular_velocity"})
+
     Params = RigidBodyParams
     inputs = {
         "wrench": Port(Wrench, "external force and torque about the centre of mass, held over the step"),

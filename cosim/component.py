@@ -66,6 +66,9 @@ class Component:
     Params: ClassVar[type] = NoParams
     inputs: ClassVar[dict[str, Port]] = {}
     outputs: ClassVar[dict[str, Port]] = {}
+    # parameters that only set the state at t = 0 (a body's position): a run restarted from a
+    # checkpoint takes that state from the checkpoint, so an override of one there would do nothing
+    start_only_params: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, name: str, params: Any = None):
         self.name = name

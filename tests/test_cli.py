@@ -104,3 +104,22 @@ def test_unwritable_output_is_bad_input(scene, tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.startswith(f"error: {blocker / 'sub' / 'x.mcap'}: cannot create its folder")
     assert "Traceback" not in proc.stderr
+
+
+def test_a_restart_refuses_an_override_of_what_the_checkpoint_holds(tmp_path, capsys):
+    """`replay --from T --set components.stone.position=...`: the restart takes the stone's state
+    from the checkpoint, so the override would do nothing (and was listed as applied): exit 2 and one
+    line saying so, no recording; an override the restart does use (dt) still runs."""
+    skip = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    recording = tmp_path / "skip.mcap"
+    assert main(["run", str(skip), "--until", "0.1", "--set", "record.checkpoint_every=0.05", "--set",
+                 "record.visual_rate=0", "-o", str(recording), "-q"]) == 0
+    capsys.readouterr()
+    out = tmp_path / "again.mcap"
+    assert main(["replay", str(recording), "--from", "0.05", "--set", "components.stone.position=[1, 1, 1]",
+                 "-o", str(out), "-q"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "error: --set components.stone.position: sets stone's state at t = 0, which a restart takes from the "
+        "checkpoint at 0.05 s instead; to change it, run the scene from the start (cosim run)")
+    assert not out.exists()
+    assert main(["replay", str(recording), "--from", "0.05", "--set", "dt=0.00025", "-o", str(out), "-q"]) == 0

@@ -190,6 +190,8 @@ class WaterParams:
 class WaterSurface(Component):
     """Height-field water: columns of height and vertical velocity, waves, displacement by bodies."""
 
+    start_only_params = frozenset({"initial"})
+
     Params = WaterParams
     inputs = {
         "occupied": Port(OccupiedHeight, doc="absolute occupied height b of bodies over a window"),
