@@ -40,7 +40,7 @@ def test_sweep_runs_reports_and_resumes(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "results" / "balls.meta.json").exists()
     assert main(["sweep", str(path), "-q", "--workers", "2"]) == 0
     captured = capsys.readouterr()
-    assert "resuming results/balls.csv: points already there are skipped" in captured.err
+    assert "resuming results/balls.csv: its 6 points are skipped" in captured.err
     assert "ran 0, 6 already in the table" in captured.out
     assert main(["sweep", str(path), "-q", "--workers", "2", "--fresh", "--no-figure"]) == 0
     assert "ran 6, 0 already" in capsys.readouterr().out
@@ -92,7 +92,23 @@ def test_table_of_another_sweep_exits_2(tmp_path, capsys):
     assert main(["sweep", str(write_sweep(tmp_path, SWEEP)), "-q", "-o", out, "--workers", "1"]) == 0
     other = write_sweep(tmp_path, SWEEP + "until: 1.0\n", name="other.yaml")
     assert main(["sweep", str(other), "-q", "-o", out]) == 2
-    assert "t.csv: holds the results of a different sweep" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "t.csv: holds the results of a different sweep" in err
+    assert "resuming" not in err  # it is not resumed: said only of a table found to be this sweep's
+
+
+@pytest.mark.parametrize(("output", "said"), [
+    ("x.txt", "error: cosim sweep: -o x.txt: must name a .csv or .parquet file"),
+    ("folder.csv", "folder.csv: is a folder, not a results table: give -o a .csv or .parquet file name"),
+])
+def test_an_output_that_is_no_table_file_is_named_as_given(tmp_path, monkeypatch, capsys, output, said):
+    """-o naming no table (another suffix, an existing folder): one line about -o, exit 2; not blamed
+    on the sweep file with a PosixPath(...) in it, nor called a table whose metadata is missing."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "folder.csv").mkdir()
+    assert main(["sweep", str(write_sweep(tmp_path, SWEEP)), "-q", "-o", output]) == 2
+    err = capsys.readouterr().err.strip()
+    assert said in err and "PosixPath" not in err and "meta.json" not in err and "resuming" not in err
 
 
 def test_dask_problems_exit_2(tmp_path, monkeypatch, capsys):

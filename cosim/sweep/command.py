@@ -25,6 +25,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from cosim.sweep.run import run_sweep
     from cosim.sweep.table import journal_path
 
+    if args.output is not None and args.output.suffix not in (".csv", ".parquet"):
+        print(f"error: cosim sweep: -o {args.output}: must name a .csv or .parquet file", file=sys.stderr)
+        return EXIT_BAD_INPUT
     try:
         sweep = load_sweep(args.sweep, overrides=args.set or [], output=args.output)
         if args.record:
@@ -51,11 +54,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 print(f"warning: Dask worker {line}; results may differ from a local run", file=sys.stderr)
         command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else f"cosim sweep {args.sweep}"
         table = journal_path(sweep.output)
-        if table.exists() and not args.fresh:
-            print(f"resuming {table}: points already there are skipped (--fresh starts over)",
-                  file=sys.stderr)
+        resumed = table.exists() and not args.fresh
+
+        def resuming(already: int) -> None:  # said once the table is found to be this sweep's
+            print(f"resuming {table}: its {already} points are skipped (--fresh starts over)", file=sys.stderr)
+
         outcome = run_sweep(sweep, backend=backend, fresh=args.fresh, progress=not args.quiet,
-                            figure=not args.no_figure, command_line=command)
+                            figure=not args.no_figure, command_line=command,
+                            on_resume=resuming if resumed else None)
     except ScenarioError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -15,7 +15,7 @@ import signal
 import sys
 import time
 from collections import Counter, deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -97,12 +97,14 @@ def _failed_row(point: Point, reason: str, error_type: str) -> dict[str, Any]:
 
 def run_sweep(sweep: Sweep, output: str | Path | None = None,
               backend: ProcessBackend | DaskBackend | None = None, *, fresh: bool = False,
-              progress: bool = True, figure: bool = True, command_line: str = "") -> SweepOutcome:
+              progress: bool = True, figure: bool = True, command_line: str = "",
+              on_resume: Callable[[int], None] | None = None) -> SweepOutcome:
     """Run every point of ``sweep`` not yet in the table at ``output`` (default: the sweep's).
 
     ``backend``: a process pool of all cores unless given; a backend passed in is started if needed
     and left open (a caller may run several sweeps on it). ``fresh``: discard an existing table
     instead of resuming it. Raises ScenarioError if the existing table belongs to another sweep.
+    ``on_resume(rows)``: called once the existing table is open as this sweep's, with its rows.
     """
     output = Path(output) if output is not None else sweep.output
     own = backend is None
@@ -115,6 +117,8 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         "fixed_overrides": sweep.fixed, "versions": versions()}
     table = ResultTable(output, sweep.columns, meta)
     done = table.open(set(order), fresh=fresh)
+    if on_resume is not None:
+        on_resume(len(done))
     outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done))
     outcome.counts.update(row["status"] for row in done.values())
     todo = deque(p for p in sweep.points if p.point_id not in done)

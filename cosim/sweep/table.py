@@ -119,6 +119,8 @@ class ResultTable:
 
     def _read_existing(self, known_ids: set[str]) -> dict[str, dict[str, str]]:
         where = str(self.path)
+        if self.path.is_dir():
+            raise ScenarioError("is a folder, not a results table: give -o a .csv or .parquet file name", where)
         try:
             meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
         except (OSError, ValueError):
