@@ -133,8 +133,11 @@ def _default_output(scene_path: str, name: str, overrides: list[str]) -> Path:
 
 def _record_overrides(args: argparse.Namespace) -> list[str]:
     sets = list(args.set or [])
-    if getattr(args, "record", None):
+    if getattr(args, "record", None) is not None:
         patterns = [p.strip() for p in args.record.split(",") if p.strip()]
+        if not patterns:  # ',,' or '': no channel named, which would record none without a word
+            raise ScenarioError([f"--record {args.record!r}: names no channel (give comma-separated "
+                                 "globs such as '/stone/*,/coupler/*')"], "cosim")
         sets.append(f"record.channels=[{', '.join(repr(p) for p in patterns)}]")
     if getattr(args, "record_every", None):
         sets.append(f"record.every={args.record_every}")
@@ -159,7 +162,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     from cosim.runner import format_summary, run_scene
     from cosim.scenario import load
 
+    if args.no_record and args.output:
+        raise ScenarioError([f"--no-record and -o {args.output}: a run either records into a file or does not; "
+                             "give one of them"], "cosim run")
     scene = load(args.scene, overrides=_record_overrides(args))
+    if args.until is not None and args.until < scene.dt_ns:
+        raise ScenarioError([f"--until {args.until / NS_PER_S:g} s: a run is at least one step long "
+                             f"(dt = {scene.dt_ns / NS_PER_S:g} s)"], "cosim run")
     output = None if args.no_record else (Path(args.output) if args.output else
                                           _default_output(args.scene, scene.name, list(args.set or [])))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"

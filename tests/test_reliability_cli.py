@@ -311,3 +311,29 @@ def test_pictures_too_large_to_make_are_bad_input(tmp_path, capsys, argv, said):
     assert code == 2
     assert said in one_error_line(capsys.readouterr().err)
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--record", ",,"], "error: cosim: --record ',,': names no channel"),
+    (["--no-record", "-o", "f.mcap"], "error: cosim run: --no-record and -o f.mcap: a run either records"),
+    (["--until", "1e-12"], "error: cosim run: --until 0 s: a run is at least one step long (dt = 0.001 s)"),
+    (["--until", "0"], "error: cosim run: --until 0 s: a run is at least one step long (dt = 0.001 s)"),
+])
+def test_run_options_that_would_do_nothing_are_bad_input(scene, tmp_path, capsys, monkeypatch, argv, said):
+    """Options that silently did nothing (recorded no channel, ignored -o, ran 0 s): exit 2, one line."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(scene), "-q", *argv]) == 2
+    assert one_error_line(capsys.readouterr().err).startswith(said)
+    assert not list(tmp_path.glob("**/*.mcap"))
+
+
+def test_render_into_a_folder_says_it_is_a_folder(tmp_path, capsys):
+    """render -o naming an existing folder: exit 2 and 'is a folder' (it said "unknown format '(none)'")."""
+    from tests.viewer_toys import record_skip
+
+    recording = tmp_path / "skip.mcap"
+    record_skip(recording, ["until=0.05", "record.visual_rate=0"])
+    (tmp_path / "outs").mkdir()
+    assert main(["render", str(recording), "-o", str(tmp_path / "outs"), "-q"]) == 2
+    assert one_error_line(capsys.readouterr().err).startswith(f"error: {tmp_path / 'outs'}: is a folder; render "
+                                                              "writes one file")

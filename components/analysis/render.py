@@ -655,6 +655,9 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     """Render a recording to ``output`` (.gif, .mp4 or .png); see the module docstring."""
     options = options or RenderOptions()
     output = Path(output)
+    if output.is_dir():
+        raise RenderError(f"{output}: is a folder; render writes one file: give -o a name ending "
+                          f"{', '.join(FORMATS)}")
     if output.suffix.lower() not in FORMATS:
         raise RenderError(f"{output}: unknown format {output.suffix or '(none)'!r} (choose one of "
                           f"{', '.join(FORMATS)})")
