@@ -136,7 +136,7 @@ def test_the_writer_killed_mid_run_leaves_everything_recorded_up_to_the_failure(
     assert status.reason.endswith("the recording holds all the run had recorded")
     end = f"t = {rec.end_ns / 1e9:g} s"
     assert line == (f"{out}: the recording writer was killed (SIGKILL); the recording was salvaged up to {end}, "
-                    f"all the run had recorded ({sum(c.count for c in rec.channels.values()) - 1} messages), "
+                    f"all the run had recorded (its {sum(c.count for c in rec.channels.values()) - 1} messages), "
                     f"into {out}")
     status_ns = status.tick * 1_000_000
     assert rec.end_ns - status_ns <= 1_000_000  # the step in progress at the failure, at most

@@ -771,8 +771,9 @@ class ProcessSink(_Sink):
             raise
         self.claim.release(remove=False)
         dropped = f"; its last {kept.chunks_dropped} chunks gave way to its end" if kept.chunks_dropped else ""
+        # the run's own messages: the file holds its status record (and viewer items) beside them
         return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {kept.end_ns / 1e9:g} s "
-                f"({kept.messages} messages{dropped}), and what the run recorded after that was lost")
+                f"(the run's first {kept.messages} messages{dropped}), and what the run recorded after that was lost")
 
     def _salvage(self, fate: str) -> str:
         """Rebuild the recording from what the writer that died left (:mod:`cosim.record.salvage`) in a
@@ -806,11 +807,12 @@ class ProcessSink(_Sink):
         new.release(remove=False)
         old.release(remove=True)
         end = f"t = {kept.end_ns / 1e9:g} s"
+        # the run's own messages: the file holds its status record and the viewer items made from them too
         if kept.complete:
             return (f"{path}: {fate}; the recording was salvaged up to {end}, all the run had recorded "
-                    f"({kept.messages} messages), into {path}")
-        return (f"{path}: {fate}; the recording was salvaged up to {end} ({kept.messages} messages) into "
-                f"{path}; what the run recorded after that was lost")
+                    f"(its {kept.messages} messages), into {path}")
+        return (f"{path}: {fate}; the recording was salvaged up to {end} (the run's first {kept.messages} "
+                f"messages) into {path}; what the run recorded after that was lost")
 
     def _end_with(self, out: _Apply, written: set[int], time_ns: int, msg: Any) -> None:
         """Write ``msg`` (a DerivedMessage: topic, schema and data) at ``time_ns`` unless its channel
