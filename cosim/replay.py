@@ -129,6 +129,12 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         for conn in scene.connections:
             if conn.target != name or conn.target_port != port:
                 continue
+            topic = topic_of(conn.source, conn.source_port)
+            if spec.required and topic not in rec.channels:
+                # the scene attached to the recording is not the one that made its channels
+                raise RecordingError(f"{rec.path}: cannot replay {name!r}: its input {port!r} comes from {topic}, "
+                                     "a channel the recording does not hold (its scene does not match its "
+                                     f"channels: {', '.join(sorted(rec.channels)[:6])}...)")
             source_cfg = scene.components[conn.source]
             src = _RecordedSource(channel(conn.source, conn.source_port, spec.type), source_cfg.every, dt_ns,
                                   position[conn.source] < position[name])

@@ -189,3 +189,20 @@ def test_a_recording_whose_step_in_its_metadata_is_no_step_is_refused_in_one_lin
         assert main([command, str(bad)]) == 2
         line = one_error_line(capsys.readouterr().err)
         assert f"dt_ns is {value!r}, not a whole number of nanoseconds > 0" in line and str(bad) in line
+
+
+def test_a_recording_whose_scene_does_not_match_its_channels_is_named(tmp_path, monkeypatch):
+    """The scene attached to a recording names a source the recording holds no channel of (a file
+    rewritten with another scene): replay says so, naming the input and the channel (it stopped on
+    an AttributeError of the component fed None)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "scenarios" / "ping_pong.yaml").read_text()
+    path = tmp_path / "pp.mcap"
+    run_scene(loads(text, overrides=["until=0.01"]), path, progress=False)
+    recording = Recording(path)
+    other = loads(text.replace("pong", "echo"), overrides=["until=0.01"])
+    monkeypatch.setattr(recording, "scene", lambda overrides=None: other)
+    with pytest.raises(RecordingError, match=r"cannot replay 'ping': its input 'inp' comes from /echo/out, a "
+                                             r"channel the recording does not hold \(its scene does not match"):
+        replay_component(recording, "ping")
