@@ -388,9 +388,9 @@ def report(exc: BaseException, command: str) -> int:
     if isinstance(exc, RecordingError):
         print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    if isinstance(exc, CosimError):
+    if isinstance(exc, CosimError):  # a failure, unless the error says it is the input's (exit_code)
         print(f"error: {_one_line(str(exc))}", file=sys.stderr)
-        return EXIT_FAILED
+        return getattr(exc, "exit_code", EXIT_FAILED)
     if isinstance(exc, KeyboardInterrupt):
         how = "SIGTERM" if exc.args == ("SIGTERM",) else "Ctrl-C"
         print(f"error: {what}: interrupted ({how})", file=sys.stderr)

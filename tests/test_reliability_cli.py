@@ -337,3 +337,20 @@ def test_render_into_a_folder_says_it_is_a_folder(tmp_path, capsys):
     assert main(["render", str(recording), "-o", str(tmp_path / "outs"), "-q"]) == 2
     assert one_error_line(capsys.readouterr().err).startswith(f"error: {tmp_path / 'outs'}: is a folder; render "
                                                               "writes one file")
+
+
+def test_a_live_port_in_use_is_bad_input_and_leaves_no_recording(scene, tmp_path, capsys):
+    """--live on a port another server holds: exit 2 (the --live given cannot be used; it was 1), one
+    line with the system's reason, and no recording begun."""
+    import socket
+
+    pytest.importorskip("foxglove")
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        port = held.getsockname()[1]
+        out = tmp_path / "x.mcap"
+        assert main(["run", str(scene), "--live", f"127.0.0.1:{port}", "-o", str(out), "-q"]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line.startswith(f"error: --live 127.0.0.1:{port}: cannot start the WebSocket server (")
+    assert not list(tmp_path.glob("x.mcap*"))

@@ -39,7 +39,10 @@ LINGER_TICK_S = 0.25  # [s of wall time] between checks (and clock broadcasts) w
 
 
 class LiveViewError(CosimError):
-    """The live view cannot start (package missing, bad address, port in use)."""
+    """The live view cannot start (package missing, bad address, port in use): the --live given
+    cannot be used, so bad input (exit 2)."""
+
+    exit_code = 2
 
 
 def parse_address(address: str) -> tuple[str, int]:
