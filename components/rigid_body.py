@@ -176,7 +176,12 @@ def _array(values: Vec | quat.Quat) -> np.ndarray:
 class RigidBody(Component):
     """A thin disk or a sphere: Newton-Euler dynamics with gravity, held wrenches and impulses."""
 
-    start_only_params = frozenset({"position", "velocity", "angular_velocity"})
+    @property
+    def start_only_params(self) -> frozenset[str]:  # type: ignore[override]
+        """The body's state at t = 0: where it is, how it moves, its attitude and, unless a scripted
+        tilt keeps using it, its spin."""
+        scripted = bool(self.params.scripted_tilt_deg)
+        return frozenset({"position", "velocity", "angular_velocity", "tilt_deg", *(() if scripted else ("spin",))})
 
     Params = RigidBodyParams
     inputs = {

@@ -81,6 +81,15 @@ def _seconds_arg(text: str) -> int:
     return round(seconds * NS_PER_S)
 
 
+def _run_until(text: str) -> int:
+    """``cosim run --until``: as :func:`_seconds_arg`, and later than t = 0 (a run of no time would
+    do nothing; a time shorter than a step runs one step, as a scene's ``until`` does)."""
+    ns = _seconds_arg(text)
+    if ns <= 0:
+        raise argparse.ArgumentTypeError(f"must be later than 0 s (a run of no time), got {text}")
+    return ns
+
+
 def _live_address(text: str) -> str:
     """``--live [HOST:]PORT`` (or ``HOST``), checked before anything runs: a port outside 0..65535
     is bad input."""
@@ -166,9 +175,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise ScenarioError([f"--no-record and -o {args.output}: a run either records into a file or does not; "
                              "give one of them"], "cosim run")
     scene = load(args.scene, overrides=_record_overrides(args))
-    if args.until is not None and args.until < scene.dt_ns:
-        raise ScenarioError([f"--until {args.until / NS_PER_S:g} s: a run is at least one step long "
-                             f"(dt = {scene.dt_ns / NS_PER_S:g} s)"], "cosim run")
     output = None if args.no_record else (Path(args.output) if args.output else
                                           _default_output(args.scene, scene.name, list(args.set or [])))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
@@ -276,7 +282,7 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     scene_args(p)
     p.add_argument("-o", "--output", type=_output_path,
                    help="MCAP file to write (default runs/<scene>.mcap; with --set, runs/<scene>-set-<hash>.mcap)")
-    p.add_argument("--until", type=_seconds_arg, metavar="T", help="end time [s] (default: the scene's)")
+    p.add_argument("--until", type=_run_until, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
     p.add_argument("--record-every", type=positive_int, metavar="N", help="record every N-th message of each channel")
@@ -424,7 +430,9 @@ class _CtrlC:
     the interpreter runs itself (importlib's module locks are freed by one while a module loads),
     where it is printed as "Exception ignored" with a traceback and dropped. Such a drop is not
     printed here (the interrupt is remembered), and :func:`_run_begins` turns a remembered one into
-    the interruption before a run starts."""
+    the interruption before a run starts; a SIGTERM dropped so still ends the command when it
+    returns (:func:`_main`), and a second SIGTERM ends the process at once, as it always did. A
+    SIGTERM that the process was started ignoring stays ignored."""
 
     active: _CtrlC | None = None  # the one watching this command
 
@@ -438,6 +446,8 @@ class _CtrlC:
     def _handler(self, signum: int, frame: Any) -> None:
         self.seen = True
         self.signum = signum
+        if signum == signal.SIGTERM:  # the next one is not caught: it ends the process, whatever runs
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
         raise self.interruption()
 
     def interruption(self) -> KeyboardInterrupt:
@@ -455,7 +465,11 @@ class _CtrlC:
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
             return self
-        self._old_term = signal.signal(signal.SIGTERM, self._handler)
+        self._old_term = signal.getsignal(signal.SIGTERM)
+        if self._old_term in (signal.SIG_DFL, signal.default_int_handler) or callable(self._old_term):
+            signal.signal(signal.SIGTERM, self._handler)  # not one ignored, or set outside Python
+        else:
+            self._old_term = None
         self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         _CtrlC.active = self
         return self
@@ -463,7 +477,8 @@ class _CtrlC:
     def __exit__(self, *exc: object) -> None:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
-            signal.signal(signal.SIGTERM, self._old_term)
+            if self._old_term is not None:
+                signal.signal(signal.SIGTERM, self._old_term)
             sys.unraisablehook = self._old_hook
             _CtrlC.active = None
 
@@ -573,7 +588,10 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
         _prestart_writer(command, argv)
         parser = build_parser(command)
         args = parser.parse_args(argv)
-        return args.func(args)
+        code = args.func(args)
+        if ctrl_c.seen and ctrl_c.signum == signal.SIGTERM:  # one Python dropped (see _CtrlC): still the end
+            return report(ctrl_c.interruption(), command)
+        return code
     except SystemExit:  # argparse: --help, --version, bad arguments (already said, exit 2)
         raise
     except BrokenPipeError:  # the reader of our output has gone (| head): nothing left to say

@@ -131,10 +131,11 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
                 continue
             topic = topic_of(conn.source, conn.source_port)
             if spec.required and topic not in rec.channels:
-                # the scene attached to the recording is not the one that made its channels
+                held = sorted(rec.channels)
+                shown = ", ".join(held[:6]) + (", ..." if len(held) > 6 else "")
                 raise RecordingError(f"{rec.path}: cannot replay {name!r}: its input {port!r} comes from {topic}, "
-                                     "a channel the recording does not hold (its scene does not match its "
-                                     f"channels: {', '.join(sorted(rec.channels)[:6])}...)")
+                                     "which the recording holds no message of (the run ended before its first, "
+                                     f"or the attached scene is not the one that made the channels: {shown})")
             source_cfg = scene.components[conn.source]
             src = _RecordedSource(channel(conn.source, conn.source_port, spec.type), source_cfg.every, dt_ns,
                                   position[conn.source] < position[name])
@@ -223,7 +224,7 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
         path = override.partition("=")[0].strip().split(".")
         if len(path) >= 3 and path[0] == "components" and path[1] in sim.components:
             comp, param = sim.components[path[1]], path[2].partition("[")[0]
-            if param in type(comp).start_only_params:
+            if param in comp.start_only_params:
                 raise RecordingError(f"--set {override.partition('=')[0].strip()}: sets {path[1]}'s state at t = 0, "
                                      f"which a restart takes from the checkpoint at {stamp / NS_PER_S:g} s instead; "
                                      "to change it, run the scene from the start (cosim run)")

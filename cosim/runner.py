@@ -201,12 +201,13 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     """The closing summary printed by ``cosim run``."""
     r = outcome.result
     lines = [f"{scene.name}: {r.status} - {r.reason}"]
-    speed = f"wall {r.wall_s:.3g} s; real-time factor {r.real_time_factor:.3g}"
-    if not (r.simulated_ns > 0 and math.isfinite(r.real_time_factor)):  # nothing simulated, or no time taken
-        speed = f"wall {r.wall_s:.3g} s"
-    elif r.compile_s >= COMPILE_NOTE_S:
+    # no real-time factor of a run that simulated nothing or took no time (beyond compiling)
+    rate = (f"real-time factor {r.real_time_factor:.3g}" if r.simulated_ns > 0 and math.isfinite(r.real_time_factor)
+            else "")
+    speed = f"wall {r.wall_s:.3g} s" + (f"; {rate}" if rate else "")
+    if r.compile_s >= COMPILE_NOTE_S:
         speed = (f"wall {r.wall_s:.3g} s, of which {r.compile_s:.3g} s compiling kernels once (later runs "
-                 f"load them from disk); real-time factor {r.real_time_factor:.3g} (compiling left out)")
+                 "load them from disk)" + (f"; {rate} (compiling left out)" if rate else ""))
     since = f" from t = {r.start_ns / NS_PER_S:g} s" if r.start_ns else ""
     lines.append(f"  simulated {r.simulated_ns / NS_PER_S:.4g} s{since} in {r.steps} steps of {scene.dt * 1e3:g} ms "
                  f"({r.component_steps} component steps); {speed}")

@@ -122,4 +122,7 @@ def test_a_restart_refuses_an_override_of_what_the_checkpoint_holds(tmp_path, ca
         "error: --set components.stone.position: sets stone's state at t = 0, which a restart takes from the "
         "checkpoint at 0.05 s instead; to change it, run the scene from the start (cosim run)")
     assert not out.exists()
+    for start_only in ("components.stone.tilt_deg=45", "components.stone.spin=0"):
+        assert main(["replay", str(recording), "--from", "0.05", "--set", start_only, "-o", str(out), "-q"]) == 2
+        assert f"--set {start_only.partition('=')[0]}: sets stone's state at t = 0" in capsys.readouterr().err
     assert main(["replay", str(recording), "--from", "0.05", "--set", "dt=0.00025", "-o", str(out), "-q"]) == 0

@@ -116,3 +116,12 @@ def test_a_run_that_took_no_time_or_simulated_nothing_prints_no_real_time_factor
         result = RunResult("failed", "x", ticks, ticks * 1_000_000, wall, ticks)
         line = format_summary(scene, RunOutcome(result, None)).splitlines()[1]
         assert "real-time factor" not in line and line.endswith(f"wall {wall:.3g} s")
+
+
+def test_a_run_that_only_compiled_keeps_the_compiling_note():
+    """A run whose wall time went to compiling (none left to simulate in) still says so, without a
+    real-time factor."""
+    scene = loads(SCENE)
+    result = RunResult("ok", "x", 7, 7_000_000, 1.0, 7, compile_s=1.0)
+    line = format_summary(scene, RunOutcome(result, None)).splitlines()[1]
+    assert line.endswith("wall 1 s, of which 1 s compiling kernels once (later runs load them from disk)")

@@ -316,13 +316,17 @@ def test_pictures_too_large_to_make_are_bad_input(tmp_path, capsys, argv, said):
 @pytest.mark.parametrize(("argv", "said"), [
     (["--record", ",,"], "error: cosim: --record ',,': names no channel"),
     (["--no-record", "-o", "f.mcap"], "error: cosim run: --no-record and -o f.mcap: a run either records"),
-    (["--until", "1e-12"], "error: cosim run: --until 0 s: a run is at least one step long (dt = 0.001 s)"),
-    (["--until", "0"], "error: cosim run: --until 0 s: a run is at least one step long (dt = 0.001 s)"),
+    (["--until", "1e-12"], "error: cosim run: argument --until: must be later than 0 s (a run of no time), got 1e-12"),
+    (["--until", "0"], "error: cosim run: argument --until: must be later than 0 s (a run of no time), got 0"),
 ])
 def test_run_options_that_would_do_nothing_are_bad_input(scene, tmp_path, capsys, monkeypatch, argv, said):
     """Options that silently did nothing (recorded no channel, ignored -o, ran 0 s): exit 2, one line."""
     monkeypatch.chdir(tmp_path)
-    assert main(["run", str(scene), "-q", *argv]) == 2
+    try:
+        code = main(["run", str(scene), "-q", *argv])
+    except SystemExit as exit_:  # argparse's
+        code = exit_.code
+    assert code == 2
     assert one_error_line(capsys.readouterr().err).startswith(said)
     assert not list(tmp_path.glob("**/*.mcap"))
 
@@ -354,3 +358,24 @@ def test_a_live_port_in_use_is_bad_input_and_leaves_no_recording(scene, tmp_path
     line = one_error_line(capsys.readouterr().err)
     assert line.startswith(f"error: --live 127.0.0.1:{port}: cannot start the WebSocket server (")
     assert not list(tmp_path.glob("x.mcap*"))
+
+
+def test_a_sigterm_that_python_drops_still_ends_the_command(monkeypatch, capsys):
+    """A SIGTERM whose KeyboardInterrupt lands where Python drops it (a __del__, a callback) let the
+    command run on and exit 0: it now ends as interrupted when the command returns, exit 1; and the
+    handler is back to what it was."""
+    import cosim.cli as cli
+
+    def swallowed(args):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)
+        except KeyboardInterrupt:
+            pass  # as Python does with one raised inside a __del__
+        return 0
+
+    before = signal.getsignal(signal.SIGTERM)
+    monkeypatch.setattr(cli, "cmd_validate", swallowed)
+    assert cli.main(["validate", "scene.yaml"]) == 1
+    assert one_error_line(capsys.readouterr().err) == "error: cosim validate: interrupted (SIGTERM)"
+    assert signal.getsignal(signal.SIGTERM) is before

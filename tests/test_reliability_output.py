@@ -278,7 +278,8 @@ def test_sigterm_while_plot_writes_is_one_line_and_leaves_nothing_half_written(t
         raise AssertionError("the signal did not arrive")
 
     monkeypatch.setattr(Figure, "savefig", terminated_midway)
+    before = signal.getsignal(signal.SIGTERM)
     assert main(["plot", str(recording), "-o", str(out)]) == 1
     assert one_error_line(capsys.readouterr().err) == "error: cosim plot: interrupted (SIGTERM)"
     assert not out.exists() or not any(out.iterdir())
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the command's handler is gone with it
+    assert signal.getsignal(signal.SIGTERM) is before  # the command's handler is gone with it

@@ -203,6 +203,7 @@ def test_a_recording_whose_scene_does_not_match_its_channels_is_named(tmp_path, 
     recording = Recording(path)
     other = loads(text.replace("pong", "echo"), overrides=["until=0.01"])
     monkeypatch.setattr(recording, "scene", lambda overrides=None: other)
-    with pytest.raises(RecordingError, match=r"cannot replay 'ping': its input 'inp' comes from /echo/out, a "
-                                             r"channel the recording does not hold \(its scene does not match"):
+    with pytest.raises(RecordingError, match=r"cannot replay 'ping': its input 'inp' comes from /echo/out, which "
+                                             r"the recording holds no message of \(the run ended before its first, "
+                                             r"or the attached scene is not the one that made the channels"):
         replay_component(recording, "ping")

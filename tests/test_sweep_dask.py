@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import time
 
 import pytest
 
@@ -119,9 +120,10 @@ def test_a_local_cluster_starts_while_the_default_dashboard_port_is_taken():
         blocker.close()
 
 
-def _server(answer: bytes | None):
-    """A TCP server on 127.0.0.1 that accepts and then sends ``answer`` (None: says nothing); its
-    address and a function stopping it."""
+def _server(answer: bytes | list[bytes] | None, *, pause_s: float = 0.0):
+    """A TCP server on 127.0.0.1 that accepts and then sends ``answer`` (None: says nothing; a list:
+    its parts, each ``pause_s`` after the one before, the first too); its address and a function
+    stopping it."""
     import socket
     import threading
 
@@ -138,7 +140,12 @@ def _server(answer: bytes | None):
                 return
             held.append(conn)
             if answer is not None:
-                conn.sendall(answer)
+                try:
+                    for part in ([answer] if isinstance(answer, bytes) else answer):
+                        time.sleep(pause_s)
+                        conn.sendall(part)
+                except OSError:  # stopped, or the client left: nothing more to send
+                    return
 
     threading.Thread(target=serve, daemon=True).start()
 
@@ -151,7 +158,7 @@ def _server(answer: bytes | None):
 
 
 @pytest.mark.parametrize(("answer", "said"), [
-    (None, "it accepted the connection but said nothing"),
+    (None, "it accepted the connection but said nothing within 2 s"),
     (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", "answered as a web server ('HTTP/1.1 400 Bad Request')"),
     (b"\xff" * 64, "are not a Dask message"),
 ])
@@ -164,5 +171,21 @@ def test_an_address_that_is_no_dask_scheduler_is_named_so(answer, said):
         with pytest.raises(BackendError, match=re.escape(f"{address} is not a Dask scheduler: ") + ".*"
                            + re.escape(said) + r".*port 8786 by default"):
             DaskBackend(address, timeout_s=2).start()
+    finally:
+        stop()
+
+
+def test_a_scheduler_whose_handshake_comes_in_pieces_and_late_passes_the_probe():
+    """A Dask header split across TCP segments (3 bytes, then the rest), each part 1 s after the one
+    before (within the 3 s timeout), is a scheduler's: the probe does not refuse it (it read once,
+    and waited 5 s at most whatever the timeout)."""
+    import struct
+
+    from cosim.sweep.backends import probe_scheduler
+
+    handshake = struct.pack("<Q", 58) + bytes(58)
+    address, stop = _server([handshake[:3], handshake[3:]], pause_s=1.0)
+    try:
+        probe_scheduler(address, 3.0)
     finally:
         stop()

@@ -51,12 +51,14 @@ def contact_pushes(scene: Scene) -> list[tuple[str, np.ndarray, float]]:
     monitor = sim.components["stages"]
     log: list[tuple[bool, float]] = []
     inner = monitor._step_impl
+    steps: list[float] = []  # the monitor's step [s]
 
     def step(t, dt, inputs):
         outputs = inner(t, dt, inputs)
         water, body = inputs.get("water"), inputs.get("body")
         weight = float(body.mass) * monitor.params.gravity
         log.append((monitor.track.in_contact, _vertical_water_force(water) / weight if water is not None else 0.0))
+        steps.append(dt)
         return outputs
 
     monitor._step_impl = step
@@ -72,7 +74,7 @@ def contact_pushes(scene: Scene) -> list[tuple[str, np.ndarray, float]]:
     if current is not None:
         contacts.append(current)
     sank = monitor.stage is not None and monitor.stage.name == "SINK" and math.isnan(monitor.left_at)
-    dt = sim.dt_ns * 1e-9
+    dt = steps[0] if steps else sim.dt_ns * 1e-9
     out = []
     for k, pushes in enumerate(contacts):
         if k < len(monitor.records):

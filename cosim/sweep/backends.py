@@ -360,13 +360,24 @@ def probe_scheduler(address: str, timeout_s: float) -> None:
             if time.monotonic() + 0.2 > deadline:
                 raise
             time.sleep(0.2)
+    first = b""
     with conn:
-        conn.settimeout(min(timeout_s, 5.0))
-        try:
-            first = conn.recv(64)
-        except TimeoutError:
-            raise BackendError(f"{address} is not a Dask scheduler: it accepted the connection but said "
-                               f"nothing (a scheduler speaks first); {hint}") from None
+        while len(first) < 8:  # its header may come in more than one piece
+            left = deadline - time.monotonic()
+            try:
+                if left <= 0:
+                    raise TimeoutError
+                conn.settimeout(left)
+                got = conn.recv(64)
+            except TimeoutError:
+                raise BackendError(f"{address} is not a Dask scheduler: it accepted the connection but said "
+                                   f"nothing within {timeout_s:g} s (a scheduler speaks first); {hint}") from None
+            if not got:
+                if first:
+                    break
+                raise BackendError(f"{address} is not a Dask scheduler: it closed the connection without a "
+                                   f"word (a scheduler speaks first); {hint}")
+            first += got
     if first.startswith(b"HTTP/"):
         status = first.split(b"\r\n", 1)[0].decode("ascii", "replace")
         raise BackendError(f"{address} is not a Dask scheduler: it answered as a web server ({status!r}); {hint}")
