@@ -208,12 +208,13 @@ def test_cosim_run_live_serves_while_running(tmp_path, capsys):
 
 
 def test_without_the_sdk_live_fails_with_a_hint(tmp_path, capsys, monkeypatch):
-    """Without foxglove-sdk, --live exits 1 naming the extra to install, and writes no recording."""
+    """Without foxglove-sdk, --live exits 2 (a missing extra is bad input, as for plot and render; it
+    was 1) naming what to install, and writes no recording."""
     from cosim.cli import main
 
     monkeypatch.setitem(__import__("sys").modules, "foxglove", None)
     scene = tmp_path / "skip.yaml"
     scene.write_text(SKIP_SCENE)
-    assert main(["run", str(scene), "-o", str(tmp_path / "r.mcap"), "-q", "--live"]) == 1
+    assert main(["run", str(scene), "-o", str(tmp_path / "r.mcap"), "-q", "--live"]) == 2
     assert "pip install foxglove-sdk" in capsys.readouterr().err
     assert list(tmp_path.glob("r.mcap*")) == []
