@@ -84,6 +84,12 @@ def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
     except ImportError as exc:
         raise UnknownComponentType(f"component type {type_name!r}: cannot import {module_name!r} ({exc})") from None
     cls = getattr(module, attr, None)
+    if cls is None:
+        near = sorted(name for name, value in vars(module).items()
+                      if isinstance(value, type) and issubclass(value, Component) and value is not Component)
+        registered = f"; {attr} is a registered type: write type: {attr}" if attr in known_types() else ""
+        raise UnknownComponentType(f"component type {type_name!r}: module {module_name!r} has no {attr!r} "
+                                   f"(its component classes: {', '.join(near) or 'none'}{registered})")
     if not (isinstance(cls, type) and issubclass(cls, Component)):
         raise UnknownComponentType(f"component type {type_name!r}: {target!r} is not a Component class")
     return cls

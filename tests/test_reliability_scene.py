@@ -176,3 +176,15 @@ class FailsAtStart(Source):
 
     def initial_outputs(self):
         raise ValueError("no start")
+
+
+def test_a_class_a_module_does_not_have_is_named_with_the_classes_it_has():
+    """`type: components.rigid_body:Rigidbody` (a typo) or `components:RigidBody` (the class is in a
+    module below): the module has no such name, and the problem lists its component classes (it
+    said only 'is not a Component class')."""
+    msg = problem('dt: 0.001\nuntil: 0.01\ncomponents:\n  s: {type: "components.rigid_body:Rigidbody"}\n')
+    assert ("component type 'components.rigid_body:Rigidbody': module 'components.rigid_body' has no 'Rigidbody' "
+            "(its component classes: RigidBody)") in msg
+    msg = problem('dt: 0.001\nuntil: 0.01\ncomponents:\n  s: {type: "components:RigidBody"}\n')
+    assert ("module 'components' has no 'RigidBody' (its component classes: none; RigidBody is a registered "
+            "type: write type: RigidBody)") in msg
