@@ -28,7 +28,7 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", metavar="DIR",
                    help="folder for the PNGs (default: RUN-plots/ beside the recording)")
     p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
-    p.add_argument("--dpi", type=DPI, default=120, help="resolution of the PNGs (default 120, at most 1200)")
+    p.add_argument("--dpi", type=DPI, default=120, help="resolution of the PNGs (default 120; 10 to 1200)")
     p.set_defaults(func=cmd_plot)
 
 
