@@ -307,7 +307,8 @@ class Simulation:
         wall0 = time.perf_counter()
         steps0 = self.component_steps()
         tick0 = self.tick
-        status, reason, error = "ok", f"reached t = {until_ns / NS_PER_S:g} s", None
+        # the end as run: whole steps, the last one reaching or passing until_ns
+        status, reason, error = "ok", f"reached t = {end_tick * self.dt_ns / NS_PER_S:g} s", None
         with compile_timer() as compiling:
             try:
                 self.initialize()

@@ -280,3 +280,15 @@ connections:
     resumed.restore(cp)
     resumed.run()
     assert resumed.components["acc"].total == full.components["acc"].total
+
+
+def test_a_run_whose_end_is_not_on_a_step_says_where_it_ended():
+    """until 1.5 steps runs two whole steps: the result says t = 2 steps (it said 'reached t =
+    0.0015 s' of a run that simulated 0.002 s)."""
+    from pathlib import Path
+
+    from cosim.scenario import load
+
+    scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "ping_pong.yaml", ["until=0.0015"])
+    result = Simulation(scene).run()
+    assert result.steps == 2 and result.reason == "reached t = 0.002 s"
