@@ -148,7 +148,7 @@ class StageMonitor(Component):
         "water": Port(WaterContact, "the coupler's contact report"),
         "ground": Port(GroundContact, "the ground's contact report"),
     }
-    outputs = {"stage": Port(Stage), "skip": Port(SkipRecord)}
+    outputs = {"stage": Port(Stage, event=True), "skip": Port(SkipRecord, event=True)}
 
     def setup(self) -> None:
         self.stage: StageId | None = None  # the first step always publishes

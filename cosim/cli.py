@@ -285,7 +285,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("--until", type=_run_until, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
-    p.add_argument("--record-every", type=positive_int, metavar="N", help="record every N-th message of each channel")
+    p.add_argument("--record-every", type=positive_int, metavar="N",
+                   help="record every N-th message of each channel (all stage changes and skips)")
     p.add_argument("--perf", action="store_true", help="add wall-clock /perf channels (not deterministic)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,

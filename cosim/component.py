@@ -46,7 +46,9 @@ class Port:
     """A typed port.
 
     ``required``: an input that must be connected. ``event``: an input that receives each published
-    message at most once (impulses, stage changes) instead of holding the latest value.
+    message at most once (impulses, stage changes) instead of holding the latest value; an output
+    that publishes only when something happens (a stage change, a skip), whose every message a
+    recording keeps whatever its ``record.every`` (thinned, it would tell a false history).
     """
 
     type: type[Message]

@@ -86,8 +86,9 @@ class Connection:
 @dataclass
 class RecordConfig:
     """What the recorder writes: channel patterns (fnmatch, None = all), every n-th message of each
-    physics channel, component checkpoints every ``checkpoint_every`` seconds (0 = never), and viewer
-    channels at ``visual_rate`` frames per second (0 = none)."""
+    physics channel (all of an event output's: stage changes, skips), component checkpoints every
+    ``checkpoint_every`` seconds (0 = never), and viewer channels at ``visual_rate`` frames per second
+    (0 = none)."""
 
     channels: list[str] | None = None
     every: int = 1

@@ -257,3 +257,21 @@ def test_the_writer_keeps_off_the_simulations_core_until_the_simulation_waits():
         child.kill()
         child.wait()
     placement.avoid_mine()  # the writer gone: nothing to place, no error
+
+
+def test_thinning_keeps_every_event_so_the_history_stays_true(tmp_path):
+    """--record-every 7 thins the states and forces, not the stage changes and skips (event outputs):
+    the thinned recording holds the same stage and skip messages as the whole one (it kept one stage
+    in seven, and inspect and plot then told a false history)."""
+    from components.messages import SkipRecord, Stage
+    from cosim.cli import main
+    from cosim.record.reader import Recording
+
+    skip = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    whole, thin = tmp_path / "whole.mcap", tmp_path / "thin.mcap"
+    assert main(["run", str(skip), "--until", "0.6", "-o", str(whole), "-q"]) == 0
+    assert main(["run", str(skip), "--until", "0.6", "-o", str(thin), "-q", "--record-every", "7"]) == 0
+    a, b = Recording(whole), Recording(thin)
+    for topic, kind in (("/stages/stage", Stage), ("/stages/skip", SkipRecord)):
+        assert [t for t, _ in a.messages(topic, kind)] == [t for t, _ in b.messages(topic, kind)], topic
+    assert b.channels["/stone/state"].count < a.channels["/stone/state"].count / 6

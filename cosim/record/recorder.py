@@ -193,7 +193,8 @@ class Recorder(BaseObserver):
 
     def _route(self, component: str, port: str, msg: Message) -> list:
         """[channel (None when not recorded), write, count, encode, the derivers watching here, the
-        time the next of them is due [ns]] of an output port. A deriver that the writer can stand in
+        time the next of them is due [ns], the share of its messages kept (1 in ``every``)] of an
+        output port. A deriver that the writer can stand in
         for derives there instead, from this port's recorded messages (:mod:`cosim.record.derive`)."""
         topic = f"/{component}/{port}"
         msg_type = type(msg)
@@ -209,7 +210,11 @@ class Recorder(BaseObserver):
                 self._derive_in_writer(d, channel, component, port, msg_type)
             elif getattr(d, "watches", None) is None or d.watches(component, port, msg_type):
                 watching.append(d)
-        return [channel, codec.write, 0, codec.encode, tuple(watching), 0]
+        cfg = self.scene.components.get(component)
+        spec = cfg.cls.outputs.get(port) if cfg is not None else None
+        # an event output (a stage change, a skip) is kept whole: thinned, it would tell a false history
+        every = 1 if spec is not None and spec.event else self.every
+        return [channel, codec.write, 0, codec.encode, tuple(watching), 0, every]
 
     def _derive_in_writer(self, deriver: Any, channel: int, component: str, port: str, msg_type: type) -> None:
         """Have the writer derive from ``channel``'s messages (those of ``/component/port``) as
@@ -230,7 +235,7 @@ class Recorder(BaseObserver):
         if route[0] is not None:
             n = route[2]
             route[2] = n + 1
-            if n % self.every == 0 and not self.sink.add_message_record(route[1], route[0], time_ns, msg):
+            if n % route[6] == 0 and not self.sink.add_message_record(route[1], route[0], time_ns, msg):
                 # an odd field (a list for an array, another dtype): the exact slow path, here
                 self.sink.add_message(route[0], time_ns, route[3](msg))
         if route[4] and time_ns >= route[5]:  # the viewer channels only at their frames
