@@ -173,3 +173,21 @@ def test_a_scalar_output_is_a_number_port(tmp_path):
     out = comp.step(0, 2_000_000, {"body": None})
     assert out["drag"].value == out["wrench"].force[0]
     assert math.isfinite(out["drag"].value) and np.all(out["wrench"].torque == 0)
+
+
+def test_a_pythonfmu_fmu_missing_its_model_module_is_refused_when_the_scene_loads(tmp_path):
+    """An exported FMU whose model script was taken out of its resources: refused at load naming what
+    is missing (its binary crashed the process, a segmentation fault with no word)."""
+    import zipfile
+
+    whole = build_fmu(GUST_MODEL, tmp_path / "whole.fmu")
+    damaged = tmp_path / "damaged.fmu"
+    with zipfile.ZipFile(whole) as src, zipfile.ZipFile(damaged, "w") as dst:
+        for item in src.infolist():
+            if item.filename != "resources/wind_gust.py":
+                dst.writestr(item, src.read(item.filename))
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene(source=f"path: {damaged}"))
+    with pytest.raises(ScenarioError, match=r"components\.gust: .*its model module 'wind_gust' is missing from its "
+                                            r"resources \(no resources/wind_gust\.py\): the FMU is damaged"):
+        load(path)

@@ -63,6 +63,24 @@ def _hold_pythonfmu_namespace(md: Any, folder: str) -> None:
         _held_namespaces.append(vars(module))
 
 
+def check_pythonfmu_resources(md: Any, folder: str, fmu_file: Path) -> None:
+    """A PythonFMU-made FMU runs the Python module its ``resources/slavemodule.txt`` names: one whose
+    module is missing would crash the process inside the FMU's binary (a segmentation fault, no word),
+    so it is refused here, naming what is missing (ValueError). Any other FMU: nothing to check."""
+    if not str(getattr(md, "generationTool", "") or "").startswith("PythonFMU"):
+        return
+    resources = Path(folder) / "resources"
+    name_file = resources / "slavemodule.txt"
+    module = name_file.read_text(errors="replace").strip() if name_file.is_file() else ""
+    if not module:
+        raise ValueError(f"{fmu_file}: a PythonFMU FMU without resources/slavemodule.txt naming its model "
+                         "module: the FMU is damaged (export it again)")
+    top = module.split(".")[0]
+    if not ((resources / f"{top}.py").is_file() or (resources / top / "__init__.py").is_file()):
+        raise ValueError(f"{fmu_file}: its model module {module!r} is missing from its resources (no "
+                         f"resources/{top}.py): the FMU is damaged (export it again)")
+
+
 def _text(value: Any) -> str:
     return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value or "")
 
@@ -78,6 +96,7 @@ class FmuInstance:
         self.log: list[str] = []
         self.can_save = bool(md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate)
         folder = _unpack(fmu_file)
+        check_pythonfmu_resources(md, folder, fmu_file)
         common = {"guid": md.guid, "unzipDirectory": folder,
                   "modelIdentifier": md.coSimulation.modelIdentifier, "instanceName": name}
         if self.fmi3:
