@@ -149,6 +149,20 @@ def test_a_communication_step_off_the_base_step_grid_is_refused_with_the_reason(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(("step", "said"), [
+    ("1e300", "--step 1e+300 s: must be at most 9.22e+09 s"),
+    ("1e-12", "--step: a communication step of 1e-12 s is not a whole multiple"),
+])
+def test_a_communication_step_beyond_the_clock_or_below_a_nanosecond_is_named_as_given(tmp_path, capsys, step,
+                                                                                        said):
+    """--step 1e300: exit 2 with the bound (it ended in an internal OverflowError); 1e-12: the step as
+    given, not its rounding to whole nanoseconds ('a communication step of 0 s')."""
+    out = tmp_path / "bad.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), "--step", step]) == 2
+    assert said in one_error_line(capsys.readouterr().err)
+    assert not out.exists()
+
+
 def test_an_importer_stepping_off_the_grid_gets_the_fmus_reason(exported, tmp_path):
     """An importing scene whose step is 0.7 ms: the FMU refuses its first doStep, naming both steps."""
     fmu, _ = exported

@@ -45,8 +45,13 @@ def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
         raise ScenarioError("the FMU would have no outputs: add --output-var NAME=component.port.field", scene.source)
     step_ns = 0
     if args.step is not None:
+        from cosim.scenario import MAX_TIME_NS
+
+        if args.step * NS_PER_S > MAX_TIME_NS:  # a number of nanoseconds no clock here holds
+            raise ScenarioError(f"--step {args.step:g} s: must be at most {MAX_TIME_NS / NS_PER_S:.3g} s",
+                                scene.source)
         step_ns = round(args.step * NS_PER_S)
-        check_step(step_ns, scene)
+        check_step(step_ns, scene, given=args.step)
     return unique(ExportSpec(tuple(parameters), tuple(outputs), preset, step_ns, scene.base_dir,
                              tuple(scene.overrides)), scene.source)
 

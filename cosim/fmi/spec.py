@@ -161,10 +161,12 @@ def check_output(out: Output, scene: Scene) -> Output:
                   out.description or f"{where}")
 
 
-def check_step(step_ns: int, scene: Scene, what: str = "--step") -> None:
-    """A communication step must be a whole number of the scene's base steps."""
+def check_step(step_ns: int, scene: Scene, what: str = "--step", given: float | None = None) -> None:
+    """A communication step must be a whole number of the scene's base steps (``given``: the step as
+    the user wrote it [s], named in the error rather than its rounding to whole nanoseconds)."""
     if step_ns <= 0 or step_ns % scene.dt_ns:
-        raise ScenarioError(f"{what}: a communication step of {step_ns / 1e9:g} s is not a whole multiple of the "
+        said = step_ns / 1e9 if given is None else given
+        raise ScenarioError(f"{what}: a communication step of {said:g} s is not a whole multiple of the "
                             f"scene's base step dt = {scene.dt_ns / 1e9:g} s (the scene advances in whole base "
                             "steps; use a multiple of dt)", scene.source)
 
