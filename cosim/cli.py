@@ -238,6 +238,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
             raise ScenarioError(f"{', '.join(given)} {verb} a restarted run: give --from T as well (without "
                                 "--from, each component is re-run on its recorded inputs, unchanged)",
                                 f"cosim replay {args.recording}")
+    if args.from_time is not None and args.component:
+        raise ScenarioError(f"--component {args.component} and --from: --component re-runs one component on its "
+                            "recorded inputs, --from restarts the whole scene from a checkpoint; give one of them",
+                            f"cosim replay {args.recording}")
     if args.from_time is not None and args.until is not None and args.until <= args.from_time:
         raise ScenarioError(f"--until {args.until / NS_PER_S:g} s must be after --from {args.from_time / NS_PER_S:g} s",
                             f"cosim replay {args.recording}")
@@ -256,10 +260,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
     sim, stamp = restart_simulation(rec, args.from_time, args.set or [])
     default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s.mcap")
     output = Path(args.output) if args.output else default
-    print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s")
+    def restarting() -> None:  # said once the output is accepted and the run about to begin
+        print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s", flush=True)
+        _run_begins()
+
     outcome = run_scene(sim.scene, output, until_ns=args.until,
                         command_line=shlex.join(["cosim", *sys.argv[1:]]), progress=not args.quiet,
-                        simulation=sim, inputs=(rec.path,))
+                        simulation=sim, inputs=(rec.path,), before_run=restarting)
     print(format_summary(sim.scene, outcome))
     return EXIT_FAILED if outcome.failed else EXIT_OK
 

@@ -126,3 +126,22 @@ def test_a_restart_refuses_an_override_of_what_the_checkpoint_holds(tmp_path, ca
         assert main(["replay", str(recording), "--from", "0.05", "--set", start_only, "-o", str(out), "-q"]) == 2
         assert f"--set {start_only.partition('=')[0]}: sets stone's state at t = 0" in capsys.readouterr().err
     assert main(["replay", str(recording), "--from", "0.05", "--set", "dt=0.00025", "-o", str(out), "-q"]) == 0
+
+
+def test_replay_says_it_restarts_only_once_the_restart_is_accepted_and_refuses_component_with_from(
+        tmp_path, capsys):
+    """`replay --from T -o` the recording itself: exit 2 without first saying "restarting" (it said so,
+    then refused); `--component X --from T`: exit 2 (the component was silently dropped and the whole
+    scene restarted)."""
+    skip = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    recording = tmp_path / "skip.mcap"
+    assert main(["run", str(skip), "--until", "0.1", "--set", "record.checkpoint_every=0.05", "--set",
+                 "record.visual_rate=0", "-o", str(recording), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(recording), "--from", "0.05", "-o", str(recording), "-q"]) == 2
+    said = capsys.readouterr()
+    assert "restarting" not in said.out and "is the run's own input" in said.err
+    assert main(["replay", str(recording), "--component", "stone", "--from", "0.05"]) == 2
+    assert "--component stone and --from: " in capsys.readouterr().err
+    assert main(["replay", str(recording), "--from", "0.05", "-o", str(tmp_path / "again.mcap"), "-q"]) == 0
+    assert "restarting 'skip' from the checkpoint at t = 0.05 s" in capsys.readouterr().out
