@@ -191,3 +191,12 @@ def test_a_pythonfmu_fmu_missing_its_model_module_is_refused_when_the_scene_load
     with pytest.raises(ScenarioError, match=r"components\.gust: .*its model module 'wind_gust' is missing from its "
                                             r"resources \(no resources/wind_gust\.py\): the FMU is damaged"):
         load(path)
+
+
+def test_a_start_value_that_is_not_finite_is_refused_when_the_scene_loads(tmp_path):
+    """start: {peak_speed: .nan}: bad input naming the variable (it passed, and the run failed at its
+    first output with a non-finite wrench)."""
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene(start="{peak_speed: .nan, start_time: 0.05, duration: 0.1}"))
+    with pytest.raises(ScenarioError, match=r"components\.gust\.start\.peak_speed: must be finite \(got nan\)"):
+        load(path)

@@ -18,6 +18,7 @@ a bool field with a Boolean; inputs need causality ``input``, outputs ``output``
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from dataclasses import dataclass
 from typing import Any
@@ -196,6 +197,9 @@ def parse_start(data: Any, label: str, variables: dict[str, Any], path: str, pro
               "boolean": isinstance(value, bool), "string": isinstance(value, str)}.get(kind or "", False)
         if not ok:
             problems.append(f"{at}.{name}: variable {name!r} of FMU {label} is {var.type}; got {value!r}")
+            continue
+        if kind == "real" and not math.isfinite(float(value)):  # it would reach the outputs at the first step
+            problems.append(f"{at}.{name}: must be finite (got {value!r})")
             continue
         out[name] = float(value) if kind == "real" else value
     return out
