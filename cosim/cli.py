@@ -178,9 +178,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     output = None if args.no_record else (Path(args.output) if args.output else
                                           _default_output(args.scene, scene.name, list(args.set or [])))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
-    linger = args.live_linger if args.live is not None else 0.0
+    if args.live is None and (args.live_speed is not None or args.live_linger is not None):
+        given = "--live-speed" if args.live_speed is not None else "--live-linger"
+        raise ScenarioError([f"{given} without --live: it paces or keeps a live view, and there is none; "
+                             "add --live [HOST:]PORT"], "cosim run")
+    live_speed = 1.0 if args.live_speed is None else args.live_speed
+    linger = (math.inf if args.live_linger is None else args.live_linger) if args.live is not None else 0.0
     outcome = run_scene(scene, output, until_ns=args.until, command_line=command,
-                        progress=not args.quiet, perf=args.perf, live=args.live, live_speed=args.live_speed,
+                        progress=not args.quiet, perf=args.perf, live=args.live, live_speed=live_speed,
                         keep_live=linger > 0, before_run=_run_begins)
     print(format_summary(scene, outcome), flush=True)
     if outcome.live is not None:  # the finished run stays on the server until Ctrl-C (or --live-linger)
@@ -298,9 +303,9 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
-    p.add_argument("--live-speed", type=number_arg(float, "a number", at_least=0), default=1.0, metavar="S",
+    p.add_argument("--live-speed", type=number_arg(float, "a number", at_least=0), default=None, metavar="S",
                    help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
-    p.add_argument("--live-linger", type=number_arg(float, "seconds", at_least=0), default=math.inf, metavar="T",
+    p.add_argument("--live-linger", type=number_arg(float, "seconds", at_least=0), default=None, metavar="T",
                    help="with --live: keep serving the finished run T seconds of wall time (default: until "
                         "Ctrl-C; 0: stop with the run)")
     p.set_defaults(func=cmd_run)

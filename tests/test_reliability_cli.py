@@ -362,3 +362,21 @@ def test_a_sigterm_that_python_drops_still_ends_the_command(monkeypatch, capsys)
     assert cli.main(["validate", "scene.yaml"]) == 1
     assert one_error_line(capsys.readouterr().err) == "error: cosim validate: interrupted (SIGTERM)"
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+@pytest.mark.parametrize("option", [["--live-linger", "5"], ["--live-speed", "5"]])
+def test_a_live_option_without_live_is_bad_input(scene, tmp_path, capsys, monkeypatch, option):
+    """--live-linger or --live-speed without --live did nothing, silently: exit 2 saying so."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(scene), "--no-record", "-q", *option]) == 2
+    assert one_error_line(capsys.readouterr().err).startswith(f"error: cosim run: {option[0]} without --live: ")
+
+
+def test_the_live_url_of_an_ipv6_host_is_bracketed():
+    """ws://[::1]:8765, a URL a client can open (it printed ws://::1:8765)."""
+    from types import SimpleNamespace
+
+    from cosim.view.live import LiveView
+
+    assert LiveView.url.fget(SimpleNamespace(host="::1", port=8765)) == "ws://[::1]:8765"
+    assert LiveView.url.fget(SimpleNamespace(host="127.0.0.1", port=8765)) == "ws://127.0.0.1:8765"

@@ -93,12 +93,13 @@ class LiveView(BaseObserver):
         self._closed = False
         self._sim_end: int | None = None  # the finished run's simulation time [ns]
         if announce:
-            print(f"live view: ws://{self.host}:{self.port} (Foxglove: Open connection > Foxglove WebSocket)",
-                  file=sys.stderr)
+            print(f"live view: {self.url} (Foxglove: Open connection > Foxglove WebSocket)", file=sys.stderr)
 
     @property
     def url(self) -> str:
-        return f"ws://{self.host}:{self.port}"
+        """The address a Foxglove client opens (an IPv6 host in brackets)."""
+        host = f"[{self.host}]" if ":" in self.host and not self.host.startswith("[") else self.host
+        return f"ws://{host}:{self.port}"
 
     def _channel(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
                  message_encoding: str) -> Any:
