@@ -211,6 +211,9 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     since = f" from t = {r.start_ns / NS_PER_S:g} s" if r.start_ns else ""
     lines.append(f"  simulated {r.simulated_ns / NS_PER_S:.4g} s{since} in {r.steps} steps of {scene.dt * 1e3:g} ms "
                  f"({r.component_steps} component steps); {speed}")
+    if r.start_ns and outcome.summary:  # a restart: the components' counters came back with their state
+        lines.append(f"  (the components' figures below count from t = 0: the checkpoint at "
+                     f"{r.start_ns / NS_PER_S:g} s brought back their totals)")
     lines += [f"  {line}" for line in outcome.summary]
     if outcome.recording is not None:
         size = outcome.recording.stat().st_size

@@ -125,3 +125,14 @@ def test_a_run_that_only_compiled_keeps_the_compiling_note():
     result = RunResult("ok", "x", 7, 7_000_000, 1.0, 7, compile_s=1.0)
     line = format_summary(scene, RunOutcome(result, None)).splitlines()[1]
     assert line.endswith("wall 1 s, of which 1 s compiling kernels once (later runs load them from disk)")
+
+
+def test_a_restart_says_its_components_figures_count_from_the_start():
+    """After a restart the components' summaries carry their restored totals (doStep calls, energy
+    taken since t = 0): the summary says so, beside its own figures counted from the checkpoint."""
+    scene = loads(SCENE)
+    result = RunResult("ok", "x", 70, 70_000_000, 1.0, 40, start_tick=50, start_ns=50_000_000)
+    lines = format_summary(scene, RunOutcome(result, None, summary=["gust: 70 doStep calls"])).splitlines()
+    assert "from t = 0.05 s" in lines[1]
+    assert lines[2] == ("  (the components' figures below count from t = 0: the checkpoint at 0.05 s brought back "
+                        "their totals)")
