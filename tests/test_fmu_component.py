@@ -200,3 +200,22 @@ def test_a_start_value_that_is_not_finite_is_refused_when_the_scene_loads(tmp_pa
     path.write_text(gust_scene(start="{peak_speed: .nan, start_time: 0.05, duration: 0.1}"))
     with pytest.raises(ScenarioError, match=r"components\.gust\.start\.peak_speed: must be finite \(got nan\)"):
         load(path)
+
+
+def test_an_fmu_without_a_binary_for_this_platform_is_named_inside_the_fmu_file(tmp_path):
+    """The missing library is named inside the FMU file ('damaged.fmu:binaries/linux64/...'), not in
+    the temporary folder it was unpacked to and has already left."""
+    import zipfile
+
+    whole = build_fmu(GUST_MODEL, tmp_path / "whole.fmu")
+    damaged = tmp_path / "damaged.fmu"
+    with zipfile.ZipFile(whole) as src, zipfile.ZipFile(damaged, "w") as dst:
+        for item in src.infolist():
+            if not item.filename.startswith("binaries/"):
+                dst.writestr(item, src.read(item.filename))
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene(source=f"path: {damaged}"))
+    with pytest.raises(ScenarioError) as info:
+        load(path)
+    (problem,) = info.value.problems
+    assert f"{damaged}:binaries/" in problem and "/tmp/tmp" not in problem

@@ -83,7 +83,9 @@ def _describe(file: Path, label: str, path: str, problems: list[str]) -> Any:
     try:
         md = read_model_description(str(file))
     except Exception as exc:  # not a zip, no modelDescription.xml, invalid XML: all bad input
-        problems.append(f"{path}: cannot read FMU {label}: {type(exc).__name__}: {exc}")
+        # FMPy's validation lists its findings on lines of their own: one line here
+        said = " ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+        problems.append(f"{path}: cannot read FMU {label}: {type(exc).__name__}: {said}")
         return None
     if md.coSimulation is None:
         problems.append(f"{path}: FMU {label} has no co-simulation interface (model exchange only)")

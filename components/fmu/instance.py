@@ -99,6 +99,21 @@ class FmuInstance:
         check_pythonfmu_resources(md, folder, fmu_file)
         common = {"guid": md.guid, "unzipDirectory": folder,
                   "modelIdentifier": md.coSimulation.modelIdentifier, "instanceName": name}
+        try:
+            self._load(md, common)
+        except Exception as exc:  # named inside the FMU file, not the temporary folder it was unpacked to
+            said = str(exc).replace(folder.rstrip("/") + "/", f"{fmu_file}:").replace(folder, str(fmu_file))
+            raise type(exc)(said) if type(exc) in (ValueError, OSError, RuntimeError, Exception) else exc from None
+        self.live = True
+        _hold_pythonfmu_namespace(md, folder)
+        for name_, value in start.items():
+            var = variables[name_]
+            self.set(var.type, [var.valueReference], [value])
+        self._call("enterInitializationMode", self.fmu.enterInitializationMode)
+        self._call("exitInitializationMode", self.fmu.exitInitializationMode)
+
+    def _load(self, md: Any, common: dict[str, Any]) -> None:
+        """Load the FMU's binary (``common``: FMPy's slave arguments) and instantiate it."""
         if self.fmi3:
             from fmpy.fmi3 import FMU3Slave
 
@@ -124,13 +139,6 @@ class FmuInstance:
             self._callbacks = callbacks  # kept alive as long as the FMU may call back
             self._call("instantiate", self.fmu.instantiate, callbacks=callbacks, loggingOn=True)
             self._call("setupExperiment", self.fmu.setupExperiment, startTime=0.0)
-        self.live = True
-        _hold_pythonfmu_namespace(md, folder)
-        for name_, value in start.items():
-            var = variables[name_]
-            self.set(var.type, [var.valueReference], [value])
-        self._call("enterInitializationMode", self.fmu.enterInitializationMode)
-        self._call("exitInitializationMode", self.fmu.exitInitializationMode)
 
     # --- the FMU's log -------------------------------------------------------------------------
 
