@@ -194,3 +194,17 @@ def test_an_fmu_path_that_cannot_be_written_is_refused_before_the_build(tmp_path
     assert exit_.value.code == 2
     line = one_error_line(capsys.readouterr().err)
     assert "argument -o/--output" in line and str(tmp_path) in line
+
+
+def test_the_throw_preset_offers_no_parameter_a_script_overrides():
+    """A body whose velocity and tilt are scripted (scenarios/scripted_skim.yaml): no speed, angle,
+    tilt or spin parameter (they changed no output, and a tilt made the FMU fail to initialize);
+    the reference skip keeps all four."""
+    from pathlib import Path
+
+    from components.fmu import throw
+    from cosim.scenario import load
+
+    root = Path(__file__).resolve().parents[1] / "scenarios"
+    assert [p.name for p in throw.parameters(load(root / "scripted_skim.yaml"))] == []
+    assert [p.name for p in throw.parameters(load(root / "skip.yaml"))] == ["speed", "angle_deg", "tilt_deg", "spin"]

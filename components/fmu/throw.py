@@ -2,7 +2,8 @@
 
 Parameters: the throw of the scene's one RigidBody: ``speed`` [m/s] and ``angle_deg`` (below the
 horizontal) [deg] of its initial velocity, ``tilt_deg`` (its attack angle) [deg] and ``spin``
-[rad/s]. Outputs: the body's position ``x, y, z`` [m] and velocity ``vx, vy, vz`` [m/s], and, when
+[rad/s], each left out where a script of the body's sets it instead (``scripted_velocity``,
+``scripted_tilt_deg``). Outputs: the body's position ``x, y, z`` [m] and velocity ``vx, vy, vz`` [m/s], and, when
 the scene has a StageMonitor, the ``stage`` (a StageId) and the ``skips`` so far.
 
 Speed and angle are derived values: set either, and the initial velocity becomes
@@ -34,13 +35,21 @@ def parameters(scene: Scene) -> list[Parameter]:
     p = scene.components[stone].params
     vx, vy, vz = p.velocity
     horizontal = math.hypot(vx, vy)
-    return [
-        Parameter("speed", math.sqrt(vx * vx + vy * vy + vz * vz), "m/s", f"initial speed of {stone}"),
-        Parameter("angle_deg", math.degrees(math.atan2(-vz, horizontal)), "deg",
-                  f"initial velocity of {stone}: angle below the horizontal"),
-        Parameter("tilt_deg", p.tilt_deg, "deg", f"{stone}'s attack angle", key=f"components.{stone}.tilt_deg"),
-        Parameter("spin", p.spin, "rad/s", f"{stone}'s spin about its axis", key=f"components.{stone}.spin"),
-    ]
+    found = []
+    # a script that sets a quantity over time leaves its parameter nothing to do (the scripted
+    # velocity, the throw's speed and angle; the scripted tilt, its attack angle, which with both
+    # would make the FMU fail to initialize; with both, the spin moves no output)
+    if not p.scripted_velocity:
+        found += [Parameter("speed", math.sqrt(vx * vx + vy * vy + vz * vz), "m/s", f"initial speed of {stone}"),
+                  Parameter("angle_deg", math.degrees(math.atan2(-vz, horizontal)), "deg",
+                            f"initial velocity of {stone}: angle below the horizontal")]
+    if not p.scripted_tilt_deg:
+        found.append(Parameter("tilt_deg", p.tilt_deg, "deg", f"{stone}'s attack angle",
+                               key=f"components.{stone}.tilt_deg"))
+    if not (p.scripted_velocity and p.scripted_tilt_deg):
+        found.append(Parameter("spin", p.spin, "rad/s", f"{stone}'s spin about its axis",
+                               key=f"components.{stone}.spin"))
+    return found
 
 
 def outputs(scene: Scene) -> list[Output]:
@@ -62,9 +71,9 @@ def outputs(scene: Scene) -> list[Output]:
 def overrides(scene: Scene, values: dict[str, Any]) -> list[str]:
     """The stone's new initial velocity from a changed ``speed`` or ``angle_deg``."""
     stone = _one(scene, RigidBody)
-    if stone is None or not ({"speed", "angle_deg"} & set(values)):
+    start = {p.name: p.start for p in parameters(scene)} if stone is not None else {}
+    if "speed" not in start or not ({"speed", "angle_deg"} & set(values)):
         return []
-    start = {p.name: p.start for p in parameters(scene)}
     speed = float(values.get("speed", start["speed"]))
     angle = math.radians(float(values.get("angle_deg", start["angle_deg"])))
     vx, vy, _ = scene.components[stone].params.velocity
