@@ -221,11 +221,12 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     scene = rec.scene(overrides)
     sim = Simulation(scene, observers=observers)
     for override in overrides or []:
-        path = override.partition("=")[0].strip().split(".")
+        key = override.partition("=")[0].strip()
+        path = key.split(".")
         if len(path) >= 3 and path[0] == "components" and path[1] in sim.components:
             comp, param = sim.components[path[1]], path[2].partition("[")[0]
             if param in comp.start_only_params:
-                raise RecordingError(f"--set {override.partition('=')[0].strip()}: sets {path[1]}'s state at t = 0, "
+                raise RecordingError(f"--set {key}: sets {path[1]}'s state at t = 0, "
                                      f"which a restart takes from the checkpoint at {stamp / NS_PER_S:g} s instead; "
                                      "to change it, run the scene from the start (cosim run)")
     try:

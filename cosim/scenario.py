@@ -47,6 +47,7 @@ MAX_DEPTH = 64  # deepest nesting of mappings and lists in a scene
 MAX_VALUES = 1_000_000  # most values a scene may hold, counting every repeat of a YAML alias
 MEMORY_SHARE = 0.9  # a scene whose components' estimated memory exceeds this share of the machine's is refused
 EDGE_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*->\s*(\w+)\.(\w+)\s*$")
+END_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*$")  # one end of a connection written as a mapping: component.port
 TOP_KEYS = {"name", "description", "dt", "until", "on_unstable", "components", "connections", "record"}
 COMPONENT_KEYS = {"type", "every", "step", "on_unstable"}
 ON_UNSTABLE = ("error", "substep")
@@ -393,7 +394,7 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
         ends = []
         for key in ("from", "to"):
             value = item.get(key)
-            match = re.match(r"^\s*(\w+)\.(\w+)\s*$", value) if isinstance(value, str) else None
+            match = END_RE.match(value) if isinstance(value, str) else None
             if not match:
                 problems.append(f"{path}.{key}: expected 'component.port' (got {value!r})")
                 return None
@@ -451,7 +452,7 @@ def _written_target(item: Any) -> tuple[str, str] | None:
         match = EDGE_RE.match(item)
         return (match.group(3), match.group(4)) if match else None
     value = item.get("to") if isinstance(item, dict) else None
-    match = re.match(r"^\s*(\w+)\.(\w+)\s*$", value) if isinstance(value, str) else None
+    match = END_RE.match(value) if isinstance(value, str) else None
     return (match.group(1), match.group(2)) if match else None
 
 

@@ -183,6 +183,20 @@ class WaterCouplerParams:
         return problems
 
 
+def _bounding_radius(body: BodyState) -> float:
+    """The radius [m] of the sphere about the body's centre that holds it (a disk's rim corners)."""
+    return math.hypot(float(body.radius), 0.5 * float(body.thickness))
+
+
+def _under_the_bed(z: float, top: float, bed: float) -> str | None:
+    """Why a body centred at height ``z`` whose bounding sphere's top is at ``top`` cannot start
+    over a bed at ``bed`` [m]: it lies wholly under it; None when it does not."""
+    if not top < bed:
+        return None
+    return (f"the body starts {bed - top:.4g} m below the water's bed (its centre at z = {z:.4g} m, the bed "
+            f"under it at z = {bed:.4g} m): start it above the bed")
+
+
 class WaterCoupler(Component):
     """Stone-water interaction per water column: displacement, buoyancy, pressure, friction, wave drag."""
 
@@ -320,11 +334,8 @@ class WaterCoupler(Component):
             return []
         x, y, z = (float(c) for c in body.position)
         bed = bed_at(x, y)
-        top = z + math.hypot(float(body.radius), 0.5 * float(body.thickness))
-        if bed is None or not top < bed:
-            return []
-        return [f"the body starts {bed - top:.4g} m below the water's bed (its centre at z = {z:.4g} m, the bed "
-                f"under it at z = {bed:.4g} m): start it above the bed"]
+        problem = None if bed is None else _under_the_bed(z, z + _bounding_radius(body), bed)
+        return [] if problem is None else [problem]
 
     def needed_outputs(self) -> dict[str, str]:
         if not self.added_mass_on:
@@ -416,7 +427,7 @@ class WaterCoupler(Component):
         vel = body.velocity
         omega = body.angular_velocity
         radius = float(body.radius)
-        r_bound = math.hypot(radius, 0.5 * float(body.thickness))  # of the sphere about the centre holding it
+        r_bound = _bounding_radius(body)
         if patch is not None and patch.height.size:
             if self.cell == 0.0:  # the water's first patch
                 self._check_not_under_the_bed(float(pos[2]) + r_bound, pos, patch)
@@ -1007,10 +1018,9 @@ class WaterCoupler(Component):
         nj, ni = patch.bottom.shape
         if not (0 <= i < ni and 0 <= j < nj):
             return
-        bed = float(patch.bottom[j, i])
-        if top < bed:
-            raise ValueError(f"the body starts {bed - top:.4g} m below the water's bed (its centre at "
-                             f"z = {z:.4g} m, the bed at z = {bed:.4g} m): start it above the bed")
+        problem = _under_the_bed(z, top, float(patch.bottom[j, i]))
+        if problem is not None:
+            raise ValueError(problem)
 
     def _idle(self, depth: float) -> dict[str, Message]:
         self.met.in_contact = False

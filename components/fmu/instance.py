@@ -102,8 +102,10 @@ class FmuInstance:
         try:
             self._load(md, common)
         except Exception as exc:  # named inside the FMU file, not the temporary folder it was unpacked to
+            if type(exc) not in (ValueError, OSError, RuntimeError, Exception):  # one that says more than a text
+                raise
             said = str(exc).replace(folder.rstrip("/") + "/", f"{fmu_file}:").replace(folder, str(fmu_file))
-            raise type(exc)(said) if type(exc) in (ValueError, OSError, RuntimeError, Exception) else exc from None
+            raise type(exc)(said) from None
         self.live = True
         _hold_pythonfmu_namespace(md, folder)
         for name_, value in start.items():

@@ -21,11 +21,11 @@ SHOWN_POINTS = 10  # --dry-run lists this many points
 def cmd_sweep(args: argparse.Namespace) -> int:
     from cosim.errors import ScenarioError, one_line
     from cosim.sweep.backends import BackendError, DaskBackend, make_backend
-    from cosim.sweep.plan import load_sweep
+    from cosim.sweep.plan import TABLE_SUFFIXES, load_sweep
     from cosim.sweep.run import run_sweep
     from cosim.sweep.table import journal_path
 
-    if args.output is not None and args.output.suffix not in (".csv", ".parquet"):
+    if args.output is not None and args.output.suffix not in TABLE_SUFFIXES:
         print(f"error: cosim sweep: -o {args.output}: must name a .csv or .parquet file", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:

@@ -59,6 +59,7 @@ TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "
 MODES = ("grid", "random")
 GRID_SPECS = ("linspace", "logspace", "range")
 RANDOM_SPECS = ("uniform", "loguniform")
+TABLE_SUFFIXES = (".csv", ".parquet")  # the results tables a sweep writes
 FIGURE_KEYS = ("metric", "x", "y", "threshold", "reference")
 MAX_POINTS = 1_000_000  # a sweep larger than this is almost surely a typo in an axis
 ID_LENGTH = 12  # hex digits of a point id (48 bits: collisions are negligible below billions of points)
@@ -640,7 +641,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         problems.append(f"record: must be true or false (got {record!r})")
         record = False
     out = output if output is not None else data.get("output", f"runs/{name}.csv")
-    if not isinstance(out, (str, Path)) or Path(out).suffix not in (".csv", ".parquet"):
+    if not isinstance(out, (str, Path)) or Path(out).suffix not in TABLE_SUFFIXES:
         problems.append(f"output: must be a .csv or .parquet file name (got {out!r})")
         out = f"runs/{name}.csv"
     elif Path(out).suffix == ".parquet":
