@@ -3,6 +3,7 @@ law, with and without a lag of the water piled up ahead of the face (docs/valida
 
     python tools/planing_lag.py          # ~1 min
     python tools/planing_lag.py --exit   # and the lag on the way out only
+    python tools/planing_lag.py --held-angle   # and the impact angle held through each contact
 
 Not the co-simulation: the disk's attitude is held, the water flat and still, and only the two laws
 that decide a bounce act on it, the coupler's planing pressure 1/2 rho C_L |u| (u.n) S and its skin
@@ -23,6 +24,14 @@ ell / U (ell the wetted length along the face, U the horizontal speed), kappa = 
 The lag on the way out only (``--exit``): the entry as the law has it, and while the face rises the
 water it pushed up falls away over the same crossing time, the depth read then d + kappa
 max(d_held - d, 0), d_held the depth the face went to, relaxing towards d over ell / U.
+
+The impact angle held (``--held-angle``): the law's normal speed read as |u| sin(alpha + beta_in),
+beta_in the angle the disk met the water at, through the whole contact, as in the models that take
+U and beta to stay as they were at the impact (Bocquet 2003's elastic contact, where the lift follows
+the depth alone). The law as the coupler has it reads the normal speed as it is, so a face going
+in is pushed harder than one coming out: the heave damping that gives back part of the vertical
+speed. Held, the contact gives back nearly all of it, and the magic angle goes: the lowest speed
+that bounces falls to about 1 m/s, at about 10 deg (docs/validation.md, section 2).
 """
 
 from __future__ import annotations
@@ -77,12 +86,13 @@ class Contact:
 
 
 def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: float = 0.0,
-          t_end: float = 3.0, exit_only: bool = False) -> tuple[list[Contact], str]:
+          t_end: float = 3.0, exit_only: bool = False, held_angle: bool = False) -> tuple[list[Contact], str]:
     """The held disk thrown at ``speed`` [m/s], ``impact_deg`` below the horizontal, nose up by
     ``attack_deg``, touching the water at once: its contacts, and how it ended ("bounced on",
     "sank": its whole face under, "planes": a contact longer than a second, or "flying" at t_end).
     ``rise``: the pile-up's share kappa (0: the coupler's law as it is); ``exit_only``: lagged only
-    while the face rises (the module's text)."""
+    while the face rises; ``held_angle``: the normal speed the law reads keeps the direction of the
+    touchdown through each contact (the module's text)."""
     a = math.radians(attack_deg)
     nx, nz = math.sin(a), -math.cos(a)  # the lower face's outward normal (nose up along +x)
     mass = disk.mass
@@ -90,6 +100,7 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
     depth = lagged = t = 0.0  # depth [m] of the lowest point under the surface
     contacts: list[Contact] = []
     entry: tuple[float, float, float] | None = None
+    held_sin = 0.0  # sin(alpha + beta) at the contact's touchdown (held_angle)
     while t < t_end:
         if not rise:
             read = depth
@@ -103,7 +114,10 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
             area = segment_area(disk.radius, wetted)
             speed_now = math.hypot(vx, vz)
             un = vx * nx + vz * nz
-            p = pressure_magnitude(speed_now, un, RHO_WATER, C_LIFT, 0.0)  # 0 unless the face advances
+            if entry is None:
+                held_sin = un / speed_now
+            law_un = speed_now * held_sin if held_angle else un
+            p = pressure_magnitude(speed_now, law_un, RHO_WATER, C_LIFT, 0.0)  # 0 unless the face advances
             fx, fz = -p * area * nx, -p * area * nz
             friction = friction_factor(speed_now, RHO_WATER, C_FRICTION) * area
             fx -= friction * (vx - un * nx)
@@ -138,28 +152,35 @@ def throw(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: 
 
 
 def bounces(disk: Disk, speed: float, impact_deg: float, attack_deg: float, rise: float,
-            exit_only: bool = False) -> bool:
-    return bool(throw(disk, speed, impact_deg, attack_deg, rise, t_end=0.5, exit_only=exit_only)[0])
+            exit_only: bool = False, held_angle: bool = False) -> bool:
+    return bool(throw(disk, speed, impact_deg, attack_deg, rise, t_end=0.5, exit_only=exit_only,
+                      held_angle=held_angle)[0])
 
 
-def u_min(attack_deg: float, rise: float, exit_only: bool = False) -> float:
-    """The magic-angle disk's lowest speed [m/s] that bounces at beta = 20 deg (bisected)."""
-    lo, hi = 1.0, 6.0
+def u_min(attack_deg: float, rise: float, exit_only: bool = False, held_angle: bool = False) -> float:
+    """The magic-angle disk's lowest speed [m/s] that bounces at beta = 20 deg (bisected between
+    0.5 and 6 m/s)."""
+    lo, hi = 0.5, 6.0
     for _ in range(24):
         mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if bounces(MAGIC_DISK, mid, 20.0, attack_deg, rise, exit_only) else (mid, hi)
+        lo, hi = (lo, mid) if bounces(MAGIC_DISK, mid, 20.0, attack_deg, rise, exit_only, held_angle) else (mid, hi)
     return hi
 
 
 def main(argv: list[str] | None = None) -> None:
-    variants = [("the coupler's law", 0.0, False),
-                (f"with the lagged rise, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE, False)]
-    if "--exit" in (sys.argv[1:] if argv is None else argv):
-        variants.append((f"with the rise lagged on the way out only, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE, True))
-    for label, rise, exit_only in variants:
-        single, _ = throw(MAGIC_DISK, 3.5, 20.0, 20.0, rise, t_end=0.5, exit_only=exit_only)
-        steepest = max(b for b in range(20, 70, 5) if bounces(MAGIC_DISK, 3.5, b, 20.0, rise, exit_only))
-        contacts, _ = throw(REFERENCE_STONE, 11.0, 6.0, 8.0, rise, exit_only=exit_only)
+    args = sys.argv[1:] if argv is None else argv
+    variants = [("the coupler's law", 0.0, False, False),
+                (f"with the lagged rise, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE, False, False)]
+    if "--exit" in args:
+        variants.append((f"with the rise lagged on the way out only, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE,
+                         True, False))
+    if "--held-angle" in args:
+        variants.append(("with the impact angle held through each contact", 0.0, False, True))
+    for label, rise, exit_only, held_angle in variants:
+        options = dict(exit_only=exit_only, held_angle=held_angle)
+        single, _ = throw(MAGIC_DISK, 3.5, 20.0, 20.0, rise, t_end=0.5, **options)
+        steepest = max(b for b in range(20, 70, 5) if bounces(MAGIC_DISK, 3.5, b, 20.0, rise, **options))
+        contacts, _ = throw(REFERENCE_STONE, 11.0, 6.0, 8.0, rise, **options)
         given_back = [-c.vz_out / c.vz_in for c in contacts]
         flights = [b.t_in - a.t_out for a, b in itertools.pairwise(contacts)]
         ratios = [b / a for a, b in itertools.pairwise(flights)]
@@ -169,7 +190,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"  magic-angle disk, 3.5 m/s, alpha = beta = 20 deg: contact {contact_ms:.1f} ms, "
               f"steepest bouncing impact {steepest} deg")
         print("  U_min [m/s] at alpha = 10, 15, 20, 25, 30, 40 deg: "
-              + ", ".join(f"{u_min(alpha, rise, exit_only):.2f}" for alpha in (10, 15, 20, 25, 30, 40)))
+              + ", ".join(f"{u_min(alpha, rise, **options):.2f}" for alpha in (10, 15, 20, 25, 30, 40)))
         print(f"  reference stone held, 11 m/s, 6 deg down, attack 8 deg: {len(contacts)} contacts; vertical speed "
               "given back " + ", ".join(f"{g:.2f}" for g in given_back[:6]))
         print("    each flight over the one before: " + ", ".join(f"{r:.2f}" for r in ratios[:6])
