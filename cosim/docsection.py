@@ -6,13 +6,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from cosim.record.output import written_whole
+
 
 def replace_section(path: str | Path, name: str, body: str) -> None:
-    """Put ``body`` between the markers of section ``name`` in the markdown file ``path``."""
+    """Put ``body`` between the markers of section ``name`` in the markdown file ``path``.
+
+    The page is written whole (:func:`cosim.record.output.written_whole`): a write that fails (a
+    full disk) leaves it as it was, never cut short; a page that is not UTF-8 text is a ValueError
+    naming it, before anything is written."""
     path = Path(path)
     begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
     block = f"{begin}\n{body.rstrip()}\n{end}"
-    text = path.read_text(encoding="utf-8") if path.exists() else ""
+    try:
+        text = path.read_text(encoding="utf-8") if path.exists() else ""
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not UTF-8 text (byte {exc.start}); its '{name}' section is not written") from None
     if begin in text and end in text:
         head, rest = text.split(begin, 1)
         _, tail = rest.split(end, 1)
@@ -20,4 +29,5 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
     else:
         text = (text.rstrip() + "\n\n" if text.strip() else "") + block + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
+    with written_whole(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")

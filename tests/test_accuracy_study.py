@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from components.analysis.accuracy import (
+    FIGURE,
     SECTION,
     Trace,
     compare,
@@ -140,6 +141,55 @@ def test_replace_section_keeps_the_rest_of_the_page(tmp_path):
     replace_section(page, SECTION, "new table")
     assert page.read_text(encoding="utf-8") == (f"intro\n<!-- {SECTION}:begin -->\nnew table\n"
                                                 f"<!-- {SECTION}:end -->\noutro\n")
+
+
+def test_replace_section_that_cannot_be_written_leaves_the_page_as_it_was(tmp_path, monkeypatch):
+    """A write that fails part-way (a full disk, a file-size limit) leaves the page whole, as it was,
+    and names it; it once cut the page short, losing the text around the section."""
+    import errno
+
+    page = tmp_path / "a.md"
+    before = "intro\n" + "hand-written text\n" * 1000
+    page.write_text(before, encoding="utf-8")
+    real = Path.write_text
+
+    def cut_short(self, text, *args, **kwargs):
+        real(self, text[:100], *args, **kwargs)
+        raise OSError(errno.EFBIG, "File too large")
+
+    monkeypatch.setattr(Path, "write_text", cut_short)
+    with pytest.raises(OSError) as caught:
+        replace_section(page, SECTION, "new table")
+    monkeypatch.undo()
+    assert caught.value.filename == str(page)
+    assert page.read_text(encoding="utf-8") == before
+    assert [p.name for p in tmp_path.iterdir()] == ["a.md"]
+
+
+@pytest.mark.parametrize("problem", ["not_utf8", "figure_is_a_folder", "read_only_page"])
+def test_a_page_or_figure_the_study_cannot_write_is_bad_input_before_any_run(tmp_path, capsys, monkeypatch,
+                                                                            problem):
+    """A page that is not UTF-8 text, a folder where the figure goes, a read-only page: exit 2 and one
+    line naming it, before the study's runs (they were found only after every run)."""
+    import os
+
+    import components.analysis.accuracy as accuracy
+
+    page, figure = tmp_path / "accuracy.md", tmp_path / FIGURE
+    if problem == "not_utf8":
+        page.write_bytes(b"# Accuracy \xff\xfe\n")
+    elif problem == "figure_is_a_folder":
+        figure.mkdir(parents=True)
+    else:
+        page.write_text("# Accuracy\n", encoding="utf-8")
+        page.chmod(0o444)
+        if os.access(page, os.W_OK):
+            pytest.skip("this user may write read-only files (root)")
+    monkeypatch.setattr(accuracy, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    assert main(["bench", "accuracy", str(SKIP), "--quick", "-o", str(tmp_path), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {tmp_path}: ") and len(err.splitlines()) == 1
+    assert str(figure if problem == "figure_is_a_folder" else page) in err
 
 
 def test_a_scene_without_a_stone_is_bad_input(tmp_path, capsys):

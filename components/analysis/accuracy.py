@@ -604,9 +604,19 @@ def output_folder_problem(out_dir: Path) -> str | None:
                 else f"cannot be made: {here} is a file, not a folder")
     if not os.access(here, os.W_OK | os.X_OK):
         return f"cannot be written: no permission to write in {here}"
-    page = out_dir / "accuracy.md"
-    if page.exists() and not page.is_file():
-        return f"{page} is not a file"
+    page, png = out_dir / "accuracy.md", out_dir / FIGURE
+    for made in (page, png):
+        if made.exists() and not made.is_file():
+            return f"{made} is not a file"
+        if made.is_file() and not os.access(made, os.W_OK):
+            return f"{made} cannot be written: no permission"
+    if page.is_file():
+        try:
+            page.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            return f"{page} is not UTF-8 text (byte {exc.start}); its section could not be written into it"
+        except OSError as exc:
+            return f"{page} cannot be read ({exc.strerror or exc})"
     return None
 
 
