@@ -326,6 +326,31 @@ def test_render_into_a_folder_says_it_is_a_folder(tmp_path, capsys):
                                                               "writes one file")
 
 
+def test_plot_and_render_never_write_over_the_recording_they_read(tmp_path, capsys):
+    """A recording named like the figure plot writes into the folder it is in, or like render's -o
+    (however spelled), or render -o ending in a slash: exit 2, the recording untouched (render and
+    plot replaced it with a picture)."""
+    from tests.viewer_toys import record_skip
+
+    recording = tmp_path / "skip.mcap"
+    record_skip(recording, ["until=0.05", "record.visual_rate=0"])
+    data = recording.read_bytes()
+    as_png = tmp_path / "frame.png"
+    as_png.write_bytes(data)
+    assert main(["render", str(as_png), "-o", str(tmp_path / "." / "frame.png"), "-q"]) == 2
+    assert "is the recording rendered" in one_error_line(capsys.readouterr().err)
+    figures = tmp_path / "figs"
+    figures.mkdir()
+    inside = figures / "energy.png"
+    inside.write_bytes(data)
+    assert main(["plot", str(inside), "-o", str(figures)]) == 2
+    assert "is the recording plotted" in one_error_line(capsys.readouterr().err)
+    assert main(["render", str(recording), "-o", str(tmp_path / "x.png") + "/", "-q"]) == 2
+    assert "names a folder" in one_error_line(capsys.readouterr().err)
+    assert as_png.read_bytes() == data and inside.read_bytes() == data
+    assert sorted(p.name for p in figures.iterdir()) == ["energy.png"] and not (tmp_path / "x.png").exists()
+
+
 def test_a_live_port_in_use_is_bad_input_and_leaves_no_recording(scene, tmp_path, capsys):
     """--live on a port another server holds: exit 2 (the --live given cannot be used; it was 1), one
     line with the system's reason, and no recording begun."""

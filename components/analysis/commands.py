@@ -7,6 +7,7 @@ the figure code are imported only when one of these commands runs.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -33,7 +34,8 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from components.analysis.plot import plot_run
+    from components.analysis.plot import FIGURES, WATER_FIGURE, plot_run
+    from cosim.record.output import same_file
 
     out_dir = Path(args.output) if args.output else Path(args.recording).with_name(
         Path(args.recording).stem + "-plots")
@@ -41,6 +43,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
         print(f"error: {out_dir}: not a folder; cosim plot writes its PNG figures into a folder (-o DIR)",
               file=sys.stderr)
         return EXIT_BAD_INPUT
+    recording = Path(args.recording)
+    for name in (*FIGURES, WATER_FIGURE):
+        if same_file(out_dir / name, recording):
+            print(f"error: {out_dir / name}: is the recording plotted; its figure would replace it "
+                  "(choose another folder, -o DIR)", file=sys.stderr)
+            return EXIT_BAD_INPUT
     written, skipped = plot_run(args.recording, out_dir, body=args.body, dpi=args.dpi)
     for path in written:
         print(f"wrote {path}")
@@ -78,7 +86,16 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from components.analysis.render import RenderError, RenderOptions, render
+    from cosim.record.output import same_file
 
+    if args.output.endswith(("/", os.sep)):  # (a Path would drop the slash and write a file there)
+        print(f"error: {args.output}: names a folder; give the file to write, e.g. {args.output}skip.gif",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if same_file(Path(args.output), Path(args.recording)):
+        print(f"error: {args.output}: is the recording rendered; it would be replaced (choose another -o)",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
     options = RenderOptions(fps=args.fps, width=args.width, speed=args.speed, view=args.view, span=args.span,
                             start=args.start, stop=args.stop, at=args.at, body=args.body, water=args.water,
                             progress=not args.quiet)

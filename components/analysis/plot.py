@@ -315,6 +315,8 @@ def figure_contacts(run: RunData) -> Figure | None:
     return fig
 
 
+WATER_FIGURE = "water.png"  # the one figure of a run with water alone
+
 FIGURES = {
     "trajectory.png": figure_trajectory,
     "motion.png": figure_motion,
@@ -357,7 +359,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
     fields = topics_of(rec, WaterField)
     if body is None and fields and not topics_of(rec, BodyState):  # water alone
         with output_folder(out_dir):
-            path = out_dir / "water.png"
+            path = out_dir / WATER_FIGURE
             _save(figure_water(rec, fields[0]), path, dpi)
         return [path], [(", ".join(FIGURES), "no body in this run")]
     run = load_run(rec, body)

@@ -33,7 +33,8 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 PART_SUFFIX = ".part"
 
 
-def _same_file(a: Path, b: Path) -> bool:
+def same_file(a: Path, b: Path) -> bool:
+    """Whether paths ``a`` and ``b`` name one file, however spelled (links, ``..``)."""
     try:
         return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
     except OSError:
@@ -48,7 +49,7 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     path = Path(path)
     for source in inputs:
         source = Path(source)
-        if source.is_file() and _same_file(path, source):
+        if source.is_file() and same_file(path, source):
             raise RecordingError(f"{path}: is the run's own input {str(source)!r}; choose another output (-o)")
     if path.name in ("", ".", "..") or path.name.endswith(PART_SUFFIX):
         raise RecordingError(f"{path}: not a file name for a recording (give e.g. runs/skip.mcap)")
