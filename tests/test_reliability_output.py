@@ -90,6 +90,26 @@ def test_outputs_that_are_not_recordings_are_refused(scene, tmp_path, capsys):
     assert not list(tmp_path.glob("*.part"))
 
 
+def test_an_mcap_file_cosim_did_not_write_is_not_overwritten(scene, tmp_path, capsys):
+    """-o onto another program's MCAP file (a robot's log): exit 2 naming its writer, the file
+    untouched; it was replaced like a recording of cosim's."""
+    from mcap.writer import Writer
+
+    bag = tmp_path / "robot.mcap"
+    with open(bag, "wb") as f:
+        writer = Writer(f)
+        writer.start(profile="ros2", library="someone-elses-logger")
+        schema = writer.register_schema("std_msgs/String", "ros2msg", b"string data")
+        channel = writer.register_channel("/chatter", "cdr", schema)
+        writer.add_message(channel, log_time=1, data=b"hello", publish_time=1)
+        writer.finish()
+    data = bag.read_bytes()
+    assert main(["run", str(scene), "-o", str(bag), "-q"]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert "cosim did not write" in line and "someone-elses-logger" in line
+    assert bag.read_bytes() == data and not list(tmp_path.glob("*.part"))
+
+
 def test_an_existing_recording_is_replaced_only_when_the_new_one_is_complete(scene, tmp_path, capsys):
     """The recording is written to a private file with a unique name beside the target and moved
     onto it when complete; until then the target keeps the previous recording."""

@@ -74,7 +74,48 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     if head != MCAP_MAGIC:
         raise RecordingError(f"{path}: exists and is not an MCAP recording; it is not overwritten "
                              "(remove it or choose another output)")
+    library = _foreign_library(path)
+    if library is not None:
+        raise RecordingError(f"{path}: exists and is an MCAP recording cosim did not write (written by "
+                             f"{library!r}); it is not overwritten (remove it or choose another output)")
     return path
+
+
+METADATA_OP, HEADER_OP = 0x0C, 0x01  # MCAP record opcodes
+RECORDING_METADATA = b"cosim"  # the metadata record a cosim recording opens with (cosim.record.reader)
+
+
+def _foreign_library(path: Path) -> str | None:
+    """The library named in the header of an MCAP file cosim did not write (no ``cosim`` metadata
+    record among its first records, where a cosim recording holds it, just after the header), or
+    None for a recording of cosim's (or one too short or odd to tell: it is replaced as before)."""
+    import struct
+
+    try:
+        with open(path, "rb") as f:
+            data = f.read(1 << 16)
+    except OSError:
+        return None
+    at, library = len(MCAP_MAGIC), None
+    for _ in range(8):
+        if at + 9 > len(data):
+            return None
+        op, n = struct.unpack_from("<BQ", data, at)
+        body = data[at + 9:at + 9 + n]
+        if op == HEADER_OP and len(body) >= 8:
+            k = struct.unpack_from("<I", body, 0)[0]
+            at_library = 4 + k
+            if at_library + 4 <= len(body):
+                m = struct.unpack_from("<I", body, at_library)[0]
+                library = body[at_library + 4:at_library + 4 + m].decode(errors="replace")
+        elif op == METADATA_OP and len(body) >= 4:
+            k = struct.unpack_from("<I", body, 0)[0]
+            if body[4:4 + k] == RECORDING_METADATA:
+                return None
+        elif op != HEADER_OP:
+            return library if library is not None else "an unknown writer"
+        at += 9 + n
+    return library if library is not None else "an unknown writer"
 
 
 class Claim:
