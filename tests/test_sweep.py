@@ -105,6 +105,48 @@ derived:
         [2.0 * math.cos(math.pi / 2), 0, -2.0]
 
 
+def test_a_command_line_set_of_a_key_an_axis_or_derived_value_sets_is_refused(tmp_path):
+    """--set on a key an axis or a derived expression sets at every point: refused, naming both (the
+    point's value was applied after it, so it did nothing, while --dry-run listed it as applied);
+    a --set of a key the file's set: gives overrides it, as documented."""
+    body = """
+scene: ball.yaml
+axes:
+  components.ball.speed: [2, 3]
+  launch: [30, 60]
+derived:
+  components.ball.angle_deg: "launch"
+set:
+  components.ball.restitution: 0.5
+"""
+    path = write_sweep(tmp_path, body)
+    for key, setter in (("components.ball.speed", "axes.components.ball.speed"),
+                        ("components.ball.angle_deg", "derived.components.ball.angle_deg")):
+        with pytest.raises(ScenarioError) as info:
+            load_sweep(path, overrides=[f"{key}=1"])
+        assert info.value.problems == [f"--set {key}: {setter} sets it at every point; a value given here "
+                                       "would be ignored (leave it out, or change the sweep file)"]
+    sweep = load_sweep(path, overrides=["components.ball.restitution=0.7"])
+    assert sweep.points[0].overrides[:2] == ("components.ball.restitution=0.5", "components.ball.restitution=0.7")
+
+
+def test_a_derived_expression_that_cannot_be_read_does_not_also_call_its_axis_unused(tmp_path):
+    """A misspelled name in a derived expression is the one problem said; the axis it meant to use
+    was also called "not used in derived"."""
+    body = """
+scene: ball.yaml
+axes:
+  launch: [30, 60]
+derived:
+  components.ball.angle_deg: "lanch"
+  components.ball.speed: "2 + len([1])"
+"""
+    with pytest.raises(ScenarioError) as info:
+        load_sweep(write_sweep(tmp_path, body))
+    assert len(info.value.problems) == 2, info.value.problems
+    assert "unknown name 'lanch'" in info.value.problems[0] and "len" in info.value.problems[1]
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("__import__('os')", "unknown function '__import__'"),
     ("x.real", "'x.real' is not allowed"),

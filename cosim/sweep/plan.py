@@ -37,6 +37,7 @@ more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``)
 from __future__ import annotations
 
 import ast
+import difflib
 import fnmatch
 import hashlib
 import itertools
@@ -587,12 +588,14 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         _check_key_path(scene_data, key, f"set.{key}", problems)
         claim(key, f"set.{key}")
         fixed.append(f"{key}={yaml_value(value)}")
+    command_line_keys: list[str] = []  # --set's keys: checked against the axes' and derived ones below
     for item in overrides or []:
         key, sep, _ = item.partition("=")
         if not sep or not key.strip():
             problems.append(f"--set {item!r}: expected key.path=value")
             continue
         _check_key_path(scene_data, key.strip(), f"--set {key.strip()}", problems)
+        command_line_keys.append(key.strip())
         fixed.append(item)
 
     derived: dict[str, Expression] = {}
@@ -602,6 +605,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         raw_derived = {}
     variables = {a.name for a in axes if a.kind == "variable"}
     used: set[str] = set()
+    unread = False  # a derived expression that could not be read: which axes it uses is not known
     for key, expr_text in raw_derived.items():
         key, path = str(key), f"derived.{key}"
         if not isinstance(expr_text, str):
@@ -612,20 +616,29 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
             expr = Expression(expr_text)
         except SyntaxError as exc:
             problems.append(f"{path}: not an expression: {expr_text!r} ({exc.msg})")
+            unread = True
             continue
         except ValueError as exc:
             problems.append(f"{path}: {exc}")
+            unread = True
             continue
         unknown = sorted(expr.names - variables)
         if unknown:
             problems.append(f"{path}: unknown name {', '.join(map(repr, unknown))} (variable axes: "
                             f"{', '.join(sorted(variables)) or 'none'}; constants: {', '.join(_CONSTANTS)})")
         used |= expr.names
+        # an axis whose name was misspelled here is not also "not used" (the misspelling is the problem)
+        used |= {name for u in unknown for name in difflib.get_close_matches(u, variables, n=1)}
         _check_key_path(scene_data, key, path, problems)
         claim(key, path)
         derived[key] = expr
+    for key in command_line_keys:
+        # a point's own value is applied after --set: one given here for the same key would do nothing
+        if key in targets and not targets[key].startswith("set."):
+            problems.append(f"--set {key}: {targets[key]} sets it at every point; a value given here would "
+                            "be ignored (leave it out, or change the sweep file)")
     for axis in axes:
-        if axis.kind == "variable" and axis.name not in used:
+        if axis.kind == "variable" and axis.name not in used and not unread:
             known = ", ".join(sorted(map(str, scene_data))) or "none"
             problems.append(f"axes.{axis.name}: not a key of the scene (top-level keys: {known}) and not "
                             "used in derived; give a key path such as components.NAME.PARAM")
