@@ -72,6 +72,20 @@ def test_bad_input_exits_2_with_no_traceback_and_no_table(tmp_path, capsys):
     with pytest.raises(SystemExit) as info:
         main(["sweep", str(path), "--workers", "0"])
     assert info.value.code == 2 and "--workers: must be >= 1, got 0" in capsys.readouterr().err
+    too_many = 4 * (os.cpu_count() or 1) + 1
+    assert main(["sweep", str(path), "--workers", str(too_many), "-o", str(tmp_path / "x.csv")]) == 2
+    assert f"--workers {too_many}: at most {too_many - 1} on this machine" in capsys.readouterr().err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_a_pool_has_no_more_workers_than_points_to_run(tmp_path, capsys):
+    """--workers above the sweep's points: the pool starts one worker a point, and says so (it said
+    the number asked for, and a large sweep would have started them all)."""
+    path = write_sweep(tmp_path, SWEEP)
+    workers = min(8, 4 * (os.cpu_count() or 1))
+    assert main(["sweep", str(path), "-q", "--workers", str(workers), "-o", str(tmp_path / "x.csv"),
+                 "--no-figure"]) == 0
+    assert f"on process pool of {min(workers, 6)} workers" in capsys.readouterr().out
 
 
 def test_failed_points_fail_the_command_only_when_strict(tmp_path, capsys):

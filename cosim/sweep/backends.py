@@ -151,6 +151,13 @@ class ProcessBackend:
     def slots(self) -> int:
         return self.workers
 
+    def limit(self, points: int) -> None:
+        """No more workers than the ``points`` there are to run (a worker is a process holding its own
+        copy of the simulation: a sweep of 16 points with --workers 1000 started 16, and said 1000).
+        Only before the pool starts."""
+        if self.pool is None:
+            self.workers = max(1, min(self.workers, points))
+
     def describe(self) -> str:
         return f"process pool of {self.workers} worker{'s' * (self.workers != 1)}"
 

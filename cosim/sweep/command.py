@@ -9,6 +9,7 @@ is complete (failed runs are rows of the table, not a failure of the sweep, unle
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -16,6 +17,8 @@ from pathlib import Path
 from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int
 
 SHOWN_POINTS = 10  # --dry-run lists this many points
+CORES = os.cpu_count() or 1
+MAX_WORKERS_PER_CORE = 4  # --workers at most this many times the cores (a process pool)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -27,6 +30,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.output is not None and args.output.suffix not in TABLE_SUFFIXES:
         print(f"error: cosim sweep: -o {args.output}: must name a .csv or .parquet file", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if args.dask is None and args.workers is not None and args.workers > MAX_WORKERS_PER_CORE * CORES:
+        print(f"error: cosim sweep: --workers {args.workers}: at most {MAX_WORKERS_PER_CORE * CORES} on this "
+              f"machine's {CORES} cores ({MAX_WORKERS_PER_CORE} a core: each worker is a process with its own copy "
+              "of the simulation)", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
         sweep = load_sweep(args.sweep, overrides=args.set or [], output=args.output)
@@ -44,7 +52,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 print(f"  ... {len(sweep.points) - SHOWN_POINTS} more")
             return EXIT_OK
         backend = make_backend(args.dask, args.workers)
-        backend.start()
+        if isinstance(backend, DaskBackend):  # a process pool starts with the sweep's points, no more workers
+            backend.start()
     except (ScenarioError, BackendError) as exc:
         print(f"error: {exc if isinstance(exc, ScenarioError) else one_line(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT

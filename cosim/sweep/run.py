@@ -159,6 +159,8 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
     try:
         with _sigterm_interrupts():
             if todo:
+                if isinstance(backend, ProcessBackend):
+                    backend.limit(len(todo))
                 backend.start()
                 outcome.backend = backend.describe()
             limit = max(1, IN_FLIGHT_PER_SLOT * backend.slots)
