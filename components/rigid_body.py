@@ -62,6 +62,9 @@ out from the angular momentum, whose round-off across the axis (1e-16 of it) is 
 there: beyond about 1/sqrt(machine epsilon) it is no longer small, and a long rod's spin grows
 without bound (a disk 1e20 m thick and 2.5 cm across failed at its fifth step)."""
 MAX_THICKNESS_PER_RADIUS = math.sqrt(6.0 * (MAX_INERTIA_RATIO - 0.5))  # I_d / I_a = 1/2 + e^2 / (6 R^2)
+GRAVITY_MAX = 1e4  # [m/s^2] a component of the body's gravity at most (the coupler's g has the same bound)
+POSITION_MAX = 1e6  # [m] a start coordinate at most: 1000 km, the water's own bound (components.water.grid.LEVEL_MAX)
+DENSITY_RANGE = (1.0, 1e5)  # [kg/m^3] ordinary densities: a mass out of range with one is the size's doing
 
 
 @dataclass(frozen=True)
@@ -107,6 +110,12 @@ class RigidBodyParams:
             problems.append(("angular_velocity", "is set by scripted_tilt_deg (with spin); leave it 0"))
         for name in ("scripted_tilt_deg", "scripted_velocity"):
             problems += [(name, p) for p in keyframe_problems(getattr(self, name))]
+        if not all(abs(g) <= GRAVITY_MAX for g in self.gravity):  # (NaN too)
+            problems.append(("gravity", f"each component at most {GRAVITY_MAX:g} m/s^2 in size, a thousand g "
+                                        f"(got {list(self.gravity)!r})"))
+        if not all(abs(x) <= POSITION_MAX for x in self.position):
+            problems.append(("position", f"must lie within {POSITION_MAX / 1e3:g} km of the origin in each "
+                                         f"coordinate, as the water may (got {list(self.position)!r})"))
         if not any(name == "thickness" for name, _ in problems):  # a flat disk has no volume: said above
             problems += self._mass_problems() or self._energy_problems()
         return problems
@@ -135,6 +144,9 @@ class RigidBodyParams:
                            f"(got {getattr(self, name)!r})")]
         source = "mass" if self.mass is not None else "density"  # the parameter the mass comes from
         if out(mass):
+            if source == "density" and DENSITY_RANGE[0] <= self.density <= DENSITY_RANGE[1]:
+                # an ordinary density: the size is what takes the mass out of range
+                source = "thickness" if self.shape == "disk" and self.thickness > r else "radius"
             return [(source, f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
                              f"(got {getattr(self, source)!r})")]
         weight = mass * max(abs(g) for g in self.gravity)
@@ -158,10 +170,15 @@ class RigidBodyParams:
         _, mass = self._volume_and_mass()
         # the farthest point from the centre: a moment of inertia is at most mass x its distance squared
         reach = math.hypot(self.radius, 0.5 * self.thickness) if self.shape == "disk" else self.radius
-        rim = reach * (abs(self.spin) + math.sqrt(sum(w * w for w in self.angular_velocity)))
         # products, not powers: a float power that overflows raises where a product gives inf
-        spun = "spin" if self.spin else "angular_velocity"
-        terms = {"velocity": 0.5 * mass * sum(v * v for v in self.velocity), spun: 0.5 * mass * rim * rim}
+        spin_rim = reach * abs(self.spin)
+        turn_rim = reach * math.sqrt(sum(w * w for w in self.angular_velocity))
+        terms = {"velocity": 0.5 * mass * sum(v * v for v in self.velocity),
+                 "angular_velocity": 0.5 * mass * turn_rim * turn_rim, "spin": 0.5 * mass * spin_rim * spin_rim}
+        if all(math.isfinite(e) for e in terms.values()):
+            both = 0.5 * mass * (spin_rim + turn_rim) * (spin_rim + turn_rim)  # together, at most this
+            if not math.isfinite(both):
+                terms["spin" if spin_rim >= turn_rim else "angular_velocity"] = both
         kinetic = [(name, f"makes the stone's kinetic energy overflow a float (got {getattr(self, name)!r})")
                    for name, energy in terms.items() if not math.isfinite(energy)]
         height = mass * sum(abs(g * x) for g, x in zip(self.gravity, self.position, strict=True))

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from cosim.codec.json_codec import CodecError, codec_for
@@ -136,6 +137,10 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool
     seen: set[Any] = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
+        if isinstance(key, list | dict):  # (a set of them would fail on it as an internal error)
+            raise yaml.constructor.ConstructorError(
+                "while reading a mapping", node.start_mark,
+                f"found a key that is a {type(key).__name__}, not a name", key_node.start_mark)
         if key in seen:
             loader.duplicates.append(f"line {key_node.start_mark.line + 1}: duplicate key {key!r}")
         seen.add(key)
@@ -373,6 +378,28 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
     return every
 
 
+
+LARGEST_INITIAL = 1e15  # |value| of an edge's initial field beyond which it can only overflow the run
+
+
+def _out_of_range_field(msg: Message) -> str | None:
+    """"FIELD: why" for the first field of an edge's initial message that is not finite or is beyond
+    :data:`LARGEST_INITIAL` in size (a NaN force passed the scene and failed the run at t = 0), else None."""
+    bad = msg.first_nonfinite()
+    if bad is not None:
+        value = getattr(msg, bad)
+        return f"{bad}: must be finite (got {value.tolist() if hasattr(value, 'tolist') else value!r})"
+    for name, value in vars(msg).items():
+        if isinstance(value, bool | str) or value is None:
+            continue
+        try:
+            largest = float(np.max(np.abs(np.asarray(value, dtype=float)))) if np.size(value) else 0.0
+        except (TypeError, ValueError):
+            continue
+        if largest > LARGEST_INITIAL:
+            return f"{name}: {largest:g} is beyond {LARGEST_INITIAL:g} (too large for any start of a run)"
+    return None
+
 def _connection(index: int, item: Any, components: dict[str, type[Component]], names: set[str],
                 problems: list[str], types: dict[str, str]) -> Connection | None:
     """One edge, checked against the component classes (``components``: name -> class; ``types``:
@@ -440,6 +467,10 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
             initial = codec_for(out_type).from_dict(initial_data)
         except CodecError as exc:
             problems.append(f"{path}.initial: {exc}")
+            return None
+        wrong = _out_of_range_field(initial)
+        if wrong is not None:
+            problems.append(f"{path}.initial.{wrong}")
             return None
     elif initial_data is not None:
         problems.append(f"{path}.initial: only a delayed edge (delay: 1) takes an initial value")

@@ -188,3 +188,44 @@ def test_a_class_a_module_does_not_have_is_named_with_the_classes_it_has():
     msg = problem('dt: 0.001\nuntil: 0.01\ncomponents:\n  s: {type: "components:RigidBody"}\n')
     assert ("module 'components' has no 'RigidBody' (its component classes: none; RigidBody is a registered "
             "type: write type: RigidBody)") in msg
+
+
+SKIP = ROOT / "scenarios" / "skip.yaml"
+
+
+@pytest.mark.parametrize(("override", "expected"), [
+    # values that passed the scene and failed the run at t = 0 (or gave an internal error)
+    ("components.stone.gravity=[0, 0, 1e308]", "components.stone.gravity: each component at most 10000 m/s^2"),
+    ("components.pond.wave_length=1e-300", "components.pond.wave_length: must be at least two columns, 0.02 m"),
+    ("components.coupler.rho=1e308", "components.coupler.rho: must be <= 100000 kg/m^3"),
+    ("components.stone.position=[1e308, 0, 0.1]", "components.stone.position: must lie within 1000 km"),
+    ("components.pond.origin_x=1e308", "components.pond.origin_x: must be <= 1e+06 m"),
+    # and values whose error named another key
+    ("components.stone.thickness=1e308", "components.stone.thickness: gives the body a mass of inf kg"),
+    ("components.stone.angular_velocity=[1e200, 0, 0]", "components.stone.angular_velocity: makes the stone's "
+                                                        "kinetic energy overflow"),
+])
+def test_values_that_can_only_fail_the_run_are_refused_naming_their_key(override, expected):
+    with pytest.raises(ScenarioError) as err:
+        load(SKIP, [override])
+    assert len(err.value.problems) == 1 and err.value.problems[0].startswith(expected), err.value.problems
+
+
+@pytest.mark.parametrize(("initial", "expected"), [
+    ("{force: [.nan, 0, 0], torque: [0, 0, 0]}", "connections[2].initial.force: must be finite (got [nan, 0.0, 0.0])"),
+    ("{force: [0, 0, 0], torque: [0, 1e308, 0]}",
+     "connections[2].initial.torque: 1e+308 is beyond 1e+15 (too large for any start of a run)"),
+])
+def test_an_edge_initial_that_is_not_finite_or_too_large_is_refused(initial, expected):
+    """A NaN or huge initial value of a delayed edge: refused when the scene loads (validate passed it;
+    the run failed at t = 0 and replaced the recording at -o)."""
+    text = SKIP.read_text().replace("initial: {force: [0, 0, 0], torque: [0, 0, 0]}", f"initial: {initial}")
+    with pytest.raises(ScenarioError) as err:
+        loads(text, str(SKIP))
+    assert err.value.problems == [expected]
+
+
+def test_a_mapping_key_that_is_a_list_is_a_yaml_error_with_its_line():
+    """`? [a, b]` as a key: an error naming the line (it was an internal TypeError)."""
+    with pytest.raises(ScenarioError, match=r"line 3, column 5: found a key that is a list, not a name"):
+        loads("name: x\ncomponents:\n  ? [a, b]\n  : {type: RigidBody}\n", "s.yaml")

@@ -247,6 +247,19 @@ def test_a_table_of_another_sweep_is_not_resumed(tmp_path, pool):
         run_sweep(shorter, tmp_path / "ext.csv", pool, progress=False, figure=False)
 
 
+def test_a_table_that_is_not_text_is_refused_and_left_as_it_is(tmp_path, pool):
+    """A table made garbage (not UTF-8) beside its intact meta file: refused naming it, with --fresh
+    offered, the file untouched (an internal UnicodeDecodeError, after its last "row" was cut off)."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    out = tmp_path / "out.csv"
+    run_sweep(sweep, out, pool, progress=False, figure=False)
+    garbage = b"\xff\xfe\x00garbage\nmore\xc3"
+    out.write_bytes(garbage)
+    with pytest.raises(ScenarioError, match=r"out\.csv: is not UTF-8 text \(byte 0\).*--fresh"):
+        run_sweep(sweep, out, pool, progress=False, figure=False)
+    assert out.read_bytes() == garbage
+
+
 def test_record_writes_an_mcap_per_run_and_the_meta_names_the_scene(tmp_path, pool):
     """With record: true each point's run is recorded beside the table (its path in the row); the
     meta file holds the sweep, the base scene, the fingerprint and the versions."""

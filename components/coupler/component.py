@@ -124,6 +124,7 @@ class _Ring(NamedTuple):
 
 
 COEFFICIENT_MAX = 1e3  # [-] a force coefficient's upper bound: the published ones are of order 1
+RHO_MAX = 1e5  # [kg/m^3] the liquid's density at most: mercury is 13,546, and more only overflows the forces
 
 
 @dataclass(frozen=True)
@@ -131,7 +132,7 @@ class WaterCouplerParams:
     """Parameters of the water coupler (SI units; coefficients from physics.md section 3)."""
 
     effects: list[str] = param(ALL_EFFECTS, doc=_EFFECTS_DOC)
-    rho: float = param(RHO_WATER, unit="kg/m^3", gt=0, doc="water density")
+    rho: float = param(RHO_WATER, unit="kg/m^3", gt=0, le=RHO_MAX, doc="water density (at most 100,000 kg/m^3)")
     g: float = param(GRAVITY, unit="m/s^2", ge=0, le=1e4,
                      doc="gravity (buoyancy and the substep predictor; 0, or 1e-6 to 1e4 m/s^2)")
     c_l: float = param(C_LIFT, ge=0, le=COEFFICIENT_MAX, doc="pressure coefficient C_L of the Rosellini/Clanet law")

@@ -105,8 +105,10 @@ class WaterParams:
     ny: int = param(128, ge=2, doc="cells along y")
     cell: float = param(0.01, unit="m", ge=CELL_MIN, le=CELL_MAX, doc="cell size s (1 um to 10 km)")
     depth: float = param(0.5, unit="m", gt=0, le=DEPTH_MAX, doc="rest depth at the centre of the grid (at most 100 km)")
-    origin_x: float = param(0.0, unit="m", doc="x of the centre of cell (0, 0)")
-    origin_y: float = param(0.0, unit="m", doc="y of the centre of cell (0, 0)")
+    origin_x: float = param(0.0, unit="m", ge=-LEVEL_MAX, le=LEVEL_MAX,
+                            doc="x of the centre of cell (0, 0) (within 1000 km of x = 0)")
+    origin_y: float = param(0.0, unit="m", ge=-LEVEL_MAX, le=LEVEL_MAX,
+                            doc="y of the centre of cell (0, 0) (within 1000 km of y = 0)")
     rest_level: float = param(0.0, unit="m", ge=-LEVEL_MAX, le=LEVEL_MAX,
                               doc="z of the undisturbed surface (within 1000 km of z = 0)")
     bottom_slope: tuple[float, float] = param(
@@ -178,6 +180,9 @@ class WaterParams:
         if self.model == "airy" and self.wave_speed is not None:
             problems.append(("wave_speed", f"must be left out with model airy: each wave's speed comes from "
                                            f"its length and the depth (got {self.wave_speed:g} m/s)"))
+        if self.wave_length is not None and self.wave_length < 2.0 * self.cell:
+            problems.append(("wave_length", f"must be at least two columns, {2.0 * self.cell:g} m: no shorter wave "
+                                            f"exists on the grid (got {self.wave_length:g} m)"))
         if self.wave_speed is not None and self.wave_length is not None:
             problems.append(("wave_length", f"give wave_speed or wave_length, not both (got wave_speed "
                                             f"{self.wave_speed:g} m/s, wave_length {self.wave_length:g} m)"))

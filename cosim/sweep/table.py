@@ -131,6 +131,11 @@ class ResultTable:
             raise ScenarioError("holds the results of a different sweep (its scene, set, derived, metrics or "
                                 "columns differ); use --fresh to start over or -o for another file", where)
         raw = self.path.read_bytes()
+        try:  # the whole rows (a row cut short may end inside a character), before anything is cut off below
+            raw[: raw.rfind(b"\n") + 1].decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ScenarioError(f"is not UTF-8 text (byte {exc.start}), so not a table this sweep wrote; use "
+                                "--fresh to start over or -o for another file", where) from None
         if raw and not raw.endswith(b"\n"):  # a row cut short by a kill: drop it
             raw = raw[: raw.rfind(b"\n") + 1]
             with open(self.path, "r+b") as f:
