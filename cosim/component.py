@@ -136,6 +136,15 @@ class Component:
         ground, for instance, refuses a body that starts deep inside it. Default: none."""
         return []
 
+    def start_stable_step(self, inputs: dict[str, Message | None]) -> float:
+        """Largest stable step [s] this component will need once the run is under way, judged from
+        what it receives at t = 0 (``inputs`` as for :meth:`check_start`); the scene is refused when
+        its step exceeds it under ``on_unstable: error``, or would need more than MAX_SUBSTEPS
+        substeps. :meth:`max_stable_step` says the same of the state at hand; this is for a bound that
+        the state only reaches later (a coupler's, once the body it waits for meets the water).
+        Default: unbounded."""
+        return math.inf
+
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
         """Like :meth:`check_start`, for what only the components feeding this one know before the
         run: ``sources``, each input port fed by one edge and the component at its other end. A

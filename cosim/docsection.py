@@ -4,17 +4,16 @@ the file is kept). Benchmarks and studies write their tables into the docs this 
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
-
-from cosim.record.output import written_whole
 
 
 def replace_section(path: str | Path, name: str, body: str) -> None:
     """Put ``body`` between the markers of section ``name`` in the markdown file ``path``.
 
-    The page is written whole (:func:`cosim.record.output.written_whole`): a write that fails (a
-    full disk) leaves it as it was, never cut short; a page that is not UTF-8 text is a ValueError
-    naming it, before anything is written."""
+    The page is written whole, to a temporary name beside it moved onto it once complete: a write
+    that fails (a full disk) leaves it as it was, never cut short, and is an OSError naming it; a page
+    that is not UTF-8 text is a ValueError naming it, before anything is written."""
     path = Path(path)
     begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
     block = f"{begin}\n{body.rstrip()}\n{end}"
@@ -29,5 +28,12 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
     else:
         text = (text.rstrip() + "\n\n" if text.strip() else "") + block + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
-    with written_whole(path) as tmp:
+    tmp = path.with_name(path.name + ".tmp")
+    try:
         tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except BaseException as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        raise

@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from cosim.codec.json_codec import CodecError, codec_for
-from cosim.component import Component, OnUnstable
+from cosim.component import MAX_SUBSTEPS, Component, OnUnstable
 from cosim.errors import ScenarioError
 from cosim.messages import Message
 from cosim.params import build
@@ -636,9 +636,28 @@ def _check_start(scene: Scene, built: dict[str, Component], problems: list[str])
             inputs[port] = value
         try:
             found = comp.check_start(inputs) + comp.check_start_sources(inputs, sources)
+            found += _later_stability(scene, name, comp.start_stable_step(inputs))
         except Exception as exc:
             found = [f"cannot check its start ({type(exc).__name__}: {exc})"]
         problems.extend(f"components.{name}: {problem}" for problem in found)
+
+
+def _later_stability(scene: Scene, name: str, bound: float) -> list[str]:
+    """The problem with component ``name``'s step against the stable step it will need once the run
+    is under way (:meth:`~cosim.component.Component.start_stable_step`), as the run would find it."""
+    cfg = scene.components[name]
+    step = scene.dt * cfg.every
+    if not step > bound:
+        return []
+    if cfg.on_unstable == "error":
+        return [f"step {step:.6g} s exceeds the stable step {bound:.3g} s it will need once the run is under "
+                f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
+    substeps = math.ceil(step / bound)
+    if substeps > MAX_SUBSTEPS:
+        count = str(substeps) if substeps < 10**6 else f"{substeps:.3g}"
+        return [f"will need {count} substeps of its step {step:.6g} s (stable step {bound:.3g} s once the run "
+                f"is under way), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
+    return []
 
 
 def scene_folder(source: str) -> Path:

@@ -17,19 +17,45 @@ from cosim.scheduler import Simulation
 from tests.stability.scenes import POND, scene
 
 OVERFLOWS = [
-    # (override, component, port, field, time of the failing step [s])
-    # a gravity of 1e307 m/s^2 gives a finite velocity whose square (the speed's) overflows in the
-    # first step; a start whose own energy overflows is refused at load (test_rigid_body)
-    ("components.stone.gravity=[0.0, 0.0, -1.0e+307]", "stone", "state", "speed", 0.0),
-    ("components.coupler.rho=1.0e+307", "coupler", "wrench", "force", 0.074),
+    # (component, parameter, value, port, field, time of the failing step [s]): values a scene refuses
+    # (gravity at most 1e4 m/s^2, a water at most 1e5 kg/m^3), set past the scene's checks to reach the
+    # run's own: a gravity of 1e307 m/s^2 gives a finite velocity whose square (the speed's) overflows
+    # in the first step; a water of 1e307 kg/m^3 a force that overflows at the first contact
+    ("stone", "gravity", (0.0, 0.0, -1.0e307), "state", "speed", 0.0),
+    ("coupler", "rho", 1.0e307, "wrench", "force", 0.074),
 ]
 
 
-@pytest.mark.parametrize(("override", "component", "port", "field", "t"), OVERFLOWS)
-def test_an_overflow_in_a_physics_component_stops_the_run_naming_it(override, component, port, field, t):
+def _past_the_checks(component: str, name: str, value, monkeypatch=None) -> Simulation:
+    """The hard-case scene built, then ``component``'s parameter ``name`` set to ``value`` and the
+    component set up again: a value the scene would refuse, to test what the run does with it. With
+    ``monkeypatch``, the checks that would catch it before its overflow are taken out: the body's
+    gravity bound, and the coupler's bound for the body's first wet step (which substeps, or stops
+    the run, before the force can overflow)."""
+    import dataclasses
+    import math
+
+    import components.rigid_body
+    from components.coupler.component import WaterCoupler
+
+    if monkeypatch is not None:
+        monkeypatch.setattr(components.rigid_body, "GRAVITY_MAX", math.inf)
+        monkeypatch.setattr(WaterCoupler, "_approach_bound", lambda self, body: math.inf)
+    sim = Simulation(scene())
+    comp = sim.components[component]
+    comp.params = dataclasses.replace(comp.params, **{name: value})
+    comp.setup()
+    return sim
+
+
+@pytest.mark.parametrize(("component", "name", "value", "port", "field", "t"), OVERFLOWS)
+def test_an_overflow_in_a_physics_component_stops_the_run_naming_it(component, name, value, port, field, t,
+                                                                   monkeypatch):
     """The step whose output holds an infinity fails: the run ends 'failed' with a SimulationError
-    naming the component, the output port and field, and the step's start time."""
-    outcome = run_scene(scene(override), None, progress=False)
+    naming the component, the output port and field, and the step's start time (the run's last line
+    of defence, behind the scene's checks and the stable steps, which are taken out here)."""
+    sim = _past_the_checks(component, name, value, monkeypatch)
+    outcome = run_scene(sim.scene, None, progress=False, simulation=sim)
     assert outcome.failed and outcome.result.status == "failed"
     error = outcome.result.error
     assert isinstance(error, SimulationError)
@@ -39,13 +65,21 @@ def test_an_overflow_in_a_physics_component_stops_the_run_naming_it(override, co
     assert outcome.result.time_ns <= error.time_ns + 1_000_000  # stopped there, not run on
 
 
-def test_the_command_line_reports_the_overflow_and_exits_1(tmp_path, capsys):
-    """`cosim run` on the dense-water scene exits 1 and prints the component, field and time."""
+def test_values_that_can_only_overflow_are_refused_when_the_scene_loads():
+    """The same values given in the scene are refused before anything runs."""
+    with pytest.raises(ScenarioError, match=r"components\.stone\.gravity: each component at most 10000"):
+        scene("components.stone.gravity=[0.0, 0.0, -1.0e+307]")
+    with pytest.raises(ScenarioError, match=r"components\.coupler\.rho: must be <= 100000 kg/m\^3"):
+        scene("components.coupler.rho=1.0e+307")
+
+
+def test_the_command_line_refuses_the_dense_water_before_the_run(tmp_path, capsys):
+    """`cosim run` on a scene with water of 1e307 kg/m^3 exits 2 naming the value (it ran, and failed
+    at t = 0.074 s with an overflow)."""
     path = tmp_path / "dense.yaml"
     path.write_text(POND.replace("effects: [", "rho: 1.0e+307\n    effects: ["), encoding="utf-8")
-    assert main(["run", str(path), "--no-record", "-q"]) == 1
-    err = capsys.readouterr().err
-    assert "component 'coupler' failed at t = 0.074 s: non-finite value in output 'wrench' field 'force'" in err
+    assert main(["run", str(path), "--no-record", "-q"]) == 2
+    assert "components.coupler.rho: must be <= 100000 kg/m^3 (got 1e+307)" in capsys.readouterr().err
 
 
 def test_a_nan_in_the_scene_is_refused_at_load_time():
@@ -80,9 +114,41 @@ def test_a_non_finite_initial_output_stops_the_run_at_t_0():
 
 def test_a_step_needing_too_many_substeps_says_how_many_in_a_few_digits():
     """A stone thrown at 1e150 m/s (its energy still a float) makes the coupler's stable step
-    absurdly small: the run fails naming the substeps it would need in three digits, not 150."""
-    outcome = run_scene(scene("components.stone.velocity=[1.0e+150, 0.0, 0.0]"), None, progress=False)
+    absurdly small: the scene is refused before the run (it failed at the first contact), naming the
+    substeps it would need in three digits, not 150; past the scene's checks, the run says the same
+    when it gets there."""
+    with pytest.raises(ScenarioError) as info:
+        scene("components.stone.velocity=[1.0e+150, 0.0, 0.0]")
+    assert info.value.problems == [
+        "components.coupler: will need 1.48e+148 substeps of its step 0.0002 s (stable step 1.35e-152 s once the "
+        "run is under way), more than the limit 10000; lower dt or every"]
+    sim = _past_the_checks("stone", "velocity", (1.0e150, 0.0, 0.0))
+    outcome = run_scene(sim.scene, None, progress=False, simulation=sim)
     assert outcome.failed
     error = outcome.result.error
     assert isinstance(error, SimulationError) and error.component == "coupler"
     assert "needs 1.6e+148 substeps (stable step 1.25e-152 s), more than the limit 10000" in error.reason
+
+SMALL_SKIP = ["components.pond.nx=200", "components.pond.ny=60", "components.stone.position=[0.1, 0.3, 0.1]",
+              "until=0.12", "record.visual_rate=0"]
+
+
+def test_a_stone_far_lighter_than_the_water_it_meets_takes_its_first_contact_in_substeps():
+    """A slate 0.1 mm thin (2 g against a face that stops 0.3 kg of water): the coupler's stable step
+    is that of its first wet step from before it touches, so the scheduler substeps that step. It
+    took it whole, and the water threw the stone out faster than it came and gave it energy (41 km/s
+    from 11 m/s, at 1 um); now the water takes energy and the stone leaves slower."""
+    from pathlib import Path
+
+    from cosim.scenario import load
+
+    skip = Path(__file__).resolve().parents[2] / "scenarios" / "skip.yaml"
+    outcome = run_scene(load(skip, [*SMALL_SKIP, "components.stone.thickness=1e-4"]), None, progress=False)
+    monitor, coupler = outcome.simulation.components["stages"], outcome.simulation.components["coupler"]
+    assert monitor.records, "the thin stone skips once in its 0.12 s"
+    first = monitor.records[0]
+    assert first.speed_out < first.speed_in
+    assert coupler.dissipated > 0.0
+    refused = r"components\.coupler: step 0\.0005 s exceeds the stable step 1\.5\de-07 s"
+    with pytest.raises(ScenarioError, match=refused):
+        load(skip, [*SMALL_SKIP, "components.stone.thickness=1e-6", "on_unstable=error"])
