@@ -45,9 +45,13 @@ class RunOutcome:
 
 
 @contextmanager
-def _signals_interrupt(sim: Simulation) -> Iterator[None]:
-    """Ctrl-C and SIGTERM end the run after the current tick; a second Ctrl-C aborts at once."""
+def _signals_interrupt(sim: Simulation, recorder: Any = None) -> Iterator[None]:
+    """Ctrl-C and SIGTERM end the run after the current tick; a second Ctrl-C aborts at once. The
+    ``recorder`` is told of each (:meth:`cosim.record.recorder.Recorder.interrupted`): a writer process
+    that has stopped answering is then not waited for without end."""
     def handler(signum: int, frame: Any) -> None:
+        if recorder is not None:
+            recorder.interrupted()
         if sim.interrupt_reason is not None and signum == signal.SIGINT:
             raise KeyboardInterrupt
         sim.interrupt(f"interrupted by {signal.Signals(signum).name}")
@@ -168,7 +172,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
                                 ) if progress else nullcontext()
         if before_run is not None:
             before_run()
-        with _signals_interrupt(sim), notice:
+        with _signals_interrupt(sim, recorder), notice:
             try:
                 result = sim.run(end_ns)
             except SimulationError as exc:

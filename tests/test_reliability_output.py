@@ -200,6 +200,36 @@ def test_the_writer_killed_mid_run_is_one_line_and_leaves_the_recording_salvaged
     assert f"status: failed at t = {status.time:g} s" in capsys.readouterr().out
 
 
+def test_a_writer_that_stops_answering_does_not_hold_the_command_past_a_second_ctrl_c(tmp_path):
+    """The writer process stopped (SIGSTOP: stuck on a file system, say) while the run goes on: two
+    Ctrl-C end the command (exit 1, one line) instead of each moving it on to its next wait for the
+    writer; the writer, let go on, then finishes the recording on its own."""
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    out = tmp_path / "s.mcap"
+    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    writer = None
+    try:
+        wait_for_part(out)
+        (writer,) = children(proc.pid)
+        os.kill(writer, signal.SIGSTOP)
+        os.kill(proc.pid, signal.SIGINT)
+        time.sleep(0.5)
+        os.kill(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=WAIT_S)
+    finally:
+        proc.kill()
+        if writer is not None:
+            os.kill(writer, signal.SIGCONT)
+    assert proc.returncode == 1
+    assert one_error_line(err).startswith("error: ")
+    deadline = time.monotonic() + WAIT_S
+    while (parts(out) or not out.exists()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert out.exists() and parts(out) == []
+    assert Recording(out).end_ns > 0
+
+
 # above the shared-memory ring (its memory file counts against the limit too), below PAINT's 96 MB recording
 FILE_LIMIT = RING_BYTES + (8 << 20)
 PAINT_FRAMES = 800

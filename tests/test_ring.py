@@ -546,3 +546,27 @@ def test_hang_up_says_whether_the_consumer_finished(local, finishes):
     assert worker.error is None and local.producer.ack_fd == -1 and local.producer.control_fd == -1
     local.producer_open = False
     local.producer.close()  # after hang_up: releases the mapping, safe to call again
+
+
+def test_asked_to_stop_the_producer_stops_waiting_for_a_consumer_that_does_not_answer(local, monkeypatch):
+    """With the ring full and the consumer silent: before any interrupt, put waits; once the producer
+    is told of one (RingProducer.interrupted), it gives up when the consumer has not answered for
+    STALL_S (RingStalled), and at once when told a second time. (A stopped writer held a Ctrl-C'd
+    run however often it was interrupted.)"""
+    import cosim.record.ring as ring
+
+    monkeypatch.setattr(ring, "STALL_S", 0.3)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    local.producer.put([b"a" * 2000])
+    local.producer.put([b"b" * 2000])
+    put_c = in_thread(local.producer.put, [b"c" * 1000])
+    put_c.join(0.5)
+    assert put_c.is_alive()  # no interrupt: it waits for the consumer, however long
+    local.producer.interrupted()
+    put_c.join(WATCHDOG_S)
+    assert not put_c.is_alive() and isinstance(put_c.error, ring.RingStalled)
+    monkeypatch.setattr(ring, "STALL_S", WATCHDOG_S * 10)  # only the second interrupt can end the next wait
+    local.producer.interrupted()
+    put_d = in_thread(local.producer.put, [b"d" * 1000])
+    put_d.join(WATCHDOG_S)
+    assert not put_d.is_alive() and isinstance(put_d.error, ring.RingStalled)

@@ -311,6 +311,13 @@ class Recorder(BaseObserver):
         return tick * dt_ns, DerivedMessage(STATUS_TOPIC, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
                                             MESSAGE_ENCODING, codec.encode(status))
 
+    def interrupted(self) -> None:
+        """The run was asked to stop (called from its signal handler): a writer process that stops
+        answering is given up on instead of waited for without end (``ProcessSink.interrupted``)."""
+        told = getattr(self.sink, "interrupted", None)
+        if told is not None:
+            told()
+
     def close(self) -> Path:
         """Finish the file (summary, indexes) under its final name. Safe to call twice."""
         if not self._closed:

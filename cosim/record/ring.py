@@ -39,6 +39,7 @@ import mmap
 import os
 import select
 import struct
+import time
 from collections import deque
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -61,6 +62,15 @@ _PREFAULT_CHUNK = 1 << 20  # [bytes] the ring is made resident this much at a ti
 
 class RingError(RuntimeError):
     """The other side of the ring is gone."""
+
+
+class RingStalled(RingError):
+    """The consumer has not answered for as long as the producer was told to wait once asked to stop
+    (:meth:`RingProducer.interrupted`): it may still be there (stopped, or stuck on a file system)."""
+
+
+WAIT_SLICE_S = 0.25  # a wait for the consumer looks at the clock this often
+STALL_S = 10.0  # asked to stop once, the producer waits at most this long for the consumer's next word
 
 
 def shared_memory_fd(size: int) -> int:
@@ -126,6 +136,20 @@ class RingProducer:
         self.control_fd = -1
         self.ack_fd = -1
         self.finished = False  # the consumer said FINISHED
+        self.interrupts = 0  # how often the producer was asked to stop (interrupted())
+        self._heard_at = 0.0  # time.monotonic() of the consumer's last word, or of the first interrupt
+
+    def interrupted(self) -> None:
+        """The producer's process was asked to stop (a Ctrl-C, a SIGTERM; safe from a signal handler):
+        from now on a wait for the consumer gives up (:class:`RingStalled`) once it has not answered
+        for :data:`STALL_S`, and at once when asked a second time. A consumer stopped or stuck would
+        otherwise hold the process however often it was asked to end."""
+        self.interrupts += 1
+        if self.interrupts == 1:
+            self._heard_at = time.monotonic()
+
+    def _stalled(self) -> bool:
+        return self.interrupts >= 2 or (self.interrupts == 1 and time.monotonic() - self._heard_at >= STALL_S)
 
     def connect(self, control_fd: int, ack_fd: int) -> None:
         """Start talking to the consumer: its control pipe (write end) and acknowledgement pipe (read end)."""
@@ -234,13 +258,17 @@ class RingProducer:
 
     def _read_acks(self, wait: bool) -> None:
         if wait:
-            select.select([self.ack_fd], [], [])
+            while not select.select([self.ack_fd], [], [], WAIT_SLICE_S)[0]:
+                if self._stalled():
+                    raise RingStalled("the consumer has not answered")
         try:
             data = os.read(self.ack_fd, 1 << 16)
         except BlockingIOError:
             return
         if not data:
             raise RingError("the consumer has gone")
+        if self.interrupts:
+            self._heard_at = time.monotonic()
         data = self._acks + data
         whole = len(data) - len(data) % _LENGTH.size
         if whole:
@@ -260,6 +288,8 @@ class RingProducer:
             _write_all(self.control_fd, _HEAD.pack(END, 0))
             while not self.finished:
                 self._read_acks(wait=True)
+        except RingStalled:
+            raise
         except (RingError, OSError):
             return False
         self.finished = False
@@ -269,22 +299,23 @@ class RingProducer:
         _note_tally(self._map, self.size, self._sent, 0)
         return True
 
-    def hang_up(self) -> bool:
+    def hang_up(self, wait: bool = True) -> bool:
         """Close the control pipe (the consumer then finishes) and read the consumer's last
-        acknowledgements until it closes its end (so it never waits on a full pipe). True when its
-        last word was :data:`FINISHED`."""
-        if self.fd >= 0:  # hanging up on purpose: nothing is left unsent
+        acknowledgements until it closes its end (so it never waits on a full pipe), or, asked to stop
+        (:meth:`interrupted`), until it has not answered for :data:`STALL_S`. True when its last word
+        was :data:`FINISHED`. Without ``wait`` (a consumer given up on), nothing is read, and the mark
+        stays for the consumer to read the records it covers (:meth:`RingConsumer.unsent`)."""
+        if self.fd >= 0 and wait:  # hanging up on purpose: nothing is left unsent
             self.marked[1] = 0
         if self.control_fd >= 0:
             os.close(self.control_fd)
             self.control_fd = -1
         if self.ack_fd >= 0:
-            os.set_blocking(self.ack_fd, True)
             try:
-                while True:
+                while wait:
                     try:
-                        self._read_acks(wait=False)
-                    except RingError:  # the consumer has closed its end
+                        self._read_acks(wait=True)
+                    except RingError:  # the consumer has closed its end, or stopped answering
                         break
             finally:
                 os.close(self.ack_fd)

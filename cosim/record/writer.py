@@ -58,7 +58,7 @@ from cosim.record.derive import (
     use_site_dirs,
 )
 from cosim.record.output import Claim, claim, finish
-from cosim.record.ring import RingConsumer, RingError, RingProducer
+from cosim.record.ring import STALL_S, RingConsumer, RingError, RingProducer, RingStalled
 
 BATCH = 4096  # a batch is sent at this many records...
 # ...or this many bytes: each batch wakes the writer process, which on a shared core can preempt the
@@ -578,11 +578,12 @@ class _Writer:
             pass
         self.hang_up()
 
-    def hang_up(self) -> None:
+    def hang_up(self, wait: bool = True) -> None:
         """Close this process's ends: the socket (a writer waiting for its next file ends), the ring
-        (a writer still writing finishes its file, and is waited for) and the error file."""
+        (a writer still writing finishes its file, and is waited for unless not ``wait``: a writer
+        given up on finishes it on its own) and the error file."""
         self.handover.close()
-        self.ring.hang_up()
+        self.ring.hang_up(wait)
         self.ring.close()
         self.errors.close()
 
@@ -670,6 +671,7 @@ class ProcessSink(_Sink):
         super().__init__(self._reserve)
         self.path = path
         self._failed: str | None = None  # the line saying how the writer failed, once it has
+        self._abandoned = False  # the writer was given up on (_abandon): it keeps the private file
         # a path that cannot be written fails at once, in this process (the private file is created
         # here, empty, and locked; the writer opens it by name and holds the lock too)
         self.claim = claim(path)
@@ -696,6 +698,8 @@ class ProcessSink(_Sink):
     def _reserve(self, n: int) -> memoryview:
         try:
             return self._ring.reserve(n)
+        except RingStalled:  # asked to stop, and the writer does not answer
+            raise SinkError(self._abandon()) from None
         except (RingError, OSError):  # the writer has gone while this process waited for room
             raise SinkError(self._failure()) from None
 
@@ -706,8 +710,31 @@ class ProcessSink(_Sink):
                 self._ring.commit(len(batch))
             else:  # a record larger than the stage, from a buffer of its own
                 self._ring.put([batch])
+        except RingStalled:
+            raise SinkError(self._abandon()) from None
         except (RingError, OSError):
             raise SinkError(self._failure()) from None
+
+    def interrupted(self) -> None:
+        """The run was asked to stop (a Ctrl-C, a SIGTERM; called from the signal handler): a writer
+        that stops answering is not waited for without end (:meth:`RingProducer.interrupted`)."""
+        self._ring.interrupted()
+
+    def _abandon(self) -> str:
+        """Give up on a writer that has not answered since the run was asked to stop (stopped, or
+        stuck on its file system): hang up without waiting, leaving it the private file, which it
+        finishes and moves onto the target should it go on; the line saying so."""
+        if self._failed is None:
+            self._abandoned = True
+            self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
+            quiet = "asked again" if self._ring.interrupts >= 2 else f"for {STALL_S:g} s"
+            self._failed = (f"{self.path}: the recording writer (process {self._writer.proc.pid}) has not answered "
+                            f"since the run was asked to stop ({quiet}); it was left to finish the recording on "
+                            f"its own should it go on (in {self.claim.part.name} until then), without the steps "
+                            "it had not been handed")
+            self._writer.hang_up(wait=False)
+            self.claim.release(remove=False)
+        return self._failed
 
     def mark(self) -> None:
         self._marked[1] = self.stage.offset  # RingProducer.mark, inlined: the recorder calls it every step
@@ -835,26 +862,33 @@ class ProcessSink(_Sink):
         """Send what is left, end the ring's stream, and wait until the writer has finished the file;
         a SinkError when it could not (its message says whether the recording was salvaged). The
         writer is kept for this process's next recording (:func:`_keep`)."""
-        finished = False
+        if self._abandoned:
+            raise SinkError(self._failed or "")
+        finished = cut_short = False
         try:
             try:
                 self.flush()
                 self._placement.anywhere()  # this process only waits from now on
             finally:
                 self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
-                finished = self._failed is None and self._ring.end_stream()
+                try:
+                    finished = self._failed is None and self._ring.end_stream()
+                except RingStalled:
+                    raise SinkError(self._abandon()) from None
             # (a writer killed after moving the finished file into place, before it could say so, finished it)
             if self._failed is not None or (not finished and self.claim.part.exists()):
                 raise SinkError(self._failure())  # the ring is still open here: the salvage reads it
             relayed = relayed_warnings(self._writer.new_errors())
-        except BaseException:
+        except BaseException as exc:
             if finished:  # the file is whole, but closing was interrupted (Ctrl-C): the writer is let go
                 self._writer.close()
                 self.claim.release(remove=False)
+            # a Ctrl-C while waiting for the writer: it finishes the file on its own, not waited for
+            cut_short = isinstance(exc, KeyboardInterrupt)
             raise
         finally:
-            if not finished:
-                self._writer.hang_up()
+            if not finished and not self._abandoned:
+                self._writer.hang_up(wait=not cut_short)
                 import threading
 
                 threading.Thread(target=self._writer.proc.wait, daemon=True).start()  # reaped in the background
@@ -865,7 +899,9 @@ class ProcessSink(_Sink):
 
     def discard(self) -> None:
         """Stop the writer and remove the private file (the target keeps what it held; a recording
-        already salvaged after the writer died stays)."""
+        already salvaged after the writer died stays; a writer given up on keeps its file)."""
+        if self._abandoned:
+            return
         self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
         self._writer.close()
         self.claim.release(remove=True)
