@@ -247,6 +247,35 @@ def _small_file_limit() -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (FILE_LIMIT, FILE_LIMIT))
 
 
+SMALL_LIMIT = 20 << 20  # bytes: a file-size limit below the writer's usual shared memory (64 MiB)
+
+
+def _limit_below_the_ring() -> None:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (SMALL_LIMIT, SMALL_LIMIT))
+
+
+def test_a_file_size_limit_below_the_shared_memory_still_records(tmp_path):
+    """Under a file-size limit lower than the writer's shared memory (which counts against it), the
+    writer takes a smaller share and the run records as usual (every recorded run failed at its
+    start, blaming its output file); a limit too small even for that says so."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SCENE)
+    out = tmp_path / "s.mcap"
+    proc = cosim_popen("run", str(scene), "-o", str(out), "-q", cwd=tmp_path, preexec_fn=_limit_below_the_ring)
+    _, err = proc.communicate(timeout=WAIT_S)
+    assert proc.returncode == 0, err
+    assert Recording(out).status().status == "ok"
+
+    def tiny() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (256 << 10, 256 << 10))
+
+    proc = cosim_popen("run", str(scene), "-o", str(tmp_path / "t.mcap"), "-q", cwd=tmp_path, preexec_fn=tiny)
+    _, err = proc.communicate(timeout=WAIT_S)
+    assert proc.returncode == 1
+    assert "the file-size limit (ulimit -f) is below the 1 MiB of shared memory" in one_error_line(err)
+    assert not (tmp_path / "t.mcap").exists() and parts(tmp_path / "t.mcap") == []
+
+
 def test_a_full_disk_is_one_line_and_keeps_what_fitted(tmp_path, capsys):
     """Writes that fail (a file-size limit stands in for a full disk): exit 1, one line with the
     system's reason, and the recording closed where it was cut: the run's first messages exactly as a

@@ -83,7 +83,11 @@ def shared_memory_fd(size: int) -> int:
 
         with tempfile.TemporaryFile() as f:
             fd = os.dup(f.fileno())
-    os.ftruncate(fd, size)
+    try:
+        os.ftruncate(fd, size)
+    except BaseException:  # a file-size limit below it (EFBIG): not left open
+        os.close(fd)
+        raise
     return fd
 
 

@@ -502,6 +502,29 @@ class InProcessSink(_Sink):
         self.claim.release(remove=True)
 
 
+SMALLEST_RING_BYTES = 1 << 20  # a ring made smaller to fit a file-size limit is at least this large
+
+
+def _ring() -> RingProducer:
+    """The shared memory to a writer process: :data:`RING_BYTES`, or, where a file-size limit
+    (``ulimit -f``, which counts the memory file too) is lower, the largest power-of-two share of it
+    that fits, down to :data:`SMALLEST_RING_BYTES` (every recording failed at its start, blaming its
+    output file, under a limit below 64 MiB)."""
+    import errno
+
+    size = RING_BYTES
+    while True:
+        try:
+            return RingProducer(size)
+        except OSError as exc:
+            if exc.errno != errno.EFBIG or size // 2 < SMALLEST_RING_BYTES:
+                if exc.errno == errno.EFBIG:
+                    raise OSError(exc.errno, f"the file-size limit (ulimit -f) is below the {SMALLEST_RING_BYTES >> 20} "
+                                             "MiB of shared memory a recording's writer needs") from None
+                raise
+            size //= 2
+
+
 class _Writer:
     """A writer process, started: its ring, its error output (a file, read back only if it fails or
     relays warnings: a pipe could fill and block it), and the socket its file is handed over on."""
@@ -517,7 +540,7 @@ class _Writer:
         # the writer imports this package from where this process found it
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
-        self.ring = RingProducer(RING_BYTES)
+        self.ring = _ring()
         control_r, control_w = os.pipe()
         ack_r, ack_w = os.pipe()
         self.handover, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)  # one message
@@ -526,7 +549,7 @@ class _Writer:
                 # -P: the working folder must not shadow anything on the writer's path
                 # -S: no site processing (its .pth files cost tens of milliseconds of every short run's
                 # wait for the writer); the packages the writer needs are found through _site_dirs()
-                [sys.executable, "-S", "-P", "-m", "cosim.record.writer", str(self.ring.fd), str(RING_BYTES),
+                [sys.executable, "-S", "-P", "-m", "cosim.record.writer", str(self.ring.fd), str(self.ring.size),
                  str(control_r), str(ack_w), _site_dirs(), ",".join(preloads), str(theirs.fileno())],
                 pass_fds=(self.ring.fd, control_r, ack_w, theirs.fileno()), stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL, stderr=self.errors, start_new_session=True, env=env)
@@ -689,6 +712,11 @@ class ProcessSink(_Sink):
         self._writer = writer
         # the writer's parts used on every batch or step, at hand
         self._ring, self._marked, self._placement = writer.ring, writer.ring.marked, writer.placement
+        if writer.ring.size < RING_BYTES:  # a ring made smaller (_ring): batches a share of it
+            stage = self.stage
+            stage.size = min(stage.size, writer.ring.size // 4)
+            stage.batch_bytes = min(stage.batch_bytes, stage.size)
+            stage.fresh_max = min(stage.fresh_max, writer.ring.size // 2)
 
     @property
     def writer_pid(self) -> int:
