@@ -519,8 +519,9 @@ def _ring() -> RingProducer:
         except OSError as exc:
             if exc.errno != errno.EFBIG or size // 2 < SMALLEST_RING_BYTES:
                 if exc.errno == errno.EFBIG:
-                    raise OSError(exc.errno, f"the file-size limit (ulimit -f) is below the {SMALLEST_RING_BYTES >> 20} "
-                                             "MiB of shared memory a recording's writer needs") from None
+                    need = f"{SMALLEST_RING_BYTES >> 20} MiB"
+                    raise OSError(exc.errno, f"the file-size limit (ulimit -f) is below the {need} of shared memory "
+                                             "a recording's writer needs") from None
                 raise
             size //= 2
 
