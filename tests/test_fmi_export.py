@@ -149,6 +149,16 @@ def test_a_communication_step_off_the_base_step_grid_is_refused_with_the_reason(
     assert not out.exists()
 
 
+def test_an_fmu_name_too_long_for_its_model_identifier_is_refused_before_the_build(tmp_path, capsys):
+    """An FMU named in 251 characters: exit 2 naming the limit, before any build (it failed inside
+    the build, naming a temporary file)."""
+    out = tmp_path / ("c" * 251 + ".fmu")
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out)]) == 2
+    assert "an FMU's name (its model identifier) is at most 200 characters (got 251)" in one_error_line(
+        capsys.readouterr().err)
+    assert not out.exists()
+
+
 @pytest.mark.parametrize(("step", "said"), [
     ("1e300", "--step 1e+300 s: must be at most 9.22e+09 s"),
     ("1e-12", "--step: a communication step of 1e-12 s is not a whole multiple"),

@@ -362,3 +362,28 @@ def test_sigterm_while_plot_writes_is_one_line_and_leaves_nothing_half_written(t
     assert one_error_line(capsys.readouterr().err) == "error: cosim plot: interrupted (SIGTERM)"
     assert not out.exists() or not any(out.iterdir())
     assert signal.getsignal(signal.SIGTERM) is before  # the command's handler is gone with it
+
+
+def test_file_names_near_the_limit_are_written_like_any_other(scene, tmp_path, capsys):
+    """A recording named in 245 bytes and a picture in 250 (a file name holds 255): written, with
+    nothing left beside them (their private and temporary files' longer names were refused as "File
+    name too long"); a private file's stem is the same for the same name, so two runs on it still
+    exclude each other."""
+    from cosim.record.output import sibling_stem
+    from tests.viewer_toys import record_skip
+
+    out = tmp_path / ("a" * 240 + ".mcap")
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    skip = tmp_path / "skip.mcap"
+    record_skip(skip, ["until=0.05", "record.visual_rate=0"])
+    picture = tmp_path / ("b" * 246 + ".png")
+    assert main(["render", str(skip), "-o", str(picture), "-q"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([out.name, skip.name, picture.name, scene.name])
+    stem = sibling_stem(out.name, 14)
+    assert len(stem.encode()) + 14 <= 255 and stem == sibling_stem(out.name, 14) != sibling_stem("a" + out.name, 14)
+    first = claim(out)
+    try:
+        with pytest.raises(RecordingError, match="another run is writing it now"):
+            claim(out)
+    finally:
+        first.release(remove=True)

@@ -39,7 +39,7 @@ from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stag
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
-from cosim.record.output import output_folder
+from cosim.record.output import output_folder, sibling_stem
 from cosim.record.reader import Recording
 from cosim.timebase import NS_PER_S
 from cosim.view.items import decimation
@@ -545,7 +545,7 @@ def _ffmpeg() -> str | None:
 class _Writer:
     def __init__(self, path: Path, fps: float, size: tuple[int, int]):
         self.path = path
-        self.part = path.with_name(path.name + ".part")
+        self.part = path.with_name(sibling_stem(path.name, 5) + ".part")
         self.fps = fps
         self.size = size
 

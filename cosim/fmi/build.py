@@ -18,6 +18,8 @@ import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
+from cosim.record.output import sibling_stem
+
 CACHE_ENV = "COSIM_FMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/cosim/fmu)
 BUILD_TIMEOUT_S = 300  # a build taking longer than this [s] is reported as failed
 
@@ -56,7 +58,7 @@ def build_fmu(model: str | Path, dest: str | Path, *, extra_files: Iterable[str 
         if done.returncode != 0 or len(built) != 1:
             said = (done.stderr.strip() or done.stdout.strip()).splitlines()
             raise FmuBuildError(f"{model}: pythonfmu build failed ({said[-1] if said else f'exit {done.returncode}'})")
-        part = dest.with_name(f".{dest.name}.{os.getpid()}.part")
+        part = dest.with_name(f".{sibling_stem(dest.name, 30)}.{os.getpid()}.part")
         shutil.copyfile(built[0], part)
         os.replace(part, dest)  # whole or not at all, also when two processes build the same model
     return dest

@@ -24,6 +24,9 @@ from cosim.scenario import Scene
 MODEL_DESCRIPTION = "modelDescription.xml"
 
 
+MAX_IDENTIFIER = 200  # characters in a model identifier: it names files inside the FMU and as it is built
+
+
 def model_identifier(output: Path) -> str:
     """The FMU's model identifier from its file name (``skip.fmu`` -> ``skip``): a C identifier, as
     FMI asks, since it names the FMU's binaries and functions."""
@@ -68,6 +71,9 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
     if output.exists() and not zipfile.is_zipfile(output):
         raise ScenarioError(f"-o {output}: exists and is not an FMU; it is not replaced", scene.source)
     identifier = model_identifier(output)
+    if len(identifier) > MAX_IDENTIFIER:  # it names the FMU's module file and its binaries
+        raise ScenarioError(f"-o {output}: an FMU's name (its model identifier) is at most {MAX_IDENTIFIER} "
+                            f"characters (got {len(identifier)})", scene.source)
     with tempfile.TemporaryDirectory(prefix="cosim-export-") as tmp:
         folder = Path(tmp)
         # the module's name is its own (a scene called "json" must not import the standard library's

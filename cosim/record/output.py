@@ -158,6 +158,24 @@ def _locked(part: str) -> bool:
     return False
 
 
+NAME_MAX = 255  # bytes in a file name (Linux, macOS and Windows file systems alike)
+
+
+def sibling_stem(name: str, suffix_bytes: int) -> str:
+    """``name``, or, when ``suffix_bytes`` more would not fit in a file name, its start and a short
+    digest of the whole (``start~1a2b3c4d``): the stem of a temporary or private file beside a target
+    whose own name is already near the limit (a recording named in 245 bytes was refused: its private
+    file's name was too long). The same name always gives the same stem."""
+    raw = os.fsencode(name)
+    if len(raw) + suffix_bytes <= NAME_MAX:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(raw).hexdigest()[:8]
+    start = raw[:NAME_MAX - suffix_bytes - len(digest) - 1].decode("utf-8", "ignore")  # not cut inside a character
+    return f"{start}~{digest}"
+
+
 def _private_file(path: Path) -> tuple[int, str]:
     """Create ``NAME.<random>.part`` beside ``path``, new (never an existing file), open for reading
     and writing: (descriptor, name). Its mode is what any new file of the user's gets (0666 less the
@@ -166,12 +184,17 @@ def _private_file(path: Path) -> tuple[int, str]:
     import secrets
 
     for _ in range(100):
-        name = os.path.join(path.parent, f"{path.name}.{secrets.token_hex(4)}{PART_SUFFIX}")
+        name = os.path.join(path.parent, f"{_part_stem(path)}.{secrets.token_hex(4)}{PART_SUFFIX}")
         try:
             return os.open(name, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666), name
         except FileExistsError:
             continue
     raise FileExistsError(f"{path}: no free private file name beside it")
+
+
+def _part_stem(path: Path) -> str:
+    """The stem of a recording's private files: ``NAME.<8 hex digits>.part`` beside it."""
+    return sibling_stem(path.name, 1 + 8 + len(PART_SUFFIX))
 
 
 def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
@@ -189,7 +212,7 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     mine = Claim(path, Path(name), fd)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(path.name) + ".*" + PART_SUFFIX)
+        pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(_part_stem(path)) + ".*" + PART_SUFFIX)
         mine_too = {os.path.abspath(name)} | ({os.path.abspath(replacing.part)} if replacing is not None else set())
         for other in glob.glob(pattern):
             if os.path.abspath(other) not in mine_too and _locked(other):
@@ -223,7 +246,7 @@ def written_whole(path: Path) -> Iterator[Path]:
     the writing fails or is interrupted: ``path`` holds the whole new file or what it held before,
     never half of one. A failed write is an OSError naming ``path``, not the temporary (a writer that
     names no file, such as an image library on a full disk, is taken to have failed on it too)."""
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = path.with_name(sibling_stem(path.name, 4) + ".tmp")
     try:
         yield tmp
         os.replace(tmp, path)
