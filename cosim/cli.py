@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import warnings
 
 try:
     import argparse
@@ -513,6 +514,8 @@ def main(argv: list[str] | None = None) -> int:
     process as soon as it has returned (:func:`_end_process`), without the interpreter's teardown."""
     as_program = argv is None
     argv = list(sys.argv[1:] if argv is None else argv)
+    if as_program:
+        warnings.showwarning = _one_line_warning
     if as_program and _command(argv) in ENDS_WHEN_DONE:
         _pause_collection()
     try:
@@ -523,6 +526,13 @@ def main(argv: list[str] | None = None) -> int:
     if as_program and _command(argv) in ENDS_WHEN_DONE:
         _end_process(code)
     return code
+
+
+def _one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                      file: Any = None, line: str | None = None) -> None:
+    """A warning as the program shows it: ``warning: TEXT``, one line, without the Python file and
+    line that issued it (those are for --debug and the tests)."""
+    print(f"warning: {_one_line(str(message))}", file=sys.stderr if file is None else file, flush=True)
 
 
 # The cyclic garbage collector while a process starts up: importing and starting numba leaves about

@@ -387,3 +387,30 @@ def test_file_names_near_the_limit_are_written_like_any_other(scene, tmp_path, c
             claim(out)
     finally:
         first.release(remove=True)
+
+
+def test_an_output_folder_removed_during_the_run_is_made_again_with_the_whole_recording(tmp_path):
+    """The recording's folder removed while the run records (its private file with it): the writer,
+    which still holds the file, makes the folder again and writes the whole recording into it, and
+    the command says so in one warning line (the recording was lost, with "No such file or directory",
+    exit 2)."""
+    import shutil
+
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    out = tmp_path / "gone" / "x.mcap"
+    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    try:
+        wait_for_part(out)
+        shutil.rmtree(out.parent)
+        os.kill(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=WAIT_S)
+    finally:
+        proc.kill()
+    assert proc.returncode == 1  # interrupted, as asked
+    lines = err.strip().splitlines()
+    assert f"warning: {out}: its folder was removed while the run was recorded; it was made again" in lines[0]
+    assert lines[-1] == "error: interrupted by SIGINT"
+    status = Recording(out).status()
+    assert status.status == "interrupted" and status.tick > 0
+    assert parts(out) == [] and sorted(p.name for p in out.parent.iterdir()) == ["x.mcap"]

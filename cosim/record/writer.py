@@ -34,6 +34,7 @@ not wanted).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import re
@@ -57,7 +58,7 @@ from cosim.record.derive import (
     relayed_warnings,
     use_site_dirs,
 )
-from cosim.record.output import Claim, claim, finish
+from cosim.record.output import Claim, claim, finish, sibling_stem
 from cosim.record.ring import STALL_S, RingConsumer, RingError, RingProducer, RingStalled
 
 BATCH = 4096  # a batch is sent at this many records...
@@ -210,10 +211,14 @@ class _Apply:
 
     def finish(self) -> None:
         """Finish the file and move it onto its target; the system's own error (``[Errno N] ...``)
-        when it refused a write."""
+        when it refused a write. A private file whose folder was removed while it was written lives
+        on through this process's descriptor: it is copied into the folder, made again."""
         try:
             self.writer.close()
             self.file.truncate()  # the recording ends where the writer stopped (nothing stale after it)
+            if not os.path.exists(self.part):
+                self._rescue()
+                return
         except Exception:
             if self.file.failure is not None:
                 raise self.file.failure from None
@@ -221,6 +226,26 @@ class _Apply:
         finally:
             self.file.close()
         finish(self.part, self.final)
+
+    def _rescue(self) -> None:
+        """The finished file, its private name gone (its folder removed during the run), copied from
+        this process's descriptor to its final name, the folder made again; said as a warning."""
+        import shutil
+
+        folder = os.path.dirname(self.final)
+        os.makedirs(folder or ".", exist_ok=True)
+        tmp = os.path.join(folder, "." + sibling_stem(os.path.basename(self.final), 12) + ".rescue.tmp")
+        try:
+            self.file.seek(0)
+            with open(tmp, "wb") as out:
+                shutil.copyfileobj(self.file, out, 1 << 20)
+            os.replace(tmp, self.final)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        warnings.warn(f"{self.final}: its folder was removed while the run was recorded; it was made again and "
+                      "the whole recording written into it", RuntimeWarning, stacklevel=2)
 
     def abandon(self) -> None:
         """Close the writer and the file, whatever state they are in (the file is dropped anyway)."""
