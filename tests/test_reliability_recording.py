@@ -147,3 +147,25 @@ def test_a_run_killed_with_sigkill_leaves_a_valid_prefix_that_inspect_calls_inco
     end = rec.end_ns / 1e9
     assert ("status: missing - the recording is incomplete: the run was cut off (killed?) and it ends at "
             f"t = {end:g} s") in text
+
+
+def test_a_recording_that_may_not_be_read_says_so_not_that_it_is_damaged(good, tmp_path, monkeypatch):
+    """A recording this process may not open (its permissions: as root the test stands the refusal
+    in for them): "cannot be read (Permission denied)", not "truncated or corrupt"."""
+    import builtins
+    import errno
+
+    import cosim.record.reader as reader
+
+    locked = tmp_path / "locked.mcap"
+    locked.write_bytes(good)
+
+    def refused(path, *args, **kwargs):
+        if Path(path) == locked:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return builtins.open(path, *args, **kwargs)
+
+    monkeypatch.setattr(reader, "open", refused, raising=False)
+    with pytest.raises(RecordingError) as info:
+        Recording(locked)
+    assert str(info.value) == f"{locked}: cannot be read (Permission denied)"

@@ -112,6 +112,11 @@ class Recording:
         if not self.path.is_file():
             raise RecordingError(f"{self.path}: not a recording (a folder or a device)")
         try:
+            with open(self.path, "rb"):
+                pass
+        except OSError as exc:  # not a damaged file: one this process may not open (permission denied)
+            raise RecordingError(f"{self.path}: cannot be read ({exc.strerror or exc})") from None
+        try:
             check_integrity(self.path)
             with open(self.path, "rb") as f:
                 reader = make_reader(f, validate_crcs=True)
