@@ -159,6 +159,15 @@ def test_expressions_admit_arithmetic_only(text, message):
         Expression(text)
 
 
+@pytest.mark.parametrize("text", ["[a] * 100000000", "[a] + [a]", "2 * [a, a]"])
+def test_a_list_in_an_expression_is_a_value_never_repeated_or_joined(text):
+    """A list's items are computed; repeating or joining lists is refused (a repetition by 10^8 took a
+    minute and ended out of memory)."""
+    with pytest.raises(ValueError, match="a list can only be a value"):
+        Expression(text)({"a": 1.0})
+    assert Expression("[a * 2, 0, -a]")({"a": 1.5}) == [3.0, 0, -1.5]
+
+
 def test_a_derived_value_that_fails_fails_its_point_only(tmp_path):
     """A math error at one point (sqrt of a negative) marks that point, not the sweep."""
     body = "scene: ball.yaml\naxes: {v: [4, -4]}\nderived: {components.ball.speed: 'sqrt(v)'}\n"

@@ -156,6 +156,11 @@ class Expression:
             left, right = self._eval(node.left, env), self._eval(node.right, env)
             if isinstance(node.op, ast.Pow) and isinstance(right, (int, float)) and abs(right) > MAX_EXPONENT:
                 raise ValueError(f"exponent {right:g} is too large (at most {MAX_EXPONENT})")
+            if isinstance(left, list) or isinstance(right, list):
+                # numbers combine; a list is a value's components, never repeated or joined
+                # ([attack] * 100000000 took a minute and ended out of memory)
+                raise ValueError("a list can only be a value (its items computed one by one), not "
+                                 "repeated or joined with +, -, *, /")
             return _BINARY[type(node.op)](left, right)
         if isinstance(node, ast.UnaryOp):
             return _UNARY[type(node.op)](self._eval(node.operand, env))
