@@ -232,6 +232,15 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_repair(args: argparse.Namespace) -> int:
+    from cosim.record.repair import repair
+
+    done = repair(args.recording, args.output)
+    print(f"wrote {done.path}: {done.messages} messages, up to t = {done.end_ns / NS_PER_S:g} s, where "
+          f"{args.recording} was cut short (no final status: cosim inspect says so)")
+    return EXIT_OK
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from cosim.record.reader import Recording
     from cosim.replay import replay_component, restart_simulation
@@ -318,6 +327,14 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p = sub.add_parser("inspect", help="channels, status and stage timeline of a recording")
     p.add_argument("recording")
     p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("repair", help="make a recording left cut short (a killed run's NAME.<random>.part) "
+                                      "a valid one, up to its last whole record")
+    p.add_argument("recording", help="the cut-short file (it is left as it was)")
+    p.add_argument("-o", "--output", type=_output_path,
+                   help="MCAP file to write (default: the recording the private file was meant to become, "
+                        "or STEM-repaired.mcap)")
+    p.set_defaults(func=cmd_repair)
 
     p = sub.add_parser("replay", help="re-run components from a recording, or restart from a checkpoint")
     p.add_argument("recording")

@@ -414,3 +414,42 @@ def test_an_output_folder_removed_during_the_run_is_made_again_with_the_whole_re
     status = Recording(out).status()
     assert status.status == "interrupted" and status.tick > 0
     assert parts(out) == [] and sorted(p.name for p in out.parent.iterdir()) == ["x.mcap"]
+
+
+def test_a_run_killed_with_its_writer_leaves_a_file_that_repair_makes_a_recording(tmp_path, capsys):
+    """SIGKILL of the run and its writer together leaves the private file, cut short: inspect points
+    to `cosim repair`, which writes it as a valid recording (no final status) where it was meant to
+    go, leaving the file given as it was; a whole recording is not "repaired"; a later run on the
+    target says the file is there and how to recover it."""
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    out = tmp_path / "k.mcap"
+    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    try:
+        part = wait_for_part(out, size=200_000)
+        (writer,) = children(proc.pid)
+        os.kill(writer, signal.SIGKILL)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.communicate(timeout=WAIT_S)
+    finally:
+        proc.kill()
+    from cosim.record.output import being_written
+
+    deadline = time.monotonic() + WAIT_S
+    while being_written(str(part)) and time.monotonic() < deadline:  # the killed writer's lock goes with it
+        time.sleep(0.02)
+    assert not out.exists() and parts(out) == [part]
+    before = part.read_bytes()
+    assert main(["inspect", str(part)]) == 2
+    assert "cosim repair makes what it holds a valid recording" in one_error_line(capsys.readouterr().err)
+    assert main(["repair", str(part)]) == 0, capsys.readouterr().err
+    said = capsys.readouterr().out
+    rec = Recording(out)
+    assert said.startswith(f"wrote {out}: ") and f"up to t = {rec.end_ns / 1e9:g} s" in said
+    assert rec.status() is None and rec.end_ns > 0 and part.read_bytes() == before
+    assert main(["repair", str(out)]) == 2
+    assert "is a whole recording already" in one_error_line(capsys.readouterr().err)
+    short = tmp_path / "short.yaml"
+    short.write_text(SCENE)
+    with pytest.warns(UserWarning, match=rf"{part.name} is what an earlier run left cut short .* cosim repair"):
+        assert main(["run", str(short), "-o", str(out), "-q"]) == 0

@@ -141,7 +141,7 @@ class Claim:
             self.fd = -1
 
 
-def _locked(part: str) -> bool:
+def being_written(part: str) -> bool:
     """True when another run holds the lock of ``part`` (a run still writing it)."""
     try:
         fd = os.open(part, os.O_RDONLY)
@@ -214,10 +214,20 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(_part_stem(path)) + ".*" + PART_SUFFIX)
         mine_too = {os.path.abspath(name)} | ({os.path.abspath(replacing.part)} if replacing is not None else set())
+        left = []
         for other in glob.glob(pattern):
-            if os.path.abspath(other) not in mine_too and _locked(other):
+            if os.path.abspath(other) in mine_too:
+                continue
+            if being_written(other):
                 raise RecordingError(f"{path}: another run is writing it now ({Path(other).name}); "
                                      "wait for it or choose another output (-o)")
+            left.append(Path(other).name)
+        if left:  # a run killed with its writer: what it recorded is there still, until removed
+            import warnings
+
+            warnings.warn(f"{path}: beside it, {', '.join(sorted(left))} is what an earlier run left cut short "
+                          f"(killed with its writer); cosim repair {sorted(left)[0]} makes it a valid recording",
+                          UserWarning, stacklevel=2)
     except BaseException:
         mine.release(remove=True)
         raise

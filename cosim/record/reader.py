@@ -63,7 +63,8 @@ def check_integrity(path: Path) -> None:
         op, length, summary_start, summary_offsets, summary_crc = _FOOTER.unpack(tail[:_FOOTER.size])
         if tail[_FOOTER.size:] != MAGIC or op != FOOTER_OP or length != _FOOTER.size - 9:
             raise RecordingError(f"{path}: not a readable MCAP recording (truncated or corrupt: no footer at its "
-                                 "end; the file was cut short, or its writer was killed)")
+                                 "end; the file was cut short, or its writer was killed: cosim repair makes what "
+                                 "it holds a valid recording)")
         footer_at = size - len(MAGIC) - _FOOTER.size
         if not 0 <= summary_start <= footer_at or not 0 <= summary_offsets <= footer_at:
             raise RecordingError(f"{path}: corrupt: its footer points outside the file")
