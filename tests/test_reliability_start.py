@@ -15,6 +15,8 @@ from cosim.errors import ScenarioError, SimulationError
 from cosim.scenario import load, loads
 from cosim.scheduler import Simulation
 
+ROOT = Path(__file__).resolve().parents[1]
+
 SCENES = Path(__file__).resolve().parents[1] / "scenarios"
 
 
@@ -146,3 +148,15 @@ def test_a_spinning_disk_whose_thickness_makes_its_energy_overflow_is_refused():
     spun at 1e151 rad/s, whose energy the radius alone would keep finite, is refused at its spin."""
     with pytest.raises(ScenarioError, match=r"components\.stone\.spin: makes the stone's kinetic energy overflow"):
         load(SCENES / "skip.yaml", ["components.stone.thickness=1000", "components.stone.spin=1e151"])
+
+
+def test_a_coupler_water_level_other_than_its_waters_rest_level_is_refused():
+    """The coupler's water_level is the level it takes until the water's first patch comes: one
+    other than the water's own wetted the stone with water that was not there (a touchdown at
+    t = 0.001 s and a 94 ms contact 5 m above the pond); refused naming both."""
+    with pytest.raises(ScenarioError) as info:
+        load(ROOT / "scenarios" / "skip.yaml", ["components.coupler.water_level=5"])
+    assert info.value.problems == ["components.coupler: water_level 5 m is not the rest level 0 m of the water "
+                                   "feeding it; leave water_level out or set it to the water's rest_level"]
+    load(ROOT / "scenarios" / "skip.yaml", ["components.coupler.water_level=1", "components.pond.rest_level=1",
+                                            "components.stone.position=[0.3, 1.75, 1.1]"])

@@ -332,6 +332,12 @@ class WaterCoupler(Component):
         below the bed under its centre) is a mistake in the scene: refused when the scene loads, as
         :meth:`_check_not_under_the_bed` refuses it at the water's first patch otherwise."""
         body, water = inputs.get("body"), sources.get("water")
+        level = getattr(water, "rest_level", None)
+        if isinstance(level, float) and level != self.params.water_level:
+            # the level assumed until the water's first patch comes: a different one wets (or dries)
+            # a body with water that is not there
+            return [f"water_level {self.params.water_level:g} m is not the rest level {level:g} m of the water "
+                    "feeding it; leave water_level out or set it to the water's rest_level"]
         bed_at = getattr(water, "bed_at", None)
         if not isinstance(body, BodyState) or bed_at is None:
             return []

@@ -354,6 +354,11 @@ class WaterSurface(Component):
         energy = g.column_mass * (0.5 * sum_v2 + 0.5 * c2 * (sum_dx2 + sum_dy2) / s2)
         return volume, energy
 
+    @property
+    def rest_level(self) -> float:
+        """z of the undisturbed surface [m] (the ``rest_level`` parameter)."""
+        return float(self.grid.rest_level)
+
     def bed_at(self, x: float, y: float) -> float | None:
         """The bed's height z [m] under (x, y) (its cell's), or None off the grid."""
         g = self.grid
