@@ -453,3 +453,18 @@ def test_a_run_killed_with_its_writer_leaves_a_file_that_repair_makes_a_recordin
     short.write_text(SCENE)
     with pytest.warns(UserWarning, match=rf"{part.name} is what an earlier run left cut short .* cosim repair"):
         assert main(["run", str(short), "-o", str(out), "-q"]) == 0
+
+
+def test_a_dash_is_no_output_and_a_link_is_written_through(scene, tmp_path, capsys, monkeypatch):
+    """-o - (standard output, as many tools read it): exit 2, no file named "-" (one was written);
+    -o LINK: the recording goes where the link points and the link stays (it was replaced by a file)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(scene), "-o", "-", "-q"]) == 2
+    assert "not to standard output" in one_error_line(capsys.readouterr().err)
+    assert not (tmp_path / "-").exists()
+    target = tmp_path / "kept" / "target.mcap"
+    target.parent.mkdir()
+    link = tmp_path / "link.mcap"
+    link.symlink_to(target)
+    assert main(["run", str(scene), "-o", str(link), "-q"]) == 0
+    assert link.is_symlink() and Recording(target).status().status == "ok"

@@ -46,7 +46,12 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
 
     ``inputs`` are files the run reads (the scene, a recording it restarts from): never overwritten.
     """
+    if str(path) == "-":
+        raise RecordingError("-: a recording is written to a file, not to standard output; give its name "
+                             "(e.g. runs/skip.mcap)")
     path = Path(path)
+    if path.is_symlink():  # written where the link points, the link kept (it was replaced by the file)
+        path = Path(os.path.realpath(path))
     for source in inputs:
         source = Path(source)
         if source.is_file() and same_file(path, source):
