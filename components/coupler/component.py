@@ -225,6 +225,7 @@ class WaterCoupler(Component):
         if problems:
             raise ValueError("effects: " + "; ".join(problems))
         self.flags = effect_mask(p.effects)
+        self._approach_rates: dict[tuple, float] = {}  # _approach_bound's damping rate per speed, by body
         # the added mass is no force of the kernels: the body takes it on its own port
         self.added_mass_on = bool(self.flags & ADDED_MASS)
         self.flags &= ~ADDED_MASS
@@ -960,17 +961,22 @@ class WaterCoupler(Component):
         it meets (a slate 0.1 mm thin: 2 g against a face that stops 0.3 kg of water) took that first
         step whole and was thrown out of the water faster than it came (41 km/s from 11 m/s). For
         every body of the scenes here the bound is some times the base step."""
-        p = self.params
-        coefficient = 0.0
-        if self.flags & PRESSURE:
-            coefficient = (max(p.c_l + p.c_n, p.c_d_disk) if body.shape == Shape.DISK
-                           else max(p.c_b, p.c_d_sphere))
-        if self.flags & FRICTION:
-            coefficient += p.c_f
+        key = (body.shape, body.radius, body.mass)
+        per_speed = self._approach_rates.get(key)
+        if per_speed is None:  # the damping rate per unit speed [1/m]: the body's, worked out once
+            p = self.params
+            coefficient = 0.0
+            if self.flags & PRESSURE:
+                coefficient = (max(p.c_l + p.c_n, p.c_d_disk) if body.shape == Shape.DISK
+                               else max(p.c_b, p.c_d_sphere))
+            if self.flags & FRICTION:
+                coefficient += p.c_f
+            radius = float(body.radius)
+            per_speed = self._approach_rates[key] = p.rho * coefficient * math.pi * radius * radius / float(body.mass)
         v, w = body.velocity.tolist(), body.angular_velocity.tolist()
-        radius = float(body.radius)
-        speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) + radius * math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-        rate = p.rho * coefficient * speed * math.pi * radius * radius / float(body.mass)
+        speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) + float(body.radius) * math.sqrt(
+            w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+        rate = per_speed * speed
         return DAMPING_SAFETY / rate if rate > 0.0 else math.inf
 
     def _motion_bound(self, body: BodyState) -> float:
