@@ -41,6 +41,11 @@ OnUnstable = Literal["error", "substep"]
 MAX_SUBSTEPS = 10_000  # a component needing more substeps than this in one step is reported as unstable
 
 
+def substep_count(substeps: int) -> str:
+    """A number of substeps as a message gives it: whole, or in three digits when huge (not 150)."""
+    return str(substeps) if substeps < 10**6 else f"{substeps:.3g}"
+
+
 @dataclass(frozen=True)
 class Port:
     """A typed port.
@@ -231,9 +236,8 @@ class Component:
                         f"use a base step or 'every' giving at most {bound:.6g} s, or on_unstable: substep)")
                 substeps = math.ceil(dt / bound)
                 if substeps > MAX_SUBSTEPS:
-                    count = str(substeps) if substeps < 10**6 else f"{substeps:.3g}"  # not 150 digits
                     raise SimulationError(
-                        self.name, t_ns, f"needs {count} substeps (stable step {bound:.3g} s), "
+                        self.name, t_ns, f"needs {substep_count(substeps)} substeps (stable step {bound:.3g} s), "
                         f"more than the limit {MAX_SUBSTEPS}")
             self.status = "running"
             if substeps == 1:

@@ -28,6 +28,8 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
     else:
         text = (text.rstrip() + "\n\n" if text.strip() else "") + block + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
+    # (as cosim.record.output.written_whole does, which this contract-layer module may not import; the
+    # pages it writes have short names of the project's own)
     tmp = path.with_name(path.name + ".tmp")
     try:
         tmp.write_text(text, encoding="utf-8")

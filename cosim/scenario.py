@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from cosim.codec.json_codec import CodecError, codec_for
-from cosim.component import MAX_SUBSTEPS, Component, OnUnstable
+from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, substep_count
 from cosim.errors import ScenarioError
 from cosim.messages import Message
 from cosim.params import build
@@ -654,9 +654,8 @@ def _later_stability(scene: Scene, name: str, bound: float) -> list[str]:
                 f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
     substeps = math.ceil(step / bound)
     if substeps > MAX_SUBSTEPS:
-        count = str(substeps) if substeps < 10**6 else f"{substeps:.3g}"
-        return [f"will need {count} substeps of its step {step:.6g} s (stable step {bound:.3g} s once the run "
-                f"is under way), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
+        return [f"will need {substep_count(substeps)} substeps of its step {step:.6g} s (stable step {bound:.3g} s "
+                f"once the run is under way), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
     return []
 
 

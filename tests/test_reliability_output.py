@@ -385,6 +385,9 @@ def test_file_names_near_the_limit_are_written_like_any_other(scene, tmp_path, c
     try:
         with pytest.raises(RecordingError, match="another run is writing it now"):
             claim(out)
+        from cosim.record.repair import default_output
+
+        assert default_output(first.part) == tmp_path / f"{stem}-repaired.mcap"  # the name cannot be recovered
     finally:
         first.release(remove=True)
 
@@ -409,7 +412,8 @@ def test_an_output_folder_removed_during_the_run_is_made_again_with_the_whole_re
         proc.kill()
     assert proc.returncode == 1  # interrupted, as asked
     lines = err.strip().splitlines()
-    assert f"warning: {out}: its folder was removed while the run was recorded; it was made again" in lines[0]
+    assert f"warning: {out}: its private file was removed while the run was recorded (with its folder?); the " \
+           "whole recording was written there all the same" == lines[0]
     assert lines[-1] == "error: interrupted by SIGINT"
     status = Recording(out).status()
     assert status.status == "interrupted" and status.tick > 0

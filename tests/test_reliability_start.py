@@ -157,6 +157,9 @@ def test_a_coupler_water_level_other_than_its_waters_rest_level_is_refused():
     with pytest.raises(ScenarioError) as info:
         load(ROOT / "scenarios" / "skip.yaml", ["components.coupler.water_level=5"])
     assert info.value.problems == ["components.coupler: water_level 5 m is not the rest level 0 m of the water "
-                                   "feeding it; leave water_level out or set it to the water's rest_level"]
+                                   "feeding it; leave water_level out (the water's own is taken from its first "
+                                   "patch) or give the water's rest_level"]
     load(ROOT / "scenarios" / "skip.yaml", ["components.coupler.water_level=1", "components.pond.rest_level=1",
+                                            "components.stone.position=[0.3, 1.75, 1.1]"])
+    load(ROOT / "scenarios" / "skip.yaml", ["components.pond.rest_level=1",  # water_level left out: taken
                                             "components.stone.position=[0.3, 1.75, 1.1]"])

@@ -549,19 +549,21 @@ def test_hang_up_says_whether_the_consumer_finished(local, finishes):
 
 
 def test_asked_to_stop_the_producer_stops_waiting_for_a_consumer_that_does_not_answer(local, monkeypatch):
-    """With the ring full and the consumer silent: before any interrupt, put waits; once the producer
-    is told of one (RingProducer.interrupted), it gives up when the consumer has not answered for
-    STALL_S (RingStalled), and at once when told a second time. (A stopped writer held a Ctrl-C'd
-    run however often it was interrupted.)"""
+    """With the ring full and the consumer silent: before any interrupt of this stream (one of the
+    stream before is forgotten), put waits; once the producer is told of one (RingProducer.interrupted),
+    it gives up when the consumer has not answered for STALL_S (RingStalled), and at once when told a
+    second time. (A stopped writer held a Ctrl-C'd run however often it was interrupted.)"""
     import cosim.record.ring as ring
 
     monkeypatch.setattr(ring, "STALL_S", 0.3)
     monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    local.producer.interrupted()  # a stream before this one was interrupted (a kept writer's last recording)
+    local.producer.forget_interrupts()  # this stream is new: that interrupt is not its own
     local.producer.put([b"a" * 2000])
     local.producer.put([b"b" * 2000])
     put_c = in_thread(local.producer.put, [b"c" * 1000])
     put_c.join(0.5)
-    assert put_c.is_alive()  # no interrupt: it waits for the consumer, however long
+    assert put_c.is_alive()  # no interrupt of its own: it waits for the consumer, however long
     local.producer.interrupted()
     put_c.join(WATCHDOG_S)
     assert not put_c.is_alive() and isinstance(put_c.error, ring.RingStalled)

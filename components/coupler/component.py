@@ -96,6 +96,7 @@ from cosim.params import param
 
 DAMPING_SAFETY = 1.0  # step <= this / damping rate: explicit relaxation never overshoots (limit is 2) [-]
 SPRING_SAFETY = 1.0  # step <= this / sqrt(stiffness / mass) (symplectic limit is 2) [-]
+APPROACH_SAFETY = 4.0  # a dry body's step <= this / the damping rate of its whole face at its speed [-]
 MOTION_FRACTION = 0.25  # near the water a step may carry the body at most this fraction of its radius [-]
 MAX_AUTO_SUBSAMPLES = 16  # cap of the automatic sub-cells per column side [-]
 SUBSAMPLES_PER_RADIUS = 12.0  # automatic sub-cells: about this many samples per body radius [-]
@@ -171,8 +172,9 @@ class WaterCouplerParams:
     lookahead: float = param(0.06, unit="s", ge=0, le=10,
                              doc="the requested window reaches as far ahead as the body moves in this time "
                                  "(a contact's length: the surface it meets is the one it saw coming)")
-    water_level: float = param(0.0, unit="m", ge=-1e6, le=1e6,  # as a water's rest level (1000 km)
-                               doc="rest level assumed until the first patch arrives (within 1000 km of z = 0)")
+    water_level: float | None = param(None, unit="m", ge=-1e6, le=1e6,  # as a water's rest level (1000 km)
+                                      doc="rest level assumed until the first patch arrives (within 1000 km of "
+                                          "z = 0); default: the water's own, 0 until it is known")
     wave_allowance: float = param(0.05, unit="m", ge=0,
                                   doc="highest crest above rest level; a body above it is far")
     quiet_above: float = param(0.01, unit="m", ge=0,
@@ -272,7 +274,7 @@ class WaterCoupler(Component):
         return prm
 
     def _reset_state(self) -> None:
-        self.rest_level = float(self.params.water_level)
+        self.rest_level = self._assumed_level()
         self.cell = 0.0
         # in the water when the run began: its displacement is part of the water at rest, said so on
         # every occupied window until the water's patches show it holds it (see OccupiedHeight)
@@ -334,11 +336,12 @@ class WaterCoupler(Component):
         :meth:`_check_not_under_the_bed` refuses it at the water's first patch otherwise."""
         body, water = inputs.get("body"), sources.get("water")
         level = getattr(water, "rest_level", None)
-        if isinstance(level, float) and level != self.params.water_level:
+        given = self.params.water_level
+        if isinstance(level, float) and given is not None and level != given:
             # the level assumed until the water's first patch comes: a different one wets (or dries)
             # a body with water that is not there
-            return [f"water_level {self.params.water_level:g} m is not the rest level {level:g} m of the water "
-                    "feeding it; leave water_level out or set it to the water's rest_level"]
+            return [f"water_level {given:g} m is not the rest level {level:g} m of the water feeding it; leave "
+                    "water_level out (the water's own is taken from its first patch) or give the water's rest_level"]
         bed_at = getattr(water, "bed_at", None)
         if not isinstance(body, BodyState) or bed_at is None:
             return []
@@ -946,21 +949,32 @@ class WaterCoupler(Component):
         return self._prm_disk if shape == Shape.DISK else self._prm_sphere
 
     def start_stable_step(self, inputs: dict[str, Message | None]) -> float:
-        """The stable step of the body's first wet step (:meth:`_approach_bound` at its start): a body
-        too light for the scene's step is refused when the scene loads, not at its first contact."""
+        """The bound of the body's first wet step (:meth:`_approach_bound` at its start): a body far
+        too light for the scene's step is refused when the scene loads, not at its first contact. A
+        body that starts in the water (at the coupler's water level) has its own forces' bound from
+        the first step: none is given for it here."""
         body = inputs.get("body")
         if not isinstance(body, BodyState) or not self.flags & (PRESSURE | FRICTION):
             return math.inf
+        if float(body.position[2]) - _bounding_radius(body) < self._assumed_level():
+            return math.inf
         return self._approach_bound(body)
 
+    def _assumed_level(self) -> float:
+        """The rest level [m] taken until the water's first patch gives its own: ``water_level``, or 0."""
+        return 0.0 if self.params.water_level is None else float(self.params.water_level)
+
     def _approach_bound(self, body: BodyState) -> float:
-        """The damping bound [s] of :meth:`max_stable_step` for a dry body near the water, as if its
-        whole face (a disk's face, a sphere's cross-section) met the water at its speed: the bound its
-        first wet step will have at most. The usual bound comes from the step's own forces, so it
-        reaches the scheduler only after the step that wets the body; a body far lighter than the water
-        it meets (a slate 0.1 mm thin: 2 g against a face that stops 0.3 kg of water) took that first
-        step whole and was thrown out of the water faster than it came (41 km/s from 11 m/s). For
-        every body of the scenes here the bound is some times the base step."""
+        """A bound [s] of :meth:`max_stable_step` for a dry body near the water: APPROACH_SAFETY over
+        the damping rate its whole face (a disk's face, a sphere's cross-section) would have meeting
+        the water at its speed. The usual bound comes from the step's own forces, so it reaches the
+        scheduler only after the step that wets the body; a body far lighter than the water it meets
+        (a slate 1 um thin: 21 mg against a face that stops 0.3 kg of water) took that first step
+        whole and was thrown out of the water faster than it came (41 km/s from 11 m/s). A first wet
+        step wets a sliver of the face, not the whole of it, so the bound is APPROACH_SAFETY times the
+        whole face's: it takes hold only where the sliver itself would be far from stable, and the
+        step's own bound, from its forces, governs the rest of the contact. For every body of the
+        scenes here it is many times the base step."""
         key = (body.shape, body.radius, body.mass)
         per_speed = self._approach_rates.get(key)
         if per_speed is None:  # the damping rate per unit speed [1/m]: the body's, worked out once
@@ -977,7 +991,7 @@ class WaterCoupler(Component):
         speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) + float(body.radius) * math.sqrt(
             w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
         rate = per_speed * speed
-        return DAMPING_SAFETY / rate if rate > 0.0 else math.inf
+        return APPROACH_SAFETY / rate if rate > 0.0 else math.inf
 
     def _motion_bound(self, body: BodyState) -> float:
         v, w = body.velocity.tolist(), body.angular_velocity.tolist()

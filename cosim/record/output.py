@@ -87,7 +87,7 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
 
 
 METADATA_OP, HEADER_OP = 0x0C, 0x01  # MCAP record opcodes
-RECORDING_METADATA = b"cosim"  # the metadata record a cosim recording opens with (cosim.record.reader)
+METADATA_NAME = "cosim"  # the metadata record a cosim recording opens with (written by cosim.record.recorder)
 
 
 def _foreign_library(path: Path) -> str | None:
@@ -115,7 +115,7 @@ def _foreign_library(path: Path) -> str | None:
                 library = body[at_library + 4:at_library + 4 + m].decode(errors="replace")
         elif op == METADATA_OP and len(body) >= 4:
             k = struct.unpack_from("<I", body, 0)[0]
-            if body[4:4 + k] == RECORDING_METADATA:
+            if body[4:4 + k] == METADATA_NAME.encode():
                 return None
         elif op != HEADER_OP:
             return library if library is not None else "an unknown writer"
@@ -231,8 +231,8 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
             import warnings
 
             warnings.warn(f"{path}: beside it, {', '.join(sorted(left))} is what an earlier run left cut short "
-                          f"(killed with its writer); cosim repair {sorted(left)[0]} makes it a valid recording",
-                          UserWarning, stacklevel=2)
+                          f"(killed with its writer); cosim repair {path.parent / sorted(left)[0]} makes it a "
+                          "valid recording", UserWarning, stacklevel=2)
     except BaseException:
         mine.release(remove=True)
         raise

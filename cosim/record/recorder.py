@@ -46,7 +46,7 @@ from cosim.codec.wire import wire_codec
 from cosim.errors import RecordingError
 from cosim.messages import Message, message
 from cosim.record.derive import DerivedMessage
-from cosim.record.output import check_output
+from cosim.record.output import METADATA_NAME, check_output
 from cosim.record.writer import open_sink
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
@@ -55,7 +55,6 @@ STATUS_TOPIC = "/cosim/status"
 EVENTS_TOPIC = "/cosim/events"
 CHECKPOINT_TOPIC = "/cosim/checkpoint"
 PERF_TOPIC = "/perf/tick"
-METADATA_NAME = "cosim"
 SCENE_ATTACHMENT = "scene.yaml"
 
 

@@ -31,13 +31,16 @@ class Repaired:
 
 def default_output(cut: Path) -> Path:
     """Where the repaired recording of ``cut`` goes: the recording a private file was meant to become
-    (``NAME`` of ``NAME.<random>.part``) when there is none there yet, else ``STEM-repaired.mcap``."""
+    (``NAME`` of ``NAME.<random>.part``) when there is none there yet, else ``STEM-repaired.mcap`` (also
+    for a private file whose name was shortened, its target's being too long to keep whole)."""
     name = cut.name
     if name.endswith(PART_SUFFIX) and name.count(".") >= 2:
         meant = cut.with_name(name[:-len(PART_SUFFIX)].rsplit(".", 1)[0])
+        if meant.suffix != ".mcap":  # a name too long to keep whole (output.sibling_stem): not recoverable
+            return meant.with_name(f"{meant.name}-repaired.mcap")
         if not meant.exists():
             return meant
-        return meant.with_name(f"{meant.stem}-repaired{meant.suffix or '.mcap'}")
+        return meant.with_name(f"{meant.stem}-repaired.mcap")
     return cut.with_name(f"{cut.stem}-repaired.mcap")
 
 

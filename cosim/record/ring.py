@@ -152,8 +152,15 @@ class RingProducer:
         if self.interrupts == 1:
             self._heard_at = time.monotonic()
 
-    def _stalled(self) -> bool:
-        return self.interrupts >= 2 or (self.interrupts == 1 and time.monotonic() - self._heard_at >= STALL_S)
+    def forget_interrupts(self) -> None:
+        """A new stream (the next recording of a kept writer): the interrupts of the last one are not its."""
+        self.interrupts = 0
+
+    def _stalled(self, waiting_since: float) -> bool:
+        if self.interrupts >= 2:
+            return True
+        # silent for STALL_S: since its last word, the interrupt, and the start of this wait alike
+        return self.interrupts == 1 and time.monotonic() - max(self._heard_at, waiting_since) >= STALL_S
 
     def connect(self, control_fd: int, ack_fd: int) -> None:
         """Start talking to the consumer: its control pipe (write end) and acknowledgement pipe (read end)."""
@@ -262,8 +269,9 @@ class RingProducer:
 
     def _read_acks(self, wait: bool) -> None:
         if wait:
+            since = time.monotonic()
             while not select.select([self.ack_fd], [], [], WAIT_SLICE_S)[0]:
-                if self._stalled():
+                if self._stalled(since):
                     raise RingStalled("the consumer has not answered")
         try:
             data = os.read(self.ack_fd, 1 << 16)
@@ -420,7 +428,10 @@ class RingConsumer:
         """Tell the producer this side has done all it had to with the stream that ended, and wait
         for the next one (see :meth:`RingProducer.end_stream`)."""
         if self.ack_fd >= 0:
-            _write_all(self.ack_fd, _LENGTH.pack(FINISHED))
+            try:
+                _write_all(self.ack_fd, _LENGTH.pack(FINISHED))
+            except BrokenPipeError:  # a producer that gave up on this side and hung up: nobody to tell
+                pass
 
     def tally(self, count: int) -> None:
         """Note ``count`` (what this side has done so far, e.g. messages written) as its count before

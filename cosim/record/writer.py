@@ -228,8 +228,9 @@ class _Apply:
         finish(self.part, self.final)
 
     def _rescue(self) -> None:
-        """The finished file, its private name gone (its folder removed during the run), copied from
-        this process's descriptor to its final name, the folder made again; said as a warning."""
+        """The finished file, its private name gone (the file or its folder removed during the run),
+        copied from this process's descriptor to its final name, the folder made again if it went;
+        said as a warning."""
         import shutil
 
         folder = os.path.dirname(self.final)
@@ -244,8 +245,8 @@ class _Apply:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
             raise
-        warnings.warn(f"{self.final}: its folder was removed while the run was recorded; it was made again and "
-                      "the whole recording written into it", RuntimeWarning, stacklevel=2)
+        warnings.warn(f"{self.final}: its private file was removed while the run was recorded (with its folder?); "
+                      "the whole recording was written there all the same", RuntimeWarning, stacklevel=2)
 
     def abandon(self) -> None:
         """Close the writer and the file, whatever state they are in (the file is dropped anyway)."""
@@ -738,6 +739,7 @@ class ProcessSink(_Sink):
         self._writer = writer
         # the writer's parts used on every batch or step, at hand
         self._ring, self._marked, self._placement = writer.ring, writer.ring.marked, writer.placement
+        self._ring.forget_interrupts()  # a kept writer: the last recording's Ctrl-C is not this one's
         if writer.ring.size < RING_BYTES:  # a ring made smaller (_ring): batches a share of it
             stage = self.stage
             stage.size = min(stage.size, writer.ring.size // 4)
