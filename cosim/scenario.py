@@ -98,6 +98,14 @@ class RecordConfig:
     visual_rate: float = 30.0
 
 
+RECORD_NUMBERS = ("every", "checkpoint_every", "visual_rate")  # RecordConfig's numbers, range-checked
+
+
+def _plain_number(value: Any) -> bool:
+    """An int or a float, not a bool (YAML's true is no number of steps)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
 @dataclass
 class Scene:
     """A validated scene. ``order`` is the execution order within a tick."""
@@ -732,19 +740,26 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     else:
         record_problems_before = len(problems)
         built = build(RecordConfig, raw_record, "record", problems)
-        if built is not None and len(problems) == record_problems_before:
+        typed = built is not None and len(problems) == record_problems_before
+        if typed:
             record = built
-            if record.every < 1:
-                problems.append(f"record.every: must be >= 1 (got {record.every})")
-            if record.visual_rate < 0:
-                problems.append(f"record.visual_rate: must be >= 0 frames/s (got {record.visual_rate:g})")
-            elif record.visual_rate > NS_PER_S:
-                problems.append(f"record.visual_rate: must be between 0 and {NS_PER_S:g} frames/s (a frame "
-                                f"per nanosecond; got {record.visual_rate:g})")
-            cp = seconds_value(record.checkpoint_every, "record.checkpoint_every", problems, zero=True)
-            if cp and dt_ns is not None and cp < dt_ns:
-                problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
-                                f"(got {record.checkpoint_every:g})")
+        # the ranges, also of the values that are numbers when another record key is wrong (they were
+        # said only once that one was mended)
+        values = record if typed else RecordConfig(**{k: v for k, v in raw_record.items()
+                                                      if k in RECORD_NUMBERS and _plain_number(v)
+                                                      and (k != "every" or isinstance(v, int))})
+        if "every" in raw_record or typed:
+            if values.every < 1:
+                problems.append(f"record.every: must be >= 1 (got {values.every})")
+        if values.visual_rate < 0:
+            problems.append(f"record.visual_rate: must be >= 0 frames/s (got {values.visual_rate:g})")
+        elif values.visual_rate > NS_PER_S:
+            problems.append(f"record.visual_rate: must be between 0 and {NS_PER_S:g} frames/s (a frame "
+                            f"per nanosecond; got {values.visual_rate:g})")
+        cp = seconds_value(values.checkpoint_every, "record.checkpoint_every", problems, zero=True)
+        if cp and dt_ns is not None and cp < dt_ns:
+            problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
+                            f"(got {values.checkpoint_every:g})")
 
     order, cycle = execution_order(list(classes), edges)
     if cycle:

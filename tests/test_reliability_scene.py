@@ -229,3 +229,13 @@ def test_a_mapping_key_that_is_a_list_is_a_yaml_error_with_its_line():
     """`? [a, b]` as a key: an error naming the line (it was an internal TypeError)."""
     with pytest.raises(ScenarioError, match=r"line 3, column 5: found a key that is a list, not a name"):
         loads("name: x\ncomponents:\n  ? [a, b]\n  : {type: RigidBody}\n", "s.yaml")
+
+
+def test_every_record_problem_is_said_at_once():
+    """A wrong record.channels with a record.every of 0 and a checkpoint shorter than dt: all three at
+    once (the ranges were said only once the channels were mended)."""
+    with pytest.raises(ScenarioError) as err:
+        load(SKIP, ["record.channels=5", "record.every=0", "record.checkpoint_every=0.0001"])
+    assert err.value.problems == [
+        "record.channels: must be a list of a string (got 5)", "record.every: must be >= 1 (got 0)",
+        "record.checkpoint_every: must be 0 (none) or at least dt = 0.0005 s (got 0.0001)"]
