@@ -102,8 +102,8 @@ RECORD_NUMBERS = ("every", "checkpoint_every", "visual_rate")  # RecordConfig's 
 
 
 def _plain_number(value: Any) -> bool:
-    """An int or a float, not a bool (YAML's true is no number of steps)."""
-    return isinstance(value, int | float) and not isinstance(value, bool)
+    """A finite int or float, not a bool (YAML's true is no number of steps; a NaN is said as such)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 @dataclass
@@ -748,9 +748,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         values = record if typed else RecordConfig(**{k: v for k, v in raw_record.items()
                                                       if k in RECORD_NUMBERS and _plain_number(v)
                                                       and (k != "every" or isinstance(v, int))})
-        if "every" in raw_record or typed:
-            if values.every < 1:
-                problems.append(f"record.every: must be >= 1 (got {values.every})")
+        if values.every < 1:
+            problems.append(f"record.every: must be >= 1 (got {values.every})")
         if values.visual_rate < 0:
             problems.append(f"record.visual_rate: must be >= 0 frames/s (got {values.visual_rate:g})")
         elif values.visual_rate > NS_PER_S:
