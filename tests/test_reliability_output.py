@@ -292,6 +292,7 @@ def test_a_full_disk_is_one_line_and_keeps_what_fitted(tmp_path, capsys):
     rec = Recording(out)
     status = rec.status()
     assert status.status == "failed" and os.strerror(27) in status.reason
+    assert "the recording was closed where it stopped, at t = " in status.reason  # as the command's line says
     kept = rec.messages("/p/frame", Frame)
     assert 0 < len(kept) < PAINT_FRAMES and f"at t = {kept[-1][0] / 1e9:g} s" in line
     room = tmp_path / "room.mcap"

@@ -284,10 +284,13 @@ class Recorder(BaseObserver):
             result.status, result.reason, result.tick, sim.time_ns / 1e9, result.component_steps))
         self._finished = True
 
-    def epitaph(self, fate: str, end_ns: int, complete: bool) -> tuple[int, DerivedMessage] | None:
+    def epitaph(self, fate: str, end_ns: int, complete: bool, kept: str = "salvaged up to"
+                ) -> tuple[int, DerivedMessage] | None:
         """The status a recording salvaged after its writer died ends with (``fate``: how the writer
-        ended; ``end_ns``: the latest time salvaged; ``complete``: whether all the run sent is there),
-        as (log time [ns], message); None when the run's own status is there.
+        ended; ``end_ns``: the latest time salvaged; ``complete``: whether all the run sent is there;
+        ``kept``: how what is there was kept, "salvaged up to" or, for a file closed where its disk
+        filled, "closed where it stopped, at"), as (log time [ns], message); None when the run's own
+        status is there.
 
         ``failed``, with the run's tick and time when everything was salvaged (as a run failing there
         would have it: replay goes up to it). Otherwise only what the writer had put on disk is there,
@@ -303,7 +306,7 @@ class Recorder(BaseObserver):
         else:
             slowest = max((c.every for c in self.scene.components.values()), default=1)
             tick, steps = max(0, end_ns // dt_ns - slowest), 0
-            reason = (f"{fate}; the recording was salvaged up to t = {end_ns / 1e9:g} s, and what the run "
+            reason = (f"{fate}; the recording was {kept} t = {end_ns / 1e9:g} s, and what the run "
                       f"recorded after that was lost")
         codec = codec_for(RunStatus)  # JSON, as write_message has it: a status has text fields
         status = RunStatus("failed", reason, tick, tick * dt_ns / 1e9, steps)

@@ -440,7 +440,7 @@ class _Sink:
         # writer's fate, the latest time salvaged [ns] and whether all that was sent is there; gives
         # (log time [ns], a message with the attributes of a cosim.record.recorder.DerivedMessage), or
         # None to add nothing
-        self.epitaph: Callable[[str, int, bool], tuple[int, Any] | None] | None = None
+        self.epitaph: Callable[..., tuple[int, Any] | None] | None = None
 
     def _send(self, batch: memoryview) -> None:
         raise NotImplementedError
@@ -841,7 +841,8 @@ class ProcessSink(_Sink):
         fate = f"writing the recording failed ({reason})"
 
         def ending(end_ns: int) -> tuple[int, Any] | None:
-            return self.epitaph(fate, end_ns, False) if self.epitaph is not None else None
+            return self.epitaph(fate, end_ns, False, "closed where it stopped, at") if self.epitaph is not None \
+                else None
 
         try:
             kept = seal(self.claim.part, ending)
