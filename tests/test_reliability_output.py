@@ -473,3 +473,14 @@ def test_a_dash_is_no_output_and_a_link_is_written_through(scene, tmp_path, caps
     link.symlink_to(target)
     assert main(["run", str(scene), "-o", str(link), "-q"]) == 0
     assert link.is_symlink() and Recording(target).status().status == "ok"
+
+
+@pytest.mark.parametrize("name", ["skip.png", "run1", "notes.mcap.txt"])
+def test_a_recording_is_named_as_one(scene, tmp_path, capsys, name):
+    """-o naming a file that does not end in .mcap (a picture's name, none at all): exit 2 with the
+    name it should have, nothing written (a recording was written there, which viewers would not
+    open as one)."""
+    assert main(["run", str(scene), "-o", str(tmp_path / name), "-q"]) == 2
+    assert "a recording's file name ends in .mcap" in one_error_line(capsys.readouterr().err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [scene.name]
+    assert main(["run", str(scene), "-o", str(tmp_path / "Loud.MCAP"), "-q"]) == 0

@@ -1,12 +1,14 @@
 """Where a recording may go, and the private file it is written to until it is complete.
 
 One rule for every writer of recordings (``cosim run -o``, ``cosim replay --from -o``, a sweep's
-``--record``): :func:`check_output` refuses a path that is one of the run's inputs (the scene file,
-the recording a restart starts from, however the path is spelled), a folder, anything but a regular
-file (a device, a pipe, a socket), an existing file that is not an MCAP recording, and a read-only
-file. :func:`claim` then creates a private file beside the target (``NAME.<random>.part``: a unique
-name, so two runs never share one) and locks it for as long as the run and its writer process live;
-a second run aimed at the same target while the first is still writing is refused. The writer
+``--record``, ``cosim repair``): :func:`check_output` refuses a path that is one of the run's inputs
+(the scene file, the recording a restart starts from, however the path is spelled), ``-``, a folder,
+anything but a regular file (a device, a pipe, a socket), an existing file that is not an MCAP
+recording or is one another program wrote, a read-only file, and a name not ending in ``.mcap``; a
+symbolic link is written through. :func:`claim` then creates a private file beside the target
+(``NAME.<random>.part``: a unique name, so two runs never share one) and locks it for as long as
+the run and its writer process live; a second run aimed at the same target while the first is still
+writing is refused. The writer
 moves the finished file onto the target with one ``os.replace``, so the target is always either the
 previous file or a complete recording, never half of one.
 
@@ -61,7 +63,7 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     try:
         st = os.stat(path)
     except (FileNotFoundError, NotADirectoryError):  # its folder is made (or refused) next
-        return path
+        return _named_as_a_recording(path)
     except OSError as exc:
         raise RecordingError(f"{path}: cannot use it as the output ({exc.strerror or exc})") from None
     if stat.S_ISDIR(st.st_mode):
@@ -83,6 +85,15 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     if library is not None:
         raise RecordingError(f"{path}: exists and is an MCAP recording cosim did not write (written by "
                              f"{library!r}); it is not overwritten (remove it or choose another output)")
+    return _named_as_a_recording(path)
+
+
+def _named_as_a_recording(path: Path) -> Path:
+    """``path``, whose name ends in ``.mcap`` as a recording's does (viewers open MCAP files by it);
+    otherwise a RecordingError: ``-o skip.png`` wrote a recording a picture viewer could not open."""
+    if path.suffix.lower() != ".mcap":
+        raise RecordingError(f"{path}: a recording's file name ends in .mcap (give e.g. "
+                             f"{path.with_name(path.stem + '.mcap') if path.stem else 'runs/skip.mcap'})")
     return path
 
 
