@@ -8,9 +8,8 @@ recording or is one another program wrote, a read-only file, and a name not endi
 symbolic link is written through. :func:`claim` then creates a private file beside the target
 (``NAME.<random>.part``: a unique name, so two runs never share one) and locks it for as long as
 the run and its writer process live; a second run aimed at the same target while the first is still
-writing is refused. The writer
-moves the finished file onto the target with one ``os.replace``, so the target is always either the
-previous file or a complete recording, never half of one.
+writing is refused. The writer moves the finished file onto the target with one ``os.replace``, so
+the target is always either the previous file or a complete recording, never half of one.
 
 The other files the commands write (a sweep's table, record and figure, the figures of ``cosim
 plot``) are written whole too (:func:`written_whole`): to a temporary name beside the target, moved
