@@ -386,7 +386,6 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
     return every
 
 
-
 LARGEST_INITIAL = 1e15  # |value| of an edge's initial field beyond which it can only overflow the run
 
 
@@ -407,6 +406,7 @@ def _out_of_range_field(msg: Message) -> str | None:
         if largest > LARGEST_INITIAL:
             return f"{name}: {largest:g} is beyond {LARGEST_INITIAL:g} (too large for any start of a run)"
     return None
+
 
 def _connection(index: int, item: Any, components: dict[str, type[Component]], names: set[str],
                 problems: list[str], types: dict[str, str]) -> Connection | None:
@@ -583,12 +583,30 @@ def _check_memory(components: dict[str, ComponentConfig], problems: list[str]) -
 
 def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     for name, comp in built.items():
-        cfg = scene.components[name]
-        step = scene.dt * cfg.every
-        bound = comp.max_stable_step()
-        if step > bound and cfg.on_unstable == "error":
-            problems.append(f"components.{name}: step {step:.6g} s exceeds its stable step {bound:.6g} s "
-                            f"(on_unstable: error); lower dt or every, or set on_unstable: substep")
+        problems.extend(f"components.{name}: {problem}"
+                        for problem in _step_problems(scene, name, comp.max_stable_step(), later=False))
+
+
+def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[str]:
+    """The problem with component ``name``'s step against a stable step ``bound`` [s], as the run
+    would find it: over it under ``on_unstable: error``; and, for a bound the component will need once
+    the run is under way (``later``: :meth:`~cosim.component.Component.start_stable_step`), needing
+    more than MAX_SUBSTEPS substeps under ``on_unstable: substep``."""
+    cfg = scene.components[name]
+    step = scene.dt * cfg.every
+    if not step > bound:
+        return []
+    if cfg.on_unstable == "error":
+        if not later:
+            return [f"step {step:.6g} s exceeds its stable step {bound:.6g} s (on_unstable: error); lower dt or "
+                    "every, or set on_unstable: substep"]
+        return [f"step {step:.6g} s exceeds the stable step {bound:.3g} s it will need once the run is under "
+                f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
+    substeps = math.ceil(step / bound)
+    if later and substeps > MAX_SUBSTEPS:
+        return [f"will need {substep_count(substeps)} substeps of its step {step:.6g} s (stable step {bound:.3g} s "
+                f"once the run is under way), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
+    return []
 
 
 def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
@@ -644,27 +662,10 @@ def _check_start(scene: Scene, built: dict[str, Component], problems: list[str])
             inputs[port] = value
         try:
             found = comp.check_start(inputs) + comp.check_start_sources(inputs, sources)
-            found += _later_stability(scene, name, comp.start_stable_step(inputs))
+            found += _step_problems(scene, name, comp.start_stable_step(inputs), later=True)
         except Exception as exc:
             found = [f"cannot check its start ({type(exc).__name__}: {exc})"]
         problems.extend(f"components.{name}: {problem}" for problem in found)
-
-
-def _later_stability(scene: Scene, name: str, bound: float) -> list[str]:
-    """The problem with component ``name``'s step against the stable step it will need once the run
-    is under way (:meth:`~cosim.component.Component.start_stable_step`), as the run would find it."""
-    cfg = scene.components[name]
-    step = scene.dt * cfg.every
-    if not step > bound:
-        return []
-    if cfg.on_unstable == "error":
-        return [f"step {step:.6g} s exceeds the stable step {bound:.3g} s it will need once the run is under "
-                f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
-    substeps = math.ceil(step / bound)
-    if substeps > MAX_SUBSTEPS:
-        return [f"will need {substep_count(substeps)} substeps of its step {step:.6g} s (stable step {bound:.3g} s "
-                f"once the run is under way), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
-    return []
 
 
 def scene_folder(source: str) -> Path:

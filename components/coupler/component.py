@@ -193,6 +193,13 @@ def _bounding_radius(body: BodyState) -> float:
     return math.hypot(float(body.radius), 0.5 * float(body.thickness))
 
 
+def _surface_speed(body: BodyState) -> float:
+    """The fastest a point of the body's surface can move [m/s]: |v| + R |omega|."""
+    v, w = body.velocity.tolist(), body.angular_velocity.tolist()
+    speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+    return speed + float(body.radius) * math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+
+
 def _under_the_bed(z: float, top: float, bed: float) -> str | None:
     """Why a body centred at height ``z`` whose bounding sphere's top is at ``top`` cannot start
     over a bed at ``bed`` [m]: it lies wholly under it; None when it does not."""
@@ -331,9 +338,11 @@ class WaterCoupler(Component):
         self._added_book.set_state(state)
 
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
-        """A body that starts wholly under the bed of the water feeding it (its bounding sphere's top
-        below the bed under its centre) is a mistake in the scene: refused when the scene loads, as
-        :meth:`_check_not_under_the_bed` refuses it at the water's first patch otherwise."""
+        """Two mistakes in a scene that only the water feeding the coupler shows, refused when the scene
+        loads: a ``water_level`` given other than the water's rest level (the level taken until the
+        water's first patch), and a body that starts wholly under the water's bed (its bounding
+        sphere's top below the bed under its centre), which :meth:`_check_not_under_the_bed` refuses
+        at the water's first patch otherwise."""
         body, water = inputs.get("body"), sources.get("water")
         level = getattr(water, "rest_level", None)
         given = self.params.water_level
@@ -987,16 +996,11 @@ class WaterCoupler(Component):
                 coefficient += p.c_f
             radius = float(body.radius)
             per_speed = self._approach_rates[key] = p.rho * coefficient * math.pi * radius * radius / float(body.mass)
-        v, w = body.velocity.tolist(), body.angular_velocity.tolist()
-        speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2) + float(body.radius) * math.sqrt(
-            w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-        rate = per_speed * speed
+        rate = per_speed * _surface_speed(body)
         return APPROACH_SAFETY / rate if rate > 0.0 else math.inf
 
     def _motion_bound(self, body: BodyState) -> float:
-        v, w = body.velocity.tolist(), body.angular_velocity.tolist()
-        speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
-        speed += float(body.radius) * math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+        speed = _surface_speed(body)
         if speed <= 0:
             return math.inf
         return MOTION_FRACTION * float(body.radius) / speed

@@ -95,6 +95,11 @@ class Grid:
         y = self.origin_y + self.cell * np.arange(self.ny)
         return np.meshgrid(x, y)
 
+    def cell_at(self, x: float, y: float) -> tuple[int, int] | None:
+        """(i, j) of the cell whose square holds the point (x, y) [m], or None off the grid."""
+        i, j = _cell_index(x, self.origin_x, self.cell), _cell_index(y, self.origin_y, self.cell)
+        return (i, j) if 0 <= i < self.nx and 0 <= j < self.ny else None
+
     def window(self, x_min: float, x_max: float, y_min: float, y_max: float,
                margin: int = 0) -> tuple[int, int, int, int] | None:
         """Index window (i0, i1, j0, j1), half-open, of the cells overlapping a world rectangle.

@@ -361,12 +361,8 @@ class WaterSurface(Component):
 
     def bed_at(self, x: float, y: float) -> float | None:
         """The bed's height z [m] under (x, y) (its cell's), or None off the grid."""
-        g = self.grid
-        i = round((x - g.origin_x) / g.cell)
-        j = round((y - g.origin_y) / g.cell)
-        if not (0 <= i < g.nx and 0 <= j < g.ny):
-            return None
-        return float(g.bed[j, i])
+        cell = self.grid.cell_at(x, y)
+        return None if cell is None else float(self.grid.bed[cell[1], cell[0]])
 
     def max_stable_step(self) -> float:
         return self.model.max_stable_step()

@@ -11,7 +11,6 @@ The file given is left as it was.
 
 from __future__ import annotations
 
-import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,11 +69,4 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
             sealed = seal(tmp)
         except ValueError as exc:
             raise RecordingError(f"{cut}: nothing in it can be kept ({exc})") from None
-        os.chmod(tmp, 0o666 & ~_umask())
     return Repaired(out, sealed.messages, sealed.end_ns)
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
