@@ -90,14 +90,31 @@ def test_a_pool_has_no_more_workers_than_points_to_run(tmp_path, capsys):
 
 def test_failed_points_fail_the_command_only_when_strict(tmp_path, capsys):
     """Failed runs are rows of a complete sweep (exit 0); with --strict they make it exit 1."""
-    path = write_sweep(tmp_path, SWEEP + "set: {components.ball.fail_at_bounce: 2}\n")
+    failing_slow_throws = SWEEP.replace("components.ball.speed: [2, 3, 5]",
+                                        "components.ball.speed: [2, 3, 5]\n  components.ball.fail_at_bounce: [0, 2]")
+    path = write_sweep(tmp_path, failing_slow_throws)
     out = str(tmp_path / "f.csv")
     assert main(["sweep", str(path), "-q", "-o", out, "--workers", "2", "--no-figure"]) == 0
     text = capsys.readouterr().out
-    assert "failed #0 (components.ball.angle_deg=30, components.ball.speed=2): component 'ball'" in text
+    assert "6 failed" in text and "6 stopped" in text
+    assert "(components.ball.angle_deg=30, components.ball.speed=2, components.ball.fail_at_bounce=2): " \
+           "component 'ball'" in text
     assert main(["sweep", str(path), "-q", "-o", out, "--strict", "--fresh", "--workers", "2",
                  "--no-figure"]) == 1
-    assert "points failed (--strict)" in capsys.readouterr().err
+    assert "6 points failed (--strict)" in capsys.readouterr().err
+
+
+def test_a_sweep_whose_every_point_failed_exits_1(tmp_path, capsys):
+    """Nothing came of a sweep whose every run failed: exit 1 with one line saying so, --strict or
+    not (it exited 0, and a script reading the table went on)."""
+    path = write_sweep(tmp_path, SWEEP + "set: {components.ball.fail_at_bounce: 2}\n")
+    out = tmp_path / "f.csv"
+    assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "2", "--no-figure"]) == 1
+    captured = capsys.readouterr()
+    assert "6 failed" in captured.out and out.exists()
+    assert captured.err == ("error: every one of the sweep's 6 points failed (the table's status and reason "
+                            "columns say why)\n")
+    assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "2", "--no-figure"]) == 1  # resumed
 
 
 def test_table_of_another_sweep_exits_2(tmp_path, capsys):

@@ -2,7 +2,8 @@
 
 Registered through the ``cosim.commands`` entry point. Exit codes as for every command: 0 the sweep
 is complete (failed runs are rows of the table, not a failure of the sweep, unless ``--strict``),
-1 interrupted (run the command again to resume) or failed points with ``--strict``, 2 bad input
+1 interrupted (run the command again to resume), every point failed, or failed points with
+``--strict``, 2 bad input
 (the sweep file, its first point's scene, an existing table of another sweep, an unusable backend).
 """
 
@@ -81,6 +82,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print("  no figure: matplotlib is not installed (pip install 'cosim[viz]')")
     if not outcome.complete:
         return EXIT_FAILED
+    failed = outcome.counts.get("failed", 0)
+    if outcome.total and failed == outcome.total:
+        # nothing came of the sweep: a script that goes on to read its table must hear of it
+        print(f"error: every one of the sweep's {outcome.total} points failed (the table's status and reason "
+              "columns say why)", file=sys.stderr)
+        return EXIT_FAILED
     if args.strict and outcome.failures:
         print(f"error: {len(outcome.failures)} points failed (--strict)", file=sys.stderr)
         return EXIT_FAILED
@@ -106,7 +113,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fresh", action="store_true", help="discard an existing table instead of resuming it")
     p.add_argument("--record", action="store_true", help="write an MCAP per run into <output stem>_runs/")
     p.add_argument("--no-figure", action="store_true", help="do not draw the summary figure")
-    p.add_argument("--strict", action="store_true", help="exit 1 if any run failed")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 if any run failed (without it, only if every run failed)")
     p.add_argument("--dry-run", action="store_true", help="validate and list the points; run nothing")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
