@@ -160,6 +160,17 @@ class StageMonitor(Component):
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
+    def start_inputs(self, inputs: dict[str, Message | None]) -> None:
+        body = inputs.get("body")
+        if body is not None:  # where the throw starts: the body's state at t = 0, not after a step
+            self._start_at(body)  # type: ignore[arg-type]
+
+    def _start_at(self, body: BodyState) -> None:
+        track = self.track
+        track.start_x, track.start_y = float(body.position[0]), float(body.position[1])
+        vx, vy = float(body.velocity[0]), float(body.velocity[1])
+        track.start_heading = math.atan2(vy, vx) if math.hypot(vx, vy) > 0.0 else 0.0
+
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
         body: BodyState = inputs["body"]  # type: ignore[assignment]
         water: WaterContact | None = inputs["water"]  # type: ignore[assignment]
@@ -167,10 +178,8 @@ class StageMonitor(Component):
         now = t + dt
         x = float(body.position[0])
         track = self.track
-        if math.isnan(track.start_x):
-            track.start_x, track.start_y = x, float(body.position[1])
-            vx, vy = float(body.velocity[0]), float(body.velocity[1])
-            track.start_heading = math.atan2(vy, vx) if math.hypot(vx, vy) > 0.0 else 0.0
+        if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
+            self._start_at(body)
         self.final_x = x
         outputs: dict[str, Message] = {}
 

@@ -116,6 +116,15 @@ class Component:
         """What the component publishes at t = 0, before the first tick (e.g. a body's initial state)."""
         return {}
 
+    def start_inputs(self, inputs: dict[str, Message | None]) -> None:
+        """What this component's inputs hold at t = 0, once every component has published its
+        initial outputs and before the first step: for each input port, its source's initial output
+        (a direct edge) or the edge's ``initial`` (a delayed one); None for an event port or a port
+        fed by nothing at t = 0. A step's inputs are those at its end, so a component that must know
+        where something started (a monitor measuring the distance a body travels) reads it here.
+        Called once per run from t = 0 (not on a restart from a checkpoint, which holds what was
+        read). Default: nothing."""
+
     def max_stable_step(self) -> float:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
         return math.inf
@@ -217,6 +226,17 @@ class Component:
             raise SimulationError(self.name, 0, f"its outputs at t = 0: {type(exc).__name__}: {exc}") from exc
         self._check_outputs(0, outputs)
         return outputs
+
+    def begin(self, inputs: dict[str, Message | None]) -> None:
+        """:meth:`start_inputs`, any failure a :class:`SimulationError` naming the component at t = 0."""
+        try:
+            self.start_inputs(inputs)
+        except SimulationError:
+            self.status = "failed"
+            raise
+        except Exception as exc:
+            self.status = "failed"
+            raise SimulationError(self.name, 0, f"its inputs at t = 0: {type(exc).__name__}: {exc}") from exc
 
     def step(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
              on_unstable: OnUnstable = "error") -> dict[str, Message]:

@@ -19,7 +19,7 @@ from cosim.errors import RecordingError
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
 from cosim.record.recorder import topic_of
-from cosim.scheduler import Simulation, _Edge, _Slot, gather
+from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start
 from cosim.timebase import NS_PER_S
 
 
@@ -179,6 +179,9 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
     if bad:
         bad.cut_off_ns = cut_off
         return bad
+    for src in sources:
+        src.advance(0)  # the initial outputs (and what steps before this component at tick 0 published)
+    comp.begin(gather_start(plan))
     steps = 0
     seconds = 0.0  # in the component's steps, the first one left out
     clock = time.perf_counter

@@ -162,6 +162,16 @@ class _Edge:
         return chosen[1]
 
 
+    def at_start(self) -> Message | None:
+        """The value this edge holds at t = 0, before the first step, without delivering it: the
+        edge's ``initial`` (delayed), else the source's initial output; None for an event."""
+        if self.event:
+            return None
+        if self.delayed:
+            return self.initial
+        return next((msg for stamp, msg in reversed(self.slot.entries) if stamp <= 0), None)
+
+
 class _Runner:
     """A component with its precomputed input plan and output slots (keeps the tick loop lean)."""
 
@@ -191,6 +201,20 @@ def gather(plan: list[tuple[str, list[_Edge]]], start: int, end: int) -> dict[st
         total = None
         for edge in edges:
             value = edge.pick(start, end)
+            if value is not None:
+                total = value if total is None else total + value
+        inputs[port] = total
+    return inputs
+
+
+def gather_start(plan: list[tuple[str, list[_Edge]]]) -> dict[str, Message | None]:
+    """The inputs at t = 0 (:meth:`cosim.component.Component.start_inputs`): each port's edge value
+    then, summed over several edges as :func:`gather` does."""
+    inputs: dict[str, Message | None] = {}
+    for port, edges in plan:
+        total = None
+        for edge in edges:
+            value = edge.at_start()
             if value is not None:
                 total = value if total is None else total + value
         inputs[port] = total
@@ -258,6 +282,8 @@ class Simulation:
                     runner.slots[port].publish(0, msg)
                     for obs in self.observers:
                         obs.on_exchange(0, runner.name, port, msg)
+            for runner in self.runners:
+                runner.comp.begin(gather_start(runner.plan))
 
     def step(self) -> None:
         """Advance one base tick."""

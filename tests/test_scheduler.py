@@ -102,6 +102,43 @@ connections:
     assert values(sim.components["g"])[0] == (0.0, 7.0)
 
 
+def test_each_component_reads_its_inputs_at_t0_before_the_first_step():
+    """start_inputs: a direct edge's value at t = 0 is its source's initial output, a delayed edge's
+    its own initial (not the source's initial output); a step, by contrast, sees the values at its
+    end."""
+    sim, _ = run("""
+dt: 0.001
+until: 0.002
+components:
+  g: {type: "tests.toys:Gain", gain: 1}
+  acc: {type: "tests.toys:Accumulator"}
+  h: {type: "tests.toys:Gain", gain: 1}
+connections:
+  - g.out -> acc.x
+  - {from: acc.total, to: g.x, delay: 1, initial: {value: 7.0}}
+  - acc.total -> h.x
+""")
+    assert sim.components["g"].started["x"].value == 7.0  # acc publishes 0.0 at t = 0
+    assert sim.components["h"].started["x"].value == 0.0  # acc's initial output
+    assert values(sim.components["h"])[0] == (0.0, 0.007)  # acc's total after its first step
+
+
+def test_a_failure_reading_the_inputs_at_t0_is_named_with_the_component():
+    """An exception in start_inputs is a SimulationError naming the component at t = 0; observers
+    are told the run failed."""
+    trace = Trace()
+    scene = loads("""
+dt: 0.001
+until: 1.0
+components:
+  bad: {type: "tests.toys:Faulty", mode: start}
+""")
+    with pytest.raises(SimulationError, match=r"'bad' failed at t = 0 s: its inputs at t = 0: RuntimeError: "
+                                              r"boom at the start"):
+        Simulation(scene, observers=[trace]).run()
+    assert trace.finished.status == "failed" and trace.finished.tick == 0
+
+
 def test_multi_rate_holds_the_slow_value_and_publishes_at_the_end_of_its_step():
     """Multi-rate, every 1 and every 4:
 

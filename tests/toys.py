@@ -80,6 +80,9 @@ class Gain(Component):
     def setup(self) -> None:
         self.seen: list[tuple[float, dict]] = []
 
+    def start_inputs(self, inputs):
+        self.started = dict(inputs)
+
     def _step_impl(self, t, dt, inputs):
         self.seen.append((t, dict(inputs)))
         x = inputs["x"]
@@ -144,7 +147,8 @@ class Summer(Component):
 
 
 class Faulty(Component):
-    """Raises (or returns NaN) once t reaches ``fail_at`` seconds."""
+    """Raises (or returns NaN) once t reaches ``fail_at`` seconds; with ``mode: start``, raises on
+    reading its inputs at t = 0."""
 
     @dataclass(frozen=True)
     class Params:
@@ -152,6 +156,10 @@ class Faulty(Component):
         mode: str = param("raise")
 
     outputs = {"out": Port(Scalar)}
+
+    def start_inputs(self, inputs):
+        if self.params.mode == "start":
+            raise RuntimeError("boom at the start")
 
     def _step_impl(self, t, dt, inputs):
         if t >= self.params.fail_at:
