@@ -314,7 +314,8 @@ class SkipRecord(Message):
 
     index: 1 for the first skip; touchdown_time [s] and touchdown_x [m] where the contact began;
     contact_time [s]; takeoff_angle_deg: angle of the velocity above the horizontal at fly-away;
-    distance [m]: touchdown x minus the previous touchdown x (or the throw's start for the first);
+    distance [m]: from the previous touchdown (or the throw's start, for the first) to this one,
+    along the line the stone was thrown along (its horizontal heading at t = 0);
     speed_in, speed_out [m/s]: speed at touchdown and at fly-away.
     The sideways curve a spinning stone takes: drift [m], how far the touchdown point lies beside the
     line the stone was thrown along (left of the throw positive); heading_deg, the direction of the

@@ -63,6 +63,7 @@ class SkipTracker:
     start_heading: float = 0.0  # direction of the throw's horizontal velocity [rad from +x]
     touchdown_y: float = math.nan
     last_touchdown_x: float = math.nan
+    last_touchdown_y: float = math.nan
     touchdown_time: float = math.nan
     touchdown_x: float = math.nan
     speed_in: float = math.nan
@@ -157,6 +158,7 @@ class StageMonitor(Component):
         self.timeline: list[tuple[float, str]] = []
         self.records: list[SkipRecord] = []
         self.final_x = math.nan
+        self.final_y = math.nan
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
@@ -180,10 +182,16 @@ class StageMonitor(Component):
         track = self.track
         if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
             self._start_at(body)
-        self.final_x = x
+        self.final_x, self.final_y = x, float(body.position[1])
         outputs: dict[str, Message] = {}
 
-        wetted = water is not None and water.wetted
+        previous = StageId.APPROACH if self.stage is None else self.stage
+        stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
+                         self.params.takeoff_clearance, self.params.gravity)
+        # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
+        # a contact, the dry descent after it would have gone on as one, and the next skip would have
+        # taken the brush's touchdown
+        wetted = water is not None and water.wetted and not (previous is stage is StageId.FLY_AWAY)
         touching = wetted or (track.in_contact and contact_goes_on(water, float(body.velocity[2]),
                                                                    self.params.takeoff_clearance))
         if wetted and not track.in_contact:
@@ -193,9 +201,6 @@ class StageMonitor(Component):
             track.peak_g = 0.0
         if track.in_contact and water is not None:
             track.peak_g = max(track.peak_g, _vertical_water_force(water) / (float(body.mass) * self.params.gravity))
-        previous = StageId.APPROACH if self.stage is None else self.stage
-        stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
-                         self.params.takeoff_clearance, self.params.gravity)
         if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY:
             outputs["skip"] = self._finish_skip(now, body)
         if not touching:
@@ -231,18 +236,32 @@ class StageMonitor(Component):
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
         track = self.track
         track.skips += 1
-        previous = track.start_x if math.isnan(track.last_touchdown_x) else track.last_touchdown_x
+        first = math.isnan(track.last_touchdown_x)
+        previous_x = track.start_x if first else track.last_touchdown_x
+        previous_y = track.start_y if first else track.last_touchdown_y
         vx, vy, vz = (float(v) for v in body.velocity)
         record = SkipRecord(
             index=track.skips, touchdown_time=track.touchdown_time, touchdown_x=track.touchdown_x,
             contact_time=now - track.touchdown_time,
             takeoff_angle_deg=math.degrees(math.atan2(vz, math.hypot(vx, vy))),
-            distance=track.touchdown_x - previous, speed_in=track.speed_in, speed_out=body.speed,
+            distance=self._along_throw_line(track.touchdown_x - previous_x, track.touchdown_y - previous_y),
+            speed_in=track.speed_in, speed_out=body.speed,
             drift=self._beside_throw_line(track.touchdown_x, track.touchdown_y),
             heading_deg=_turned_deg(math.atan2(vy, vx) - track.start_heading), peak_g=track.peak_g)
-        track.last_touchdown_x = track.touchdown_x
+        track.last_touchdown_x, track.last_touchdown_y = track.touchdown_x, track.touchdown_y
         self.records.append(record)
         return record
+
+    def _along_throw_line(self, dx: float, dy: float) -> float:
+        """How far [m] a move (dx, dy) goes along the line the stone was thrown along (its heading at
+        t = 0): a throw's distances whatever its direction (dx itself for a throw along +x)."""
+        h = self.track.start_heading
+        return dx * math.cos(h) + dy * math.sin(h)
+
+    def travelled(self) -> float:
+        """The distance [m] from the throw's start to where the stone is now, along the throw's line."""
+        track = self.track
+        return self._along_throw_line(self.final_x - track.start_x, self.final_y - track.start_y)
 
     def _beside_throw_line(self, x: float, y: float) -> float:
         """Signed distance [m] of the point (x, y) from the line the stone was thrown along (left of
@@ -254,7 +273,7 @@ class StageMonitor(Component):
     def get_state(self) -> dict[str, Any]:
         return {"stage": None if self.stage is None else int(self.stage), "since": self.since,
                 "track": vars(self.track).copy(),
-                "timeline": [list(e) for e in self.timeline], "final_x": self.final_x,
+                "timeline": [list(e) for e in self.timeline], "final_x": self.final_x, "final_y": self.final_y,
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
                 "outside_since": self.outside_since, "left_at": self.left_at}
 
@@ -264,6 +283,7 @@ class StageMonitor(Component):
         self.track = SkipTracker(**state["track"])
         self.timeline = [(t, label) for t, label in state["timeline"]]
         self.final_x = state["final_x"]
+        self.final_y = float(state.get("final_y", self.track.start_y))  # saved before it was kept: along x
         self.records = [SkipRecord(*row) for row in state["records"]]
         self.outside_since = float(state.get("outside_since", math.nan))
         self.left_at = float(state.get("left_at", math.nan))
@@ -273,7 +293,7 @@ class StageMonitor(Component):
         contact = [r.contact_time for r in self.records]
         return {
             "skips": self.track.skips,
-            "distance": self.final_x - start if not math.isnan(start) else math.nan,
+            "distance": self.travelled() if not math.isnan(start) else math.nan,
             "outcome": self._outcome(),
             # the throw was cut short by the water's edge: its distance and skips are lower bounds
             "reached_edge": int(not math.isnan(self.left_at)),
@@ -294,7 +314,7 @@ class StageMonitor(Component):
         lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the body was seen)'}"]
         start = self.track.start_x
         # rounded first: a stone that moved back by less than 5 mm travelled 0.00 m, not -0.00 m
-        travelled = f"{round(self.final_x - start, 2) + 0.0:.2f} m" if not math.isnan(start) else "none yet"
+        travelled = f"{round(self.travelled(), 2) + 0.0:.2f} m" if not math.isnan(start) else "none yet"
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {self._outcome()}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)

@@ -181,6 +181,34 @@ def test_a_stone_under_water_sinks_only_when_the_water_no_longer_pushes_it_out()
     assert labels == ["approach", "hit", "slide", "sink"]
 
 
+def test_a_brush_while_still_rising_is_no_touchdown_of_the_next_skip():
+    """A crest brushed near the apex of a hop, the stone still rising, is part of the flight: the
+    next skip's touchdown, contact time, distance and speed in are those of the real touchdown, not
+    of the brush (begun as a contact, the dry descent after it went on as one, and the next skip took
+    the brush's touchdown at x = 1.0, 6 ms of contact)."""
+    m = StageMonitor("stages", StageMonitor.Params(takeoff_clearance=0.002))
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),                 # approach
+        (body(0.5, 0.00, 5.0, -1.0), water(True), None),                  # hit: touchdown at x = 0.5
+        (body(0.6, -0.001, 4.8, 0.2), water(True), None),                 # slide
+        (body(0.7, 0.01, 4.6, 0.8), water(False, depth=-0.01), None),     # fly-away: skip 1
+        (body(1.0, 0.02, 4.6, 0.05), water(True), None),                  # brushes a crest, still rising
+        (body(1.1, 0.02, 4.6, -0.05), water(False, depth=-0.001), None),  # past the apex, 1 mm clear
+        (body(1.5, 0.01, 4.6, -0.4), water(False, depth=-0.03), None),    # coming down
+        (body(2.0, 0.005, 4.6, -0.8), water(False, depth=-0.02), None),
+        (body(3.0, 0.00, 4.5, -0.9), water(True), None),                  # touchdown at x = 3.0, t = 9 ms
+        (body(3.1, -0.001, 4.4, 0.3), water(True), None),                 # slide
+        (body(3.2, 0.01, 4.3, 0.6), water(False, depth=-0.01), None),     # fly-away: skip 2
+    ]
+    out = drive(m, script)
+    labels = [o["stage"].label for o in out if "stage" in o]
+    assert labels == ["approach", "hit", "slide", "fly-away", "approach", "hit", "slide", "fly-away"]
+    second = [o["skip"] for o in out if "skip" in o][1]
+    assert (second.touchdown_x, second.distance) == (3.0, 2.5)
+    assert second.touchdown_time == pytest.approx(0.009) and second.contact_time == pytest.approx(0.002)
+    assert second.speed_in == pytest.approx(math.hypot(4.5, 0.9))
+
+
 def test_a_dry_spell_while_still_coming_down_is_the_same_contact():
     """The surface can drop away under a stone faster than it falls (behind a crest): dry and clear
     of the water but still moving down, the stone has not bounced. Only rising clear is a skip."""
@@ -210,7 +238,7 @@ def moving(x: float, y: float, z: float, v: tuple[float, float, float]) -> BodyS
 def test_a_curving_throw_reports_its_drift_and_heading_per_skip():
     """Thrown along a diagonal (x = y), the stone touches down 0.1 m to the left of that line and
     flies away turned 10 deg further left: the skip's drift is +0.1 m and its heading +10 deg, and the
-    summary prints both (a straight throw prints neither)."""
+    summary prints both (a straight throw prints neither); its distances run along the diagonal."""
     m = StageMonitor("stages")
     c45, s45 = math.cos(math.pi / 4), math.sin(math.pi / 4)
     turned = math.radians(55.0)
@@ -224,6 +252,9 @@ def test_a_curving_throw_reports_its_drift_and_heading_per_skip():
     assert skip.drift == pytest.approx(0.1)
     assert skip.heading_deg == pytest.approx(10.0)
     assert "drift +0.10 m, heading +10.0 deg" in "\n".join(m.summary())
+    # distances run along the throw's line, not along x (they said 1.00 and 1.10 m)
+    assert skip.distance == pytest.approx(math.sqrt(2.0))
+    assert "distance travelled: 1.63 m" in "\n".join(m.summary())  # (1.1 + 1.2) cos 45 deg
 
     straight = StageMonitor("stages")
     drive(straight, [(body(0.0, 0.10, 5.0, -1.0), water(False), None), (body(0.5, 0.0, 5.0, -1.0), water(True), None),
