@@ -176,8 +176,9 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
             try:
                 result = sim.run(end_ns)
             except SimulationError as exc:
-                result = RunResult("failed", str(exc), sim.tick, sim.time_ns, 0.0,
-                                   sim.component_steps(), exc)
+                # the run's own result (its wall time, its compiling) unless it failed before one was made
+                result = sim.last_result if sim.last_result is not None and sim.last_result.error is exc else \
+                    RunResult("failed", str(exc), sim.tick, sim.time_ns, 0.0, sim.component_steps(), exc)
             except SinkError:  # the writer stopped mid-run: nothing more can be recorded
                 if recorder is not None:
                     recorder.discard()

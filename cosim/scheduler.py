@@ -234,6 +234,7 @@ class Simulation:
         self.stop_reason: str | None = None
         self.interrupt_reason: str | None = None
         self._initialized = False
+        self.last_result: RunResult | None = None  # of the last run(), also one that raised
         self.runners = [_Runner(self.components[name], scene.components[name].every,
                                 scene.components[name].on_unstable) for name in scene.order]
         by_name = {r.name: r for r in self.runners}
@@ -353,6 +354,7 @@ class Simulation:
             compile_s = compiling()
         result = RunResult(status, reason, self.tick, self.time_ns, time.perf_counter() - wall0,
                            self.component_steps() - steps0, error, compile_s, tick0, tick0 * self.dt_ns)
+        self.last_result = result
         for obs in self.observers:
             obs.on_finished(self, result)
         if error is not None:

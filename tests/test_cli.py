@@ -145,3 +145,16 @@ def test_replay_says_it_restarts_only_once_the_restart_is_accepted_and_refuses_c
     assert "--component stone and --from: " in capsys.readouterr().err
     assert main(["replay", str(recording), "--from", "0.05", "-o", str(tmp_path / "again.mcap"), "-q"]) == 0
     assert "restarting 'skip' from the checkpoint at t = 0.05 s" in capsys.readouterr().out
+
+
+def test_a_failed_run_reports_the_time_it_ran():
+    """A run that fails says how long it ran, as one that ends does (it said "wall 0 s")."""
+    from cosim.runner import format_summary, run_scene
+    from cosim.scenario import loads
+
+    scene = loads("dt: 0.001\nuntil: 1\ncomponents:\n  bad: {type: \"tests.toys:Faulty\", fail_at: 0.2}\n")
+    outcome = run_scene(scene, None, progress=False)
+    result = outcome.result
+    assert result.status == "failed" and result is outcome.simulation.last_result
+    assert result.wall_s > 0.0 and result.steps == 200
+    assert f"wall {result.wall_s:.3g} s" in format_summary(scene, outcome)

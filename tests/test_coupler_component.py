@@ -9,6 +9,7 @@ Topology it is built for (the scheduler is not needed here; messages are hand-ma
 """
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,7 @@ from cosim.errors import SimulationError
 from cosim.messages import messages_equal
 from cosim.params import build
 from cosim.registry import resolve
+from cosim.scenario import load
 
 DT_NS = 100_000  # 0.1 ms
 ALPHA = math.radians(20)
@@ -436,3 +438,17 @@ def test_a_stone_thrown_with_a_huge_step_meets_the_water_instead_of_falling_thro
     sim.run()
     stages = [name for _, name in sim.components["stages"].timeline]
     assert "hit" in stages and "left-pond" not in stages
+
+
+def test_a_column_displacement_under_a_buoyant_body_is_warned_of_as_the_scene_loads():
+    """displacement_mode: column reads the surface its own displacement raised: a floating body gains
+    energy without bound (tests/stability/test_floating_energy.py holds the ring mode's book). The
+    scene still loads, with one warning naming the coupler; the default says nothing."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "tilted_float.yaml"
+    with pytest.warns(UserWarning, match=r"coupler: displacement_mode: column reads the surface its own "
+                                         r"displacement raised, so a floating or slow body gains energy"):
+        load(scene, ["components.coupler.displacement_mode=column"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load(scene)
+        load(scene, ["components.coupler.displacement_mode=column", "components.coupler.effects=[displacement]"])

@@ -23,8 +23,10 @@ under the rest level is pushed out into a ring of columns around it, and the buo
 force against the rest level plus rho g times the water's height where that volume went, on each
 waterline column (:meth:`WaterCoupler._add_hydrostatics`). The work the buoyancy does on a heaving
 or rocking body is then what the displacement gives the water, so the two together gain no energy
-and the body is damped by the waves it radiates. With ``column`` (Mueller's b under the body) the
-buoyancy uses the surface under the body.
+and the body is damped by the waves it radiates. With ``column`` (Mueller's b under the body, as
+the height-field demos do) the buoyancy uses the surface under the body, which the body's own
+displacement raised: a floating or slow body is fed back its own displacement and gains energy
+without bound (a warning says so as the scene loads); it is kept for comparison with those demos.
 
 Stability: :meth:`WaterCoupler.max_stable_step` bounds the step by the linearised stiffness and
 damping of the water forces against the body's mass and inertia. When the scheduler substeps the
@@ -38,6 +40,7 @@ would be pointless, so this component overrides the base class's substep loop.)
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
@@ -156,7 +159,8 @@ class WaterCouplerParams:
                                      "surface (the water closes over it); below, the body is submerged")
     displacement_mode: Literal["ring", "column"] = param(
         "ring", doc="ring: displaced volume around the body, buoyancy at the water's level there "
-                    "(energy-consistent); column: Mueller's b under it, buoyancy at the surface there")
+                    "(energy-consistent); column: Mueller's b under it, buoyancy at the surface there, "
+                    "which its own displacement raised: a floating body gains energy without bound")
     ring_share: float = param(0.5, ge=0, le=100,
                               doc="half-width of the displacement band as a share of the body's radius (the band "
                                   "spans twice that outside the outline)")
@@ -336,6 +340,16 @@ class WaterCoupler(Component):
         self.met.set_state(state)
         self._start_in_water = bool(state.get("start_in_water", False))
         self._added_book.set_state(state)
+
+    def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
+        """None refused; said once as the scene loads: a column displacement under a body that
+        buoyancy holds up (see :attr:`Params.displacement_mode`)."""
+        if self.params.displacement_mode == "column" and self.flags & DISPLACEMENT and self.flags & BUOYANCY:
+            warnings.warn(f"{self.name}: displacement_mode: column reads the surface its own displacement "
+                          "raised, so a floating or slow body gains energy from the water without bound (a cork "
+                          "disk heaving in a closed basin: 12 times its energy within 2 s); the default, ring, is "
+                          "energy-consistent (docs/validation.md, section 7)", stacklevel=2)
+        return []
 
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
         """Two mistakes in a scene that only the water feeding the coupler shows, refused when the scene
