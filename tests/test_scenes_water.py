@@ -140,7 +140,7 @@ def _ball_run(until: float, snapshot: float, speed: float | None = None):
 
 def test_ball_wake_slows_the_ball_and_leaves_a_wake_behind_it():
     """ball_wake: after the start transient the pushed ball only slows down, from 1 m/s to below
-    c_min (by 1.2 s: about 1.1 s, the ball riding on the water it pushes aside, which the scene's
+    c_min (by 1.2 s: about 1.0 s, the ball riding on the water it pushes aside, which the scene's
     slow waves spread only slowly); while faster than the waves it leaves them behind: the surface
     it disturbed (the pushed run minus the same ball let go at rest, which removes the splash of
     putting it in) is rough along its path and still ahead of it and to the side."""

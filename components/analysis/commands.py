@@ -76,8 +76,8 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--from", dest="start", type=seconds, metavar="T", help="start time [s]")
     p.add_argument("--to", dest="stop", type=seconds, metavar="T", help="end time [s]")
     p.add_argument("--at", type=seconds, metavar="T",
-                   help="time of the frame for a PNG [s] (default: shortly after the first touchdown; "
-                        "water alone: mid-run)")
+                   help="time of the frame for a PNG [s] (default: as the stone leaves the water after its "
+                        "first skip; without a skip, just after its first hit; water alone: mid-run)")
     p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
     p.add_argument("--water", metavar="TOPIC", help="WaterField channel (default: the first one)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
