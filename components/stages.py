@@ -171,7 +171,8 @@ class StageMonitor(Component):
         track = self.track
         track.start_x, track.start_y = float(body.position[0]), float(body.position[1])
         vx, vy = float(body.velocity[0]), float(body.velocity[1])
-        track.start_heading = math.atan2(vy, vx) if math.hypot(vx, vy) > 0.0 else 0.0
+        # a body let go without horizontal speed is taken as thrown along +x
+        track.start_heading = math.atan2(vy, vx) if math.hypot(vx, vy) > HEADING_SPEED else 0.0
 
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
         body: BodyState = inputs["body"]  # type: ignore[assignment]
@@ -259,9 +260,19 @@ class StageMonitor(Component):
         return dx * math.cos(h) + dy * math.sin(h)
 
     def travelled(self) -> float:
-        """The distance [m] from the throw's start to where the stone is now, along the throw's line."""
+        """The distance [m] from the throw's start to where the stone was at the monitor's last step,
+        along the throw's line; NaN before its first step."""
         track = self.track
         return self._along_throw_line(self.final_x - track.start_x, self.final_y - track.start_y)
+
+    def _touchdown_y_of(self, record: SkipRecord) -> float:
+        """The y [m] of a skip's touchdown, from its x and its drift (the throw's line not along y),
+        else the last contact's."""
+        track = self.track
+        h = track.start_heading
+        if abs(math.cos(h)) < 0.5:
+            return track.touchdown_y
+        return track.start_y + (record.drift + (record.touchdown_x - track.start_x) * math.sin(h)) / math.cos(h)
 
     def _beside_throw_line(self, x: float, y: float) -> float:
         """Signed distance [m] of the point (x, y) from the line the stone was thrown along (left of
@@ -285,15 +296,17 @@ class StageMonitor(Component):
         self.final_x = state["final_x"]
         self.final_y = float(state.get("final_y", self.track.start_y))  # saved before it was kept: along x
         self.records = [SkipRecord(*row) for row in state["records"]]
+        if "last_touchdown_y" not in state["track"] and self.records:
+            # saved before distances ran along the throw's line: the last touchdown's y from its drift
+            self.track.last_touchdown_y = self._touchdown_y_of(self.records[-1])
         self.outside_since = float(state.get("outside_since", math.nan))
         self.left_at = float(state.get("left_at", math.nan))
 
     def metrics(self) -> dict[str, float | int | str]:
-        start = self.track.start_x
         contact = [r.contact_time for r in self.records]
         return {
             "skips": self.track.skips,
-            "distance": self.travelled() if not math.isnan(start) else math.nan,
+            "distance": self.travelled(),
             "outcome": self._outcome(),
             # the throw was cut short by the water's edge: its distance and skips are lower bounds
             "reached_edge": int(not math.isnan(self.left_at)),
@@ -311,10 +324,10 @@ class StageMonitor(Component):
     def summary(self) -> list[str]:
         # named after the monitor ("stages" in most scenes), so that several monitors tell theirs apart
         timeline = ' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)
-        lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the body was seen)'}"]
-        start = self.track.start_x
+        lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the monitor first stepped)'}"]
+        distance = self.travelled()
         # rounded first: a stone that moved back by less than 5 mm travelled 0.00 m, not -0.00 m
-        travelled = f"{round(self.travelled(), 2) + 0.0:.2f} m" if not math.isnan(start) else "none yet"
+        travelled = f"{round(distance, 2) + 0.0:.2f} m" if not math.isnan(distance) else "none yet"
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {self._outcome()}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
@@ -329,6 +342,7 @@ class StageMonitor(Component):
 
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
+HEADING_SPEED = 1e-6  # [m/s] a body let go slower than this horizontally has no heading of its own (+x)
 
 
 def _vertical_water_force(water: WaterContact) -> float:

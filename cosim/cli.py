@@ -176,6 +176,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise ScenarioError([f"--no-record and -o {args.output}: a run either records into a file or does not; "
                              "give one of them"], "cosim run")
     scene = load(args.scene, overrides=_record_overrides(args))
+    say_notices(scene.notices)
     output = None if args.no_record else (Path(args.output) if args.output else
                                           _default_output(args.scene, scene.name, list(args.set or [])))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
@@ -200,6 +201,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def say_notices(notices: list[str]) -> None:
+    """A loaded scene's notices (``Scene.notices``), one warning line each."""
+    for notice in notices:
+        print(f"warning: {_one_line(notice)}", file=sys.stderr, flush=True)
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     from cosim.scenario import load, read_input, read_yaml
 
@@ -208,6 +215,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         raise ScenarioError("this is a sweep file (it has scene: and axes:, no components:); check it with "
                             f"`cosim sweep {args.scene} --dry-run`", args.scene)
     scene = load(args.scene, overrides=args.set or [])
+    say_notices(scene.notices)
     if scene.record.channels is not None:
         from cosim.runner import check_channel_patterns
 

@@ -119,11 +119,12 @@ class Component:
     def start_inputs(self, inputs: dict[str, Message | None]) -> None:
         """What this component's inputs hold at t = 0, once every component has published its
         initial outputs and before the first step: for each input port, its source's initial output
-        (a direct edge) or the edge's ``initial`` (a delayed one); None for an event port or a port
-        fed by nothing at t = 0. A step's inputs are those at its end, so a component that must know
-        where something started (a monitor measuring the distance a body travels) reads it here.
-        Called once per run from t = 0 (not on a restart from a checkpoint, which holds what was
-        read). Default: nothing."""
+        (a direct edge) or the edge's ``initial`` (a delayed one), summed over several edges as a
+        step's are; None for an event port or a port fed by nothing at t = 0. A step's inputs are
+        those at its end, so a component that must know where something started (a monitor measuring
+        the distance a body travels) reads it here. Called before the first step of every run that
+        starts at t = 0 (a restart from a later checkpoint has what was read in the checkpoint).
+        Default: nothing."""
 
     def max_stable_step(self) -> float:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
@@ -148,6 +149,12 @@ class Component:
         refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then
         (its source's initial output, or the delayed edge's ``initial``; None when not known). A
         ground, for instance, refuses a body that starts deep inside it. Default: none."""
+        return []
+
+    def notices(self) -> list[str]:
+        """What is worth saying about this component's settings though the scene is not refused for
+        it (a mode known to mislead), as plain sentences. The scene keeps them (``Scene.notices``);
+        ``cosim run``, ``validate`` and ``sweep`` say each once, as a warning line. Default: none."""
         return []
 
     def start_stable_step(self, inputs: dict[str, Message | None]) -> float:

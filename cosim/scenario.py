@@ -123,6 +123,7 @@ class Scene:
     source: str = "<string>"
     overrides: list[str] = field(default_factory=list)
     base_dir: str = "."  # absolute folder that relative file names in the scene (an FMU's path) start from
+    notices: list[str] = field(default_factory=list)  # its components' notices (Component.notices), with their keys
 
     def instantiate(self) -> dict[str, Component]:
         """Fresh components, built from the parameters (in execution order)."""
@@ -788,6 +789,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)
+    scene.notices = [f"components.{name}: {notice}" for name, comp in built_components.items()
+                     for notice in comp.notices()]
     return scene
 
 

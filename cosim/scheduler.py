@@ -161,7 +161,6 @@ class _Edge:
             self.last_delivered = chosen[0]
         return chosen[1]
 
-
     def at_start(self) -> Message | None:
         """The value this edge holds at t = 0, before the first step, without delivering it: the
         edge's ``initial`` (delayed), else the source's initial output; None for an event."""

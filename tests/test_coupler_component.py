@@ -27,6 +27,7 @@ from components.messages import (
     WaterContact,
     Wrench,
 )
+from cosim.cli import main
 from cosim.errors import SimulationError
 from cosim.messages import messages_equal
 from cosim.params import build
@@ -440,15 +441,20 @@ def test_a_stone_thrown_with_a_huge_step_meets_the_water_instead_of_falling_thro
     assert "hit" in stages and "left-pond" not in stages
 
 
-def test_a_column_displacement_under_a_buoyant_body_is_warned_of_as_the_scene_loads():
+def test_a_column_displacement_under_a_buoyant_body_is_warned_of_as_the_scene_loads(capsys):
     """displacement_mode: column reads the surface its own displacement raised: a floating body gains
     energy without bound (tests/stability/test_floating_energy.py holds the ring mode's book). The
-    scene still loads, with one warning naming the coupler; the default says nothing."""
+    scene still loads and keeps one notice naming the coupler, which `cosim validate` (as `run` and
+    `sweep`) says as one warning line; the default, or column without buoyancy, has none. A notice
+    is no Python warning: turned into errors, warnings do not refuse the scene."""
     scene = Path(__file__).resolve().parents[1] / "scenarios" / "tilted_float.yaml"
-    with pytest.warns(UserWarning, match=r"coupler: displacement_mode: column reads the surface its own "
-                                         r"displacement raised, so a floating or slow body gains energy"):
-        load(scene, ["components.coupler.displacement_mode=column"])
+    column = "components.coupler.displacement_mode=column"
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        load(scene)
-        load(scene, ["components.coupler.displacement_mode=column", "components.coupler.effects=[displacement]"])
+        (notice,) = load(scene, [column]).notices
+        assert load(scene).notices == []
+        assert load(scene, [column, "components.coupler.effects=[displacement]"]).notices == []
+    assert notice.startswith("components.coupler: displacement_mode: column reads the surface its own "
+                             "displacement raised, so a floating or slow body gains energy")
+    assert main(["validate", str(scene), "--set", column]) == 0
+    assert capsys.readouterr().err == f"warning: {notice}\n"

@@ -84,6 +84,28 @@ def test_state_round_trip_continues_identically():
     assert a.summary() == b.summary()
 
 
+def test_a_state_saved_before_distances_ran_along_the_throw_continues_with_finite_distances():
+    """A checkpoint of an earlier version (no last touchdown y, no final y) restores, and the next
+    skip's distance and the distance travelled are those of a monitor never interrupted (the missing
+    y made them NaN and the run failed at the next skip)."""
+    script = [(body(0.0, 0.1, 5.0, -1.0), water(False), None), (body(0.5, 0.0, 5.0, -1.0), water(True), None),
+              (body(0.7, 0.01, 4.6, 0.8), water(False), None), (body(1.2, 0.02, 4.6, -0.8), water(False), None),
+              (body(1.9, 0.0, 4.5, -0.9), water(True), None), (body(2.0, 0.01, 4.4, 0.6), water(False), None)]
+    whole = StageMonitor("s")
+    drive(whole, script)
+    a = StageMonitor("s")
+    drive(a, script[:4])
+    old = a.get_state()
+    del old["track"]["last_touchdown_y"], old["final_y"]
+    b = StageMonitor("s")
+    b.set_state(old)
+    out = [b.step(k * MS, MS, dict(zip(("body", "water", "ground"), step, strict=True)))
+           for k, step in enumerate(script[4:], start=4)]
+    (second,) = [o["skip"] for o in out if "skip" in o]
+    assert second.distance == whole.records[1].distance == 1.4
+    assert b.summary() == whole.summary() and b.metrics()["distance"] == 2.0
+
+
 def test_grazing_flicker_is_one_contact():
     """Losing contact for a step while the stone still skims within the clearance is not a skip."""
     m = StageMonitor("stages", StageMonitor.Params(takeoff_clearance=0.002))
@@ -252,7 +274,7 @@ def test_a_curving_throw_reports_its_drift_and_heading_per_skip():
     assert skip.drift == pytest.approx(0.1)
     assert skip.heading_deg == pytest.approx(10.0)
     assert "drift +0.10 m, heading +10.0 deg" in "\n".join(m.summary())
-    # distances run along the throw's line, not along x (they said 1.00 and 1.10 m)
+    # distances run along the throw's line, not along x (along x they were 0.93 and 1.10 m)
     assert skip.distance == pytest.approx(math.sqrt(2.0))
     assert "distance travelled: 1.63 m" in "\n".join(m.summary())  # (1.1 + 1.2) cos 45 deg
 
@@ -307,10 +329,14 @@ def test_a_slow_stone_barely_touching_waits_for_the_buoyancy_to_tell():
 
 def test_a_monitor_that_never_saw_the_body_says_so_in_words():
     """A run that failed before the monitor's first step (another component at t = 0) prints no empty
-    timeline and no 'nan m': it says there is no stage and no distance yet."""
-    assert StageMonitor("stages", StageMonitor.Params()).summary() == [
-        "stages: no stage yet (the run ended before the body was seen)",
-        "skips: 0; distance travelled: none yet; final stage: none"]
+    timeline and no 'nan m': it says there is no stage and no distance yet, also once told where the
+    body starts (its inputs at t = 0)."""
+    expected = ["stages: no stage yet (the run ended before the monitor first stepped)",
+                "skips: 0; distance travelled: none yet; final stage: none"]
+    assert StageMonitor("stages", StageMonitor.Params()).summary() == expected
+    told = StageMonitor("stages", StageMonitor.Params())
+    told.start_inputs({"body": body(0.3, 0.1, 5.0, -1.0), "water": None, "ground": None})
+    assert told.summary() == expected and math.isnan(told.metrics()["distance"])
 
 
 def test_each_skip_reports_the_peak_of_the_waters_vertical_force_over_the_weight():

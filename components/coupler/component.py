@@ -40,7 +40,6 @@ would be pointless, so this component overrides the base class's substep loop.)
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
@@ -341,14 +340,13 @@ class WaterCoupler(Component):
         self._start_in_water = bool(state.get("start_in_water", False))
         self._added_book.set_state(state)
 
-    def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
-        """None refused; said once as the scene loads: a column displacement under a body that
-        buoyancy holds up (see :attr:`Params.displacement_mode`)."""
+    def notices(self) -> list[str]:
+        """A column displacement under a body that buoyancy holds up (see :attr:`Params.displacement_mode`)."""
         if self.params.displacement_mode == "column" and self.flags & DISPLACEMENT and self.flags & BUOYANCY:
-            warnings.warn(f"{self.name}: displacement_mode: column reads the surface its own displacement "
-                          "raised, so a floating or slow body gains energy from the water without bound (a cork "
-                          "disk heaving in a closed basin: 12 times its energy within 2 s); the default, ring, is "
-                          "energy-consistent (docs/validation.md, section 7)", stacklevel=2)
+            return ["displacement_mode: column reads the surface its own displacement raised, so a floating or "
+                    "slow body gains energy from the water without bound (a cork disk heaving in a closed basin: "
+                    "12 times its energy within 2 s); the default, ring, is energy-consistent "
+                    "(docs/validation.md, section 7)"]
         return []
 
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:

@@ -15,7 +15,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int
+from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int, say_notices
 
 SHOWN_POINTS = 10  # --dry-run lists this many points
 CORES = os.cpu_count() or 1
@@ -39,6 +39,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     try:
         sweep = load_sweep(args.sweep, overrides=args.set or [], output=args.output)
+        say_notices(sweep.notices)
         if args.record:
             sweep.record = True
         if args.dry_run:

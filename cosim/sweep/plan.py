@@ -239,6 +239,7 @@ class Sweep:
     samples: int | None = None
     seed: int = 0
     metric_kinds: dict[str, str] = field(default_factory=dict)
+    notices: list[str] = field(default_factory=list)  # the first point's scene's (Scene.notices)
 
     @property
     def columns(self) -> list[str]:
@@ -672,12 +673,12 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         raise ScenarioError(problems, source)
 
     points = _points(mode, axes, samples, seed, fixed, derived)  # at most MAX_POINTS: checked above
-    metric_keys, kinds = _first_point(points[0], base[0], base[1], source)
+    metric_keys, kinds, notices = _first_point(points[0], base[0], base[1], source)
     metrics = _select_metrics(metric_keys, metric_patterns, problems)
     sweep = Sweep(name=name, description=str(description), source=source, text=text, scene_text=base[0],
                   scene_source=base[1], mode=mode, axes=axes, derived=derived, fixed=fixed, metrics=metrics,
                   record=record, output=Path(out), figure=None, points=points, samples=samples, seed=seed,
-                  metric_kinds={k: kinds[k] for k in metrics})
+                  metric_kinds={k: kinds[k] for k in metrics}, notices=notices)
     sweep.figure = _figure_spec(figure, sweep, problems)
     if len({p.point_id for p in points}) < len(points):
         problems.append("axes: two points have the same values (random choices that repeat? "
@@ -688,9 +689,10 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
 
 
 def _first_point(point: Point, scene_text: str, scene_source: str,
-                 source: str) -> tuple[list[str], dict[str, str]]:
+                 source: str) -> tuple[list[str], dict[str, str], list[str]]:
     """Validate the first point's scene (so a wrong key path is reported before anything runs) and
-    return the metric keys its components report, with their kinds (number or text)."""
+    return the metric keys its components report, with their kinds (number or text), and its
+    notices."""
     from cosim.runner import collect_metrics
     from cosim.scheduler import Simulation
 
@@ -703,7 +705,7 @@ def _first_point(point: Point, scene_text: str, scene_source: str,
         raise ScenarioError([f"{where}: {p}" for p in exc.problems], source) from None
     metrics = collect_metrics(Simulation(scene))
     kinds = {k: "text" if isinstance(v, str) else "number" for k, v in metrics.items()}
-    return list(metrics), kinds
+    return list(metrics), kinds, scene.notices
 
 
 def _select_metrics(keys: list[str], patterns: list[str] | None, problems: list[str]) -> list[str]:
