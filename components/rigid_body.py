@@ -72,7 +72,7 @@ class RigidBodyParams:
     """Parameters of a RigidBody (SI units; angles in degrees in fields ending ``_deg``)."""
 
     shape: Literal["disk", "sphere"] = param("disk", doc="thin disk (axis along body z) or sphere")
-    radius: float = param(0.05, unit="m", gt=0)
+    radius: float = param(0.05, unit="m", gt=0, doc="disk or sphere radius")
     thickness: float = param(0.005, unit="m", ge=0, doc="disk thickness (ignored for a sphere)")
     density: float = param(2700.0, unit="kg/m^3", gt=0, le=1e6,
                            doc="sets the mass unless mass is given (at most 1e6: osmium is 22,590)")
@@ -85,7 +85,8 @@ class RigidBodyParams:
     tilt_deg: float = param(0.0, unit="deg", doc="initial rotation about tilt_axis")
     tilt_axis: Vec3Param = param(
         (0.0, -1.0, 0.0), doc="world axis of the tilt; the default raises the +x edge (nose up along +x)")
-    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2")
+    gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2",
+                               doc="gravity on the body, world frame (each component at most 1e4)")
     integrator: str = param("verlet", doc="verlet | semi_implicit_euler | rk4")
     lock_attitude: bool = param(False, doc="hold orientation and angular velocity (high-spin limit)")
     scripted_tilt_deg: list[tuple[float, float]] = param(

@@ -149,7 +149,8 @@ class StageMonitor(Component):
         "water": Port(WaterContact, "the coupler's contact report"),
         "ground": Port(GroundContact, "the ground's contact report"),
     }
-    outputs = {"stage": Port(Stage, event=True), "skip": Port(SkipRecord, event=True)}
+    outputs = {"stage": Port(Stage, "the stage the stone entered, at each change", event=True),
+               "skip": Port(SkipRecord, "the figures of each skip, at its fly-away", event=True)}
 
     def setup(self) -> None:
         self.stage: StageId | None = None  # the first step always publishes

@@ -232,6 +232,32 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_components(args: argparse.Namespace) -> int:
+    from cosim.record.output import written_whole
+    from cosim.registry import registered, type_info, type_text, types_page
+
+    own = [names[0] for target, names in registered().items() if target.partition(".")[0] in ("cosim", "components")]
+    if args.markdown is not None:
+        chosen = args.types or sorted(own)
+        with written_whole(args.markdown) as tmp:
+            tmp.write_text(types_page(chosen), encoding="utf-8")
+        print(f"wrote {args.markdown}: {len(chosen)} component types")
+        return EXIT_OK
+    if not args.types:
+        for names in sorted(registered().values()):
+            also = f" (also: {', '.join(names[1:])})" if names[1:] else ""
+            info = type_info(names[0])
+            print(f"{names[0]}{also}: {info.summary or 'unavailable: ' + one_line(info.problem)}")
+        print("`cosim components TYPE` lists a type's parameters, ports and messages")
+        return EXIT_OK
+    infos = [type_info(name) for name in args.types]
+    unknown = [info for info in infos if info.problem and info.target not in registered()]
+    if unknown:
+        raise ScenarioError([info.problem for info in unknown], "cosim components")
+    print("\n\n".join("\n".join(type_text(info)) for info in infos))
+    return EXIT_OK
+
+
 def cmd_inspect(args: argparse.Namespace) -> int:
     from cosim.record.describe import describe_recording
     from cosim.record.reader import Recording
@@ -331,6 +357,13 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p = sub.add_parser("validate", help="check a scene without running it")
     scene_args(p)
     p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("components", help="the component types a scene can name, or a type's parameters, "
+                                          "ports and messages")
+    p.add_argument("types", nargs="*", metavar="TYPE", help="the types to describe (default: list them all)")
+    p.add_argument("--markdown", type=Path, metavar="FILE",
+                   help="write the reference page of the types (default: this project's) to FILE")
+    p.set_defaults(func=cmd_components)
 
     p = sub.add_parser("inspect", help="channels, status and stage timeline of a recording")
     p.add_argument("recording")

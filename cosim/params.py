@@ -57,9 +57,18 @@ def _type_name(tp: Any) -> str:
         args = typing.get_args(tp)
         return f"a list of {len(args)} numbers"
     if origin is list:
-        return f"a list of {_type_name(typing.get_args(tp)[0])}"
+        item = typing.get_args(tp)[0]
+        plural = {float: "numbers", int: "integers", bool: "booleans", str: "strings"}.get(item)
+        if typing.get_origin(item) is tuple:
+            plural = f"lists of {len(typing.get_args(item))} numbers"
+        return f"a list of {plural}" if plural else f"a list of {_type_name(item)}"
+    if origin in (typing.Union, types.UnionType) and type(None) in typing.get_args(tp):
+        kinds = [_type_name(a) for a in typing.get_args(tp) if a is not type(None)]
+        return " or ".join(kinds) + " or null"
     if dataclasses.is_dataclass(tp):
         return "a mapping"
+    if tp is Any:
+        return "any value"
     return {float: "a number", int: "an integer", bool: "true or false", str: "a string"}.get(
         tp, getattr(tp, "__name__", str(tp)))
 
@@ -178,18 +187,51 @@ def require_valid(params: Any) -> None:
         raise ValueError("; ".join(f"{name}: {text}" for name, text in problems))
 
 
-def describe(cls: type) -> list[tuple[str, str, str, str]]:
-    """(name, type, default, unit + doc) rows for documentation and ``cosim components``."""
+class ParamRow(typing.NamedTuple):
+    """One parameter as ``cosim components`` and docs/components.md show it: its key (dotted inside
+    a nested mapping), what it takes, its default as YAML writes it, its unit, its bounds
+    (``> 0, <= 64``) and its description."""
+
+    name: str
+    kind: str
+    default: str
+    unit: str
+    bounds: str
+    doc: str
+
+
+def yaml_text(value: Any) -> str:
+    """A parameter value as a scene writes it: ``[0.0, 1.5]``, ``null``, ``true``, ``ring``."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(yaml_text(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {yaml_text(v)}" for k, v in value.items()) + "}"
+    if dataclasses.is_dataclass(value):
+        return yaml_text({f.name: getattr(value, f.name) for f in dataclasses.fields(value)})
+    return str(value)
+
+
+def describe(cls: type, prefix: str = "") -> list[ParamRow]:
+    """Every parameter of dataclass ``cls``, nested mappings' fields after their own row."""
     hints = typing.get_type_hints(cls)
     rows = []
     for f in dataclasses.fields(cls):
         if f.default is not MISSING:
-            default = repr(f.default)
+            default = yaml_text(f.default)
         elif f.default_factory is not MISSING:
-            default = repr(f.default_factory())
+            default = yaml_text(f.default_factory())
         else:
             default = "(required)"
         meta = dict(f.metadata)
-        note = " ".join(x for x in (f"[{meta['unit']}]" if meta.get("unit") else "", meta.get("doc", "")) if x)
-        rows.append((f.name, _type_name(hints[f.name]), default, note))
+        bounds = ", ".join(f"{word} {meta[key]:g}" for key, word in (("gt", ">"), ("ge", ">="), ("lt", "<"),
+                                                                     ("le", "<=")) if meta.get(key) is not None)
+        kind = hints[f.name]
+        rows.append(ParamRow(prefix + f.name, _type_name(kind), default, meta.get("unit", ""), bounds,
+                             meta.get("doc", "")))
+        if dataclasses.is_dataclass(kind):
+            rows += describe(kind, f"{prefix}{f.name}.")
     return rows

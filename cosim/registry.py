@@ -1,4 +1,4 @@
-"""Component types by name.
+"""Component types by name, and what each takes (``cosim components``).
 
 Names come from the ``cosim.components`` entry points (``RigidBody = "components.rigid_body:RigidBody"``)
 or are given in full as ``package.module:Class``. A type is imported only when a scene names it, so a
@@ -16,12 +16,15 @@ from __future__ import annotations
 import importlib
 import os
 import re
+import typing
 from collections.abc import Iterable
 from functools import cache
 from importlib.metadata import entry_points
 from typing import Any
 
-from cosim.component import Component
+from cosim.component import Component, Port
+from cosim.messages import FieldKind, Message
+from cosim.params import ParamRow, describe
 
 ENTRY_POINT_GROUP = "cosim.components"
 ALLOW_ENV = "COSIM_COMPONENT_PACKAGES"
@@ -93,3 +96,149 @@ def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
     if not (isinstance(cls, type) and issubclass(cls, Component)):
         raise UnknownComponentType(f"component type {type_name!r}: {target!r} is not a Component class")
     return cls
+
+
+# --- what each type takes -----------------------------------------------------------------------
+
+class PortRow(typing.NamedTuple):
+    """One port of a component type: its name, direction (``input``, ``input, required``,
+    ``input, event``, ``output``, ``output, event``), message type and description."""
+
+    name: str
+    direction: str
+    message: str
+    doc: str
+
+
+class TypeInfo(typing.NamedTuple):
+    """A registered component type as ``cosim components`` shows it: its name and the other names it
+    is registered under, its ``module:Class``, the first paragraph of its docstring, its parameters,
+    its ports (none listed for a type whose ports its parameters make, as an FMU's) and the message
+    types they carry; ``problem`` says why a type could not be loaded (a missing extra)."""
+
+    name: str
+    aliases: tuple[str, ...]
+    target: str
+    summary: str
+    params: list[ParamRow]
+    ports: list[PortRow]
+    messages: list[type[Message]]
+    problem: str = ""
+
+
+def registered() -> dict[str, list[str]]:
+    """Each registered ``module:Class`` and the names it is registered under, its class's own name
+    first."""
+    names: dict[str, list[str]] = {}
+    for name, target in sorted(known_types().items()):
+        names.setdefault(target, []).append(name)
+    for target, those in names.items():
+        own = target.partition(":")[2]
+        those.sort(key=lambda n: (n != own, n))
+    return names
+
+
+def first_paragraph(text: str | None) -> str:
+    """The first paragraph of a docstring, on one line."""
+    return " ".join((text or "").strip().split("\n\n")[0].split())
+
+
+def type_info(name: str) -> TypeInfo:
+    """What registered type ``name`` takes (a ``module:Class`` of an allowed package works too)."""
+    target = known_types().get(name, name)
+    aliases = tuple(n for n in registered().get(target, [name]) if n != name)
+    try:
+        cls = resolve(name)
+    except UnknownComponentType as exc:
+        return TypeInfo(name, aliases, target, "", [], [], [], str(exc))
+    params = describe(cls.Params) if getattr(cls, "Params", None) is not None else []
+    ports = [PortRow(port, _direction("input", spec), spec.type.__name__, spec.doc)
+             for port, spec in cls.inputs.items()]
+    ports += [PortRow(port, _direction("output", spec), spec.type.__name__, spec.doc)
+              for port, spec in cls.outputs.items()]
+    messages = list(dict.fromkeys(spec.type for spec in (*cls.inputs.values(), *cls.outputs.values())))
+    return TypeInfo(name, aliases, target, first_paragraph(cls.__doc__), params, ports, messages)
+
+
+def _direction(way: str, spec: Port) -> str:
+    return ", ".join([way, *(["required"] if spec.required else []), *(["event"] if spec.event else [])])
+
+
+def message_fields(msg_type: type[Message]) -> str:
+    """A message type's fields as a line: ``position (3,), radius, shape (Shape), ...``."""
+    parts = []
+    for spec in msg_type.__cosim_fields__:
+        if spec.kind is FieldKind.ARRAY and spec.array is not None:
+            shape = ", ".join("n" if d is None else str(d) for d in spec.array.shape)
+            parts.append(f"{spec.name} ({shape}{',' if len(spec.array.shape) == 1 else ''})")
+        elif spec.kind is FieldKind.ENUM and spec.enum_type is not None:
+            parts.append(f"{spec.name} ({spec.enum_type.__name__}: "
+                         f"{', '.join(m.name.lower() for m in spec.enum_type)})")
+        else:
+            parts.append(f"{spec.name} ({spec.kind.value})")
+    return ", ".join(parts)
+
+
+def type_text(info: TypeInfo) -> list[str]:
+    """``cosim components TYPE``: a type's parameters, ports and messages as terminal lines."""
+    also = f" (also: {', '.join(info.aliases)})" if info.aliases else ""
+    lines = [f"{info.name}{also} - {info.target}"]
+    if info.problem:
+        return [*lines, f"  unavailable: {info.problem}"]
+    lines.append(f"  {info.summary}")
+    lines.append("parameters (key: what it takes = default [unit], bounds):" if info.params else "parameters: none")
+    for row in info.params:
+        unit = f" [{row.unit}]" if row.unit else ""
+        bounds = f", {row.bounds}" if row.bounds else ""
+        lines.append(f"  {row.name}: {row.kind} = {row.default}{unit}{bounds}")
+        if row.doc:
+            lines.append(f"      {row.doc}")
+    lines.append("ports:" if info.ports else "ports: made from its parameters (see its documentation)")
+    lines += [f"  {p.name} ({p.direction}): {p.message}" + (f" - {p.doc}" if p.doc else "") for p in info.ports]
+    if info.messages:
+        lines.append("messages (fields; units in each type's documentation):")
+        lines += [f"  {m.__name__}: {message_fields(m)}" for m in info.messages]
+    return lines
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def types_page(names: list[str]) -> str:
+    """docs/components.md: the reference of the types ``names``, one section each."""
+    out = ["# Components", "",
+           "Every component type a scene can name, with its parameters (a scene's `components.NAME.KEY`),",
+           "its ports (what `connections` wire) and, at the end, the messages they carry, with their",
+           "fields and units. Generated from the code by `cosim components --markdown docs/components.md`;",
+           "`cosim components TYPE` prints the same in a terminal.", ""]
+    messages: list[type[Message]] = []
+    for name in names:
+        info = type_info(name)
+        also = f" (also registered as {', '.join(f'`{a}`' for a in info.aliases)})" if info.aliases else ""
+        out += [f"## {info.name}", "", f"`{info.target}`{also}", ""]
+        if info.problem:
+            out += [f"Unavailable here: {_cell(info.problem)}", ""]
+            continue
+        out += [info.summary, ""]
+        if info.params:
+            out += ["| parameter | takes | default | unit | bounds | |", "|---|---|---|---|---|---|"]
+            out += [f"| `{r.name}` | {_cell(r.kind)} | `{_cell(r.default)}` | {_cell(r.unit)} | {_cell(r.bounds)} | "
+                    f"{_cell(r.doc)} |" for r in info.params]
+            out.append("")
+        if info.ports:
+            out += ["| port | direction | message | |", "|---|---|---|---|"]
+            out += [f"| `{p.name}` | {p.direction} | [`{p.message}`](#{p.message.lower()}) | {_cell(p.doc)} |"
+                    for p in info.ports]
+            out.append("")
+        else:
+            out += ["Its ports are made from its parameters.", ""]
+        messages += [m for m in info.messages if m not in messages]
+    if messages:
+        out += ["## Messages", ""]
+    for msg_type in sorted(messages, key=lambda m: m.__name__):
+        text = "\n".join(line.strip() for line in (msg_type.__doc__ or "").strip().splitlines())
+        out += [f"### {msg_type.__name__}", "", f"`{msg_type.__module__}.{msg_type.__name__}`"
+                + (" (additive: several edges into one port are summed)" if msg_type.additive else ""), "",
+                text, "", f"Fields: {message_fields(msg_type)}.", ""]
+    return "\n".join(out).rstrip("\n") + "\n"

@@ -237,9 +237,9 @@ def test_every_record_problem_is_said_at_once():
     with pytest.raises(ScenarioError) as err:
         load(SKIP, ["record.channels=5", "record.every=0", "record.checkpoint_every=0.0001"])
     assert err.value.problems == [
-        "record.channels: must be a list of a string (got 5)", "record.every: must be >= 1 (got 0)",
+        "record.channels: must be a list of strings (got 5)", "record.every: must be >= 1 (got 0)",
         "record.checkpoint_every: must be 0 (none) or at least dt = 0.0005 s (got 0.0001)"]
     with pytest.raises(ScenarioError) as err:  # a value already said to be wrong is not said twice
         load(SKIP, ["record.channels=5", "record.checkpoint_every=.nan"])
-    assert err.value.problems == ["record.channels: must be a list of a string (got 5)",
+    assert err.value.problems == ["record.channels: must be a list of strings (got 5)",
                                   "record.checkpoint_every: must be finite (got nan)"]
