@@ -28,15 +28,17 @@ simulation time and the reason. Physics code never sees the scheduler.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, TypeVar
 
 from cosim.errors import SimulationError
 from cosim.messages import Message
 from cosim.timebase import NS_PER_S
 
 OnUnstable = Literal["error", "substep"]
+_T = TypeVar("_T")
 
 MAX_SUBSTEPS = 10_000  # a component needing more substeps than this in one step is reported as unstable
 
@@ -223,27 +225,24 @@ class Component:
     def start_outputs(self) -> dict[str, Message]:
         """What the component publishes at t = 0 (:meth:`initial_outputs`), checked like a step's
         outputs; any failure is a :class:`SimulationError` naming the component at t = 0."""
-        try:
-            outputs = self.initial_outputs()
-        except SimulationError:
-            self.status = "failed"
-            raise
-        except Exception as exc:
-            self.status = "failed"
-            raise SimulationError(self.name, 0, f"its outputs at t = 0: {type(exc).__name__}: {exc}") from exc
+        outputs = self._at_start("outputs", self.initial_outputs)
         self._check_outputs(0, outputs)
         return outputs
 
     def begin(self, inputs: dict[str, Message | None]) -> None:
         """:meth:`start_inputs`, any failure a :class:`SimulationError` naming the component at t = 0."""
+        self._at_start("inputs", lambda: self.start_inputs(inputs))
+
+    def _at_start(self, what: str, call: Callable[[], _T]) -> _T:
+        """``call()``, its failure the component's (status failed) at t = 0, about its ``what``."""
         try:
-            self.start_inputs(inputs)
+            return call()
         except SimulationError:
             self.status = "failed"
             raise
         except Exception as exc:
             self.status = "failed"
-            raise SimulationError(self.name, 0, f"its inputs at t = 0: {type(exc).__name__}: {exc}") from exc
+            raise SimulationError(self.name, 0, f"its {what} at t = 0: {type(exc).__name__}: {exc}") from exc
 
     def step(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
              on_unstable: OnUnstable = "error") -> dict[str, Message]:
