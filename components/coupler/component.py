@@ -218,7 +218,7 @@ class WaterCoupler(Component):
     Params = WaterCouplerParams
     inputs = {
         "body": Port(BodyState, "the body's state at the end of its step", required=True),
-        "water": Port(HeightPatch, "the water over the window requested last step"),
+        "water": Port(HeightPatch, "the water over the window requested last step", required=True),
     }
     outputs = {
         "wrench": Port(Wrench, "water force and torque on the body, held over its next step"),
@@ -372,11 +372,26 @@ class WaterCoupler(Component):
         return [] if problem is None else [problem]
 
     def needed_outputs(self) -> dict[str, str]:
-        if not self.added_mass_on:
-            return {}
-        return {"added_mass": "effect added_mass acts only through it: connect it to the body's added_mass "
-                              f"input, e.g. {{from: {self.name}.added_mass, to: <body>.added_mass, delay: 1, "
-                              "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}"}
+        """The wrench whenever a force acts, the request always (the water sends only the window asked
+        for: without it the body meets still water that never moves), the occupied height with the
+        displacement, the added mass with its effect: each is how an effect reaches the body or the
+        water, and left unconnected the effect silently does nothing."""
+        needed = {"request": "the water sends only the window asked for: connect it to the water's request "
+                             f"input, e.g. {{from: {self.name}.request, to: <water>.request, delay: 1, "
+                             "initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}} (an empty window)"}
+        if self.flags & ~(DISPLACEMENT | ADDED_MASS):
+            needed["wrench"] = ("the body feels the water's forces only through it: connect it to the body's "
+                                f"wrench input, e.g. {{from: {self.name}.wrench, to: <body>.wrench, delay: 1, "
+                                "initial: {force: [0, 0, 0], torque: [0, 0, 0]}}")
+        if self.flags & DISPLACEMENT:
+            needed["occupied"] = ("effect displacement reaches the water only through it: connect it to the water's "
+                                  f"occupied input, e.g. {{from: {self.name}.occupied, to: <water>.occupied, "
+                                  "delay: 1, initial: {i0: 0, j0: 0, b: []}}")
+        if self.added_mass_on:
+            needed["added_mass"] = ("effect added_mass acts only through it: connect it to the body's added_mass "
+                                    f"input, e.g. {{from: {self.name}.added_mass, to: <body>.added_mass, delay: 1, "
+                                    "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
+        return needed
 
     def input_max_age(self, port: str) -> tuple[float, str] | None:
         """The water's patch must come at least every ``lookahead`` seconds when the window is asked
