@@ -458,3 +458,27 @@ def test_a_column_displacement_under_a_buoyant_body_is_warned_of_as_the_scene_lo
                              "displacement raised, so a floating or slow body gains energy")
     assert main(["validate", str(scene), "--set", column]) == 0
     assert capsys.readouterr().err == f"warning: {notice}\n"
+
+
+@pytest.mark.parametrize("connection, port", [
+    ("  - {from: coupler.wrench, to: stone.wrench, delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}\n",
+     "wrench"),
+    ("  - {from: coupler.request, to: pond.request, delay: 1, initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}}\n",
+     "request"),
+    ("  - {from: coupler.occupied, to: pond.occupied, delay: 1, initial: {i0: 0, j0: 0, b: []}}\n", "occupied"),
+])
+def test_a_scene_that_leaves_out_a_connection_an_effect_needs_is_refused_naming_it(connection, port):
+    """Without the wrench the stone fell through the water (and the water 'took' 6434 J from it);
+    without the request or the occupied height the pond never moved while the summary listed the
+    effects. Each is refused at load, naming the output and the connection to add."""
+    from cosim.errors import ScenarioError
+    from cosim.scenario import loads
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    text = scene.read_text(encoding="utf-8")
+    assert connection in text
+    with pytest.raises(ScenarioError) as info:
+        loads(text.replace(connection, ""), str(scene))
+    (problem,) = info.value.problems
+    assert problem.startswith(f"components.coupler: its output {port!r} feeds nothing, but ")
+    assert f"{{from: coupler.{port}, to: " in problem
