@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from cosim.codec.json_codec import codec_for
+from cosim.codec.json_codec import codec_for, decode_state
 from cosim.component import Component
 from cosim.errors import RecordingError
 from cosim.messages import Message, first_difference
@@ -115,6 +115,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
     comp = component if component is not None else cfg.build()
     dt_ns = scene.dt_ns
     position = {n: i for i, n in enumerate(scene.order)}
+    restart = _restart_checkpoint(rec)  # a recording made by a restart (replay --from) begins at its checkpoint
 
     def channel(component_name: str, port: str, msg_type: type[Message]) -> list[tuple[int, Message]]:
         topic = topic_of(component_name, port)
@@ -140,7 +141,13 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             src = _RecordedSource(channel(conn.source, conn.source_port, spec.type), source_cfg.every, dt_ns,
                                   position[conn.source] < position[name])
             sources.append(src)
-            edges.append(_Edge(conn, src.slot, spec.event))
+            edge = _Edge(conn, src.slot, spec.event)
+            if restart is not None:  # the port's last messages and the edge's deliveries, as the restart had them
+                cp = restart[1]
+                src.slot.entries = [(stamp, codec_for(spec.type).decode(payload.encode())) for stamp, payload in
+                                    cp["slots"].get(f"{conn.source}.{conn.source_port}", [])]
+                edge.last_delivered = cp["edges"][scene.connections.index(conn)]
+            edges.append(edge)
         plan.append((port, edges))
 
     expected: dict[str, dict[int, Message]] = {
@@ -175,17 +182,26 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         end_tick, stop_ns = cut_off // dt_ns - every + 1, cut_off
     else:
         end_tick, stop_ns = status.tick, status.time * NS_PER_S
-    bad = compare(0, comp.start_outputs(), 0)
-    if bad:
-        bad.cut_off_ns = cut_off
-        return bad
-    for src in sources:
-        src.advance(0)  # the initial outputs (and what steps before this component at tick 0 published)
-    comp.begin(gather_start(plan))
+    first_tick = 0
+    if restart is None:
+        bad = compare(0, comp.start_outputs(), 0)
+        if bad:
+            bad.cut_off_ns = cut_off
+            return bad
+        for src in sources:
+            src.advance(0)  # the initial outputs (and what steps before this component at tick 0 published)
+        comp.begin(gather_start(plan))
+    else:  # the component as the restart's checkpoint holds it, from its first step after it
+        stamp, cp = restart
+        saved = cp["components"][name]
+        state = saved["state"]
+        comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
+        comp.step_count, comp.status = saved["step_count"], "initialized"
+        first_tick = -(-(stamp // dt_ns) // every) * every
     steps = 0
     seconds = 0.0  # in the component's steps, the first one left out
     clock = time.perf_counter
-    for tick in range(0, end_tick, every):
+    for tick in range(first_tick, end_tick, every):
         start, end = tick * dt_ns, (tick + every) * dt_ns
         for src in sources:
             src.advance(tick)
@@ -196,12 +212,28 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             seconds += clock() - began
         steps += 1
         bad = compare(end, outputs, steps)
+        if bad and cut_off is not None and end == cut_off and bad.divergence.expected == "nothing":
+            break  # the recording was cut inside this step, between its outputs: its end, not a divergence
         if bad:
             bad.cut_off_ns = cut_off
             return bad
         if comp.stop_reason is not None and end >= stop_ns:
             break
     return ReplayReport(name, steps, compared, None, cut_off, seconds)
+
+
+def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
+    """(time [ns], checkpoint) a recording made by a restart began at (its first message after
+    t = 0, its first checkpoint there); None for a run from t = 0. A restart recorded without
+    checkpoints cannot be replayed (RecordingError)."""
+    if not rec.start_ns:
+        return None
+    checkpoints = rec.checkpoints()
+    if not checkpoints or checkpoints[0][0] > rec.start_ns:
+        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.start_ns / NS_PER_S:g} s (its first "
+                             "message), recorded without the checkpoint it started from (record.checkpoint_every "
+                             "0): replay the recording it was restarted from")
+    return checkpoints[0]
 
 
 def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None = None,

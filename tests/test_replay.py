@@ -128,9 +128,12 @@ def test_a_restart_after_the_recorded_end_is_refused_with_the_end_named(recordin
     assert stamp <= 100_000_000
 
 
-def _cut_off(full: Recording, path, until_ns: int, metadata: dict[str, str] | None = None) -> None:
+def _cut_off(full: Recording, path, until_ns: int, metadata: dict[str, str] | None = None,
+             cut_inside: str | None = None) -> None:
     """The recording of a run cut off at ``until_ns``: its messages up to then, without the final
-    status (as a run killed there leaves it); ``metadata`` changes entries of its cosim metadata."""
+    status (as a run killed there leaves it); ``metadata`` changes entries of its cosim metadata;
+    ``cut_inside`` a topic whose message at ``until_ns`` is left out too (the cut fell between a
+    step's outputs)."""
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
@@ -150,7 +153,8 @@ def _cut_off(full: Recording, path, until_ns: int, metadata: dict[str, str] | No
         for att in reader.iter_attachments():
             writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
         for _, channel, message in reader.iter_messages(log_time_order=False):
-            if channel.topic != STATUS_TOPIC and message.log_time <= until_ns:
+            cut = channel.topic == cut_inside and message.log_time == until_ns
+            if channel.topic != STATUS_TOPIC and message.log_time <= until_ns and not cut:
                 writer.add_message(ids[channel.id], message.log_time, message.data, message.publish_time)
         writer.finish()
 
@@ -172,6 +176,40 @@ def test_a_cut_off_recording_replays_each_component_up_to_where_it_ends(tmp_path
         assert report.steps > 0 and "the recording is incomplete: replayed up to its last output" in str(report)
     whole = replay_component(Recording(full), "acc")
     assert whole.ok and whole.cut_off_ns is None and whole.steps > replay_component(rec, "acc").steps
+
+
+def test_a_recording_cut_between_a_steps_outputs_replays_to_that_step(tmp_path):
+    """A run killed (or repaired) with its last step's outputs partly written: the step missing an
+    output is where the recording ends, not a divergence (it said 'recorded nothing, replayed ...')."""
+    full = tmp_path / "full.mcap"
+    run_scene(loads(SCENE), full, progress=False)
+    cut = tmp_path / "cut.mcap"
+    _cut_off(Recording(full), cut, 50_000_000, cut_inside="/src/force")
+    report = replay_component(Recording(cut), "src")
+    assert report.ok, str(report)
+    assert report.cut_off_ns == 50_000_000 and report.steps == 50
+
+
+def test_a_restarted_run_replays_each_component_bit_for_bit(recording, tmp_path):
+    """A recording made by a restart (`cosim replay RUN --from T -o NEW`) begins at its checkpoint:
+    each component is replayed from the state it held there, its inputs' last messages and
+    deliveries as the restart had them (it ended in false divergences and an internal error)."""
+    sim, stamp = restart_simulation(recording, 45_000_000)
+    outcome = run_scene(sim.scene, tmp_path / "again.mcap", progress=False, simulation=sim)
+    again = Recording(outcome.recording)
+    assert again.start_ns > 0 and again.checkpoints()[0][0] == stamp
+    for name in ("src", "g", "acc", "sum"):
+        report = replay_component(again, name)
+        assert report.ok, str(report)
+        assert report.steps == (100_000_000 - stamp) // 1_000_000 // (3 if name == "acc" else 1)
+
+
+def test_a_restart_recorded_without_its_checkpoint_is_refused_in_one_line(recording, tmp_path):
+    sim, _ = restart_simulation(recording, 45_000_000, overrides=["record.checkpoint_every=0"])
+    outcome = run_scene(sim.scene, tmp_path / "again.mcap", progress=False, simulation=sim)
+    with pytest.raises(RecordingError, match=r"cannot replay: a restart from t = 0.041 s \(its first message\), "
+                                             r"recorded without the checkpoint it started from"):
+        replay_component(Recording(outcome.recording), "g")
 
 
 @pytest.mark.parametrize("value", ["abc", "0", "-5", "1.5"])
