@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import matplotlib
 
@@ -94,7 +95,33 @@ def test_unknown_formats_and_times_are_bad_input(skip_path, tmp_path, capsys):
     assert "outside the recorded" in capsys.readouterr().err
     assert main(["render", str(skip_path), "-o", str(tmp_path / "x.png"), "--at", "100", "-q"]) == 2
     assert "frame time 100 s is outside the recorded" in capsys.readouterr().err  # not its last frame
+    # options that do not apply to the output were ignored (a PNG at another time, a whole GIF)
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.png"), "--from", "0.2", "--to", "0.3"]) == 2
+    assert "a PNG is one frame: give its time with --at" in capsys.readouterr().err
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.gif"), "--at", "0.1", "-q"]) == 2
+    assert "--at is a PNG's frame time" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_with_several_bodies_the_watched_stone_is_shown_over_its_own_water(tmp_path):
+    """The default body is the one a stage monitor watches, not the first by name (the ball beside
+    the stone); a body is drawn over the field of the water it meets, not the first pond's."""
+    from components.analysis.data import body_water_topic, load_body, topics_of
+    from components.messages import WaterField
+    from cosim.record.reader import Recording
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scenes = Path(__file__).resolve().parents[1] / "scenarios"
+    run_scene(load(scenes / "stone_and_ball.yaml", ["until=0.01", "record.visual_rate=0"]), tmp_path / "sab.mcap",
+              progress=False)
+    assert load_body(Recording(tmp_path / "sab.mcap")).name == "stone"
+    run_scene(load(scenes / "float_sphere.yaml", ["until=0.05"]), tmp_path / "fs.mcap", progress=False)
+    rec = Recording(tmp_path / "fs.mcap")
+    fields = topics_of(rec, WaterField)
+    assert fields == ["/granite_pond/field", "/pine_pond/field"]
+    assert body_water_topic(rec, "pine", fields) == "/pine_pond/field"
+    assert body_water_topic(rec, "granite", fields) == "/granite_pond/field"
 
 
 @pytest.mark.skipif(_ffmpeg() is None, reason="no ffmpeg (pip install 'cosim[video]')")

@@ -28,7 +28,8 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("-o", "--output", metavar="DIR",
                    help="folder for the PNGs (default: RUN-plots/ beside the recording)")
-    p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
+    p.add_argument("--body", help="the body to show (default: the first, in the scene's order, that a stage "
+                                  "monitor watches)")
     p.add_argument("--dpi", type=DPI, default=120, help="resolution of the PNGs (default 120; 10 to 1200)")
     p.set_defaults(func=cmd_plot)
 
@@ -78,8 +79,10 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--at", type=seconds, metavar="T",
                    help="time of the frame for a PNG [s] (default: as the stone leaves the water after its "
                         "first skip; without a skip, just after its first hit; water alone: mid-run)")
-    p.add_argument("--body", help="the body to show (default: the first BodyState channel)")
-    p.add_argument("--water", metavar="TOPIC", help="WaterField channel (default: the first one)")
+    p.add_argument("--body", help="the body to show (default: the first, in the scene's order, that a stage "
+                                  "monitor watches)")
+    p.add_argument("--water", metavar="TOPIC",
+                   help="WaterField channel (default: the field of the water the body meets)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)
 

@@ -161,19 +161,39 @@ class RunData:
     end: float = 0.0
 
 
+def _component(topic: str) -> str:
+    return topic.strip("/").split("/")[0]
+
+
+def default_body_topic(rec: Recording, topics: list[str]) -> str:
+    """Of several bodies' channels, the one to show by default: the first body, in the scene's
+    order, that a stage monitor watches (the thrown stone, not a ball floating beside it), else the
+    scene's first body; the first by name when the scene cannot be read."""
+    if len(topics) < 2:
+        return topics[0]
+    try:
+        scene = rec.scene()
+    except Exception:  # an old or damaged scene: the first by name
+        return topics[0]
+    watched = {c.source for c in scene.connections if c.target in {_component(t) for t in topics_of(rec, Stage)}}
+    by_order = sorted(topics, key=lambda t: (scene.order.index(_component(t)) if _component(t) in scene.order
+                                             else len(scene.order), t))
+    return next((t for t in by_order if _component(t) in watched), by_order[0])
+
+
 def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
-    """The states of body ``body`` (a component name; default: the first body in the recording)."""
+    """The states of body ``body`` (a component name; default: :func:`default_body_topic`'s)."""
     topics = topics_of(rec, BodyState)
     if not topics:
         raise RecordingError(f"{rec.path}: no BodyState channel, nothing to show "
                              f"(channels: {', '.join(sorted(rec.channels))})")
     if body is not None:
-        wanted = [t for t in topics if t.strip("/").split("/")[0] == body]
+        wanted = [t for t in topics if _component(t) == body]
         if not wanted:
-            names = ", ".join(t.strip("/").split("/")[0] for t in topics)
+            names = ", ".join(_component(t) for t in topics)
             raise RecordingError(f"{rec.path}: no body named {body!r} (bodies: {names})")
         topics = wanted
-    topic = topics[0]
+    topic = default_body_topic(rec, topics)
     t, msgs = _decoded(rec, topic, BodyState)
     first = msgs[0]
     return BodyTrack(
@@ -197,6 +217,20 @@ def linked_components(rec: Recording, body: str) -> set[str] | None:
         return None
     return ({c.target for c in connections if c.source == body}
             | {c.source for c in connections if c.target == body})
+
+
+def body_water_topic(rec: Recording, body: str, fields: list[str]) -> str | None:
+    """The WaterField channel of the water that body ``body`` meets (the water feeding the coupler
+    its state feeds), else the first of ``fields``; None without any."""
+    if len(fields) < 2:
+        return fields[0] if fields else None
+    try:
+        connections = rec.scene().connections
+    except Exception:
+        return fields[0]
+    readers = {c.target for c in connections if c.source == body}
+    waters = {c.source for c in connections if c.target in readers}
+    return next((f for f in fields if _component(f) in waters), fields[0])
 
 
 def own(topics: list[str], linked: set[str] | None) -> list[str]:

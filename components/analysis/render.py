@@ -33,7 +33,16 @@ from PIL import Image, ImageDraw
 from scipy.spatial import ConvexHull, QhullError
 from tqdm import tqdm
 
-from components.analysis.data import BodyTrack, iter_fields, linked_components, load_body, own, rest_level, topics_of
+from components.analysis.data import (
+    BodyTrack,
+    body_water_topic,
+    iter_fields,
+    linked_components,
+    load_body,
+    own,
+    rest_level,
+    topics_of,
+)
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
 from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
@@ -636,6 +645,7 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
 
 
 SPLASH_DELAY = 0.025  # [s] after a first hit that never becomes a skip: the splash is forming
+FIELD_SNAP = 0.05  # [s] the default frame moves to a recorded water field at most this far from its moment
 
 
 def _default_at(rec: Recording, body: BodyTrack, linked: set[str] | None) -> float:
@@ -661,6 +671,11 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     if output.suffix.lower() not in FORMATS:
         raise RenderError(f"{output}: unknown format {output.suffix or '(none)'!r} (choose one of "
                           f"{', '.join(FORMATS)})")
+    if output.suffix.lower() == ".png" and (options.start is not None or options.stop is not None):
+        raise RenderError(f"{output}: --from and --to pick an animation's time range; a PNG is one frame: "
+                          "give its time with --at")
+    if output.suffix.lower() != ".png" and options.at is not None:
+        raise RenderError(f"{output}: --at is a PNG's frame time; an animation runs from --from to --to")
     rec = Recording(recording)
     if options.body is None and not topics_of(rec, BodyState):
         if not topics_of(rec, WaterField):
@@ -673,13 +688,14 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     if options.water is not None and options.water not in fields:
         raise RecordingError(f"{rec.path}: no WaterField channel {options.water!r} "
                              f"(WaterField channels: {', '.join(fields) or 'none'})")
-    water = options.water or (fields[0] if fields else None)
+    water = options.water or body_water_topic(rec, body.name, fields)
 
     def default_at() -> float:
         at = _default_at(rec, body, linked)
-        if water is not None:  # the first water field from then on, so the surface is current
-            stamps = (stamp / NS_PER_S for _, stamp, _ in rec.raw([water]))
-            at = next((t for t in stamps if t >= at), at)
+        if water is not None:  # at a water field close to it, so the surface drawn is the one then
+            stamps = [stamp / NS_PER_S for _, stamp, _ in rec.raw([water])]
+            near = min(stamps, key=lambda t: (abs(t - at), t), default=at)
+            at = near if abs(near - at) <= FIELD_SNAP else at
         return at
 
     times = _frame_times(output, options, float(body.t[0]), float(body.t[-1]), default_at, "recorded")
