@@ -482,3 +482,44 @@ def test_a_scene_that_leaves_out_a_connection_an_effect_needs_is_refused_naming_
     (problem,) = info.value.problems
     assert problem.startswith(f"components.coupler: its output {port!r} feeds nothing, but ")
     assert f"{{from: coupler.{port}, to: " in problem
+
+
+SINKING_GRANITE = """
+dt: 0.001
+until: 2.0
+components:
+  granite: {type: RigidBody, shape: sphere, radius: 0.02, density: 2700, position: [0.0, 0.0, 0.0],
+            integrator: semi_implicit_euler}
+  pond: {type: WaterSurface, nx: 40, ny: 40, cell: 0.01, depth: 0.1, origin_x: -0.195, origin_y: -0.195,
+         boundary: absorbing, every: 2}
+  water: {type: WaterCoupler, effects: [displacement, buoyancy, pressure, friction]}
+connections:
+  - granite.state -> water.body
+  - pond.patch -> water.water
+  - {from: water.wrench, to: granite.wrench, delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}
+  - {from: water.occupied, to: pond.occupied, delay: 1, initial: {i0: 0, j0: 0, b: []}}
+  - {from: water.request, to: pond.request, delay: 1, initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}}
+"""
+
+
+def test_a_body_that_sinks_through_the_waters_bed_fails_the_run_naming_the_remedy():
+    """The water's bed is no solid: a granite ball sinking in a pond without a ground went on
+    through it (a stone ended 6 m under a 0.5 m pond, exit 0). The run fails where the ball is wholly
+    under the bed, saying where and what lands a body on it; with a ground at the bed it rests."""
+    from cosim.scenario import loads
+    from cosim.scheduler import Simulation
+
+    with pytest.raises(SimulationError, match=r"component 'water' failed at t = .*: ValueError: the body "
+                                              r"went through the water's bed at x = \S+ m, y = \S+ m .* wholly "
+                                              r"under the bed at z = -0.1 m\): the bed is not solid; to land the "
+                                              r"body on it, add a SolidGround there"):
+        Simulation(loads(SINKING_GRANITE)).run()
+    grounded = SINKING_GRANITE + """  - granite.state -> bed.body
+  - {from: bed.impulse, to: granite.impulse, delay: 1, initial: {linear: [0, 0, 0], angular: [0, 0, 0],
+                                                                   correction: [0, 0, 0]}}
+""".replace("connections:", "")
+    grounded = grounded.replace("connections:\n", "  bed: {type: SolidGround, point: [0, 0, -0.1], restitution: 0.2}\n"
+                                "connections:\n", 1)
+    sim = Simulation(loads(grounded))
+    assert sim.run().status == "ok"
+    assert sim.components["granite"].body_state().position[2] == pytest.approx(-0.08, abs=2e-3)

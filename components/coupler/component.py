@@ -203,6 +203,14 @@ def _surface_speed(body: BodyState) -> float:
     return speed + float(body.radius) * math.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
 
 
+def _bed_under(pos: np.ndarray, patch: HeightPatch) -> float | None:
+    """The water's bed [m] under the point ``pos`` (x, y), from the patch; None off the patch."""
+    i = round((float(pos[0]) - patch.origin_x) / patch.cell) - int(patch.i0)
+    j = round((float(pos[1]) - patch.origin_y) / patch.cell) - int(patch.j0)
+    nj, ni = patch.bottom.shape
+    return float(patch.bottom[j, i]) if 0 <= i < ni and 0 <= j < nj else None
+
+
 def _under_the_bed(z: float, top: float, bed: float) -> str | None:
     """Why a body centred at height ``z`` whose bounding sphere's top is at ``top`` cannot start
     over a bed at ``bed`` [m]: it lies wholly under it; None when it does not."""
@@ -483,6 +491,8 @@ class WaterCoupler(Component):
                 # only a body that may be in the water as the water first shows itself was there
                 # before the run; one above it comes in later, and its displacement raises waves
                 self._start_in_water = float(pos[2]) - r_bound < float(patch.rest_level)
+            elif float(pos[2]) + r_bound < float(patch.rest_level):  # wholly under the rest level
+                self._check_not_through_the_bed(float(pos[2]) + r_bound, pos, patch)
             self.rest_level = float(patch.rest_level)
             self.cell = float(patch.cell)
         elif patch is not None and patch.off_grid and self.cell == 0.0:
@@ -1105,15 +1115,22 @@ class WaterCoupler(Component):
         """A body whose highest point (``top`` [m], its bounding sphere's) is below the water's bed
         where it starts is a mistake in the scene (it would fall through the pond unseen): refuse it,
         at the first patch the water sends."""
-        x, y, z = (float(c) for c in pos)
-        i = round((x - patch.origin_x) / patch.cell) - int(patch.i0)
-        j = round((y - patch.origin_y) / patch.cell) - int(patch.j0)
-        nj, ni = patch.bottom.shape
-        if not (0 <= i < ni and 0 <= j < nj):
-            return
-        problem = _under_the_bed(z, top, float(patch.bottom[j, i]))
+        bed = _bed_under(pos, patch)
+        problem = None if bed is None else _under_the_bed(float(pos[2]), top, bed)
         if problem is not None:
             raise ValueError(problem)
+
+    def _check_not_through_the_bed(self, top: float, pos: np.ndarray, patch: HeightPatch) -> None:
+        """The water's bed is no solid: a body that sinks (or slides up a beach) onto it goes on
+        through it, wholly under the bed, out of every water column, its run from then on no
+        physics. Fail the run there, naming the place and the remedy, rather than let it fall on
+        silently (a ground at the bed stops it: scenarios/float_sphere.yaml)."""
+        bed = _bed_under(pos, patch)
+        if bed is not None and top < bed:
+            x, y, z = (float(c) for c in pos)
+            raise ValueError(f"the body went through the water's bed at x = {x:.4g} m, y = {y:.4g} m (its centre at "
+                             f"z = {z:.4g} m, wholly under the bed at z = {bed:.4g} m): the bed is not solid; "
+                             "to land the body on it, add a SolidGround there (as scenarios/float_sphere.yaml does)")
 
     def _idle(self, depth: float) -> dict[str, Message]:
         self.met.in_contact = False
