@@ -347,3 +347,18 @@ class RigidBody(Component):
                                             strict=True))
             line += f", spin {now / (2 * math.pi):.3g} rev/s (thrown at {thrown / (2 * math.pi):.3g})"
         return [line]
+
+
+def gravity_mismatch(component: Component | None, size: float, key: str) -> str | None:
+    """Why a component whose gravity is ``size`` [m/s^2] (its parameter ``key``) cannot serve the
+    body ``component`` (a RigidBody: anything else is not judged): the body falls under another
+    gravity, or not straight down; None when they agree."""
+    gravity = getattr(getattr(component, "params", None), "gravity", None)
+    if not isinstance(component, RigidBody) or gravity is None:
+        return None
+    gx, gy, gz = (float(g) for g in gravity)
+    if gx == 0.0 and gy == 0.0 and math.isclose(-gz, size, rel_tol=1e-9, abs_tol=1e-12):
+        return None
+    return (f"{key} {size:g} m/s^2 is not the gravity of its body {component.name} ({[gx, gy, gz]} m/s^2): give "
+            f"both the same, straight down (set {key} to {math.hypot(gx, gy, gz):g}"
+            + (", the body's gravity along -z)" if gx or gy else ")"))

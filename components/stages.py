@@ -43,6 +43,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from components.messages import BodyState, GroundContact, SkipRecord, Stage, StageId, WaterContact
+from components.rigid_body import gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -162,6 +163,12 @@ class StageMonitor(Component):
         self.final_y = math.nan
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
+
+    def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
+        """Its gravity must be its body's: it decides sinking against the weight and reports the
+        water's push in g."""
+        mismatch = gravity_mismatch(sources.get("body"), self.params.gravity, "gravity")
+        return [] if mismatch is None else [mismatch]
 
     def start_inputs(self, inputs: dict[str, Message | None]) -> None:
         body = inputs.get("body")

@@ -523,3 +523,21 @@ def test_a_body_that_sinks_through_the_waters_bed_fails_the_run_naming_the_remed
     sim = Simulation(loads(grounded))
     assert sim.run().status == "ok"
     assert sim.components["granite"].body_state().position[2] == pytest.approx(-0.08, abs=2e-3)
+
+
+def test_a_body_under_another_gravity_than_its_coupler_and_monitor_is_refused():
+    """The body's gravity changed alone (a lunar throw) left the coupler's buoyancy and the monitor's
+    weight at 9.81: a pine ball floated 10% under instead of Archimedes' 60%. Each is refused,
+    naming the key to set; the same gravity everywhere loads."""
+    from cosim.errors import ScenarioError
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    with pytest.raises(ScenarioError) as info:
+        load(scene, ["components.stone.gravity=[0, 0, -1.62]"])
+    assert info.value.problems == [
+        "components.coupler: g 9.81 m/s^2 is not the gravity of its body stone ([0.0, 0.0, -1.62] m/s^2): give "
+        "both the same, straight down (set g to 1.62)",
+        "components.stages: gravity 9.81 m/s^2 is not the gravity of its body stone ([0.0, 0.0, -1.62] m/s^2): "
+        "give both the same, straight down (set gravity to 1.62)"]
+    load(scene, ["components.stone.gravity=[0, 0, -1.62]", "components.coupler.g=1.62",
+                 "components.stages.gravity=1.62"])

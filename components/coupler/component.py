@@ -92,6 +92,7 @@ from components.messages import (
     WaterContact,
     Wrench,
 )
+from components.rigid_body import gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -364,6 +365,9 @@ class WaterCoupler(Component):
         sphere's top below the bed under its centre), which :meth:`_check_not_under_the_bed` refuses
         at the water's first patch otherwise."""
         body, water = inputs.get("body"), sources.get("water")
+        mismatch = gravity_mismatch(sources.get("body"), self.params.g, "g") if self.flags & BUOYANCY else None
+        if mismatch is not None:  # the buoyancy, rho g V, would hold another body than the one that falls
+            return [mismatch]
         level = getattr(water, "rest_level", None)
         given = self.params.water_level
         if isinstance(level, float) and given is not None and level != given:
