@@ -219,6 +219,11 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     if r.start_ns and outcome.summary:  # a restart: the components' counters came back with their state
         lines.append(f"  (the components' figures below count from t = 0: the checkpoint at "
                      f"{r.start_ns / NS_PER_S:g} s brought back their totals)")
+    substepped = [f"{runner.name} up to {runner.most_substeps}" for runner in
+                  (outcome.simulation.runners if outcome.simulation is not None else []) if runner.most_substeps > 1]
+    if substepped:  # the stable step was shorter than the component's own: it took several in one
+        lines.append(f"  substeps for stability (on_unstable: substep): {', '.join(substepped)} per step; a "
+                     "smaller dt (or every) avoids them")
     lines += [f"  {line}" for line in outcome.summary]
     if outcome.recording is not None:
         size = outcome.recording.stat().st_size

@@ -174,7 +174,7 @@ class _Edge:
 class _Runner:
     """A component with its precomputed input plan and output slots (keeps the tick loop lean)."""
 
-    __slots__ = ("comp", "every", "name", "on_unstable", "plan", "slots", "substeps_seen")
+    __slots__ = ("comp", "every", "most_substeps", "name", "on_unstable", "plan", "slots", "substeps_seen")
 
     def __init__(self, comp: Component, every: int, on_unstable: str):
         self.comp = comp
@@ -184,6 +184,7 @@ class _Runner:
         self.plan: list[tuple[str, list[_Edge]]] = []
         self.slots: dict[str, _Slot] = {port: _Slot() for port in comp.outputs}
         self.substeps_seen = 1
+        self.most_substeps = 1  # the most substeps one of its steps took (on_unstable: substep)
 
     def gather(self, start: int, end: int) -> dict[str, Message | None]:
         return gather(self.plan, start, end)
@@ -310,12 +311,13 @@ class Simulation:
                 for port, msg in outputs.items():
                     for obs in observers:
                         obs.on_exchange(end, runner.name, port, msg)
-                if comp.last_substeps != runner.substeps_seen:
-                    runner.substeps_seen = comp.last_substeps
-                    for obs in observers:
-                        obs.on_event(start, runner.name, "substep",
-                                     f"{comp.last_substeps} substeps of {comp.name} per step "
-                                     f"(stable step {comp.max_stable_step():.6g} s)")
+            if comp.last_substeps != runner.substeps_seen:
+                runner.substeps_seen = comp.last_substeps
+                runner.most_substeps = max(runner.most_substeps, comp.last_substeps)
+                for obs in observers:
+                    obs.on_event(start, runner.name, "substep",
+                                 f"{comp.last_substeps} substeps of {comp.name} per step "
+                                 f"(stable step {comp.max_stable_step():.6g} s)")
             if comp.stop_reason is not None and self.stop_reason is None:
                 self.stop_reason = f"{runner.name}: {comp.stop_reason}"
         self.tick = k + 1

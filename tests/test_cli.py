@@ -158,3 +158,20 @@ def test_a_failed_run_reports_the_time_it_ran():
     assert result.status == "failed" and result is outcome.simulation.last_result
     assert result.wall_s > 0.0 and result.steps == 200
     assert f"wall {result.wall_s:.3g} s" in format_summary(scene, outcome)
+
+
+def test_a_run_that_substeps_says_so_in_its_summary():
+    """Substeps taken for stability (on_unstable: substep) are said in the summary, with the most one
+    step took (they were only an event in the recording, invisible with --no-record); a run without
+    them says nothing of it."""
+    from cosim.runner import format_summary, run_scene
+    from cosim.scenario import loads
+
+    text = ("dt: 0.001\nuntil: 0.01\non_unstable: substep\ncomponents:\n"
+            "  acc: {type: \"tests.toys:Accumulator\", stable_step: 0.0003}\n")
+    scene = loads(text)
+    summary = format_summary(scene, run_scene(scene, None, progress=False))
+    assert ("  substeps for stability (on_unstable: substep): acc up to 4 per step; a smaller dt (or every) "
+            "avoids them") in summary.splitlines()
+    calm = loads(text.replace("0.0003", "0.01"))
+    assert "substeps" not in format_summary(calm, run_scene(calm, None, progress=False))
