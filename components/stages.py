@@ -90,12 +90,11 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     """The stage now, from the previous stage and this step's body and contact reports."""
     if ground is not None and ground.in_contact and body.speed < rest_speed:
         return StageId.REST
-    # sinking is final, but a sunk stone can come to rest on the bottom; in the water that is final
-    # too (a stone settling on the bottom rocks a little faster than rest_speed now and then)
-    if previous in (StageId.SINK, StageId.FLOAT):
+    # sinking is final, but a sunk stone can come to rest on the bottom; rest is final too (a stone
+    # settling on the bottom, or on a slope, rocks a little faster than rest_speed now and then: it
+    # went from rest to approach some thirty times on a beach, and the run never ended)
+    if previous in (StageId.SINK, StageId.FLOAT, StageId.REST):
         return previous
-    if previous is StageId.REST and water is not None and water.wetted:
-        return StageId.REST
     vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if water is not None and water.wetted:

@@ -376,3 +376,16 @@ def test_a_body_that_moved_back_by_less_than_the_last_digit_travelled_zero_not_m
         drive(m, [(body(0.5, 0.3, 0.0, 0.0), water(False), None),
                   (body(0.5 - back, 0.3, 0.0, 0.0), water(False), None)])
         assert m.summary()[1].startswith(f"skips: 0; distance travelled: {said};")
+
+
+def test_rest_is_final_though_the_body_rocks_faster_than_rest_speed_now_and_then():
+    """At rest on the ground (on a slope, say) the body jitters just above rest_speed from step to
+    step: it stays at rest (it flipped from rest to approach some thirty times and the run never
+    ended), as docs/stages.md says of rest."""
+    touching = GroundContact(True, 1.0, 0.0, False, 0.0)
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.004))
+    out = drive(m, [(body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.02, 0.0), None, touching),
+                    (body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.03, 0.0), None, touching),
+                    (body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.0, 0.0), None, touching)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["rest"]
+    assert m.stop_reason is not None and "rest" in m.stop_reason
