@@ -175,6 +175,12 @@ class Component:
         return []
 
     @classmethod
+    def one_source(cls, port: str) -> str:
+        """What to do instead of feeding input ``port`` from several edges, when its message type does
+        not add up: said with the scene's refusal. Default: nothing more to say."""
+        return ""
+
+    @classmethod
     def configure(cls, params: Any, path: str, base_dir: Path, problems: list[str]) -> type[Component] | None:
         """The class a scene builds for ``params``: ``cls`` itself (the default), unless the
         component's ports or files depend on its parameters. An FMU, for one, turns its variables

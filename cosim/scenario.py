@@ -506,8 +506,10 @@ def _check_inputs(components: dict[str, type[Component]], edges: list[Connection
     for (target, port), feeding in fed.items():
         port_type = components[target].inputs[port].type
         if len(feeding) > 1 and not port_type.additive:
+            instead = components[target].one_source(port)
             problems.append(f"connections: input {target}.{port} is connected {len(feeding)} times "
-                            f"({'; '.join(map(str, feeding))}) but {port_type.__name__} is not additive")
+                            f"({'; '.join(map(str, feeding))}) but {port_type.__name__} is not additive"
+                            + (f"; {instead}" if instead else ""))
     for name, cls in components.items():
         for port, spec in cls.inputs.items():
             if spec.required and (name, port) not in fed and (name, port) not in written:

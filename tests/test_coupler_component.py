@@ -541,3 +541,23 @@ def test_a_body_under_another_gravity_than_its_coupler_and_monitor_is_refused():
         "give both the same, straight down (set gravity to 1.62)"]
     load(scene, ["components.stone.gravity=[0, 0, -1.62]", "components.coupler.g=1.62",
                  "components.stages.gravity=1.62"])
+
+
+def test_two_bodies_wired_to_one_waters_single_ports_are_told_to_name_them_in_bodies():
+    """Two couplers on one pond's occupied and request inputs: refused, saying how several bodies
+    share a water (it said only that the message type is not additive)."""
+    import re
+
+    from cosim.errors import ScenarioError
+    from cosim.scenario import loads
+
+    text = (Path(__file__).resolve().parents[1] / "scenarios" / "two_stones.yaml").read_text(encoding="utf-8")
+    assert "    bodies: [left, right]\n" in text
+    unnamed = text.replace("    bodies: [left, right]\n", "")
+    one_body = re.sub(r"\.(occupied|request|patch)_(left|right)", r".\1", unnamed)
+    with pytest.raises(ScenarioError) as info:
+        loads(one_body)
+    occupied = [p for p in info.value.problems if p.startswith("connections: input pond.occupied is connected 2")]
+    assert occupied and occupied[0].endswith("is not additive; for several bodies on one water, name them in its "
+                                             "bodies: [a, b], each body's coupler then on its own ports occupied_a, "
+                                             "request_a, patch_a, ... (scenarios/two_stones.yaml)")

@@ -211,6 +211,13 @@ class WaterSurface(Component):
     body_ports: tuple[tuple[str, str, str], ...] = (("occupied", "request", "patch"),)
 
     @classmethod
+    def one_source(cls, port: str) -> str:
+        if any(port in ports[:2] for ports in cls.body_ports):
+            return ("for several bodies on one water, name them in its bodies: [a, b], each body's coupler "
+                    "then on its own ports occupied_a, request_a, patch_a, ... (scenarios/two_stones.yaml)")
+        return ""
+
+    @classmethod
     def configure(cls, params: Any, path: str, base_dir: Any, problems: list[str]) -> type[Component] | None:
         """With ``bodies`` named, a class with each body's own occupied, request and patch ports."""
         if params is None or not params.bodies:
