@@ -62,6 +62,7 @@ out from the angular momentum, whose round-off across the axis (1e-16 of it) is 
 there: beyond about 1/sqrt(machine epsilon) it is no longer small, and a long rod's spin grows
 without bound (a disk 1e20 m thick and 2.5 cm across failed at its fifth step)."""
 MAX_THICKNESS_PER_RADIUS = math.sqrt(6.0 * (MAX_INERTIA_RATIO - 0.5))  # I_d / I_a = 1/2 + e^2 / (6 R^2)
+BANK_NOTICE_DEG = 1.0  # [deg] a thrown disk banked more than this across its throw is said as the scene loads
 GRAVITY_MAX = 1e4  # [m/s^2] a component of the body's gravity at most (the coupler's g has the same bound)
 POSITION_MAX = 1e6  # [m] a start coordinate at most: 1000 km, the water's own bound (components.water.grid.LEVEL_MAX)
 DENSITY_RANGE = (1.0, 1e5)  # [kg/m^3] ordinary densities: a mass out of range with one is the size's doing
@@ -228,6 +229,26 @@ class RigidBody(Component):
         self._added_seen: Message | None = None  # the added mass last received, and whether it is any
         self._added_active = False
         self._with_water = self.body  # the body as it turns with the water it carries (its own moments: none)
+
+    def notices(self) -> list[str]:
+        """A disk tilted about an axis that is not across its throw meets the water banked: said, with
+        the tilt_axis that would raise its front edge along the throw (the default axis raises the
+        +x edge: a throw along -y with it comes down on its side)."""
+        p: RigidBodyParams = self.params
+        vx, vy = float(p.velocity[0]), float(p.velocity[1])
+        speed = math.hypot(vx, vy)
+        if p.shape != "disk" or p.tilt_deg == 0.0 or speed == 0.0 or p.scripted_tilt_deg:
+            return []
+        n = quat.body_axis(quat.from_axis_angle(self.tilt_axis, math.radians(p.tilt_deg)))  # the face's normal
+        # the face rises towards -n's horizontal part: its pitch along the throw and its bank across it
+        pitch = math.degrees(math.asin(max(-1.0, min(1.0, -(n[0] * vx + n[1] * vy) / speed))))
+        bank = math.degrees(math.asin(max(-1.0, min(1.0, (n[0] * vy - n[1] * vx) / speed))))
+        if abs(bank) <= BANK_NOTICE_DEG:
+            return []
+        ax, ay = vy / speed + 0.0, -vx / speed + 0.0  # (+ 0.0: no -0 in the text)
+        return [f"tilt_deg {p.tilt_deg:g} about tilt_axis {list(p.tilt_axis)} leaves it {pitch + 0.0:.3g} deg nose-up "
+                f"along its throw and banked {bank:.3g} deg across it, so it meets the water on its side; to raise "
+                f"its front edge along the throw, give tilt_axis [{ax:.4g}, {ay:.4g}, 0]"]
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """An added mass it starts with (a connection's initial value) must be one."""

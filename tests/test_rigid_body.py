@@ -235,3 +235,21 @@ def test_summary_names_the_body_and_its_final_state():
     """The closing summary gives position, speed and energies."""
     (line,) = make(position=[1, 2, 3]).summary()
     assert line.startswith("stone: at (1, 2, 3) m, speed 0 m/s")
+
+
+def test_a_disk_tilted_about_an_axis_not_across_its_throw_is_said_to_meet_the_water_banked():
+    """The default tilt_axis raises the +x edge: thrown along -y, the disk came down on its side and
+    sank at its first touch with no word. The scene now says so, with the axis that would raise its
+    front edge along the throw; that axis (or a throw along +x) says nothing."""
+    from pathlib import Path
+
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    along_minus_y = "components.stone.velocity=[0, -10.94, -1.15]"
+    (notice,) = load(scene, [along_minus_y]).notices
+    assert notice == ("components.stone: tilt_deg 8 about tilt_axis [0.0, -1.0, 0.0] leaves it 0 deg nose-up along "
+                      "its throw and banked 8 deg across it, so it meets the water on its side; to raise its front "
+                      "edge along the throw, give tilt_axis [-1, 0, 0]")
+    assert load(scene, [along_minus_y, "components.stone.tilt_axis=[-1, 0, 0]"]).notices == []
+    assert load(scene).notices == []
