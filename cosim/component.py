@@ -153,6 +153,11 @@ class Component:
         ground, for instance, refuses a body that starts deep inside it. Default: none."""
         return []
 
+    def idle_outputs(self) -> dict[str, str]:
+        """Outputs this component never publishes with its settings, each with why: a connection from
+        one would deliver nothing but its initial value, so the scene is refused. Default: none."""
+        return {}
+
     def notices(self) -> list[str]:
         """What is worth saying about this component's settings though the scene is not refused for
         it (a mode known to mislead), as plain sentences. The scene keeps them (``Scene.notices``);

@@ -633,11 +633,17 @@ def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[s
 
 def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each output a component needs consumed (:meth:`~cosim.component.Component.needed_outputs`)
-    feeds at least one input."""
+    feeds at least one input, and none it never publishes (:meth:`~cosim.component.Component.idle_outputs`)
+    feeds any."""
     for name, comp in built.items():
         for port, why in comp.needed_outputs().items():
             if not any(edge.source == name and edge.source_port == port for edge in scene.connections):
                 problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
+        for port, why in comp.idle_outputs().items():
+            fed = [f"{edge.target}.{edge.target_port}" for edge in scene.connections
+                   if edge.source == name and edge.source_port == port]
+            if fed:
+                problems.append(f"components.{name}: its output {port!r} feeds {', '.join(fed)}, but {why}")
 
 
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:

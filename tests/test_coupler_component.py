@@ -561,3 +561,16 @@ def test_two_bodies_wired_to_one_waters_single_ports_are_told_to_name_them_in_bo
     assert occupied and occupied[0].endswith("is not additive; for several bodies on one water, name them in its "
                                              "bodies: [a, b], each body's coupler then on its own ports occupied_a, "
                                              "request_a, patch_a, ... (scenarios/two_stones.yaml)")
+
+
+def test_the_added_mass_connected_without_its_effect_is_refused():
+    """A coupler publishes no added mass without the effect (not in the default effects): the
+    connection delivered only its initial zeros, silently. Refused, saying what to do."""
+    from cosim.errors import ScenarioError
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    with pytest.raises(ScenarioError) as info:
+        load(scene, ["components.coupler.effects=[displacement, buoyancy, pressure, friction, wave_drag]"])
+    assert info.value.problems == [
+        "components.coupler: its output 'added_mass' feeds stone.added_mass, but it publishes none without the "
+        "effect added_mass (not in the default effects): add added_mass to its effects, or leave the connection out"]

@@ -405,6 +405,12 @@ class WaterCoupler(Component):
                                     "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
         return needed
 
+    def idle_outputs(self) -> dict[str, str]:
+        if self.added_mass_on:
+            return {}
+        return {"added_mass": "it publishes none without the effect added_mass (not in the default effects): add "
+                              "added_mass to its effects, or leave the connection out"}
+
     def input_max_age(self, port: str) -> tuple[float, str] | None:
         """The water's patch must come at least every ``lookahead`` seconds when the window is asked
         for that far ahead (the displacement ring on): a patch kept longer no longer reaches the
