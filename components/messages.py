@@ -296,6 +296,7 @@ class StageId(enum.IntEnum):
     SINK = 4
     REST = 5
     FLOAT = 6  # a stone lighter than water, too slow to skip: it floats instead of sinking
+    LEFT_POND = 7  # off the water's grid (over its edge, or thrown past it): the run ends there
 
 
 @message

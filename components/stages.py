@@ -51,7 +51,7 @@ from cosim.params import param
 FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
 BUOYANCY_READABLE = 0.01  # submerged volume fraction from which the buoyancy tells whether a stone floats
 STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
-LEFT_POND = "left-pond"  # the outcome (and timeline label) of a stone that left the water's grid
+LEFT_POND = STAGE_NAMES[StageId.LEFT_POND]  # the outcome of a stone that left the water's grid
 
 
 @dataclass
@@ -93,7 +93,7 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     # sinking is final, but a sunk stone can come to rest on the bottom; rest is final too (a stone
     # settling on the bottom, or on a slope, rocks a little faster than rest_speed now and then: it
     # went from rest to approach some thirty times on a beach, and the run never ended)
-    if previous in (StageId.SINK, StageId.FLOAT, StageId.REST):
+    if previous in (StageId.SINK, StageId.FLOAT, StageId.REST, StageId.LEFT_POND):
         return previous
     vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
@@ -220,10 +220,11 @@ class StageMonitor(Component):
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
                 and now - self.since >= self.params.stop_after):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
-        self._check_outside(now, body, water)
+        self._check_outside(now, body, water, outputs)
         return outputs
 
-    def _check_outside(self, now: float, body: BodyState, water: WaterContact | None) -> None:
+    def _check_outside(self, now: float, body: BodyState, water: WaterContact | None,
+                       outputs: dict[str, Message]) -> None:
         """Decide that the stone left the pond: dry with its lowest point below the water level for
         ``outside_after`` (inside the grid such a point is under water, hence wetted)."""
         if self.params.outside_after <= 0 or not math.isnan(self.left_at):
@@ -235,7 +236,9 @@ class StageMonitor(Component):
             self.outside_since = now
         if now - self.outside_since >= self.params.outside_after:
             self.left_at = now
+            self.stage, self.since = StageId.LEFT_POND, now
             self.timeline.append((now, LEFT_POND))
+            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, float(body.position[0]))
             x, y = float(body.position[0]), float(body.position[1])
             where = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
             self.request_stop(f"stone {where} at x = {x:.3g} m, y = {y:.3g} m (no water under it "

@@ -155,7 +155,7 @@ class Component:
 
     def idle_outputs(self) -> dict[str, str]:
         """Outputs this component never publishes with its settings, each with why: a connection from
-        one would deliver nothing but its initial value, so the scene is refused. Default: none."""
+        one delivers nothing but its initial value, which the scene's notices say. Default: none."""
         return {}
 
     def notices(self) -> list[str]:

@@ -633,17 +633,11 @@ def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[s
 
 def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each output a component needs consumed (:meth:`~cosim.component.Component.needed_outputs`)
-    feeds at least one input, and none it never publishes (:meth:`~cosim.component.Component.idle_outputs`)
-    feeds any."""
+    feeds at least one input."""
     for name, comp in built.items():
         for port, why in comp.needed_outputs().items():
             if not any(edge.source == name and edge.source_port == port for edge in scene.connections):
                 problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
-        for port, why in comp.idle_outputs().items():
-            fed = [f"{edge.target}.{edge.target_port}" for edge in scene.connections
-                   if edge.source == name and edge.source_port == port]
-            if fed:
-                problems.append(f"components.{name}: its output {port!r} feeds {', '.join(fed)}, but {why}")
 
 
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
@@ -798,8 +792,23 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     if problems:
         raise ScenarioError(problems, source)
     scene.notices = [f"components.{name}: {notice}" for name, comp in built_components.items()
-                     for notice in comp.notices()]
+                     for notice in comp.notices()] + _idle_connections(scene, built_components)
     return scene
+
+
+def _idle_connections(scene: Scene, built: dict[str, Component]) -> list[str]:
+    """Notices of connections from outputs their component never publishes with its settings
+    (:meth:`~cosim.component.Component.idle_outputs`): they deliver only their initial value. Not
+    refused: switching an effect off by ``--set`` leaves its connection, and delivers nothing."""
+    notices = []
+    for name, comp in built.items():
+        for port, why in comp.idle_outputs().items():
+            fed = [f"{edge.target}.{edge.target_port}" for edge in scene.connections
+                   if edge.source == name and edge.source_port == port]
+            if fed:
+                notices.append(f"components.{name}: its output {port!r} feeds {', '.join(fed)}, but {why}; the "
+                               "connection delivers only its initial value")
+    return notices
 
 
 def read_input(path: str | Path, limit: int = MAX_SCENE_BYTES) -> str:

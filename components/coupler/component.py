@@ -408,8 +408,7 @@ class WaterCoupler(Component):
     def idle_outputs(self) -> dict[str, str]:
         if self.added_mass_on:
             return {}
-        return {"added_mass": "it publishes none without the effect added_mass (not in the default effects): add "
-                              "added_mass to its effects, or leave the connection out"}
+        return {"added_mass": "it publishes none without the effect added_mass (not in the default effects)"}
 
     def input_max_age(self, port: str) -> tuple[float, str] | None:
         """The water's patch must come at least every ``lookahead`` seconds when the window is asked
