@@ -272,3 +272,18 @@ def test_a_recording_without_contact_channels_says_so_rather_than_that_nothing_t
     said = capsys.readouterr().out
     assert "skipped contacts.png: the recording holds no contact channel (WaterContact or GroundContact)" in said
     assert "no contact in this run" not in said
+
+
+def test_a_thinned_recordings_contact_peaks_are_the_monitors(tmp_path):
+    """With one message in ten recorded, the contacts' own samples miss their peaks: each skip's
+    panel is titled with the peak its skip record gives (the monitor saw every step), as the run's
+    summary says (it said 13.8 g for 14.3)."""
+    from components.analysis.plot import figure_contacts
+
+    path = tmp_path / "thin.mcap"
+    record_skip(path, ["record.visual_rate=0", "record.every=10"])
+    thinned = load_run(path)
+    assert thinned.skips
+    titles = [ax.get_title() for ax in figure_contacts(thinned).axes if ax.get_visible()]
+    for record, title in zip(thinned.skips, titles, strict=False):
+        assert title.endswith(f", peak {record.peak_g:.1f} g"), (title, record.peak_g)

@@ -30,7 +30,7 @@ from matplotlib.patches import Patch
 
 from components.analysis.data import RunData, contact_spans, iter_fields, load_run, rest_level, topics_of
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
-from components.messages import BodyState, StageId, WaterField
+from components.messages import BodyState, Shape, StageId, WaterField
 from cosim.record.output import output_folder, written_whole
 from cosim.record.reader import Recording
 
@@ -292,6 +292,10 @@ def figure_contacts(run: RunData) -> Figure | None:
             ms = (w.t[m] - start) * 1e3
             ax.plot(ms, w.force[m, 2], color="k", linewidth=1.0, label=f"{w.topic} z")
             ax.plot(ms, w.force[m, 0], color="k", linewidth=1.0, linestyle=":", label=f"{w.topic} x")
+        # a skip's own record has the monitor's peak over every step: a thinned recording's samples miss it
+        record = next((r for r in run.skips if start - 1e-9 <= r.touchdown_time <= end + 1e-9), None)
+        if record is not None:
+            peak = float(record.peak_g)
         for g in run.grounds:
             m = window(g.t)
             ms = (g.t[m] - start) * 1e3
@@ -299,7 +303,7 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", label=f"ground friction ({g.topic})")
         ax.axvspan(0.0, (end - start) * 1e3, color="0.9", zorder=0)
         ax.axhline(0.0, color="0.5", linewidth=0.6)
-        if run.contacts:
+        if run.contacts and run.body.shape == Shape.DISK:
             ax.axhline(BOUNCE_G * weight, color="tab:red", linewidth=0.8, linestyle="-.",
                        label=f"{BOUNCE_G:g} M g: a disk bounces above about this (Tang et al. 2021)")
         peak_text = f", peak {peak:.1f} g" if run.contacts else ""
