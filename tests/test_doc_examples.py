@@ -60,6 +60,8 @@ def shortened(command: str) -> list[str]:
     """The argv (after ``cosim``) of a documented command, made short by :data:`SHORTER`."""
     argv = shlex.split(command)[1:]
     extra = list(SHORTER.get(argv[0], []))
+    if argv[0] == "render" and any(a.endswith(".png") for a in argv):
+        extra = []  # one frame: --from and --to apply to an animation only
     if argv[0] == "replay" and "--from" in argv:
         extra = ["--until", str(float(argv[argv.index("--from") + 1]) + 0.02)]
     if "--live" in argv:
