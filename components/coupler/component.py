@@ -1132,14 +1132,14 @@ class WaterCoupler(Component):
     def _check_not_through_the_bed(self, top: float, pos: np.ndarray, patch: HeightPatch) -> None:
         """The water's bed is no solid: a body that sinks (or slides up a beach) onto it goes on
         through it, wholly under the bed, out of every water column, its run from then on no
-        physics. Fail the run there, naming the place and the remedy, rather than let it fall on
-        silently (a ground at the bed stops it: scenarios/float_sphere.yaml)."""
+        physics. End the run there, saying where and what lands a body on the bed, rather than let
+        it fall on silently (a ground at the bed stops it: scenarios/float_sphere.yaml)."""
         bed = _bed_under(pos, patch)
-        if bed is not None and top < bed:
+        if bed is not None and top < bed and self.stop_reason is None:
             x, y, z = (float(c) for c in pos)
-            raise ValueError(f"the body went through the water's bed at x = {x:.4g} m, y = {y:.4g} m (its centre at "
-                             f"z = {z:.4g} m, wholly under the bed at z = {bed:.4g} m): the bed is not solid; "
-                             "to land the body on it, add a SolidGround there (as scenarios/float_sphere.yaml does)")
+            self.request_stop(f"the body went through the water's bed at x = {x:.4g} m, y = {y:.4g} m (its centre at "
+                              f"z = {z:.4g} m, wholly under the bed at z = {bed:.4g} m): the bed is not solid; to "
+                              "land the body on it, add a SolidGround there (as scenarios/float_sphere.yaml does)")
 
     def _idle(self, depth: float) -> dict[str, Message]:
         self.met.in_contact = False
