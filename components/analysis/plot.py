@@ -122,7 +122,9 @@ def figure_trajectory(run: RunData) -> Figure:
     ax.set_xlabel("time [s]" if by_time else "x [m]")
     ax.set_ylabel("z [m]")
     view = "height over time" if by_time else "side view"
-    by_stage = f" by stage ({len(run.skips)} skips)" if run.stages is not None else ""
+    # the monitor's own count (a restart's recording holds the skips after its checkpoint only)
+    skips = max(len(run.skips), int(run.stages.skips[-1]) if run.stages is not None and len(run.stages.skips) else 0)
+    by_stage = f" by stage ({skips} skips)" if run.stages is not None else ""
     ax.set_title(f"{run.scene}: {view} of {body.name}{by_stage}")
     if run.stages is not None:
         _stage_legend(ax, stages.tolist())
