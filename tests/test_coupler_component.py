@@ -574,3 +574,15 @@ def test_the_added_mass_connected_without_its_effect_is_said_as_the_scene_loads(
         "components.coupler: its output 'added_mass' feeds stone.added_mass, but it publishes none without the "
         "effect added_mass (not in the default effects); the connection delivers only its initial value"]
     assert load(scene).notices == []
+
+
+def test_a_body_wider_than_its_water_is_refused():
+    """A radius typed in centimetres (5 for 0.05 m) made a 10 m disk on a 3.5 m pond, which left
+    the water with 5e7 J from a 20 J throw. Refused at load, saying how wide each is."""
+    from cosim.errors import ScenarioError
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    with pytest.raises(ScenarioError) as info:
+        load(scene, ["components.stone.radius=5"])
+    assert info.value.problems == ["components.coupler: the body is 10 m across, wider than the water feeding it "
+                                   "(3.5 m at its narrowest): is its radius in metres?"]

@@ -378,6 +378,11 @@ class WaterCoupler(Component):
         bed_at = getattr(water, "bed_at", None)
         if not isinstance(body, BodyState) or bed_at is None:
             return []
+        grid = getattr(water, "grid", None)
+        width = min(grid.nx, grid.ny) * grid.cell if grid is not None else math.inf
+        if 2.0 * float(body.radius) > width:  # no column of it can hold the body's displacement around it
+            return [f"the body is {2.0 * float(body.radius):.4g} m across, wider than the water feeding it "
+                    f"({width:.4g} m at its narrowest): is its radius in metres?"]
         x, y, z = (float(c) for c in body.position)
         bed = bed_at(x, y)
         problem = None if bed is None else _under_the_bed(z, z + _bounding_radius(body), bed)
