@@ -305,8 +305,10 @@ def figure_contacts(run: RunData) -> Figure | None:
         for g in run.grounds:
             m = window(g.t)
             ms = (g.t[m] - start) * 1e3
-            ax.plot(ms, g.normal[m], linewidth=1.2, label=f"ground normal ({g.topic})")
-            ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", label=f"ground friction ({g.topic})")
+            dots = "o" if m.sum() < 5 else None  # an impact is a step or two: points, not an invisible line
+            ax.plot(ms, g.normal[m], linewidth=1.2, marker=dots, label=f"ground normal ({g.topic})")
+            ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", marker=dots,
+                    label=f"ground friction ({g.topic})")
         ax.axvspan(0.0, (end - start) * 1e3, color="0.9", zorder=0)
         ax.axhline(0.0, color="0.5", linewidth=0.6)
         if run.contacts and run.body.shape == Shape.DISK:
