@@ -161,6 +161,7 @@ class StageMonitor(Component):
         self.final_x = math.nan
         self.final_y = math.nan
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
+        self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
@@ -217,8 +218,15 @@ class StageMonitor(Component):
             self.stage, self.since = stage, now
             self.timeline.append((now, STAGE_NAMES[stage]))
             outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x)
+        if stage is StageId.FLOAT:
+            # a floating body is decided as it first comes in slowly, a dropped one as it plunges: the
+            # run ends once it has settled, not while it bobs (it ended mid-plunge, 9.5 cm under)
+            if body.speed >= SETTLED_SPEED:
+                self.settled_since = math.nan
+            elif math.isnan(self.settled_since):
+                self.settled_since = now
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
-                and now - self.since >= self.params.stop_after):
+                and now - (self.settled_since if stage is StageId.FLOAT else self.since) >= self.params.stop_after):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
         self._check_outside(now, body, water, outputs)
         return outputs
@@ -296,7 +304,7 @@ class StageMonitor(Component):
                 "track": vars(self.track).copy(),
                 "timeline": [list(e) for e in self.timeline], "final_x": self.final_x, "final_y": self.final_y,
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
-                "outside_since": self.outside_since, "left_at": self.left_at}
+                "outside_since": self.outside_since, "left_at": self.left_at, "settled_since": self.settled_since}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.stage = None if state["stage"] is None else StageId(state["stage"])
@@ -310,6 +318,7 @@ class StageMonitor(Component):
             # saved before distances ran along the throw's line: the last touchdown's y from its drift
             self.track.last_touchdown_y = self._touchdown_y_of(self.records[-1])
         self.outside_since = float(state.get("outside_since", math.nan))
+        self.settled_since = float(state.get("settled_since", math.nan))
         self.left_at = float(state.get("left_at", math.nan))
 
     def metrics(self) -> dict[str, float | int | str]:
@@ -352,6 +361,7 @@ class StageMonitor(Component):
 
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
+SETTLED_SPEED = 0.01  # [m/s] a floating body slower than this has settled: the run may end
 HEADING_SPEED = 1e-6  # [m/s] a body let go slower than this horizontally has no heading of its own (+x)
 
 

@@ -296,7 +296,9 @@ WEIGHT = 0.12 * 9.81  # [N] of the test body
 @pytest.mark.parametrize("density_ratio, stage", [(0.5, "float"), (2.65, "sink")])
 def test_a_slow_stone_floats_if_lighter_than_water_else_sinks(density_ratio, stage):
     """Too slow to skip: a stone the water could carry wholly under (buoyancy / submerged fraction
-    above its weight) floats; a denser one sinks. Both are final and end the run."""
+    above its weight) floats; a denser one sinks. Both are final and end the run: a sunk one
+    stop_after later, a floating one once it has settled (slower than 1 cm/s) that long, not while it
+    still bobs."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))
     fraction = 0.3
     lift = WEIGHT / density_ratio * fraction  # buoyancy of the submerged 30% at this density ratio
@@ -304,11 +306,18 @@ def test_a_slow_stone_floats_if_lighter_than_water_else_sinks(density_ratio, sta
               (body(0.5, 0.0, 0.3, -0.1), buoyant_water(fraction, lift), None),
               (body(0.5, 0.0, 0.3, 0.1), water(False), None),  # bobbing out again changes nothing
               (body(0.5, 0.0, 0.3, 0.1), water(False), None),
-              (body(0.5, 0.0, 0.3, 0.1), water(False), None)]
-    out = drive(m, script)
+              (body(0.5, 0.0, 0.3, 0.1), water(False), None),
+              (body(0.5, 0.0, 0.0, 0.005), buoyant_water(fraction, lift), None),  # settled from t = 6 ms
+              (body(0.5, 0.0, 0.0, 0.0), buoyant_water(fraction, lift), None),
+              (body(0.5, 0.0, 0.0, 0.0), buoyant_water(fraction, lift), None)]
+    out, asked = [], None
+    for k, (b, w, g) in enumerate(script):
+        out.append(m.step(k * MS, MS, {"body": b, "water": w, "ground": g}))
+        asked = k if asked is None and m.stop_reason else asked
     labels = [o["stage"].label for o in out if "stage" in o]
     assert labels == ["approach", stage]
     assert m.stop_reason == f"stone {stage} since t = 0.002 s"
+    assert asked == (3 if stage == "sink" else 7)  # 2 ms after sinking; 2 ms after settling (at 6 ms)
     assert m.metrics()["outcome"] == stage
 
 
