@@ -305,3 +305,19 @@ def test_the_energy_budget_of_ground_bounces_closes_at_every_impact(tmp_path):
     assert any(name.startswith("dissipated by ground") and values[-1] > 0.01 for name, values in terms.items())
     total = terms["total"]
     assert np.ptp(total) < 0.01 * total[0]
+
+
+def test_the_energy_budget_takes_off_the_work_of_a_wrench_that_is_no_waters(tmp_path):
+    """A push from outside the water (a gust's wrench) does work on the body that no dissipation
+    counts: it is a term of its own, and the total stays put (it fell by 12% over the gust skip)."""
+    from components.analysis.plot import energy_terms
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    pytest.importorskip("fmpy")
+    scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "gust_skip.yaml", ["record.visual_rate=0"])
+    run_scene(scene, tmp_path / "gust.mcap", progress=False)
+    terms = energy_terms(load_run(tmp_path / "gust.mcap"))
+    assert abs(terms["work done on it by /gust/wrench, taken off"][-1]) > 0.1  # [J]
+    total = terms["total"]
+    assert np.ptp(total) < 0.02 * total[0]

@@ -38,6 +38,7 @@ MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
 FIGSIZE = (10.0, 4.5)  # [in]
 GRAVITY = 9.81  # [m/s^2] the unit of a contact's peak (the stage monitor's default)
+WRENCH_COLORS = ["k", "tab:purple", "tab:olive", "tab:cyan"]  # one per wrench channel (a coupler's, a gust's)
 BOUNCE_G = 4.0  # [g] a disk bounces once the water's push passes about this (Tang et al. 2021)
 SIDE_VIEW_MIN_TRAVEL = 0.5  # [fraction of the height range] of horizontal travel for a side view
 TOP_VIEW_MIN_SPREAD = 0.01  # [m] sideways spread of the path from which it is also drawn from above
@@ -201,8 +202,21 @@ def energy_terms(run: RunData) -> dict[str, np.ndarray]:
     lag = float(np.median(np.diff(body.t))) if len(body.t) > 1 else 0.0
     for g in run.grounds:
         terms[f"dissipated by ground ({g.topic})"] = _hold(g.t + lag, g.dissipated, body.t)
+    # a wrench from anything but a water coupler (whose work is its dissipation, above) does work on
+    # the body: the force held over each of the body's steps along its move, taken off the total
+    couplers = {_component(c.topic) for c in run.contacts}
+    for w in run.wrenches:
+        if _component(w.topic) in couplers or len(body.t) < 2:
+            continue
+        force = np.stack([_hold(w.t, w.force[:, k], body.t[:-1]) for k in range(3)], axis=1)
+        work = np.concatenate([[0.0], np.cumsum(np.einsum("ij,ij->i", force, np.diff(body.position, axis=0)))])
+        terms[f"work done on it by {w.topic}, taken off"] = -work
     terms["total"] = np.sum(list(terms.values()), axis=0)
     return terms
+
+
+def _component(topic: str) -> str:
+    return topic.strip("/").split("/")[0]
 
 
 def _hold(t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
@@ -293,11 +307,11 @@ def figure_contacts(run: RunData) -> Figure | None:
             for name, values, axis, style in effects:
                 if np.any(values[m, axis]):
                     ax.plot(ms, values[m, axis], style, linewidth=1.2, label=name)
-        for w in run.wrenches:
+        for w, color in zip(run.wrenches, WRENCH_COLORS * len(run.wrenches), strict=False):
             m = window(w.t)
             ms = (w.t[m] - start) * 1e3
-            ax.plot(ms, w.force[m, 2], color="k", linewidth=1.0, label=f"{w.topic} z")
-            ax.plot(ms, w.force[m, 0], color="k", linewidth=1.0, linestyle=":", label=f"{w.topic} x")
+            ax.plot(ms, w.force[m, 2], color=color, linewidth=1.0, label=f"{w.topic} z")
+            ax.plot(ms, w.force[m, 0], color=color, linewidth=1.0, linestyle=":", label=f"{w.topic} x")
         # a skip's own record has the monitor's peak over every step: a thinned recording's samples miss it
         record = next((r for r in run.skips if start - 1e-9 <= r.touchdown_time <= end + 1e-9), None)
         if record is not None:
