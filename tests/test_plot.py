@@ -321,3 +321,11 @@ def test_the_energy_budget_takes_off_the_work_of_a_wrench_that_is_no_waters(tmp_
     assert abs(terms["work done on it by /gust/wrench, taken off"][-1]) > 0.1  # [J]
     total = terms["total"]
     assert np.ptp(total) < 0.02 * total[0]
+
+
+def test_a_scene_with_nothing_to_touch_is_said_so_not_that_its_recording_left_contacts_out(tmp_path, capsys):
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "spinning_disk.yaml"
+    assert main(["run", str(scene), "--until", "0.05", "-o", str(tmp_path / "spin.mcap"), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(tmp_path / "spin.mcap"), "-o", str(tmp_path / "figs")]) == 0
+    assert "skipped contacts.png: the scene has neither water nor ground to touch" in capsys.readouterr().out

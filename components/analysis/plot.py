@@ -30,7 +30,7 @@ from matplotlib.patches import Patch
 
 from components.analysis.data import RunData, contact_spans, iter_fields, load_run, rest_level, topics_of
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
-from components.messages import BodyState, Shape, StageId, WaterField
+from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
 from cosim.record.output import output_folder, written_whole
 from cosim.record.reader import Recording
 
@@ -215,6 +215,17 @@ def energy_terms(run: RunData) -> dict[str, np.ndarray]:
     return terms
 
 
+def _reports_contacts(rec: Recording) -> bool:
+    """Whether the recorded scene has a component that reports contacts (water or ground); True when
+    its scene cannot be read."""
+    try:
+        configs = rec.scene().components.values()
+    except Exception:
+        return True
+    kinds = (WaterContact, GroundContact)
+    return any(port.type in kinds for cfg in configs for port in cfg.cls.outputs.values())
+
+
 def _component(topic: str) -> str:
     return topic.strip("/").split("/")[0]
 
@@ -396,7 +407,8 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
             if fig is None:
                 # a run without contacts, or a recording that left their channels out (--record)
                 why = ("no contact in this run" if run.contacts or run.grounds
-                       else "the recording holds no contact channel (WaterContact or GroundContact)")
+                       else "the recording holds no contact channel (WaterContact or GroundContact)"
+                       if _reports_contacts(rec) else "the scene has neither water nor ground to touch")
                 skipped.append((name, why))
                 continue
             path = out_dir / name

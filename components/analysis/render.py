@@ -248,7 +248,7 @@ def height_above_water(polygons: np.ndarray, surface: Surface | None, rest: floa
 def height_caption(gap: float) -> str:
     """``3.2 cm above the water`` / ``1.1 cm into the water`` for a gap [m]."""
     where = "above" if gap >= 0 else "into"
-    return f"{abs(gap) * 100:.1f} cm {where} the water"
+    return f"{abs(gap) * 100:.1f} cm {where} the water"  # abs: never "-0.0"
 
 
 class _Frames:
@@ -422,7 +422,7 @@ class FrameRenderer(_Frames):
             self.caption = height_caption(gap)
             self._draw_drop_line(draw, cam, polys, gap)
         else:
-            self.caption = f"at z = {(gap + self.rest) * 100:.1f} cm"
+            self.caption = f"at z = {round((gap + self.rest) * 100, 1) + 0.0:.1f} cm"  # (+ 0.0: no "-0.0")
 
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
