@@ -231,9 +231,11 @@ def _component(topic: str) -> str:
 
 
 def _hold(t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """The last value at or before each time of ``at`` (0 before the first)."""
+    """The last value at or before each time of ``at``, the first before the first (a running total
+    a restart's recording picks up where its checkpoint left it: it read 0 until its first report,
+    then jumped); 0 without any."""
     idx = np.searchsorted(t, at, side="right") - 1
-    return np.where(idx >= 0, values[np.clip(idx, 0, None)], 0.0) if len(t) else np.zeros(len(at))
+    return values[np.clip(idx, 0, None)] if len(t) else np.zeros(len(at))
 
 
 def figure_energy(run: RunData) -> Figure:

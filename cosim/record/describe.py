@@ -37,14 +37,17 @@ def describe_recording(rec: Recording) -> str:
     if rec.overrides:
         lines.append(f"  overrides: {', '.join(rec.overrides)}")
     span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
-    lines.append(f"  time span: {span:g} s, {sum(c.count for c in rec.channels.values())} messages")
+    since = f" from t = {rec.start_ns / NS_PER_S:g} s (a restart)" if rec.start_ns else ""
+    lines.append(f"  time span: {span:g} s{since}, {sum(c.count for c in rec.channels.values())} messages")
     status = rec.status()
     if status is None:
         end = (rec.end_ns or 0) / NS_PER_S
         lines.append(f"  status: missing - the recording is incomplete: the run was cut off (killed?) and it "
                      f"ends at t = {end:g} s, with its last message")
     else:
-        lines.append(f"  status: {status.status} at t = {status.time:g} s ({status.tick} steps) - {status.reason}")
+        counted = " from t = 0" if rec.start_ns else ""
+        lines.append(f"  status: {status.status} at t = {status.time:g} s ({status.tick} steps{counted}) - "
+                     f"{status.reason}")
     lines.append("  channels:")
     width = max((len(t) for t in rec.channels), default=10)
     for topic in sorted(rec.channels):
