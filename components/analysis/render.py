@@ -698,7 +698,9 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
             at = near if abs(near - at) <= FIELD_SNAP else at
         return at
 
-    times = _frame_times(output, options, float(body.t[0]), float(body.t[-1]), default_at, "recorded")
+    # a restart's recording begins at its checkpoint, a step before the body's first state
+    begin = min(float(body.t[0]), (rec.start_ns or 0) / NS_PER_S)
+    times = _frame_times(output, options, begin, float(body.t[-1]), default_at, "recorded")
     stage_topics = own(topics_of(rec, Stage), linked)  # this body's monitor
     stages = None
     if stage_topics:
