@@ -237,18 +237,19 @@ class RigidBody(Component):
         p: RigidBodyParams = self.params
         vx, vy = float(p.velocity[0]), float(p.velocity[1])
         speed = math.hypot(vx, vy)
-        if p.shape != "disk" or p.tilt_deg == 0.0 or speed == 0.0 or p.scripted_tilt_deg:
-            return []
+        if p.shape != "disk" or p.tilt_deg == 0.0 or speed < 1e-6 or p.scripted_tilt_deg:
+            return []  # (a body let go with no horizontal speed of its own has no front edge)
         n = quat.body_axis(quat.from_axis_angle(self.tilt_axis, math.radians(p.tilt_deg)))  # the face's normal
         # the face rises towards -n's horizontal part: its pitch along the throw and its bank across it
         pitch = math.degrees(math.asin(max(-1.0, min(1.0, -(n[0] * vx + n[1] * vy) / speed))))
         bank = math.degrees(math.asin(max(-1.0, min(1.0, (n[0] * vy - n[1] * vx) / speed))))
-        if abs(bank) <= BANK_NOTICE_DEG:
+        if abs(bank) <= BANK_NOTICE_DEG and pitch >= 0.0:
             return []
         ax, ay = vy / speed + 0.0, -vx / speed + 0.0  # (+ 0.0: no -0 in the text)
+        meets = "on its side" if abs(bank) > BANK_NOTICE_DEG else "front edge first"
         return [f"tilt_deg {p.tilt_deg:g} about tilt_axis {list(p.tilt_axis)} leaves it {pitch + 0.0:.3g} deg nose-up "
-                f"along its throw and banked {bank:.3g} deg across it, so it meets the water on its side; to raise "
-                f"its front edge along the throw, give tilt_axis [{ax:.4g}, {ay:.4g}, 0]"]
+                f"along its throw and banked {bank + 0.0:.3g} deg across it, so it meets the water {meets}; to "
+                f"raise its front edge along the throw, give tilt_axis [{ax:.4g}, {ay:.4g}, 0]"]
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """An added mass it starts with (a connection's initial value) must be one."""
@@ -380,6 +381,8 @@ def gravity_mismatch(component: Component | None, size: float, key: str) -> str 
     gx, gy, gz = (float(g) for g in gravity)
     if gx == 0.0 and gy == 0.0 and math.isclose(-gz, size, rel_tol=1e-9, abs_tol=1e-12):
         return None
-    return (f"{key} {size:g} m/s^2 is not the gravity of its body {component.name} ({[gx, gy, gz]} m/s^2): give "
-            f"both the same, straight down (set {key} to {math.hypot(gx, gy, gz):g}"
-            + (", the body's gravity along -z)" if gx or gy else ")"))
+    if gx == 0.0 and gy == 0.0 and gz < 0.0:
+        return (f"{key} {size:g} m/s^2 is not the gravity of its body {component.name} ({[gx, gy, gz]} m/s^2): "
+                f"set {key} to {-gz:g}")
+    return (f"{key} {size:g} m/s^2 needs its body {component.name} to fall straight down (along -z) under as "
+            f"much gravity; its gravity is {[gx, gy, gz]} m/s^2")

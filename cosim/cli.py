@@ -237,6 +237,9 @@ def cmd_components(args: argparse.Namespace) -> int:
     from cosim.registry import registered, type_info, type_text, types_page
 
     own = [names[0] for target, names in registered().items() if target.partition(".")[0] in ("cosim", "components")]
+    unknown = [info.problem for info in map(type_info, args.types) if info.problem and info.target not in registered()]
+    if unknown:
+        raise ScenarioError(unknown, "cosim components")
     if args.markdown is not None:
         chosen = args.types or sorted(own)
         with written_whole(args.markdown) as tmp:
@@ -251,9 +254,6 @@ def cmd_components(args: argparse.Namespace) -> int:
         print("`cosim components TYPE` lists a type's parameters, ports and messages")
         return EXIT_OK
     infos = [type_info(name) for name in args.types]
-    unknown = [info for info in infos if info.problem and info.target not in registered()]
-    if unknown:
-        raise ScenarioError([info.problem for info in unknown], "cosim components")
     print("\n\n".join("\n".join(type_text(info)) for info in infos))
     return EXIT_OK
 

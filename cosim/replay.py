@@ -154,12 +154,14 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         port: dict(channel(name, port, spec.type)) for port, spec in comp.outputs.items()}
     compared = 0
 
-    def compare(stamp: int, outputs: dict[str, Message], steps: int) -> ReplayReport | None:
+    def compare(stamp: int, outputs: dict[str, Message], steps: int, cut: bool = False) -> ReplayReport | None:
+        """The first output at ``stamp`` that differs from the recorded one; ``cut``: the recording
+        was cut inside this step, so an output it holds nothing of is where it ends, not a difference."""
         nonlocal compared
         for port in comp.outputs:
             want = expected[port].get(stamp)
             got = outputs.get(port)
-            if want is None and got is None:
+            if want is None and (got is None or cut):
                 continue
             compared += 1
             if want is None or got is None:
@@ -211,9 +213,8 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         if steps:
             seconds += clock() - began
         steps += 1
-        bad = compare(end, outputs, steps)
-        if bad and cut_off is not None and end == cut_off and bad.divergence.expected == "nothing":
-            break  # the recording was cut inside this step, between its outputs: its end, not a divergence
+        at_cut = cut_off is not None and end == cut_off  # maybe cut between this step's outputs
+        bad = compare(end, outputs, steps, at_cut)
         if bad:
             bad.cut_off_ns = cut_off
             return bad
@@ -223,16 +224,16 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
 
 
 def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
-    """(time [ns], checkpoint) a recording made by a restart began at (its first message after
-    t = 0, its first checkpoint there); None for a run from t = 0. A restart recorded without
+    """(time [ns], checkpoint) a recording made by a restart began at (its metadata's ``start_ns``,
+    the checkpoint recorded then); None for a run from t = 0. A restart recorded without
     checkpoints cannot be replayed (RecordingError)."""
-    if not rec.start_ns:
+    if not rec.restart_ns:
         return None
-    checkpoints = rec.checkpoints()
-    if not checkpoints or checkpoints[0][0] > rec.start_ns:
-        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.start_ns / NS_PER_S:g} s (its first "
-                             "message), recorded without the checkpoint it started from (record.checkpoint_every "
-                             "0): replay the recording it was restarted from")
+    checkpoints = [(stamp, cp) for stamp, cp in rec.checkpoints() if stamp == rec.restart_ns]
+    if not checkpoints:
+        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.restart_ns / NS_PER_S:g} s, "
+                             "recorded without the checkpoint it started from (record.checkpoint_every 0): replay "
+                             "the recording it was restarted from")
     return checkpoints[0]
 
 

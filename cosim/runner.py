@@ -156,7 +156,8 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
             # one from its last recording) and imports what deriving viewer channels needs while the
             # run's kernels load (a short run waits at its end for the writer to finish the file)
             recorder = Recorder(output, scene, command_line=command_line, perf=perf, inputs=inputs,
-                                derivers=default_derivers(scene) if derivers is None else list(derivers))
+                                derivers=default_derivers(scene) if derivers is None else list(derivers),
+                                start_ns=sim.time_ns)
             for deriver in recorder.derivers:  # components may override their looks (Component.visuals)
                 if hasattr(deriver, "bind"):
                     deriver.bind(sim.components)

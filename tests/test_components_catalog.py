@@ -45,16 +45,17 @@ def test_a_type_shows_its_parameters_with_units_defaults_and_bounds_and_its_port
     assert "  state (output): BodyState - state at the end of the step" in lines
 
 
-def test_an_unknown_type_is_bad_input_naming_the_known_ones(capsys):
+def test_an_unknown_type_is_bad_input_naming_the_known_ones(capsys, tmp_path):
     assert main(["components", "WaterCouplr"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: cosim components: unknown component type 'WaterCouplr' (known: Coupler, FMU, ")
     assert len(err.splitlines()) == 1
+    assert main(["components", "WaterCouplr", "--markdown", str(tmp_path / "c.md")]) == 2  # no page of it
+    assert not (tmp_path / "c.md").exists()
 
 
 def test_every_parameter_of_every_type_is_described():
-    """No parameter of this project's types goes undocumented: each has a description, and a value
-    with a physical size has its unit (a number without one is a count, a coefficient or a ratio)."""
+    """No parameter of this project's types goes undocumented: each has a description."""
     for name in OWN:
         for row in type_info(name).params:
             assert row.doc, f"{name}.{row.name} has no description"

@@ -536,10 +536,14 @@ def test_a_body_under_another_gravity_than_its_coupler_and_monitor_is_refused():
     with pytest.raises(ScenarioError) as info:
         load(scene, ["components.stone.gravity=[0, 0, -1.62]"])
     assert info.value.problems == [
-        "components.coupler: g 9.81 m/s^2 is not the gravity of its body stone ([0.0, 0.0, -1.62] m/s^2): give "
-        "both the same, straight down (set g to 1.62)",
+        "components.coupler: g 9.81 m/s^2 is not the gravity of its body stone ([0.0, 0.0, -1.62] m/s^2): "
+        "set g to 1.62",
         "components.stages: gravity 9.81 m/s^2 is not the gravity of its body stone ([0.0, 0.0, -1.62] m/s^2): "
-        "give both the same, straight down (set gravity to 1.62)"]
+        "set gravity to 1.62"]
+    with pytest.raises(ScenarioError) as info:  # upwards: no value of g would do
+        load(scene, ["components.stone.gravity=[0, 0, 9.81]"])
+    assert info.value.problems[0] == ("components.coupler: g 9.81 m/s^2 needs its body stone to fall straight "
+                                      "down (along -z) under as much gravity; its gravity is [0.0, 0.0, 9.81] m/s^2")
     load(scene, ["components.stone.gravity=[0, 0, -1.62]", "components.coupler.g=1.62",
                  "components.stages.gravity=1.62"])
 

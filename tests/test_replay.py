@@ -188,6 +188,21 @@ def test_a_recording_cut_between_a_steps_outputs_replays_to_that_step(tmp_path):
     report = replay_component(Recording(cut), "src")
     assert report.ok, str(report)
     assert report.cut_off_ns == 50_000_000 and report.steps == 50
+    # the outputs of that step that were recorded are still compared: a change there is found, also
+    # after the output the cut left out (the first one)
+    from tests.toys import Force, Source
+
+    class Changed(Source):
+        def _step_impl(self, t, dt, inputs):
+            out = super()._step_impl(t, dt, inputs)
+            return {**out, "force": Force(out["force"].value + (1e-9 if t > 0.0485 else 0.0))}
+
+    first_out = tmp_path / "cut_out.mcap"
+    _cut_off(Recording(full), first_out, 50_000_000, cut_inside="/src/out")
+    rec = Recording(first_out)
+    assert replay_component(rec, "src").ok
+    changed = replay_component(rec, "src", Changed("src", rec.scene().components["src"].params))
+    assert not changed.ok and changed.divergence.port == "force" and changed.divergence.time_ns == 50_000_000
 
 
 def test_a_restarted_run_replays_each_component_bit_for_bit(recording, tmp_path):
@@ -207,9 +222,26 @@ def test_a_restarted_run_replays_each_component_bit_for_bit(recording, tmp_path)
 def test_a_restart_recorded_without_its_checkpoint_is_refused_in_one_line(recording, tmp_path):
     sim, _ = restart_simulation(recording, 45_000_000, overrides=["record.checkpoint_every=0"])
     outcome = run_scene(sim.scene, tmp_path / "again.mcap", progress=False, simulation=sim)
-    with pytest.raises(RecordingError, match=r"cannot replay: a restart from t = 0.041 s \(its first message\), "
-                                             r"recorded without the checkpoint it started from"):
+    with pytest.raises(RecordingError, match=r"cannot replay: a restart from t = 0.04 s, recorded without the "
+                                             r"checkpoint it started from"):
         replay_component(Recording(outcome.recording), "g")
+
+
+def test_a_run_from_t0_whose_first_message_comes_later_is_no_restart(tmp_path):
+    """A run without checkpoints whose components publish nothing at t = 0 begins its recording a
+    step in: it is still a run from t = 0, replayed as one (it was refused as a restart, and inspect
+    called it one). A restart says so in its metadata."""
+    from cosim.record.describe import describe_recording
+
+    text = SCENE.replace("record: {checkpoint_every: 0.02}", "record: {checkpoint_every: 0}")
+    text = text.replace('  acc: {type: "tests.toys:Accumulator", every: 3}\n', "")
+    text = text.replace("  - g.out -> acc.x\n  - {from: acc.total, to: g.x, delay: 1, initial: {value: 0.5}}\n", "")
+    text = text.replace("  - acc.total -> sum.kick\n", "")
+    run_scene(loads(text), tmp_path / "late.mcap", progress=False)
+    rec = Recording(tmp_path / "late.mcap")
+    assert rec.start_ns > 0 and rec.restart_ns == 0
+    assert replay_component(rec, "g").ok and replay_component(rec, "src").ok
+    assert "(a restart)" not in describe_recording(rec)
 
 
 @pytest.mark.parametrize("value", ["abc", "0", "-5", "1.5"])

@@ -159,6 +159,7 @@ class RunData:
     field_topics: list[str] = field(default_factory=list)
     rest_level: float = 0.0
     end: float = 0.0
+    step: float = 0.0  # the body's step [s] (the scene's dt times its every; 0 when not known)
 
 
 def _component(topic: str) -> str:
@@ -274,7 +275,18 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
         skips += [m for _, m in rec.messages(topic, SkipRecord)]
     end = (rec.end_ns or 0) / NS_PER_S
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
-                   wrenches, skips, topics_of(rec, WaterField), rest_level(rec), max(end, float(track.t[-1])))
+                   wrenches, skips, topics_of(rec, WaterField), rest_level(rec), max(end, float(track.t[-1])),
+                   body_step(rec, track.name))
+
+
+def body_step(rec: Recording, body: str) -> float:
+    """The step [s] of component ``body`` in the recorded scene: its dt times its every (0 when the
+    scene cannot be read)."""
+    try:
+        scene = rec.scene()
+        return scene.dt_ns * scene.components[body].every / NS_PER_S
+    except Exception:
+        return 0.0
 
 
 def rest_level(rec: Recording) -> float:

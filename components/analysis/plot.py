@@ -198,17 +198,17 @@ def energy_terms(run: RunData) -> dict[str, np.ndarray]:
         terms[f"dissipated by water ({c.topic})"] = _hold(c.t, c.dissipated, body.t)
     # a ground's impulse reaches the body over a delayed edge, in its next step: what the ground
     # reports as dissipated at t leaves the body's kinetic energy at its next state (summed at t, the
-    # total jumped by the impact's loss at every bounce)
-    lag = float(np.median(np.diff(body.t))) if len(body.t) > 1 else 0.0
+    # total jumped by the impact's loss at every bounce). Where the report a step before the body's
+    # state is not recorded (one message in ten kept), the latest one is the nearest to it.
     for g in run.grounds:
-        terms[f"dissipated by ground ({g.topic})"] = _hold(g.t + lag, g.dissipated, body.t)
+        terms[f"dissipated by ground ({g.topic})"] = _hold_a_step_before(g.t, g.dissipated, body.t, run.step)
     # a wrench from anything but a water coupler (whose work is its dissipation, above) does work on
     # the body: the force held over each of the body's steps along its move, taken off the total
     couplers = {_component(c.topic) for c in run.contacts}
     for w in run.wrenches:
         if _component(w.topic) in couplers or len(body.t) < 2:
             continue
-        force = np.stack([_hold(w.t, w.force[:, k], body.t[:-1]) for k in range(3)], axis=1)
+        force = np.stack([_hold(w.t, w.force[:, k], body.t[:-1], before=0.0) for k in range(3)], axis=1)
         work = np.concatenate([[0.0], np.cumsum(np.einsum("ij,ij->i", force, np.diff(body.position, axis=0)))])
         terms[f"work done on it by {w.topic}, taken off"] = -work
     terms["total"] = np.sum(list(terms.values()), axis=0)
@@ -230,12 +230,23 @@ def _component(topic: str) -> str:
     return topic.strip("/").split("/")[0]
 
 
-def _hold(t: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """The last value at or before each time of ``at``, the first before the first (a running total
-    a restart's recording picks up where its checkpoint left it: it read 0 until its first report,
-    then jumped); 0 without any."""
+def _hold_a_step_before(t: np.ndarray, values: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:
+    """:func:`_hold` at ``at - step`` where a value was recorded exactly then, else at ``at``."""
+    earlier = _hold(t, values, at - step)
+    idx = np.searchsorted(t, at - step + 1e-9, side="right") - 1
+    recorded = (idx >= 0) & (np.abs(t[np.clip(idx, 0, None)] - (at - step)) <= 1e-9) if len(t) else idx >= 0
+    return np.where(recorded, earlier, _hold(t, values, at))
+
+
+def _hold(t: np.ndarray, values: np.ndarray, at: np.ndarray, before: float | None = None) -> np.ndarray:
+    """The last value at or before each time of ``at``; before the first, ``before``, else the first
+    (a running total a restart's recording picks up where its checkpoint left it: it read 0 until
+    its first report, then jumped); 0 without any."""
+    if not len(t):
+        return np.zeros(len(at))
     idx = np.searchsorted(t, at, side="right") - 1
-    return values[np.clip(idx, 0, None)] if len(t) else np.zeros(len(at))
+    held = values[np.clip(idx, 0, None)]
+    return held if before is None else np.where(idx >= 0, held, before)
 
 
 def figure_energy(run: RunData) -> Figure:

@@ -699,7 +699,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         return at
 
     # a restart's recording begins at its checkpoint, a step before the body's first state
-    begin = min(float(body.t[0]), (rec.start_ns or 0) / NS_PER_S)
+    begin = min(float(body.t[0]), rec.restart_ns / NS_PER_S) if rec.restart_ns else float(body.t[0])
     times = _frame_times(output, options, begin, float(body.t[-1]), default_at, "recorded")
     stage_topics = own(topics_of(rec, Stage), linked)  # this body's monitor
     stages = None

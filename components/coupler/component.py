@@ -365,8 +365,8 @@ class WaterCoupler(Component):
         sphere's top below the bed under its centre), which :meth:`_check_not_under_the_bed` refuses
         at the water's first patch otherwise."""
         body, water = inputs.get("body"), sources.get("water")
-        mismatch = gravity_mismatch(sources.get("body"), self.params.g, "g") if self.flags & BUOYANCY else None
-        if mismatch is not None:  # the buoyancy, rho g V, would hold another body than the one that falls
+        mismatch = gravity_mismatch(sources.get("body"), self.params.g, "g") if self.flags else None
+        if mismatch is not None:  # the buoyancy, rho g V, and the planing share would be another body's
             return [mismatch]
         level = getattr(water, "rest_level", None)
         given = self.params.water_level

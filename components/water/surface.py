@@ -212,7 +212,7 @@ class WaterSurface(Component):
 
     @classmethod
     def one_source(cls, port: str) -> str:
-        if any(port in ports[:2] for ports in cls.body_ports):
+        if port in ("occupied", "request"):  # the one unnamed body's ports (named ones are each one body's)
             return ("for several bodies on one water, name them in its bodies: [a, b], each body's coupler "
                     "then on its own ports occupied_a, request_a, patch_a, ... (scenarios/two_stones.yaml)")
         return ""

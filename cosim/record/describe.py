@@ -37,7 +37,7 @@ def describe_recording(rec: Recording) -> str:
     if rec.overrides:
         lines.append(f"  overrides: {', '.join(rec.overrides)}")
     span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
-    since = f" from t = {rec.start_ns / NS_PER_S:g} s (a restart)" if rec.start_ns else ""
+    since = f" from t = {rec.restart_ns / NS_PER_S:g} s (a restart)" if rec.restart_ns else ""
     lines.append(f"  time span: {span:g} s{since}, {sum(c.count for c in rec.channels.values())} messages")
     status = rec.status()
     if status is None:
@@ -45,7 +45,7 @@ def describe_recording(rec: Recording) -> str:
         lines.append(f"  status: missing - the recording is incomplete: the run was cut off (killed?) and it "
                      f"ends at t = {end:g} s, with its last message")
     else:
-        counted = " from t = 0" if rec.start_ns else ""
+        counted = " from t = 0" if rec.restart_ns else ""
         lines.append(f"  status: {status.status} at t = {status.time:g} s ({status.tick} steps{counted}) - "
                      f"{status.reason}")
     lines.append("  channels:")

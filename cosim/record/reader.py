@@ -157,6 +157,9 @@ class Recording:
                 schema.encoding if schema else "", schema.data if schema else b"")
         self.start_ns = summary.statistics.message_start_time
         self.end_ns = summary.statistics.message_end_time
+        restart = self.metadata.get("start_ns", "0")
+        # the checkpoint a restart began at [ns]; 0 for a run from t = 0 (and recordings before the mark)
+        self.restart_ns = int(restart) if restart.isdigit() else 0
 
     def scene(self, overrides: list[str] | None = None) -> Scene:
         """The recorded scene, with the recorded overrides and then ``overrides`` applied."""

@@ -110,8 +110,9 @@ class Recorder(BaseObserver):
 
     def __init__(self, path: str | Path, scene: Scene, *, command_line: str = "", perf: bool = False,
                  derivers: list[Any] | None = None, version: str = "", background: bool = True,
-                 inputs: tuple[str | Path, ...] = ()):
-        """``inputs``: files the run reads besides the scene (never overwritten by the recording)."""
+                 inputs: tuple[str | Path, ...] = (), start_ns: int = 0):
+        """``inputs``: files the run reads besides the scene (never overwritten by the recording);
+        ``start_ns``: the time [ns] of the checkpoint a restart begins at (0: a run from t = 0)."""
         from cosim import __version__
 
         self.path = check_output(path, (scene.source, *inputs))
@@ -150,6 +151,8 @@ class Recorder(BaseObserver):
                 "overrides": json.dumps(scene.overrides), "command_line": command_line,
                 "dt_ns": str(scene.dt_ns), "until_ns": str(scene.until_ns),
                 "base_dir": scene.base_dir}  # where the scene's relative file names (an FMU) start
+        if start_ns:  # a restart: replay and inspect begin where it began
+            meta["start_ns"] = str(start_ns)
         self.sink.add_metadata(METADATA_NAME, meta)
         self.sink.add_attachment(SCENE_ATTACHMENT, 0, "application/yaml", scene.text.encode())
 
