@@ -242,7 +242,8 @@ class StageMonitor(Component):
             return
         if math.isnan(self.outside_since):
             self.outside_since = now
-        if now - self.outside_since >= self.params.outside_after:
+        if now - self.outside_since >= self.params.outside_after and "stage" not in outputs:
+            # (a stage change this step is published first: left-pond follows at the next)
             self.left_at = now
             self.stage, self.since = StageId.LEFT_POND, now
             self.timeline.append((now, LEFT_POND))
