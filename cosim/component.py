@@ -163,7 +163,8 @@ class Component:
     def notices(self) -> list[str]:
         """What is worth saying about this component's settings though the scene is not refused for
         it (a mode known to mislead), as plain sentences. The scene keeps them (``Scene.notices``);
-        ``cosim run``, ``validate`` and ``sweep`` say each once, as a warning line. Default: none."""
+        ``cosim run`` and ``validate`` say each once, as a warning line (``sweep``, its first point's).
+        Default: none."""
         return []
 
     def start_stable_step(self, inputs: dict[str, Message | None]) -> float:
