@@ -186,6 +186,31 @@ def test_an_importer_stepping_off_the_grid_gets_the_fmus_reason(exported, tmp_pa
         in outcome.result.reason
 
 
+def test_a_refused_do_step_leaves_the_fmu_usable(exported):
+    """A doStep off the base step's grid, or from another time, is refused with Discard and a logged
+    reason; the instance stays usable, and the right doStep then runs (an answer of Fatal left it
+    dead, and a further call crashed the process)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    fmu_path, _ = exported
+    md = read_model_description(str(fmu_path))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path)),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="refused")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    for t, h in ((0.0, 0.0007), (0.5, 0.01)):
+        with pytest.raises(Exception, match=r"fmi2DoStep failed with status 2 \(discard\)"):
+            slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+    slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.01)
+    x = slave.getReal([next(v.valueReference for v in md.modelVariables if v.name == "x")])[0]
+    assert x > 0.3  # the stone moved on from x = 0.3 m
+    slave.terminate()
+    slave.freeInstance()
+
+
 def test_an_output_the_scene_does_not_have_is_refused(tmp_path, capsys):
     code = main(["fmu", "export", str(SKIP_SCENE), "-o", str(tmp_path / "x.fmu"),
                  "--output-var", "w=stone.state.spin"])
@@ -218,3 +243,15 @@ def test_the_throw_preset_offers_no_parameter_a_script_overrides():
     root = Path(__file__).resolve().parents[1] / "scenarios"
     assert [p.name for p in throw.parameters(load(root / "scripted_skim.yaml"))] == []
     assert [p.name for p in throw.parameters(load(root / "skip.yaml"))] == ["speed", "angle_deg", "tilt_deg", "spin"]
+
+
+@pytest.mark.parametrize("name, identifier", [("class.fmu", "fmu_class"), ("None.fmu", "fmu_None"),
+                                              ("9lives.fmu", "fmu_9lives"), ("my skip.fmu", "my_skip")])
+def test_a_file_name_that_is_no_python_class_name_gets_an_identifier_that_is(name, identifier):
+    """The model identifier names the slave's Python class: a keyword (class.fmu) made the build fail
+    with a SyntaxError, reported as an internal error."""
+    from pathlib import Path
+
+    from cosim.fmi.export import model_identifier
+
+    assert model_identifier(Path(name)) == identifier

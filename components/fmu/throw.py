@@ -16,8 +16,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from components.messages import StageId
 from components.rigid_body import RigidBody
-from components.stages import StageMonitor
+from components.stages import STAGE_NAMES, StageMonitor
 from cosim.fmi.spec import Output, Parameter
 from cosim.scenario import Scene
 
@@ -63,7 +64,7 @@ def outputs(scene: Scene) -> list[Output]:
     stages = _one(scene, StageMonitor)
     if stages is not None:
         found += [Output("stage", stages, "stage", "stage", None, "integer", "",
-                         "stage id: 0 approach, 1 hit, 2 slide, 3 fly-away, 4 sink, 5 rest"),
+                         "stage id: " + ", ".join(f"{s.value} {STAGE_NAMES[s]}" for s in StageId)),
                   Output("skips", stages, "stage", "skips", None, "integer", "", "skips so far")]
     return found
 

@@ -9,6 +9,7 @@ of the model description then finds nothing to report.
 
 from __future__ import annotations
 
+import keyword
 import re
 import shutil
 import tempfile
@@ -31,7 +32,8 @@ def model_identifier(output: Path) -> str:
     """The FMU's model identifier from its file name (``skip.fmu`` -> ``skip``): a C identifier, as
     FMI asks, since it names the FMU's binaries and functions."""
     name = re.sub(r"\W", "_", output.stem)
-    return name if name and not name[0].isdigit() else f"fmu_{name}"
+    # a C identifier, and a Python class name for the slave (class.fmu made a class named class)
+    return name if name and not name[0].isdigit() and not keyword.iskeyword(name) else f"fmu_{name}"
 
 
 SLAVE_MODULE = '''"""The scene {scene!r} as an FMI 2.0 co-simulation FMU (cosim fmu export)."""

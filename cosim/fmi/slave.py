@@ -141,25 +141,31 @@ class SceneSlave(Fmi2Slave):
 
     # --- stepping ----------------------------------------------------------------------------------
 
+    def _refuse(self, message: str) -> bool:
+        """Log ``message`` as an Error and answer the doStep with Discard (pythonfmu's answer to False):
+        the instance stays usable, and the master can step again as it should (an exception raised
+        here would be Fatal, the instance dead)."""
+        self.log(one_line(message), Fmi2Status.error)
+        return False
+
     def do_step(self, current_time: float, step_size: float) -> bool:
         sim = self.sim
         if sim is None:
-            self._fail("doStep before initialization")
-            return False
+            return self._refuse("doStep before initialization")
         dt_ns = sim.dt_ns
         steps = step_size * NS_PER_S / dt_ns
         if round(steps) < 1 or abs(steps - round(steps)) > TIME_SLACK:
-            self._fail(f"a communication step of {step_size:.9g} s is not a whole multiple of the scene's base "
-                       f"step dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
+            return self._refuse(f"a communication step of {step_size:.9g} s is not a whole multiple of the scene's "
+                                f"base step dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
         if abs(current_time * NS_PER_S - sim.time_ns) > TIME_SLACK * dt_ns:
-            self._fail(f"doStep from t = {current_time:.9g} s, but the scene is at t = {sim.time_ns / NS_PER_S:.9g} s "
-                       "(a co-simulation steps on from where it is)")
+            return self._refuse(f"doStep from t = {current_time:.9g} s, but the scene is at t = "
+                                f"{sim.time_ns / NS_PER_S:.9g} s (a co-simulation steps on from where it is)")
         end_tick = sim.tick + round(steps)
         try:
             while sim.tick < end_tick and sim.stop_reason is None:
                 sim.step()
         except Exception as exc:  # a SimulationError: the scene failed at a time it names
-            self._fail(str(exc))
+            return self._refuse(str(exc))
         if sim.stop_reason is not None:
             sim.tick = end_tick  # the scene has stopped itself: time goes on, the outputs hold
         self._publish()
