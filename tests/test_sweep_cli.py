@@ -36,6 +36,11 @@ def test_sweep_runs_reports_and_resumes(tmp_path, monkeypatch, capsys):
     assert ("sweep: 6 points (grid of 2 components.ball.angle_deg x 3 components.ball.speed) "
             "on process pool of 2 workers") in out
     assert "ran 6, 0 already in the table; 6 stopped;" in out and "table: results/balls.csv" in out
+    # the sweep's wall over its runs, and each run's own time in its worker (two run at once)
+    import re
+
+    per_run, own = map(float, re.search(r"\(([0-9.e-]+) s a run; each ([0-9.e-]+) s in its worker\)", out).groups())
+    assert per_run > 0 and own > 0
     assert (tmp_path / "results" / "balls.csv").exists()
     assert (tmp_path / "results" / "balls.meta.json").exists()
     assert main(["sweep", str(path), "-q", "--workers", "2"]) == 0

@@ -116,6 +116,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-figure", action="store_true", help="do not draw the summary figure")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 if any run failed (without it, only if every run failed)")
-    p.add_argument("--dry-run", action="store_true", help="validate and list the points; run nothing")
+    p.add_argument("--dry-run", action="store_true",
+                   help="validate the sweep and its first point's scene, and list the points; run nothing (a "
+                        "later point whose values make no scene becomes a failed row when it runs)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)

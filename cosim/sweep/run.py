@@ -44,6 +44,7 @@ class SweepOutcome:
     interrupted: bool = False
     unfinished: int = 0
     wall_s: float = 0.0
+    run_wall_s: float = 0.0  # the runs' own wall times summed [s] (each in its worker)
     rows: list[dict[str, str]] = field(default_factory=list)
     figure: Path | None = None
     failures: list[tuple[int, str, str]] = field(default_factory=list)
@@ -56,7 +57,9 @@ class SweepOutcome:
         """The closing lines printed by ``cosim sweep``."""
         statuses = ", ".join(f"{n} {s}" for s, n in sorted(self.counts.items())) or "nothing"
         lines = [f"{self.sweep.describe()} on {self.backend}"]
-        per_run = f" ({self.wall_s / self.ran:.3g} s per run)" if self.ran else ""
+        # the sweep's wall over its runs, and a run's own time in its worker (the workers run at once)
+        per_run = (f" ({self.wall_s / self.ran:.3g} s a run; each {self.run_wall_s / self.ran:.3g} s in its worker)"
+                   if self.ran else "")
         lines.append(f"  ran {self.ran}, {self.already} already in the table; {statuses}; "
                      f"wall {self.wall_s:.3g} s{per_run}")
         if not self.complete:
@@ -145,6 +148,8 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         row["index"] = point.index
         table.append(row)
         outcome.ran += 1
+        wall = row.get("wall_s")
+        outcome.run_wall_s += float(wall) if isinstance(wall, (int, float)) and math.isfinite(wall) else 0.0
         outcome.counts[row["status"]] += 1
         if row["status"] == "failed":
             outcome.failures.append((point.index, point.label(), str(row.get("reason", ""))))
