@@ -297,6 +297,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     rec = Recording(args.recording)
     if args.from_time is None:
         names = [args.component] if args.component else rec.scene().order
+        status = rec.status()
+        if status is not None and status.status == "failed":  # replayed up to where it failed: say so
+            print(f"the recorded run failed at t = {status.time:g} s ({one_line(status.reason)}): each component "
+                  "is replayed up to it")
         worst = EXIT_OK
         for name in names:
             report = replay_component(rec, name)

@@ -77,6 +77,10 @@ def test_simulation_failure_exits_1_and_keeps_the_recording(tmp_path):
     assert "error: component 'bad' failed at t = 0.01 s: RuntimeError: boom" in proc.stderr
     assert "Traceback" not in proc.stderr
     assert (tmp_path / "f.mcap").exists() and not list(tmp_path.glob("f.mcap*.part"))
+    replayed = cosim("replay", "f.mcap", cwd=tmp_path)  # it says the run failed, and replays up to it
+    assert replayed.returncode == 0
+    assert replayed.stdout.splitlines()[0] == ("the recorded run failed at t = 0.01 s (component 'bad' failed at "
+                                               "t = 0.01 s: RuntimeError: boom): each component is replayed up to it")
 
 
 def test_corrupt_recording_exits_2(tmp_path):
