@@ -53,7 +53,7 @@ def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
         step_ns = round(args.step * NS_PER_S)
         check_step(step_ns, scene, given=args.step)
     return unique(ExportSpec(tuple(parameters), tuple(outputs), preset, step_ns, scene.base_dir,
-                             tuple(scene.overrides)), scene.source)
+                             tuple(scene.overrides), scene.dt_ns, scene.until_ns), scene.source)
 
 
 def fmu_path(text: str) -> str:

@@ -91,8 +91,13 @@ class SceneSlave(Fmi2Slave):
             variability = Fmi2Variability.continuous if o.kind == "real" else Fmi2Variability.discrete
             self.register_variable(kind(o.name, causality=Fmi2Causality.output, variability=variability,
                                         description=o.description, getter=self._getter(o.name)))
-        if self.spec.step_ns:
-            self.default_experiment = DefaultExperiment(start_time=0.0, step_size=self.spec.step_ns / NS_PER_S)
+        # the scene's own end and step (or --step's): a master's defaults (FMPy's 1 s, its own interval)
+        # stopped a throw before the stone sank, or stepped off the scene's grid
+        step_ns = self.spec.step_ns or self.spec.dt_ns
+        if step_ns:
+            self.default_experiment = DefaultExperiment(
+                start_time=0.0, stop_time=self.spec.until_ns / NS_PER_S if self.spec.until_ns else None,
+                step_size=step_ns / NS_PER_S)
 
     def _getter(self, name: str) -> Any:
         return lambda: self.values[name]

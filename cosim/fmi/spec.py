@@ -68,6 +68,8 @@ class ExportSpec:
     step_ns: int = 0  # the default communication step [ns]
     base_dir: str = "."  # where the scene's relative file names start
     overrides: tuple[str, ...] = ()  # the export's own --set, applied before the parameters
+    dt_ns: int = 0  # the scene's base step [ns]: the default communication step without --step
+    until_ns: int = 0  # the scene's end [ns]: the default experiment's stop time
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=1)
@@ -78,7 +80,8 @@ class ExportSpec:
         return ExportSpec(parameters=tuple(Parameter(**p) for p in data["parameters"]),
                           outputs=tuple(Output(**o) for o in data["outputs"]), preset=data["preset"],
                           step_ns=data["step_ns"], base_dir=data["base_dir"],
-                          overrides=tuple(data.get("overrides", ())))
+                          overrides=tuple(data.get("overrides", ())), dt_ns=int(data.get("dt_ns", 0)),
+                          until_ns=int(data.get("until_ns", 0)))
 
 
 def load_preset(name: str) -> Any:
