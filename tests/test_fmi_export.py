@@ -255,3 +255,15 @@ def test_a_file_name_that_is_no_python_class_name_gets_an_identifier_that_is(nam
     from cosim.fmi.export import model_identifier
 
     assert model_identifier(Path(name)) == identifier
+
+
+def test_the_default_experiment_runs_the_whole_scene_on_its_grid(exported):
+    """The model description's default experiment: the scene's end as its stop time, the export's
+    step as its step (none was written without --step, and FMPy's defaults stopped at 1 s)."""
+    from fmpy import read_model_description
+
+    fmu, _ = exported
+    experiment = read_model_description(str(fmu)).defaultExperiment
+    scene = load(SKIP_SCENE)
+    assert float(experiment.stopTime) == scene.until_ns / 1e9
+    assert float(experiment.stepSize) == STEP
