@@ -163,7 +163,7 @@ class Component:
     def notices(self) -> list[str]:
         """What is worth saying about this component's settings though the scene is not refused for
         it (a mode known to mislead), as plain sentences. The scene keeps them (``Scene.notices``);
-        ``cosim run`` and ``validate`` say each once, as a warning line (``sweep``, its first point's).
+        ``cosim run``, ``validate`` and ``sweep`` say each once, as a warning line.
         Default: none."""
         return []
 

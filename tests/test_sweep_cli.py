@@ -270,3 +270,17 @@ def test_a_figure_that_cannot_be_written_says_the_table_is_complete(tmp_path, ca
                                        "figure out)\n")
     assert leftovers(tmp_path) == {"x.png", "x.csv", "x.meta.json"}
     assert len(out.read_text().splitlines()) == 7
+
+
+def test_a_later_points_notice_is_said_once_after_the_sweep(tmp_path, capsys):
+    """Only the first point's scene is loaded before the sweep: a notice of a later point's scene
+    (here its column displacement) is said once the sweep has run, naming a point that has it (it
+    was never said)."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml"
+    path = tmp_path / "modes.yaml"
+    path.write_text(f"scene: {scene}\naxes:\n  components.pine_water.displacement_mode: [ring, column]\n"
+                    "set: {until: 0.01}\noutput: modes.csv\n")
+    assert main(["sweep", str(path), "-q", "--workers", "2", "--no-figure", "-o", str(tmp_path / "m.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("warning: components.pine_water: displacement_mode: column reads the surface") == 1
+    assert err.rstrip().endswith("(point components.pine_water.displacement_mode=column, and any other like it)")

@@ -88,6 +88,7 @@ def run_task(task: Task) -> dict[str, Any]:
             row.update(reason=task.problem, error_type="ScenarioError")
         else:
             scene = loads(task.scene_text, task.scene_source, list(task.overrides))
+            row["notices"] = list(scene.notices)  # said by the command, not kept in the table
             outcome = run_scene(scene, task.recording, progress=False, command_line=task.command_line)
             result = outcome.result
             row.update(status=result.status, reason=result.reason, sim_time_s=result.time_ns / NS_PER_S,

@@ -79,6 +79,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finally:
         backend.close()
     print(outcome.summary())
+    for notice, label in outcome.notices.items():  # a later point's (the first point's were said)
+        if notice not in sweep.notices:
+            print(f"warning: {one_line(notice)} (point {label}, and any other like it)", file=sys.stderr)
     if outcome.complete and sweep.figure is not None and outcome.figure is None and not args.no_figure:
         print("  no figure: matplotlib is not installed (pip install 'cosim[viz]')")
     if not outcome.complete:

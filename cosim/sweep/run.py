@@ -48,6 +48,7 @@ class SweepOutcome:
     rows: list[dict[str, str]] = field(default_factory=list)
     figure: Path | None = None
     failures: list[tuple[int, str, str]] = field(default_factory=list)
+    notices: dict[str, str] = field(default_factory=dict)  # each point scene's notice, and the first point's label
 
     @property
     def complete(self) -> bool:
@@ -147,6 +148,8 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         row.update({a.name: point.values[a.name] for a in sweep.axes})
         row["index"] = point.index
         table.append(row)
+        for notice in row.get("notices") or ():
+            outcome.notices.setdefault(notice, point.label())
         outcome.ran += 1
         wall = row.get("wall_s")
         outcome.run_wall_s += float(wall) if isinstance(wall, (int, float)) and math.isfinite(wall) else 0.0
