@@ -284,3 +284,15 @@ def test_a_later_points_notice_is_said_once_after_the_sweep(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("warning: components.pine_water: displacement_mode: column reads the surface") == 1
     assert err.rstrip().endswith("(point components.pine_water.displacement_mode=column, and any other like it)")
+
+
+def test_a_dry_run_loads_every_points_scene_and_names_the_invalid_ones(tmp_path, capsys):
+    """--dry-run said 'ok' for a sweep whose third point makes no scene, found only as a failed row
+    when it ran; it now loads each point's scene and names the ones that are invalid."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    path = tmp_path / "radii.yaml"
+    path.write_text(f"scene: {scene}\naxes:\n  components.stone.radius: [0.05, 0.04, -0.01]\noutput: r.csv\n")
+    assert main(["sweep", str(path), "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "  2 of 3 points checked make valid scenes" in out
+    assert "invalid #2 " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out
