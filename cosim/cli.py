@@ -234,14 +234,13 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 def cmd_components(args: argparse.Namespace) -> int:
     from cosim.record.output import written_whole
-    from cosim.registry import registered, type_info, type_text, types_page
+    from cosim.registry import project_types, registered, type_info, type_text, types_page
 
-    own = [names[0] for target, names in registered().items() if target.partition(".")[0] in ("cosim", "components")]
     unknown = [info.problem for info in map(type_info, args.types) if info.problem and info.target not in registered()]
     if unknown:
         raise ScenarioError(unknown, "cosim components")
     if args.markdown is not None:
-        chosen = args.types or sorted(own)
+        chosen = args.types or project_types()
         with written_whole(args.markdown) as tmp:
             tmp.write_text(types_page(chosen), encoding="utf-8")
         print(f"wrote {args.markdown}: {len(chosen)} component types")

@@ -138,6 +138,13 @@ def registered() -> dict[str, list[str]]:
     return names
 
 
+def project_types() -> list[str]:
+    """The names of this project's own registered types (of ``cosim`` and ``components``), sorted:
+    the types docs/components.md describes (another installed package's are not this project's)."""
+    return sorted(names[0] for target, names in registered().items()
+                  if target.partition(".")[0] in ("cosim", "components"))
+
+
 def first_paragraph(text: str | None) -> str:
     """The first paragraph of a docstring, on one line."""
     return " ".join((text or "").strip().split("\n\n")[0].split())

@@ -10,10 +10,10 @@ import pytest
 
 from cosim.cli import main
 from cosim.params import describe, param, yaml_text
-from cosim.registry import registered, type_info, types_page
+from cosim.registry import project_types, registered, type_info, types_page
 
 ROOT = Path(__file__).resolve().parents[1]
-OWN = sorted(names[0] for target, names in registered().items() if target.startswith(("cosim.", "components.")))
+OWN = project_types()
 
 
 def test_the_reference_page_is_the_one_the_code_makes():
