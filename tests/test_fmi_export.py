@@ -267,3 +267,29 @@ def test_the_default_experiment_runs_the_whole_scene_on_its_grid(exported):
     scene = load(SKIP_SCENE)
     assert float(experiment.stopTime) == scene.until_ns / 1e9
     assert float(experiment.stepSize) == STEP
+
+
+def test_the_model_description_gives_each_real_its_unit(exported):
+    """Each Real parameter and output names its unit, defined under UnitDefinitions (pythonfmu 0.7
+    writes none: FMPy showed an empty unit column), and FMPy still finds no problem."""
+    from fmpy import read_model_description
+
+    fmu, _ = exported
+    md = read_model_description(str(fmu))
+    units = {v.name: v.unit for v in md.modelVariables}
+    assert (units["x"], units["vz"], units["speed"], units["tilt_deg"]) == ("m", "m/s", "m/s", "deg")
+    assert units["stage"] is None  # an Integer has none
+    assert {u.name for u in md.unitDefinitions} >= {"m", "m/s", "deg"}
+
+
+def test_a_boolean_field_is_a_boolean_output(tmp_path):
+    """--output-var of a bool field exports a Boolean (it was an Integer), true while the stone is wet."""
+    from fmpy import read_model_description, simulate_fmu
+
+    out = tmp_path / "wet.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), "--step", "0.01",
+                 "--output-var", "wet=coupler.contact.wetted"]) == 0
+    (wet,) = [v for v in read_model_description(str(out)).modelVariables if v.name == "wet"]
+    assert wet.type == "Boolean"
+    result = simulate_fmu(str(out), stop_time=0.2, output=["wet"])
+    assert not result["wet"][0] and result["wet"].any()  # dry at the throw, wet at the first touchdown

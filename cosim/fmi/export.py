@@ -2,9 +2,10 @@
 
 The FMU packs the scene's text and its :class:`~cosim.fmi.spec.ExportSpec` as resources beside a
 two-line slave module, a subclass of :class:`cosim.fmi.slave.SceneSlave` named after the FMU (its
-model identifier). pythonfmu writes the model description without ``InitialUnknowns``; the outputs
-are computed at initialization (initial ``calculated``), so they are added, and FMPy's validation
-of the model description then finds nothing to report.
+model identifier). pythonfmu writes the model description without ``InitialUnknowns`` and without
+units; the outputs are computed at initialization (initial ``calculated``), so they are added, and so
+are the Real variables' units with their definitions. FMPy's validation of the model description
+then finds nothing to report.
 """
 
 from __future__ import annotations
@@ -14,7 +15,9 @@ import re
 import shutil
 import tempfile
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 from cosim.errors import ScenarioError
 from cosim.fmi.build import build_fmu
@@ -48,20 +51,40 @@ class {identifier}(SceneSlave):
 '''
 
 
-def add_initial_unknowns(fmu: Path) -> None:
-    """Rewrite ``fmu`` with every output listed under ``ModelStructure/InitialUnknowns``."""
+def add_initial_unknowns(text: str) -> str:
+    """The model description ``text`` with every output listed under ``ModelStructure/InitialUnknowns``."""
+    outputs = re.search(r"<Outputs>(.*?)</Outputs>", text, re.S)
+    if outputs is None or "<InitialUnknowns>" in text:
+        return text
+    unknowns = "".join(f"\n\t\t\t{u}" for u in re.findall(r"<Unknown [^>]*/>", outputs.group(1)))
+    return text.replace("</Outputs>", f"</Outputs>\n\t\t<InitialUnknowns>{unknowns}\n\t\t</InitialUnknowns>", 1)
+
+
+def add_units(text: str, spec: ExportSpec) -> str:
+    """The model description ``text`` with each Real variable's unit (pythonfmu 0.7 writes none) and
+    the units' definitions, which FMI 2.0 asks for every unit a variable names."""
+    units = {v.name: v.unit for v in (*spec.parameters, *spec.outputs)
+             if v.unit and getattr(v, "kind", "real") == "real"}
+    if not units or "<UnitDefinitions>" in text:
+        return text
+    for name, unit in units.items():
+        text = re.sub(rf'(<ScalarVariable name="{re.escape(name)}"[^>]*>\s*<Real)', rf"\1 unit={quoteattr(unit)}",
+                      text, count=1)
+    definitions = "".join(f"\n\t\t<Unit name={quoteattr(unit)}/>" for unit in sorted(set(units.values())))
+    # FMI 2.0's order: CoSimulation, then UnitDefinitions, before the log categories and the variables
+    return re.sub(r"(<CoSimulation [^>]*/>)", lambda m: f"{m.group(1)}\n\t<UnitDefinitions>{definitions}"
+                  "\n\t</UnitDefinitions>", text, count=1)
+
+
+def _rewrite_description(fmu: Path, edit: Callable[[str], str]) -> None:
+    """Rewrite ``fmu`` with its model description passed through ``edit``."""
     with zipfile.ZipFile(fmu) as z:
         entries = [(info, z.read(info.filename)) for info in z.infolist()]
     text = next(data for info, data in entries if info.filename == MODEL_DESCRIPTION).decode("utf-8")
-    outputs = re.search(r"<Outputs>(.*?)</Outputs>", text, re.S)
-    if outputs is None or "<InitialUnknowns>" in text:
-        return
-    unknowns = "".join(f"\n\t\t\t{u}" for u in re.findall(r"<Unknown [^>]*/>", outputs.group(1)))
-    text = text.replace("</Outputs>", f"</Outputs>\n\t\t<InitialUnknowns>{unknowns}\n\t\t</InitialUnknowns>", 1)
     part = fmu.with_name(fmu.name + ".part")
     with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
         for info, data in entries:
-            z.writestr(info, text.encode("utf-8") if info.filename == MODEL_DESCRIPTION else data)
+            z.writestr(info, edit(text).encode("utf-8") if info.filename == MODEL_DESCRIPTION else data)
     part.replace(fmu)
 
 
@@ -86,7 +109,7 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
         (folder / SPEC_FILE).write_text(spec.to_json(), encoding="utf-8")
         built = build_fmu(script, folder / "out" / output.name, extra_files=[folder / SCENE_FILE, folder / SPEC_FILE],
                           state=True)
-        add_initial_unknowns(built)
+        _rewrite_description(built, lambda text: add_units(add_initial_unknowns(text), spec))
         output.parent.mkdir(parents=True, exist_ok=True)
         shutil.move(str(built), str(output))
     return output

@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
 
@@ -48,11 +48,11 @@ class _Latest(BaseObserver):
 def _value(out: Output, msg: Message | None) -> Any:
     """An output's value from its port's latest message (zero before the port's first message)."""
     if msg is None:
-        return 0.0 if out.kind == "real" else 0
+        return {"real": 0.0, "boolean": False}.get(out.kind, 0)
     value = getattr(msg, out.field)
     if out.index is not None:
         value = value[out.index]
-    return float(value) if out.kind == "real" else int(value)
+    return {"real": float, "boolean": bool}.get(out.kind, int)(value)
 
 
 _held_namespaces: list[dict[str, Any]] = []
@@ -85,9 +85,9 @@ class SceneSlave(Fmi2Slave):
                                         variability=Fmi2Variability.fixed, description=p.description,
                                         getter=self._getter(p.name), setter=self._setter(p.name)))
         for o in self.spec.outputs:
-            self.values[o.name] = 0.0 if o.kind == "real" else 0
-            kind = Real if o.kind == "real" else Integer
-            # an Integer changes only at communication points: discrete, as FMI asks of it
+            self.values[o.name] = _value(o, None)
+            kind = {"real": Real, "boolean": Boolean}.get(o.kind, Integer)
+            # an Integer or a Boolean changes only at communication points: discrete, as FMI asks of it
             variability = Fmi2Variability.continuous if o.kind == "real" else Fmi2Variability.discrete
             self.register_variable(kind(o.name, causality=Fmi2Causality.output, variability=variability,
                                         description=o.description, getter=self._getter(o.name)))
