@@ -62,6 +62,7 @@ out from the angular momentum, whose round-off across the axis (1e-16 of it) is 
 there: beyond about 1/sqrt(machine epsilon) it is no longer small, and a long rod's spin grows
 without bound (a disk 1e20 m thick and 2.5 cm across failed at its fifth step)."""
 MAX_THICKNESS_PER_RADIUS = math.sqrt(6.0 * (MAX_INERTIA_RATIO - 0.5))  # I_d / I_a = 1/2 + e^2 / (6 R^2)
+HEADING_SPEED = 1e-6  # [m/s] a body let go slower than this horizontally has no heading of its own
 BANK_NOTICE_DEG = 1.0  # [deg] a thrown disk banked more than this across its throw is said as the scene loads
 GRAVITY_MAX = 1e4  # [m/s^2] a component of the body's gravity at most (the coupler's g has the same bound)
 POSITION_MAX = 1e6  # [m] a start coordinate at most: 1000 km, the water's own bound (components.water.grid.LEVEL_MAX)
@@ -237,7 +238,7 @@ class RigidBody(Component):
         p: RigidBodyParams = self.params
         vx, vy = float(p.velocity[0]), float(p.velocity[1])
         speed = math.hypot(vx, vy)
-        if p.shape != "disk" or p.tilt_deg == 0.0 or speed < 1e-6 or p.scripted_tilt_deg:
+        if p.shape != "disk" or p.tilt_deg == 0.0 or speed < HEADING_SPEED or p.scripted_tilt_deg:
             return []  # (a body let go with no horizontal speed of its own has no front edge)
         n = quat.body_axis(quat.from_axis_angle(self.tilt_axis, math.radians(p.tilt_deg)))  # the face's normal
         # the face rises towards -n's horizontal part: its pitch along the throw and its bank across it

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from components.messages import BodyState, GroundContact, SkipRecord, Stage, StageId, WaterContact
-from components.rigid_body import gravity_mismatch
+from components.rigid_body import HEADING_SPEED, gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -363,7 +363,6 @@ class StageMonitor(Component):
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
 SETTLED_SPEED = 0.01  # [m/s] a floating body slower than this has settled: the run may end
-HEADING_SPEED = 1e-6  # [m/s] a body let go slower than this horizontally has no heading of its own (+x)
 
 
 def _vertical_water_force(water: WaterContact) -> float:

@@ -13,13 +13,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from cosim.codec.json_codec import codec_for, decode_state
+from cosim.codec.json_codec import codec_for
 from cosim.component import Component
 from cosim.errors import RecordingError
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
 from cosim.record.recorder import topic_of
-from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start
+from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start, restore_component, saved_messages
 from cosim.timebase import NS_PER_S
 
 
@@ -144,8 +144,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             edge = _Edge(conn, src.slot, spec.event)
             if restart is not None:  # the port's last messages and the edge's deliveries, as the restart had them
                 cp = restart[1]
-                src.slot.entries = [(stamp, codec_for(spec.type).decode(payload.encode())) for stamp, payload in
-                                    cp["slots"].get(f"{conn.source}.{conn.source_port}", [])]
+                src.slot.entries = saved_messages(cp, conn.source, conn.source_port, spec.type)
                 edge.last_delivered = cp["edges"][scene.connections.index(conn)]
             edges.append(edge)
         plan.append((port, edges))
@@ -195,10 +194,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         comp.begin(gather_start(plan))
     else:  # the component as the restart's checkpoint holds it, from its first step after it
         stamp, cp = restart
-        saved = cp["components"][name]
-        state = saved["state"]
-        comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
-        comp.step_count, comp.status = saved["step_count"], "initialized"
+        restore_component(comp, cp["components"][name])
         first_tick = -(-(stamp // dt_ns) // every) * every
     steps = 0
     seconds = 0.0  # in the component's steps, the first one left out

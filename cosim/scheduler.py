@@ -207,6 +207,20 @@ def gather(plan: list[tuple[str, list[_Edge]]], start: int, end: int) -> dict[st
     return inputs
 
 
+def restore_component(comp: Component, saved: dict[str, Any]) -> None:
+    """Put ``comp`` back as a checkpoint saved it (``saved``: its entry under ``components``)."""
+    state = saved["state"]
+    comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
+    comp.step_count = saved["step_count"]
+    comp.status = "initialized"
+
+
+def saved_messages(cp: dict[str, Any], component: str, port: str, msg_type: type[Message]) -> list[tuple[int, Message]]:
+    """The last messages of output ``component.port`` a checkpoint holds, as (stamp [ns], message)."""
+    return [(stamp, codec_for(msg_type).decode(payload.encode()))
+            for stamp, payload in cp["slots"].get(f"{component}.{port}", [])]
+
+
 def gather_start(plan: list[tuple[str, list[_Edge]]]) -> dict[str, Message | None]:
     """The inputs at t = 0 (:meth:`cosim.component.Component.start_inputs`): each port's edge value
     then, summed over several edges as :func:`gather` does."""
@@ -392,14 +406,9 @@ class Simulation:
             saved = cp["components"].get(runner.name)
             if saved is None:
                 raise ValueError(f"checkpoint has no state for component {runner.name!r}")
-            state = saved["state"]
-            runner.comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
-            runner.comp.step_count = saved["step_count"]
-            runner.comp.status = "initialized"
+            restore_component(runner.comp, saved)
             for port, slot in runner.slots.items():
-                msg_type = runner.comp.outputs[port].type
-                slot.entries = [(stamp, codec_for(msg_type).decode(payload.encode()))
-                                for stamp, payload in cp["slots"].get(f"{runner.name}.{port}", [])]
+                slot.entries = saved_messages(cp, runner.name, port, runner.comp.outputs[port].type)
         if len(cp["edges"]) == len(self.edges):
             for edge, last in zip(self.edges, cp["edges"], strict=False):
                 edge.last_delivered = last
