@@ -27,6 +27,7 @@ from cosim.codec.json_codec import codec_for
 from cosim.errors import RecordingError
 from cosim.messages import Message
 from cosim.record.reader import Recording
+from cosim.record.recorder import component_of
 from cosim.timebase import NS_PER_S
 
 
@@ -73,7 +74,7 @@ class BodyTrack:
 
     @property
     def name(self) -> str:
-        return self.topic.strip("/").split("/")[0]
+        return component_of(self.topic)
 
     def index_at(self, t: float) -> int:
         """Index of the last state at or before ``t`` (the first one before the start)."""
@@ -162,10 +163,6 @@ class RunData:
     step: float = 0.0  # the body's step [s] (the scene's dt times its every; 0 when not known)
 
 
-def _component(topic: str) -> str:
-    return topic.strip("/").split("/")[0]
-
-
 def default_body_topic(rec: Recording, topics: list[str]) -> str:
     """Of several bodies' channels, the one to show by default: the first body, in the scene's
     order, that a stage monitor watches (the thrown stone, not a ball floating beside it), else the
@@ -176,10 +173,10 @@ def default_body_topic(rec: Recording, topics: list[str]) -> str:
         scene = rec.scene()
     except Exception:  # an old or damaged scene: the first by name
         return topics[0]
-    watched = {c.source for c in scene.connections if c.target in {_component(t) for t in topics_of(rec, Stage)}}
-    by_order = sorted(topics, key=lambda t: (scene.order.index(_component(t)) if _component(t) in scene.order
+    watched = {c.source for c in scene.connections if c.target in {component_of(t) for t in topics_of(rec, Stage)}}
+    by_order = sorted(topics, key=lambda t: (scene.order.index(component_of(t)) if component_of(t) in scene.order
                                              else len(scene.order), t))
-    return next((t for t in by_order if _component(t) in watched), by_order[0])
+    return next((t for t in by_order if component_of(t) in watched), by_order[0])
 
 
 def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
@@ -189,9 +186,9 @@ def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
         raise RecordingError(f"{rec.path}: no BodyState channel, nothing to show "
                              f"(channels: {', '.join(sorted(rec.channels))})")
     if body is not None:
-        wanted = [t for t in topics if _component(t) == body]
+        wanted = [t for t in topics if component_of(t) == body]
         if not wanted:
-            names = ", ".join(_component(t) for t in topics)
+            names = ", ".join(component_of(t) for t in topics)
             raise RecordingError(f"{rec.path}: no body named {body!r} (bodies: {names})")
         topics = wanted
     topic = default_body_topic(rec, topics)
@@ -231,12 +228,12 @@ def body_water_topic(rec: Recording, body: str, fields: list[str]) -> str | None
         return fields[0]
     readers = {c.target for c in connections if c.source == body}
     waters = {c.source for c in connections if c.target in readers}
-    return next((f for f in fields if _component(f) in waters), fields[0])
+    return next((f for f in fields if component_of(f) in waters), fields[0])
 
 
 def own(topics: list[str], linked: set[str] | None) -> list[str]:
     """The channels ``/component/port`` of the linked components (all when ``linked`` is None)."""
-    return topics if linked is None else [t for t in topics if t.strip("/").split("/")[0] in linked]
+    return topics if linked is None else [t for t in topics if component_of(t) in linked]
 
 
 def load_run(recording: str | Path | Recording, body: str | None = None) -> RunData:
@@ -246,7 +243,7 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     rec = recording if isinstance(recording, Recording) else Recording(recording)
     path = rec.path
     track = load_body(rec, body)
-    linked = linked_components(rec, track.topic.strip("/").split("/")[0])
+    linked = linked_components(rec, component_of(track.topic))
     stages = None
     stage_topics = own(topics_of(rec, Stage), linked)
     if stage_topics:

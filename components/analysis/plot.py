@@ -33,6 +33,7 @@ from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_colo
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
 from cosim.record.output import output_folder, written_whole
 from cosim.record.reader import Recording
+from cosim.record.recorder import component_of
 
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
@@ -204,9 +205,9 @@ def energy_terms(run: RunData) -> dict[str, np.ndarray]:
         terms[f"dissipated by ground ({g.topic})"] = _hold_a_step_before(g.t, g.dissipated, body.t, run.step)
     # a wrench from anything but a water coupler (whose work is its dissipation, above) does work on
     # the body: the force held over each of the body's steps along its move, taken off the total
-    couplers = {_component(c.topic) for c in run.contacts}
+    couplers = {component_of(c.topic) for c in run.contacts}
     for w in run.wrenches:
-        if _component(w.topic) in couplers or len(body.t) < 2:
+        if component_of(w.topic) in couplers or len(body.t) < 2:
             continue
         force = np.stack([_hold(w.t, w.force[:, k], body.t[:-1], before=0.0) for k in range(3)], axis=1)
         work = np.concatenate([[0.0], np.cumsum(np.einsum("ij,ij->i", force, np.diff(body.position, axis=0)))])
@@ -224,10 +225,6 @@ def _reports_contacts(rec: Recording) -> bool:
         return True
     kinds = (WaterContact, GroundContact)
     return any(port.type in kinds for cfg in configs for port in cfg.cls.outputs.values())
-
-
-def _component(topic: str) -> str:
-    return topic.strip("/").split("/")[0]
 
 
 def _hold_a_step_before(t: np.ndarray, values: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:

@@ -94,6 +94,11 @@ def topic_of(component: str, port: str) -> str:
     return f"/{component}/{port}"
 
 
+def component_of(topic: str) -> str:
+    """The component whose output a channel ``/component/port`` carries (:func:`topic_of`'s inverse)."""
+    return topic.strip("/").split("/")[0]
+
+
 Deriver = Callable[[int, str, str, Message], Iterable[DerivedMessage]]
 """Called with (time_ns, component, port, msg) for every exchange; yields extra messages to write.
 A deriver may also have ``watches(component, port, message_type) -> bool``: False when it never
