@@ -204,7 +204,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 def say_notices(notices: list[str]) -> None:
     """A loaded scene's notices (``Scene.notices``), one warning line each."""
     for notice in notices:
-        print(f"warning: {_one_line(notice)}", file=sys.stderr, flush=True)
+        say_warning(notice)
+
+
+def say_warning(text: str, file: Any = None) -> None:
+    """``warning: TEXT`` on one line, on stderr (or ``file``), at once."""
+    print(f"warning: {_one_line(text)}", file=sys.stderr if file is None else file, flush=True)
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -593,7 +598,7 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
                       file: Any = None, line: str | None = None) -> None:
     """A warning as the program shows it: ``warning: TEXT``, one line, without the Python file and
     line that issued it (those are for --debug and the tests)."""
-    print(f"warning: {_one_line(str(message))}", file=sys.stderr if file is None else file, flush=True)
+    say_warning(str(message), file)
 
 
 # The cyclic garbage collector while a process starts up: importing and starting numba leaves about
