@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int, say_notices
+from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int, say_notices, say_warning
 
 SHOWN_POINTS = 10  # --dry-run lists this many points
 DRY_RUN_CHECKED = 2000  # --dry-run loads this many points' scenes at most (about 10 ms each)
@@ -84,7 +84,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     print(outcome.summary())
     for notice, label in outcome.notices.items():  # a later point's (the first point's were said)
         if notice not in sweep.notices:
-            print(f"warning: {one_line(notice)} (point {label}, and any other like it)", file=sys.stderr)
+            say_warning(f"{notice} (point {label}, and any other like it)")
     if outcome.complete and sweep.figure is not None and outcome.figure is None and not args.no_figure:
         print("  no figure: matplotlib is not installed (pip install 'cosim[viz]')")
     if not outcome.complete:
