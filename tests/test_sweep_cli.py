@@ -27,8 +27,8 @@ output: results/balls.csv
 
 
 def test_sweep_runs_reports_and_resumes(tmp_path, monkeypatch, capsys):
-    """`cosim sweep` exits 0 and prints the points, statuses, table and figure; run again, it says it
-    resumes and runs nothing; --fresh runs everything again."""
+    """`cosim sweep` exits 0 and prints the points, statuses, table and figure; run again, it says the
+    table holds every point and runs nothing; --fresh runs everything again."""
     monkeypatch.chdir(tmp_path)
     path = write_sweep(tmp_path, SWEEP)
     assert main(["sweep", str(path), "-q", "--workers", "2"]) == 0
@@ -45,8 +45,9 @@ def test_sweep_runs_reports_and_resumes(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "results" / "balls.meta.json").exists()
     assert main(["sweep", str(path), "-q", "--workers", "2"]) == 0
     captured = capsys.readouterr()
-    assert "resuming results/balls.csv: its 6 points are skipped" in captured.err
+    assert "results/balls.csv holds every point of this sweep: nothing to run" in captured.err
     assert "ran 0, 6 already in the table" in captured.out
+    assert "process pool" not in captured.out  # nothing ran on it
     assert main(["sweep", str(path), "-q", "--workers", "2", "--fresh", "--no-figure"]) == 0
     assert "ran 6, 0 already" in capsys.readouterr().out
 

@@ -199,6 +199,30 @@ def test_an_interrupted_table_resumes_to_the_same_table(tmp_path, pool):
     assert (again.already, again.ran) == (9, 0)
 
 
+def test_the_record_keeps_the_first_start_and_adds_each_resume(tmp_path, pool):
+    """The table's record (meta.json) is the sweep's first start: a resume that runs the missing points
+    adds its command, its start and the rows it found under ``resumes``; running the finished sweep
+    again changes neither the table nor its record, to the byte."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    run_sweep(sweep, tmp_path / "full.csv", pool, progress=False, figure=False, command_line="cosim sweep first")
+    first = json.loads((tmp_path / "full.meta.json").read_text())
+    full = (tmp_path / "full.csv").read_text().splitlines(keepends=True)
+    (tmp_path / "full.csv").write_text("".join(full[:4]))  # three rows kept, as by a sweep stopped there
+    del first["finished"], first["counts"]  # and no summary yet: a stopped sweep writes none
+    (tmp_path / "full.meta.json").write_text(json.dumps(first))
+    run_sweep(sweep, tmp_path / "full.csv", pool, progress=False, figure=False, command_line="cosim sweep again")
+    meta = json.loads((tmp_path / "full.meta.json").read_text())
+    assert (meta["command"], meta["started"]) == ("cosim sweep first", first["started"])
+    assert [(r["command"], r["rows_found"]) for r in meta["resumes"]] == [("cosim sweep again", 3)]
+    assert meta["counts"] == {"stopped": 9} and "finished" in meta
+    table, record = (tmp_path / "full.csv").read_bytes(), (tmp_path / "full.meta.json").read_bytes()
+    again = run_sweep(sweep, tmp_path / "full.csv", pool, progress=False, figure=False,
+                      command_line="cosim sweep third")
+    assert (again.already, again.ran, len(again.rows)) == (9, 0, 9)
+    assert (tmp_path / "full.csv").read_bytes() == table
+    assert (tmp_path / "full.meta.json").read_bytes() == record
+
+
 def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
     """`cosim sweep` killed with SIGKILL (workers and all) keeps the rows it wrote; running it again
     finishes the rest, and the table equals that of a sweep never interrupted."""

@@ -71,7 +71,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         resumed = table.exists() and not args.fresh
 
         def resuming(already: int) -> None:  # said once the table is found to be this sweep's
-            print(f"resuming {table}: its {already} points are skipped (--fresh starts over)", file=sys.stderr)
+            if already == len(sweep.points):
+                print(f"{table} holds every point of this sweep: nothing to run (--fresh runs them again)",
+                      file=sys.stderr)
+            else:
+                print(f"resuming {table}: its {already} points are skipped (--fresh starts over)", file=sys.stderr)
 
         outcome = run_sweep(sweep, backend=backend, fresh=args.fresh, progress=not args.quiet,
                             figure=not args.no_figure, command_line=command,

@@ -57,7 +57,7 @@ class SweepOutcome:
     def summary(self) -> str:
         """The closing lines printed by ``cosim sweep``."""
         statuses = ", ".join(f"{n} {s}" for s, n in sorted(self.counts.items())) or "nothing"
-        lines = [f"{self.sweep.describe()} on {self.backend}"]
+        lines = [self.sweep.describe() + (f" on {self.backend}" if self.ran else "")]  # nothing ran on it else
         # the sweep's wall over its runs, and a run's own time in its worker (the workers run at once)
         per_run = (f" ({self.wall_s / self.ran:.3g} s a run; each {self.run_wall_s / self.ran:.3g} s in its worker)"
                    if self.ran else "")

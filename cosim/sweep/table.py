@@ -4,7 +4,9 @@ Each finished run is appended and flushed at once, so a sweep that is killed los
 in flight (a half-written last line is dropped when the table is opened again). When every point has
 a row, the table is rewritten sorted by point index, so equal sweeps give equal tables whatever the
 order the runs finished in; only ``wall_s`` differs. Beside the table, ``<stem>.meta.json`` records
-the sweep file, the base scene, the fingerprint of the runs' settings, the versions and the backend.
+the sweep file, the base scene, the fingerprint of the runs' settings, the versions and the backend,
+as the sweep was first started, and under ``resumes`` each later command that ran more of it or
+finished it (one that finds the table finished changes nothing).
 A ``.parquet`` output is written from the finished CSV (``<stem>.csv`` beside it) with pyarrow.
 """
 
@@ -72,6 +74,7 @@ class ResultTable:
         self._file: io.TextIOWrapper | None = None
         self._writer: Any = None
         self._made: list[Path] = []  # what open() created: the files and folders discard() removes
+        self.already_finished = False  # resumed a table that was finished: open() and finish() write nothing
 
     def open(self, known_ids: set[str], fresh: bool = False) -> dict[str, dict[str, str]]:
         """Start the table, or resume it; returns the rows already there, by point id.
@@ -81,12 +84,21 @@ class ResultTable:
         """
         rows: dict[str, dict[str, str]] = {}
         resume = self.path.exists() and not fresh
+        started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
         if resume:
             try:
-                rows = self._read_existing(known_ids)
+                rows, first = self._read_existing(known_ids)
             except OSError as exc:
                 raise cannot(self.output, exc, "read the sweep's table to resume it") from None
-            self.meta["resumed_with"] = len(rows)
+            if "finished" in first and set(rows) == known_ids and self.output.exists():
+                # nothing to run and nothing to finish: the table and its record stay as they are
+                self.meta, self.already_finished = first, True
+                return rows
+            # the record stays the first start's; this command is added to its resumes
+            resumes = [*first.get("resumes", ()), {
+                "command": self.meta.get("command", ""), "started": started, "rows_found": len(rows),
+                "versions": self.meta.get("versions")}]
+            self.meta = {**first, "resumes": resumes}
         made: list[Path] = []  # what this call creates: removed again if it fails halfway
         try:
             if not resume:
@@ -97,7 +109,8 @@ class ResultTable:
                 made.append(folder)  # deepest first, the order to remove them in
                 folder = folder.parent
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.meta["started"] = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+            if not resume:
+                self.meta["started"] = started
             if not self.meta_path.exists():
                 made.insert(0, self.meta_path)
             self._write_meta()
@@ -117,7 +130,8 @@ class ResultTable:
         self._made = made
         return rows
 
-    def _read_existing(self, known_ids: set[str]) -> dict[str, dict[str, str]]:
+    def _read_existing(self, known_ids: set[str]) -> tuple[dict[str, dict[str, str]], dict[str, Any]]:
+        """(the table's whole rows by point id, its record) of a table this sweep wrote."""
         where = str(self.path)
         if self.path.is_dir():
             raise ScenarioError("is a folder, not a results table: give -o a .csv or .parquet file name", where)
@@ -144,7 +158,7 @@ class ResultTable:
         header = next(reader, None)
         if header is None:  # killed before the header was written
             self.path.unlink()
-            return {}
+            return {}, meta
         if header != self.columns:
             raise ScenarioError("has other columns than this sweep writes; use --fresh to start over or -o "
                                 "for another file", where)
@@ -160,7 +174,7 @@ class ResultTable:
         if strangers:
             raise ScenarioError(f"holds {len(strangers)} points that are not in this sweep (e.g. "
                                 f"{strangers[0]}); use --fresh to start over or -o for another file", where)
-        return rows
+        return rows, meta
 
     def append(self, row: dict[str, Any]) -> None:
         assert self._writer is not None and self._file is not None, "open() the table first"
@@ -188,13 +202,16 @@ class ResultTable:
         so: running the sweep again resumes with nothing left to run and finishes it.
         """
         self.close()
+        if self.already_finished:
+            return self._sorted_rows(order)
         try:
             return self._finish(order, summary)
         except OSError as exc:
             raise cannot(self.output, exc, "write the sweep's finished table",
                          "; its rows are kept: run the same command again to finish it") from None
 
-    def _finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
+    def _sorted_rows(self, order: dict[str, int]) -> list[dict[str, str]]:
+        """The journal's rows of this sweep's points, one a point, by point index."""
         with open(self.path, newline="", encoding="utf-8") as f:
             reader = csv.DictReader(f)
             by_id: dict[str, dict[str, str]] = {}
@@ -204,6 +221,10 @@ class ResultTable:
         rows = sorted(by_id.values(), key=lambda r: order[r["point_id"]])
         for row in rows:
             row["index"] = str(order[row["point_id"]])
+        return rows
+
+    def _finish(self, order: dict[str, int], summary: dict[str, Any]) -> list[dict[str, str]]:
+        rows = self._sorted_rows(order)
         with written_whole(self.path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             writer = csv.DictWriter(f, self.columns, lineterminator="\n")
             writer.writeheader()
