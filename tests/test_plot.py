@@ -331,3 +331,21 @@ def test_a_scene_with_nothing_to_touch_is_said_so_not_that_its_recording_left_co
     capsys.readouterr()
     assert main(["plot", str(tmp_path / "spin.mcap"), "-o", str(tmp_path / "figs")]) == 0
     assert "skipped contacts.png: the scene has neither water nor ground to touch" in capsys.readouterr().out
+
+
+def test_a_restarts_first_states_are_in_the_stage_its_checkpoint_held(tmp_path):
+    """A restart's monitor is restored, not started, so it publishes no stage until the next change:
+    the states from the checkpoint to that change are in the stage the checkpoint held (fly-away at
+    0.2 s here), not in the change's (approach at 0.221 s). (Plots and rendered frames read them alike.)"""
+    from components.analysis.plot import stage_per_sample
+
+    original = tmp_path / "run.mcap"
+    record_skip(original, ["record.visual_rate=0", "record.checkpoint_every=0.1"])
+    whole = load_run(original)
+    assert main(["replay", str(original), "--from", "0.2", "-o", str(tmp_path / "restart.mcap"), "-q"]) == 0
+    restart = load_run(tmp_path / "restart.mcap")
+    assert restart.stages.t[0] == 0.2 and restart.stages.label[0] == "fly-away"
+    early = restart.body.t < 0.221
+    assert early.sum() == 20
+    assert np.all(stage_per_sample(restart)[early] == StageId.FLY_AWAY)
+    assert np.array_equal(stage_per_sample(restart), whole.stages.at(restart.body.t))

@@ -19,10 +19,12 @@ from components.messages import (
     HeightPatch,
     SkipRecord,
     Stage,
+    StageId,
     WaterContact,
     WaterField,
     Wrench,
 )
+from components.stages import STAGE_NAMES
 from cosim.codec.json_codec import codec_for
 from cosim.errors import RecordingError
 from cosim.messages import Message
@@ -44,6 +46,31 @@ def topics_of(rec: Recording, message_type: type[Message]) -> list[str]:
 def _decoded(rec: Recording, topic: str, message_type: type[Message]) -> tuple[np.ndarray, list]:
     pairs = rec.messages(topic, message_type)
     return np.array([t for t, _ in pairs], dtype=np.int64) / NS_PER_S, [m for _, m in pairs]
+
+
+def stage_changes(rec: Recording, topic: str) -> list[tuple[int, Stage]]:
+    """The stage monitor's changes on ``topic``: [(time [ns], Stage)]. A restart's recording begins
+    with the stage its monitor was in at the checkpoint it restarted from (restored, so not published
+    again), at that checkpoint's time: without it the states before the next change would take that
+    change's stage."""
+    pairs = rec.messages(topic, Stage)
+    if rec.restart_ns and not (pairs and pairs[0][0] <= rec.restart_ns):
+        restored = _restored_stage(rec, component_of(topic))
+        if restored is not None:
+            pairs.insert(0, (rec.restart_ns, restored))
+    return pairs
+
+
+def _restored_stage(rec: Recording, monitor: str) -> Stage | None:
+    """The stage monitor's stage in the checkpoint a restart began at, or None (not there, or not
+    one yet)."""
+    checkpoint = rec.checkpoint_at(rec.restart_ns)
+    state = ((checkpoint or {}).get("components", {}).get(monitor) or {}).get("state")
+    if not isinstance(state, dict) or state.get("stage") is None:
+        return None
+    stage = StageId(int(state["stage"]))
+    return Stage(stage, STAGE_NAMES[stage], int(state.get("track", {}).get("skips", 0)),
+                 float(state.get("final_x", np.nan)))
 
 
 def _stack(msgs: list, name: str, width: int | None = None) -> np.ndarray:
@@ -247,7 +274,8 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     stages = None
     stage_topics = own(topics_of(rec, Stage), linked)
     if stage_topics:
-        t, msgs = _decoded(rec, stage_topics[0], Stage)
+        pairs = stage_changes(rec, stage_topics[0])
+        t, msgs = np.array([t for t, _ in pairs], dtype=np.int64) / NS_PER_S, [m for _, m in pairs]
         stages = StageTrack(stage_topics[0], t, np.array([int(m.stage) for m in msgs], dtype=int),
                             [m.label for m in msgs], np.array([m.skips for m in msgs], dtype=int))
     contacts = []

@@ -41,6 +41,7 @@ from components.analysis.data import (
     load_body,
     own,
     rest_level,
+    stage_changes,
     topics_of,
 )
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
@@ -704,7 +705,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     stage_topics = own(topics_of(rec, Stage), linked)  # this body's monitor
     stages = None
     if stage_topics:
-        pairs = rec.messages(stage_topics[0], Stage)
+        pairs = stage_changes(rec, stage_topics[0])
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
     renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",

@@ -214,19 +214,27 @@ class Recording:
 
     def checkpoints(self) -> list[tuple[int, dict[str, Any]]]:
         """(time_ns, checkpoint) pairs, in time order."""
+        return list(self._checkpoints())
+
+    def checkpoint_at(self, time_ns: int) -> dict[str, Any] | None:
+        """The checkpoint recorded at ``time_ns``, or None; only that one is decoded."""
+        return next((cp for _, cp in self._checkpoints(time_ns)), None)
+
+    def _checkpoints(self, only_ns: int | None = None) -> Iterator[tuple[int, dict[str, Any]]]:
         channel = self.channels.get(CHECKPOINT_TOPIC)
         if channel is None:
-            return []
+            return
         # protobuf (cosim.codec.state_proto); JSON in recordings made before it
         decode = state_proto.decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
-        out = []
         for _, stamp, data in self.raw([CHECKPOINT_TOPIC]):
+            if only_ns is not None and stamp != only_ns:
+                continue
             try:
-                out.append((stamp, decode(data)))
+                checkpoint = decode(data)
             except Exception as exc:
                 raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
                                      f"({_short(exc)})") from None
-        return out
+            yield stamp, checkpoint
 
 
 def _short(exc: BaseException) -> str:
