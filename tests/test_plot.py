@@ -172,7 +172,10 @@ def test_the_attack_angle_panel_says_when_the_attitude_is_held(tmp_path):
     for path, locked in ((held, "true"), (free, "false")):
         sets = ["record.visual_rate=0", "until=0.05", f"components.stone.lock_attitude={locked}"]
         run_scene(load(scene, sets), path, progress=False)
-    assert "attitude held" in figure_motion(load_run(held)).axes[1].get_title()
+    held_run = load_run(held)
+    title = figure_motion(held_run).axes[1].get_title()
+    assert "attitude held" in title and "keeps its tilt" in title
+    assert np.ptp(held_run.body.attack_deg) < 1e-9  # what the title says: the curve is flat
     assert "attitude held" not in figure_motion(load_run(free)).axes[1].get_title()
 
 
@@ -260,13 +263,15 @@ def test_each_contact_panel_gives_its_peak_against_the_bounce_level(run):
         assert len(levels) == 1 and levels[0].get_ydata()[0] == pytest.approx(4.0 * run.body.mass * 9.81)
 
 
-def test_a_recording_without_contact_channels_says_so_rather_than_that_nothing_touched(tmp_path, capsys):
+@pytest.mark.parametrize("kept", ["/stone/*", "/stone/*,/stages/*"])
+def test_a_recording_without_contact_channels_says_so_rather_than_that_nothing_touched(tmp_path, capsys, kept):
     """A run recorded with only the stone's channels (--record '/stone/*') did touch the water: the
     contacts figure is skipped because the channels are not in the recording, and plot says that
-    (it said 'no contact in this run')."""
+    (it said 'no contact in this run'); with the monitor's skip records kept too, it drew a figure
+    of empty panels."""
     scene = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
     out = tmp_path / "part.mcap"
-    assert main(["run", str(scene), "--until", "0.1", "-o", str(out), "--record", "/stone/*", "-q"]) == 0
+    assert main(["run", str(scene), "--until", "0.1", "-o", str(out), "--record", kept, "-q"]) == 0
     capsys.readouterr()
     assert main(["plot", str(out), "-o", str(tmp_path / "figs")]) == 0
     said = capsys.readouterr().out
@@ -349,3 +354,40 @@ def test_a_restarts_first_states_are_in_the_stage_its_checkpoint_held(tmp_path):
     assert early.sum() == 20
     assert np.all(stage_per_sample(restart)[early] == StageId.FLY_AWAY)
     assert np.array_equal(stage_per_sample(restart), whole.stages.at(restart.body.t))
+
+
+def test_a_path_along_y_is_seen_from_its_side_and_a_ground_impact_lasts_its_step(tmp_path):
+    """A tilted disk dropped on a floor slides off along y (8.6 cm) and never moves in x: its side
+    view is y-z, not a vertical line over a constant x, and the view from above is not added. A
+    ground impact reported in one step is a contact of that step (0.5 ms), not of 0 ms."""
+    from components.analysis.plot import figure_contacts, from_above
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml"
+    path = tmp_path / "bounce.mcap"
+    run_scene(load(scene, ["until=0.4", "record.visual_rate=0"]), path, progress=False)
+    tilted = load_run(path, "disk_tilted")
+    assert np.ptp(tilted.body.position[:, 0]) == 0.0 and np.ptp(tilted.body.position[:, 1]) > 0.08
+    ax = figure_trajectory(tilted).axes[0]
+    assert ax.get_xlabel() == "y [m]" and not from_above(tilted)
+    (lines,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+    starts = np.array([seg[0] for seg in lines.get_segments()])
+    assert np.array_equal(starts, tilted.body.position[:-1][:, [1, 2]])
+    flat = load_run(path, "disk_flat")
+    titles = [a.get_title() for a in figure_contacts(flat).axes if a.get_visible()]
+    assert titles and all(t.endswith(", 0.5 ms") for t in titles), titles
+
+
+def test_a_restarts_contacts_are_numbered_as_its_skips(tmp_path):
+    """A restart after the first skip: its first contact panel is that of skip 2, as the trajectory's
+    marks and the summary number it (it said contact 1)."""
+    from components.analysis.plot import figure_contacts
+
+    original = tmp_path / "run.mcap"
+    record_skip(original, ["record.visual_rate=0", "record.checkpoint_every=0.1"])
+    assert main(["replay", str(original), "--from", "0.2", "-o", str(tmp_path / "restart.mcap"), "-q"]) == 0
+    restart = load_run(tmp_path / "restart.mcap")
+    assert [r.index for r in restart.skips] == [2, 3]
+    titles = [a.get_title() for a in figure_contacts(restart).axes if a.get_visible()]
+    assert titles[0].startswith("contact 2: t = 0.312 s") and titles[1].startswith("contact 3: t = 0.490 s")

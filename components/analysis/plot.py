@@ -80,24 +80,34 @@ def against_time(run: RunData) -> bool:
     return travel < SIDE_VIEW_MIN_TRAVEL * max(float(np.ptp(pos[:, 2])), 2 * run.body.radius)
 
 
+def side_axis(run: RunData) -> int:
+    """The horizontal axis of the side view: 0 (x), or 1 (y) for a path that spans more of y than
+    of x (seen along x, its side view would be a vertical line)."""
+    pos = run.body.position
+    return 1 if float(np.ptp(pos[:, 1])) > float(np.ptp(pos[:, 0])) else 0
+
+
 def from_above(run: RunData) -> bool:
-    """Whether the path is also drawn seen from above: a side view whose path spreads sideways (y)
-    by :data:`TOP_VIEW_MIN_SPREAD` or more."""
-    return not against_time(run) and float(np.ptp(run.body.position[:, 1])) >= TOP_VIEW_MIN_SPREAD
+    """Whether the path is also drawn seen from above: a side view along x whose path spreads
+    sideways (y) by :data:`TOP_VIEW_MIN_SPREAD` or more."""
+    return (not against_time(run) and side_axis(run) == 0
+            and float(np.ptp(run.body.position[:, 1])) >= TOP_VIEW_MIN_SPREAD)
 
 
 def figure_trajectory(run: RunData) -> Figure:
     """The path, one segment per pair of states, coloured by the stage at its start (one colour
-    without a stage monitor): a side view x-z, or the height over time for a body that stays in
-    place (:func:`against_time`). The water line is drawn when the run has water, each ground
-    contact's start is marked when it has a ground. A path that curves sideways is drawn seen from
-    above too, in a second panel beneath (:func:`from_above`)."""
+    without a stage monitor): a side view x-z (y-z for a path along y, :func:`side_axis`), or the
+    height over time for a body that stays in place (:func:`against_time`). The water line is
+    drawn when the run has water, each ground contact's start is marked when it has a ground. A
+    path that curves sideways is drawn seen from above too, in a second panel beneath
+    (:func:`from_above`)."""
     body = run.body
     above = from_above(run)
     fig = Figure(figsize=(FIGSIZE[0], FIGSIZE[1] * 1.5) if above else FIGSIZE, layout="constrained")
     ax = fig.add_subplot(2, 1, 1) if above else fig.add_subplot()
     by_time = against_time(run)
-    path = np.column_stack([body.t if by_time else body.position[:, 0], body.position[:, 2]])
+    axis = side_axis(run)
+    path = np.column_stack([body.t if by_time else body.position[:, axis], body.position[:, 2]])
     stages = stage_per_sample(run)
     segments = np.stack([path[:-1], path[1:]], axis=1)
     colors = [stage_color(s) for s in stages[:-1]] if run.stages is not None else PATH_COLOR
@@ -106,7 +116,8 @@ def figure_trajectory(run: RunData) -> Figure:
     if has_water:
         ax.axhline(run.rest_level, color=WATER_LINE_COLOR, linewidth=1.0, linestyle="--", label="water level")
     for skip in run.skips:
-        at = skip.touchdown_time if by_time else skip.touchdown_x
+        at = (skip.touchdown_time if by_time else skip.touchdown_x if axis == 0
+              else float(np.interp(skip.touchdown_time, body.t, body.position[:, 1])))
         ax.axvline(at, color="0.6", linewidth=0.6, linestyle=":")
         ax.annotate(f"skip {skip.index}", (at, run.rest_level), textcoords="offset points",
                     xytext=(2, -12), fontsize="x-small", color="0.35")
@@ -121,7 +132,7 @@ def figure_trajectory(run: RunData) -> Figure:
         zmin, zmax = min(zmin, run.rest_level), max(zmax, run.rest_level)
     pad = 0.08 * max(zmax - zmin, 2 * body.radius)
     ax.set_ylim(zmin - pad, zmax + pad)
-    ax.set_xlabel("time [s]" if by_time else "x [m]")
+    ax.set_xlabel("time [s]" if by_time else "xy"[axis] + " [m]")
     ax.set_ylabel("z [m]")
     view = "height over time" if by_time else "side view"
     # the monitor's own count (a restart's recording holds the skips after its checkpoint only)
@@ -155,8 +166,8 @@ def _draw_from_above(ax, run: RunData, colors) -> None:
     ax.set_ylim(lo - pad, hi + pad)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title("seen from above (y to its own scale): each skip's touchdown and its heading after it",
-                 fontsize="medium")
+    skips = ": each skip's touchdown and its heading after it" if run.skips else ""
+    ax.set_title(f"seen from above (y to its own scale){skips}", fontsize="medium")
     ax.grid(True, alpha=0.3)
 
 
@@ -165,7 +176,7 @@ def _ground_touches(run: RunData) -> np.ndarray:
     if not run.grounds:
         return np.zeros(0)
     g = run.grounds[0]
-    return np.array([g.t[a] for a, _ in contact_spans(g.in_contact, g.t)])
+    return np.array([start for start, _ in _spans(g.in_contact, g.t)])
 
 
 def figure_motion(run: RunData) -> Figure:
@@ -182,8 +193,8 @@ def figure_motion(run: RunData) -> Figure:
     ax_angle.plot(body.t, body.attack_deg, color="k", linewidth=1.2)
     ax_angle.set_ylabel("attack angle [deg]")
     if body.attitude_locked:
-        ax_angle.set_title("attitude held (lock_attitude, the high-spin limit): the attack angle changes "
-                           "only with the direction of flight", fontsize="small")
+        ax_angle.set_title("attitude held (lock_attitude, the high-spin limit): the face keeps its tilt "
+                           "to the horizontal", fontsize="small")
     ax_angle.set_xlabel("time [s]")
     if run.stages is not None:
         _stage_legend(ax_speed, run.stages.stage.tolist())
@@ -272,15 +283,15 @@ def contact_intervals(run: RunData) -> list[tuple[float, float]]:
         spans = [(float(s.touchdown_time), float(s.touchdown_time + s.contact_time)) for s in skips]
         if run.contacts:
             c = run.contacts[0]
-            later = [(float(c.t[a]), float(c.t[b])) for a, b in contact_spans(c.wetted, c.t)]
+            later = _spans(c.wetted, c.t)
             spans += [span for span in later if span[0] > spans[-1][1]]
         return spans
     if run.contacts:
         c = run.contacts[0]
-        return [(float(c.t[a]), float(c.t[b])) for a, b in contact_spans(c.wetted, c.t)]
+        return _spans(c.wetted, c.t)
     if run.grounds:
         g = run.grounds[0]
-        return [(float(g.t[a]), float(g.t[b])) for a, b in contact_spans(g.in_contact, g.t)]
+        return _spans(g.in_contact, g.t)
     if run.stages is not None:
         spans, current = [], None
         for start, end, stage in run.stages.spans(run.end):
@@ -293,13 +304,23 @@ def contact_intervals(run: RunData) -> list[tuple[float, float]]:
     return []
 
 
+def _spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[float, float]]:
+    """(start, end) [s] of each run of true ``flags`` at times ``t``: from its first report in
+    contact to its first report out of it (an impact reported in one step lasts that step, not 0)."""
+    return [(float(t[a]), float(t[min(b + 1, len(t) - 1)])) for a, b in contact_spans(flags, t)]
+
+
 def figure_contacts(run: RunData) -> Figure | None:
     """Forces during each contact (the first :data:`MAX_CONTACTS`), each titled with its peak (the
     water's largest vertical force over the body's weight, in g, as the stage monitor reports it) and
-    drawn against the level a disk bounces above (BOUNCE_G), or None without contacts."""
-    intervals = contact_intervals(run)[:MAX_CONTACTS]
-    if not intervals:
+    drawn against the level a disk bounces above (BOUNCE_G), or None without contacts or without
+    a channel of forces to draw (a recording that left them out)."""
+    every = contact_intervals(run)
+    intervals = every[:MAX_CONTACTS]
+    if not intervals or not (run.contacts or run.grounds or run.wrenches):
         return None
+    # a restart's first skip record is not skip 1: contacts are numbered as the run's skips are
+    first = min((r.index for r in run.skips), default=1)
     cols = min(2, len(intervals))
     rows = -(-len(intervals) // cols)
     fig = Figure(figsize=(FIGSIZE[0], 2.8 * rows + 0.6), layout="constrained")
@@ -341,8 +362,10 @@ def figure_contacts(run: RunData) -> Figure | None:
             m = window(g.t)
             ms = (g.t[m] - start) * 1e3
             dots = "o" if m.sum() < 5 else None  # an impact is a step or two: points, not an invisible line
-            ax.plot(ms, g.normal[m], linewidth=1.2, marker=dots, label=f"ground normal ({g.topic})")
-            ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", marker=dots,
+            # each report's force is held over its step (an impulse spread over one step), not ramped
+            ax.plot(ms, g.normal[m], linewidth=1.2, marker=dots, drawstyle="steps-post",
+                    label=f"ground normal ({g.topic})")
+            ax.plot(ms, g.friction[m], linewidth=1.2, linestyle="--", marker=dots, drawstyle="steps-post",
                     label=f"ground friction ({g.topic})")
         ax.axvspan(0.0, (end - start) * 1e3, color="0.9", zorder=0)
         ax.axhline(0.0, color="0.5", linewidth=0.6)
@@ -350,7 +373,8 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.axhline(BOUNCE_G * weight, color="tab:red", linewidth=0.8, linestyle="-.",
                        label=f"{BOUNCE_G:g} M g: a disk bounces above about this (Tang et al. 2021)")
         peak_text = f", peak {peak:.1f} g" if run.contacts else ""
-        ax.set_title(f"contact {k + 1}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{peak_text}", fontsize="small")
+        ax.set_title(f"contact {first + k}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{peak_text}",
+                     fontsize="small")
         ax.set_xlabel("time since touchdown [ms]")
         ax.set_ylabel("force [N]")
         ax.grid(True, alpha=0.3)
@@ -358,7 +382,9 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.legend(fontsize="x-small", loc="best")
     for ax in axes[len(intervals):]:
         ax.set_visible(False)
-    fig.suptitle(f"{run.scene}: forces during each contact")
+    shown = (f"the first {len(intervals)} of its {len(every)} contacts" if len(every) > len(intervals)
+             else "each contact")
+    fig.suptitle(f"{run.scene}: forces during {shown}")
     return fig
 
 
