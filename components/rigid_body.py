@@ -361,15 +361,24 @@ class RigidBody(Component):
     def summary(self) -> list[str]:
         x, _, v, _ = self.state
         msg = self.body_state()
+        # + 0.0: without gravity the potential energy is -0.0, which would print as "-0"
         line = (f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s, "
-                f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy:.4g} J")
-        thrown = self.params.spin
-        if thrown != 0.0 and not self.params.lock_attitude:
-            # a thrown stone's spin, which the water's friction takes away (a held attitude keeps it)
-            now = sum(w * a for w, a in zip(msg.angular_velocity.tolist(), quat.body_axis(msg.orientation),
-                                            strict=True))
+                f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy + 0.0:.4g} J")
+        if self.params.spin != 0.0 and not self.params.lock_attitude:
+            # a thrown stone's spin, which the water's friction takes away (a held attitude keeps it);
+            # thrown at its spin at t = 0, about its axis then: ``spin`` plus what angular_velocity
+            # adds along the axis, not ``spin`` alone
+            start = self._initial_state()
+            thrown = _about_axis(start.angular_velocity, start.orientation)
+            now = _about_axis(msg.angular_velocity.tolist(), msg.orientation)
             line += f", spin {now / (2 * math.pi):.3g} rev/s (thrown at {thrown / (2 * math.pi):.3g})"
         return [line]
+
+
+def _about_axis(omega, orientation) -> float:
+    """The part [rad/s] of the angular velocity ``omega`` (3,) along the symmetry axis of a body at
+    ``orientation`` (a unit quaternion (w, x, y, z))."""
+    return sum(w * a for w, a in zip(omega, quat.body_axis(orientation), strict=True))
 
 
 def gravity_mismatch(component: Component | None, size: float, key: str) -> str | None:

@@ -85,3 +85,19 @@ def test_spinning_disk_scene():
     assert np.ptp(energy) < 1e-12 * energy[0]
     attack = np.array([m.attack_angle_deg for _, m in seen["wobbler.state"]])
     assert np.ptp(attack) > 1.0
+
+
+def test_a_torque_free_spin_is_said_as_thrown():
+    """The wobbler is thrown with ``spin`` 65 rev/s plus a transverse kick (angular_velocity) that has
+    a part along its tilted axis: its spin about the axis is 63.9 rev/s from the start, and torque
+    free it stays so. The summary says it was thrown at that, not at the ``spin`` setting (it read
+    "spin 63.9 rev/s (thrown at 65)", a loss that never happened); without gravity its potential
+    energy is 0 J, not "-0 J"."""
+    from components.rigid.quaternion import body_axis
+
+    sim, seen = run("spinning_disk", 0.2, "wobbler.state")
+    first = seen["wobbler.state"][0][1]
+    spin = float(np.dot(first.angular_velocity, body_axis(first.orientation))) / (2 * math.pi)
+    assert spin == pytest.approx(63.91, abs=0.01)
+    (line,) = sim.components["wobbler"].summary()
+    assert line.endswith(f", spin {spin:.3g} rev/s (thrown at {spin:.3g})") and "potential 0 J" in line
