@@ -132,6 +132,62 @@ def test_mp4_when_an_encoder_is_installed(skip_path, tmp_path):
     assert out.stat().st_size > 1000 and out.read_bytes()[4:8] == b"ftyp"
 
 
+def gif_delays_read_back(path) -> list[int]:
+    """Each frame's delay [ms] as stored in the GIF at ``path``."""
+    with Image.open(path) as im:
+        delays = []
+        for i in range(im.n_frames):
+            im.seek(i)
+            delays.append(im.info["duration"])
+    return delays
+
+
+@pytest.mark.parametrize(("fps", "speed", "start", "stop"), [(50, 1.0, 0.0, 0.5), (30, 0.25, 0.0, 0.1),
+                                                             (24, 0.5, 0.1, 0.4)])
+def test_a_gif_plays_at_the_speed_asked(skip_path, tmp_path, fps, speed, start, stop):
+    """A GIF's frames last 1/fps each on the whole (its delays are whole centiseconds, none under 20
+    ms, the rounding never adding up): the last frame appears (to - from) / speed after the first,
+    to 10 ms. Before, every frame lasted round(1000 / fps) ms: 30 ms at 30 fps, 11% fast."""
+    out = tmp_path / "speed.gif"
+    result = render(skip_path, out, RenderOptions(fps=fps, speed=speed, start=start, stop=stop, width=WIDTH // 4,
+                                                  progress=False))
+    delays = gif_delays_read_back(out)
+    assert len(delays) == result.frames
+    assert all(d % 10 == 0 and d >= 20 for d in delays), delays
+    assert abs(sum(delays) - 1000 * result.frames / fps) <= 10
+    assert abs(sum(delays[:-1]) - 1000 * (result.stop - result.start) / speed) <= 10
+
+
+def test_a_gif_faster_than_50_frames_a_second_is_bad_input(skip_path, tmp_path, capsys):
+    """A GIF cannot play more than 50 frames a second: --fps 120 exits 2 naming the limit and the
+    value, and writes nothing. Before, it wrote 20 ms frames, 2.4 times too slow."""
+    out = tmp_path / "fast.gif"
+    assert main(["render", str(skip_path), "-o", str(out), "--fps", "120", "--to", "0.1", "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--fps must be at most 50 for a GIF" in err and "got 120" in err and ".mp4" in err
+    assert len(err.splitlines()) == 1 and not out.exists()
+
+
+def test_a_body_under_water_is_drawn_with_the_surface_above_it(tmp_path):
+    """The granite ball resting on the pond's bed, 30 cm down, is drawn under the water: the follow
+    view reaches up to the surface, so water is drawn above the ball. Before, the view held the
+    ball alone and no water was drawn, though the header said "into the water"."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml"
+    path = tmp_path / "float.mcap"
+    run_scene(load(scene, ["until=0.6"]), path, progress=False)  # the ball rests on the bed from 0.43 s
+    out = tmp_path / "sunk.png"
+    render(path, out, RenderOptions(width=WIDTH, at=0.6, progress=False))
+    image = np.asarray(Image.open(out).convert("RGB"), dtype=float) / 255
+    below_header = image[int(0.12 * image.shape[0]):]
+    ball_rows = np.nonzero(((below_header[..., 0] - below_header[..., 2]) > 0.1).any(axis=1))[0]
+    assert len(ball_rows), "no ball drawn"
+    water = (below_header[: ball_rows.min()][..., 2] - below_header[: ball_rows.min()][..., 0]) > 0.2
+    assert water.mean() > 0.1  # the surface, above the ball
+
+
 def test_frame_times_step_by_speed_over_fps():
     """Frames are speed/fps seconds of simulation apart, ending on the last whole step."""
     assert np.allclose(frame_times(0.0, 1.0, 10, 1.0), np.arange(11) / 10)

@@ -8,9 +8,10 @@ so far, and the latest water field (cropped to the view, decimated to at most 64
 coloured as in the viewer channels and hill-shaded, translucent), the stone's shadow on the water
 and a dashed drop line from its lowest point to the water with the gap written beside it, so that
 its height above the water reads in the picture. Views: ``follow`` (a window of ``span`` metres
-that moves with the stone, true proportions) and ``fixed`` (the whole run, heights exaggerated to
-fit, the stone also marked by a dot). Output: GIF (Pillow), MP4 (ffmpeg from ``imageio-ffmpeg`` or
-the PATH), or a single PNG frame at ``at``. The file appears only when complete.
+that moves with the stone, true proportions, reaching up or down to the water) and ``fixed`` (the
+whole run, heights exaggerated to fit, the stone also marked by a dot). Output: GIF (Pillow, at most
+:data:`GIF_MAX_FPS` frames a second), MP4 (ffmpeg from ``imageio-ffmpeg`` or the PATH), or a single
+PNG frame at ``at``. The file appears only when complete.
 
 Frames are projected with numpy and painted with Pillow (:mod:`components.analysis.raster`), not
 with matplotlib's 3D axes, which rebuild every polygon and tick each frame: about ten times faster.
@@ -55,6 +56,9 @@ from cosim.timebase import NS_PER_S
 from cosim.view.items import decimation
 
 FORMATS = (".gif", ".mp4", ".png")
+# [frames/s] a GIF stores each frame's delay in whole centiseconds, and players show any delay under
+# 2 cs for 10 cs: 20 ms is the shortest frame that plays at its speed
+GIF_MAX_FPS = 50
 ASPECT = 9 / 16  # frame height / width
 DISK_SEGMENTS = 36  # polygon sides of a drawn disk
 LIGHT_AZIMUTH_DEG, LIGHT_ALTITUDE_DEG = 315.0, 50.0  # [deg] light from the north-west, 50 deg up
@@ -367,13 +371,18 @@ class FrameRenderer(_Frames):
 
     def _follow_view(self, centre: np.ndarray) -> _View:
         """A span x 0.6 span x 0.3 span box around the stone: the water level a third of the way up
-        while the stone is near it, shifted with the stone when it flies higher or sinks deeper."""
+        while the stone is near it, shifted with the stone when it flies higher or sinks deeper. With
+        water, the box is made taller when the stone is farther from the rest level than it holds, so
+        that the surface stays in view (a stone on a pond's bed is drawn under its water)."""
         span = self.options.span
         height, margin = FOLLOW_HEIGHT * span, 0.05 * span
         z0 = min(self.rest - height / 3, centre[2] - margin)
         z0 = max(z0, centre[2] + margin - height)
+        z1 = z0 + height
+        if self.has_water:
+            z0, z1 = min(z0, self.rest - margin), max(z1, self.rest + margin)
         return _View((centre[0] - span / 2, centre[0] + span / 2),
-                     (centre[1] - 0.3 * span, centre[1] + 0.3 * span), (z0, z0 + height))
+                     (centre[1] - 0.3 * span, centre[1] + 0.3 * span), (z0, z1))
 
     def stage_at(self, t: float) -> int:
         if self.stages is None or not len(self.stages[0]):
@@ -580,8 +589,18 @@ class _GifWriter(_Writer):
     def finish(self) -> None:
         first, *rest = self.frames
         first.save(self.part, format="GIF", save_all=True, append_images=rest,
-                   duration=max(20, round(1000 / self.fps)), loop=0)
+                   duration=gif_delays(len(self.frames), self.fps), loop=0)
         super().finish()
+
+
+def gif_delays(frames: int, fps: float) -> list[int]:
+    """Each of ``frames`` frames' delay [ms] at ``fps`` frames a second, in the whole centiseconds a GIF
+    stores: frame k ends at (k + 1) / fps rounded to 10 ms, so the rounding never adds up (the GIF
+    plays as long as the frames last, to 5 ms) and no delay is under 20 ms while fps <=
+    :data:`GIF_MAX_FPS`."""
+    # floor(x + 0.5), not round(): Python rounds halves to even, which would alternate up and down
+    ends = [10 * math.floor((k + 1) * 100 / fps + 0.5) for k in range(frames)]
+    return np.diff(ends, prepend=0).tolist()
 
 
 class _PngWriter(_Writer):
@@ -666,17 +685,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     """Render a recording to ``output`` (.gif, .mp4 or .png); see the module docstring."""
     options = options or RenderOptions()
     output = Path(output)
-    if output.is_dir():
-        raise RenderError(f"{output}: is a folder; render writes one file: give -o a name ending "
-                          f"{', '.join(FORMATS)}")
-    if output.suffix.lower() not in FORMATS:
-        raise RenderError(f"{output}: unknown format {output.suffix or '(none)'!r} (choose one of "
-                          f"{', '.join(FORMATS)})")
-    if output.suffix.lower() == ".png" and (options.start is not None or options.stop is not None):
-        raise RenderError(f"{output}: --from and --to pick an animation's time range; a PNG is one frame: "
-                          "give its time with --at")
-    if output.suffix.lower() != ".png" and options.at is not None:
-        raise RenderError(f"{output}: --at is a PNG's frame time; an animation runs from --from to --to")
+    _check_request(output, options)
     rec = Recording(recording)
     if options.body is None and not topics_of(rec, BodyState):
         if not topics_of(rec, WaterField):
@@ -711,6 +720,27 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water)
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
+
+
+def _check_request(output: Path, options: RenderOptions) -> None:
+    """A :class:`RenderError` when ``output`` cannot be written as asked: a folder, an unknown
+    format, options that do not apply to it, or more frames a second than a GIF plays."""
+    suffix = output.suffix.lower()
+    if output.is_dir():
+        raise RenderError(f"{output}: is a folder; render writes one file: give -o a name ending "
+                          f"{', '.join(FORMATS)}")
+    if suffix not in FORMATS:
+        raise RenderError(f"{output}: unknown format {output.suffix or '(none)'!r} (choose one of "
+                          f"{', '.join(FORMATS)})")
+    if suffix == ".png" and (options.start is not None or options.stop is not None):
+        raise RenderError(f"{output}: --from and --to pick an animation's time range; a PNG is one frame: "
+                          "give its time with --at")
+    if suffix != ".png" and options.at is not None:
+        raise RenderError(f"{output}: --at is a PNG's frame time; an animation runs from --from to --to")
+    if suffix == ".gif" and options.fps > GIF_MAX_FPS:
+        raise RenderError(f"{output}: --fps must be at most {GIF_MAX_FPS} for a GIF (its frame delays are "
+                          f"whole hundredths of a second, at least 2), got {options.fps:g}: use --fps "
+                          f"{GIF_MAX_FPS} or write an .mp4")
 
 
 def _frame_times(output: Path, options: RenderOptions, begin: float, end: float, default_at: Callable[[], float],
