@@ -112,3 +112,19 @@ def test_a_steep_throw_counts_only_real_skips():
     for skip in records:
         assert skip.contact_time > 0.005
         assert skip.speed_out < 0.95 * skip.speed_in
+
+
+def test_inspect_says_why_messages_outlast_the_runs_last_tick(tmp_path, capsys):
+    """The pond steps every 4 ticks and stamps its outputs at its step's end: a run stopped at 0.2005 s
+    (tick 401) holds a patch stamped 0.202 s. Inspect gives both times and says why, rather than a
+    span that outlasts the status's end unexplained; a run ending on the pond's step says nothing."""
+    for until, said in (("0.2005", "to t = 0.202 s: the last step of a component that steps every few ticks"),
+                        ("0.2", None)):
+        recording = tmp_path / f"skip{until}.mcap"
+        assert main(["run", str(ROOT / "scenarios" / "skip.yaml"), "-q", "-o", str(recording), "--until", until]) == 0
+        capsys.readouterr()
+        assert main(["inspect", str(recording)]) == 0
+        out = capsys.readouterr().out
+        span = next(line for line in out.splitlines() if "time span:" in line)
+        assert f"status: ok at t = {until} s" in out
+        assert (said in span) if said else ("to t =" not in span), span

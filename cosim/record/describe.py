@@ -38,8 +38,13 @@ def describe_recording(rec: Recording) -> str:
         lines.append(f"  overrides: {', '.join(rec.overrides)}")
     span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
     since = f" from t = {rec.restart_ns / NS_PER_S:g} s (a restart)" if rec.restart_ns else ""
-    lines.append(f"  time span: {span:g} s{since}, {sum(c.count for c in rec.channels.values())} messages")
     status = rec.status()
+    # a component stepping every few ticks stamps its outputs at its step's end, which can lie past the
+    # tick the run stopped at: said, so that the two times do not read as a contradiction
+    past = (f" (to t = {(rec.end_ns or 0) / NS_PER_S:g} s: the last step of a component that steps every "
+            f"few ticks ends after the run's last tick)"
+            if status is not None and (rec.end_ns or 0) > round(status.time * NS_PER_S) else "")
+    lines.append(f"  time span: {span:g} s{since}{past}, {sum(c.count for c in rec.channels.values())} messages")
     if status is None:
         end = (rec.end_ns or 0) / NS_PER_S
         lines.append(f"  status: missing - the recording is incomplete: the run was cut off (killed?) and it "
