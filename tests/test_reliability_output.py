@@ -421,6 +421,32 @@ def test_an_output_folder_removed_during_the_run_is_made_again_with_the_whole_re
     assert parts(out) == [] and sorted(p.name for p in out.parent.iterdir()) == ["x.mcap"]
 
 
+def test_a_whole_recording_that_cannot_be_moved_onto_its_target_is_kept_beside_it(tmp_path):
+    """A folder made at the output's path while the run records: the finished recording cannot be
+    moved there, and it is kept, whole, under a recording's name beside it, named in the one error
+    line (it was removed: "no file was left")."""
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    out = tmp_path / "x.mcap"
+    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    try:
+        wait_for_part(out)
+        out.mkdir()
+        (out / "keep").touch()
+        os.kill(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=WAIT_S)
+    finally:
+        proc.kill()
+    assert proc.returncode == 1
+    (kept,) = tmp_path.glob("x.mcap.*.mcap")
+    line = one_error_line(err)
+    assert line.startswith(f"error: {out}: the recording is whole (") and line.endswith(
+        f"); it could not be moved there (Is a directory) and is kept as {kept}"), line
+    status = Recording(kept).status()
+    assert status.status == "interrupted" and status.tick > 0  # the run's own end, whole
+    assert parts(out) == [] and (out / "keep").exists()
+
+
 def test_a_run_killed_with_its_writer_leaves_a_file_that_repair_makes_a_recording(tmp_path, capsys):
     """SIGKILL of the run and its writer together leaves the private file, cut short: inspect points
     to `cosim repair`, which writes it as a valid recording (no final status) where it was meant to

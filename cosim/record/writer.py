@@ -839,25 +839,47 @@ class ProcessSink(_Sink):
         from cosim.record.seal import seal
 
         fate = f"writing the recording failed ({reason})"
+        cut = []  # asked for an ending: the data section was cut short (else only the move onto the target failed)
 
         def ending(end_ns: int) -> tuple[int, Any] | None:
+            cut.append(end_ns)
             return self.epitaph(fate, end_ns, False, "closed where it stopped, at") if self.epitaph is not None \
                 else None
 
         try:
             kept = seal(self.claim.part, ending)
-            finish(self.claim.part, self.path)
         except Exception:  # not even the file's start whole, or no room at all: nothing to keep
             self.claim.release(remove=True)
             return f"{self.path}: the recording could not be written: {reason}; no file was left"
         except BaseException:  # (Ctrl-C) no half-sealed file is left behind
             self.claim.release(remove=True)
             raise
+        try:
+            finish(self.claim.part, self.path)
+            where = ""
+        except OSError as exc:  # the target cannot be replaced (a folder made there): the recording is kept
+            where = f"; it could not be moved there ({exc.strerror or exc}) and is kept as {self._keep()}"
         self.claim.release(remove=False)
+        if not cut:  # the data section was whole: only the move onto the target failed, nothing was lost
+            return (f"{self.path}: the recording is whole ({kept.messages} messages, to t = {kept.end_ns / 1e9:g} s)"
+                    f"{where or f', after {reason}'}")
         dropped = f"; its last {kept.chunks_dropped} chunks gave way to its end" if kept.chunks_dropped else ""
         # the run's own messages: the file holds its status record (and viewer items) beside them
         return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {kept.end_ns / 1e9:g} s "
-                f"(the run's first {kept.messages} messages{dropped}), and what the run recorded after that was lost")
+                f"(the run's first {kept.messages} messages{dropped}), and what the run recorded after that was "
+                f"lost{where}")
+
+    def _keep(self) -> Path:
+        """Give the private file that could not be moved onto the target a recording's name beside it
+        (``NAME.<8 hex digits>.mcap``), or leave it as it is if even that fails; where it now is."""
+        part = self.claim.part
+        kept = part.with_suffix(".mcap")
+        try:
+            os.rename(part, kept)  # its own random name: no other file has it
+        except OSError:
+            return part
+        self.claim.part = kept
+        return kept
 
     def _salvage(self, fate: str) -> str:
         """Rebuild the recording from what the writer that died left (:mod:`cosim.record.salvage`) in a
