@@ -95,6 +95,9 @@ def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
                                    f"(its component classes: {', '.join(near) or 'none'}{registered})")
     if not (isinstance(cls, type) and issubclass(cls, Component)):
         raise UnknownComponentType(f"component type {type_name!r}: {target!r} is not a Component class")
+    if cls._step_impl is Component._step_impl:  # a base to build on (Component itself): it cannot step
+        raise UnknownComponentType(f"component type {type_name!r}: {target!r} does not step (it has no "
+                                   "_step_impl of its own): name a component class built on it")
     return cls
 
 

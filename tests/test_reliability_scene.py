@@ -190,6 +190,15 @@ def test_a_class_a_module_does_not_have_is_named_with_the_classes_it_has():
             "type: write type: RigidBody)") in msg
 
 
+def test_the_base_component_class_is_refused_at_load_not_at_its_first_step():
+    """`type: cosim.component:Component` (the base every component builds on) has no step of its own:
+    the scene is refused naming it (it passed `cosim validate`, and the run failed at t = 0 with
+    NotImplementedError, exit 1)."""
+    msg = problem('dt: 0.001\nuntil: 0.01\ncomponents:\n  a: {type: "cosim.component:Component"}\n')
+    assert ("components.a.type: component type 'cosim.component:Component': 'cosim.component:Component' does "
+            "not step (it has no _step_impl of its own)") in msg
+
+
 SKIP = ROOT / "scenarios" / "skip.yaml"
 
 
