@@ -137,7 +137,9 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     RecordingError before anything runs, as does a record.channels pattern that matches no channel
     (:func:`check_channel_patterns`); a recording that cannot be finished raises
     :class:`cosim.record.writer.SinkError` once the run has ended: a writer that died leaves the
-    recording salvaged up to the failure (:mod:`cosim.record.salvage`), a full disk no file.
+    recording salvaged up to the failure (:mod:`cosim.record.salvage`), a full disk the recording
+    closed where it stopped (:mod:`cosim.record.seal`; no file only when not even its start fitted),
+    a target that cannot be replaced the whole recording kept beside it.
     """
     if output is not None:
         check_channel_patterns(scene)
