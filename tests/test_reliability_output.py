@@ -39,6 +39,13 @@ def cosim_popen(*args: str, cwd: Path, **kw) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
 
 
+def long_run(tmp_path: Path, out: Path) -> subprocess.Popen:
+    """`cosim run` of a scene that runs until stopped (LONG), recording to ``out``."""
+    long = tmp_path / "long.yaml"
+    long.write_text(LONG)
+    return cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+
+
 def parts(out: Path) -> list[Path]:
     return sorted(out.parent.glob(out.name + ".*.part"))
 
@@ -142,13 +149,11 @@ def test_a_recording_gets_the_mode_of_any_new_file(tmp_path, umask):
 def test_a_second_run_on_the_same_output_is_refused_while_the_first_writes(tmp_path):
     """Two runs on one path: the second is refused in one line (exit 2) while the first is writing,
     and the first still finishes a valid recording."""
-    long = tmp_path / "long.yaml"
-    long.write_text(LONG)
     out = tmp_path / "same.mcap"
-    first = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    first = long_run(tmp_path, out)
     try:
         wait_for_part(out)
-        second = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+        second = long_run(tmp_path, out)
         _, err = second.communicate(timeout=WAIT_S)
         assert second.returncode == 2
         assert "another run is writing it now" in one_error_line(err)
@@ -175,10 +180,8 @@ def test_the_writer_killed_mid_run_is_one_line_and_leaves_the_recording_salvaged
     """SIGKILL of the writer process: exit 1, one line saying so and up to when and where the
     recording was salvaged; the output is a valid recording, ending there with a `failed` status
     (tests/test_reliability_salvage.py checks its messages one by one)."""
-    long = tmp_path / "long.yaml"
-    long.write_text(LONG)
     out = tmp_path / "k.mcap"
-    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    proc = long_run(tmp_path, out)
     try:
         wait_for_part(out)
         (writer,) = children(proc.pid)
@@ -204,10 +207,8 @@ def test_a_writer_that_stops_answering_does_not_hold_the_command_past_a_second_c
     """The writer process stopped (SIGSTOP: stuck on a file system, say) while the run goes on: two
     Ctrl-C end the command (exit 1, one line) instead of each moving it on to its next wait for the
     writer; the writer, let go on, then finishes the recording on its own."""
-    long = tmp_path / "long.yaml"
-    long.write_text(LONG)
     out = tmp_path / "s.mcap"
-    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    proc = long_run(tmp_path, out)
     writer = None
     try:
         wait_for_part(out)
@@ -400,10 +401,8 @@ def test_an_output_folder_removed_during_the_run_is_made_again_with_the_whole_re
     exit 2)."""
     import shutil
 
-    long = tmp_path / "long.yaml"
-    long.write_text(LONG)
     out = tmp_path / "gone" / "x.mcap"
-    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    proc = long_run(tmp_path, out)
     try:
         wait_for_part(out)
         shutil.rmtree(out.parent)
@@ -425,10 +424,8 @@ def test_a_whole_recording_that_cannot_be_moved_onto_its_target_is_kept_beside_i
     """A folder made at the output's path while the run records: the finished recording cannot be
     moved there, and it is kept, whole, under a recording's name beside it, named in the one error
     line (it was removed: "no file was left")."""
-    long = tmp_path / "long.yaml"
-    long.write_text(LONG)
     out = tmp_path / "x.mcap"
-    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    proc = long_run(tmp_path, out)
     try:
         wait_for_part(out)
         out.mkdir()
@@ -452,10 +449,8 @@ def test_a_run_killed_with_its_writer_leaves_a_file_that_repair_makes_a_recordin
     to `cosim repair`, which writes it as a valid recording (no final status) where it was meant to
     go, leaving the file given as it was; a whole recording is not "repaired"; a later run on the
     target says the file is there and how to recover it."""
-    long = tmp_path / "long.yaml"
-    long.write_text(LONG)
     out = tmp_path / "k.mcap"
-    proc = cosim_popen("run", str(long), "-o", str(out), "-q", cwd=tmp_path)
+    proc = long_run(tmp_path, out)
     try:
         part = wait_for_part(out, size=200_000)
         (writer,) = children(proc.pid)
