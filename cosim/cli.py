@@ -274,8 +274,15 @@ def cmd_repair(args: argparse.Namespace) -> int:
     from cosim.record.repair import repair
 
     done = repair(args.recording, args.output)
-    print(f"wrote {done.path}: {done.messages} messages, up to t = {done.end_ns / NS_PER_S:g} s, where "
-          f"{args.recording} was cut short (no final status: cosim inspect says so)")
+    # what the written recording holds, read back from it (its status is kept when only the summary
+    # was cut off)
+    if done.status is None:
+        ending = "no final status (the run's end was cut off: cosim inspect says where it stops)"
+    else:
+        ending = f"the run's final status: {done.status.status} at t = {done.status.time:g} s"
+    how = "was cut short" if done.cut_short else "is damaged"
+    print(f"wrote {done.path}: {done.messages} messages, up to t = {done.end_ns / NS_PER_S:g} s, with {ending}; "
+          f"{args.recording} {how} and is left as it was")
     return EXIT_OK
 
 

@@ -8,7 +8,13 @@ and the FMU imported back into another scene (``type: FMU``) does the same.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -293,3 +299,61 @@ def test_a_boolean_field_is_a_boolean_output(tmp_path):
     assert wet.type == "Boolean"
     result = simulate_fmu(str(out), stop_time=0.2, output=["wet"])
     assert not result["wet"][0] and result["wet"].any()  # dry at the throw, wet at the first touchdown
+
+
+def _an_earlier_fmu(path: Path) -> bytes:
+    """Write a small zip standing in for an FMU exported before; its bytes."""
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    return path.read_bytes()
+
+
+def test_an_fmu_the_disk_has_no_room_for_names_the_output_and_leaves_what_was_there(tmp_path, capsys, monkeypatch):
+    """The copy into place failing half-way for want of room: exit 1 (the machine's limit, as for a
+    recording), one line naming -o, the FMU there before unchanged and nothing beside it (the line
+    named the build's temporary FMU, and a broken FMU was left)."""
+    import cosim.fmi.export as export
+
+    def half_then_full(source: Path, target: Path) -> None:
+        target.write_bytes(source.read_bytes()[:4096])
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(export, "copy_file", half_then_full)
+    out = tmp_path / "x.fmu"
+    before = _an_earlier_fmu(out)
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out)]) == 1
+    assert one_error_line(capsys.readouterr().err) == f"error: {out}: cannot be written ({os.strerror(errno.ENOSPC)})"
+    assert out.read_bytes() == before and sorted(tmp_path.iterdir()) == [out]
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A folder on a 2 MiB file system with 64 KiB free (a tmpfs: skipped where mounting is not allowed)."""
+    folder = tmp_path / "full"
+    folder.mkdir()
+    mounted = shutil.which("mount") is not None and subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(folder)], capture_output=True).returncode == 0
+    if not mounted:
+        pytest.skip("mounting a tmpfs is not allowed here")
+    try:
+        room = os.statvfs(folder)
+        (folder / "fill").write_bytes(bytes(room.f_bavail * room.f_frsize - (64 << 10)))
+        yield folder
+    finally:
+        subprocess.run(["umount", str(folder)], check=False)
+
+
+def test_an_fmu_exported_onto_a_full_disk_leaves_nothing_half_written(full_disk, capsys):
+    """A real full disk (the FMU is 0.7 MB, 64 KiB free): exit 1 naming -o, an FMU there before kept
+    as it was, and no broken FMU, temporary or folder made for it (it left a 4 KiB "FMU" that was
+    no zip, and named a file in /tmp)."""
+    out = full_disk / "x.fmu"
+    before = _an_earlier_fmu(out)
+    full = os.strerror(errno.ENOSPC)
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out)]) == 1
+    assert one_error_line(capsys.readouterr().err) == f"error: {out}: cannot be written ({full})"
+    assert out.read_bytes() == before
+    deeper = full_disk / "new" / "deeper" / "y.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(deeper)]) == 1
+    assert one_error_line(capsys.readouterr().err) == f"error: {deeper}: cannot be written ({full})"
+    assert sorted(p.name for p in full_disk.iterdir()) == ["fill", "x.fmu"]

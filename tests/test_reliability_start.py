@@ -61,6 +61,9 @@ class OverflowingSetUp(Component):
     def setup(self) -> None:
         math.exp(1000.0)
 
+    def _step_impl(self, t, dt, inputs):
+        return {}
+
 
 def test_a_component_that_cannot_be_built_from_its_values_is_named():
     """The error names the component that cannot be built, not just 'components', and says why."""

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import keyword
 import re
-import shutil
 import tempfile
 import zipfile
 from collections.abc import Callable
@@ -23,6 +22,7 @@ from cosim.errors import ScenarioError
 from cosim.fmi.build import build_fmu
 from cosim.fmi.slave import SCENE_FILE, SPEC_FILE
 from cosim.fmi.spec import ExportSpec
+from cosim.record.output import copy_file, output_folder, written_whole
 from cosim.scenario import Scene
 
 MODEL_DESCRIPTION = "modelDescription.xml"
@@ -110,6 +110,9 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
         built = build_fmu(script, folder / "out" / output.name, extra_files=[folder / SCENE_FILE, folder / SPEC_FILE],
                           state=True)
         _rewrite_description(built, lambda text: add_units(add_initial_unknowns(text), spec))
-        output.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(str(built), str(output))
+        # written whole beside the target, then renamed onto it: a disk that fills up leaves no broken
+        # FMU, an FMU there before stays as it was, and the error names -o, not the build's folder
+        with output_folder(output.parent), written_whole(output) as part:  # no folder left if failing
+            copy_file(built, part)
     return output
+

@@ -287,13 +287,33 @@ def written_whole(path: Path) -> Iterator[Path]:
 
 @contextmanager
 def output_folder(folder: Path) -> Iterator[Path]:
-    """Make ``folder`` (and its parents) for a command's outputs; if it was made here and the writing
-    fails before anything is in it, it goes again: a failed command leaves no empty folder behind."""
-    made = not folder.exists()
+    """Make ``folder`` (and its parents) for a command's outputs; if the writing fails, each folder
+    made here that is still empty goes again, the deepest first: a failed command leaves no empty
+    folder behind."""
+    made = [f for f in (folder, *folder.parents) if not f.exists()]  # the deepest first
     folder.mkdir(parents=True, exist_ok=True)
     try:
         yield folder
     except BaseException:
-        if made:
-            remove_quietly(folder)  # only when empty
+        for path in made:
+            remove_quietly(path)  # only when empty
         raise
+
+
+COPY_BLOCK = 1 << 20  # bytes read and written at a time by copy_file
+
+
+def copy_file(source: Path, target: Path) -> None:
+    """Copy the file ``source`` to ``target`` by plain reads and writes. Not shutil.copyfile: its
+    sendfile copy fails on a full disk with the source's name on the error, where the target's is
+    due (:func:`written_whole` names the output for an error that names no file); a read error
+    names ``source``."""
+    with open(source, "rb") as src, open(target, "wb") as dst:
+        while True:
+            try:
+                block = src.read(COPY_BLOCK)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
+            if not block:
+                return
+            dst.write(block)

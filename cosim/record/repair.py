@@ -4,28 +4,49 @@ A run killed together with its writer process (SIGKILL of both, the machine swit
 recording as the writer's private file, ``NAME.<random>.part``, with no footer: every record the
 writer had put on disk, the last one perhaps cut off part-way. :func:`repair` copies it beside the
 output and closes the copy as a finished recording would be (:func:`cosim.record.seal.seal`: up to
-its last whole record, with its indexes and summary), then moves it into place. The recording has
-no final status: ``cosim inspect`` says where it ends, and ``cosim replay`` replays it up to there.
-The file given is left as it was.
+its last whole record, with its indexes and summary), checks that the copy reads as a cosim
+recording, then moves it into place. A recording cut off before its end has no final status:
+``cosim inspect`` says where it ends, and ``cosim replay`` replays it up to there; one cut off only
+in its summary keeps the status the run wrote. The file given is left as it was.
+
+Refused (a RecordingError, bad input), with nothing written: a whole recording (nothing to repair),
+a whole MCAP file that is not a cosim recording, and a file whose whole records make no readable
+cosim recording or hold no message (cut off before its first, or damaged there).
 """
 
 from __future__ import annotations
 
-import shutil
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from cosim.errors import RecordingError
-from cosim.record.output import PART_SUFFIX, being_written, check_output, written_whole
+from cosim.record.output import (
+    MCAP_MAGIC,
+    PART_SUFFIX,
+    being_written,
+    check_output,
+    copy_file,
+    output_folder,
+    written_whole,
+)
+
+if TYPE_CHECKING:
+    from cosim.record.recorder import RunStatus
 
 
 @dataclass(frozen=True)
 class Repaired:
-    """What :func:`repair` wrote: the recording, its messages and the latest time they reach [ns]."""
+    """What :func:`repair` wrote, as read back from it: the recording, its messages, the latest time
+    they reach [ns] and the run's final status (None when the run's end was cut off); ``cut_short``:
+    the file given ended before its footer (else it was whole but damaged)."""
 
     path: Path
     messages: int
     end_ns: int
+    status: RunStatus | None
+    cut_short: bool
 
 
 def default_output(cut: Path) -> Path:
@@ -43,10 +64,35 @@ def default_output(cut: Path) -> Path:
     return cut.with_name(f"{cut.stem}-repaired.mcap")
 
 
+FOOTER_BYTES = 1 + 8 + 8 + 8 + 4  # an MCAP footer record: opcode, length, two offsets, summary CRC
+FOOTER_OP = 0x02
+
+
+def ends_in_footer(path: Path) -> bool:
+    """Whether the MCAP file ``path`` ends as a closed one does (its footer, then the magic), that is,
+    was not cut short; one that does and still cannot be read is damaged."""
+    with open(path, "rb") as f:
+        size = f.seek(0, os.SEEK_END)
+        if size < 2 * len(MCAP_MAGIC) + FOOTER_BYTES:
+            return False
+        f.seek(size - len(MCAP_MAGIC) - FOOTER_BYTES)
+        tail = f.read()
+    return tail[0] == FOOTER_OP and tail[FOOTER_BYTES:] == MCAP_MAGIC
+
+
+def _reason(exc: RecordingError, path: Path) -> str:
+    """The reader's error about ``path`` without the path it starts with (the file it read may be
+    the repair's temporary; the line names the file given instead)."""
+    text, prefix = str(exc), f"{path}: "
+    return text[len(prefix):] if text.startswith(prefix) else text
+
+
 def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
-    """Write the valid recording of the cut-short recording ``cut`` to ``output`` (default
-    :func:`default_output`). A RecordingError (bad input) when ``cut`` is a whole recording already,
-    is being written by a run now, or holds not even its header whole."""
+    """Write the valid recording of the cut-short (or damaged) recording ``cut`` to ``output``
+    (default :func:`default_output`) and say what it holds, read back from it. A RecordingError (bad
+    input), with nothing written, when ``cut`` is a whole recording already, is being written by a run
+    now, is a whole MCAP file but no cosim recording, or its whole records make no readable cosim
+    recording or hold no message."""
     from cosim.record.reader import Recording
     from cosim.record.seal import seal
 
@@ -57,16 +103,37 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
         raise RecordingError(f"{cut}: a run is writing it now; it is finished when that run ends")
     try:
         Recording(cut)
-    except RecordingError:
-        pass  # cut short, as expected
+    except RecordingError as exc:
+        problem = _reason(exc, cut)
     else:
-        raise RecordingError(f"{cut}: is a whole recording already; there is nothing to repair")
+        raise RecordingError(f"{cut}: is a whole recording already (cosim inspect and replay read it as it "
+                             "is); there is nothing to repair")
+    cut_short = not ends_in_footer(cut)
+    if not cut_short:
+        from cosim.record.reader import check_integrity
+
+        try:
+            check_integrity(cut)
+        except RecordingError:
+            pass  # damaged: its records are read up to the damage
+        else:  # every record whole and as written: what the reader refuses, sealing it again cannot mend
+            raise RecordingError(f"{cut}: {problem}; its MCAP records are whole (it was not cut short or "
+                                 "damaged), so there is nothing to repair")
+    was = f"cut short at {cut.stat().st_size} bytes" if cut_short else f"damaged ({problem})"
     out = check_output(output if output is not None else default_output(cut), inputs=[cut])
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with written_whole(out) as tmp:
-        shutil.copyfile(cut, tmp)
+    with output_folder(out.parent), written_whole(out) as tmp:  # no folder left if refused or failing
+        copy_file(cut, tmp)
         try:
             sealed = seal(tmp)
         except ValueError as exc:
-            raise RecordingError(f"{cut}: nothing in it can be kept ({exc})") from None
-    return Repaired(out, sealed.messages, sealed.end_ns)
+            raise RecordingError(f"{cut}: {was}; nothing in it can be kept ({exc})") from None
+        if sealed.messages == 0:  # its metadata too, perhaps: said before what the reader makes of that
+            raise RecordingError(f"{cut}: {was}, before its first whole message: nothing in it can be kept")
+        try:
+            rec = Recording(tmp)
+            status = rec.status()
+        except RecordingError as exc:
+            raise RecordingError(f"{cut}: {was}, and what it holds whole is {_reason(exc, tmp)}: it cannot "
+                                 "be made a cosim recording") from None
+        messages = sum(channel.count for channel in rec.channels.values())
+    return Repaired(out, messages, rec.end_ns, status, cut_short)
