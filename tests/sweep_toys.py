@@ -1,12 +1,13 @@
 """A toy with metrics for sweep tests: a ball thrown over a floor, bouncing until it rests.
 
 It knows nothing about stones or water; it gives a sweep something that depends on its parameters
-(bounces and distance over speed and angle), can be made slow (``burn``), fail (``fail_at_bounce``) or
-kill its worker process (``die``).
+(bounces and distance over speed and angle), can be made slow (``burn``), fail (``fail_at_bounce``),
+kill its worker process (``die``) or find the disk full (``disk_full_while``).
 """
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 from dataclasses import dataclass
@@ -30,6 +31,8 @@ class Ball(Component):
         burn: int = param(0, ge=0, doc="extra arithmetic per step, to make a run cost time")
         fail_at_bounce: int = param(0, ge=0, doc="raise at this bounce (0: never)")
         die: bool = param(False, doc="end the whole process at the first step")
+        disk_full_while: str = param("", doc="while a file of this name exists, the first step's write "
+                                         "is refused as by a full disk (OSError ENOSPC)")
 
     outputs = {"height": Port(Scalar)}
 
@@ -46,6 +49,8 @@ class Ball(Component):
         p = self.params
         if p.die:
             os._exit(70)
+        if p.disk_full_while and os.path.exists(p.disk_full_while):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), "ball.dat")
         acc = 0.0
         for i in range(p.burn):
             acc += i * 1e-9

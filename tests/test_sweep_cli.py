@@ -186,6 +186,47 @@ def test_ctrl_c_keeps_finished_rows_and_exits_1(tmp_path):
     assert 2 <= rows < 12
 
 
+@pytest.mark.parametrize("how", ["ctrl_c", "sigterm"])
+def test_a_stopped_sweep_starts_no_queued_run_and_resumes_the_rest(tmp_path, how):
+    """Stopped (Ctrl-C to the process group, or SIGTERM to the sweep alone), a sweep starts none of
+    the runs queued behind those in flight: it ran them, or one until SIGKILL, its rows discarded. The
+    run in flight ends `interrupted` with its recording closed; resuming runs exactly the points with
+    no row."""
+    from cosim.record.reader import Recording
+    from cosim.sweep.plan import load_sweep
+    from cosim.sweep.run import run_sweep
+
+    path = write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  components.ball.speed: [2, 3, 4, 5, 6, 7]\n"
+                                 "set: {components.ball.burn: 20000}\nrecord: true\n")
+    out, runs = tmp_path / "s.csv", tmp_path / "s_runs"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-q", "-o", str(out),
+                             "--workers", "1"], cwd=tmp_path, env=env, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:  # a row written, the next run recording
+        if out.exists() and len(out.read_text().splitlines()) >= 2 and list(runs.glob("*.part")):
+            break
+        time.sleep(0.02)
+    if how == "ctrl_c":
+        os.killpg(proc.pid, signal.SIGINT)
+    else:
+        proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 1, stderr
+    assert "interrupted: " in stdout and "Traceback" not in stderr
+    rows = {line.split(",")[1] for line in out.read_text().splitlines()[1:]}
+    recorded = {p.name.removesuffix(".mcap") for p in runs.glob("*.mcap")}
+    assert 1 <= len(rows) < 6 and rows <= recorded
+    # one worker: the run in flight, and no other, was recorded without a row
+    (cut,) = recorded - rows
+    status = Recording(runs / f"{cut}.mcap").status()
+    assert status is not None and status.status == "interrupted"
+    assert not list(runs.glob("*.part"))
+    outcome = run_sweep(load_sweep(path), out, progress=False, figure=False)
+    assert (outcome.already, outcome.ran, outcome.complete) == (len(rows), 6 - len(rows), True)
+
+
 def test_a_huge_sweep_is_refused_at_once_even_in_a_dry_run(tmp_path, capsys):
     """A typo that makes an axis huge exits 2 with one line naming the axis, its count and the limit,
     before any value is built (a range of 10**18 values could never be built)."""
@@ -293,7 +334,26 @@ def test_a_dry_run_loads_every_points_scene_and_names_the_invalid_ones(tmp_path,
     scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
     path = tmp_path / "radii.yaml"
     path.write_text(f"scene: {scene}\naxes:\n  components.stone.radius: [0.05, 0.04, -0.01]\noutput: r.csv\n")
-    assert main(["sweep", str(path), "--dry-run"]) == 0
+    assert main(["sweep", str(path), "--dry-run"]) == 2
     out = capsys.readouterr().out
     assert "  2 of 3 points checked make valid scenes" in out
     assert "invalid #2 " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out
+
+
+@pytest.mark.parametrize("strict", [[], ["--strict"]], ids=["plain", "strict"])
+def test_a_dry_run_that_finds_invalid_points_says_so_and_exits_2(tmp_path, capsys, strict):
+    """A dry run whose points include invalid ones said `ok` and exited 0, with or without --strict:
+    its header now counts them, one error line follows, and it exits 2 (bad input); a sweep whose
+    every point is valid still says `ok` and exits 0."""
+    body = "scene: ball.yaml\naxes:\n  u: [1.0, -1.0]\nderived: {until: 'u * 20'}\noutput: d.csv\n"
+    path = write_sweep(tmp_path, body)
+    assert main(["sweep", str(path), "--dry-run", *strict]) == 2
+    captured = capsys.readouterr()
+    assert captured.out.startswith(f"{path}: 1 of 2 points checked are invalid - sweep: 2 points")
+    assert "invalid #1 " in captured.out and "until: must be > 0 s (got -20)" in captured.out
+    assert captured.err == (f"error: {path}: 1 of 2 points checked make no valid scene (listed above); each "
+                            "would be a failed row\n")
+    assert not (tmp_path / "d.csv").exists()
+    path.write_text(body.replace("-1.0", "2.0"))
+    assert main(["sweep", str(path), "--dry-run", *strict]) == 0
+    assert capsys.readouterr().out.startswith(f"{path}: ok - sweep: 2 points")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import errno
 import json
 import os
 import signal
@@ -13,8 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from cosim.errors import ScenarioError
+from cosim.errors import RecordingError, ScenarioError
 from cosim.record.reader import Recording
+from cosim.record.writer import SinkError
 from cosim.runner import collect_metrics, run_scene
 from cosim.scenario import loads
 from cosim.sweep.backends import ProcessBackend
@@ -326,3 +328,48 @@ def test_parquet_output_is_typed(tmp_path, pool):
     assert table.num_rows == 9 and str(table.schema.field("ball.bounces").type) == "int64"
     assert str(table.schema.field("ball.distance").type) == "double"
     assert b"cosim.sweep" in table.schema.metadata
+
+
+def test_a_full_disk_leaves_its_points_unfinished_and_stops_the_sweep(tmp_path):
+    """A run whose write the disk refuses (ENOSPC) is no result of its point: it was a `failed` row,
+    so that after space was freed the sweep said it held every point and only --fresh ran them. It
+    now gets no row, the sweep submits no more points and says once that the disk is full, and run
+    again once there is room it runs them all."""
+    full = tmp_path / "disk_is_full"
+    full.touch()
+    body = GRID + f"set: {{components.ball.disk_full_while: {str(full)!r}}}\n"
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    outcome = run_and_close(sweep, tmp_path / "out.csv", ProcessBackend(1))
+    assert not outcome.complete and outcome.limit == os.strerror(errno.ENOSPC)
+    assert (outcome.ran, rows_of(tmp_path / "out.csv")) == (0, [])
+    assert 1 <= outcome.unfinished <= 2  # those in flight (two a worker) when the first came back; no more
+    summary = outcome.summary()
+    assert summary.count("the disk is full") == 1
+    assert ("stopped, the disk is full (No space left on device): 9 of 9 points left; they run when the same "
+            "command is run again once there is room") in summary
+    full.unlink()  # space freed
+    again = run_and_close(sweep, tmp_path / "out.csv", ProcessBackend(1))
+    assert again.complete and (again.already, again.ran) == (0, 9) and again.counts == {"stopped": 9}
+
+
+@pytest.mark.parametrize(("error", "limit"), [
+    (SinkError("r.mcap: writing the recording failed (No space left on device); the recording was closed "
+               "where it stopped"), os.strerror(errno.ENOSPC)),
+    (RecordingError("r.mcap: cannot write the recording (Disk quota exceeded)"), os.strerror(errno.EDQUOT)),
+    (OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)), os.strerror(errno.ENOSPC)),
+    (SinkError("r.mcap: the recording writer was killed (SIGKILL); the recording was salvaged"), None),
+    (OSError(errno.EACCES, os.strerror(errno.EACCES)), None),
+], ids=["sink-full", "recording-quota", "oserror-full", "writer-killed", "no-permission"])
+def test_a_recording_refused_for_want_of_room_is_unfinished_not_failed(monkeypatch, error, limit):
+    """The recording's writer reports a full disk or quota by the system's words (a SinkError or
+    RecordingError): the run's row is `unfinished`, naming the limit; any other failure stays `failed`."""
+    import cosim.runner
+    from cosim.sweep.backends import Task, run_task
+
+    def refused(*args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(cosim.runner, "run_scene", refused)
+    row = run_task(Task(0, "p0", BALL_SCENE, "ball.yaml", (), (), "r.mcap"))
+    assert (row["status"], row.get("limit")) == (("unfinished", limit) if limit else ("failed", None))
+    assert row["reason"] == f"{type(error).__name__}: {error}"

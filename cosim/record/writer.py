@@ -337,6 +337,14 @@ def writer_main(argv: list[str]) -> int:
                 if unsent is not None:
                     sink.apply_batch(unsent)
         except Exception:
+            refused = sink.file.failure
+            if refused is not None:
+                # the system refused a write (the disk full), which the MCAP library reports only as an
+                # "I/O error": said in the system's words, so that the simulating process closes the
+                # file where it was cut (seal) rather than salvage it, and says why
+                print(f"cannot write the file: {refused}", file=sys.stderr, flush=True)
+                sink.abandon()
+                return 1
             # a record this process cannot write: the file is left as it is, for the simulating
             # process to salvage (with what the ring still holds) and say so; it is not passed off
             # as finished

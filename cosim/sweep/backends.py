@@ -5,6 +5,10 @@ point's overrides), so a point gives the same row whatever the backend or the wo
 ``wall_s`` differs. :func:`run_task` never raises: a scene that does not validate, a run that fails
 and any other exception all become a row with status ``failed``.
 
+A run that the machine cut short for want of room (the disk full, a quota: :func:`machine_limit`) is
+no result of its point: its row has status ``unfinished``, which, like ``interrupted``, the table does
+not keep, so the point runs again when the sweep is resumed.
+
 A backend offers ``start``, ``submit(task) -> future``, ``wait(futures) -> done``, ``outcome(future)
 -> row``, ``restart``, ``close`` and ``abort``; ``submit`` and ``outcome`` raise :class:`WorkerLost`
 when a worker died. Dask is imported only by :class:`DaskBackend`.
@@ -13,6 +17,7 @@ when a worker died. Dask is imported only by :class:`DaskBackend`.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import errno
 import math
 import multiprocessing
 import os
@@ -33,6 +38,12 @@ DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before 
 DASK_HANDSHAKE_MAX = 1 << 20  # [bytes] more than any scheduler's first message (its handshake, about 60)
 WORKER_JOIN_TIMEOUT_S = 10  # how long a worker gets to leave at each step of ending a pool (s)
 PARENT_POLL_S = 0.2  # how often a pool worker checks that the sweep that started it is still there (s)
+# how long a worker whose run a signal interrupted waits for the sweep's stop before taking its next run
+# (s): a Ctrl-C reaches the sweep and its workers at once, and the sweep says stop within milliseconds
+STOP_WAIT_S = 2.0
+# writes the machine refused for want of room: a run they end is no result of its point
+MACHINE_LIMITS = (errno.ENOSPC, errno.EDQUOT)
+NOT_RESULTS = ("interrupted", "unfinished")  # statuses of runs that a resumed sweep runs again
 
 
 @dataclass(frozen=True)
@@ -74,32 +85,111 @@ def _cell(value: Any) -> Any:
     return item() if callable(item) and not isinstance(value, (str, bytes)) else value
 
 
+def machine_limit(exc: BaseException) -> str | None:
+    """The operating system's words when ``exc`` is a write the machine refused for want of room
+    (:data:`MACHINE_LIMITS`: the disk full, a quota), else None. The recording's writer reports such
+    a failure by those words only (a SinkError or RecordingError made from its message), so they are
+    looked for in the messages of ``exc`` and its causes too."""
+    words = [os.strerror(code) for code in MACHINE_LIMITS]
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, OSError) and exc.errno in MACHINE_LIMITS:
+            return os.strerror(exc.errno)
+        if isinstance(exc, CosimError):
+            found = next((w for w in words if w in str(exc)), None)
+            if found is not None:
+                return found
+        exc = exc.__cause__ or exc.__context__  # type: ignore[assignment]
+    return None
+
+
+# --- in a pool worker: the sweep's stop -------------------------------------------------------------
+
+_stop: Any = None  # the pool's stop event (a multiprocessing Event) once the worker has started
+_running: Any = None  # the Simulation this worker runs now, if any
+_running_lock = threading.Lock()
+
+
+def _stopping() -> bool:
+    return _stop is not None and _stop.is_set()
+
+
+def _interrupt(sim: Any) -> None:
+    # a run that a Ctrl-C already interrupted keeps its reason: interrupting it again would make the
+    # Ctrl-C's own handler take a second signal for "abort at once"
+    if sim.interrupt_reason is None:
+        sim.interrupt("interrupted: the sweep was stopped")
+
+
+def _watch_stop(stop: Any) -> None:
+    """End the run in progress at its next tick once the sweep says stop (the recording is closed as
+    for any interrupted run); the runs queued behind it then return at once (:func:`run_task`)."""
+    stop.wait()
+    with _running_lock:
+        if _running is not None:
+            _interrupt(_running)
+
+
+def _interrupted_row(row: dict[str, Any]) -> dict[str, Any]:
+    row.update(status="interrupted", reason="interrupted: the sweep was stopped before this run started")
+    return row
+
+
 def run_task(task: Task) -> dict[str, Any]:
-    """Run one point and return its row (never raises, except KeyboardInterrupt)."""
+    """Run one point and return its row (never raises, except KeyboardInterrupt).
+
+    In a pool worker of a sweep that was stopped the run does not start: its row says ``interrupted``.
+    A run ended by a machine limit (:func:`machine_limit`) has status ``unfinished``."""
     from cosim.runner import collect_metrics, run_scene
     from cosim.scenario import loads
+    from cosim.scheduler import Simulation
 
+    global _running
     start = time.perf_counter()
     row: dict[str, Any] = {"index": task.index, "point_id": task.point_id, "status": "failed", "reason": "",
                            "error_type": "", "sim_time_s": math.nan, "ticks": 0}
     row.update(dict.fromkeys(task.metrics))
+    if _stopping():
+        return _interrupted_row(row)
     try:
         if task.problem is not None:
             row.update(reason=task.problem, error_type="ScenarioError")
         else:
             scene = loads(task.scene_text, task.scene_source, list(task.overrides))
             row["notices"] = list(scene.notices)  # said by the command, not kept in the table
-            outcome = run_scene(scene, task.recording, progress=False, command_line=task.command_line)
+            sim = Simulation(scene)
+            with _running_lock:
+                _running = sim
+            if _stopping():  # said while the scene loaded: the run ends at its first tick
+                _interrupt(sim)
+            try:
+                outcome = run_scene(scene, task.recording, progress=False, command_line=task.command_line,
+                                    simulation=sim)
+            finally:
+                with _running_lock:
+                    _running = None
             result = outcome.result
             row.update(status=result.status, reason=result.reason, sim_time_s=result.time_ns / NS_PER_S,
                        ticks=result.tick, error_type=type(result.error).__name__ if result.error else "")
+            limit = machine_limit(result.error) if result.error is not None else None
+            if limit:  # a component's own write refused (its file on a full disk)
+                row.update(status="unfinished", limit=limit)
             if outcome.simulation is not None:
                 metrics = collect_metrics(outcome.simulation)
                 row.update({key: _cell(metrics.get(key)) for key in task.metrics})
+            if result.status == "interrupted" and _stop is not None:
+                # a signal (a Ctrl-C reaches every worker with the sweep): the sweep's stop follows
+                # at once, and the run queued behind this one must see it before it starts
+                _stop.wait(STOP_WAIT_S)
     except ScenarioError as exc:
         row.update(reason="invalid scene: " + "; ".join(exc.problems), error_type="ScenarioError")
     except Exception as exc:  # a sweep goes on whatever one run does: the row says what happened
-        row.update(status="failed", reason=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
+        limit = machine_limit(exc)
+        row.update(status="unfinished" if limit else "failed", reason=f"{type(exc).__name__}: {exc}",
+                   error_type=type(exc).__name__)
+        if limit:
+            row["limit"] = limit  # said once by the sweep, which stops: every run would end the same way
     if task.recording is not None:
         row["recording"] = task.recording
     row["wall_s"] = time.perf_counter() - start
@@ -131,12 +221,16 @@ def _watch_parent(parent: int) -> None:
     os._exit(1)
 
 
-def _worker_init(parent: int | None = None) -> None:
+def _worker_init(parent: int | None = None, stop: Any = None) -> None:
     # Ctrl-C reaches the whole process group: the parent decides what to do. A run in progress
     # still ends cleanly (run_scene installs its own handler for the run's duration).
+    global _stop
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if parent is not None:
         threading.Thread(target=_watch_parent, args=(parent,), name="cosim-parent-watch", daemon=True).start()
+    if stop is not None:
+        _stop = stop
+        threading.Thread(target=_watch_stop, args=(stop,), name="cosim-stop-watch", daemon=True).start()
     import cosim.runner  # noqa: F401  (import once per worker, not once per run)
 
 
@@ -147,6 +241,7 @@ class ProcessBackend:
     def __init__(self, workers: int | None = None):
         self.workers = max(1, workers or os.cpu_count() or 1)
         self.pool: cf.ProcessPoolExecutor | None = None
+        self.stop: Any = None  # the pool's stop event, shared with its workers: set, no queued run starts
 
     @property
     def slots(self) -> int:
@@ -167,8 +262,10 @@ class ProcessBackend:
 
     def start(self) -> None:
         if self.pool is None:
-            self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                               initializer=_worker_init, initargs=(os.getpid(),))
+            context = multiprocessing.get_context("spawn")
+            self.stop = context.Event()
+            self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=context, initializer=_worker_init,
+                                               initargs=(os.getpid(), self.stop))
 
     def warm_up(self) -> None:
         """Start every worker now (benchmarks time the runs, not the start-up)."""
@@ -203,8 +300,17 @@ class ProcessBackend:
         self._end_pool(grace_s=WORKER_JOIN_TIMEOUT_S)
 
     def abort(self, futures: Iterable[cf.Future]) -> None:
-        """Stop at once: drop queued runs and end the workers (an interrupted sweep)."""
-        self._end_pool(grace_s=0.0)
+        """Stop at once (an interrupted sweep): no queued run starts, and the runs in flight end at
+        their next tick with status ``interrupted``, their recordings closed.
+
+        The executor cannot withdraw the calls already in its call queue, and SIGTERM ends only a
+        worker's run in progress, not the worker (run_scene's handler), which took the next queued
+        call and ran it until SIGKILL. So the workers are told first, by the pool's stop event: each
+        ends its run and returns the calls still queued at once, then leaves on the executor's own
+        sentinel; only one that does not within ``WORKER_JOIN_TIMEOUT_S`` gets SIGTERM, then SIGKILL."""
+        if self.stop is not None:
+            self.stop.set()
+        self._end_pool(grace_s=WORKER_JOIN_TIMEOUT_S)
 
     def _end_pool(self, grace_s: float) -> None:
         """Shut the pool down and make sure every worker is gone.

@@ -2,9 +2,9 @@
 
 Registered through the ``cosim.commands`` entry point. Exit codes as for every command: 0 the sweep
 is complete (failed runs are rows of the table, not a failure of the sweep, unless ``--strict``),
-1 interrupted (run the command again to resume), every point failed, or failed points with
-``--strict``, 2 bad input
-(the sweep file, its first point's scene, an existing table of another sweep, an unusable backend).
+1 interrupted or stopped by a full disk (run the command again to resume), every point failed, or
+failed points with ``--strict``, 2 bad input (the sweep file, its first point's scene, an existing
+table of another sweep, an unusable backend, or, with ``--dry-run``, any point whose scene is invalid).
 """
 
 from __future__ import annotations
@@ -45,7 +45,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if args.record:
             sweep.record = True
         if args.dry_run:
-            print(f"{args.sweep}: ok - {sweep.describe()}")
+            checked, bad = _check_points(sweep)
+            # a point that makes no scene would be a failed row: the sweep is not ready to run as it is
+            verdict = f"{len(bad)} of {checked} points checked are invalid" if bad else "ok"
+            print(f"{args.sweep}: {verdict} - {sweep.describe()}")
             print(f"  scene: {sweep.scene_source}; table: {sweep.output} ({len(sweep.columns)} columns)")
             print(f"  metrics: {', '.join(sweep.metrics) or 'none'}")
             print(f"  every run: {' '.join(sweep.fixed) or 'the scene as it is'}")
@@ -54,7 +57,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 print(f"  #{point.index} {point.point_id}: {point.problem or own}")
             if len(sweep.points) > SHOWN_POINTS:
                 print(f"  ... {len(sweep.points) - SHOWN_POINTS} more")
-            _check_points(sweep)
+            some = f" (the first {checked} of {len(sweep.points)})" if checked < len(sweep.points) else ""
+            print(f"  {checked - len(bad)} of {checked} points checked make valid scenes{some}")
+            for point, why in bad[:SHOWN_POINTS]:
+                print(f"  invalid #{point.index} {point.point_id}: {why}")
+            if len(bad) > SHOWN_POINTS:
+                print(f"  ... {len(bad) - SHOWN_POINTS} more invalid points")
+            if bad:
+                print(f"error: {args.sweep}: {len(bad)} of {checked} points checked make no valid scene (listed "
+                      "above); each would be a failed row", file=sys.stderr)
+                return EXIT_BAD_INPUT
             return EXIT_OK
         backend = make_backend(args.dask, args.workers)
         if isinstance(backend, DaskBackend):  # a process pool starts with the sweep's points, no more workers
@@ -105,9 +117,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _check_points(sweep: Any) -> None:
-    """--dry-run: load each point's scene (the first DRY_RUN_CHECKED; about 10 ms each) and say how
-    many make valid scenes and which do not, as a run would find them one by one (failed rows)."""
+def _check_points(sweep: Any) -> tuple[int, list[tuple[Any, str]]]:
+    """--dry-run: load each point's scene (the first DRY_RUN_CHECKED; about 10 ms each), as a run would
+    find them one by one (failed rows); (how many were checked, each invalid point with why)."""
     from cosim.errors import ScenarioError
     from cosim.scenario import loads
 
@@ -122,12 +134,7 @@ def _check_points(sweep: Any) -> None:
                 why = "invalid scene: " + "; ".join(exc.problems)
         if why:
             bad.append((point, why))
-    some = f" (the first {len(checked)} of {len(sweep.points)})" if len(checked) < len(sweep.points) else ""
-    print(f"  {len(checked) - len(bad)} of {len(checked)} points checked make valid scenes{some}")
-    for point, why in bad[:SHOWN_POINTS]:
-        print(f"  invalid #{point.index} {point.point_id}: {why}")
-    if len(bad) > SHOWN_POINTS:
-        print(f"  ... {len(bad) - SHOWN_POINTS} more invalid points")
+    return len(checked), bad
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -153,6 +160,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="exit 1 if any run failed (without it, only if every run failed)")
     p.add_argument("--dry-run", action="store_true",
                    help="validate the sweep and every point's scene (the first 2000), and list the points; run "
-                        "nothing")
+                        "nothing; exit 2 if any point is invalid")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)

@@ -4,8 +4,10 @@ Nothing is lost: a run that fails is a row with status ``failed`` and the sweep 
 process that dies is replaced, and the points it may have taken down are retried one at a time, so
 only the point that kills a worker is recorded as failed (``error_type`` WorkerLost). An interrupted
 sweep (Ctrl-C, SIGTERM, a kill) keeps every row written so far; running it again resumes: points
-already in the table are skipped. When every point has a row, the table is sorted by point index and
-the summary figure is drawn.
+already in the table are skipped. A run that the machine cut short for want of room (the disk full,
+a quota) is no result of its point either: it gets no row, the sweep says so once and submits no
+more points (each would end the same way), and running it again once there is room resumes it.
+When every point has a row, the table is sorted by point index and the summary figure is drawn.
 """
 
 from __future__ import annotations
@@ -23,11 +25,12 @@ from typing import Any
 
 from tqdm import tqdm
 
-from cosim.sweep.backends import DaskBackend, ProcessBackend, Task, WorkerLost, versions
+from cosim.sweep.backends import NOT_RESULTS, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
 from cosim.sweep.table import ResultTable, cannot
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
+RECORDING_FAILURES = ("SinkError", "RecordingError")  # error types of a run whose recording failed
 
 
 @dataclass
@@ -43,6 +46,7 @@ class SweepOutcome:
     counts: Counter = field(default_factory=Counter)
     interrupted: bool = False
     unfinished: int = 0
+    limit: str | None = None  # the machine limit that stopped the sweep (the disk full), in the system's words
     wall_s: float = 0.0
     run_wall_s: float = 0.0  # the runs' own wall times summed [s] (each in its worker)
     rows: list[dict[str, str]] = field(default_factory=list)
@@ -65,8 +69,12 @@ class SweepOutcome:
                      f"wall {self.wall_s:.3g} s{per_run}")
         if not self.complete:
             left = self.total - sum(self.counts.values())
-            why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
-            lines.append(f"  {why}: {left} of {self.total} points left; run the same command again to resume")
+            if self.limit is not None:
+                lines.append(f"  stopped, the disk is full ({self.limit}): {left} of {self.total} points left; they "
+                             "run when the same command is run again once there is room")
+            else:
+                why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
+                lines.append(f"  {why}: {left} of {self.total} points left; run the same command again to resume")
         lines.append(f"  table: {self.output}")
         if self.figure is not None:
             lines.append(f"  figure: {self.figure}")
@@ -142,8 +150,14 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
                     point.problem)
 
     def record(point: Point, row: dict[str, Any]) -> None:
-        if row.get("status") == "interrupted":  # not a result: the point runs again on resume
+        if outcome.limit is not None and row.get("error_type") in RECORDING_FAILURES:
+            # a recording that failed in other words once the disk was found full is taken for the
+            # same failure: running the point again on resume loses nothing
+            row["status"] = "unfinished"
+        if row.get("status") in NOT_RESULTS:  # not a result: the point runs again on resume
             outcome.unfinished += 1
+            if row.get("limit") and outcome.limit is None:  # no more are submitted
+                outcome.limit = str(row["limit"])
             return
         row.update({a.name: point.values[a.name] for a in sweep.axes})
         row["index"] = point.index
@@ -175,8 +189,8 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
             suspects: deque[Point] = deque()  # in flight when a worker died: retried one at a time
             alone: str | None = None  # the suspect running alone, if any
             broken = False
-            while todo or pending or suspects:
-                if not broken:
+            while pending or ((todo or suspects) and outcome.limit is None):
+                if not broken and outcome.limit is None:
                     try:  # a point leaves its queue only once submitted
                         if suspects:
                             if not pending:
