@@ -22,12 +22,21 @@ normal acceleration a_n = g.n held:
      back on the plane. In resting contact tau = dt, so each step the impulse is M |a_n| dt (the
      normal force M |a_n|) and the correction |a_n| dt^2 / 2: no jitter. A point already separating
      is left to leave by itself (no correction).
+   - No response adds energy: a bounce whose frictional impulse would (Kane's paradox) is plastic
+     instead, and a disk's rim point is lifted only as far as the energy its impulse took pays for.
 3. The tangential correction is the friction impulse's own displacement: J_t/M * tau for an impact
    tau ago, J_t/M * tau/2 for a force acting over the last tau (exactly what velocity Verlet would have
    done with that friction force). A sticking body therefore ends each step where it began: no creep.
 4. The dissipated energy is the body's mechanical energy before minus after the response (impulse
    and correction), so kinetic + potential + dissipated stays constant to round-off when gravity is
-   the only other force.
+   the only other force. Any other force on the body (buoyancy, drag: a coupler's wrench) is booked
+   by its source as its work along every move of the body, the correction's jump included: the
+   correction is charged against it too, F_other . c, or a body resting on a bed under water, lifted
+   each step against its weight less its buoyancy, would be charged its buoyancy's share as negative
+   dissipation (the ground's books fell by B |c| a step, 3.4e-6 J for a granite ball 6 cm across).
+   The kinetic energy is differenced alone and the potential energy of the jump added as
+   (M g + F_other) . c, exactly the same sum, so that a resting step, which dissipates nothing,
+   books nothing but round-off of its own small kinetic energy (not of the potential energy's).
 
 The bounce threshold is raised to at least BOUNCE_STEPS |g| dt so a body resting on a plane never
 bounces on the velocity it gains in one step.
@@ -36,17 +45,20 @@ bounces on the velocity it gains in one step.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import NamedTuple
 
 from components.contact.geometry import ContactGeometry, Plane, contact_geometry
 from components.contact.impulse import NO_IMPULSE, ImpulseResult, contact_matrix, face_impulse, point_impulse
+from components.messages import Shape
 from components.rigid import quaternion as quat
 from components.rigid.dynamics import RigidState, apply_impulse, kinetic_energy, potential_energy
 from components.rigid.shapes import MassProperties
 from components.rigid.vec import ZERO, Vec, cross, dot, norm
 
 BOUNCE_STEPS = 4.0  # the bounce threshold is at least this many steps' worth of gravity [|g| dt]
+ROUND_OFF = 8.0 * sys.float_info.epsilon  # relative round-off of a response's energy terms, with margin
 
 
 @dataclass(frozen=True)
@@ -72,7 +84,8 @@ class ContactResult(NamedTuple):
     correction: (3,) position correction [m]; normal, friction: impulse sizes [N s]; sliding: kinetic
     friction acted; bounced: the impact rebounded; face: face contact; painleve: friction dropped
     (no consistent sliding solution); tau: time since the contact began within the step [s];
-    dissipated: mechanical energy removed by this response [J] (negative if it added energy).
+    dissipated: mechanical energy removed by this response [J], the work of the body's other forces
+    along the correction included (negative if it added energy).
     """
 
     linear: Vec
@@ -116,14 +129,53 @@ def mechanical_energy(body: MassProperties, state: RigidState, gravity: Vec) -> 
     return kinetic + potential_energy(body.mass, gravity, state.position)
 
 
+def _impulse(body: MassProperties, state: RigidState, geometry: ContactGeometry, n: Vec, w: Vec, face: bool,
+             target_un: float, tilt_restitution: float, mu_stick: float, mu_slide: float,
+             rotate: bool) -> tuple[ImpulseResult, bool]:
+    """The impulse reaching ``target_un`` [m/s] at the face centre (a face contact the face can hold)
+    or at the lowest point, and whether it is a face contact."""
+    v, axis = state.velocity, quat.body_axis(state.orientation)
+    res: ImpulseResult | None = None
+    r = geometry.r_ref if face else geometry.r_low
+    if face:
+        res = face_impulse(body.mass, body.inertia, axis, body.radius, r, v, w, n, target_un,
+                           tilt_restitution, mu_stick, mu_slide)
+        if res is None:  # the face cannot hold it: the lowest rim point takes the contact
+            face, r = False, geometry.r_low
+    if res is None:
+        wr = cross(w, r)
+        u = (v[0] + wr[0], v[1] + wr[1], v[2] + wr[2])
+        k = contact_matrix(body.mass, body.inertia, axis, r, rotate)
+        res = point_impulse(k, r, u, n, target_un, mu_stick, mu_slide)
+    if not rotate and res is not NO_IMPULSE:
+        res = res._replace(angular=ZERO)
+    return res, face
+
+
+def _round_off(k_before: float, k_after: float, force: float, position: Vec, jump: float) -> float:
+    """How far [J] round-off alone can take a response's energy terms: the two kinetic energies [J],
+    and a force of ``force`` [N] over a jump [m] of a body at ``position`` [m], whose coordinates
+    carry their last bit (ulp(|x|) of each move is a rounding, worth |F| ulp(|x|))."""
+    reach = max(abs(position[0]), abs(position[1]), abs(position[2])) + jump
+    return ROUND_OFF * (k_before + k_after + force * reach)
+
+
+def _kinetic_energy_after(body: MassProperties, state: RigidState, res: ImpulseResult, rotate: bool) -> float:
+    """The kinetic energy [J] once the impulse ``res`` is applied to ``state``."""
+    after = apply_impulse(body.mass, body.inertia, state, res.linear, res.angular, ZERO, rotate=rotate)
+    return kinetic_energy(body.mass, body.inertia, after)
+
+
 def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, material: Material,
                     gravity: Vec, dt: float, was_sliding: bool = False, rotate: bool = True,
-                    geometry: ContactGeometry | None = None) -> ContactResult | None:
+                    geometry: ContactGeometry | None = None, other_force: Vec = ZERO) -> ContactResult | None:
     """The impulse, correction and dissipated energy for ``state`` against ``plane``; None if apart.
 
     ``dt`` [s] is the step that led to ``state``; ``was_sliding`` selects the coefficient deciding
     sticking (mu_kinetic after sliding, mu_static otherwise); ``rotate`` false treats a body whose
-    attitude is held (only its translation responds).
+    attitude is held (only its translation responds); ``other_force`` (3,) [N, world] is the force
+    on the body besides gravity and contacts (a wrench), held over the step: only the dissipated
+    energy uses it (the correction's jump against it, point 4 of the module docstring).
     """
     x, q, v, w = state
     if geometry is None:
@@ -148,33 +200,52 @@ def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, mater
         out = -e * u_cross
         bounced = out * tau + 0.5 * a_n * tau * tau >= 0.0
     target_un = out + a_n * tau if bounced else 0.0
+    m, inertia = body.mass, body.inertia
+    k_before = kinetic_energy(m, inertia, state)
     mu_stick = material.mu_kinetic if was_sliding else material.mu_static
-    axis = quat.body_axis(q)
-    res: ImpulseResult | None = None
-    if face:
-        res = face_impulse(body.mass, body.inertia, axis, body.radius, r, v, w, n, target_un,
-                           e if bounced else 0.0, mu_stick, material.mu_kinetic)
-        if res is None:  # the face cannot hold it: the lowest rim point takes the contact
-            face, r = False, geometry.r_low
-            wr = cross(w, r)
-            u = (v[0] + wr[0], v[1] + wr[1], v[2] + wr[2])
-    if res is None:
-        k = contact_matrix(body.mass, body.inertia, axis, r, rotate)
-        res = point_impulse(k, r, u, n, target_un, mu_stick, material.mu_kinetic)
-    if not rotate and res is not NO_IMPULSE:
-        res = res._replace(angular=ZERO)
+    res, face = _impulse(body, state, geometry, n, w, face, target_un, e if bounced else 0.0, mu_stick,
+                            material.mu_kinetic, rotate)
+    if bounced and _kinetic_energy_after(body, state, res, rotate) > k_before * (1.0 + ROUND_OFF):
+        # Newton's restitution with Coulomb friction can create energy (Kane's paradox: a rim impact
+        # whose friction keeps pushing after the normal impulse has reversed the slip); where it
+        # would, the impact is plastic instead (its target normal velocity 0)
+        bounced, target_un = False, 0.0
+        res, face = _impulse(body, state, geometry, n, w, geometry.face and rotate, target_un, 0.0, mu_stick,
+                                material.mu_kinetic, rotate)
     j = res.linear
     jn = dot(j, n)
+    f = other_force
+    force = (m * gravity[0] + f[0], m * gravity[1] + f[1], m * gravity[2] + f[2])
     if bounced:  # the centre has moved with the whole impulse since the impact, tau ago
-        s = tau / body.mass
+        s = tau / m
         correction = (s * j[0], s * j[1], s * j[2])
     else:  # normal: back onto the plane (unless leaving); tangential: the friction force's own share
-        s = 0.5 * tau / body.mass
+        s = 0.5 * tau / m
         c_n = -geometry.gap if un <= 0.0 else 0.0
-        correction = (c_n * n[0] + s * (j[0] - jn * n[0]),
-                      c_n * n[1] + s * (j[1] - jn * n[1]),
-                      c_n * n[2] + s * (j[2] - jn * n[2]))
-    after = apply_impulse(body.mass, body.inertia, state, j, res.angular, correction, rotate=rotate)
-    dissipated = mechanical_energy(body, state, gravity) - mechanical_energy(body, after, gravity)
+        c_t = (s * (j[0] - jn * n[0]), s * (j[1] - jn * n[1]), s * (j[2] - jn * n[2]))
+        press = -dot(force, n)  # [N] how hard the forces press the body onto the plane
+        if c_n > 0.0 and press > 0.0 and not face and rotate and body.shape is not Shape.SPHERE:
+            # On a rim point the lift may cost at most the energy the impulse took: a disk resting on
+            # its rim sinks by its whole fall in a step while the impulse, turning it, takes only a
+            # share of its speed (1 / (M K_nn), a fifth for a flat disk); lifted by the whole fall it
+            # would gain energy every step. What is left of the penetration is taken up at the next
+            # steps. (A face or a sphere takes the whole speed: it keeps its whole correction.)
+            k_impulse = _kinetic_energy_after(body, state, res, rotate)
+            spare = k_before - k_impulse + dot(force, c_t)
+            if press * c_n - spare > _round_off(k_before, k_impulse, press, x, c_n):
+                c_n = max(0.0, spare) / press
+        correction = (c_n * n[0] + c_t[0], c_n * n[1] + c_t[1], c_n * n[2] + c_t[2])
+    after = apply_impulse(m, inertia, state, j, res.angular, correction, rotate=rotate)
+    # mechanical energy before minus after, plus F_other . c; the potential energy's change is linear
+    # in the jump, -M g . c, so it is added as such (point 4 of the module docstring)
+    k_after = kinetic_energy(m, inertia, after)
+    dissipated = k_before - k_after + dot(force, correction)
+    if dissipated < 0.0:
+        # A resting step dissipates nothing: what is left is round-off, of the kinetic energies and of
+        # the positions (the step's fall and the correction's jump are rounded to the last bit of the
+        # coordinates, worth |F| ulp(|x|) in energy). Booked, it would make the cumulative dissipation
+        # fall by a bit or two now and then; a response cannot dissipate a negative amount that small.
+        if -dissipated <= _round_off(k_before, k_after, norm(force), x, norm(correction)):
+            dissipated = 0.0
     return ContactResult(j, res.angular, correction, res.normal, res.friction, res.sliding, bounced, face,
                          res.painleve, tau, dissipated)

@@ -560,6 +560,11 @@ def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, hal
                 b_geo[j, i] = bsum / (nsub * nsub)
             if r_wet:
                 b_rest[j, i] = r_bsum / (nsub * nsub)
+    if shape == SHAPE_SPHERE:
+        # the water's pressure on a sphere acts along its normals, all through its centre: no torque about
+        # it. The columns' sum (each sub-column's weight of water at its place) has one only as sampling
+        # error, which grew with the ball's place on the grid and set a ball resting on a bed rolling
+        tx = ty = r_tx = r_ty = 0.0
     if live:
         _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
                       cx, cy, cz)
