@@ -20,7 +20,8 @@ from components.rigid.shapes import mass_properties
 from components.rigid_body import RigidBody
 from cosim.params import build
 from cosim.scenario import load
-from cosim.scheduler import BaseObserver, Simulation
+from cosim.scheduler import Simulation
+from tests.toys import Channels
 
 SCENES = Path(__file__).resolve().parent.parent / "scenarios"
 G = 9.81
@@ -77,18 +78,6 @@ def test_ground_books_close_under_a_held_upward_force():
     assert np.ptp(total) < 1e-12 * BALL.mass * G * 0.01
 
 
-class Channels(BaseObserver):
-    """Keeps every message published on the watched ``component.port`` channels, in order."""
-
-    def __init__(self, *names: str):
-        self.seen: dict[str, list] = {name: [] for name in names}
-
-    def on_exchange(self, time_ns, component, port, msg):
-        key = f"{component}.{port}"
-        if key in self.seen:
-            self.seen[key].append(msg)
-
-
 def test_float_sphere_ground_books_never_fall_and_close():
     """scenarios/float_sphere.yaml to 1 s: the granite ball lands on the bed (three bounces by 0.43 s)
     and rests there. The bed's dissipated energy never decreases (it fell by 3.4e-6 J a step when
@@ -100,16 +89,15 @@ def test_float_sphere_ground_books_never_fall_and_close():
                      "bottom.impulse")
     sim = Simulation(load(SCENES / "float_sphere.yaml"), observers=[watch])
     assert sim.run(1_000_000_000).status == "ok"
-    seen = watch.seen
-    ground = np.array([m.dissipated_energy for m in seen["bottom.contact"]])
+    ground = np.array([m.dissipated_energy for m in watch.messages("bottom.contact")])
     assert ground[-1] > 0.28 and np.all(np.diff(ground) >= 0.0)
-    body = np.array([m.kinetic_energy + m.potential_energy for m in seen["granite.state"]])
-    water = np.array([m.dissipated_energy for m in seen["granite_water.contact"]])
+    body = np.array([m.kinetic_energy + m.potential_energy for m in watch.messages("granite.state")])
+    water = np.array([m.dissipated_energy for m in watch.messages("granite_water.contact")])
     total = body[1:] + water[1:] + ground[:-1]
     # the bound: each published correction against the change of the water's force it was booked with
-    forces = np.array([m.force for m in seen["granite_water.wrench"]])
-    contact = np.array([m.in_contact for m in seen["bottom.contact"]])
-    corrections = iter(seen["bottom.impulse"][1:])  # (the first is the connection's initial value)
+    forces = np.array([m.force for m in watch.messages("granite_water.wrench")])
+    contact = np.array([m.in_contact for m in watch.messages("bottom.contact")])
+    corrections = iter(watch.messages("bottom.impulse")[1:])  # (the first is the connection's initial value)
     bound = sum(np.abs(forces[k] - forces[k - 1]) @ np.abs(next(corrections).correction)
                 for k in np.flatnonzero(contact) if k > 0)
     assert np.abs(total - total[0]).max() <= bound + 1e-12
@@ -129,7 +117,7 @@ def test_shipped_ground_books_never_fall(scene):
     sim = Simulation(config, observers=[watch])
     assert sim.run(min(config.until_ns, 3_000_000_000)).status == "ok"  # (float_sphere rests by 0.5 s)
     for g in grounds:
-        books = np.array([m.dissipated_energy for m in watch.seen[f"{g}.contact"]])
+        books = np.array([m.dissipated_energy for m in watch.messages(f"{g}.contact")])
         assert books[-1] > 0.0 and np.all(np.diff(books) >= 0.0), g
 
 
@@ -141,6 +129,6 @@ def test_a_ball_resting_on_the_bed_does_not_start_to_roll():
     watch = Channels("granite.state")
     sim = Simulation(load(SCENES / "float_sphere.yaml"), observers=[watch])
     assert sim.run(3_000_000_000).status == "ok"
-    spin = np.array([np.linalg.norm(m.angular_velocity) for m in watch.seen["granite.state"]])
+    spin = np.array([np.linalg.norm(m.angular_velocity) for m in watch.messages("granite.state")])
     at_rest = spin[500:]  # from 0.5 s (a step of 1 ms)
     assert at_rest.max() < 1e-5 and at_rest[-1] <= at_rest[0] + 1e-9

@@ -10,21 +10,10 @@ import numpy as np
 import pytest
 
 from cosim.scenario import load
-from cosim.scheduler import BaseObserver, Simulation
+from cosim.scheduler import Simulation
+from tests.toys import Channels
 
 SCENES = Path(__file__).resolve().parent.parent / "scenarios"
-
-
-class Channels(BaseObserver):
-    """Keeps every (time [s], message) published on the watched ``component.port`` channels."""
-
-    def __init__(self, *names: str):
-        self.seen: dict[str, list] = {name: [] for name in names}
-
-    def on_exchange(self, time_ns, component, port, msg):
-        key = f"{component}.{port}"
-        if key in self.seen:
-            self.seen[key].append((time_ns / 1e9, msg))
 
 
 def run(scene_name: str, until: float, *channels: str):

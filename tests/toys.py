@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from cosim.component import Component, Port
 from cosim.messages import Message, message
 from cosim.params import param
+from cosim.scheduler import BaseObserver
 
 
 @message
@@ -167,3 +168,20 @@ class Faulty(Component):
                 return {"out": Scalar(math.nan)}
             raise RuntimeError("boom")
         return {"out": Scalar(t)}
+
+
+class Channels(BaseObserver):
+    """An observer keeping every (time [s], message) published on the watched ``component.port``
+    channels, in order."""
+
+    def __init__(self, *names: str):
+        self.seen: dict[str, list] = {name: [] for name in names}
+
+    def on_exchange(self, time_ns, component, port, msg):
+        key = f"{component}.{port}"
+        if key in self.seen:
+            self.seen[key].append((time_ns / 1e9, msg))
+
+    def messages(self, name: str) -> list:
+        """The messages of channel ``name``, in order (without their times)."""
+        return [msg for _, msg in self.seen[name]]
