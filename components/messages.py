@@ -244,7 +244,8 @@ class OccupiedHeight(Message):
 
 @message
 class WaterField(Message):
-    """The whole surface, for viewers only (published at the visual frame rate, never to physics).
+    """The whole surface, for viewers only (published at the water's field_rate or every field_every
+    steps, never to physics).
 
     cell [m]; origin_x, origin_y: centre of cell (0, 0) [m]; height: (ny, nx) elevation z [m];
     volume: total water volume above the bed [m^3]; energy: the wave model's lattice energy [J]

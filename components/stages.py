@@ -14,10 +14,11 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
   surface (a flicker) or still coming down (the water fell away under it, as behind a crest: the
   stone never bounced). Brushing the water while still rising after a fly-away is part of that
   flight, not a new contact;
-- sink: touching water slower than ``sink_speed`` [m/s] horizontally, or wholly under water, not
-  rising and pushed up by the water (buoyancy + pressure + friction) no harder than its weight (a
-  stone under water that the pressure still throws back up is in hit or slide); final, except that
-  a sunk stone can come to rest on the bottom;
+- sink: touching water slower than ``sink_speed`` [m/s] horizontally, at least a hundredth under
+  water and too heavy to float (or on water without buoyancy); or wholly under water, not rising and
+  pushed up by the water (the vertical force of all its effects) no harder than its weight (a stone
+  under water that the pressure still throws back up is in hit or slide); final, except that a sunk
+  stone can come to rest on the bottom;
 - float: what sink is for a stone the water can carry (lighter than water: its buoyancy if it were
   wholly under, the reported buoyancy over the submerged fraction, exceeds its weight); final. Until
   a hundredth of the stone is under water the buoyancy says too little to tell, and the contact goes

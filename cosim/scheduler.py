@@ -186,9 +186,6 @@ class _Runner:
         self.substeps_seen = 1
         self.most_substeps = 1  # the most substeps one of its steps took (on_unstable: substep)
 
-    def gather(self, start: int, end: int) -> dict[str, Message | None]:
-        return gather(self.plan, start, end)
-
 
 def gather(plan: list[tuple[str, list[_Edge]]], start: int, end: int) -> dict[str, Message | None]:
     """The inputs of a step from ``start`` to ``end`` [ns]: each port's edge value, summed over

@@ -3,7 +3,7 @@
 Ports::
 
     occupied (OccupiedHeight) --> +--------------+ --> patch (HeightPatch), every step
-    request  (PatchRequest)   --> | WaterSurface | --> field (WaterField), at the visual frame rate
+    request  (PatchRequest)   --> | WaterSurface | --> field (WaterField), at field_rate
                                   +--------------+
 
 One step, from t to t + dt:
@@ -204,7 +204,7 @@ class WaterSurface(Component):
     }
     outputs = {
         "patch": Port(HeightPatch, doc="columns over the requested window (+ margin), every step"),
-        "field": Port(WaterField, doc="the whole surface, at the visual frame rate (viewers only)"),
+        "field": Port(WaterField, doc="the whole surface, at field_rate or every field_every steps (viewers only)"),
     }
 
     # the ports of each body: (occupied input, request input, patch output); one unnamed body by default
