@@ -357,3 +357,36 @@ def test_an_fmu_exported_onto_a_full_disk_leaves_nothing_half_written(full_disk,
     assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(deeper)]) == 1
     assert one_error_line(capsys.readouterr().err) == f"error: {deeper}: cannot be written ({full})"
     assert sorted(p.name for p in full_disk.iterdir()) == ["fill", "x.fmu"]
+
+
+@pytest.mark.parametrize(("parameter", "said"), [
+    ("vx0=components.stone.velocity.0", "--parameter vx0=components.stone.velocity.0: the preset 'throw' sets "
+     "components.stone.velocity from its parameters speed, angle_deg, which would replace this value; use "
+     "--preset none to set it with --parameter"),
+    ("tilt=components.stone.tilt_deg", "--parameter tilt=components.stone.tilt_deg: parameter 'tilt_deg' already "
+     "sets components.stone.tilt_deg; a scene value takes one parameter"),
+])
+def test_a_parameter_on_a_value_another_parameter_sets_is_refused(tmp_path, capsys, parameter, said):
+    """--parameter vx0 on the velocity the throw preset derives from speed and angle: exit 2, before
+    any build (vx0 = 5 with speed = 9 gave the speed's vx, 8.95, and vx0 was silently dropped)."""
+    out = tmp_path / "x.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), "--parameter", parameter]) == 2
+    assert said in one_error_line(capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_a_named_parameter_has_the_unit_its_component_declares(tmp_path, capsys):
+    """--parameter density: a Real in kg/m^3 (RigidBody's declared unit), --parameter every an Integer; an
+    --output-var has no unit (message fields declare none); FMPy finds no problem. Without --step, the
+    printed communication step says what the FMU takes (it said 'any')."""
+    out = tmp_path / "units.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), "--parameter", "density=components.stone.density",
+                 "--parameter", "every=components.pond.every",
+                 "--output-var", "wz=stone.state.angular_velocity[2]"]) == 0
+    assert "  communication step: any whole multiple of dt = 0.0005 s (default experiment: 0.0005 s); " \
+           in capsys.readouterr().out
+    md = fmpy.read_model_description(str(out))
+    found = {v.name: (v.type, v.unit) for v in md.modelVariables}
+    assert found["density"] == ("Real", "kg/m^3") and found["every"] == ("Integer", None)
+    assert found["wz"] == ("Real", None)
+    assert validate_fmu(str(out)) == []

@@ -9,17 +9,44 @@ FMI allows) and the folder is removed when the process ends.
 from __future__ import annotations
 
 import atexit
+import os
 import shutil
 from collections.abc import Callable
 from ctypes import byref
 from pathlib import Path
 from typing import Any
 
+from cosim.fmi import HOST_READS_LOG
+
 LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
 STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
 ERROR, FATAL = 3, 4
 
 _unpacked: dict[tuple[str, int, int], str] = {}
+
+# FMI 2 instances by the componentEnvironment their callbacks carry (1, 2, ...), for the one logger
+# callback they all share (_fmi2_logger)
+_by_environment: dict[int, FmuInstance] = {}
+_fmi2_dispatch: Any = None
+
+
+def _fmi2_logger() -> Any:
+    """The one FMI 2 logger callback of this process. FMPy's proxy, which formats an FMU's printf-style
+    messages, keeps a single logger for the whole process, the last one given: with one callback per
+    instance, an FMU instantiated inside another (an exported scene that holds an FMU) took every
+    message, and the outer FMU's failure reached its host as "the FMU logged nothing". One callback
+    routes each message by its instance's componentEnvironment instead."""
+    global _fmi2_dispatch
+    if _fmi2_dispatch is None:
+        from fmpy.fmi2 import fmi2CallbackLoggerTYPE
+
+        def route(env: Any, instance: Any, status: int, category: Any, message: Any) -> None:
+            owner = _by_environment.get(env or 0)
+            if owner is not None:
+                owner._keep(status, category, message)
+
+        _fmi2_dispatch = fmi2CallbackLoggerTYPE(route)
+    return _fmi2_dispatch
 
 
 class FmuCallError(RuntimeError):
@@ -116,6 +143,9 @@ class FmuInstance:
 
     def _load(self, md: Any, common: dict[str, Any]) -> None:
         """Load the FMU's binary (``common``: FMPy's slave arguments) and instantiate it."""
+        # its log reaches this process (loggingOn), which reports a failure with the log's words: an FMU
+        # cosim exported then says nothing of its own on standard error
+        os.environ[HOST_READS_LOG] = "1"
         if self.fmi3:
             from fmpy.fmi3 import FMU3Slave
 
@@ -128,13 +158,15 @@ class FmuInstance:
                 fmi2CallbackAllocateMemoryTYPE,
                 fmi2CallbackFreeMemoryTYPE,
                 fmi2CallbackFunctions,
-                fmi2CallbackLoggerTYPE,
             )
             from fmpy.logging import addLoggerProxy
 
             self.fmu = FMU2Slave(**common)
             callbacks = fmi2CallbackFunctions()
-            callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
+            self._environment = 1 + max(_by_environment, default=0)
+            _by_environment[self._environment] = self
+            callbacks.componentEnvironment = self._environment
+            callbacks.logger = _fmi2_logger()
             callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
             callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
             addLoggerProxy(byref(callbacks))  # formats the FMU's printf-style messages before they reach us
@@ -148,9 +180,6 @@ class FmuInstance:
         label = STATUS[status] if 0 <= status < len(STATUS) else str(status)
         if len(self.log) < LOG_KEEP:
             self.log.append(f"[{label}] {_text(message).strip()}")
-
-    def _log2(self, env: Any, instance: Any, status: int, category: Any, message: Any) -> None:
-        self._keep(status, category, message)
 
     def _log3(self, env: Any, status: int, category: Any, message: Any) -> None:
         self._keep(status, category, message)
@@ -221,6 +250,13 @@ class FmuInstance:
         if not getattr(self, "live", False):
             return
         self.live = False
+        try:
+            self._end()
+        finally:
+            _by_environment.pop(getattr(self, "_environment", 0), None)  # it logs no more
+
+    def _end(self) -> None:
+        """Terminate and free the instance, as far as the worst status it answered lets them be called."""
         if self.worst >= FATAL:  # FMI: after Fatal no function may be called (the FMU may be gone)
             return
         calls = [self.fmu.freeInstance]

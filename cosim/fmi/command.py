@@ -27,9 +27,18 @@ DEFAULT_PRESET = "throw"
 
 def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
     """The export spec of the command line's options for ``scene``."""
-    from cosim.fmi.spec import ExportSpec, check_output, check_step, load_preset, parse_output, parse_parameter, unique
+    from cosim.fmi.spec import (
+        ExportSpec,
+        check_output,
+        check_parameter_keys,
+        check_step,
+        load_preset,
+        parse_output,
+        parse_parameter,
+        unique,
+    )
 
-    parameters, outputs, preset = [], [], None
+    parameters, outputs, preset, derives = [], [], None, []
     if args.preset != "none":
         module = load_preset(args.preset)
         parameters, outputs = list(module.parameters(scene)), [check_output(o, scene) for o in module.outputs(scene)]
@@ -39,7 +48,12 @@ def build_spec(args: argparse.Namespace, scene: Scene) -> ExportSpec:
             raise ScenarioError(f"--preset {args.preset}: finds nothing to show in this scene; name what the FMU "
                                 "shows with --parameter NAME=key.path and --output-var NAME=component.port.field",
                                 scene.source)
-    parameters += [parse_parameter(text, scene) for text in args.parameter or []]
+        # the keys the preset writes from its derived parameters, asked of the preset itself
+        starts = {p.name: p.start for p in parameters if p.key is None}
+        derives = [line.partition("=")[0].strip() for line in module.overrides(scene, starts)] if starts else []
+    named = [parse_parameter(text, scene) for text in args.parameter or []]
+    check_parameter_keys(parameters + named, named, preset, derives, scene.source)
+    parameters += named
     outputs += [parse_output(text, scene) for text in args.output_vars or []]
     if not outputs:
         raise ScenarioError("the FMU would have no outputs: add --output-var NAME=component.port.field", scene.source)
@@ -81,9 +95,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     print(f"{path}: FMI 2.0 co-simulation FMU of scene {scene.name!r} ({path.stat().st_size / 1e6:.2g} MB)")
     print(f"  parameters: {names(spec.parameters)}")
     print(f"  outputs: {names(spec.outputs)}")
-    step = f"{spec.step_ns / NS_PER_S:g} s" if spec.step_ns else "any"
-    print(f"  communication step: {step}, a whole multiple of dt = {scene.dt:g} s; runs the Python of "
-          f"{sys.executable} (with cosim installed)")
+    default = (spec.step_ns or spec.dt_ns) / NS_PER_S  # the default experiment's step size
+    print(f"  communication step: any whole multiple of dt = {scene.dt:g} s (default experiment: {default:g} s); "
+          f"runs the Python of {sys.executable} (with cosim installed)")
     return EXIT_OK
 
 

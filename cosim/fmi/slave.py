@@ -5,7 +5,11 @@ The FMU's resources hold the scene (``scene.yaml``) and what it shows (``export.
 initialization loads the scene with them (as ``--set`` overrides) and publishes the t = 0 values.
 Each ``doStep(t, h)`` runs ``h / dt`` base steps of the scene, exactly as ``cosim run`` does, so the
 outputs at a communication point are the scene's values at that time, bit for bit. Once the scene
-stops itself (the stone sank), the outputs hold their last values.
+stops itself (the stone sank), the outputs hold their last values. A start time after 0 (setupExperiment)
+is run up to during initialization, so that holds from the first communication point on.
+
+Each failure is logged as an Error through the FMU's logger and also written to the process's
+standard error (see :meth:`SceneSlave._report`).
 
 The FMU runs the Python that loads it (pythonfmu's binaries embed or join an interpreter): that
 Python needs cosim and its components installed, the same version for the same results.
@@ -13,8 +17,10 @@ Python needs cosim and its components installed, the same version for the same r
 
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.default_experiment import DefaultExperiment
@@ -22,6 +28,7 @@ from pythonfmu.enums import Fmi2Status
 
 from cosim.codec.json_codec import codec_for, decode_state, encode_state
 from cosim.errors import one_line
+from cosim.fmi import HOST_READS_LOG
 from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
 from cosim.scenario import loads
@@ -55,6 +62,15 @@ def _value(out: Output, msg: Message | None) -> Any:
     return {"real": float, "boolean": bool}.get(out.kind, int)(value)
 
 
+def _run_to(sim: Simulation, end_tick: int) -> None:
+    """Run ``sim``'s base steps up to ``end_tick``; once the scene has stopped itself (the stone
+    sank), time goes on and the outputs hold."""
+    while sim.tick < end_tick and sim.stop_reason is None:
+        sim.step()
+    if sim.stop_reason is not None:
+        sim.tick = end_tick
+
+
 _held_namespaces: list[dict[str, Any]] = []
 
 
@@ -79,9 +95,11 @@ class SceneSlave(Fmi2Slave):
         self.values: dict[str, Any] = {}
         self.sim: Simulation | None = None
         self.latest = _Latest({(o.component, o.port) for o in self.spec.outputs})
+        self.start_ns = 0  # setupExperiment's start time [ns]: initialization runs the scene up to it
         for p in self.spec.parameters:
             self.values[p.name] = p.start
-            self.register_variable(Real(p.name, start=p.start, causality=Fmi2Causality.parameter,
+            kind = Integer if p.kind == "integer" else Real
+            self.register_variable(kind(p.name, start=p.start, causality=Fmi2Causality.parameter,
                                         variability=Fmi2Variability.fixed, description=p.description,
                                         getter=self._getter(p.name), setter=self._setter(p.name)))
         for o in self.spec.outputs:
@@ -107,18 +125,62 @@ class SceneSlave(Fmi2Slave):
             self.values[name] = value
         return put
 
-    def _fail(self, message: str) -> None:
-        """Log ``message`` as an Error and raise it: the FMU call returns with an error status."""
-        self.log(one_line(message), Fmi2Status.error)
+    def _report(self, message: str) -> None:
+        """Log ``message`` as an Error, and write it to standard error too: pythonfmu's binaries pass
+        the FMU's log on only while the master has turned debug logging on (FMPy's default is off,
+        so a failed run ended with exit 0 and not a word), and FMPy's logger proxy is one per
+        process, taken over by any FMU the scene itself holds. The standard error of the process
+        running the FMU is where a user of any master sees it."""
+        text = one_line(message)
+        self.log(text, Fmi2Status.error)
+        if os.environ.get(HOST_READS_LOG) != "1":  # a cosim scene holding the FMU reports it in its own line
+            print(f"error: FMU {type(self).__name__} (instance {self.instance_name!r}): {text}", file=sys.stderr,
+                  flush=True)
+
+    def _fail(self, message: str) -> NoReturn:
+        """Report ``message`` and raise it: the FMU call fails (pythonfmu answers an exception with Fatal)."""
+        self._report(message)
         raise RuntimeError(message)
 
     # --- initialization ----------------------------------------------------------------------------
 
-    def overrides(self) -> list[str]:
-        """The ``--set`` overrides the parameters ask for: none for a parameter at its start value
-        (also as the model description writes it, with 16 digits)."""
-        changed = {p.name: float(self.values[p.name]) for p in self.spec.parameters
-                   if float(self.values[p.name]) not in (p.start, float(f"{p.start:.16g}"))}
+    def setup_experiment(self, start_time: float, stop_time: float | None = None,
+                         tolerance: float | None = None) -> None:
+        """Take the start time, a whole number of the scene's base steps from t = 0 (else refused).
+
+        The scene's clock is the FMU's: its t = 0 is the throw, and its scripts and its `until` name
+        scene times. A master that starts its co-simulation at t0 > 0 (every FMU of its system on one
+        clock) asks for the model as it is at t0, so the scene is run from 0 up to t0 during
+        initialization, and every output is the scene's value at its time as from a start at 0.
+        Refusing t0 > 0 would leave such a master no way to use the FMU; shifting the scene to start
+        at t0 would make the outputs at t the scene's at t - t0, unlike every other communication
+        point. Refused here, not later: a master learns it before it sets anything."""
+        self.start_ns = 0
+        if start_time == 0:
+            return
+        if not start_time >= 0:  # a negative or NaN start: the scene has no time before its t = 0
+            self._fail(f"a start time of {start_time:.9g} s: must be at least 0 s (the scene begins at t = 0)")
+        # an FMU exported before its spec held dt has it only in its scene
+        dt_ns = self.spec.dt_ns or loads(self.scene_text, source=SCENE_FILE, base_dir=self.spec.base_dir).dt_ns
+        ticks = start_time * NS_PER_S / dt_ns
+        if abs(ticks - round(ticks)) > TIME_SLACK:
+            self._fail(f"a start time of {start_time:.9g} s is not a whole multiple of the scene's base step "
+                       f"dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
+        self.start_ns = round(ticks) * dt_ns
+
+    def overrides(self, values: dict[str, Any] | None = None) -> list[str]:
+        """The ``--set`` overrides the parameters ask for (``values``: the variables', default the
+        instance's own): none for a parameter at its start value (also as the model description
+        writes it, with 16 digits); an Integer parameter's written as a whole number, as its scene
+        value must be."""
+        values = self.values if values is None else values
+        changed: dict[str, Any] = {}
+        for p in self.spec.parameters:
+            if p.kind == "integer":
+                if int(values[p.name]) != p.start:
+                    changed[p.name] = int(values[p.name])
+            elif float(values[p.name]) not in (p.start, float(f"{p.start:.16g}")):
+                changed[p.name] = float(values[p.name])
         sets = list(self.spec.overrides)
         sets += [f"{p.key}={changed[p.name]!r}" for p in self.spec.parameters if p.key and p.name in changed]
         derived = {p.name: v for p in self.spec.parameters if not p.key and (v := changed.get(p.name)) is not None}
@@ -128,16 +190,22 @@ class SceneSlave(Fmi2Slave):
             sets += load_preset(self.spec.preset).overrides(as_written, derived)
         return sets
 
-    def _simulation(self) -> Simulation:
-        scene = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(), base_dir=self.spec.base_dir)
+    def _simulation(self, values: dict[str, Any] | None = None) -> Simulation:
+        scene = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(values),
+                      base_dir=self.spec.base_dir)
         return Simulation(scene, observers=[self.latest])
 
     def exit_initialization_mode(self) -> None:
         try:
-            self.sim = self._simulation()
-            self.sim.initialize()
+            sim = self.sim = self._simulation()
+            sim.initialize()
         except Exception as exc:  # a parameter that makes the scene invalid, a component that fails at t = 0
             self._fail(f"the scene cannot start: {exc}")
+        if self.start_ns:
+            try:
+                _run_to(sim, self.start_ns // sim.dt_ns)
+            except Exception as exc:  # a SimulationError: the scene failed before the start time
+                self._fail(f"the scene cannot run up to the start time {self.start_ns / NS_PER_S:.9g} s: {exc}")
         self._publish()
 
     def _publish(self) -> None:
@@ -147,10 +215,10 @@ class SceneSlave(Fmi2Slave):
     # --- stepping ----------------------------------------------------------------------------------
 
     def _refuse(self, message: str) -> bool:
-        """Log ``message`` as an Error and answer the doStep with Discard (pythonfmu's answer to False):
-        the instance stays usable, and the master can step again as it should (an exception raised
-        here would be Fatal, the instance dead)."""
-        self.log(one_line(message), Fmi2Status.error)
+        """Report ``message`` and answer the doStep with Discard (pythonfmu's answer to False): the
+        instance stays usable, and the master can step again as it should (an exception raised here
+        would be Fatal, the instance dead)."""
+        self._report(message)
         return False
 
     def do_step(self, current_time: float, step_size: float) -> bool:
@@ -165,14 +233,10 @@ class SceneSlave(Fmi2Slave):
         if abs(current_time * NS_PER_S - sim.time_ns) > TIME_SLACK * dt_ns:
             return self._refuse(f"doStep from t = {current_time:.9g} s, but the scene is at t = "
                                 f"{sim.time_ns / NS_PER_S:.9g} s (a co-simulation steps on from where it is)")
-        end_tick = sim.tick + round(steps)
         try:
-            while sim.tick < end_tick and sim.stop_reason is None:
-                sim.step()
+            _run_to(sim, sim.tick + round(steps))
         except Exception as exc:  # a SimulationError: the scene failed at a time it names
             return self._refuse(str(exc))
-        if sim.stop_reason is not None:
-            sim.tick = end_tick  # the scene has stopped itself: time goes on, the outputs hold
         self._publish()
         return True
 
@@ -190,17 +254,40 @@ class SceneSlave(Fmi2Slave):
         return state
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        self.values.update(state["values"])
-        if "checkpoint" not in state:
-            return
+        """Restore ``state``, or fail having changed nothing: the state is checked and the scene
+        restored first, the variables' values taken only once that worked (a state of another scene
+        left this instance with its values and half its scene replaced)."""
         try:
-            if self.sim is None:
-                self.sim = self._simulation()
-            sim = self.sim
-            sim.restore(decode_state(state["checkpoint"].encode()))
-            sim.stop_reason = state["stop_reason"]
-            self.latest.messages = {
-                (c, p): codec_for(sim.components[c].outputs[p].type).decode(text.encode())
-                for c, p, text in state["latest"]}
+            values = state["values"]
+            if set(values) != set(self.values):
+                raise ValueError(f"it holds the variables {', '.join(sorted(values))}, this FMU has "
+                                 f"{', '.join(sorted(self.values))}")
+            if "checkpoint" in state:
+                self._restore_scene(state, values)
         except Exception as exc:  # a state from another scene or another version of cosim
             self._fail(f"cannot restore this state: {exc}")
+        self.values.update(values)
+
+    def _restore_scene(self, state: dict[str, Any], values: dict[str, Any]) -> None:
+        """Put the scene back as ``state`` saved it; on failure, back as it was."""
+        checkpoint, stop_reason = decode_state(state["checkpoint"].encode()), state["stop_reason"]
+        if self.sim is None:  # a fresh instance: the scene of the state's parameters, kept only if restored
+            sim = self._simulation(values)
+            latest = self._decode_latest(sim, state["latest"])
+            sim.restore(checkpoint)
+            self.sim = sim
+        else:
+            sim = self.sim
+            latest = self._decode_latest(sim, state["latest"])
+            before = self._get_fmu_state()  # a copy: restoring writes into the components' arrays
+            try:
+                sim.restore(checkpoint)
+            except Exception:
+                sim.restore(decode_state(before["checkpoint"].encode()))
+                raise
+        sim.stop_reason = stop_reason
+        self.latest.messages = latest
+
+    @staticmethod
+    def _decode_latest(sim: Simulation, saved: list[list[str]]) -> dict[tuple[str, str], Message]:
+        return {(c, p): codec_for(sim.components[c].outputs[p].type).decode(text.encode()) for c, p, text in saved}

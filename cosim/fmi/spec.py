@@ -10,36 +10,50 @@ Defaults come from presets, registered under the ``cosim.fmi.presets`` entry poi
 module or object with ``parameters(scene) -> list[Parameter]``, ``outputs(scene) -> list[Output]``
 (empty when the scene has nothing it knows) and ``overrides(scene, values) -> list[str]`` for its
 derived parameters. The framework knows no preset by name; ``components`` registers ``throw``.
+A preset's ``overrides`` given every derived parameter at its start value names every key it may
+write: those keys are what the preset derives, and a ``--parameter`` on one of them is refused.
+
+A ``--parameter`` takes its type and unit from what declares the value: a component's parameter
+(``cosim.params.param(..., unit=...)``), a component's ``every`` (an integer), the scene's ``dt`` and
+``until`` [s]. A value nothing declares (an FMU component's ``start:`` mapping) is an Integer if the
+scene writes a whole number, else a Real, and has no unit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
+import types
+import typing
 from dataclasses import asdict, dataclass
 from typing import Any
 
 from cosim.errors import ScenarioError
 from cosim.messages import FieldKind, fields_of
-from cosim.scenario import Scene, find_parent
+from cosim.scenario import COMPONENT_KEYS, RecordConfig, Scene, find_parent
 
 PRESETS_GROUP = "cosim.fmi.presets"
 NAME_RE = re.compile(r"[A-Za-z_]\w{0,63}(\.[A-Za-z_]\w{0,63})*")  # an FMU variable name (structured naming)
 OUTPUT_RE = re.compile(r"^(\w+)\.(\w+)\.(\w+)(?:\[(\d+)\])?$")  # component.port.field[i]
 KINDS = {FieldKind.FLOAT: "real", FieldKind.INT: "integer", FieldKind.ENUM: "integer", FieldKind.BOOL: "boolean"}
+SCENE_NUMBERS = {"dt": (float, "s"), "until": (float, "s")}  # the scene's own top-level numbers: type, unit
+COMPONENT_NUMBERS = {"every": (int, ""), "step": (float, "s")}  # a component's own keys beside its parameters
 
 
 @dataclass(frozen=True)
 class Parameter:
-    """An FMU parameter (Real): ``name``, its ``start`` value and ``unit``; ``key`` the scene value
-    it sets, or None for a preset's derived value."""
+    """An FMU parameter: ``name``, its ``start`` value and ``unit``; ``key`` the scene value it sets,
+    or None for a preset's derived value; ``kind`` real (a Real) or integer (an Integer: the scene
+    value is declared an integer, and a whole number is all it takes)."""
 
     name: str
     start: float
     unit: str = ""
     description: str = ""
     key: str | None = None
+    kind: str = "real"
 
 
 @dataclass(frozen=True)
@@ -109,17 +123,91 @@ def scene_value(scene: Scene, key: str) -> Any:
     return None
 
 
+def _field_type(cls: Any, parts: list[str]) -> tuple[Any, str] | None:
+    """The declared type and unit of the value at ``parts`` inside parameter dataclass ``cls`` (an
+    element of a vector has the vector's unit), or None where no type is declared (a mapping, Any)."""
+    tp, unit = cls, ""
+    for part in parts:
+        if typing.get_origin(tp) in (typing.Union, types.UnionType):  # X | None: the X
+            args = [a for a in typing.get_args(tp) if a is not type(None)]
+            tp = args[0] if len(args) == 1 else None
+        origin, args = typing.get_origin(tp), typing.get_args(tp)
+        if dataclasses.is_dataclass(tp):
+            found = {f.name: f for f in dataclasses.fields(tp)}.get(part)
+            if found is None:
+                return None
+            unit = found.metadata.get("unit", "") or unit
+            tp = typing.get_type_hints(tp)[part]
+        elif part.isdigit() and origin is list and args:
+            tp = args[0]
+        elif part.isdigit() and origin is tuple and args:
+            tp = args[0] if args[-1] is Ellipsis else args[int(part)] if int(part) < len(args) else None
+        else:
+            return None
+    return tp, unit
+
+
+def declared(scene: Scene, key: str) -> tuple[Any, str] | None:
+    """The type (int or float) and unit the scene's format declares for the value at ``key``, or
+    None where it declares none."""
+    parts = key.split(".")
+    if len(parts) == 1:
+        return SCENE_NUMBERS.get(key)
+    if parts[0] == "record" and len(parts) == 2:
+        hint = typing.get_type_hints(RecordConfig).get(parts[1])
+        return (hint, "s" if parts[1] == "checkpoint_every" else "") if hint in (int, float) else None
+    cfg = scene.components.get(parts[1]) if parts[0] == "components" and len(parts) > 2 else None
+    if cfg is None:
+        return None
+    if parts[2] in COMPONENT_KEYS:
+        return COMPONENT_NUMBERS.get(parts[2]) if len(parts) == 3 else None
+    params = getattr(cfg.cls, "Params", None)
+    found = _field_type(params, parts[2:]) if params is not None else None
+    return found if found is not None and found[0] in (int, float) else None
+
+
 def parse_parameter(text: str, scene: Scene) -> Parameter:
-    """``NAME=KEY.PATH`` (``--parameter``): a number of the scene as an FMU parameter."""
+    """``NAME=KEY.PATH`` (``--parameter``): a number of the scene as an FMU parameter, an Integer
+    where the value is declared an integer, with the unit declared for it (see :func:`declared`)."""
     name, sep, key = text.partition("=")
-    value = scene_value(scene, key.strip()) if sep else None
+    key = key.strip()
+    value = scene_value(scene, key) if sep else None
     if not sep or not NAME_RE.fullmatch(name.strip()):
         raise ScenarioError(f"--parameter {text!r}: expected NAME=key.path (e.g. density=components.stone.density)",
                             scene.source)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ScenarioError(f"--parameter {text!r}: the scene has no number at {key.strip()!r} (got {value!r}); "
+        raise ScenarioError(f"--parameter {text!r}: the scene has no number at {key!r} (got {value!r}); "
                             "a parameter sets one number of the scene", scene.source)
-    return Parameter(name.strip(), float(value), key=key.strip(), description=f"the scene's {key.strip()}")
+    kind, unit = declared(scene, key) or (type(value), "")
+    # a float parameter the scene writes as 2650 is still a Real; an integer one (a grid's nx)
+    # takes only whole numbers, and an override of 900.0 was refused when the scene loaded
+    if kind is int:
+        return Parameter(name.strip(), int(value), key=key, description=f"the scene's {key}", kind="integer")
+    return Parameter(name.strip(), float(value), unit, description=f"the scene's {key}", key=key)
+
+
+def _overlap(a: str, b: str) -> bool:
+    """Whether keys ``a`` and ``b`` name the same value or one holds the other."""
+    return a == b or a.startswith(b + ".") or b.startswith(a + ".")
+
+
+def check_parameter_keys(parameters: list[Parameter], named: list[Parameter], preset: str | None,
+                         derives: list[str], source: str) -> None:
+    """Refuse a ``--parameter`` (one of ``named``) whose key a preset's derived parameters write
+    (``derives``: their keys), or another parameter sets too: only one of them would take effect,
+    the other silently dropped (a vx0 with a changed speed gave the speed's vx)."""
+    derived = ", ".join(p.name for p in parameters if p.key is None)
+    for p in named:
+        key = p.key or ""
+        for written in derives:
+            if _overlap(key, written):
+                raise ScenarioError(f"--parameter {p.name}={key}: the preset {preset!r} sets {written} from its "
+                                    f"parameters {derived}, which would replace this value; use --preset none to "
+                                    "set it with --parameter", source)
+        for other in parameters:
+            if other is not p and other.key is not None and _overlap(key, other.key):
+                raise ScenarioError(f"--parameter {p.name}={key}: parameter {other.name!r} already sets "
+                                    f"{other.key}; a scene value takes one parameter", source)
 
 
 def parse_output(text: str, scene: Scene) -> Output:

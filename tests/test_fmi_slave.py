@@ -1,0 +1,170 @@
+"""The exported scene's FMU class (cosim.fmi.slave) as a master drives it: a start time after 0, an
+Integer parameter, a state of another scene, and the reason of a failure where a user sees it.
+
+    held_skip.yaml --cosim fmu export--> held.fmu --FMPy simulate_fmu / FMU2Slave--> rows
+    skip.yaml      --cosim fmu export--> free.fmu (another scene: its state is no state of held.fmu)
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+pytest.importorskip("pythonfmu")
+
+from cosim.cli import main  # noqa: E402
+from cosim.fmi import HOST_READS_LOG  # noqa: E402
+from cosim.fmi.slave import SceneSlave  # noqa: E402
+from tests.fmu_toys import ROOT, SKIP_SCENE, fmu_cache  # noqa: E402, F401
+
+pytestmark = pytest.mark.usefixtures("fmu_cache")
+
+
+@pytest.fixture(autouse=True)
+def no_cosim_host(monkeypatch):
+    """These tests drive the FMU as another master does: an FMU component run earlier in this process
+    (a cosim scene holding an FMU) has said it reads the FMUs' log, which would keep them quiet."""
+    monkeypatch.delenv(HOST_READS_LOG, raising=False)
+
+STEP = 0.01  # [s] the communication step: 20 base steps of 0.5 ms
+MOTION = ("x", "y", "z", "vx", "vy", "vz")
+
+
+@pytest.fixture(scope="module")
+def held(tmp_path_factory) -> Path:
+    """The held skip exported with the throw preset and a 10 ms step."""
+    fmu = tmp_path_factory.mktemp("held") / "held.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(fmu), "--step", str(STEP)]) == 0
+    return fmu
+
+
+def _in_a_process(code: str) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` in a Python of its own: an FMU call answered Fatal leaves pythonfmu's instance
+    unfit to be freed, and the process holding it may abort as it exits."""
+    env = {key: value for key, value in os.environ.items() if key != HOST_READS_LOG}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False,
+                          env=env)
+
+
+def test_a_start_time_after_0_gives_the_scenes_values_at_that_time(held):
+    """simulate_fmu from t = 0.05 s: the rows at 0.05, 0.06, 0.07 s are those of a run from 0, bit for
+    bit (the start time was ignored: rows stamped 0.05 s held the t = 0 values, every doStep refused)."""
+    whole = fmpy.simulate_fmu(str(held), stop_time=0.07, output_interval=STEP)
+    late = fmpy.simulate_fmu(str(held), start_time=0.05, stop_time=0.07, output_interval=STEP)
+    assert len(late) == 3 and late["time"][0] == 0.05
+    for got, want in zip(late, whole[5:], strict=True):
+        assert np.array([got[k] for k in MOTION]).tobytes() == np.array([want[k] for k in MOTION]).tobytes()
+
+
+@pytest.mark.parametrize(("start", "said"), [
+    ("0.0003", "a start time of 0.0003 s is not a whole multiple of the scene's base step dt = 0.0005 s"),
+    ("-1.0", "a start time of -1 s: must be at least 0 s (the scene begins at t = 0)"),
+])
+def test_a_start_time_off_the_scenes_grid_is_refused_at_setup_with_the_reason(held, start, said):
+    """A start time the scene cannot be at fails setupExperiment (pythonfmu answers Fatal), the reason
+    on standard error as well as in the log."""
+    done = _in_a_process(f"import fmpy; fmpy.simulate_fmu({str(held)!r}, start_time={start}, stop_time=1.0)")
+    assert done.returncode != 0
+    assert "fmi2SetupExperiment failed with status 4 (fatal)" in done.stderr
+    assert f"error: FMU held (instance 'held'): {said}" in done.stderr
+
+
+@pytest.fixture(scope="module")
+def pond_fmu(tmp_path_factory) -> Path:
+    """The held skip with its pond's cell count along x (an integer) as a parameter, and the water's
+    volume as an output."""
+    fmu = tmp_path_factory.mktemp("pond") / "pond.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(fmu), "--step", str(STEP), "--preset", "none",
+                 "--parameter", "nx=components.pond.nx", "--parameter", "density=components.stone.density",
+                 "--output-var", "volume=pond.field.volume"]) == 0
+    return fmu
+
+
+def test_an_integer_scene_value_is_an_integer_parameter_that_takes_effect(pond_fmu):
+    """nx is an Integer (start 800); 900 cells make the water 9 m long instead of 8 (its override was
+    written as 900.0, and the scene refused it: 'must be an integer')."""
+    md = fmpy.read_model_description(str(pond_fmu))
+    (nx,) = [v for v in md.modelVariables if v.name == "nx"]
+    assert (nx.type, nx.start) == ("Integer", "800")
+    as_written = fmpy.simulate_fmu(str(pond_fmu), stop_time=STEP)
+    longer = fmpy.simulate_fmu(str(pond_fmu), stop_time=STEP, start_values={"nx": 900})
+    assert as_written["volume"][0] == pytest.approx(8 * 1 * 0.5)  # 800 x 100 cells of 1 cm, 0.5 m deep [m^3]
+    assert longer["volume"][0] == pytest.approx(9 * 1 * 0.5)
+
+
+def _slave(fmu: Path, name: str) -> SceneSlave:
+    """``fmu``'s scene class, run in this process (not through the FMU's binaries), initialized."""
+    slave = SceneSlave(instance_name=name, resources=str(Path(fmpy.extract(str(fmu))) / "resources"))
+    slave.setup_experiment(0.0, None, None)
+    slave.exit_initialization_mode()
+    return slave
+
+
+def test_a_state_of_another_scene_is_refused_changing_nothing(held, tmp_path, capfd):
+    """setFMUstate with the state of another scene's FMU (same variables, another pond): refused, and
+    the instance's variables and scene are as before (the variables were taken, and the stone restored,
+    before the pond refused)."""
+    free = tmp_path / "free.fmu"
+    assert main(["fmu", "export", str(ROOT / "scenarios" / "skip.yaml"), "-o", str(free), "--step", str(STEP)]) == 0
+    other = _slave(free, "other")
+    other.do_step(0.0, STEP)
+    mine = _slave(held, "mine")
+    assert sorted(other.values) == sorted(mine.values) and other.values != mine.values
+    before = mine._get_fmu_state()
+    with pytest.raises(RuntimeError, match=r"cannot restore this state: the checkpoint's water surface has shape"):
+        mine._set_fmu_state(other._get_fmu_state())
+    assert mine._get_fmu_state() == before
+    assert mine.do_step(0.0, STEP)  # and it steps on from where it was
+    fresh = SceneSlave(instance_name="fresh", resources=mine.resources)
+    with pytest.raises(RuntimeError, match=r"cannot restore this state"):
+        fresh._set_fmu_state(other._get_fmu_state())
+    assert fresh.sim is None and fresh.values == SceneSlave(instance_name="x", resources=mine.resources).values
+    assert "error: FMU SceneSlave (instance 'mine'): cannot restore this state" in capfd.readouterr().err
+
+
+def test_a_refused_do_step_is_said_on_standard_error_without_debug_logging(held, capfd):
+    """FMPy's default (no debug logging) with a step off the scene's grid: the FMU answers Discard,
+    FMPy ends the run at the failed step's start without a word, and the reason is on standard error
+    (pythonfmu's binaries pass no log message on unless debug logging is on)."""
+    rows = fmpy.simulate_fmu(str(held), stop_time=STEP, output_interval=0.0007)
+    assert list(rows["time"]) == [0.0, 0.0]  # FMPy records the last successful time once more
+    err = capfd.readouterr().err
+    assert "error: FMU held (instance 'held'): a communication step of 0.0007 s is not a whole multiple " \
+           "of the scene's base step dt = 0.0005 s" in err
+
+
+def test_an_invalid_start_value_is_said_on_standard_error(held):
+    """spin = NaN: exitInitializationMode fails (Fatal, FMPy raises), the scene's reason on standard
+    error (it was in the FMU's log only, which FMPy shows with debug logging)."""
+    done = _in_a_process(f"import fmpy; fmpy.simulate_fmu({str(held)!r}, stop_time=0.01, "
+                         "start_values={'spin': float('nan')})")
+    assert "fmi2ExitInitializationMode failed with status 4 (fatal)" in done.stderr
+    assert "error: FMU held (instance 'held'): the scene cannot start: scene.yaml: components.stone.spin: " \
+           "must be a number (got 'nan')" in done.stderr
+
+
+def test_a_cosim_scene_holding_a_failing_exported_scene_says_why_in_one_line(tmp_path):
+    """An exported scene that holds an FMU itself (gust_skip: its gust), failing at 0.359 s, run as a
+    component of a cosim scene: the run's one error line quotes the inner failure, through both FMUs
+    (the inner FMU took the process's one logger, and the line said "the FMU logged nothing"; the
+    exported FMU's own line on standard error would have said it a second time)."""
+    fmu = tmp_path / "gusty.fmu"
+    assert main(["fmu", "export", str(ROOT / "scenarios" / "gust_skip.yaml"), "--set",
+                 "components.gust.start.max_speed=9", "-o", str(fmu), "--step", str(STEP)]) == 0
+    scene = tmp_path / "host.yaml"
+    scene.write_text("name: host\ndt: 0.0005\nuntil: 0.6\ncomponents:\n  throw:\n    type: FMU\n"
+                     "    path: gusty.fmu\n    every: 20\n    outputs: {vz: vz}\n")
+    done = subprocess.run([sys.executable, "-m", "cosim.cli", "run", str(scene), "--no-record", "-q"],
+                          capture_output=True, text=True, timeout=300, check=False, cwd=tmp_path,
+                          env={key: value for key, value in os.environ.items() if key != HOST_READS_LOG})
+    assert done.returncode == 1
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("error: component 'throw' failed at t = 0.35 s: FMU 'gusty.fmu' doStep returned "
+                           "Discard: [Error] component 'gust' failed at t = 0.359 s: "), line
+    assert "relative air speed 9 m/s at t = 0.359 s is above max_speed = 9 m/s" in line
