@@ -9,14 +9,13 @@ FMI allows) and the folder is removed when the process ends.
 from __future__ import annotations
 
 import atexit
-import os
 import shutil
 from collections.abc import Callable
 from ctypes import byref
 from pathlib import Path
 from typing import Any
 
-from cosim.fmi import HOST_READS_LOG
+import cosim.fmi
 
 LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
 STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
@@ -143,9 +142,6 @@ class FmuInstance:
 
     def _load(self, md: Any, common: dict[str, Any]) -> None:
         """Load the FMU's binary (``common``: FMPy's slave arguments) and instantiate it."""
-        # its log reaches this process (loggingOn), which reports a failure with the log's words: an FMU
-        # cosim exported then says nothing of its own on standard error
-        os.environ[HOST_READS_LOG] = "1"
         if self.fmi3:
             from fmpy.fmi3 import FMU3Slave
 
@@ -190,6 +186,9 @@ class FmuInstance:
         from fmpy.fmi1 import FMICallException
 
         self.log = []
+        # its log reaches this process (loggingOn), which reports a failure in its words: an FMU cosim
+        # exported says nothing of its own on standard error meanwhile (cosim.fmi.host_calls)
+        cosim.fmi.host_calls += 1
         try:
             return call(*args, **kwargs)
         except FMICallException as exc:
@@ -199,6 +198,8 @@ class FmuInstance:
             said = ([m for m in self.log if m.startswith("[Error]")] or
                     [m for m in self.log if m.startswith("[Fatal]")] or self.log)
             raise FmuCallError(function, status, said) from None
+        finally:
+            cosim.fmi.host_calls -= 1
 
     # --- values --------------------------------------------------------------------------------
 

@@ -5,7 +5,9 @@ FMUs used as components (through FMPy) are the ``FMU`` component type, in ``comp
 Everything here needs the ``[fmi]`` extra (``fmpy``, ``pythonfmu``) and imports it lazily.
 """
 
-# set to "1" by a cosim scene that runs FMUs in its process with their log passed on to it
-# (components.fmu.instance): an exported scene's failure is then said in that scene's own error line,
-# not a second time by the FMU on standard error (cosim.fmi.slave)
-HOST_READS_LOG = "COSIM_FMU_HOST_READS_LOG"
+# how many calls of cosim's FMU component into an FMU are under way in this process
+# (components.fmu.instance), which read the FMU's log: an exported scene failing within one is said
+# in that scene's own error line, not a second time by the FMU on standard error (cosim.fmi.slave).
+# Counted around each call, not set once: the same process may run an exported scene for another
+# master (FMPy) while the scene runs an FMU of its own.
+host_calls = 0

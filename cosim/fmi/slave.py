@@ -17,7 +17,6 @@ Python needs cosim and its components installed, the same version for the same r
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 from typing import Any, NoReturn
@@ -26,9 +25,9 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Intege
 from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
 
+import cosim.fmi
 from cosim.codec.json_codec import codec_for, decode_state, encode_state
 from cosim.errors import one_line
-from cosim.fmi import HOST_READS_LOG
 from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
 from cosim.scenario import loads
@@ -133,7 +132,7 @@ class SceneSlave(Fmi2Slave):
         running the FMU is where a user of any master sees it."""
         text = one_line(message)
         self.log(text, Fmi2Status.error)
-        if os.environ.get(HOST_READS_LOG) != "1":  # a cosim scene holding the FMU reports it in its own line
+        if cosim.fmi.host_calls == 0:  # else the cosim scene calling the FMU reports it in its own line
             print(f"error: FMU {type(self).__name__} (instance {self.instance_name!r}): {text}", file=sys.stderr,
                   flush=True)
 
