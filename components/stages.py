@@ -134,7 +134,8 @@ class StageMonitor(Component):
                                   doc="touching water slower than this horizontally counts as sinking")
         rest_speed: float = param(0.01, unit="m/s", ge=0, doc="on the ground slower than this is at rest")
         stop_after: float = param(0.3, unit="s", ge=0,
-                                  doc="end the run this long after sink, float or rest (0: never stop)")
+                                  doc="end the run this long after sink, float or rest, and at once when the "
+                                      "stone leaves the pond (0: never stop)")
         takeoff_clearance: float = param(0.002, unit="m", ge=0,
                                          doc="a contact ends when the stone rises with its lowest point this far "
                                              "above the surface")
@@ -249,10 +250,11 @@ class StageMonitor(Component):
             self.stage, self.since = StageId.LEFT_POND, now
             self.timeline.append((now, LEFT_POND))
             outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, float(body.position[0]))
-            x, y = float(body.position[0]), float(body.position[1])
-            where = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
-            self.request_stop(f"stone {where} at x = {x:.3g} m, y = {y:.3g} m (no water under it "
-                              f"since t = {self.outside_since:.4g} s)")
+            if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
+                x, y = float(body.position[0]), float(body.position[1])
+                where = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
+                self.request_stop(f"stone {where} at x = {x:.3g} m, y = {y:.3g} m (no water under it "
+                                  f"since t = {self.outside_since:.4g} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
         track = self.track

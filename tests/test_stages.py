@@ -143,6 +143,23 @@ def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
     assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
 
 
+def test_a_monitor_that_ends_no_run_lets_the_others_go_on_when_its_stone_leaves():
+    """stop_after 0 (each monitor of several bodies in one pond): its stone leaving the pond is its
+    outcome, but it ends no run, so the other stones' contacts are not cut short (one stone off the
+    edge stopped a two-stone run with the other mid-contact)."""
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003, stop_after=0.0))
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
+        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
+        (body(0.6, 0.01, 5.0, 0.5), water(False, depth=-0.01), None),
+        *[(body(0.8 + 0.1 * k, -0.01 * (k + 1), 5.0, -0.5), water(False, depth=0.004 + 0.01 * k), None)
+          for k in range(6)],
+    ]
+    drive(m, script)
+    assert m.stop_reason is None
+    assert m.metrics()["outcome"] == "left-pond" and m.timeline[-1][1] == "left-pond"
+
+
 def test_a_stone_that_never_touched_the_water_missed_it_rather_than_left_it():
     """Thrown beside the pond (or with the pond elsewhere), the stone is dry below the water level
     without ever having touched water: the stop reason says it missed the water, not that it left."""
