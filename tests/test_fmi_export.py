@@ -390,3 +390,19 @@ def test_a_named_parameter_has_the_unit_its_component_declares(tmp_path, capsys)
     assert found["density"] == ("Real", "kg/m^3") and found["every"] == ("Integer", None)
     assert found["wz"] == ("Real", None)
     assert validate_fmu(str(out)) == []
+
+
+def test_a_parameter_the_scene_leaves_at_its_default_is_one_and_a_misspelled_one_is_named(tmp_path, capsys):
+    """--parameter rho=components.coupler.rho: the held skip's scene does not write rho, which the
+    coupler takes at its default, 1000 kg/m^3: a parameter starting there (it was refused: "the scene
+    has no number ... (got None)"). A misspelled parameter is named with the one meant."""
+    out = tmp_path / "rho.fmu"
+    held = SKIP_SCENE.with_name("held_skip.yaml")
+    assert main(["fmu", "export", str(held), "-o", str(out), "--parameter", "rho=components.coupler.rho"]) == 0
+    rho = next(v for v in fmpy.read_model_description(str(out)).modelVariables if v.name == "rho")
+    assert (rho.type, rho.unit, float(rho.start)) == ("Real", "kg/m^3", 1000.0)
+    capsys.readouterr()
+    assert main(["fmu", "export", str(held), "-o", str(tmp_path / "typo.fmu"),
+                 "--parameter", "d=components.stone.densty"]) == 2
+    assert "the scene has no value at 'components.stone.densty' (did you mean 'components.stone.density'?)" \
+           in capsys.readouterr().err

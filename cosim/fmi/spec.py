@@ -110,17 +110,33 @@ def load_preset(name: str) -> Any:
 
 
 def scene_value(scene: Scene, key: str) -> Any:
-    """The scene's value at a ``--set`` key path (None if there is none)."""
+    """The scene's value at a ``--set`` key path: as the file writes it, else, for a component's
+    parameter the file leaves out, the default the component takes (None if there is neither)."""
     parts = key.split(".")
     node, missing = find_parent(scene.data, parts)
-    if missing is not None:
-        return None
     last = parts[-1]
-    if isinstance(node, dict):
-        return node.get(last)
-    if isinstance(node, list) and last.isdigit() and int(last) < len(node):
+    if missing is None and isinstance(node, dict) and last in node:
+        return node[last]
+    if missing is None and isinstance(node, list) and last.isdigit() and int(last) < len(node):
         return node[int(last)]
-    return None
+    return _parameter_value(scene, parts)
+
+
+def _parameter_value(scene: Scene, parts: list[str]) -> Any:
+    """The value at ``parts`` (components.NAME.PARAM[.i ...]) among a component's validated
+    parameters, defaults included, or None."""
+    cfg = scene.components.get(parts[1]) if len(parts) > 2 and parts[0] == "components" else None
+    if cfg is None or parts[2] in COMPONENT_KEYS:
+        return None
+    value: Any = cfg.params
+    for part in parts[2:]:
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            value = getattr(value, part, None)
+        elif isinstance(value, (list, tuple)) and part.isdigit() and int(part) < len(value):
+            value = value[int(part)]
+        else:
+            return None
+    return value
 
 
 def _field_type(cls: Any, parts: list[str]) -> tuple[Any, str] | None:
@@ -175,6 +191,9 @@ def parse_parameter(text: str, scene: Scene) -> Parameter:
     if not sep or not NAME_RE.fullmatch(name.strip()):
         raise ScenarioError(f"--parameter {text!r}: expected NAME=key.path (e.g. density=components.stone.density)",
                             scene.source)
+    if value is None:
+        raise ScenarioError(f"--parameter {text!r}: the scene has no value at {key!r}{_near(scene, key)}; "
+                            "a parameter sets one number of the scene", scene.source)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ScenarioError(f"--parameter {text!r}: the scene has no number at {key!r} (got {value!r}); "
                             "a parameter sets one number of the scene", scene.source)
@@ -184,6 +203,19 @@ def parse_parameter(text: str, scene: Scene) -> Parameter:
     if kind is int:
         return Parameter(name.strip(), int(value), key=key, description=f"the scene's {key}", kind="integer")
     return Parameter(name.strip(), float(value), unit, description=f"the scene's {key}", key=key)
+
+
+def _near(scene: Scene, key: str) -> str:
+    """ " (did you mean 'NAME'?)" for a component parameter misspelled in ``key``, else ""."""
+    import difflib
+
+    parts = key.split(".")
+    cfg = scene.components.get(parts[1]) if len(parts) > 2 and parts[0] == "components" else None
+    if cfg is None or not dataclasses.is_dataclass(cfg.params):
+        return ""
+    names = [f.name for f in dataclasses.fields(cfg.params)]
+    close = difflib.get_close_matches(parts[2], names, n=1)
+    return f" (did you mean {'.'.join([*parts[:2], close[0]])!r}?)" if close and close[0] != parts[2] else ""
 
 
 def _overlap(a: str, b: str) -> bool:
