@@ -235,7 +235,8 @@ class SolidGround(Component):
         self._begins = None if begun is None else (np.array(begun, dtype=np.float64), _NO_CHANGE)
 
     def summary(self) -> list[str]:
-        lines = [f"{self.name}: {self.impacts} bounces, {self.dissipated:.4g} J dissipated"
+        bounces = "1 bounce" if self.impacts == 1 else f"{self.impacts} bounces"
+        lines = [f"{self.name}: {bounces}, {self.dissipated:.4g} J dissipated"
                  + (", body in contact" if self.in_contact else "")]
         if self.painleve:
             lines.append(f"{self.name}: friction dropped in {self.painleve} impulses (Painlevé: "

@@ -132,3 +132,11 @@ def test_a_ball_resting_on_the_bed_does_not_start_to_roll():
     spin = np.array([np.linalg.norm(m.angular_velocity) for m in watch.messages("granite.state")])
     at_rest = spin[500:]  # from 0.5 s (a step of 1 ms)
     assert at_rest.max() < 1e-5 and at_rest[-1] <= at_rest[0] + 1e-9
+
+
+@pytest.mark.parametrize(("impacts", "said"), [(0, "floor: 0 bounces, "), (1, "floor: 1 bounce, "),
+                                                (2, "floor: 2 bounces, ")])
+def test_the_grounds_summary_counts_its_bounces_in_words(impacts, said):
+    ground = make(SolidGround, "floor")
+    ground.impacts = impacts
+    assert ground.summary()[0].startswith(said)
