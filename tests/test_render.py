@@ -100,6 +100,10 @@ def test_unknown_formats_and_times_are_bad_input(skip_path, tmp_path, capsys):
     assert "a PNG is one frame: give its time with --at" in capsys.readouterr().err
     assert main(["render", str(skip_path), "-o", str(tmp_path / "x.gif"), "--at", "0.1", "-q"]) == 2
     assert "--at is a PNG's frame time" in capsys.readouterr().err
+    # the fixed view shows the whole run: a window width asked for it was dropped without a word
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.gif"), "--view", "fixed", "--span", "2"]) == 2
+    assert "--span 2: the width of the follow view's window; the fixed view shows the whole run" \
+           in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 

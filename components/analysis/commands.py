@@ -72,7 +72,7 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--view", choices=("follow", "fixed"), default="follow",
                    help="follow: a window around the stone (default); fixed: the whole run in view "
                         "(water alone: always the whole surface)")
-    p.add_argument("--span", type=positive_number, default=1.0,
+    p.add_argument("--span", type=positive_number,
                    help="follow view: width of the window [m] (default 1)")
     p.add_argument("--from", dest="start", type=seconds, metavar="T", help="start time [s]")
     p.add_argument("--to", dest="stop", type=seconds, metavar="T", help="end time [s]")
@@ -99,9 +99,14 @@ def cmd_render(args: argparse.Namespace) -> int:
         print(f"error: {args.output}: is the recording rendered; it would be replaced (choose another -o)",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    options = RenderOptions(fps=args.fps, width=args.width, speed=args.speed, view=args.view, span=args.span,
-                            start=args.start, stop=args.stop, at=args.at, body=args.body, water=args.water,
-                            progress=not args.quiet)
+    if args.span is not None and args.view != "follow":  # the fixed view shows the whole run
+        print(f"error: --span {args.span:g}: the width of the follow view's window; the fixed view shows "
+              "the whole run (leave --span out, or use --view follow)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    span = {} if args.span is None else {"span": args.span}  # else RenderOptions' own default
+    options = RenderOptions(fps=args.fps, width=args.width, speed=args.speed, view=args.view, start=args.start,
+                            stop=args.stop, at=args.at, body=args.body, water=args.water, progress=not args.quiet,
+                            **span)
     try:
         result = render(args.recording, args.output, options)
     except RenderError as exc:
