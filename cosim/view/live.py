@@ -10,6 +10,11 @@ real time so it can be watched (``speed`` 0: as fast as it goes). Like the recor
 messages: the physics is the same with or without it. Messages are encoded only for channels a
 client subscribes to.
 
+Every channel is latched: it keeps its latest message from each port that publishes on it (``/tf``
+carries every body's transform, each from its own body's state), and a client that subscribes is
+sent those with their original log times, so a viewer sees the current stage, the last skip and the
+stone at once, whether it subscribed before a channel's first message went out or after the run ended.
+
 When the run ends, :meth:`LiveView.linger` keeps the server up with the finished run's last clock
 (``cosim run --live`` does so until Ctrl-C, or for ``--live-linger`` seconds), so a viewer can still
 connect after a run that lasted two seconds; Ctrl-C or SIGTERM then end it cleanly.
@@ -20,6 +25,7 @@ from __future__ import annotations
 import math
 import signal
 import sys
+import threading
 import time
 from typing import Any
 
@@ -58,6 +64,36 @@ def parse_address(address: str) -> tuple[str, int]:
     return host, int(port_text)
 
 
+class _Subscriptions:
+    """The server's listener: notes the topics clients subscribe to, for the main thread to send
+    their latest messages (the SDK calls it on a server thread, where logging can deadlock)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._topics: set[str] = set()
+
+    def on_subscribe(self, client: Any, channel: Any) -> None:
+        with self._lock:
+            self._topics.add(channel.topic)
+
+    def on_unsubscribe(self, client: Any, channel: Any) -> None:
+        """Nothing to do (a channel's latest messages are kept for the next subscriber), but the SDK
+        calls it on every listener: without it each unsubscribe or disconnect prints an error."""
+
+    def served(self, topic: str) -> None:
+        """The latest message of ``topic``'s only source was just logged: every subscriber noted so
+        far has it (the SDK registers a subscription before it calls :meth:`on_subscribe`), so
+        sending it again would only repeat it."""
+        with self._lock:
+            self._topics.discard(topic)
+
+    def take(self) -> list[str]:
+        """The topics subscribed to since the last call, sorted (a fixed order of sending)."""
+        with self._lock:
+            topics, self._topics = sorted(self._topics), set()
+        return topics
+
+
 class LiveView(BaseObserver):
     """Streams exchanges and viewer channels to a Foxglove WebSocket server; call :meth:`close`."""
 
@@ -75,10 +111,11 @@ class LiveView(BaseObserver):
         host, port = parse_address(address)
         self._foxglove = foxglove
         self.context = foxglove.Context()
+        self._subscriptions = _Subscriptions()
         try:
             self.server = foxglove.start_server(
                 name=f"cosim: {scene.name}", host=host, port=port, context=self.context,
-                capabilities=[foxglove.Capability.Time])
+                capabilities=[foxglove.Capability.Time], server_listener=self._subscriptions)
         except Exception as exc:  # the SDK reports bind failures as plain runtime errors
             raise LiveViewError(f"--live {address}: cannot start the WebSocket server ({exc})") from None
         self.host, self.port = host, self.server.port
@@ -87,6 +124,11 @@ class LiveView(BaseObserver):
         if components:
             self.deriver.bind(components)
         self._channels: dict[str, Any] = {}
+        # per topic, the latest message from each (component, port) publishing on it, with its log
+        # time [ns]: a physics Message (encoded only when a client subscribes) or a viewer
+        # channel's bytes; a viewer channel such as /tf or /log has several sources, and the latest
+        # of just one of them would leave the others' frames unknown to a late viewer
+        self._latest: dict[str, dict[tuple[str, str], tuple[Message | bytes, int]]] = {}
         self._wall0 = 0.0
         self._sim0 = 0
         self._last_clock = 0.0
@@ -125,11 +167,30 @@ class LiveView(BaseObserver):
             codec = codec_for(type(msg))
             channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
                                     MESSAGE_ENCODING)
+        self._latest.setdefault(topic, {})[component, port] = (msg, time_ns)
         if channel.has_sinks():
             channel.log(codec_for(type(msg)).encode(msg), log_time=time_ns)
+            self._subscriptions.served(topic)
         for extra in self.deriver(time_ns, component, port, msg):
+            self._latest.setdefault(extra.topic, {})[component, port] = (extra.data, time_ns)
             self._channel(extra.topic, extra.schema_name, extra.schema_encoding, extra.schema_data,
                           extra.message_encoding).log(extra.data, log_time=time_ns)
+            if len(self._latest[extra.topic]) == 1:  # else a new subscriber still lacks the others'
+                self._subscriptions.served(extra.topic)
+
+    def _send_latest(self) -> None:
+        """Send each newly subscribed channel its latest messages, with their original log times.
+
+        The SDK cannot address one client from Python (``Channel.log``'s ``sink_id`` names a sink,
+        and the Python ``Client`` gives only its client id, not its sink id), so they go to the
+        channel: a client subscribed earlier gets them once more, with the same log times.
+        """
+        for topic in self._subscriptions.take():
+            # oldest first (a stable sort: sources with equal times keep their first-publish order)
+            for data, log_time in sorted(self._latest[topic].values(), key=lambda latest: latest[1]):
+                if not isinstance(data, bytes):
+                    data = codec_for(type(data)).encode(data)
+                self._channels[topic].log(data, log_time=log_time)
 
     def on_step_complete(self, sim: Simulation) -> None:
         now = time.perf_counter()
@@ -141,10 +202,12 @@ class LiveView(BaseObserver):
         if now - self._last_clock >= CLOCK_PERIOD_S:
             self._last_clock = now
             self.server.broadcast_time(sim.time_ns)
+        self._send_latest()
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
         self._sim_end = sim.time_ns
         self.server.broadcast_time(sim.time_ns)
+        self._send_latest()
 
     def linger(self, seconds: float = math.inf, *, say: bool = True) -> None:
         """Keep serving after the run for ``seconds`` of wall time (inf: until Ctrl-C or SIGTERM),
@@ -170,6 +233,7 @@ class LiveView(BaseObserver):
                 time.sleep(min(LINGER_TICK_S, left))
                 if clock is not None:  # a client that connects now learns where the run ended
                     self.server.broadcast_time(clock)
+                self._send_latest()  # and what each channel it subscribes to showed last
         except KeyboardInterrupt:
             pass
         finally:

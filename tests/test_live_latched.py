@@ -1,0 +1,236 @@
+"""`cosim run --live` latches every channel: a client that subscribes gets the channel's latest
+message (from each port publishing on it) with its original log time, whether it subscribed after
+the channel's first message went out or after the run ended.
+
+The client is tornado's WebSocket client speaking the Foxglove WebSocket protocol: ``advertise``
+(JSON) is answered with ``subscribe``; binary frames are ``messageData`` (opcode 1: subscription id
+u32, log time u64, payload) and ``time`` (opcode 2: u64).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import signal
+import struct
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import pytest
+
+pytest.importorskip("foxglove", reason="the foxglove-sdk package is not installed")
+pytest.importorskip("tornado", reason="the client of these tests is tornado's")
+
+from tornado import websocket
+
+from components.messages import SkipRecord, Stage, StageId
+from cosim.codec.json_codec import codec_for
+from cosim.record.recorder import physics_topics
+from cosim.scenario import loads
+from cosim.scheduler import BaseObserver, Simulation
+from cosim.view.foxglove import visual_deriver
+from cosim.view.live import DEFAULT_RATE, LiveView
+from tests.viewer_toys import SKIP_SCENE
+
+PROTOCOL = "foxglove.sdk.v1"
+AGAIN = 100_000  # added to a subscription id: the id of the second subscribe to the same channel
+WAIT_S = 20.0  # [s of wall time] bound on every wait of these tests (a failure, not a measurement)
+
+
+@dataclass
+class Received:
+    """What the client saw: channels by topic, (log time, payload) per topic, clock broadcasts."""
+
+    channels: dict[str, dict] = field(default_factory=dict)
+    got: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
+    clock: list[int] = field(default_factory=list)
+
+
+async def watch(port: int, seen: Received, done: Callable[[Received], bool], *,
+                opened: Callable[[], None] = lambda: None,
+                confirmed: Callable[[str], None] = lambda topic: None) -> None:
+    """Connect (then call ``opened``), subscribe to every channel advertised, and collect until
+    ``done`` (or for at most WAIT_S).
+
+    Each subscribe is followed by a second one to the same channel: the server answers that with a
+    warning, which says the first was processed (the SDK handles a client's messages in order and
+    calls the server listener's ``on_subscribe`` within the first); ``confirmed`` is then called.
+    """
+    ws = await websocket.websocket_connect(f"ws://127.0.0.1:{port}", subprotocols=[PROTOCOL])
+    opened()
+    topics: dict[int, str] = {}  # subscription id -> topic
+    by_id: dict[int, str] = {}  # channel id -> topic
+
+    async def subscribe(topic: str) -> None:
+        sub_id = next((k for k, t in topics.items() if t == topic), len(topics) + 1)
+        # the second id: the server warns, "already subscribed" (or, if the first came too early
+        # for a new channel, that one is the subscription)
+        for each in (sub_id, sub_id + AGAIN):
+            topics[each] = topic
+            subscription = {"id": each, "channelId": seen.channels[topic]["id"]}
+            await ws.write_message(json.dumps({"op": "subscribe", "subscriptions": [subscription]}))
+
+    deadline = time.monotonic() + WAIT_S
+    try:
+        while not done(seen) and (left := deadline - time.monotonic()) > 0:
+            try:
+                frame = await asyncio.wait_for(ws.read_message(), timeout=left)
+            except TimeoutError:
+                break
+            if frame is None:
+                break
+            if isinstance(frame, str):
+                msg = json.loads(frame)
+                text = msg.get("message", "")
+                if msg["op"] == "advertise":
+                    for ch in msg["channels"]:
+                        seen.channels[ch["topic"]] = ch
+                        by_id[ch["id"]] = ch["topic"]
+                        await subscribe(ch["topic"])
+                elif msg["op"] == "status" and text.startswith("Unknown channel ID"):
+                    # a subscribe sent right after an advertisement can reach the server before it
+                    # has registered that channel: ask again
+                    await asyncio.sleep(0.01)
+                    await subscribe(by_id[int(text.rsplit(" ", 1)[1])])
+                elif msg["op"] == "status" and text.startswith("Client is already subscribed to channel: "):
+                    topic = by_id[int(text.split(": ", 1)[1].split(";", 1)[0])]
+                    confirmed(topic)
+            elif frame[0] == 1:
+                sub_id, log_time = struct.unpack_from("<IQ", frame, 1)
+                seen.got.setdefault(topics[sub_id], []).append((log_time, bytes(frame[13:])))
+            elif frame[0] == 2:
+                seen.clock.append(struct.unpack_from("<Q", frame, 1)[0])
+    finally:
+        ws.close()
+
+
+class Latest(BaseObserver):
+    """The latest message on every channel from each port publishing on it, as the live view
+    should latch them: physics channels JSON-encoded, viewer channels from a deriver of its own
+    (the deriver is deterministic: the same exchanges give the same bytes)."""
+
+    def __init__(self, sim: Simulation):
+        scene = sim.scene
+        self.deriver = visual_deriver(scene.record.visual_rate or DEFAULT_RATE, physics_topics(scene))
+        self.deriver.bind(sim.components)
+        self.latest: dict[str, dict[tuple[str, str], tuple[int, bytes]]] = {}
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Any) -> None:
+        encoded = codec_for(type(msg)).encode(msg)
+        self.latest.setdefault(f"/{component}/{port}", {})[component, port] = (time_ns, encoded)
+        for extra in self.deriver(time_ns, component, port, msg):
+            self.latest.setdefault(extra.topic, {})[component, port] = (time_ns, extra.data)
+
+
+def test_a_viewer_connecting_after_the_run_gets_every_channels_latest_message():
+    """While the finished run lingers, a client that connects and subscribes receives, on every
+    channel, exactly the latest message of each port publishing on it, with its original log time
+    (before: only clock broadcasts)."""
+    scene = loads(SKIP_SCENE)
+    sim = Simulation(scene)
+    view = LiveView(scene, "127.0.0.1:0", speed=0.0, components=sim.components, announce=False)
+    expected = Latest(sim)
+    sim.observers += [view, expected]
+    sim.run()
+    want = {topic: sorted(by_source.values()) for topic, by_source in expected.latest.items()}
+    seen = Received()
+    main = threading.main_thread().ident
+    assert main is not None
+
+    def client() -> None:
+        try:
+            asyncio.run(watch(view.port, seen, lambda s: bool(s.clock) and set(s.channels) == set(want)
+                              and all(len(s.got.get(t, ())) >= len(w) for t, w in want.items())))
+        finally:
+            # anything received came from linger's loop, so linger is running: end it as Ctrl-C
+            # does (with nothing received it ends after its own bound)
+            if seen.got:
+                signal.pthread_kill(main, signal.SIGINT)
+
+    runner = threading.Thread(target=client)
+    runner.start()
+    try:
+        view.linger(2 * WAIT_S, say=False)  # longer than the client's bound: its signal lands in here
+    finally:
+        runner.join(timeout=WAIT_S)
+        view.close()
+    assert set(seen.channels) == set(want)
+    assert {"/stages/stage", "/stages/skip", "/scene/stone", "/tf", "/stone/state"} <= set(want)
+    assert {topic: sorted(got) for topic, got in seen.got.items()} == want
+    assert seen.clock and seen.clock[-1] == scene.until_ns
+    stage = codec_for(Stage).decode(seen.got["/stages/stage"][0][1])
+    skip = codec_for(SkipRecord).decode(seen.got["/stages/skip"][0][1])
+    assert (stage.label, skip.index) == ("approach", 3)  # the run's last stage and last skip
+
+
+class Gate(BaseObserver):
+    """Holds the run at the end of the step in which a watched topic's first message was published,
+    until the client has subscribed to it. ``topics`` maps each watched topic to the channel whose
+    exchange publishes it first (a viewer channel: the physics channel it is derived from).
+    Observers run in order: placed before the live view, it holds the run before the live view's
+    end-of-step work sends what was subscribed to."""
+
+    def __init__(self, topics: dict[str, str]):
+        self.triggers = dict(topics)
+        self.subscribed = {topic: threading.Event() for topic in topics}
+        self.fresh: set[str] = set()
+
+    def on_exchange(self, time_ns: int, component: str, port: str, msg: Any) -> None:
+        for topic, source in list(self.triggers.items()):
+            if source == f"/{component}/{port}":
+                del self.triggers[topic]
+                self.fresh.add(topic)
+
+    def on_step_complete(self, sim: Simulation) -> None:
+        for topic in sorted(self.fresh):
+            if not self.subscribed[topic].wait(WAIT_S):
+                raise AssertionError(f"the client did not subscribe to {topic} within {WAIT_S} s")
+        self.fresh.clear()
+
+
+def test_a_viewer_connected_from_the_start_gets_each_channels_first_message():
+    """A channel is created (and advertised) with its first message, before any client can have
+    subscribed to it: the first stage ("approach"), the first skip and the 3D stone (re-sent only
+    once a second) still reach a client connected from the start, the stages once each and in
+    order with the rest (before: all three were lost)."""
+    scene = loads(SKIP_SCENE)
+    sim = Simulation(scene)
+    view = LiveView(scene, "127.0.0.1:0", speed=0.0, components=sim.components, announce=False)
+    gate = Gate({"/stages/stage": "/stages/stage", "/stages/skip": "/stages/skip", "/scene/stone": "/stone/state"})
+    published: dict[str, list[tuple[int, bytes]]] = {}
+
+    class Published(BaseObserver):
+        def on_exchange(self, time_ns: int, component: str, port: str, msg: Any) -> None:
+            if component == "stages":
+                encoded = codec_for(type(msg)).encode(msg)
+                published.setdefault(f"/{component}/{port}", []).append((time_ns, encoded))
+
+    sim.observers += [gate, view, Published()]
+    runner = threading.Thread(target=sim.run)
+    seen = Received()
+
+    def confirmed(topic: str) -> None:
+        if topic in gate.subscribed:
+            gate.subscribed[topic].set()
+
+    def finished(s: Received) -> bool:
+        # the clock and the messages reach the client in queues of their own: wait for both
+        return (not runner.is_alive() and bool(s.clock) and s.clock[-1] == scene.until_ns
+                and all(len(s.got.get(topic, ())) >= len(sent) for topic, sent in published.items()))
+
+    try:
+        asyncio.run(watch(view.port, seen, finished, opened=runner.start, confirmed=confirmed))
+    finally:
+        if runner.ident is not None:
+            runner.join(timeout=WAIT_S)
+        view.close()
+    assert not runner.is_alive() and seen.clock[-1] == scene.until_ns
+    assert seen.got["/stages/stage"] == published["/stages/stage"]
+    assert seen.got["/stages/skip"] == published["/stages/skip"]
+    first_stage = codec_for(Stage).decode(seen.got["/stages/stage"][0][1])
+    first_skip = codec_for(SkipRecord).decode(seen.got["/stages/skip"][0][1])
+    assert (first_stage.stage, first_skip.index) == (StageId.APPROACH, 1)
+    assert seen.got["/scene/stone"][0][0] == 0  # the stone from the start, not a second later
