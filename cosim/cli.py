@@ -43,6 +43,16 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(EXIT_BAD_INPUT, f"error: {self.prog}: {message}\n")
 
+    def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
+        # An empty value for an option that takes any text (plot -o '', replay --component '', bench
+        # accuracy -o '') quietly meant its default, everything, or the working folder. Refused here,
+        # for every command and plug-in (their parsers are this class); an option with its own type
+        # (run -o, --until) says it in its own words.
+        if action.option_strings and action.type in (None, str, Path) and not arg_string.strip():
+            hint = "" if action.required else " (leave the option out for its default)"
+            raise argparse.ArgumentError(action, f"expected a value, got an empty one{hint}")
+        return super()._get_value(action, arg_string)
+
 
 def number_arg(kind: type[int] | type[float], what: str, *, above: float | None = None,
                at_least: float | None = None, at_most: float | None = None, unit: str = "") -> Callable[[str], Any]:
@@ -129,6 +139,23 @@ def _output_path(text: str) -> str:
     return file_name(text, "runs/run.mcap", " (leave -o out for the default)")
 
 
+def _markdown_path(text: str) -> Path:
+    """``cosim components --markdown FILE``: a .md file, as the page replaces whatever FILE held (a
+    scene's YAML, a recording)."""
+    name = file_name(text, "docs/components.md")
+    if Path(name).suffix.lower() != ".md":
+        raise argparse.ArgumentTypeError(f"{text!r} is not a .md file; the reference page replaces the file it is "
+                                         "written to, so it must be one named *.md, e.g. docs/components.md")
+    return Path(name)
+
+
+def _until_override(until_ns: int) -> str:
+    """``--until`` as the scene override ``until=T``: a run's end is then kept with its recording
+    (among its overrides), and a restart from it (``replay --from``) runs to that end, not to the
+    scene file's own until."""
+    return f"until={until_ns / NS_PER_S!r}"
+
+
 def _default_output(scene_path: str, name: str, overrides: list[str]) -> Path:
     """runs/<scene>.mcap; a run with --set gets its own name (runs/<scene>-set-<hash>.mcap, the hash
     of its overrides), so that a variant never replaces the scene's own recording."""
@@ -172,10 +199,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     from cosim.runner import format_summary, run_scene
     from cosim.scenario import load
 
-    if args.no_record and args.output:
-        raise ScenarioError([f"--no-record and -o {args.output}: a run either records into a file or does not; "
-                             "give one of them"], "cosim run")
-    scene = load(args.scene, overrides=_record_overrides(args))
+    if args.no_record:
+        _refuse_recording_options(args)
+    overrides = _record_overrides(args)
+    if args.until is not None:
+        overrides.append(_until_override(args.until))
+    scene = load(args.scene, overrides=overrides)
     say_notices(scene.notices)
     output = None if args.no_record else (Path(args.output) if args.output else
                                           _default_output(args.scene, scene.name, list(args.set or [])))
@@ -199,6 +228,24 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"error: {one_line(outcome.result.reason)}", file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _refuse_recording_options(args: argparse.Namespace) -> None:
+    """``--no-record`` with an option that shapes the recording (its file, channels, thinning, /perf):
+    the option would be dropped without a word; bad input, said in one line."""
+    if args.output and not (args.record is not None or args.record_every or args.perf):
+        raise ScenarioError([f"--no-record and -o {args.output}: a run either records into a file or does not; "
+                             "give one of them"], "cosim run")
+    given = [(f"-o {args.output}", "names the recording's file") if args.output else None,
+             (f"--record {args.record}", "chooses the recorded channels") if args.record is not None else None,
+             (f"--record-every {args.record_every}", "thins the recorded messages") if args.record_every else None,
+             ("--perf", "adds wall-clock /perf channels to the recording") if args.perf else None]
+    given = [g for g in given if g is not None]
+    if given:
+        flags = ", ".join(flag for flag, _ in given)
+        what = "; ".join(f"{flag} {why}" for flag, why in given)
+        raise ScenarioError([f"--no-record and {flags}: a run either records or does not, and {what}; "
+                             "give one or the other"], "cosim run")
 
 
 def say_notices(notices: list[str]) -> None:
@@ -248,7 +295,7 @@ def cmd_components(args: argparse.Namespace) -> int:
         chosen = args.types or project_types()
         with written_whole(args.markdown) as tmp:
             tmp.write_text(types_page(chosen), encoding="utf-8")
-        print(f"wrote {args.markdown}: {len(chosen)} component types")
+        print(f"wrote {args.markdown}: {len(chosen)} component type{'' if len(chosen) == 1 else 's'}")
         return EXIT_OK
     if not args.types:
         for names in sorted(registered().values()):
@@ -321,7 +368,16 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return worst
     from cosim.runner import format_summary, run_scene
 
-    sim, stamp = restart_simulation(rec, args.from_time, args.set or [])
+    overrides = [*(args.set or []), *([_until_override(args.until)] if args.until is not None else [])]
+    sim, stamp = restart_simulation(rec, args.from_time, overrides)
+    end_ns = args.until if args.until is not None else sim.scene.until_ns
+    if end_ns <= args.from_time:  # (an explicit --until was checked above) a restart of no time: no file
+        status = rec.status()
+        went_on = round(status.time * NS_PER_S) if status is not None else rec.end_ns
+        beyond = f" (the recorded run went on to t = {went_on / NS_PER_S:g} s)" if went_on > end_ns else ""
+        raise ScenarioError(f"--from {args.from_time / NS_PER_S:g} s is not before the restarted run's end, the "
+                            f"scene's until = {end_ns / NS_PER_S:g} s{beyond}: give --until T, later than "
+                            f"{args.from_time / NS_PER_S:g} s", f"cosim replay {args.recording}")
     default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s.mcap")
     output = Path(args.output) if args.output else default
     def restarting() -> None:  # said once the output is accepted and the run about to begin
@@ -376,8 +432,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p = sub.add_parser("components", help="the component types a scene can name, or a type's parameters, "
                                           "ports and messages")
     p.add_argument("types", nargs="*", metavar="TYPE", help="the types to describe (default: list them all)")
-    p.add_argument("--markdown", type=Path, metavar="FILE",
-                   help="write the reference page of the types (default: this project's) to FILE")
+    p.add_argument("--markdown", type=_markdown_path, metavar="FILE.md",
+                   help="write the reference page of the types (default: this project's) to FILE.md")
     p.set_defaults(func=cmd_components)
 
     p = sub.add_parser("inspect", help="channels, status and stage timeline of a recording")

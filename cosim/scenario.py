@@ -142,18 +142,65 @@ class _StrictLoader(yaml.SafeLoader):
     duplicates: list[str]
 
 
-def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
-    seen: set[Any] = set()
-    for key_node, _ in node.value:
+_MERGE_TAG = "tag:yaml.org,2002:merge"  # the key << (YAML 1.1 merge): its mappings' pairs join this one
+_VALUE_TAG = "tag:yaml.org,2002:value"  # the key = (YAML 1.1 default value), read as the text '=' as SafeLoader does
+
+
+def _construct_mapping(loader: _StrictLoader, node: yaml.Node, deep: bool = False) -> dict:
+    """A mapping as SafeLoader reads it, merge keys included (``<<: *base`` or ``<<: [*a, *b]``, the
+    earlier of several winning), with each key written twice recorded in ``loader.duplicates``. A key
+    written beside a merge overrides the merged one (YAML's rule), which is no duplicate.
+
+    The merge is done here, not by SafeLoader's ``flatten_mapping``: that one rewrites the merged
+    mapping's node in place, after which the keys it merged itself could no longer be told from the
+    ones written in it, and its overrides would be reported as duplicates."""
+    if not isinstance(node, yaml.MappingNode):  # e.g. `!!map text`
+        raise yaml.constructor.ConstructorError(None, None, f"expected a mapping, found a {node.id}", node.start_mark)
+    merged: dict[Any, Any] = {}
+    written: dict[Any, Any] = {}
+    merges = 0
+    for key_node, value_node in node.value:
+        if key_node.tag == _MERGE_TAG:
+            merges += 1
+            if merges == 2:  # (SafeLoader takes both; a key twice is a duplicate all the same)
+                loader.duplicates.append(f"line {key_node.start_mark.line + 1}: duplicate key '<<' (merge "
+                                         "several mappings with one key: <<: [*a, *b])")
+            for source in reversed(_merge_sources(node, value_node)):  # the first listed wins: applied last
+                value = loader.construct_object(source, deep=True)
+                if not isinstance(value, dict):
+                    raise yaml.constructor.ConstructorError(
+                        "while reading a mapping", node.start_mark,
+                        f"a merge (<<) takes a mapping, found a {type(value).__name__}", source.start_mark)
+                merged.update(value)
+            continue
+        if key_node.tag == _VALUE_TAG:
+            key_node.tag = "tag:yaml.org,2002:str"
         key = loader.construct_object(key_node, deep=deep)
         if isinstance(key, list | dict):  # (a set of them would fail on it as an internal error)
             raise yaml.constructor.ConstructorError(
                 "while reading a mapping", node.start_mark,
                 f"found a key that is a {type(key).__name__}, not a name", key_node.start_mark)
-        if key in seen:
+        try:
+            hash(key)
+        except TypeError:
+            raise yaml.constructor.ConstructorError(
+                "while reading a mapping", node.start_mark,
+                f"found a key that is a {type(key).__name__}, not a name", key_node.start_mark) from None
+        if key in written:
             loader.duplicates.append(f"line {key_node.start_mark.line + 1}: duplicate key {key!r}")
-        seen.add(key)
-    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+        written[key] = loader.construct_object(value_node, deep=deep)
+    return {**merged, **written} if merged else written
+
+
+def _merge_sources(node: yaml.MappingNode, value_node: yaml.Node) -> list[yaml.MappingNode]:
+    """The mappings a merge key's value names: one mapping, or a list of them."""
+    sources = value_node.value if isinstance(value_node, yaml.SequenceNode) else [value_node]
+    for source in sources:
+        if not isinstance(source, yaml.MappingNode):
+            raise yaml.constructor.ConstructorError(
+                "while reading a mapping", node.start_mark,
+                f"a merge (<<) takes a mapping or a list of mappings, found a {source.id}", source.start_mark)
+    return sources
 
 
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
@@ -297,20 +344,23 @@ def _seconds(data: dict, key: str, problems: list[str], *, required: bool, defau
     return seconds_value(data[key], key, problems)
 
 
-def seconds_value(value: Any, path: str, problems: list[str], *, zero: bool = False) -> int | None:
-    """A time [s] > 0 (or 0 when ``zero``) as whole nanoseconds, from one tick (1 ns) to the largest
-    time a recording can hold; otherwise a problem naming the range."""
+def seconds_value(value: Any, path: str, problems: list[str], *, zero: str | None = None) -> int | None:
+    """A time [s] > 0 as whole nanoseconds, from one tick (1 ns) to the largest time a recording can
+    hold; otherwise a problem naming the range. ``zero``: what a 0 means where it is allowed too
+    (e.g. "no checkpoints"), said in the problem so that it states the whole rule."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         problems.append(f"{path}: must be a number of seconds (got {value!r})")
         return None
-    if zero and value == 0:
+    if zero is not None and value == 0:
         return 0
     if value <= 0:
-        problems.append(f"{path}: must be > 0 s (got {value:g})")
+        rule = "> 0 s" if zero is None else f">= 0 s (0: {zero})"
+        problems.append(f"{path}: must be {rule} (got {value:g})")
         return None
     if not MIN_STEP_NS <= value * NS_PER_S <= MAX_TIME_NS:
         below = " (shorter than the clock's 1 ns tick)" if value * NS_PER_S < MIN_STEP_NS else ""
-        problems.append(f"{path}: must be {_range_text(MIN_STEP_NS)}{below} (got {value:g})")
+        rule = _range_text(MIN_STEP_NS) if zero is None else f"0 ({zero}) or {_range_text(MIN_STEP_NS)}"
+        problems.append(f"{path}: must be {rule}{below} (got {value:g})")
         return None
     try:
         return seconds_to_ns(float(value), what=path)
@@ -759,7 +809,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         elif values.visual_rate > NS_PER_S:
             problems.append(f"record.visual_rate: must be between 0 and {NS_PER_S:g} frames/s (a frame "
                             f"per nanosecond; got {values.visual_rate:g})")
-        cp = seconds_value(values.checkpoint_every, "record.checkpoint_every", problems, zero=True)
+        cp = seconds_value(values.checkpoint_every, "record.checkpoint_every", problems,
+                           zero="no checkpoints")
         if cp and dt_ns is not None and cp < dt_ns:
             problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
                             f"(got {values.checkpoint_every:g})")

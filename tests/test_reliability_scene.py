@@ -33,7 +33,7 @@ def problem(text: str, overrides: list[str] | None = None) -> str:
     (("until: 0.05", "until: 1.0e308"), "until: must be between 1e-09 s and 9.22e+09 s (got 1e+308)"),
     (("until: 0.05", "until: 100000000000000000000000"), "until: must be between 1e-09 s and 9.22e+09 s"),
     (("checkpoint_every: 0.01", "checkpoint_every: 1.0e308"),
-     "record.checkpoint_every: must be between 1e-09 s and 9.22e+09 s (got 1e+308)"),
+     "record.checkpoint_every: must be 0 (no checkpoints) or between 1e-09 s and 9.22e+09 s (got 1e+308)"),
     (("checkpoint_every: 0.01", "checkpoint_every: 0.0001"),
      "record.checkpoint_every: must be 0 (none) or at least dt"),
     (("checkpoint_every: 0.01", "visual_rate: 1.0e308"), "record.visual_rate: must be between 0 and 1e+09 frames/s"),

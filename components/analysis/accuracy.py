@@ -550,7 +550,8 @@ def figure(study: Study, path: str | Path, dpi: int = 100) -> Path:
         ax.set_xlabel("wall time / fastest run of the study")
         ax.set_ylabel(label)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
-    axes[1, 0].legend(loc="lower left", fontsize=8)
+    if axes[1, 0].get_legend_handles_labels()[0]:  # none when no run made a skip: no empty legend (and its warning)
+        axes[1, 0].legend(loc="lower left", fontsize=8)
     fig.suptitle(f"Work-precision of {Path(study.scene_path).name} against the reference run "
                  f"({'quick' if study.quick else 'full'} study; * = the scene's base step)", fontsize=10)
     with written_whole(Path(path)) as tmp:  # a failed write leaves no truncated picture
@@ -579,14 +580,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                          "coupling order and effects, against a fine reference run")
     p.add_argument("scene", help="scene YAML file (a throw with a RigidBody, e.g. scenarios/skip.yaml)")
     p.add_argument("--quick", action="store_true",
-                   help=f"smoke test: {QUICK_UNTIL:g} s, a reference at dt/4 with the scene's integrator and "
-                        "water, fewer variants, one round")
+                   help=f"smoke test: the first {QUICK_UNTIL:g} s (or the scene's until, if sooner), a reference at "
+                        "dt/4 with the scene's integrator and water, fewer variants, one round")
     p.add_argument("-o", "--output", metavar="DIR", default="runs/accuracy",
                    help="writes DIR/figures/accuracy.png and the table section of DIR/accuracy.md "
                         "(default runs/accuracy; docs/ for the documentation)")
     p.add_argument("--repeats", type=positive_int, help="timed rounds per variant (default 2; 1 with --quick)")
     p.add_argument("--until", type=positive_seconds, metavar="T",
-                   help="end time of every run [s] (default: the scene's, or 0.4 s with --quick)")
+                   help=f"end time of every run [s] (default: the scene's until; with --quick, {QUICK_UNTIL:g} s "
+                        "or the scene's until, if sooner)")
     p.add_argument("-q", "--quiet", action="store_true", help="no line per run on stderr")
     p.set_defaults(func=cmd_accuracy)
 
