@@ -751,6 +751,9 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     description = data.get("description", "")
     dt_ns = _seconds(data, "dt", problems, required=True)
     until_ns = _seconds(data, "until", problems, required=True)
+    if dt_ns is not None and until_ns is not None and until_ns < dt_ns:
+        # the run takes whole base steps: its one step would run it to dt, past the end asked for
+        problems.append(f"until: must be at least one base step, dt = {dt_ns / 1e9:g} s (got {until_ns / 1e9:g} s)")
     default_unstable = data.get("on_unstable", "error")
     if default_unstable not in ON_UNSTABLE:
         problems.append(f"on_unstable: must be one of 'error', 'substep' (got {default_unstable!r})")

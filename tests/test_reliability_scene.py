@@ -252,3 +252,10 @@ def test_every_record_problem_is_said_at_once():
         load(SKIP, ["record.channels=5", "record.checkpoint_every=.nan"])
     assert err.value.problems == ["record.channels: must be a list of strings (got 5)",
                                   "record.checkpoint_every: must be finite (got nan)"]
+
+
+def test_an_end_before_the_first_step_is_refused():
+    """until 0.2 s with dt 0.5 s: the run's one whole step would take it to 0.5 s, 2.5 times the end asked
+    for (it ran there, "ok - reached t = 0.5 s"); refused naming both."""
+    msg = problem('dt: 0.5\nuntil: 0.2\ncomponents:\n  s: {type: RigidBody}\n')
+    assert "until: must be at least one base step, dt = 0.5 s (got 0.2 s)" in msg
