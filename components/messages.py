@@ -272,7 +272,8 @@ class WaterContact(Message):
 
     wetted: the body touches water; submerged_fraction: immersed volume / body volume;
     wetted_area [m^2]; buoyancy, pressure, friction, wave_drag: (3,) forces of each effect [N];
-    depth: depth of the body's lowest point below the local surface [m] (negative above it);
+    depth: depth of the body's lowest point below the local surface [m] (negative above it; over dry
+    land, where there is no surface, below the rest level);
     dissipated_energy [J], cumulative work done by the water on the body, with the sign flipped.
     """
 

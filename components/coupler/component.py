@@ -221,6 +221,21 @@ def _under_the_bed(z: float, top: float, bed: float) -> str | None:
             f"under it at z = {bed:.4g} m): start it above the bed")
 
 
+def _in_dry_land(pos: np.ndarray, top: float, bed: float, level: float, late: bool) -> str:
+    """Why a run ends with a body (centred at ``pos``, its bounding sphere's top at ``top`` [m])
+    wholly inside a bed at ``bed`` [m] that rises above the water's rest ``level`` [m]: it ran into
+    dry land, which is no solid. ``late``: found at the water's first patch, which a body above
+    the water does not ask for (the coupler idles until it comes within wave_allowance of the
+    rest level), so the body went in before."""
+    x, y, z = (float(c) for c in pos)
+    found = (" (found as it came down to the water's level: the coupler does not look at the bed while the "
+             "body is above the water)") if late else ""
+    return (f"the body ran into dry land at x = {x:.4g} m, y = {y:.4g} m: the water's bed there, at z = {bed:.4g} m, "
+            f"rises above the rest level z = {level:.4g} m, and the body is wholly inside it (its centre at "
+            f"z = {z:.4g} m, its top {bed - top:.4g} m under the bed){found}; the bed is not solid: to land the "
+            "body on it, add a SolidGround there (as scenarios/float_sphere.yaml does)")
+
+
 class WaterCoupler(Component):
     """Stone-water interaction per water column: displacement, buoyancy, pressure, friction, wave drag."""
 
@@ -505,7 +520,7 @@ class WaterCoupler(Component):
                 # only a body that may be in the water as the water first shows itself was there
                 # before the run; one above it comes in later, and its displacement raises waves
                 self._start_in_water = float(pos[2]) - r_bound < float(patch.rest_level)
-            elif float(pos[2]) + r_bound < float(patch.rest_level):  # wholly under the rest level
+            else:  # at any level: a beach's bed rises above the rest level
                 self._check_not_through_the_bed(float(pos[2]) + r_bound, pos, patch)
             self.rest_level = float(patch.rest_level)
             self.cell = float(patch.cell)
@@ -771,11 +786,12 @@ class WaterCoupler(Component):
     @staticmethod
     def _top_under(pos: np.ndarray, low: tuple[float, float, float], water) -> float | None:
         """How far [m] the body's highest point (its lowest mirrored through the centre, for a disk
-        or a sphere) is under the surface of ``water`` (negative: above it); None off the patch."""
-        x0, y0, cell, height, wvel, _, _ = water
+        or a sphere) is under the surface of ``water`` (negative: above it); None off the patch or
+        over dry land (no water above the bed)."""
+        x0, y0, cell, height, wvel, bottom, _ = water
         top = 2.0 * pos - np.asarray(low)
-        ok, h_top, _ = kernel.sample_surface(float(top[0]), float(top[1]), x0, y0, cell, height, wvel)
-        return float(h_top - top[2]) if ok else None
+        ok, h_top, _, depth = kernel.sample_water(float(top[0]), float(top[1]), x0, y0, cell, height, wvel, bottom)
+        return float(h_top - top[2]) if ok and depth > 0.0 else None
 
     def _elements_for(self, body: BodyState) -> Elements:
         p = self.params
@@ -1128,8 +1144,14 @@ class WaterCoupler(Component):
     def _check_not_under_the_bed(self, top: float, pos: np.ndarray, patch: HeightPatch) -> None:
         """A body whose highest point (``top`` [m], its bounding sphere's) is below the water's bed
         where it starts is a mistake in the scene (it would fall through the pond unseen): refuse it,
-        at the first patch the water sends."""
+        at the first patch the water sends. Inside a bed that rises above the rest level (dry land)
+        it has flown into the land while the coupler idled above the water (a body starting in it
+        is refused as the scene loads, :meth:`check_start_sources`): the run ends, saying so."""
         bed = _bed_under(pos, patch)
+        if bed is not None and top < bed and bed > float(patch.rest_level):
+            if self.stop_reason is None:
+                self.request_stop(_in_dry_land(pos, top, bed, float(patch.rest_level), late=True))
+            return
         problem = None if bed is None else _under_the_bed(float(pos[2]), top, bed)
         if problem is not None:
             raise ValueError(problem)
@@ -1141,6 +1163,9 @@ class WaterCoupler(Component):
         it fall on silently (a ground at the bed stops it: scenarios/float_sphere.yaml)."""
         bed = _bed_under(pos, patch)
         if bed is not None and top < bed and self.stop_reason is None:
+            if bed > float(patch.rest_level):  # a beach above the water: dry land
+                self.request_stop(_in_dry_land(pos, top, bed, float(patch.rest_level), late=False))
+                return
             x, y, z = (float(c) for c in pos)
             self.request_stop(f"the body went through the water's bed at x = {x:.4g} m, y = {y:.4g} m (its centre at "
                               f"z = {z:.4g} m, wholly under the bed at z = {bed:.4g} m): the bed is not solid; to "

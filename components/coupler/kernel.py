@@ -37,7 +37,7 @@ S_CENTROID = 31  # volume-weighted sum of the wet-interval centroids (3) [m^4]
 S_WATERLINE = 34  # area of sub-columns the surface cuts through the body [m^2]
 S_ADVANCING = 35  # wetted area advancing into the water [m^2]
 S_TOTAL = 36  # sum of the switched-on effects: force (3) then torque (3)
-S_SURFACE_LOW = 42  # water height at the body's lowest point [m] (NaN off the patch)
+S_SURFACE_LOW = 42  # water height at the body's lowest point [m] (NaN off the patch or over dry land)
 S_HMAX = 43  # highest surface of the patch [m]
 N_STATS = 44
 
@@ -59,11 +59,41 @@ def sample_surface(x, y, x0, y0, cell, height, wvel):
     Inlined where it is called: it runs for every surface element of a body at every step, and a
     call with the two arrays as arguments takes and drops a reference on each: a third of the
     sampling's time (700 samples in a compiled loop, called against inlined, bit for bit)."""
-    nj, ni = height.shape
+    ok, i, j, i1, j1, w00, w10, w01, w11 = _bilinear(x, y, x0, y0, cell, height.shape)
+    if not ok:
+        return False, 0.0, 0.0
+    h = w00 * height[j, i] + w10 * height[j, i1] + w01 * height[j1, i] + w11 * height[j1, i1]
+    v = w00 * wvel[j, i] + w10 * wvel[j, i1] + w01 * wvel[j1, i] + w11 * wvel[j1, i1]
+    return True, h, v
+
+
+@njit(cache=True, inline="always")
+def sample_water(x, y, x0, y0, cell, height, wvel, bottom):
+    """:func:`sample_surface` and the water's depth there: (ok, height [m], vertical velocity [m/s],
+    depth [m]), the depth the bilinear mean of the columns' own, max(height - bottom, 0), so that it
+    is 0 exactly over dry land (a column whose surface is its bed) and the layer between the bed and
+    the surface elsewhere. (The same weights as sample_surface's, the height and velocity the same
+    to the bit.)"""
+    ok, i, j, i1, j1, w00, w10, w01, w11 = _bilinear(x, y, x0, y0, cell, height.shape)
+    if not ok:
+        return False, 0.0, 0.0, 0.0
+    h = w00 * height[j, i] + w10 * height[j, i1] + w01 * height[j1, i] + w11 * height[j1, i1]
+    v = w00 * wvel[j, i] + w10 * wvel[j, i1] + w01 * wvel[j1, i] + w11 * wvel[j1, i1]
+    d = (w00 * max(height[j, i] - bottom[j, i], 0.0) + w10 * max(height[j, i1] - bottom[j, i1], 0.0)
+         + w01 * max(height[j1, i] - bottom[j1, i], 0.0) + w11 * max(height[j1, i1] - bottom[j1, i1], 0.0))
+    return True, h, v, d
+
+
+@njit(cache=True, inline="always")
+def _bilinear(x, y, x0, y0, cell, shape):
+    """The bilinear weights of (x, y) [m] on an (nj, ni) patch whose first column is centred at
+    (x0, y0): (ok, i, j, i1, j1, w00, w10, w01, w11); ok is False outside the patch (half a column
+    beyond its outer centres)."""
+    nj, ni = shape
     fx = (x - x0) / cell
     fy = (y - y0) / cell
     if fx < -0.5 or fy < -0.5 or fx > ni - 0.5 or fy > nj - 0.5:
-        return False, 0.0, 0.0
+        return False, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0
     fx = min(max(fx, 0.0), ni - 1.0)
     fy = min(max(fy, 0.0), nj - 1.0)
     i = min(int(fx), max(ni - 2, 0))
@@ -76,9 +106,7 @@ def sample_surface(x, y, x0, y0, cell, height, wvel):
     w10 = tx * (1 - ty)
     w01 = (1 - tx) * ty
     w11 = tx * ty
-    h = w00 * height[j, i] + w10 * height[j, i1] + w01 * height[j1, i] + w11 * height[j1, i1]
-    v = w00 * wvel[j, i] + w10 * wvel[j, i1] + w01 * wvel[j1, i] + w11 * wvel[j1, i1]
-    return True, h, v
+    return True, i, j, i1, j1, w00, w10, w01, w11
 
 
 @njit(cache=True, inline="always")
@@ -98,8 +126,8 @@ SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^p from the trailing edge 
 # al.'s fig. 3 (p = 2, Savitsky's steady 3/4, lets a 65 rev/s disk lose 4 deg of attack) [-]
 
 
-PLANING_PLACE = 7  # values per element of pl_r: lever arm (3), element index, level over its centre,
-# its two height ranges
+PLANING_PLACE = 8  # values per element of pl_r: lever arm (3), element index, level over its centre,
+# its two height ranges, the bed's level over its centre
 
 
 @njit(cache=True)
@@ -123,6 +151,17 @@ def _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp):
     else:
         p2 = max(p2, wet_ramp / m)
     return share * box_coverage(t - tau, p1, p2)
+
+
+@njit(cache=True)
+def _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp):
+    """:func:`_piece_wet` of the piece's part between the bed, ``t_bed`` [m] over the element's
+    centre, and the surface ``t``: the part under the bed is in the ground, not in the water. A bed
+    below the element (t_bed at most -(w1 + w2) / 2, every pond's but at a shore) cuts nothing."""
+    c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+    if t_bed > -0.5 * (w1 + w2) and c > 0.0:
+        c = max(c - _piece_wet(el_sub, k, q, t_bed, w1, w2, zx, zy, wet_ramp), 0.0)
+    return c
 
 
 @njit(cache=True)
@@ -160,19 +199,20 @@ def _grid_moments(a, b, even, odd_u, odd_v):
 
 
 @njit(cache=True)
-def _pieces_weight(el_sub, k, t, w1, w2, x, a, b, zx, zy, wet_ramp, forward):
+def _pieces_weight(el_sub, k, t, w1, w2, x, a, b, zx, zy, wet_ramp, forward, t_bed=-math.inf):
     """The spray root's mean weight over element ``k``'s wet pieces, and where it puts the load:
     (mean weight [-], du, dv [m] from the element's centroid along body x and y). ``x``: the
     centroid's place between the trailing edge (0) and the spray root (1); a piece at (du, dv) lies
-    ``du a + dv b`` further on; t, w1, w2 as :func:`_piece_wet`. No piece under the level (the
-    element's own fraction is wider): the centroid's weight, at the centroid."""
+    ``du a + dv b`` further on; t, w1, w2 as :func:`_piece_wet`, t_bed as :func:`_piece_wet_above`.
+    No piece under the level (the element's own fraction is wider): the centroid's weight, at the
+    centroid."""
     p = SPRAY_ROOT_POWER
     wet = 0.0
     mean_w = 0.0
     du = 0.0
     dv = 0.0
     for q in range(el_sub.shape[1]):
-        c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+        c = _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp)
         if c <= 0.0:
             continue
         xi = min(1.0, max(0.0, x + el_sub[k, q, 0] * a + el_sub[k, q, 1] * b))
@@ -228,8 +268,9 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
         t = pl_r[i, 4]
         w1 = pl_r[i, 5]
         w2 = pl_r[i, 6]
+        t_bed = pl_r[i, 7]
         x = (pl_s[i] - s_lo) / span
-        if el_whole[k] > 0.0 and t >= 0.5 * (w1 + w2):
+        if el_whole[k] > 0.0 and t >= 0.5 * (w1 + w2) and t_bed <= -0.5 * (w1 + w2):
             pitch = el_t1[k, 0] / FACE_SUBDIVISION  # [m] between the pieces' centres
             if el_t1[k, 0] != grid_side:
                 grid_side = el_t1[k, 0]
@@ -251,7 +292,8 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
             du = forward * (p + 1) * pitch * su / mean_w
             dv = forward * (p + 1) * pitch * sv / mean_w
         else:
-            mean_w, du, dv = _pieces_weight(el_sub, k, t, w1, w2, x, sx / span, sy / span, zx, zy, wet_ramp, forward)
+            mean_w, du, dv = _pieces_weight(el_sub, k, t, w1, w2, x, sx / span, sy / span, zx, zy, wet_ramp, forward,
+                                            t_bed)
         total += pl_m[i]
         weighted += mean_w * pl_m[i]
         add_wrench(acc, pl_r[i, 0] + axes[0, 0] * du + axes[0, 1] * dv, pl_r[i, 1] + axes[1, 0] * du + axes[1, 1] * dv,
@@ -299,7 +341,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
     loads (force; lever arm and what places the load on the element's pieces; place along the flow;
     magnitude), N the number of elements.
     """
-    empty, hmax = _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell)
+    empty, hmax = _prologue(stats, b_geo, waterline, height, wvel, bottom, x_low, y_low, x0, y0, cell)
     if empty:
         return
     if flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG):
@@ -308,8 +350,8 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n,
-                      c_b, c_f,
+                      bottom, hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l,
+                      c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
 
@@ -342,9 +384,9 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
         clear_box(rest_waterline[q], box)
     i_lo, i_hi, j_lo, j_hi = _column_box(centre[0], centre[1], half_x, half_y, x0, y0, cell, nj, ni)
     box[0], box[1], box[2], box[3] = i_lo, i_hi, j_lo, j_hi
-    empty, hmax = _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell)
+    empty, hmax = _surface_stats(stats, height, wvel, bottom, x_low, y_low, x0, y0, cell)
     if do_rest:
-        _surface_stats(rest_stats, flat, still, x_low, y_low, x0, y0, cell, rest_level)
+        _surface_stats(rest_stats, flat, still, bottom, x_low, y_low, x0, y0, cell, rest_level)
     else:
         rest_stats[:] = 0.0
     if empty:
@@ -358,8 +400,8 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                      hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n,
-                      c_b, c_f,
+                      bottom, hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l,
+                      c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
     _totals(stats)
     if do_rest:
@@ -367,22 +409,22 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
 
 
 @njit(cache=True)
-def _prologue(stats, b_geo, waterline, height, wvel, x_low, y_low, x0, y0, cell):
+def _prologue(stats, b_geo, waterline, height, wvel, bottom, x_low, y_low, x0, y0, cell):
     """Clear a pass's stats, occupied height and waterline (when not empty), and put in the patch's
     highest surface and the surface at the body's lowest point; (the patch is empty, its highest
     surface)."""
     b_geo[:, :] = 0.0
     if waterline.size > 0:
         waterline[:, :, :] = 0.0
-    return _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell)
+    return _surface_stats(stats, height, wvel, bottom, x_low, y_low, x0, y0, cell)
 
 
 @njit(cache=True)
-def _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell, level=np.nan):
+def _surface_stats(stats, height, wvel, bottom, x_low, y_low, x0, y0, cell, level=np.nan):
     """Clear ``stats`` and put in the patch's highest surface and the surface at the body's lowest
-    point; (the patch is empty, its highest surface). A ``level`` [m] given says every column of
-    ``height`` is at it (the rest pass's flat surface): its highest surface is then found without a
-    scan."""
+    point (none, NaN, over dry land: no water above the bed ``bottom`` there); (the patch is empty,
+    its highest surface). A ``level`` [m] given says every column of ``height`` is at it (the rest
+    pass's flat surface): its highest surface is then found without a scan."""
     stats[:] = 0.0
     nj, ni = height.shape
     stats[S_SURFACE_LOW] = np.nan
@@ -395,8 +437,8 @@ def _surface_stats(stats, height, wvel, x_low, y_low, x0, y0, cell, level=np.nan
             for i in range(ni):
                 hmax = max(hmax, height[j, i])
     stats[S_HMAX] = hmax
-    ok, h_low, _ = sample_surface(x_low, y_low, x0, y0, cell, height, wvel)
-    if ok:
+    ok, h_low, _, depth = sample_water(x_low, y_low, x0, y0, cell, height, wvel, bottom)
+    if ok and depth > 0.0:
         stats[S_SURFACE_LOW] = h_low
     return False, hmax
 
@@ -609,10 +651,16 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
 
 @njit(cache=True)
 def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
-                  hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l, c_n,
-                  c_b, c_f,
+                  bottom, hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l,
+                  c_n, c_b, c_f,
                   wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
-    """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``."""
+    """The surface elements' part of :func:`evaluate_into`: pressure and friction into ``stats``.
+
+    An element meets the water between the bed (``bottom``) and the surface (``height``) only: over
+    dry land (no water above the bed, a beach above the rest level) none, and at a shore's thin
+    layer only the part of it above the bed (the rest is in the ground), as the buoyancy's columns
+    are clipped at the bed. On a pond whose bed lies below every element nothing
+    is cut."""
     cx, cy, cz = centre[0], centre[1], centre[2]
     ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
     if flags & (PRESSURE | FRICTION):
@@ -694,24 +742,33 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
             if not world_fixed:
                 rx = axes[0, 0] * u + axes[0, 1] * v + axes[0, 2] * w
                 ry = axes[1, 0] * u + axes[1, 1] * v + axes[1, 2] * w
-            ok, h, wv = sample_surface(cx + rx, cy + ry, x0, y0, cell, height, wvel)
+            ok, h, wv, depth = sample_water(cx + rx, cy + ry, x0, y0, cell, height, wvel, bottom)
             if not ok:
                 continue
             t = h - pz
-            if t <= -half:
-                continue
-            if face and t < half and n_sub > 0:
+            if t <= -half or not depth > 0.0:
+                continue  # above the surface, or over dry land: no water to meet
+            # the bed's level over the element's centre: above the element's lowest point (a shore's thin
+            # layer, a body pressed onto the bed) it cuts the element, whose part under it is in the
+            # ground, not in the water
+            t_bed = t - depth
+            cut = t_bed > -half
+            if face and (t < half or cut) and n_sub > 0:
                 # a disk face's square partly under: its wetted fraction summed over its pieces, each
                 # under by its own height range; a square clipped by the rim is then wetted where
                 # its part of the disk lies, not as a whole square about its centroid would be
                 frac = 0.0
                 for q in range(n_sub):
-                    piece_wet[q] = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
+                    piece_wet[q] = _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp)
                     frac += piece_wet[q]
                 if frac <= 0.0:
                     continue
             else:
                 frac = box_coverage(t, w1, w2)
+                if cut:
+                    frac -= box_coverage(t_bed, w1, w2)
+                    if frac <= 0.0:
+                        continue
             nel += 1
             a_el = el_area[k]
             fa = frac * a_el
@@ -744,19 +801,20 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                         pl_r[n_pl, 4] = t
                         pl_r[n_pl, 5] = w1
                         pl_r[n_pl, 6] = w2
+                        pl_r[n_pl, 7] = t_bed
                         s_el = rx * hx + ry * hy
                         pl_s[n_pl] = s_el
                         pl_m[n_pl] = p * fa
                         n_pl += 1
                         # the wetted area's extent along the flow, from its wet pieces
-                        if t >= half and el_whole[k] > 0.0:
+                        if t >= half and el_whole[k] > 0.0 and not cut:
                             # all under, its outermost pieces (m - 1) / 2m of a side from its centre
                             reach_s = (0.5 - 0.5 / FACE_SUBDIVISION) * el_t1[k, 0] * (abs(sx) + abs(sy))
                             s_lo = min(s_lo, s_el - reach_s)
                             s_hi = max(s_hi, s_el + reach_s)
                         else:
                             for q in range(n_sub):
-                                if (piece_wet[q] if t < half else el_sub[k, q, 2]) > 0.0:
+                                if (piece_wet[q] if t < half or cut else el_sub[k, q, 2]) > 0.0:
                                     s_q = s_el + el_sub[k, q, 0] * sx + el_sub[k, q, 1] * sy
                                     s_lo = min(s_lo, s_q)
                                     s_hi = max(s_hi, s_q)
@@ -773,7 +831,10 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                     czn = rx * ny - ry * nx
                     d_lin += ce
                     d_rot += ce * (cxn * cxn + cyn * cyn + czn * czn)
-                    stiff += p * a_el * box_density(t, w1, w2)
+                    dens = box_density(t, w1, w2)
+                    if cut:  # the wetted share changes with depth at the bed's edge too (a bound, not a sum)
+                        dens += box_density(t_bed, w1, w2)
+                    stiff += p * a_el * dens
             if do_f:
                 ux = vx + wy * rz - wz * ry
                 uy = vy + wz * rx - wx * rz

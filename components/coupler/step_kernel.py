@@ -57,7 +57,7 @@ N_BODY = 17
 
 # results vector (float64) besides stats
 R_PLANING = 0  # the planing share of the pressure [-] (see WaterCoupler._planing)
-R_TOP_UNDER = 1  # how far the body's top is under the live surface [m]; NaN off the patch
+R_TOP_UNDER = 1  # how far the body's top is under the live surface [m]; NaN off the patch or over dry land
 R_BOUND = 2  # the stability bound [s]
 R_I_LO = 3  # the deposit's window in patch indices (i_lo, i_hi, j_lo, j_hi); empty: i_lo > i_hi
 R_I_HI = 4
@@ -166,14 +166,14 @@ def body_pose(shape, body, axes):
 
 
 @njit(cache=True)
-def _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel):
+def _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel, bottom):
     """How far [m] the body's top (its lowest point mirrored through the centre) is under the
-    surface ``height``; NaN off the patch."""
+    surface ``height``; NaN off the patch or over dry land (no water above the bed ``bottom``)."""
     tx = 2.0 * body[B_POS] - x_low
     ty = 2.0 * body[B_POS + 1] - y_low
     tz = 2.0 * body[B_POS + 2] - z_low
-    ok, h_top, _ = kernel.sample_surface(tx, ty, x0, y0, cell, height, wvel)
-    return h_top - tz if ok else np.nan
+    ok, h_top, _, depth = kernel.sample_water(tx, ty, x0, y0, cell, height, wvel, bottom)
+    return h_top - tz if ok and depth > 0.0 else np.nan
 
 
 @njit(cache=True)
@@ -239,11 +239,11 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     velocity = body[B_VEL:B_VEL + 3]
     omega = body[B_OMEGA:B_OMEGA + 3]
     rho, g = prm[P_RHO], prm[P_G]
-    under = _top_under(body, x_low, y_low, z_low, x0, y0, cell, met_h, met_v)
+    under = _top_under(body, x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom)
     planing = 1.0 if math.isnan(under) else min(1.0, max(0.0, 1.0 - under / prm[P_CLOSURE]))
     results[:] = 0.0
     results[R_PLANING] = planing
-    results[R_TOP_UNDER] = _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel)
+    results[R_TOP_UNDER] = _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel, bottom)
     results[R_I_LO] = 1.0
     results[R_I_HI] = 0.0
     # the forces against the met surface and the body under the rest level (the ring's), the two
