@@ -10,6 +10,7 @@ u32, log time u64, payload) and ``time`` (opcode 2: u64).
 from __future__ import annotations
 
 import asyncio
+import gc
 import json
 import signal
 import struct
@@ -25,6 +26,7 @@ pytest.importorskip("foxglove", reason="the foxglove-sdk package is not installe
 pytest.importorskip("tornado", reason="the client of these tests is tornado's")
 
 from tornado import websocket
+from tornado.websocket import WebSocketClosedError
 
 from components.messages import SkipRecord, Stage, StageId
 from cosim.codec.json_codec import codec_for
@@ -38,6 +40,14 @@ from tests.viewer_toys import SKIP_SCENE
 PROTOCOL = "foxglove.sdk.v1"
 AGAIN = 100_000  # added to a subscription id: the id of the second subscribe to the same channel
 WAIT_S = 20.0  # [s of wall time] bound on every wait of these tests (a failure, not a measurement)
+
+
+@pytest.fixture(autouse=True)
+def sockets_closed_here():
+    """Collect garbage after each test: a client socket left open would be warned of (an error under
+    the suite's filterwarnings) here, naming this file, not in whatever later test collects it."""
+    yield
+    gc.collect()
 
 
 @dataclass
@@ -104,7 +114,25 @@ async def watch(port: int, seen: Received, done: Callable[[Received], bool], *,
             elif frame[0] == 2:
                 seen.clock.append(struct.unpack_from("<Q", frame, 1)[0])
     finally:
-        ws.close()
+        await _close(ws)
+
+
+async def _close(ws) -> None:
+    """Close the client and wait (bounded) until its socket is: tornado closes it only once the
+    server answers the close, after ``close()`` has returned; a socket still open when the test's
+    event loop ends is warned of (ResourceWarning) wherever the garbage collector finds it, in
+    whatever test runs then."""
+    ws.close()
+    deadline = time.monotonic() + WAIT_S
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            if await asyncio.wait_for(ws.read_message(), timeout=left) is None:
+                break
+        except (TimeoutError, WebSocketClosedError):
+            break
+    stream = getattr(getattr(ws, "protocol", None), "stream", None)
+    if stream is not None and not stream.closed():  # the server never answered: closed here
+        stream.close()
 
 
 class Latest(BaseObserver):
