@@ -226,8 +226,10 @@ def test_the_first_point_is_validated_before_anything_runs(tmp_path):
 
 def test_scene_file_and_sweep_file_problems(tmp_path):
     """A missing scene, a missing sweep file, an empty one and a YAML error are bad input too."""
-    with pytest.raises(ScenarioError, match=r"scene: no such file 'nowhere\.yaml'"):
+    with pytest.raises(ScenarioError, match=r"scene: no such file 'nowhere\.yaml'") as missing:
         load_sweep(write_sweep(tmp_path, "scene: nowhere.yaml\naxes: {dt: [0.001]}\n"))
+    # that alone: without the scene, an axis is not also said to be no key of it
+    assert missing.value.problems == [f"scene: no such file 'nowhere.yaml' (looked for {tmp_path / 'nowhere.yaml'})"]
     with pytest.raises(ScenarioError, match=r"missing\.yaml: no such file"):
         load_sweep(tmp_path / "missing.yaml")
     itself = write_sweep(tmp_path, "scene: sweep.yaml\naxes: {dt: [0.001]}\n")  # a sweep naming itself

@@ -644,7 +644,8 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
             problems.append(f"--set {key}: {targets[key]} sets it at every point; a value given here would "
                             "be ignored (leave it out, or change the sweep file)")
     for axis in axes:
-        if axis.kind == "variable" and axis.name not in used and not unread:
+        # (without the scene, which keys it has is not known: its own problem is said instead)
+        if axis.kind == "variable" and axis.name not in used and not unread and base is not None:
             known = ", ".join(sorted(map(str, scene_data))) or "none"
             problems.append(f"axes.{axis.name}: not a key of the scene (top-level keys: {known}) and not "
                             "used in derived; give a key path such as components.NAME.PARAM")
