@@ -32,8 +32,9 @@ is dt/M times the whole held force, gravity and wrench together (exact for every
 body has: each holds the force over its step). That is the force of the step that led to the state
 being answered; the body will move under the next step's. So the books close to the sum of the
 force's change over one step times the correction, |W_k - W_(k-1)| |c_k|: nothing for a body resting
-under water (and its dissipation is then 0 J a step, as it must be), 2.7e-6 J over the three bounces
-of scenarios/float_sphere.yaml's granite ball, whose drag changes fast as it lands. Without a step
+under water (and its dissipation is then 0 J a step, as it must be), 5.4e-5 J over the three bounces
+of scenarios/float_sphere.yaml's granite ball, whose drag changes fast as it lands and whose underside,
+pressed into the bed, leaves the water. Without a step
 seen before (the first state, a restart from an older checkpoint) gravity alone is assumed, as on a
 dry floor.
 

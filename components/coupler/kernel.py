@@ -157,7 +157,7 @@ def _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp):
 def _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp):
     """:func:`_piece_wet` of the piece's part between the bed, ``t_bed`` [m] over the element's
     centre, and the surface ``t``: the part under the bed is in the ground, not in the water. A bed
-    below the element (t_bed at most -(w1 + w2) / 2, every pond's but at a shore) cuts nothing."""
+    below the element (t_bed at most -(w1 + w2) / 2) cuts nothing."""
     c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
     if t_bed > -0.5 * (w1 + w2) and c > 0.0:
         c = max(c - _piece_wet(el_sub, k, q, t_bed, w1, w2, zx, zy, wet_ramp), 0.0)
@@ -659,8 +659,7 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
     An element meets the water between the bed (``bottom``) and the surface (``height``) only: over
     dry land (no water above the bed, a beach above the rest level) none, and at a shore's thin
     layer only the part of it above the bed (the rest is in the ground), as the buoyancy's columns
-    are clipped at the bed. On a pond whose bed lies below every element nothing
-    is cut."""
+    are clipped at the bed. On a pond whose bed lies below every element nothing is cut."""
     cx, cy, cz = centre[0], centre[1], centre[2]
     ax, ay, az = axes[0, 2], axes[1, 2], axes[2, 2]
     if flags & (PRESSURE | FRICTION):
