@@ -225,12 +225,12 @@ def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
     checkpoints cannot be replayed (RecordingError)."""
     if not rec.restart_ns:
         return None
-    checkpoints = [(stamp, cp) for stamp, cp in rec.checkpoints() if stamp == rec.restart_ns]
-    if not checkpoints:
+    checkpoint = rec.checkpoint_at(rec.restart_ns)  # (only that one is decoded)
+    if checkpoint is None:
         raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.restart_ns / NS_PER_S:g} s, "
                              "recorded without the checkpoint it started from (record.checkpoint_every 0): replay "
                              "the recording it was restarted from")
-    return checkpoints[0]
+    return rec.restart_ns, checkpoint
 
 
 def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None = None,
