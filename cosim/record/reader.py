@@ -25,10 +25,11 @@ from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import ProtoError, proto_codec_for
 from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
+from cosim.record.output import MCAP_MAGIC
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
 from cosim.scenario import Scene, loads
 
-MAGIC = b"\x89MCAP0\r\n"
+MAGIC = MCAP_MAGIC
 _FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
 _DATA_END = struct.Struct("<BQI")  # opcode, record length, data section CRC
 FOOTER_OP, DATA_END_OP = 0x02, 0x0F
@@ -48,6 +49,26 @@ def _crc(f: Any, start: int, end: int) -> int:
     return crc
 
 
+def _footer(f: Any, size: int) -> tuple[int, int, int] | None:
+    """(summary start, summary offset start, summary CRC) of the open MCAP file ``f`` of ``size``
+    bytes when it ends as a closed one does, its footer record then the magic; None if it does not."""
+    if size < 2 * len(MAGIC) + _FOOTER.size:
+        return None
+    f.seek(size - len(MAGIC) - _FOOTER.size)
+    tail = f.read(_FOOTER.size + len(MAGIC))
+    op, length, summary_start, summary_offsets, summary_crc = _FOOTER.unpack(tail[:_FOOTER.size])
+    if tail[_FOOTER.size:] != MAGIC or op != FOOTER_OP or length != _FOOTER.size - 9:
+        return None
+    return summary_start, summary_offsets, summary_crc
+
+
+def ends_in_footer(path: Path) -> bool:
+    """Whether the MCAP file ``path`` ends as a closed one does (its footer, then the magic), that is,
+    was not cut short; one that does and still cannot be read is damaged."""
+    with open(path, "rb") as f:
+        return _footer(f, f.seek(0, 2)) is not None
+
+
 def check_integrity(path: Path) -> None:
     """The file ends in an MCAP footer (it was closed, not cut short) and its data-section and summary
     CRCs match; otherwise a RecordingError saying which."""
@@ -58,13 +79,12 @@ def check_integrity(path: Path) -> None:
             raise RecordingError(f"{path}: not a readable MCAP recording (no MCAP magic at its start)")
         if size < 2 * len(MAGIC) + _FOOTER.size:
             raise RecordingError(f"{path}: not a readable MCAP recording (truncated: {size} bytes, no footer)")
-        f.seek(size - len(MAGIC) - _FOOTER.size)
-        tail = f.read(_FOOTER.size + len(MAGIC))
-        op, length, summary_start, summary_offsets, summary_crc = _FOOTER.unpack(tail[:_FOOTER.size])
-        if tail[_FOOTER.size:] != MAGIC or op != FOOTER_OP or length != _FOOTER.size - 9:
+        footer = _footer(f, size)
+        if footer is None:
             raise RecordingError(f"{path}: not a readable MCAP recording (truncated or corrupt: no footer at its "
                                  "end; the file was cut short, or its writer was killed: cosim repair makes what "
                                  "it holds a valid recording)")
+        summary_start, summary_offsets, summary_crc = footer
         footer_at = size - len(MAGIC) - _FOOTER.size
         if not 0 <= summary_start <= footer_at or not 0 <= summary_offsets <= footer_at:
             raise RecordingError(f"{path}: corrupt: its footer points outside the file")

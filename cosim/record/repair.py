@@ -16,14 +16,12 @@ cosim recording or hold no message (cut off before its first, or damaged there).
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cosim.errors import RecordingError
 from cosim.record.output import (
-    MCAP_MAGIC,
     PART_SUFFIX,
     being_written,
     check_output,
@@ -64,22 +62,6 @@ def default_output(cut: Path) -> Path:
     return cut.with_name(f"{cut.stem}-repaired.mcap")
 
 
-FOOTER_BYTES = 1 + 8 + 8 + 8 + 4  # an MCAP footer record: opcode, length, two offsets, summary CRC
-FOOTER_OP = 0x02
-
-
-def ends_in_footer(path: Path) -> bool:
-    """Whether the MCAP file ``path`` ends as a closed one does (its footer, then the magic), that is,
-    was not cut short; one that does and still cannot be read is damaged."""
-    with open(path, "rb") as f:
-        size = f.seek(0, os.SEEK_END)
-        if size < 2 * len(MCAP_MAGIC) + FOOTER_BYTES:
-            return False
-        f.seek(size - len(MCAP_MAGIC) - FOOTER_BYTES)
-        tail = f.read()
-    return tail[0] == FOOTER_OP and tail[FOOTER_BYTES:] == MCAP_MAGIC
-
-
 def _reason(exc: RecordingError, path: Path) -> str:
     """The reader's error about ``path`` without the path it starts with (the file it read may be
     the repair's temporary; the line names the file given instead)."""
@@ -93,7 +75,7 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
     input), with nothing written, when ``cut`` is a whole recording already, is being written by a run
     now, is a whole MCAP file but no cosim recording, or its whole records make no readable cosim
     recording or hold no message."""
-    from cosim.record.reader import Recording
+    from cosim.record.reader import Recording, ends_in_footer
     from cosim.record.seal import seal
 
     cut = Path(cut)
