@@ -176,6 +176,14 @@ class Component:
         Default: unbounded."""
         return math.inf
 
+    def check_step(self, step: float, inputs: dict[str, Message | None]) -> list[str]:
+        """Problems with this component's step ``step`` [s] for what it will receive at t = 0
+        (``inputs`` as for :meth:`check_start`), as plain sentences; the scene is refused with them
+        whatever its ``on_unstable``. For a bound that no substepping of this component can meet: a
+        ground answers its body once per body step, so a step in which the body falls through a
+        good part of itself is refused, not substepped. Default: none."""
+        return []
+
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
         """Like :meth:`check_start`, for what only the components feeding this one know before the
         run: ``sources``, each input port fed by one edge and the component at its other end. A

@@ -711,6 +711,7 @@ def _check_start(scene: Scene, built: dict[str, Component], problems: list[str])
             inputs[port] = value
         try:
             found = comp.check_start(inputs) + comp.check_start_sources(inputs, sources)
+            found += comp.check_step(scene.dt * scene.components[name].every, inputs)
             found += _step_problems(scene, name, comp.start_stable_step(inputs), later=True)
         except Exception as exc:
             found = [f"cannot check its start ({type(exc).__name__}: {exc})"]
