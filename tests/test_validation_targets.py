@@ -55,6 +55,17 @@ def test_the_contact_time_is_the_published_one_and_falls_like_one_over_the_speed
     assert math.log(fast.contact_s / slow.contact_s) / math.log(2.0) == pytest.approx(-1.0, abs=0.2)
 
 
+def test_the_contact_is_shortest_between_long_ones_at_low_and_at_steep_attack():
+    """Clanet et al. 2004 (fig. 1d, as reported): at 3.5 m/s and beta = 20 deg the contact is shortest at
+    an intermediate attack angle and longer both at very low angles and at steep ones. The part of the
+    row the model holds; where its shortest lies (12.5 deg, not near 20) it does not, and the table
+    says so."""
+    low, mid, steep = (ex.run_throw(ex.throw_scene(3.5, a, 20.0)) for a in (7.0, 12.5, 30.0))
+    assert low.bounced and mid.bounced and steep.bounced
+    assert low.contact_s > 1.05 * mid.contact_s
+    assert steep.contact_s > 1.2 * mid.contact_s
+
+
 def test_at_65_rev_per_s_a_free_disk_keeps_its_attitude_through_the_contact():
     """Rosellini et al. 2005 (fig. 3): spun at 65 rev/s the disk's attitude hardly changes; here its
     attack angle stays within 3 deg of the thrown 20 deg and it bounces."""
