@@ -19,14 +19,15 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
   pushed up by the water (the vertical force of all its effects) no harder than its weight (a stone
   under water that the pressure still throws back up is in hit or slide); final, except that a sunk
   stone can come to rest on the bottom;
-- float: what sink is for a stone the water can carry (lighter than water: its buoyancy if it were
-  wholly under, the reported buoyancy over the submerged fraction, exceeds its weight); final. Until
-  a hundredth of the stone is under water the buoyancy says too little to tell, and the contact goes
-  on as hit or slide;
+- float: what sink is for a stone the water can carry (lighter than water: its mass is less than
+  ``water_density`` times its volume, and the water's buoyancy acts); final. Until a hundredth of
+  the stone is under water the contact goes on as hit or slide;
 - rest: on the solid ground and slower than ``rest_speed`` [m/s]; final.
 
 A skip is a contact that began moving down into the water and ended in a fly-away: the vertical
 speed changed sign and the stone rose clear; its :class:`SkipRecord` is published at the fly-away.
+A stone that leaves the water without having moved down in it (one started in the water, rising)
+flies away without a skip.
 
 Leaving the pond is an outcome, not a stage: the coupler exerts nothing where the water's grid has
 no columns and then reports the depth of the lowest point below the rest level, so a stone that is
@@ -43,7 +44,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from components.messages import BodyState, GroundContact, SkipRecord, Stage, StageId, WaterContact
+from components.messages import BodyState, GroundContact, Shape, SkipRecord, Stage, StageId, WaterContact
+from components.rigid.shapes import shape_volume
 from components.rigid_body import HEADING_SPEED, gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
@@ -71,6 +73,7 @@ class SkipTracker:
     speed_in: float = math.nan
     in_contact: bool = False
     peak_g: float = 0.0  # the largest vertical water force over the weight in the current contact [g]
+    descended: bool = True  # the current contact has moved down into the water (a skip needs it)
 
 
 def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
@@ -80,14 +83,19 @@ def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> 
     return water is not None and (water.depth > -clearance or vz < 0.0)
 
 
-def floats(body: BodyState, water: WaterContact, gravity: float = 9.81) -> bool:
-    """Whether the water could carry the stone wholly under: its buoyancy scaled to the whole volume
-    (the reported buoyancy [N] over the submerged fraction) exceeds its weight [N]."""
-    return float(water.buoyancy[2]) > body.mass * gravity * water.submerged_fraction
+def floats(body: BodyState, water: WaterContact, water_density: float = 1000.0) -> bool:
+    """Whether the water could carry the stone wholly under: the buoyancy acts (an effect of the
+    scene) and the stone is lighter than ``water_density`` [kg/m^3] times its volume. Not from the
+    reported buoyancy: that includes the level of the water the body raises around itself, which
+    makes a stone plunging in, or started in the water, seem up to twice as buoyant as it is (a disk
+    of 1500 kg/m^3 was said to float as it sank to the bed)."""
+    volume = shape_volume(Shape(body.shape), float(body.radius), float(body.thickness))
+    return float(water.buoyancy[2]) > 0.0 and body.mass < water_density * volume
 
 
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
-             sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81) -> StageId:
+             sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81,
+             water_density: float = 1000.0) -> StageId:
     """The stage now, from the previous stage and this step's body and contact reports."""
     if ground is not None and ground.in_contact and body.speed < rest_speed:
         return StageId.REST
@@ -101,7 +109,7 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     if water is not None and water.wetted:
         if horizontal < sink_speed:
             if water.submerged_fraction >= BUOYANCY_READABLE:
-                return StageId.FLOAT if floats(body, water, gravity) else StageId.SINK
+                return StageId.FLOAT if floats(body, water, water_density) else StageId.SINK
             if not water.buoyancy[2] > 0.0:
                 return StageId.SINK  # no buoyancy in this scene's water: nothing holds the stone up
             return StageId.HIT if vz < 0 else StageId.SLIDE
@@ -142,6 +150,9 @@ class StageMonitor(Component):
         gravity: float = param(9.81, unit="m/s^2", gt=0,
                                doc="magnitude of the body's gravity: a stone under water sinks unless the "
                                    "water pushes it up harder than its weight")
+        water_density: float = param(1000.0, unit="kg/m^3", gt=0,
+                                     doc="density of the water (its coupler's rho): a stone lighter than as "
+                                         "much water as its volume floats, a heavier one sinks")
         outside_after: float = param(0.05, unit="s", ge=0,
                                      doc="dry while below the water level this long: the stone left the pond "
                                          "(longer than the water's start-up lag; 0: never decided)")
@@ -168,9 +179,17 @@ class StageMonitor(Component):
 
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
         """Its gravity must be its body's: it decides sinking against the weight and reports the
-        water's push in g."""
+        water's push in g; its water density its coupler's: it decides floating against it."""
+        problems = []
         mismatch = gravity_mismatch(sources.get("body"), self.params.gravity, "gravity")
-        return [] if mismatch is None else [mismatch]
+        if mismatch is not None:
+            problems.append(mismatch)
+        coupler = sources.get("water")
+        rho = getattr(getattr(coupler, "params", None), "rho", None)
+        if isinstance(rho, (int, float)) and not math.isclose(rho, self.params.water_density, rel_tol=1e-9):
+            problems.append(f"water_density {self.params.water_density:g} kg/m^3 is not the density of its water "
+                            f"({coupler.name}'s rho, {rho:g} kg/m^3): set water_density to {rho:g}")
+        return problems
 
     def start_inputs(self, inputs: dict[str, Message | None]) -> None:
         body = inputs.get("body")
@@ -198,7 +217,7 @@ class StageMonitor(Component):
 
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
-                         self.params.takeoff_clearance, self.params.gravity)
+                         self.params.takeoff_clearance, self.params.gravity, self.params.water_density)
         # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
         # a contact, the dry descent after it would have gone on as one, and the next skip would have
         # taken the brush's touchdown
@@ -210,9 +229,12 @@ class StageMonitor(Component):
             track.touchdown_time, track.touchdown_x, track.speed_in = now, x, body.speed
             track.touchdown_y = float(body.position[1])
             track.peak_g = 0.0
+            track.descended = False
+        if track.in_contact and float(body.velocity[2]) < 0.0:
+            track.descended = True
         if track.in_contact and water is not None:
             track.peak_g = max(track.peak_g, _vertical_water_force(water) / (float(body.mass) * self.params.gravity))
-        if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY:
+        if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY and track.descended:
             outputs["skip"] = self._finish_skip(now, body)
         if not touching:
             track.in_contact = False

@@ -13,10 +13,14 @@ from components.stages import StageMonitor
 MS = 1_000_000
 
 
-def body(x: float, z: float, vx: float, vz: float) -> BodyState:
+def body(x: float, z: float, vx: float, vz: float, mass: float = 0.12) -> BodyState:
+    """A disk of R = 5 cm, e = 6 mm (0.12 kg: 2.5 times the water it would displace)."""
     v = np.array([vx, 0.0, vz])
     return BodyState(np.array([x, 0.0, z]), np.array([1.0, 0, 0, 0]), v, np.zeros(3), Shape.DISK, 0.05, 0.006,
-                     0.12, np.ones(3), 20.0, float(np.linalg.norm(v)), 0.0, 0.0)
+                     mass, np.ones(3), 20.0, float(np.linalg.norm(v)), 0.0, 0.0)
+
+
+DISK_WATER = 1000.0 * math.pi * 0.05**2 * 0.006  # [kg] the water the test disk displaces wholly under
 
 
 def water(wetted: bool, fraction: float = 0.1, depth: float | None = None) -> WaterContact:
@@ -312,21 +316,20 @@ WEIGHT = 0.12 * 9.81  # [N] of the test body
 
 @pytest.mark.parametrize("density_ratio, stage", [(0.5, "float"), (2.65, "sink")])
 def test_a_slow_stone_floats_if_lighter_than_water_else_sinks(density_ratio, stage):
-    """Too slow to skip: a stone the water could carry wholly under (buoyancy / submerged fraction
-    above its weight) floats; a denser one sinks. Both are final and end the run: a sunk one
-    stop_after later, a floating one once it has settled (slower than 1 cm/s) that long, not while it
-    still bobs."""
+    """Too slow to skip: a stone the water could carry wholly under (lighter than the water it would
+    displace) floats; a denser one sinks. Both are final and end the run: a sunk one stop_after later,
+    a floating one once it has settled (slower than 1 cm/s) that long, not while it still bobs."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))
-    fraction = 0.3
-    lift = WEIGHT / density_ratio * fraction  # buoyancy of the submerged 30% at this density ratio
-    script = [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
-              (body(0.5, 0.0, 0.3, -0.1), buoyant_water(fraction, lift), None),
-              (body(0.5, 0.0, 0.3, 0.1), water(False), None),  # bobbing out again changes nothing
-              (body(0.5, 0.0, 0.3, 0.1), water(False), None),
-              (body(0.5, 0.0, 0.3, 0.1), water(False), None),
-              (body(0.5, 0.0, 0.0, 0.005), buoyant_water(fraction, lift), None),  # settled from t = 6 ms
-              (body(0.5, 0.0, 0.0, 0.0), buoyant_water(fraction, lift), None),
-              (body(0.5, 0.0, 0.0, 0.0), buoyant_water(fraction, lift), None)]
+    fraction, mass = 0.3, density_ratio * DISK_WATER
+    lift = DISK_WATER * 9.81 * fraction  # buoyancy of the submerged 30%
+    script = [(body(0.0, 0.01, 5.0, -1.0, mass), water(False), None),
+              (body(0.5, 0.0, 0.3, -0.1, mass), buoyant_water(fraction, lift), None),
+              (body(0.5, 0.0, 0.3, 0.1, mass), water(False), None),  # bobbing out again changes nothing
+              (body(0.5, 0.0, 0.3, 0.1, mass), water(False), None),
+              (body(0.5, 0.0, 0.3, 0.1, mass), water(False), None),
+              (body(0.5, 0.0, 0.0, 0.005, mass), buoyant_water(fraction, lift), None),  # settled from t = 6 ms
+              (body(0.5, 0.0, 0.0, 0.0, mass), buoyant_water(fraction, lift), None),
+              (body(0.5, 0.0, 0.0, 0.0, mass), buoyant_water(fraction, lift), None)]
     out, asked = [], None
     for k, (b, w, g) in enumerate(script):
         out.append(m.step(k * MS, MS, {"body": b, "water": w, "ground": g}))
@@ -342,15 +345,46 @@ def test_a_slow_stone_barely_touching_waits_for_the_buoyancy_to_tell():
     """Under 1% of the stone in the water its buoyancy says too little: the contact goes on (hit,
     then slide) until it does; with no buoyancy at all in the scene's water the stone sinks at once."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
-    out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
-                    (body(0.5, 0.0, 0.3, -0.1), buoyant_water(0.001, 1e-4), None),
-                    (body(0.5, 0.0, 0.3, 0.05), buoyant_water(0.002, 2e-4), None),
-                    (body(0.5, 0.0, 0.3, -0.05), buoyant_water(0.2, 0.2 * WEIGHT * 2), None)])
+    light = 0.5 * DISK_WATER
+    out = drive(m, [(body(0.0, 0.01, 5.0, -1.0, light), water(False), None),
+                    (body(0.5, 0.0, 0.3, -0.1, light), buoyant_water(0.001, 1e-4), None),
+                    (body(0.5, 0.0, 0.3, 0.05, light), buoyant_water(0.002, 2e-4), None),
+                    (body(0.5, 0.0, 0.3, -0.05, light), buoyant_water(0.2, 0.2 * DISK_WATER * 9.81), None)])
     assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "slide", "float"]
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
     out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
                     (body(0.5, 0.0, 0.3, -0.1), water(True, 0.001), None)])
     assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]
+
+
+def test_a_stone_heavier_than_water_sinks_however_hard_the_raised_water_lifts_it():
+    """Floating is decided by density, not by the reported buoyancy: that includes the level of the
+    water a body raises around itself, up to twice Archimedes' force as a stone plunges in or starts
+    in the water. A disk of 1500 kg/m^3 lifted at 1.4 times its weight over the submerged fraction
+    (as the coupler reported at its start) sinks; one of 999 kg/m^3 lifted at half of it floats."""
+    for density, lift_share, expected in ((1500.0, 1.4, "sink"), (999.0, 0.5, "float")):
+        m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+        mass = density / 1000.0 * DISK_WATER
+        lift = lift_share * mass * 9.81 * 0.5
+        out = drive(m, [(body(0.0, 0.01, 0.0, -0.1, mass), water(False), None),
+                        (body(0.0, 0.0, 0.0, -0.1, mass), buoyant_water(0.5, lift), None)])
+        assert [o["stage"].label for o in out if "stage" in o] == ["approach", expected]
+
+
+def test_a_contact_that_never_moved_down_is_no_skip():
+    """A stone started in the water, rising, leaves it in a fly-away that is no skip (docs/stages.md:
+    a skip began moving down into the water); one that comes down, touches and rises again skips."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, 0.0, 3.0, 1.0), water(True), None),
+                    (body(0.003, 0.001, 3.0, 0.99), water(True), None),
+                    (body(0.006, 0.004, 3.0, 0.98), water(False, depth=-0.004), None),
+                    (body(0.009, 0.0, 3.0, -0.5), water(False, depth=-0.001), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["slide", "fly-away", "approach"]
+    assert not any("skip" in o for o in out) and m.track.skips == 0
+    out = drive(m, [(body(0.012, -0.001, 3.0, -0.5), water(True), None),
+                    (body(0.015, 0.0, 3.0, 0.5), water(True), None),
+                    (body(0.018, 0.004, 3.0, 0.5), water(False, depth=-0.004), None)])
+    assert [o["skip"].index for o in out if "skip" in o] == [1]
 
 
 def test_a_monitor_that_never_saw_the_body_says_so_in_words():
