@@ -79,8 +79,17 @@ class SkipTracker:
 def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
     """Whether a stone that was touching water and is dry this step is still in the same contact:
     it still skims the surface (its lowest point within ``clearance`` of it), or it is still coming
-    down (vz < 0 [m/s]), so the surface dropped away from it rather than the stone bouncing off it."""
-    return water is not None and (water.depth > -clearance or vz < 0.0)
+    down (vz < 0 [m/s]), so the surface dropped away from it rather than the stone bouncing off it.
+    Not when it is dry with its lowest point below the level: there is no water under it (it went
+    over the grid's edge, or onto land; :func:`off_the_water`)."""
+    return water is not None and not off_the_water(water) and (water.depth > -clearance or vz < 0.0)
+
+
+def off_the_water(water: WaterContact | None) -> bool:
+    """A dry stone whose lowest point is below the level [m]: there is no water under it (inside the
+    grid such a point would be wetted; off it, or over land, the coupler reports the depth below
+    the rest level)."""
+    return water is not None and not water.wetted and water.depth > 0.0
 
 
 def floats(body: BodyState, water: WaterContact, water_density: float = 1000.0) -> bool:
@@ -127,7 +136,8 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     if previous in (StageId.HIT, StageId.SLIDE):
         if contact_goes_on(water, vz, clearance):
             return StageId.HIT if vz < 0 else StageId.SLIDE
-        return StageId.FLY_AWAY
+        # over the edge of the water the contact ends with no bounce: airborne, until it left the pond
+        return StageId.APPROACH if off_the_water(water) else StageId.FLY_AWAY
     if previous is StageId.FLY_AWAY:
         return StageId.FLY_AWAY if vz >= 0 else StageId.APPROACH
     return StageId.APPROACH

@@ -387,6 +387,27 @@ def test_a_contact_that_never_moved_down_is_no_skip():
     assert [o["skip"].index for o in out if "skip" in o] == [1]
 
 
+def test_a_contact_that_runs_off_the_waters_edge_ends_without_a_skip_or_a_hit():
+    """Off the grid's edge (or over land) a dry stone's lowest point is below the rest level: the
+    contact is over, without a bounce, and the stone is airborne (scenarios/ricochet.yaml's last
+    slide went on as a "hit" over no water, 16 ms after it left the pond's far edge). Within the
+    clearance above the surface the same dry, descending step is a flicker: the contact goes on."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0, outside_after=0))
+    out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
+                    (body(0.005, 0.0, 5.0, -0.1), water(True), None),
+                    (body(0.010, 0.0, 5.0, 0.1), water(True), None),
+                    (body(0.015, -0.001, 5.0, -0.1), water(False, depth=0.001), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "slide", "approach"]
+    assert m.track.skips == 0 and not m.track.in_contact
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0, outside_after=0))
+    out = drive(m, [(body(0.0, 0.01, 5.0, -1.0), water(False), None),
+                    (body(0.005, 0.0, 5.0, -0.1), water(True), None),
+                    (body(0.010, 0.0, 5.0, 0.1), water(True), None),
+                    (body(0.015, 0.001, 5.0, -0.1), water(False, depth=-0.001), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "slide", "hit"]
+    assert m.track.in_contact
+
+
 def test_a_monitor_that_never_saw_the_body_says_so_in_words():
     """A run that failed before the monitor's first step (another component at t = 0) prints no empty
     timeline and no 'nan m': it says there is no stage and no distance yet, also once told where the
