@@ -387,8 +387,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     outcome = run_scene(sim.scene, output, until_ns=args.until,
                         command_line=shlex.join(["cosim", *sys.argv[1:]]), progress=not args.quiet,
                         simulation=sim, inputs=(rec.path,), before_run=restarting)
-    print(format_summary(sim.scene, outcome))
-    return EXIT_FAILED if outcome.failed else EXIT_OK
+    print(format_summary(sim.scene, outcome), flush=True)
+    if outcome.failed:  # said on stderr as `cosim run` says it, not only in the summary
+        print(f"error: {one_line(outcome.result.reason)}", file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
 
 
 def build_parser(command: str = "") -> argparse.ArgumentParser:

@@ -21,6 +21,7 @@ Each ``figure_*`` function returns the figure, so tests can check what was drawn
 from __future__ import annotations
 
 import math
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -230,11 +231,16 @@ def energy_terms(run: RunData) -> dict[str, np.ndarray]:
 def _reports_contacts(rec: Recording) -> bool:
     """Whether the recorded scene has a component that reports contacts (water or ground); True when
     its scene cannot be read."""
+    return _scene_publishes(rec, (WaterContact, GroundContact))
+
+
+def _scene_publishes(rec: Recording, kinds: tuple[type, ...]) -> bool:
+    """Whether the recorded scene has a component with an output of one of the message types
+    ``kinds``; True when its scene cannot be read."""
     try:
         configs = rec.scene().components.values()
     except Exception:
         return True
-    kinds = (WaterContact, GroundContact)
     return any(port.type in kinds for cfg in configs for port in cfg.cls.outputs.values())
 
 
@@ -434,10 +440,14 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
         with output_folder(out_dir):
             path = out_dir / WATER_FIGURE
             _save(figure_water(rec, fields[0]), path, dpi)
-        return [path], [(", ".join(FIGURES), "no body in this run")]
+        why = ("the recording holds no body's state (its channels were left out: --record)"
+               if _scene_publishes(rec, (BodyState,)) else "no body in this run")
+        return [path], [(", ".join(FIGURES), why)]
     run = load_run(rec, body)
     written, skipped = [], []
-    with output_folder(out_dir):
+    # every figure is drawn into a temporary file first and all are moved into place at the end: a
+    # plot cut short (Ctrl-C, a full disk) leaves the folder as it was, not a set that looks finished
+    with output_folder(out_dir), ExitStack() as pending:
         for name, make in FIGURES.items():
             fig = make(run)
             if fig is None:
@@ -448,7 +458,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
                 skipped.append((name, why))
                 continue
             path = out_dir / name
-            _save(fig, path, dpi)
+            fig.savefig(pending.enter_context(written_whole(path)), dpi=dpi, format="png")
             written.append(path)
     return written, skipped
 

@@ -754,6 +754,9 @@ def _frame_times(output: Path, options: RenderOptions, begin: float, end: float,
     else:
         t0 = begin if options.start is None else options.start
         t1 = end if options.stop is None else options.stop
+        for flag, t in (("--from", options.start), ("--to", options.stop)):
+            if t is not None and not begin <= t <= end + 1e-9:  # named before the order of the two
+                raise RenderError(f"{flag} {t:g} s is outside the {what} {begin:g} .. {end:g} s")
         if not t1 >= t0:
             raise RenderError(f"--to ({t1:g} s) must not be before --from ({t0:g} s)")
         times = frame_times(t0, t1, options.fps, options.speed)
