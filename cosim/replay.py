@@ -87,6 +87,10 @@ class _RecordedSource:
         self.slot = _Slot()
         self.next = 0
 
+    def drop_published_before(self, tick: int) -> None:
+        """Leave out the messages published before ``tick``: a restart's slot holds them already."""
+        self.pending = [entry for entry in self.pending if entry[0] >= tick]
+
     def advance(self, tick: int) -> None:
         pending = self.pending
         while self.next < len(pending):
@@ -146,6 +150,9 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
                 cp = restart[1]
                 src.slot.entries = saved_messages(cp, conn.source, conn.source_port, spec.type)
                 edge.last_delivered = cp["edges"][scene.connections.index(conn)]
+                # what the source published before the checkpoint (a step spanning it, recorded again
+                # as the restart began) is in those entries already
+                src.drop_published_before(restart[0] // dt_ns)
             edges.append(edge)
         plan.append((port, edges))
 

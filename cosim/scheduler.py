@@ -262,6 +262,9 @@ class Simulation:
         # edges were appended runner by runner; keep a canonical order for checkpoints
         self.edges.sort(key=lambda e: scene.connections.index(e.spec))
         self._read_ports = {(e.spec.source, e.spec.source_port) for e in self.edges}
+        # a restart's messages published before its checkpoint and stamped after it (the outputs of a
+        # step that spans the checkpoint's time), told to the observers as the run begins again
+        self._ahead: list[tuple[int, str, str, Message]] = []
 
     # --- time -------------------------------------------------------------------------------------
 
@@ -287,6 +290,10 @@ class Simulation:
         self._initialized = True
         for obs in self.observers:
             obs.on_initialized(self)
+        for stamp, name, port, msg in self._ahead:
+            for obs in self.observers:
+                obs.on_exchange(stamp, name, port, msg)
+        self._ahead = []
         if self.tick == 0:
             for runner in self.runners:
                 outputs = runner.comp.start_outputs()  # t = 0 values obey the same rules as step outputs
@@ -390,6 +397,12 @@ class Simulation:
                                            for stamp, msg in slot.entries]
                       for r in self.runners for port, slot in r.slots.items() if (r.name, port) in self._read_ports},
             "edges": [e.last_delivered for e in self.edges],
+            # the outputs of the steps that span this time (a component stepping every few ticks
+            # publishes at its step's start, stamped at its end), of every port: a run restarted here
+            # records them again, so that its recording holds what the original did from here on
+            "ahead": [[stamp, f"{r.name}.{port}", codec_for(type(msg)).encode(msg).decode()]
+                      for r in self.runners for port, slot in r.slots.items()
+                      for stamp, msg in slot.entries if stamp > self.time_ns],
         }
 
     def restore(self, cp: dict[str, Any]) -> None:
@@ -409,4 +422,11 @@ class Simulation:
         if len(cp["edges"]) == len(self.edges):
             for edge, last in zip(self.edges, cp["edges"], strict=False):
                 edge.last_delivered = last
+        by_name = {r.name: r for r in self.runners}
+        self._ahead = []
+        for stamp, channel, payload in cp.get("ahead", []):  # (not in checkpoints of older recordings)
+            name, _, port = channel.partition(".")
+            if name in by_name and port in by_name[name].comp.outputs:
+                kind = by_name[name].comp.outputs[port].type
+                self._ahead.append((stamp, name, port, codec_for(kind).decode(payload.encode())))
         self._initialized = False

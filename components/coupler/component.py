@@ -355,6 +355,11 @@ class WaterCoupler(Component):
         self.quiet = bool(state.get("quiet", False))
         held = state.get("held_request")
         self._held_request = None if held is None else PatchRequest(*map(float, held))
+        empty = self._empty_request
+        if held is not None and [float(v) for v in held] == [empty.x_min, empty.x_max, empty.y_min, empty.y_max]:
+            # the request is held by identity (_publishable): the empty one is always this object, or a
+            # restart would publish the empty request again, which the run it continues did not
+            self._held_request = self._empty_request
         self.cell = float(state["cell"])
         self.dissipated = float(state["dissipated"])
         self.bound = float(state["bound"])
