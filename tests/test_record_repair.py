@@ -59,7 +59,9 @@ def _refused(path: Path, capsys, said: str) -> None:
 
 
 def test_a_whole_recording_needs_no_repair(whole, capsys):
-    _refused(whole, capsys, "is a whole recording already (cosim inspect and replay read it as it is); "
+    """Said without promising that replay reads it: a closed file whose checks pass may still hold
+    a scene replay cannot load (a crafted file with a scene of a name alone)."""
+    _refused(whole, capsys, "is a whole recording already (it was closed, and its checks pass); "
                             "there is nothing to repair")
 
 

@@ -88,8 +88,8 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
     except RecordingError as exc:
         problem = _reason(exc, cut)
     else:
-        raise RecordingError(f"{cut}: is a whole recording already (cosim inspect and replay read it as it "
-                             "is); there is nothing to repair")
+        raise RecordingError(f"{cut}: is a whole recording already (it was closed, and its checks pass); there "
+                             "is nothing to repair")
     cut_short = not ends_in_footer(cut)
     if not cut_short:
         from cosim.record.reader import check_integrity
