@@ -45,22 +45,35 @@ def box_coverage(t: float, w1: float, w2: float) -> float:
     fraction is that distribution's CDF at ``t``. Exact for a planar element under a flat surface;
     summed over a tiling, it reproduces the wetted area of a straight waterline exactly.
     """
+    a, b, half, d, ab2 = box_shape(w1, w2)
+    return box_fraction(t, a, b, half, d, ab2)
+
+
+@njit(cache=True, inline="always")
+def box_shape(w1: float, w2: float) -> tuple[float, float, float, float, float]:
+    """What :func:`box_coverage` needs of the ranges ``w1``, ``w2`` [m], for elements (or pieces) that
+    share them: (a, b) the smaller and larger range, half their mean, d half their difference [m],
+    2 a b [m^2]."""
     a = min(abs(w1), abs(w2))
     b = max(abs(w1), abs(w2))
-    half = 0.5 * (a + b)
+    return a, b, 0.5 * (a + b), 0.5 * (b - a), 2.0 * a * b
+
+
+@njit(cache=True, inline="always")
+def box_fraction(t: float, a: float, b: float, half: float, d: float, ab2: float) -> float:
+    """:func:`box_coverage` at ``t`` [m] of the ranges :func:`box_shape` describes."""
     if t <= -half:
         return 0.0
     if t >= half:
         return 1.0
     if a <= 1e-12 * b:
         return 0.5 + t / b
-    d = 0.5 * (b - a)
     if t < -d:
         s = t + half
-        return s * s / (2.0 * a * b)
+        return s * s / ab2
     if t > d:
         s = half - t
-        return 1.0 - s * s / (2.0 * a * b)
+        return 1.0 - s * s / ab2
     return 0.5 + t / b
 
 

@@ -16,7 +16,8 @@ from numba import njit
 
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
 from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
-from components.coupler.geometry import FACE_SUBDIVISION, box_coverage, box_density, disk_chord, sphere_chord
+from components.coupler.geometry import (FACE_SUBDIVISION, box_coverage, box_density, box_fraction, box_shape,
+                                         disk_chord, sphere_chord)
 
 SHAPE_DISK = 0
 SHAPE_SPHERE = 1
@@ -40,6 +41,10 @@ S_TOTAL = 36  # sum of the switched-on effects: force (3) then torque (3)
 S_SURFACE_LOW = 42  # water height at the body's lowest point [m] (NaN off the patch or over dry land)
 S_HMAX = 43  # highest surface of the patch [m]
 N_STATS = 44
+
+PREFILTER_MARGIN = 1e-12  # relative margin of a bound computed without divisions, against the rounding
+# (a few 1e-16) that separates it from the exact value it stands in for: a test it passes or fails by
+# more than this gives the exact test's answer
 
 RING_FOCUS = 4  # power of the share (1 + q cos) a column gives each band column: a rim column puts half
 # its volume within +-27 deg of its own direction [-]
@@ -88,12 +93,14 @@ def sample_water(x, y, x0, y0, cell, height, wvel, bottom):
 def _bilinear(x, y, x0, y0, cell, shape):
     """The bilinear weights of (x, y) [m] on an (nj, ni) patch whose first column is centred at
     (x0, y0): (ok, i, j, i1, j1, w00, w10, w01, w11); ok is False outside the patch (half a column
-    beyond its outer centres)."""
+    beyond its outer centres). The indices are unsigned, as they are never negative: a signed index
+    is wrapped at each access in case it is, a select apiece (twelve for sample_water)."""
     nj, ni = shape
     fx = (x - x0) / cell
     fy = (y - y0) / cell
+    zero = np.uint64(0)
     if fx < -0.5 or fy < -0.5 or fx > ni - 0.5 or fy > nj - 0.5:
-        return False, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0
+        return False, zero, zero, zero, zero, 0.0, 0.0, 0.0, 0.0
     fx = min(max(fx, 0.0), ni - 1.0)
     fy = min(max(fy, 0.0), nj - 1.0)
     i = min(int(fx), max(ni - 2, 0))
@@ -106,7 +113,7 @@ def _bilinear(x, y, x0, y0, cell, shape):
     w10 = tx * (1 - ty)
     w01 = (1 - tx) * ty
     w11 = tx * ty
-    return True, i, j, i1, j1, w00, w10, w01, w11
+    return True, np.uint64(i), np.uint64(j), np.uint64(i1), np.uint64(j1), w00, w10, w01, w11
 
 
 @njit(cache=True, inline="always")
@@ -126,42 +133,47 @@ SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^p from the trailing edge 
 # al.'s fig. 3 (p = 2, Savitsky's steady 3/4, lets a 65 rev/s disk lose 4 deg of attack) [-]
 
 
-PLANING_PLACE = 8  # values per element of pl_r: lever arm (3), element index, level over its centre,
-# its two height ranges, the bed's level over its centre
+FACE_PIECES = FACE_SUBDIVISION * FACE_SUBDIVISION  # pieces of a disk face's square (Elements.sub)
+PL_PIECES = 8  # where a row of pl_r holds its element's pieces' wetted shares (FACE_PIECES)
+PLANING_PLACE = PL_PIECES + FACE_PIECES  # values per element of pl_r: lever arm (3), element index, level
+# over its centre, its two height ranges, the bed's level over its centre; then the wetted shares of its
+# pieces, found as its wetted fraction was (a square partly under, or cut by the bed) and read again
+# where its load is spread (_spread_planing), not worked out a second time
 
 
 @njit(cache=True)
-def _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp):
-    """The wetted share [-] of element ``k``'s piece ``q`` (its share of the element's area times
-    the fraction of it below a level ``t`` [m] above the element's centre): a piece is the element
-    shrunk by FACE_SUBDIVISION, its height ranges the element's ``w1``, ``w2`` over that (the
+def _pieces_wet(el_sub, k, t, t_bed, w1, w2, zx, zy, wet_ramp, out):
+    """The wetted shares [-] of element ``k``'s pieces into ``out`` (el_sub.shape[1],): each piece's
+    share of the element's area times the fraction of it between the bed, ``t_bed`` [m] over the
+    element's centre, and a level ``t`` [m] over it (the part under the bed is in the ground, not in
+    the water; a bed below the element, t_bed at most -(w1 + w2) / 2, cuts nothing). A piece is the
+    element shrunk by FACE_SUBDIVISION, its height ranges the element's ``w1``, ``w2`` over that (the
     smaller at least ``wet_ramp / FACE_SUBDIVISION``, as the element's at least ``wet_ramp``), its
-    centre ``du zx + dv zy`` above the element's."""
-    share = el_sub[k, q, 2]
-    if share <= 0.0:
-        return 0.0
+    centre ``du zx + dv zy`` above the element's.
+
+    The pieces share their ranges: what the fraction needs of them is worked out once for all
+    (geometry.box_shape), each piece's fraction the same to the bit as box_coverage's."""
     m = FACE_SUBDIVISION
-    if t >= 0.5 * (w1 + w2):  # the whole element is under the level
-        return share
-    tau = el_sub[k, q, 0] * zx + el_sub[k, q, 1] * zy
+    whole = t >= 0.5 * (w1 + w2)  # the whole element is under the level
+    bed_whole = t_bed >= 0.5 * (w1 + w2)
+    cut = t_bed > -0.5 * (w1 + w2)
     p1 = w1 / m
     p2 = w2 / m
     if p1 < p2:
         p1 = max(p1, wet_ramp / m)
     else:
         p2 = max(p2, wet_ramp / m)
-    return share * box_coverage(t - tau, p1, p2)
-
-
-@njit(cache=True)
-def _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp):
-    """:func:`_piece_wet` of the piece's part between the bed, ``t_bed`` [m] over the element's
-    centre, and the surface ``t``: the part under the bed is in the ground, not in the water. A bed
-    below the element (t_bed at most -(w1 + w2) / 2) cuts nothing."""
-    c = _piece_wet(el_sub, k, q, t, w1, w2, zx, zy, wet_ramp)
-    if t_bed > -0.5 * (w1 + w2) and c > 0.0:
-        c = max(c - _piece_wet(el_sub, k, q, t_bed, w1, w2, zx, zy, wet_ramp), 0.0)
-    return c
+    a, b, half, d, ab2 = box_shape(p1, p2)
+    for q in range(el_sub.shape[1]):
+        share = el_sub[k, q, 2]
+        if share <= 0.0:
+            out[q] = 0.0
+            continue
+        tau = el_sub[k, q, 0] * zx + el_sub[k, q, 1] * zy
+        c = share if whole else share * box_fraction(t - tau, a, b, half, d, ab2)
+        if cut and c > 0.0:
+            c = max(c - (share if bed_whole else share * box_fraction(t_bed - tau, a, b, half, d, ab2)), 0.0)
+        out[q] = c
 
 
 @njit(cache=True)
@@ -203,16 +215,25 @@ def _pieces_weight(el_sub, k, t, w1, w2, x, a, b, zx, zy, wet_ramp, forward, t_b
     """The spray root's mean weight over element ``k``'s wet pieces, and where it puts the load:
     (mean weight [-], du, dv [m] from the element's centroid along body x and y). ``x``: the
     centroid's place between the trailing edge (0) and the spray root (1); a piece at (du, dv) lies
-    ``du a + dv b`` further on; t, w1, w2 as :func:`_piece_wet`, t_bed as :func:`_piece_wet_above`.
+    ``du a + dv b`` further on; t, t_bed, w1, w2 as :func:`_pieces_wet`.
     No piece under the level (the element's own fraction is wider): the centroid's weight, at the
     centroid."""
+    shares = np.empty(el_sub.shape[1])
+    _pieces_wet(el_sub, k, t, t_bed, w1, w2, zx, zy, wet_ramp, shares)
+    return _weight_of_pieces(el_sub, k, shares, x, a, b, forward)
+
+
+@njit(cache=True)
+def _weight_of_pieces(el_sub, k, shares, x, a, b, forward):
+    """:func:`_pieces_weight` with the pieces' wetted shares given: ``shares`` (el_sub.shape[1],) [-],
+    :func:`_pieces_wet`'s."""
     p = SPRAY_ROOT_POWER
     wet = 0.0
     mean_w = 0.0
     du = 0.0
     dv = 0.0
     for q in range(el_sub.shape[1]):
-        c = _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp)
+        c = shares[q]
         if c <= 0.0:
             continue
         xi = min(1.0, max(0.0, x + el_sub[k, q, 0] * a + el_sub[k, q, 1] * b))
@@ -252,6 +273,7 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
     within 0.3 mm along and 0.1 mm across now). A whole square wholly under (el_whole) is summed in
     closed form over its grid of pieces (:func:`_grid_moments`), the same sum."""
     p = SPRAY_ROOT_POWER
+    n_sub = el_sub.shape[1]
     span = s_hi - s_lo
     if not span > 0.0 or forward <= 0.0:
         forward = 0.0  # no extent along the flow: the pressure even over the wetted area
@@ -291,6 +313,9 @@ def _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, a
             mean_w = (1.0 - forward) + forward * (p + 1) * mean_w
             du = forward * (p + 1) * pitch * su / mean_w
             dv = forward * (p + 1) * pitch * sv / mean_w
+        elif n_sub <= FACE_PIECES:  # its pieces' shares kept by _element_pass
+            mean_w, du, dv = _weight_of_pieces(el_sub, k, pl_r[i, PL_PIECES:PL_PIECES + n_sub], x, sx / span,
+                                               sy / span, forward)
         else:
             mean_w, du, dv = _pieces_weight(el_sub, k, t, w1, w2, x, sx / span, sy / span, zx, zy, wet_ramp, forward,
                                             t_bed)
@@ -528,6 +553,11 @@ def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, hal
         gy = 0.0
         base = z_low - cz
         slack = 0.0
+    # the sub-columns' offsets from their column's centre [m], the same for every column: worked out
+    # once, not one division per sub-column (a third of the pass's time for a ball on 3 x 3)
+    offset = np.empty(nsub)
+    for s in range(nsub):
+        offset[s] = ((s + 0.5) / nsub - 0.5) * cell
     for j in range(j_lo, j_hi + 1):
         yc = y0 + j * cell
         for i in range(i_lo, i_hi + 1):
@@ -545,10 +575,10 @@ def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, hal
             bsum = 0.0
             r_bsum = 0.0
             for sa in range(nsub):
-                xs = xc + ((sa + 0.5) / nsub - 0.5) * cell
+                xs = xc + offset[sa]
                 dx = xs - cx
                 for sb in range(nsub):
-                    ys = yc + ((sb + 0.5) / nsub - 0.5) * cell
+                    ys = yc + offset[sb]
                     dy = ys - cy
                     lo, hi = _chord(shape, dx, dy, ax, ay, az, radius, thickness)
                     if lo >= hi:
@@ -756,9 +786,9 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 # a disk face's square partly under: its wetted fraction summed over its pieces, each
                 # under by its own height range; a square clipped by the rim is then wetted where
                 # its part of the disk lies, not as a whole square about its centroid would be
+                _pieces_wet(el_sub, k, t, t_bed, w1, w2, zx, zy, wet_ramp, piece_wet)
                 frac = 0.0
                 for q in range(n_sub):
-                    piece_wet[q] = _piece_wet_above(el_sub, k, q, t, t_bed, w1, w2, zx, zy, wet_ramp)
                     frac += piece_wet[q]
                 if frac <= 0.0:
                     continue
@@ -801,6 +831,16 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                         pl_r[n_pl, 5] = w1
                         pl_r[n_pl, 6] = w2
                         pl_r[n_pl, 7] = t_bed
+                        if n_sub <= FACE_PIECES and not (el_whole[k] > 0.0 and t >= half and not cut):
+                            # the pieces' shares _spread_planing weighs (not in closed form): those above
+                            # when the square is partly under or cut, else (a clipped square wholly
+                            # under) each piece's own share
+                            if t < half or cut:
+                                for q in range(n_sub):
+                                    pl_r[n_pl, PL_PIECES + q] = piece_wet[q]
+                            else:
+                                _pieces_wet(el_sub, k, t, t_bed, w1, w2, zx, zy, wet_ramp,
+                                            pl_r[n_pl, PL_PIECES:PL_PIECES + n_sub])
                         s_el = rx * hx + ry * hy
                         pl_s[n_pl] = s_el
                         pl_m[n_pl] = p * fa
@@ -929,6 +969,16 @@ def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, wi
     # keeps the test clear of d's rounding: the columns taken are the same to the bit)
     far = 1.0 + 2.0 * width / min(a1, a2)
     far2 = far * far * (1.0 + 1e-9)
+    # q2 without its two divisions, to leave the columns surely inside (most of the body's box) or
+    # surely beyond (its corners) before them: products by 1 / a^2 differ from the quotients squared by
+    # a few roundings (1e-15 of q2), well inside the margin, so the columns kept are the same and their
+    # q2 is still the one below (NaN or inf from a degenerate outline: the test falls through to it)
+    a1a1 = a1 * a1
+    a2a2 = a2 * a2
+    inv_a1 = 1.0 / a1a1 if a1a1 > 0.0 else math.inf
+    inv_a2 = 1.0 / a2a2 if a2a2 > 0.0 else math.inf
+    inside = 1.0 - PREFILTER_MARGIN
+    beyond = far2 * (1.0 + PREFILTER_MARGIN)
     i_lo = max(0, math.floor((cx - radius - reach - x0) / cell))
     i_hi = min(ni - 1, math.ceil((cx + radius + reach - x0) / cell))
     j_lo = max(0, math.floor((cy - radius - reach - y0) / cell))
@@ -944,22 +994,27 @@ def _ring_cells(shape, radius, thickness, centre, axes, x0, y0, cell, nj, ni, wi
         dy = y0 + j * cell - cy
         for i in range(i_lo, i_hi + 1):
             dx = x0 + i * cell - cx
-            # _polar, with the columns inside the outline (most of the box) left before its root
-            un = (dx * tx + dy * ty) / a1
-            vn = (dx * sx + dy * sy) / a2
+            pu = dx * tx + dy * ty
+            pv = dx * sx + dy * sy
+            q2_near = pu * pu * inv_a1 + pv * pv * inv_a2
+            if q2_near < inside or q2_near > beyond:
+                continue
+            # _polar
+            un = pu / a1
+            vn = pv / a2
             q2 = un * un + vn * vn
             if q2 <= 1.0 or q2 >= far2:
                 continue
             q = math.sqrt(q2)
-            c, s = un / q, vn / q
-            u = (dx * tx + dy * ty) / (a1 * a1)
-            v = (dx * sx + dy * sy) / (a2 * a2)
+            u = pu / a1a1
+            v = pv / a2a2
             d = (q - 1.0) / (math.sqrt(u * u + v * v) / q)  # distance outside the outline, to first order
             if d >= 2.0 * width:
                 continue
             w = 1.0 - abs(d - width) / width
             if w <= 0.0:
                 continue
+            c, s = un / q, vn / q  # the direction, for the columns kept only
             jj[n] = j
             ii[n] = i
             phi[n] = w
