@@ -70,6 +70,7 @@ from cosim.params import param
 
 GRAVITY_MISMATCH = 1e-9  # relative potential-energy difference that reveals another gravity field
 _NO_CHANGE = (0.0, 0.0, 0.0)  # [m/s] the velocity change of a step answered with no impulse
+RESTING_SPEED = 1e-9  # [m/s] a body the last answer leaves slower than this is said to rest on the ground
 
 Vec3Param = tuple[float, float, float]
 # (the `noqa: RUF009` below: param() returns a dataclasses.field with an immutable default)
@@ -259,8 +260,14 @@ class SolidGround(Component):
 
     def summary(self) -> list[str]:
         bounces = "1 bounce" if self.impacts == 1 else f"{self.impacts} bounces"
-        lines = [f"{self.name}: {bounces}, {self.dissipated:.4g} J dissipated"
-                 + (", body in contact" if self.in_contact else "")]
+        contact = ""
+        if self.in_contact:
+            begun = self._begun_with()  # the velocity the body begins its next step with, answered
+            after = math.hypot(*begun) if begun is not None else math.nan
+            contact = (", body at rest on it" if after <= RESTING_SPEED
+                       else ", body in contact" if math.isnan(after)
+                       else f", body in contact, moving at {after:.4g} m/s once answered")
+        lines = [f"{self.name}: {bounces}, {self.dissipated:.4g} J dissipated{contact}"]
         if self.painleve:
             lines.append(f"{self.name}: friction dropped in {self.painleve} impulses (Painlevé: "
                          f"mu_kinetic {self.params.mu_kinetic:g} above the consistent bound)")

@@ -217,6 +217,7 @@ class RigidBody(Component):
         self.shape = p.shape_id()
         self.body = mass_properties(self.shape, p.radius, p.thickness, density=p.density, mass=p.mass)
         self.integrate = get_integrator(p.integrator)
+        self._answered = False
         self.gravity = as_vec(p.gravity)
         self.weight = scale(self.gravity, self.body.mass)
         self.tilt_axis = as_vec(p.tilt_axis)
@@ -285,6 +286,7 @@ class RigidBody(Component):
         s = self.state
         start = s
         imp = inputs.get("impulse")
+        self._answered = imp is not None  # a contact answers this step's end next (summary)
         if imp is not None:
             s = apply_impulse(self.body.mass, self.body.inertia, s, imp.linear.tolist(),  # type: ignore[attr-defined]
                               imp.angular.tolist(), imp.correction.tolist(), rotate=self.rotate)  # type: ignore[attr-defined]
@@ -362,7 +364,10 @@ class RigidBody(Component):
         x, _, v, _ = self.state
         msg = self.body_state()
         # + 0.0: without gravity the potential energy is -0.0, which would print as "-0"
-        line = (f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s, "
+        # in a contact the state at a step's end is the one the contact answers at the next step's start
+        # (a ground's impulse): a body resting on the ground has fallen for one step, g dt, there
+        answer = " before the contact's answer to its last step" if self._answered else ""
+        line = (f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s{answer}, "
                 f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy + 0.0:.4g} J")
         if self.params.spin != 0.0 and not self.params.lock_attitude:
             # a thrown stone's spin, which the water's friction takes away (a held attitude keeps it);

@@ -329,6 +329,17 @@ def test_summary_counts_bounces_and_dissipation():
     floor = ground(restitution=0.5)
     simulate(body(position=[0, 0, 0.05 + H]), floor, 2000)
     (line,) = floor.summary()
-    assert line.startswith(f"ground: {floor.impacts} bounces, ") and "J dissipated, body in contact" in line
+    assert line.startswith(f"ground: {floor.impacts} bounces, ") and line.endswith("J dissipated, body at rest on it")
     assert floor.impacts >= 3
+
+
+def test_summaries_of_a_resting_body_say_it_rests():
+    """A body resting on the ground ends each step fallen for one step (g dt): the ground says that its
+    answer leaves it at rest, the body that its speed is the one before that answer (it printed
+    "speed 0.004905 m/s" as the body's speed at rest); a sliding one is moving once answered."""
+    stone, floor = body(position=[0, 0, 0.05 + H]), ground(restitution=0.5)
+    simulate(stone, floor, 2000)
+    assert floor.summary()[0].endswith("body at rest on it")
+    assert "speed 0.004905 m/s before the contact's answer to its last step, kinetic" in stone.summary()[0]
+    assert "before the contact's answer" not in body(position=[0, 0, 1.0]).summary()[0]
     assert Shape.DISK == 0
