@@ -119,6 +119,7 @@ class SolidGround(Component):
         self.sliding = False
         self.in_contact = False
         self.impacts = 0
+        self.contacts: int | None = 0  # spells in contact, as plot counts them (None: from an older checkpoint)
         self.painleve = 0
         self._body_key: tuple | None = None
         self._body: MassProperties | None = None
@@ -195,6 +196,8 @@ class SolidGround(Component):
             return self._apart(msg)
         inv_m = 1.0 / body.mass
         self._begins = (msg.velocity, (res.linear[0] * inv_m, res.linear[1] * inv_m, res.linear[2] * inv_m))
+        if not self.in_contact and self.contacts is not None:
+            self.contacts += 1
         self.in_contact = True
         self.sliding = res.sliding
         self.impacts += res.bounced
@@ -246,7 +249,7 @@ class SolidGround(Component):
     def get_state(self) -> dict[str, Any]:
         begun = self._begun_with()
         return {"dissipated_energy": self.dissipated, "sliding": self.sliding, "in_contact": self.in_contact,
-                "impacts": self.impacts, "painleve": self.painleve,
+                "impacts": self.impacts, "contacts": self.contacts, "painleve": self.painleve,
                 "next_step_begins_at": None if begun is None else list(begun)}
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -254,12 +257,18 @@ class SolidGround(Component):
         self.sliding = bool(state["sliding"])
         self.in_contact = bool(state["in_contact"])
         self.impacts = int(state["impacts"])
+        contacts = state.get("contacts")  # (absent from older checkpoints: not known then)
+        self.contacts = None if contacts is None else int(contacts)
         self.painleve = int(state["painleve"])
         begun = state.get("next_step_begins_at")  # (absent from older checkpoints: gravity alone then)
         self._begins = None if begun is None else (np.array(begun, dtype=np.float64), _NO_CHANGE)
 
     def summary(self) -> list[str]:
         bounces = "1 bounce" if self.impacts == 1 else f"{self.impacts} bounces"
+        if self.contacts is not None:
+            # a contact (a spell of touching, what plot counts) may end without a bounce (a slow, plastic
+            # touchdown) or hold several (a rocking disk's rim impacts)
+            bounces += f" in {self.contacts} contact" + ("" if self.contacts == 1 else "s")
         contact = ""
         if self.in_contact:
             begun = self._begun_with()  # the velocity the body begins its next step with, answered

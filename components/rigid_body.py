@@ -366,9 +366,9 @@ class RigidBody(Component):
         # + 0.0: without gravity the potential energy is -0.0, which would print as "-0"
         # in a contact the state at a step's end is the one the contact answers at the next step's start
         # (a ground's impulse): a body resting on the ground has fallen for one step, g dt, there
-        answer = " before the contact's answer to its last step" if self._answered else ""
-        line = (f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s{answer}, "
-                f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy + 0.0:.4g} J")
+        answer = " (its last step's end, before the contact's answer to it)" if self._answered else ""
+        line = (f"{self.name}: at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m, speed {norm(v):.4g} m/s, "
+                f"kinetic {msg.kinetic_energy:.4g} J, potential {msg.potential_energy + 0.0:.4g} J{answer}")
         if self.params.spin != 0.0 and not self.params.lock_attitude:
             # a thrown stone's spin, which the water's friction takes away (a held attitude keeps it);
             # thrown at its spin at t = 0, about its axis then: ``spin`` plus what angular_velocity

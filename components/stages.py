@@ -144,7 +144,8 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
 
 
 class StageMonitor(Component):
-    """Publishes stage changes and per-skip figures; stops the run after sink, float or rest."""
+    """Publishes stage changes and per-skip figures; stops the run after sink, float or rest, and as
+    the stone leaves the pond."""
 
     @dataclass(frozen=True)
     class Params:
@@ -387,7 +388,9 @@ class StageMonitor(Component):
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
         for r in self.records:
-            curve = f"; drift {r.drift:+.2f} m, heading {r.heading_deg:+.1f} deg" if curved else ""
+            # rounded first: a drift or turn smaller than the last digit is +0, not -0
+            drift, heading = round(r.drift, 2) + 0.0, round(r.heading_deg, 1) + 0.0
+            curve = f"; drift {drift:+.2f} m, heading {heading:+.1f} deg" if curved else ""
             lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {r.touchdown_time:.3f} s; "
                          f"contact {r.contact_time * 1e3:.1f} ms, peak {r.peak_g:.1f} g; "
                          f"take-off {r.takeoff_angle_deg:.1f} deg; "

@@ -157,8 +157,9 @@ def _until_override(until_ns: int) -> str:
 
 
 def _default_output(scene_path: str, name: str, overrides: list[str]) -> Path:
-    """runs/<scene>.mcap; a run with --set gets its own name (runs/<scene>-set-<hash>.mcap, the hash
-    of its overrides), so that a variant never replaces the scene's own recording."""
+    """runs/<scene>.mcap; a run with --set (or --until, --record, --record-every, --perf: what the CLI
+    turns into ``overrides``) gets its own name (runs/<scene>-set-<hash>.mcap, the hash of its
+    overrides), so that a variant never replaces the scene's own recording."""
     stem = name or Path(scene_path).stem
     if overrides:
         import hashlib
@@ -206,8 +207,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         overrides.append(_until_override(args.until))
     scene = load(args.scene, overrides=overrides)
     say_notices(scene.notices)
+    # a variant (--set, --until, --record, --record-every, --perf) never replaces the scene's own recording
+    variant = [*overrides, *(["--perf"] if args.perf else [])]
     output = None if args.no_record else (Path(args.output) if args.output else
-                                          _default_output(args.scene, scene.name, list(args.set or [])))
+                                          _default_output(args.scene, scene.name, variant))
     command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else "cosim run"
     if args.live is None and (args.live_speed is not None or args.live_linger is not None):
         given = "--live-speed" if args.live_speed is not None else "--live-linger"
@@ -411,7 +414,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a scene and record it")
     scene_args(p)
     p.add_argument("-o", "--output", type=_output_path,
-                   help="MCAP file to write (default runs/<scene>.mcap; with --set, runs/<scene>-set-<hash>.mcap)")
+                   help="MCAP file to write (default runs/<scene>.mcap; with --set, --until, --record, --record-every "
+                        "or --perf, runs/<scene>-set-<hash>.mcap)")
     p.add_argument("--until", type=_run_until, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")

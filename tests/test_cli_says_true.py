@@ -36,6 +36,11 @@ def test_a_run_with_set_and_no_output_does_not_replace_the_scenes_own_recording(
     assert (tmp_path / "runs" / "ping_pong.mcap").read_bytes() == own
     variants = sorted(p.name for p in (tmp_path / "runs").glob("ping_pong-set-*.mcap"))
     assert len(variants) == 2
+    # nor one shortened (--until) or thinned (--record-every): they replaced runs/ping_pong.mcap
+    assert main(["run", scene, "-q", "--until", "1"]) == 0
+    assert main(["run", scene, "-q", "--record-every", "5"]) == 0
+    assert (tmp_path / "runs" / "ping_pong.mcap").read_bytes() == own
+    assert len(list((tmp_path / "runs").glob("ping_pong-set-*.mcap"))) == 4
 
 
 @pytest.mark.parametrize("flags", [["--set", "dt=0.0001"], ["-o", "x.mcap"], ["--until", "1"]])

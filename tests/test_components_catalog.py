@@ -29,7 +29,7 @@ def test_every_registered_type_is_listed_with_what_it_does(capsys):
     for names in registered().values():
         assert f"{names[0]}" in out
     assert ("WaterCoupler (also: Coupler): Stone-water interaction per water column: displacement, buoyancy, "
-            "pressure, friction, wave drag.") in out.splitlines()
+            "pressure, friction, wave drag, added mass.") in out.splitlines()
 
 
 def test_a_type_shows_its_parameters_with_units_defaults_and_bounds_and_its_ports(capsys):

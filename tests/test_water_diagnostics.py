@@ -1,4 +1,4 @@
-"""Water diagnostics: the physical surface energy beside the model's lattice invariant."""
+"""Water diagnostics: the physical surface energy beside the model's lattice energy."""
 
 from __future__ import annotations
 

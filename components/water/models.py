@@ -86,7 +86,9 @@ class Model:
 
     name: ClassVar[str] = ""
     explicit: ClassVar[bool] = False
-    invariant: ClassVar[str] = "lattice invariant"  # what :meth:`energy` is, for the run summary
+    # what :meth:`energy` is, for the run summary: the semi-discrete model's invariant, which the explicit
+    # step keeps within O(c dt / s), oscillating (its own invariant is the shadow energy), so not called one
+    invariant: ClassVar[str] = "lattice energy"
     # arrays of the grid's size the model holds or makes in a step beyond the surface's own (its
     # memory estimate, WaterSurface.estimate_bytes)
     extra_arrays_per_cell: ClassVar[int] = 0
