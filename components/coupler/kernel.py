@@ -16,8 +16,15 @@ from numba import njit
 
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
 from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
-from components.coupler.geometry import (FACE_SUBDIVISION, box_coverage, box_density, box_fraction, box_shape,
-                                         disk_chord, sphere_chord)
+from components.coupler.geometry import (
+    FACE_SUBDIVISION,
+    box_coverage,
+    box_density,
+    box_fraction,
+    box_shape,
+    disk_chord,
+    sphere_chord,
+)
 
 SHAPE_DISK = 0
 SHAPE_SPHERE = 1

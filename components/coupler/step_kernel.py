@@ -306,7 +306,8 @@ def _ring_lift_live(waterline, height, held, has_held, b_out, rest_level, band_j
     """:func:`kernel.ring_lift` over the water above the rest level as this step's displacement
     leaves it (WaterCoupler._ring_field), read where it is needed instead of made whole: the
     patch minus the occupied height it holds plus the one published now (b_out, zero outside its
-    window), or the patch alone when it does not say what it holds."""
+    window), or the patch alone when not ``has_held``: it does not say what it holds, or the window
+    raises no mound (the water takes it as already at rest: WaterCoupler._mound_raised)."""
     n = band_j.size
     if n > 0:
         band_field = np.empty(n)  # the field over the band
