@@ -18,6 +18,7 @@ columns are off by up to 1.3% for this disk, which alone moves it 0.15 mm to the
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -26,9 +27,12 @@ from components.messages import BodyState, HeightPatch, PatchRequest
 from components.rigid_body import RigidBody
 from components.water import WaterSurface
 from cosim.params import build
+from cosim.scenario import load as load_scene
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
 from tests.toys import Channels
+
+SCENES = Path(__file__).resolve().parent.parent / "scenarios"
 
 RHO = 1000.0  # [kg/m^3] the water's (the coupler's default)
 G = 9.81  # [m/s^2]
@@ -161,3 +165,16 @@ def test_its_buoyancy_is_its_weight_from_the_first_step(shape):
         request = out.get("request", request)  # published when it changes, else held
         patch = water.step(k * dt, dt, {"occupied": out["occupied"], "request": request})["patch"]
     assert ratios == pytest.approx([1.0] * 4, abs=1e-3), ratios
+
+
+def test_a_body_that_comes_down_before_the_waters_first_patch_raises_the_water():
+    """scenarios/ricochet.yaml: the ball meets the water 2 ms in, before its water (stepping every 14
+    ticks) has sent a patch. It began above the water, so its displaced water is a mound the water
+    raises, not water already at rest there: no occupied window of it is flagged already displaced
+    (its first ones were, because the coupler judged where the body began from where it was at the
+    water's first patch)."""
+    watch = Channels("coupler.occupied")
+    sim = Simulation(load_scene(SCENES / "ricochet.yaml"), observers=[watch])
+    assert sim.run(30_000_000).status == "ok"
+    windows = [m for m in watch.messages("coupler.occupied") if m.b.size]
+    assert windows and not any(m.already_displaced for m in windows)

@@ -535,9 +535,12 @@ class WaterCoupler(Component):
         if patch is not None and patch.height.size:
             if self.cell == 0.0:  # the water's first patch
                 self._check_not_under_the_bed(float(pos[2]) + r_bound, pos, patch)
-                # only a body that may be in the water as the water first shows itself was there
-                # before the run; one above it comes in later, and its displacement raises waves
-                self._start_in_water = float(pos[2]) - r_bound < float(patch.rest_level)
+                # only a body in the water when the run began was there before it; one above it comes
+                # in later, and its displacement raises waves, also one that comes in before the water
+                # first shows itself (the ricochet's ball, on a water stepping every 14 ticks). Where the
+                # body began is known when the run told it (start_inputs); else where it is now
+                bottom = self._start_bottom if self._start_bottom is not None else float(pos[2]) - r_bound
+                self._start_in_water = bottom < float(patch.rest_level)
             else:  # at any level: a beach's bed rises above the rest level
                 self._check_not_through_the_bed(float(pos[2]) + r_bound, pos, patch)
             self.rest_level = float(patch.rest_level)
@@ -710,10 +713,9 @@ class WaterCoupler(Component):
         window is sent), or ``already`` displaced (the water takes it as there at rest, its surface
         flat). Counting that mound lifted a pine disk let go at its equilibrium draft with 2.1, then
         1.47 times its weight on its first steps: it jumped 1.15 mm (its draft is 12 mm) at 3 cm/s.
-
-        A body that came down from above into the water before its first patch is flagged already
-        displaced too (it is in the water when the water first shows itself: the ricochet's ball, on
-        a water stepping every 14 ticks); its mound is counted as it always was, its runs unchanged."""
+        A body that came down from above into the water, even before the water's first patch (the
+        ricochet's ball, on a water stepping every 14 ticks), is not already displaced: its window
+        raises the water, and its mound is counted."""
         if held.shape != height.shape:
             return False
         began_in_water = self._start_bottom is not None and self._start_bottom < self.rest_level
