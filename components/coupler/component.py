@@ -197,6 +197,17 @@ def _bounding_radius(body: BodyState) -> float:
     return math.hypot(float(body.radius), 0.5 * float(body.thickness))
 
 
+def _top_of(body: BodyState) -> float:
+    """The height [m] of the body's highest point: a sphere's top, a disk's highest rim point (its
+    axis a_z from the vertical: R sqrt(1 - a_z^2) + e/2 |a_z| above the centre)."""
+    z = float(body.position[2])
+    if body.shape != Shape.DISK:
+        return z + float(body.radius)
+    _, x, y, _ = (float(c) for c in body.orientation)
+    a_z = 1.0 - 2.0 * (x * x + y * y)  # the body z axis's vertical component (unit quaternion)
+    return z + float(body.radius) * math.sqrt(max(0.0, 1.0 - a_z * a_z)) + 0.5 * float(body.thickness) * abs(a_z)
+
+
 def _surface_speed(body: BodyState) -> float:
     """The fastest a point of the body's surface can move [m/s]: |v| + R |omega|."""
     v, w = body.velocity.tolist(), body.angular_velocity.tolist()
@@ -542,7 +553,9 @@ class WaterCoupler(Component):
                 bottom = self._start_bottom if self._start_bottom is not None else float(pos[2]) - r_bound
                 self._start_in_water = bottom < float(patch.rest_level)
             else:  # at any level: a beach's bed rises above the rest level
-                self._check_not_through_the_bed(float(pos[2]) + r_bound, pos, patch)
+                # its own top, not its bounding sphere's: a disk's is far lower, and the stage monitor,
+                # seeing it dry below the level, would first have said it left the pond
+                self._check_not_through_the_bed(_top_of(body), pos, patch)
             self.rest_level = float(patch.rest_level)
             self.cell = float(patch.cell)
         elif patch is not None and patch.off_grid and self.cell == 0.0:
