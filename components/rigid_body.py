@@ -235,23 +235,32 @@ class RigidBody(Component):
     def notices(self) -> list[str]:
         """A disk tilted about an axis that is not across its throw meets the water banked: said, with
         the tilt_axis that would raise its front edge along the throw (the default axis raises the
-        +x edge: a throw along -y with it comes down on its side)."""
+        +x edge: a throw along -y with it comes down on its side). A held attitude spun: said what
+        the spin then does."""
         p: RigidBodyParams = self.params
+        said = []
+        if p.lock_attitude and p.spin != 0.0:
+            # the held attitude holds the spin too: the water's friction on the spinning faces takes
+            # nothing from it and pushes the stone sideways with energy no throw gave it (the held
+            # slate at 2000 rev/s left its first contact at 55 m/s from 8)
+            said.append(f"spin {p.spin:g} rad/s with lock_attitude: the held spin never slows, so the water's friction "
+                        "on the spinning faces drives the stone sideways with energy of the held spin's own; for "
+                        "what a spin does to a throw, leave the attitude free")
         vx, vy = float(p.velocity[0]), float(p.velocity[1])
         speed = math.hypot(vx, vy)
         if p.shape != "disk" or p.tilt_deg == 0.0 or speed < HEADING_SPEED or p.scripted_tilt_deg:
-            return []  # (a body let go with no horizontal speed of its own has no front edge)
+            return said  # (a body let go with no horizontal speed of its own has no front edge)
         n = quat.body_axis(quat.from_axis_angle(self.tilt_axis, math.radians(p.tilt_deg)))  # the face's normal
         # the face rises towards -n's horizontal part: its pitch along the throw and its bank across it
         pitch = math.degrees(math.asin(max(-1.0, min(1.0, -(n[0] * vx + n[1] * vy) / speed))))
         bank = math.degrees(math.asin(max(-1.0, min(1.0, (n[0] * vy - n[1] * vx) / speed))))
         if abs(bank) <= BANK_NOTICE_DEG and pitch >= 0.0:
-            return []
+            return said
         ax, ay = vy / speed + 0.0, -vx / speed + 0.0  # (+ 0.0: no -0 in the text)
         meets = "on its side" if abs(bank) > BANK_NOTICE_DEG else "front edge first"
-        return [f"tilt_deg {p.tilt_deg:g} about tilt_axis {list(p.tilt_axis)} leaves it {pitch + 0.0:.3g} deg nose-up "
-                f"along its throw and banked {bank + 0.0:.3g} deg across it, so it meets the water {meets}; to "
-                f"raise its front edge along the throw, give tilt_axis [{ax:.4g}, {ay:.4g}, 0]"]
+        return [*said, f"tilt_deg {p.tilt_deg:g} about tilt_axis {list(p.tilt_axis)} leaves it {pitch + 0.0:.3g} deg "
+                f"nose-up along its throw and banked {bank + 0.0:.3g} deg across it, so it meets the water {meets}; "
+                f"to raise its front edge along the throw, give tilt_axis [{ax:.4g}, {ay:.4g}, 0]"]
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """An added mass it starts with (a connection's initial value) must be one."""

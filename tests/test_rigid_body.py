@@ -258,3 +258,18 @@ def test_a_disk_tilted_about_an_axis_not_across_its_throw_is_said_to_meet_the_wa
     assert "leaves it -8 deg nose-up along its throw and banked 0 deg across it, so it meets the water front " \
            "edge first; to raise its front edge along the throw, give tilt_axis [0, 1, 0]" in back
     assert load(scene, ["components.stone.velocity=[1e-9, 0, -3]"]).notices == []
+
+
+def test_a_held_attitude_spun_is_said_to_push_the_stone_with_its_spins_energy():
+    """With lock_attitude the spin never slows: the water's friction on the spinning face takes nothing
+    from it and drives the stone sideways (the held skip spun at 2000 rev/s left its first contact at
+    55 m/s from 8, exit 0, without a word). The scene says so; unspun, or free, it says nothing."""
+    from pathlib import Path
+
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    (notice,) = load(scene, ["components.stone.spin=125.7"]).notices
+    assert notice.startswith("components.stone: spin 125.7 rad/s with lock_attitude: the held spin never slows")
+    assert load(scene).notices == []
+    assert load(scene, ["components.stone.spin=125.7", "components.stone.lock_attitude=false"]).notices == []
