@@ -45,8 +45,8 @@ step; one plane per SolidGround (a floor and a ramp are two grounds feeding the 
 which sums them; while both hold the body, each reads the other's impulse as part of the held
 force, and neither's books are exact then); ``gravity`` must match the body's (it is the
 acceleration the ground reconstructs the step with and books the potential energy of its
-corrections against; a mismatch is reported at the first contact, from the body's published
-potential energy). A body whose attitude is locked or scripted says so in its state
+corrections against; a RigidBody's is checked when the scene loads, any other body's at the first
+contact, from its published potential energy). A body whose attitude is locked or scripted says so in its state
 (``BodyState.attitude_locked``) and gets no angular response.
 """
 
@@ -64,6 +64,7 @@ from components.messages import BodyState, GroundContact, Impulse, Shape
 from components.rigid.dynamics import RigidState
 from components.rigid.shapes import MassProperties
 from components.rigid.vec import as_vec
+from components.rigid_body import RigidBody
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -222,6 +223,21 @@ class SolidGround(Component):
                     f"{[round(c, 6) for c in x]} m, {self.plane.height(x):.4g} m from the plane through "
                     f"{list(self.plane.point)} m); start it above the ground"]
         return []
+
+    def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
+        """Its gravity must be its body's (it reconstructs the body's step with it, and books the
+        energy of its corrections against it): a RigidBody feeding it with another is refused at load.
+        It was found at the first contact, failing the run there."""
+        body = sources.get("body")
+        theirs = getattr(getattr(body, "params", None), "gravity", None)
+        if not isinstance(body, RigidBody) or theirs is None:
+            return []
+        mine = [float(g) for g in self.params.gravity]
+        theirs = [float(g) for g in theirs]
+        if all(math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12) for a, b in zip(mine, theirs, strict=True)):
+            return []
+        return [f"gravity {mine} m/s^2 is not the gravity of its body {body.name} ({theirs} m/s^2): set gravity to "
+                f"{theirs}"]
 
     def check_step(self, step: float, inputs: dict[str, Message | None]) -> list[str]:
         """A step in which the body, resting, falls through more than half its height is refused: the

@@ -128,11 +128,16 @@ def test_tilted_rim_impact_matches_the_impulse_formula(tilt_deg):
 
 
 def test_a_gravity_other_than_the_bodys_is_reported():
-    """A ground assuming another gravity than the body's fails on contact, naming both energies."""
+    """A ground assuming another gravity than the body's fails on contact, naming both energies
+    (a body whose gravity it cannot see, an FMU's, say); a RigidBody's scene is refused at load."""
     stone = body(position=[0, 0, H - 1e-6], gravity=[0, 0, -3.71])
     floor = ground()
     with pytest.raises(SimulationError, match=r"gravity \[0.0, 0.0, -9.81\] m/s\^2 does not match"):
         floor.step(0, DT_NS, {"body": stone.initial_outputs()["state"]})
+    assert ground().check_start_sources({}, {"body": stone}) == [
+        "gravity [0.0, 0.0, -9.81] m/s^2 is not the gravity of its body stone ([0.0, 0.0, -3.71] m/s^2): set gravity "
+        "to [0.0, 0.0, -3.71]"]
+    assert ground(gravity=[0, 0, -3.71]).check_start_sources({}, {"body": stone}) == []
 
 
 def test_ground_checkpoint_reproduces_the_run_bit_for_bit():
