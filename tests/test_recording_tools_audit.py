@@ -95,3 +95,12 @@ def test_a_record_block_that_names_no_channel_is_refused(channels):
     """As `--record ,,` is: a recording of no exchange at all, said nowhere, was the run's result."""
     with pytest.raises(ScenarioError, match=r"record\.channels: names no channel"):
         load(SCENES / "held_skip.yaml", [f"record.channels={channels}"])
+
+
+def test_render_refuses_a_follow_view_too_wide_to_show_the_stone(skip_path, tmp_path, capsys):
+    """`--span 1e6` wrote a picture with nothing visible: a stone narrower than a pixel is bad input."""
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "x.png"), "--span", "1e6", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("error: --span 1e+06 m: the stone (0.06 m across) would be narrower than a pixel of the 800 px "
+                   "frame; give at most 48 m (or --view fixed)\n")
+    assert list(tmp_path.iterdir()) == []

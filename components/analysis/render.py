@@ -693,6 +693,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                                  f"(channels: {', '.join(sorted(rec.channels))})")
         return _render_water(rec, output, options)
     body = load_body(rec, options.body)
+    _check_span(options, body.radius)
     linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)
     if options.water is not None and options.water not in fields:
@@ -741,6 +742,17 @@ def _check_request(output: Path, options: RenderOptions) -> None:
         raise RenderError(f"{output}: --fps must be at most {GIF_MAX_FPS} for a GIF (its frame delays are "
                           f"whole hundredths of a second, at least 2), got {options.fps:g}: use --fps "
                           f"{GIF_MAX_FPS} or write an .mp4")
+
+
+def _check_span(options: RenderOptions, radius: float) -> None:
+    """A follow view so wide that the stone (``radius`` [m]) is narrower than a pixel of the frame
+    shows nothing to follow: RenderError (``--span 1e6`` wrote a picture with nothing in it)."""
+    if options.view != "follow" or radius <= 0.0:
+        return
+    widest = 2.0 * radius * (int(options.width) // 2 * 2)  # [m] the stone one pixel wide
+    if options.span > widest:
+        raise RenderError(f"--span {options.span:g} m: the stone ({2 * radius:g} m across) would be narrower than a "
+                          f"pixel of the {int(options.width)} px frame; give at most {widest:.3g} m (or --view fixed)")
 
 
 def _frame_times(output: Path, options: RenderOptions, begin: float, end: float, default_at: Callable[[], float],
