@@ -133,6 +133,17 @@ def test_a_recording_cut_mid_run_says_where_it_ends_without_a_status(whole, tmp_
     assert main(["inspect", str(out)]) == 0
 
 
+def test_an_output_not_named_as_a_recording_is_told_a_name_other_than_the_input(whole, tmp_path, capsys):
+    """`repair cut.mcap -o cut.txt` suggested cut.mcap, the file being repaired, which the next try
+    would then refuse as its own input."""
+    cut = _written(tmp_path, "cut.mcap", whole.read_bytes()[:_second_chunk_at(whole) + 100])
+    assert main(["repair", str(cut), "-o", str(tmp_path / "cut.txt")]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line.endswith(f"a recording's file name ends in .mcap (give e.g. {tmp_path / 'cut-out.mcap'})")
+    assert main(["repair", str(cut), "-o", str(tmp_path / "kept.txt")]) == 2
+    assert one_error_line(capsys.readouterr().err).endswith(f"(give e.g. {tmp_path / 'kept.mcap'})")
+
+
 def test_a_refused_repair_leaves_no_folder_it_made(whole, tmp_path, capsys):
     cut = _written(tmp_path, "cut.mcap", whole.read_bytes()[:100])
     assert main(["repair", str(cut), "-o", str(tmp_path / "new" / "deeper" / "x.mcap")]) == 2

@@ -62,7 +62,7 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     try:
         st = os.stat(path)
     except (FileNotFoundError, NotADirectoryError):  # its folder is made (or refused) next
-        return _named_as_a_recording(path)
+        return _named_as_a_recording(path, inputs)
     except OSError as exc:
         raise RecordingError(f"{path}: cannot use it as the output ({exc.strerror or exc})") from None
     if stat.S_ISDIR(st.st_mode):
@@ -84,15 +84,18 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     if library is not None:
         raise RecordingError(f"{path}: exists and is an MCAP recording cosim did not write (written by "
                              f"{library!r}); it is not overwritten (remove it or choose another output)")
-    return _named_as_a_recording(path)
+    return _named_as_a_recording(path, inputs)
 
 
-def _named_as_a_recording(path: Path) -> Path:
+def _named_as_a_recording(path: Path, inputs: Iterable[str | Path] = ()) -> Path:
     """``path``, whose name ends in ``.mcap`` as a recording's does (viewers open MCAP files by it);
-    otherwise a RecordingError: ``-o skip.png`` wrote a recording a picture viewer could not open."""
+    otherwise a RecordingError: ``-o skip.png`` wrote a recording a picture viewer could not open.
+    The name it suggests is none of ``inputs`` (`repair cut.mcap -o cut.txt` suggested cut.mcap)."""
     if path.suffix.lower() != ".mcap":
-        raise RecordingError(f"{path}: a recording's file name ends in .mcap (give e.g. "
-                             f"{path.with_name(path.stem + '.mcap') if path.stem else 'runs/skip.mcap'})")
+        suggested = path.with_name(path.stem + ".mcap") if path.stem else Path("runs/skip.mcap")
+        if any(Path(source).is_file() and same_file(suggested, Path(source)) for source in inputs):
+            suggested = suggested.with_name(suggested.stem + "-out.mcap")
+        raise RecordingError(f"{path}: a recording's file name ends in .mcap (give e.g. {suggested})")
     return path
 
 
