@@ -288,10 +288,12 @@ class SolidGround(Component):
         contact = ""
         if self.in_contact:
             begun = self._begun_with()  # the velocity the body begins its next step with, answered
-            after = math.hypot(*begun) if begun is not None else math.nan
-            contact = (", body at rest on it" if after <= RESTING_SPEED
-                       else ", body in contact" if math.isnan(after)
-                       else f", body in contact, moving at {after:.4g} m/s once answered")
+            if begun is None:  # (a restart from an older checkpoint, before its first step)
+                contact = ", body in contact"
+            elif (after := math.hypot(*begun)) <= RESTING_SPEED:
+                contact = ", body at rest on it"
+            else:
+                contact = f", body in contact, moving at {after:.4g} m/s once answered"
         lines = [f"{self.name}: {bounces}, {self.dissipated:.4g} J dissipated{contact}"]
         if self.painleve:
             lines.append(f"{self.name}: friction dropped in {self.painleve} impulses (Painlevé: "

@@ -810,7 +810,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         elif values.visual_rate > NS_PER_S:
             problems.append(f"record.visual_rate: must be between 0 and {NS_PER_S:g} frames/s (a frame "
                             f"per nanosecond; got {values.visual_rate:g})")
-        if typed and record.channels is not None and not [c for c in record.channels if str(c).strip()]:
+        if typed and record.channels is not None and not any(str(c).strip() for c in record.channels):
             # as --record ',,' is refused: a run whose recording silently holds no exchange at all
             problems.append(f"record.channels: names no channel (got {record.channels!r}); give channel globs "
                             "such as ['/stone/*'], or leave the key out to record every exchange")

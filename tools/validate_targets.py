@@ -162,7 +162,7 @@ def contact_time_row(taus: dict[float, float]) -> str:
     sides = taus[min(taus)] > taus[shortest] < taus[max(taus)]
     placed = TAU_MINIMUM_BAND[0] <= shortest <= TAU_MINIMUM_BAND[1]
     status = (_held(sides and placed) if placed or not sides
-              else "held: longer on both sides; **not held**: shortest at " f"{shortest:g} deg")
+              else f"held: longer on both sides; **not held**: shortest at {shortest:g} deg")
     shown = ", ".join(f"{taus[a] * 1e3:.1f}" for a in TAU_ALPHAS)
     return (f"| Clanet et al. 2004, fig. 1d (as the Los Angeles Times reported it, 3 Jan. 2004; the figure's values "
             f"not read here) | contact time against attack angle, U = 3.5 m/s, beta = 20 deg | shortest near 20 deg; "

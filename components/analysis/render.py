@@ -264,7 +264,7 @@ class _Frames:
         self.options = options
         self.rest = rest
         self.title = title
-        width = int(options.width) // 2 * 2
+        width = frame_width(options)
         height = max(2, round(width * ASPECT) // 2 * 2)
         self.size = (width, height)
         self.text_px = max(9, round(width / 70))
@@ -744,12 +744,17 @@ def _check_request(output: Path, options: RenderOptions) -> None:
                           f"{GIF_MAX_FPS} or write an .mp4")
 
 
+def frame_width(options: RenderOptions) -> int:
+    """The frames' width [px]: ``options.width`` made even (video encoders need even sizes)."""
+    return int(options.width) // 2 * 2
+
+
 def _check_span(options: RenderOptions, radius: float) -> None:
     """A follow view so wide that the stone (``radius`` [m]) is narrower than a pixel of the frame
     shows nothing to follow: RenderError (``--span 1e6`` wrote a picture with nothing in it)."""
     if options.view != "follow" or radius <= 0.0:
         return
-    widest = 2.0 * radius * (int(options.width) // 2 * 2)  # [m] the stone one pixel wide
+    widest = 2.0 * radius * frame_width(options)  # [m] the stone one pixel wide
     if options.span > widest:
         raise RenderError(f"--span {options.span:g} m: the stone ({2 * radius:g} m across) would be narrower than a "
                           f"pixel of the {int(options.width)} px frame; give at most {widest:.3g} m (or --view fixed)")

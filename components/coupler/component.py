@@ -92,6 +92,7 @@ from components.messages import (
     WaterContact,
     Wrench,
 )
+from components.rigid import quaternion as quat
 from components.rigid_body import gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
@@ -203,8 +204,7 @@ def _top_of(body: BodyState) -> float:
     z = float(body.position[2])
     if body.shape != Shape.DISK:
         return z + float(body.radius)
-    _, x, y, _ = (float(c) for c in body.orientation)
-    a_z = 1.0 - 2.0 * (x * x + y * y)  # the body z axis's vertical component (unit quaternion)
+    a_z = quat.body_axis(body.orientation.tolist())[2]
     return z + float(body.radius) * math.sqrt(max(0.0, 1.0 - a_z * a_z)) + 0.5 * float(body.thickness) * abs(a_z)
 
 
