@@ -242,7 +242,7 @@ def _refuse_recording_options(args: argparse.Namespace) -> None:
     given = [(f"-o {args.output}", "names the recording's file") if args.output else None,
              (f"--record {args.record}", "chooses the recorded channels") if args.record is not None else None,
              (f"--record-every {args.record_every}", "thins the recorded messages") if args.record_every else None,
-             ("--perf", "adds wall-clock /perf channels to the recording") if args.perf else None]
+             ("--perf", "adds the wall-clock /perf/tick channel to the recording") if args.perf else None]
     given = [g for g in given if g is not None]
     if given:
         flags = ", ".join(flag for flag, _ in given)
@@ -275,8 +275,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
         from cosim.runner import check_channel_patterns
 
         check_channel_patterns(scene)
-    print(f"{args.scene}: ok - scene {scene.name!r}: {len(scene.components)} components, "
-          f"{len(scene.connections)} connections, dt = {scene.dt:g} s, until = {scene.until_ns / NS_PER_S:g} s")
+    from cosim.runner import counted
+
+    print(f"{args.scene}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
+          f"{counted(len(scene.connections), 'connection')}, dt = {scene.dt:g} s, "
+          f"until = {scene.until_ns / NS_PER_S:g} s")
     print(f"  order within a tick: {' -> '.join(scene.order)}")
     for name in scene.order:
         cfg = scene.components[name]
@@ -421,7 +424,9 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
     p.add_argument("--record-every", type=positive_int, metavar="N",
                    help="record every N-th message of each channel (all stage changes and skips)")
-    p.add_argument("--perf", action="store_true", help="add wall-clock /perf channels (not deterministic)")
+    p.add_argument("--perf", action="store_true",
+                   help="add a wall-clock channel, /perf/tick: the wall time and real-time factor of every 100 "
+                        "ticks and of the run's last ones (not deterministic)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")

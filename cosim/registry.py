@@ -218,10 +218,12 @@ def _cell(text: str) -> str:
 def types_page(names: list[str]) -> str:
     """docs/components.md: the reference of the types ``names``, one section each."""
     out = ["# Components", "",
-           "Every component type a scene can name, with its parameters (a scene's `components.NAME.KEY`),",
+           "Every component type registered by name, with its parameters (a scene's `components.NAME.KEY`),",
            "its ports (what `connections` wire) and, at the end, the messages they carry, with their",
            "fields and units. Generated from the code by `cosim components --markdown docs/components.md`;",
-           "`cosim components TYPE` prints the same in a terminal.", ""]
+           "`cosim components TYPE` prints the same in a terminal. A scene may also name a class of an",
+           "allowed package as `package.module:Class` (docs/scenes.md): the two toy components of",
+           "scenarios/ping_pong.yaml, `cosim.examples:Ping` and `cosim.examples:Pong`, are named so.", ""]
     messages: list[type[Message]] = []
     for name in names:
         info = type_info(name)

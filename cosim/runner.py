@@ -116,6 +116,13 @@ def check_channel_patterns(scene: Scene) -> None:
         raise ScenarioError(problems, scene.source)
 
 
+def counted(n: int, singular: str, plural: str | None = None) -> str:
+    """``n`` and the noun in its number, for what the commands print: counted(1, "connection") is
+    "1 connection", counted(0, "connection") "0 connections"; ``plural`` when it is not the
+    singular with an s."""
+    return f"{n} {singular if n == 1 else (plural or singular + 's')}"
+
+
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,
               command_line: str = "", progress: bool = True, perf: bool = False,
               derivers: list[Any] | None = None, simulation: Simulation | None = None,
@@ -217,8 +224,8 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
         speed = (f"wall {r.wall_s:.3g} s, of which {r.compile_s:.3g} s compiling kernels once (later runs "
                  "load them from disk)" + (f"; {rate} (compiling left out)" if rate else ""))
     since = f" from t = {r.start_ns / NS_PER_S:g} s" if r.start_ns else ""
-    lines.append(f"  simulated {r.simulated_ns / NS_PER_S:.4g} s{since} in {r.steps} steps of {scene.dt * 1e3:g} ms "
-                 f"({r.component_steps} component steps); {speed}")
+    lines.append(f"  simulated {r.simulated_ns / NS_PER_S:.4g} s{since} in {counted(r.steps, 'step')} of "
+                 f"{scene.dt * 1e3:g} ms ({counted(r.component_steps, 'component step')}); {speed}")
     if r.start_ns and outcome.summary:  # a restart: the components' counters came back with their state
         lines.append(f"  (the components' figures below count from t = 0: the checkpoint at "
                      f"{r.start_ns / NS_PER_S:g} s brought back their totals)")

@@ -275,3 +275,14 @@ def test_thinning_keeps_every_event_so_the_history_stays_true(tmp_path):
     for topic, kind in (("/stages/stage", Stage), ("/stages/skip", SkipRecord)):
         assert [t for t, _ in a.messages(topic, kind)] == [t for t, _ in b.messages(topic, kind)], topic
     assert b.channels["/stone/state"].count < a.channels["/stone/state"].count / 6
+
+
+@pytest.mark.parametrize(("ticks", "samples"), [(10, [10]), (250, [100, 100, 50]), (200, [100, 100])])
+def test_perf_samples_cover_every_tick_of_the_run(tmp_path, ticks, samples):
+    """--perf records /perf/tick every 100 ticks and the run's last ones: a run of 10 ticks recorded
+    none before, with no word."""
+    from cosim.record.recorder import PERF_TOPIC, PerfSample
+
+    outcome = run_scene(loads(LOOP), tmp_path / "run.mcap", until_ns=ticks * 1_000_000, progress=False, perf=True)
+    rec = Recording(outcome.recording)
+    assert [m.ticks for _, m in rec.messages(PERF_TOPIC, PerfSample)] == samples

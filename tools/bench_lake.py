@@ -83,9 +83,9 @@ the moving water in place (one pair of arrays, a saved row for the stencil) woul
 footprint; tried here on a 600 x 4000 grid, it took as long as the two-buffer step (2.2 ns a column
 either way, dense), so the step is not held by the bytes alone.
 
-`scenarios/lake.yaml` (50 m x 6 m, 3 million columns, the slate at 18 m/s, spun at 20 rev/s): 11
-skips over 36.6 m, curving 1.2 m to the left; the moving water covers 21% of the lake's tiles on
-average over its 4.7 s, and the viewer's surface is an 8 m x 3 m window that follows the stone
+`scenarios/lake.yaml` (50 m x 6 m, 3 million columns, the slate at 18 m/s, its attitude held): 11
+skips over 37.0 m, on its line; the moving water covers 21% of the lake's tiles on average over
+its 4.7 s, and the viewer's surface is an 8 m x 3 m window that follows the stone
 (`field_window`), not the whole lake."""
 
 

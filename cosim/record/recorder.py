@@ -55,6 +55,7 @@ STATUS_TOPIC = "/cosim/status"
 EVENTS_TOPIC = "/cosim/events"
 CHECKPOINT_TOPIC = "/cosim/checkpoint"
 PERF_TOPIC = "/perf/tick"
+PERF_EVERY = 100  # ticks a /perf/tick sample covers (the run's last one also ends a sample)
 SCENE_ATTACHMENT = "scene.yaml"
 
 
@@ -273,14 +274,18 @@ class Recorder(BaseObserver):
     def on_step_complete(self, sim: Simulation) -> None:
         if self.checkpoint_ticks and sim.tick % self.checkpoint_ticks == 0:
             self.write_checkpoint(sim)
-        if self.perf and sim.tick % 100 == 0:
-            now = time.perf_counter()
-            wall = now - self._perf_wall
-            ticks = sim.tick - self._perf_tick
-            rtf = ticks * sim.dt_ns / 1e9 / wall if wall > 0 else 0.0
-            self.write_message(PERF_TOPIC, sim.time_ns, PerfSample(ticks, wall, rtf))
-            self._perf_wall, self._perf_tick = now, sim.tick
+        if self.perf and sim.tick % PERF_EVERY == 0:
+            self._perf_sample(sim)
         self._mark()  # the step's records are whole: the writer keeps them should this process die
+
+    def _perf_sample(self, sim: Simulation) -> None:
+        """A /perf/tick sample of the ticks since the last one."""
+        now = time.perf_counter()
+        wall = now - self._perf_wall
+        ticks = sim.tick - self._perf_tick
+        rtf = ticks * sim.dt_ns / 1e9 / wall if wall > 0 else 0.0
+        self.write_message(PERF_TOPIC, sim.time_ns, PerfSample(ticks, wall, rtf))
+        self._perf_wall, self._perf_tick = now, sim.tick
 
     def write_checkpoint(self, sim: Simulation) -> None:
         channel = self._channel(CHECKPOINT_TOPIC, state_proto.SCHEMA_NAME, state_proto.ENCODING,
@@ -288,6 +293,8 @@ class Recorder(BaseObserver):
         self.sink.add_state(channel, sim.time_ns, plain_state(sim.checkpoint()))
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
+        if self.perf and sim.tick > self._perf_tick:  # the ticks since the last sample, however few
+            self._perf_sample(sim)
         self.write_message(STATUS_TOPIC, sim.time_ns, RunStatus(
             result.status, result.reason, result.tick, sim.time_ns / 1e9, result.component_steps))
         self._finished = True

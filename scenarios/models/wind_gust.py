@@ -64,7 +64,7 @@ class WindGust(Fmi2Slave):
         rz = -self.vz
         speed = math.sqrt(rx * rx + ry * ry + rz * rz)
         if speed > self.max_speed:
-            message = (f"relative air speed {speed:.3g} m/s at t = {current_time:.6g} s is above "
+            message = (f"relative air speed {speed:.6g} m/s at t = {current_time:.6g} s is above "
                        f"max_speed = {self.max_speed:g} m/s")
             self.log(message, Fmi2Status.error)
             raise ValueError(message)
