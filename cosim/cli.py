@@ -553,7 +553,7 @@ def report(exc: BaseException, command: str) -> int:
         print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         return getattr(exc, "exit_code", EXIT_FAILED)
     if isinstance(exc, KeyboardInterrupt):
-        how = "SIGTERM" if exc.args == ("SIGTERM",) else "Ctrl-C"
+        how = exc.args[0] if exc.args in (("SIGTERM",), ("SIGHUP",)) else "Ctrl-C"
         print(f"error: {what}: interrupted ({how})", file=sys.stderr)
         return EXIT_FAILED
     if isinstance(exc, ModuleNotFoundError) and (exc.name or "").partition(".")[0] in EXTRAS:
@@ -576,10 +576,15 @@ def report(exc: BaseException, command: str) -> int:
     return EXIT_FAILED
 
 
+# besides Ctrl-C, the signals that end a command the same way: SIGTERM, and SIGHUP (its terminal closed)
+ENDING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
 class _CtrlC:
-    """Remembers a Ctrl-C (or a SIGTERM, which ends a command the same way: its files cleaned up, one
-    line, exit code 1) while a command runs: whatever error follows it (an import the signal cut
-    short reports an ImportError, numpy's among them) is then told as the interruption it is.
+    """Remembers a Ctrl-C (or a SIGTERM or SIGHUP, the terminal closed, which end a command the same
+    way: its files cleaned up, one line, exit code 1) while a command runs: whatever error follows it
+    (an import the signal cut short reports an ImportError, numpy's among them) is then told as the
+    interruption it is.
 
     The KeyboardInterrupt the handler raises can land where Python cannot pass it on: in a callback
     the interpreter runs itself (importlib's module locks are freed by one while a module loads),
@@ -587,7 +592,7 @@ class _CtrlC:
     printed here (the interrupt is remembered), and :func:`_run_begins` turns a remembered one into
     the interruption before a run starts; a SIGTERM dropped so still ends the command when it
     returns (:func:`_main`), and a second SIGTERM ends the process at once, as it always did. A
-    SIGTERM that the process was started ignoring stays ignored."""
+    SIGTERM or SIGHUP that the process was started ignoring (``nohup``) stays ignored."""
 
     active: _CtrlC | None = None  # the one watching this command
 
@@ -595,19 +600,21 @@ class _CtrlC:
         self.seen = False
         self.signum = signal.SIGINT  # the signal seen
         self._old: Any = None
-        self._old_term: Any = None
+        self._old_term: dict[int, Any] = {}  # SIGTERM's and SIGHUP's handlers before, where replaced
         self._old_hook: Any = None
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.seen = True
         self.signum = signum
-        if signum == signal.SIGTERM:  # the next one is not caught: it ends the process, whatever runs
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        if signum in ENDING_SIGNALS:  # the next one is not caught: it ends the process, whatever runs
+            signal.signal(signum, signal.SIG_DFL)
         raise self.interruption()
 
     def interruption(self) -> KeyboardInterrupt:
-        """The KeyboardInterrupt that tells the signal seen (a SIGTERM's says so)."""
-        return KeyboardInterrupt("SIGTERM") if self.signum == signal.SIGTERM else KeyboardInterrupt()
+        """The KeyboardInterrupt that tells the signal seen (a SIGTERM's or SIGHUP's says so)."""
+        if self.signum in ENDING_SIGNALS:
+            return KeyboardInterrupt(signal.Signals(self.signum).name)
+        return KeyboardInterrupt()
 
     def _unraisable(self, unraisable: Any) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt) and self.seen:
@@ -620,11 +627,11 @@ class _CtrlC:
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
             return self
-        self._old_term = signal.getsignal(signal.SIGTERM)
-        if self._old_term in (signal.SIG_DFL, signal.default_int_handler) or callable(self._old_term):
-            signal.signal(signal.SIGTERM, self._handler)  # not one ignored, or set outside Python
-        else:
-            self._old_term = None
+        for signum in ENDING_SIGNALS:
+            old = signal.getsignal(signum)
+            if old in (signal.SIG_DFL, signal.default_int_handler) or callable(old):
+                self._old_term[signum] = old  # not one ignored, or set outside Python
+                signal.signal(signum, self._handler)
         self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         _CtrlC.active = self
         return self
@@ -632,8 +639,8 @@ class _CtrlC:
     def __exit__(self, *exc: object) -> None:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
-            if self._old_term is not None:
-                signal.signal(signal.SIGTERM, self._old_term)
+            for signum, old in self._old_term.items():
+                signal.signal(signum, old)
             sys.unraisablehook = self._old_hook
             _CtrlC.active = None
 

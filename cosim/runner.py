@@ -46,7 +46,8 @@ class RunOutcome:
 
 @contextmanager
 def _signals_interrupt(sim: Simulation, recorder: Any = None) -> Iterator[None]:
-    """Ctrl-C and SIGTERM end the run after the current tick; a second Ctrl-C aborts at once. The
+    """Ctrl-C, SIGTERM and SIGHUP (the terminal closed; not when started ignoring it, as under
+    ``nohup``) end the run after the current tick; a second Ctrl-C aborts at once. The
     ``recorder`` is told of each (:meth:`cosim.record.recorder.Recorder.interrupted`): a writer process
     that has stopped answering is then not waited for without end."""
     def handler(signum: int, frame: Any) -> None:
@@ -56,8 +57,11 @@ def _signals_interrupt(sim: Simulation, recorder: Any = None) -> Iterator[None]:
             raise KeyboardInterrupt
         sim.interrupt(f"interrupted by {signal.Signals(signum).name}")
 
+    hup = getattr(signal, "SIGHUP", None)
+    ending = (signal.SIGINT, signal.SIGTERM,
+              *((hup,) if hup is not None and signal.getsignal(hup) is not signal.SIG_IGN else ()))
     try:
-        old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        old = {s: signal.signal(s, handler) for s in ending}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return

@@ -83,7 +83,8 @@ def test_a_plugin_that_cannot_load_leaves_the_other_commands_working(scene, tmp_
 
 
 @pytest.mark.parametrize(("signum", "delay"), [*((signal.SIGINT, d) for d in (0.1, 0.2, 0.35, 0.5)),
-                                               *((signal.SIGTERM, d) for d in (0.1, 0.35))])
+                                               *((signal.SIGTERM, d) for d in (0.1, 0.35)),
+                                               *((signal.SIGHUP, d) for d in (0.1, 0.35, 1.0))])
 def test_ctrl_c_or_sigterm_in_the_first_half_second_is_one_line(tmp_path, signum, delay):
     """SIGINT or SIGTERM while `cosim run` starts up (importing, building, starting the writer) or
     runs: exit 1 and one line naming the interruption, never a KeyboardInterrupt traceback (a SIGTERM
@@ -103,7 +104,45 @@ def test_ctrl_c_or_sigterm_in_the_first_half_second_is_one_line(tmp_path, signum
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 1, err
     line = one_error_line(err)
-    assert "interrupted" in line and (signum == signal.SIGINT or "SIGTERM" in line)
+    assert "interrupted" in line and (signum == signal.SIGINT or signal.Signals(signum).name in line)
+
+
+def test_a_run_closing_its_terminal_ends_interrupted_with_its_recording(tmp_path):
+    """SIGHUP (the terminal closed) mid-run ends it as SIGTERM does: one line, exit 1, the recording
+    closed with the `interrupted` status (it died silently, exit 129, the recording without one);
+    under nohup (SIGHUP ignored from the start) the run goes on to its end."""
+    from cosim.record.reader import Recording
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    long = tmp_path / "long.yaml"
+    long.write_text(SCENE.replace("until: 0.05", "until: 100000"))
+    out = tmp_path / "hup.mcap"
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(long), "-o", str(out), "-q"],
+                            cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list(tmp_path.glob("hup.mcap.*.part")):
+        time.sleep(0.02)
+    time.sleep(0.3)  # running
+    proc.send_signal(signal.SIGHUP)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    assert "interrupted by SIGHUP" in one_error_line(err)
+    status = Recording(out).status()
+    assert status is not None and status.status == "interrupted"
+    # started ignoring it, as nohup starts a command: the SIGHUP is not taken, the run goes on
+    out = tmp_path / "nohup.mcap"
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(long), "-o", str(out), "-q"],
+                            cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    while time.monotonic() < deadline and not list(tmp_path.glob("nohup.mcap.*.part")):
+        time.sleep(0.02)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGHUP)
+    time.sleep(0.5)
+    assert proc.poll() is None  # still running
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1 and "interrupted by SIGTERM" in one_error_line(err), err
 
 
 def test_a_live_port_out_of_range_is_bad_input(scene, capsys):

@@ -215,6 +215,8 @@ def test_a_stopped_sweep_starts_no_queued_run_and_resumes_the_rest(tmp_path, how
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 1, stderr
     assert "interrupted: " in stdout and "Traceback" not in stderr
+    # and standard error says so in its one line, as for any other failure
+    assert stderr.strip().splitlines()[-1].startswith("error: cosim sweep: interrupted: "), stderr
     rows = {line.split(",")[1] for line in out.read_text().splitlines()[1:]}
     recorded = {p.name.removesuffix(".mcap") for p in runs.glob("*.mcap")}
     assert 1 <= len(rows) < 6 and rows <= recorded

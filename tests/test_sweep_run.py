@@ -344,9 +344,9 @@ def test_a_full_disk_leaves_its_points_unfinished_and_stops_the_sweep(tmp_path):
     assert (outcome.ran, rows_of(tmp_path / "out.csv")) == (0, [])
     assert 1 <= outcome.unfinished <= 2  # those in flight (two a worker) when the first came back; no more
     summary = outcome.summary()
-    assert summary.count("the disk is full") == 1
-    assert ("stopped, the disk is full (No space left on device): 9 of 9 points left; they run when the same "
-            "command is run again once there is room") in summary
+    assert summary.count("no room") == 1
+    assert ("stopped, the machine has no room for the recordings (No space left on device): 9 of 9 points left; "
+            "they run when the same command is run again once there is room") in summary
     full.unlink()  # space freed
     again = run_and_close(sweep, tmp_path / "out.csv", ProcessBackend(1))
     assert again.complete and (again.already, again.ran) == (0, 9) and again.counts == {"stopped": 9}
@@ -357,9 +357,13 @@ def test_a_full_disk_leaves_its_points_unfinished_and_stops_the_sweep(tmp_path):
                "where it stopped"), os.strerror(errno.ENOSPC)),
     (RecordingError("r.mcap: cannot write the recording (Disk quota exceeded)"), os.strerror(errno.EDQUOT)),
     (OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)), os.strerror(errno.ENOSPC)),
+    (SinkError("r.mcap: writing the recording failed (File too large); the recording was closed where it "
+               "stopped"), os.strerror(errno.EFBIG)),
+    (OSError(errno.EFBIG, os.strerror(errno.EFBIG)), os.strerror(errno.EFBIG)),
     (SinkError("r.mcap: the recording writer was killed (SIGKILL); the recording was salvaged"), None),
     (OSError(errno.EACCES, os.strerror(errno.EACCES)), None),
-], ids=["sink-full", "recording-quota", "oserror-full", "writer-killed", "no-permission"])
+], ids=["sink-full", "recording-quota", "oserror-full", "sink-size-limit", "oserror-size-limit", "writer-killed",
+        "no-permission"])
 def test_a_recording_refused_for_want_of_room_is_unfinished_not_failed(monkeypatch, error, limit):
     """The recording's writer reports a full disk or quota by the system's words (a SinkError or
     RecordingError): the run's row is `unfinished`, naming the limit; any other failure stays `failed`."""

@@ -41,8 +41,9 @@ PARENT_POLL_S = 0.2  # how often a pool worker checks that the sweep that starte
 # how long a worker whose run a signal interrupted waits for the sweep's stop before taking its next run
 # (s): a Ctrl-C reaches the sweep and its workers at once, and the sweep says stop within milliseconds
 STOP_WAIT_S = 2.0
-# writes the machine refused for want of room: a run they end is no result of its point
-MACHINE_LIMITS = (errno.ENOSPC, errno.EDQUOT)
+# writes the machine refused for want of room (a full disk, a quota, a file-size limit): a run they
+# end is no result of its point
+MACHINE_LIMITS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 NOT_RESULTS = ("interrupted", "unfinished")  # statuses of runs that a resumed sweep runs again
 
 

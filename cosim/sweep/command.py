@@ -103,7 +103,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             say_warning(f"{notice} (point {label}, and any other like it)")
     if outcome.complete and sweep.figure is not None and outcome.figure is None and not args.no_figure:
         print("  no figure: matplotlib is not installed (pip install 'cosim[viz]')")
-    if not outcome.complete:
+    if not outcome.complete:  # a script reading standard error hears of it as of any other failure
+        print(f"error: cosim sweep: {outcome.stopped_line()}", file=sys.stderr)
         return EXIT_FAILED
     failed = outcome.counts.get("failed", 0)
     if outcome.total and failed == outcome.total:

@@ -58,6 +58,19 @@ class SweepOutcome:
     def complete(self) -> bool:
         return not self.interrupted and self.unfinished == 0
 
+    def points_left(self) -> int:
+        """Points of the sweep with no row in its table (those a resumed sweep runs)."""
+        return self.total - sum(self.counts.values())
+
+    def stopped_line(self) -> str:
+        """Why an incomplete sweep stopped, in one line for standard error (the summary says it too)."""
+        left = f"{self.points_left()} of {self.total} points left"
+        if self.limit is not None:
+            return (f"stopped, the machine has no room for the recordings ({self.limit}): {left}; the same "
+                    "command runs them once there is room")
+        why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
+        return f"{why}: {left}; the same command resumes them"
+
     def summary(self) -> str:
         """The closing lines printed by ``cosim sweep``."""
         statuses = ", ".join(f"{n} {s}" for s, n in sorted(self.counts.items())) or "nothing"
@@ -68,10 +81,11 @@ class SweepOutcome:
         lines.append(f"  ran {self.ran}, {self.already} already in the table; {statuses}; "
                      f"wall {self.wall_s:.3g} s{per_run}")
         if not self.complete:
-            left = self.total - sum(self.counts.values())
+            left = self.points_left()
             if self.limit is not None:
-                lines.append(f"  stopped, the disk is full ({self.limit}): {left} of {self.total} points left; they "
-                             "run when the same command is run again once there is room")
+                lines.append(f"  stopped, the machine has no room for the recordings ({self.limit}): {left} of "
+                             f"{self.total} points left; they run when the same command is run again once there "
+                             "is room")
             else:
                 why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
                 lines.append(f"  {why}: {left} of {self.total} points left; run the same command again to resume")
