@@ -27,7 +27,7 @@ try:
     from pathlib import Path
     from typing import Any
 
-    from cosim.errors import CosimError, RecordingError, ScenarioError, one_line
+    from cosim.errors import CosimError, RecordingError, ScenarioError, one_line, quiet_interrupts
     from cosim.timebase import NS_PER_S
 except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the same one line as later
     sys.stderr.write("error: cosim: interrupted (Ctrl-C)\n")
@@ -671,6 +671,8 @@ def main(argv: list[str] | None = None) -> int:
             code = _main(argv, ctrl_c)
     finally:
         start_up_done()
+        if as_program:  # the command has said all it has to: a Ctrl-C as the process ends adds nothing
+            sys.unraisablehook = quiet_interrupts(sys.unraisablehook)
     if as_program and _command(argv) in ENDS_WHEN_DONE:
         _end_process(code)
     return code

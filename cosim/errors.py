@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from typing import Any
 
 from cosim.timebase import format_time
 
@@ -53,3 +54,13 @@ class SimulationError(CosimError):
         super().__init__(f"component {component!r} failed at t = {format_time(time_ns)}: {reason}")
 
 
+def quiet_interrupts(hook: Any) -> Any:
+    """A ``sys.unraisablehook`` that drops a KeyboardInterrupt and hands anything else to ``hook``.
+
+    A Ctrl-C (or SIGTERM) raised where Python cannot pass it on (a callback the interpreter runs
+    itself, an exit handler joining a pool's threads as the process ends) is dropped there and
+    printed with a traceback; a command that has already said it was interrupted has nothing to add."""
+    def quiet(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            hook(unraisable)
+    return quiet

@@ -444,3 +444,26 @@ def test_the_live_url_of_an_ipv6_host_is_bracketed():
 
     assert LiveView.url.fget(SimpleNamespace(host="::1", port=8765)) == "ws://[::1]:8765"
     assert LiveView.url.fget(SimpleNamespace(host="127.0.0.1", port=8765)) == "ws://127.0.0.1:8765"
+
+
+def test_a_ctrl_c_as_the_process_ends_prints_no_traceback(tmp_path):
+    """A Ctrl-C that lands as the process ends (a sweep's pool joining its threads at exit), or in a
+    callback the interpreter runs itself (numba's cache notice in a sweep worker), cannot be passed on:
+    Python printed it, "Exception ignored ... Traceback ... KeyboardInterrupt", after the command's own
+    one line. Anything else so dropped is still printed."""
+    from cosim.errors import quiet_interrupts
+
+    seen = []
+    hook = quiet_interrupts(seen.append)
+    hook(type("U", (), {"exc_value": KeyboardInterrupt()})())
+    hook(type("U", (), {"exc_value": ValueError("x")})())
+    assert [type(u.exc_value) for u in seen] == [ValueError]
+    script = ("import atexit, sys\n"
+              "def late():\n    raise KeyboardInterrupt\n"
+              "atexit.register(late)\n"
+              "import cosim.cli\nsys.argv = ['cosim', 'components']\nraise SystemExit(cosim.cli.main())\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, env=env, text=True, capture_output=True,
+                          timeout=60)
+    assert done.returncode == 0 and "Traceback" not in done.stderr and "KeyboardInterrupt" not in done.stderr, \
+        done.stderr

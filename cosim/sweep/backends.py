@@ -25,13 +25,14 @@ import platform
 import signal
 import socket
 import struct
+import sys
 import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from cosim.errors import CosimError, ScenarioError
+from cosim.errors import CosimError, ScenarioError, quiet_interrupts
 from cosim.timebase import NS_PER_S
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
@@ -227,6 +228,10 @@ def _worker_init(parent: int | None = None, stop: Any = None) -> None:
     # still ends cleanly (run_scene installs its own handler for the run's duration).
     global _stop
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # a second Ctrl-C raised inside a callback the interpreter runs itself (numba's compiler notifying
+    # its cache through ctypes) cannot be passed on: it is dropped, and printed with a traceback by the
+    # default hook; the run ends at its next tick all the same (the first one stopped it)
+    sys.unraisablehook = quiet_interrupts(sys.unraisablehook)
     if parent is not None:
         threading.Thread(target=_watch_parent, args=(parent,), name="cosim-parent-watch", daemon=True).start()
     if stop is not None:
