@@ -334,6 +334,10 @@ def cmd_repair(args: argparse.Namespace) -> int:
     else:
         ending = f"the run's final status: {done.status.status} at t = {done.status.time:g} s"
     how = "was cut short" if done.cut_short else "is damaged"
+    if done.damage and done.cut_short:  # damaged besides: each stretch left out was said in a warning above
+        from cosim.runner import counted
+
+        how += f", with {counted(len(done.damage), 'damaged stretch', 'damaged stretches')} left out (above),"
     print(f"wrote {done.path}: {done.messages} messages, up to t = {done.end_ns / NS_PER_S:g} s, with {ending}; "
           f"{args.recording} {how} and is left as it was")
     return EXIT_OK

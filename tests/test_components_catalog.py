@@ -48,7 +48,8 @@ def test_a_type_shows_its_parameters_with_units_defaults_and_bounds_and_its_port
 def test_an_unknown_type_is_bad_input_naming_the_known_ones(capsys, tmp_path):
     assert main(["components", "WaterCouplr"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: cosim components: unknown component type 'WaterCouplr' (known: Coupler, DropSource, FMU, ")
+    assert err.startswith("error: cosim components: unknown component type 'WaterCouplr' "
+                          "(known: Coupler, DropSource, FMU, ")
     assert len(err.splitlines()) == 1
     assert main(["components", "WaterCouplr", "--markdown", str(tmp_path / "c.md")]) == 2  # no page of it
     assert not (tmp_path / "c.md").exists()

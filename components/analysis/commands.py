@@ -65,7 +65,8 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="skip.gif, skip.mp4 (needs ffmpeg or the [video] extra) or frame.png (one frame)")
-    p.add_argument("--fps", type=FPS, default=30.0, help="frames per second (default 30, at most 240)")
+    p.add_argument("--fps", type=FPS, default=30.0,
+                   help="frames per second (default 30, at most 240; a GIF's 0.00153 to 50)")
     p.add_argument("--width", type=WIDTH, default=800, help="width in pixels (default 800, 16 to 7680)")
     p.add_argument("--speed", type=positive_number, default=1.0,
                    help="simulated seconds per second of video (default 1; 0.25 is a slow motion)")
@@ -73,7 +74,8 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
                    help="follow: a window around the stone (default); fixed: the whole run in view "
                         "(water alone: always the whole surface)")
     p.add_argument("--span", type=positive_number,
-                   help="follow view: width of the window [m] (default 1)")
+                   help="follow view: width of the window [m] (default 1; at least the stone's diameter, "
+                        "at most where it is a pixel across)")
     p.add_argument("--from", dest="start", type=seconds, metavar="T", help="start time [s]")
     p.add_argument("--to", dest="stop", type=seconds, metavar="T", help="end time [s]")
     p.add_argument("--at", type=seconds, metavar="T",

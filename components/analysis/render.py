@@ -9,9 +9,10 @@ coloured as in the viewer channels and hill-shaded, translucent), the stone's sh
 and a dashed drop line from its lowest point to the water with the gap written beside it, so that
 its height above the water reads in the picture. Views: ``follow`` (a window of ``span`` metres
 that moves with the stone, true proportions, reaching up or down to the water) and ``fixed`` (the
-whole run, heights exaggerated to fit, the stone also marked by a dot). Output: GIF (Pillow, at most
-:data:`GIF_MAX_FPS` frames a second), MP4 (ffmpeg from ``imageio-ffmpeg`` or the PATH), or a single
-PNG frame at ``at``. The file appears only when complete.
+whole run, heights exaggerated to fit, the stone also marked by a dot); ``span`` lies between the
+stone's diameter (the stone fills the frame's width) and the width at which it is a pixel across.
+Output: GIF (Pillow, :data:`GIF_MIN_FPS` to :data:`GIF_MAX_FPS` frames a second), MP4 (ffmpeg from
+``imageio-ffmpeg`` or the PATH), or a single PNG frame at ``at``. The file appears only when complete.
 
 Frames are projected with numpy and painted with Pillow (:mod:`components.analysis.raster`), not
 with matplotlib's 3D axes, which rebuild every polygon and tick each frame: about ten times faster.
@@ -26,6 +27,7 @@ import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +61,8 @@ FORMATS = (".gif", ".mp4", ".png")
 # [frames/s] a GIF stores each frame's delay in whole centiseconds, and players show any delay under
 # 2 cs for 10 cs: 20 ms is the shortest frame that plays at its speed
 GIF_MAX_FPS = 50
+# [frames/s] ... in 16 bits: 65535 cs (655.35 s) is the longest frame (--fps 0.001 failed in Pillow)
+GIF_MIN_FPS = 100 / 65535
 ASPECT = 9 / 16  # frame height / width
 DISK_SEGMENTS = 36  # polygon sides of a drawn disk
 LIGHT_AZIMUTH_DEG, LIGHT_ALTITUDE_DEG = 315.0, 50.0  # [deg] light from the north-west, 50 deg up
@@ -325,10 +329,10 @@ class _Frames:
         for x in (x0, x1):
             edge = cam.project(np.array([[x, back, z0], [x, back, z1]]))[0]
             draw.line(edge.ravel().tolist(), fill=grey, width=1)
-        step = nice_step((x1 - x0) / 5)
+        step = nice_step((x1 - x0) / 5) if x1 > x0 else math.inf  # (a box of no width: no ticks)
         small = font(max(8, round(0.85 * self.text_px)))
         right = -math.inf  # where the last tick's number ends [px]: the axis name goes after it
-        for x in np.arange(math.ceil(x0 / step) * step, x1 + 1e-9, step):
+        for x in np.arange(math.ceil(x0 / step) * step, x1 + 1e-9, step) if math.isfinite(step) else ():
             (px, py), _ = cam.project(np.array([x, front, z0]))
             draw.line((px, py, px, py + 4), fill=(120, 120, 120), width=1)
             label = f"{x:.{max(0, -math.floor(math.log10(step)))}f}"
@@ -693,7 +697,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                                  f"(channels: {', '.join(sorted(rec.channels))})")
         return _render_water(rec, output, options)
     body = load_body(rec, options.body)
-    _check_span(options, body.radius)
+    _check_span(options, body)
     linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)
     if options.water is not None and options.water not in fields:
@@ -742,6 +746,9 @@ def _check_request(output: Path, options: RenderOptions) -> None:
         raise RenderError(f"{output}: --fps must be at most {GIF_MAX_FPS} for a GIF (its frame delays are "
                           f"whole hundredths of a second, at least 2), got {options.fps:g}: use --fps "
                           f"{GIF_MAX_FPS} or write an .mp4")
+    if suffix == ".gif" and not options.fps >= GIF_MIN_FPS:
+        raise RenderError(f"{output}: --fps must be at least {_rounded(GIF_MIN_FPS, up=True)} for a GIF (a frame's "
+                          f"delay is at most 65535 hundredths of a second, 655.35 s), got {options.fps:g}")
 
 
 def frame_width(options: RenderOptions) -> int:
@@ -749,15 +756,51 @@ def frame_width(options: RenderOptions) -> int:
     return int(options.width) // 2 * 2
 
 
-def _check_span(options: RenderOptions, radius: float) -> None:
-    """A follow view so wide that the stone (``radius`` [m]) is narrower than a pixel of the frame
-    shows nothing to follow: RenderError (``--span 1e6`` wrote a picture with nothing in it)."""
-    if options.view != "follow" or radius <= 0.0:
+# a pixel of the follow view spans at least this fraction of the stone's largest coordinate: finer,
+# the view's edges and the stone's points differ by round-off alone (--span 1e-300 m made a box of
+# width 0 around a stone 1 m from the origin)
+SPAN_RESOLUTION = 1e-12
+
+
+def _rounded(value: float, up: bool) -> str:
+    """``value`` to 3 significant digits, rounded up (or down), as :func:`format` ``g`` writes it: a
+    bound said so that the number shown is itself within it."""
+    text = f"{value:.3g}"
+    if not math.isfinite(value) or (float(text) >= value if up else float(text) <= value):
+        return text
+    digits = Decimal(text)  # rounded the other way: one in its last digit further
+    unit = Decimal(1).scaleb(digits.adjusted() - 2)
+    return f"{float(digits + unit if up else digits - unit):g}"
+
+
+def _check_span(options: RenderOptions, body: BodyTrack) -> None:
+    """The follow view's width ``options.span`` lies between the narrowest and the widest that show
+    the stone: RenderError otherwise. At most so wide that the stone is a pixel across (``--span
+    1e6`` wrote a picture with nothing in it); at least the stone's diameter, where it fills the
+    frame's width, and so wide that a pixel spans :data:`SPAN_RESOLUTION` of the stone's coordinates
+    (``--span 1e-300``: an internal math domain error)."""
+    if options.view != "follow":
         return
-    widest = 2.0 * radius * frame_width(options)  # [m] the stone one pixel wide
-    if options.span > widest:
-        raise RenderError(f"--span {options.span:g} m: the stone ({2 * radius:g} m across) would be narrower than a "
-                          f"pixel of the {int(options.width)} px frame; give at most {widest:.3g} m (or --view fixed)")
+    span, width, radius = options.span, frame_width(options), body.radius
+    reach = float(np.max(np.abs(body.position))) if body.position.size else 0.0  # [m] the farthest coordinate
+    finest = SPAN_RESOLUTION * width * reach  # [m] the narrowest span its coordinates resolve
+    stone = radius > 0.0 and math.isfinite(radius)
+    widest = 2.0 * radius * width if stone else math.inf  # [m] the stone one pixel wide
+    if stone and finest > widest:
+        raise RenderError(f"--span {span:g} m: the stone ({2 * radius:g} m across, its coordinates as large as "
+                          f"{reach:g} m) is too small for a follow view: a window it is a pixel of would be finer "
+                          f"than its coordinates resolve; use --view fixed")
+    if span > widest:
+        raise RenderError(f"--span {span:g} m: the stone ({2 * radius:g} m across) would be narrower than a pixel "
+                          f"of the {int(options.width)} px frame; give at most {_rounded(widest, up=False)} m "
+                          f"(or --view fixed)")
+    if stone and span < 2.0 * radius and 2.0 * radius >= finest:
+        raise RenderError(f"--span {span:g} m: narrower than the stone ({2 * radius:g} m across), which would more "
+                          f"than fill the frame; give at least {_rounded(2.0 * radius, up=True)} m")
+    if span < finest:
+        raise RenderError(f"--span {span:g} m: a pixel of the {int(options.width)} px frame would be "
+                          f"{span / width:.3g} m, finer than the stone's coordinates (as large as {reach:g} m) "
+                          f"resolve; give at least {_rounded(finest, up=True)} m")
 
 
 def _frame_times(output: Path, options: RenderOptions, begin: float, end: float, default_at: Callable[[], float],

@@ -2,12 +2,17 @@
 
 Any channel whose messages carry a ``label`` field (a stage monitor's, for instance) is shown as a
 timeline; the framework needs to know nothing about what the labels mean.
+
+Every text taken from the file (its scene's name, version, command line, overrides, channels,
+schemas, status and labels) is shown with its control characters and line breaks escaped
+(:func:`cosim.errors.one_line`): a crafted recording cannot split a line or drive the terminal.
 """
 
 from __future__ import annotations
 
 import json
 
+from cosim.errors import RecordingError, one_line
 from cosim.record.reader import Recording
 from cosim.record.recorder import STATUS_TOPIC
 from cosim.timebase import NS_PER_S
@@ -25,17 +30,27 @@ def timeline(rec: Recording) -> list[tuple[int, str, dict]]:
     topics = sorted(t for t, ch in rec.channels.items() if "label" in ch.json_properties() and t != STATUS_TOPIC)
     if not topics:
         return []
-    return [(stamp, topic, json.loads(data)) for topic, stamp, data in rec.raw(topics)]
+    events = []
+    for topic, stamp, data in rec.raw(topics):
+        try:
+            msg = json.loads(data)
+        except ValueError as exc:  # not JSON (or not UTF-8): a damaged or crafted payload
+            raise RecordingError(f"{rec.path}: {topic} at {stamp} ns: not a JSON message ({exc})") from None
+        if not isinstance(msg, dict):
+            raise RecordingError(f"{rec.path}: {topic} at {stamp} ns: not a JSON object but {type(msg).__name__}")
+        if "label" in msg:  # (a message may leave its label out: no event)
+            events.append((stamp, topic, msg))
+    return events
 
 
 def describe_recording(rec: Recording) -> str:
     meta = rec.metadata
-    lines = [f"{rec.path}: cosim recording of scene {meta.get('scene', '?')!r} "
-             f"(cosim {meta.get('version', '?')}, dt = {int(meta.get('dt_ns', 0)) / NS_PER_S:g} s)"]
+    lines = [f"{one_line(rec.path)}: cosim recording of scene {meta.get('scene', '?')!r} "
+             f"(cosim {one_line(meta.get('version', '?'))}, dt = {rec.dt_ns / NS_PER_S:g} s)"]
     if meta.get("command_line"):
-        lines.append(f"  command: {meta['command_line']}")
+        lines.append(f"  command: {one_line(meta['command_line'])}")
     if rec.overrides:
-        lines.append(f"  overrides: {', '.join(rec.overrides)}")
+        lines.append(f"  overrides: {one_line(', '.join(rec.overrides))}")
     span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
     since = f" from t = {rec.restart_ns / NS_PER_S:g} s (a restart)" if rec.restart_ns else ""
     status = rec.status()
@@ -51,18 +66,18 @@ def describe_recording(rec: Recording) -> str:
                      f"ends at t = {end:g} s, with its last message")
     else:
         counted = " from t = 0" if rec.restart_ns else ""
-        lines.append(f"  status: {status.status} at t = {status.time:g} s ({status.tick} steps{counted}) - "
-                     f"{status.reason}")
+        lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s ({status.tick} steps{counted}) - "
+                     f"{one_line(status.reason)}")
     lines.append("  channels:")
-    width = max((len(t) for t in rec.channels), default=10)
+    width = max((len(one_line(t)) for t in rec.channels), default=10)
     for topic in sorted(rec.channels):
         ch = rec.channels[topic]
-        lines.append(f"    {topic:<{width}}  {ch.count:>8}  {ch.schema_name}")
+        lines.append(f"    {one_line(topic):<{width}}  {ch.count:>8}  {one_line(ch.schema_name)}")
     events = timeline(rec)
     if events:
         lines.append("  timeline:")
-        rows = [f"    {stamp / NS_PER_S:9.4f} s  {topic}: {msg['label']}" +
-                "".join(f", {k} {_number(v)}" for k, v in msg.items() if k not in ("label", "stage")
+        rows = [f"    {stamp / NS_PER_S:9.4f} s  {one_line(topic)}: {one_line(msg['label'])}" +
+                "".join(f", {one_line(k)} {_number(v)}" for k, v in msg.items() if k not in ("label", "stage")
                         and isinstance(v, (int, float)) and not isinstance(v, bool))
                 for stamp, topic, msg in events]
         if len(rows) > TIMELINE_MAX:

@@ -10,6 +10,7 @@ wrong value.
 from __future__ import annotations
 
 import json
+import re
 import struct
 import zlib
 from collections.abc import Callable, Iterator
@@ -27,12 +28,13 @@ from cosim.errors import RecordingError, ScenarioError
 from cosim.messages import Message
 from cosim.record.output import MCAP_MAGIC
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
-from cosim.scenario import Scene, loads
+from cosim.scenario import MAX_TIME_NS, Scene, loads
 
 MAGIC = MCAP_MAGIC
 _FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
 _DATA_END = struct.Struct("<BQI")  # opcode, record length, data section CRC
 FOOTER_OP, DATA_END_OP = 0x02, 0x0F
+_DIGITS = re.compile(r"[0-9]+")  # a whole number as the recorder writes it (str.isdigit also takes "²")
 _READ = 1 << 20
 
 
@@ -81,6 +83,10 @@ def check_integrity(path: Path) -> None:
             raise RecordingError(f"{path}: not a readable MCAP recording (truncated: {size} bytes, no footer)")
         footer = _footer(f, size)
         if footer is None:
+            where, repair = _damage(path)
+            if where:
+                raise RecordingError(f"{path}: not a readable MCAP recording (truncated or corrupt: no footer at its "
+                                     f"end; the file was cut short, or its writer was killed, and {where}: {repair})")
             raise RecordingError(f"{path}: not a readable MCAP recording (truncated or corrupt: no footer at its "
                                  "end; the file was cut short, or its writer was killed: cosim repair makes what "
                                  "it holds a valid recording)")
@@ -101,7 +107,32 @@ def check_integrity(path: Path) -> None:
         if op != DATA_END_OP or length != 4:
             raise RecordingError(f"{path}: corrupt: no data-end record before its summary")
         if data_crc and _crc(f, 0, data_end) != data_crc:
-            raise RecordingError(f"{path}: corrupt: the CRC of its data does not match (changed on disk?)")
+            where, repair = _damage(path)
+            raise RecordingError(f"{path}: corrupt: the CRC of its data does not match (changed on disk?)"
+                                 + (f": {where} ({repair})" if where else ""))
+
+
+def _damage(path: Path) -> tuple[str, str]:
+    """Where the MCAP file ``path`` is damaged ("the chunk at byte 483093 fails its CRC") and what
+    ``cosim repair`` makes of it, as :func:`cosim.record.seal.find_damage` finds it; ("", "") when no
+    record of its data section is found damaged."""
+    from cosim.record.seal import find_damage
+
+    try:
+        damage = find_damage(path)
+    except (ValueError, OSError):  # not even its header whole, or unreadable: said by what calls this
+        return "", ""
+    if not damage:
+        return "", ""
+    shown = damage[:3]
+    where = "; ".join(d.what for d in shown) + (f"; and {len(damage) - 3} more" if len(damage) > 3 else "")
+    last, it = damage[-1], ("it" if len(damage) == 1 else "them")
+    if not last.resumed:
+        upto = "it" if len(damage) == 1 else "the last (leaving the others out)"
+        if not last.kept_before:
+            return where, f"no whole message precedes {upto}, so cosim repair keeps nothing: {last.why_stopped}"
+        return where, f"cosim repair keeps only the {last.kept_before} messages before {upto}: {last.why_stopped}"
+    return where, f"cosim repair makes what it holds a valid recording, leaving {it} out"
 
 
 @dataclass
@@ -162,10 +193,14 @@ class Recording:
             self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
             if not isinstance(self.overrides, list) or not all(isinstance(o, str) for o in self.overrides):
                 raise ValueError("overrides are not a list of strings")
-            for key in ("dt_ns", "until_ns"):  # the run's step and end, shown by inspect
-                value = self.metadata.get(key)
-                if value is not None and not (value.isdigit() and int(value) > 0):
-                    raise ValueError(f"{key} is {value!r}, not a whole number of nanoseconds > 0")
+            # the run's step (every recording has one: inspect shows it) and end: whole nanoseconds > 0
+            # that an MCAP log time holds (the recorder writes them; a crafted value of 1e23 ns
+            # was shown as dt = 1e+14 s)
+            if "dt_ns" not in self.metadata:
+                raise ValueError("dt_ns, the run's step, is missing")
+            times = {key: _nanoseconds(key, self.metadata[key]) for key in ("dt_ns", "until_ns")
+                     if key in self.metadata}
+            self.dt_ns = times["dt_ns"]
         except ValueError as exc:
             raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
         counts = summary.statistics.channel_message_counts
@@ -255,6 +290,23 @@ class Recording:
                 raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
                                      f"({_short(exc)})") from None
             yield stamp, checkpoint
+
+
+def _nanoseconds(key: str, value: str) -> int:
+    """The time ``value`` of the metadata entry ``key`` [ns]: a whole number > 0 that a recording's
+    times hold (at most 2^63 - 1); a ValueError saying what it is otherwise."""
+    digits = value.lstrip("0") if _DIGITS.fullmatch(value) else None
+    if not digits:
+        raise ValueError(f"{key} is {_shown(value)}, not a whole number of nanoseconds > 0")
+    if len(digits) > len(str(MAX_TIME_NS)) or int(digits) > MAX_TIME_NS:
+        raise ValueError(f"{key} is {_shown(value)}, more nanoseconds than a recording's times hold (at most "
+                         "2^63 - 1, about 292 years)")
+    return int(digits)
+
+
+def _shown(value: str) -> str:
+    """A metadata value quoted for an error line: its repr, a long one cut to its start and length."""
+    return repr(value) if len(value) <= 40 else f"{value[:24]!r}... ({len(value)} characters)"
 
 
 def _short(exc: BaseException) -> str:

@@ -9,6 +9,13 @@ recording, then moves it into place. A recording cut off before its end has no f
 ``cosim inspect`` says where it ends, and ``cosim replay`` replays it up to there; one cut off only
 in its summary keeps the status the run wrote. The file given is left as it was.
 
+A file damaged on disk as well (a chunk that fails its CRC, found by
+:func:`cosim.record.seal.find_damage`) is copied without the damaged stretch, so that the chunks
+after it are kept (before, reading stopped there, and the file was called cut short at the damage);
+each stretch left out is said in a warning naming where it lies and what its index listed, and is
+in :attr:`Repaired.damage`. When a chunk after it uses a channel the damaged chunk may have defined,
+the copy ends where the damage begins, and the warning says so.
+
 Refused (a RecordingError, bad input), with nothing written: a whole recording (nothing to repair),
 a whole MCAP file that is not a cosim recording, and a file whose whole records make no readable
 cosim recording or hold no message (cut off before its first, or damaged there).
@@ -16,35 +23,39 @@ cosim recording or hold no message (cut off before its first, or damaged there).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cosim.errors import RecordingError
 from cosim.record.output import (
+    COPY_BLOCK,
     PART_SUFFIX,
     being_written,
     check_output,
-    copy_file,
     output_folder,
     written_whole,
 )
 
 if TYPE_CHECKING:
     from cosim.record.recorder import RunStatus
+    from cosim.record.seal import Damage
 
 
 @dataclass(frozen=True)
 class Repaired:
     """What :func:`repair` wrote, as read back from it: the recording, its messages, the latest time
     they reach [ns] and the run's final status (None when the run's end was cut off); ``cut_short``:
-    the file given ended before its footer (else it was whole but damaged)."""
+    the file given ended before its footer (else it was whole but damaged); ``damage``: the damaged
+    stretches of the file given, left out of the copy (each also said in a warning)."""
 
     path: Path
     messages: int
     end_ns: int
     status: RunStatus | None
     cut_short: bool
+    damage: tuple[Damage, ...] = ()
 
 
 def default_output(cut: Path) -> Path:
@@ -76,7 +87,7 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
     now, is a whole MCAP file but no cosim recording, or its whole records make no readable cosim
     recording or hold no message."""
     from cosim.record.reader import Recording, ends_in_footer
-    from cosim.record.seal import seal
+    from cosim.record.seal import find_damage, seal
 
     cut = Path(cut)
     if not cut.is_file():
@@ -102,20 +113,65 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
             raise RecordingError(f"{cut}: {problem}; its MCAP records are whole (it was not cut short or "
                                  "damaged), so there is nothing to repair")
     was = f"cut short at {cut.stat().st_size} bytes" if cut_short else f"damaged ({problem})"
+    try:
+        damage = find_damage(cut)
+    except ValueError:  # not even its header whole: said below, as the copy is sealed
+        damage = []
     out = check_output(output if output is not None else default_output(cut), inputs=[cut])
     with output_folder(out.parent), written_whole(out) as tmp:  # no folder left if refused or failing
-        copy_file(cut, tmp)
+        _copy_leaving_out(cut, tmp, damage)
         try:
             sealed = seal(tmp)
         except ValueError as exc:
             raise RecordingError(f"{cut}: {was}; nothing in it can be kept ({exc})") from None
         if sealed.messages == 0:  # its metadata too, perhaps: said before what the reader makes of that
+            if damage:
+                raise RecordingError(f"{cut}: {was}, and {damage[0].what}, before its first whole message: "
+                                     "nothing in it can be kept")
             raise RecordingError(f"{cut}: {was}, before its first whole message: nothing in it can be kept")
         try:
             rec = Recording(tmp)
             status = rec.status()
         except RecordingError as exc:
+            also = f" ({damage_text(damage)})" if damage else ""
             raise RecordingError(f"{cut}: {was}, and what it holds whole is {_reason(exc, tmp)}: it cannot "
-                                 "be made a cosim recording") from None
+                                 f"be made a cosim recording{also}") from None
         messages = sum(channel.count for channel in rec.channels.values())
-    return Repaired(out, messages, rec.end_ns, status, cut_short)
+    with warnings.catch_warnings():  # said whatever the filters: the line written after it would mislead without it
+        warnings.simplefilter("always")  # (an "error" filter would end the command after the recording is in place)
+        for stretch in damage:
+            warnings.warn(f"{cut}: {stretch}", UserWarning, stacklevel=2)
+    return Repaired(out, messages, rec.end_ns, status, cut_short, tuple(damage))
+
+
+def damage_text(damage: list[Damage], most: int = 3) -> str:
+    """The damaged stretches ``damage`` in one line, the first ``most`` of them in full."""
+    text = "; ".join(str(d) for d in damage[:most])
+    return text + (f"; and {len(damage) - most} more damaged stretches" if len(damage) > most else "")
+
+
+def _copy_leaving_out(source: Path, target: Path, damage: list[Damage]) -> None:
+    """Copy ``source`` to ``target`` without its damaged stretches: each one read past is left out,
+    and the copy ends where one that reading stopped at begins. As :func:`cosim.record.output.copy_file`,
+    by plain reads and writes, a read error naming ``source``."""
+    kept, at = [], 0
+    for stretch in damage:
+        kept.append((at, stretch.start))
+        at = stretch.end if stretch.resumed else None
+        if at is None:
+            break
+    if at is not None:
+        kept.append((at, None))
+    with open(source, "rb") as src, open(target, "wb") as dst:
+        for start, end in kept:
+            src.seek(start)
+            left = None if end is None else end - start
+            while left is None or left > 0:
+                try:
+                    block = src.read(COPY_BLOCK if left is None else min(COPY_BLOCK, left))
+                except OSError as exc:
+                    raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
+                if not block:
+                    break
+                dst.write(block)
+                left = None if left is None else left - len(block)

@@ -42,6 +42,9 @@ from cosim.codec.state_proto import state_bytes
 _RECORD = struct.Struct("<BQ")
 _MESSAGE_HEAD = struct.Struct("<HIQQ")
 _OP_CHANNEL, _OP_MESSAGE = 0x04, 0x05
+# the target is asked whether its writes still succeed every this many messages (its MCAP writer
+# does not raise when a write fails, and a copy onto a full disk would go on to the last message)
+CHECK_EVERY = 4096
 
 
 def chunk_records(chunk: Chunk) -> Iterator[tuple[int, int, int, int, bytes]]:
@@ -154,8 +157,9 @@ class Salvaged:
 class _Target(Protocol):
     """What :func:`rebuild` writes to (:class:`cosim.record.writer._Apply`): records applied with
     ``apply``, messages logged through ``logs[channel](data, log_time)``, the ``renderers`` of the
-    channels' packed records, and ``after(channel, log_time, data)`` writing what is derived from a
-    message where the recording is written (:mod:`cosim.record.derive`)."""
+    channels' packed records, ``after(channel, log_time, data)`` writing what is derived from a
+    message where the recording is written (:mod:`cosim.record.derive`), and ``check()`` raising
+    the first write that failed (the disk full: its MCAP writer only logs such failures)."""
 
     logs: dict[int, Callable[[bytes, int], None]]
     renderers: dict[int, Any]
@@ -163,6 +167,8 @@ class _Target(Protocol):
     def apply(self, record: tuple) -> int: ...
 
     def after(self, channel: int, time_ns: int, data: bytes) -> None: ...
+
+    def check(self) -> None: ...
 
 
 def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Sequence[tuple[int, memoryview]],
@@ -173,7 +179,10 @@ def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Se
 
     The viewer channels the writer derived from the recorded messages (on channels the directory
     does not name: :mod:`cosim.record.derive`) are not copied from the file but derived again, as
-    each message is written: the same messages, to the end of what is salvaged."""
+    each message is written: the same messages, to the end of what is salvaged.
+
+    A write that fails (the disk full, a file-size limit) is raised within :data:`CHECK_EVERY`
+    messages of it (``out.check()``), not after the rest has been copied in vain."""
     for record in directory:
         out.apply(record)
     by_topic = {record[2]: record[1] for record in directory if record[0] == "channel"}
@@ -186,6 +195,8 @@ def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Se
         kept.messages += 1
         kept.end_ns = max(kept.end_ns, time_ns)
         kept.channels.add(channel)
+        if not kept.messages % CHECK_EVERY:
+            out.check()
 
     written = 0  # messages of the stream the run sent that are in the file (its first ones)
     for topic, time_ns, data in complete_messages(part):
@@ -204,5 +215,6 @@ def rebuild(out: _Target, part: str | Path, directory: Sequence[tuple], held: Se
                 skip -= 1
             else:
                 log(channel, time_ns, data)
+    out.check()
     kept.complete = True
     return kept

@@ -14,6 +14,15 @@ chunks one at a time until it does.
 
 This module reads the MCAP layout itself (the specification's records, built with the ``mcap``
 package's record classes), because the writer that wrote the file is gone.
+
+A file damaged on disk (a chunk failing its CRC, a record that cannot be read) is another matter:
+:func:`find_damage` reads it past the damage, resuming at the next chunk that is whole and passes its
+CRC (a chunk record gives its own length; when that length is what was damaged, the next chunk is
+searched for), and says where each damaged stretch lies and what its message index lists. ``cosim
+repair`` leaves those stretches out of the copy it seals (:mod:`cosim.record.repair`), and ``cosim
+inspect`` names them (:func:`cosim.record.reader.check_integrity`). Reading stops at a damaged
+stretch when a chunk after it uses a channel that was not defined before it (the damaged chunk may
+have defined it). :func:`seal`, closing a file in place, keeps only what precedes the first damage.
 """
 
 from __future__ import annotations
@@ -43,11 +52,18 @@ from mcap.records import (
     Schema,
     Statistics,
 )
+from mcap.stream_reader import CRCValidationError
 
 from cosim.record.output import MCAP_MAGIC
 from cosim.record.salvage import chunk_records, message_head
 
 _PREFIX = struct.Struct("<BQ")  # a record's opcode and length
+_CHUNK_HEAD = struct.Struct("<QQQII")  # a chunk's start and end times, uncompressed size and CRC, compression length
+_COMPRESSIONS = ("", "zstd", "lz4")
+# the records a data section holds (the header before it; the summary's after the data end)
+_DATA_OPS = (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE, Opcode.CHUNK, Opcode.MESSAGE_INDEX, Opcode.ATTACHMENT,
+             Opcode.METADATA, Opcode.DATA_END)
+_FIXED_LENGTH = {Opcode.DATA_END: 4, Opcode.FOOTER: 20}
 
 
 Ending = Callable[[int], "tuple[int, Any] | None"]
@@ -77,6 +93,39 @@ class Sealed:
     size: int = 0  # bytes of the sealed file
 
 
+@dataclass(frozen=True)
+class Damage:
+    """A damaged stretch of an MCAP file, bytes ``start`` to ``end``: a record that cannot be read
+    (``what``: "the chunk at byte N fails its CRC", ...), with whatever follows it up to the next
+    chunk read whole. ``resumed``: reading went on at ``end`` (else nothing from ``start`` on is
+    kept, ``why_stopped`` saying why, and ``kept_before`` counting the messages of the whole chunks
+    before it); ``listed``: the messages its message index lists, and ``first_ns`` .. ``last_ns``
+    their log times (None when it has no readable index)."""
+
+    start: int
+    end: int
+    what: str
+    resumed: bool
+    listed: int | None = None
+    first_ns: int = 0
+    last_ns: int = 0
+    why_stopped: str = ""
+    kept_before: int = 0
+
+    def lost(self) -> str:
+        """What leaving it out loses: "the 20 messages its index lists (t = 0.123 .. 0.132 s)"."""
+        if not self.listed:
+            return "the messages it held"
+        times = (f"{self.first_ns / 1e9:g} s" if self.first_ns == self.last_ns
+                 else f"{self.first_ns / 1e9:g} .. {self.last_ns / 1e9:g} s")
+        return f"the {self.listed} message{'s' if self.listed != 1 else ''} its index lists (t = {times})"
+
+    def __str__(self) -> str:
+        if self.resumed:
+            return f"{self.what}: left out, with {self.lost()}"
+        return f"{self.what}: nothing from there on is kept ({self.why_stopped})"
+
+
 @dataclass
 class _Scan:
     """The whole records of a cut-short file, in order."""
@@ -90,6 +139,7 @@ class _Scan:
     channels: list[Channel] = field(default_factory=list)
     data_complete: bool = False  # the data section's end was reached (only the summary was cut off)
     last_indexes: list[MessageIndex] = field(default_factory=list)  # the last chunk's, from its content
+    damage: list[Damage] = field(default_factory=list)  # stretches read past (only when asked to) or stopped at
 
 
 def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, list[tuple[int, int]]], list[Schema], list[Channel], int, int]:
@@ -114,9 +164,12 @@ def _read_chunk(body: bytes) -> tuple[Chunk, dict[int, list[tuple[int, int]]], l
     return chunk, messages, schemas, channels, first or 0, last or 0
 
 
-def _scan(data: Any) -> _Scan:
+def _scan(data: Any, skip: bool = False) -> _Scan:
     """The whole records of the MCAP bytes ``data``, up to the first record cut short or damaged (or
-    the data section's end); raises ValueError when not even the magic and header are whole."""
+    the data section's end); with ``skip``, read past each damaged stretch to the next whole chunk
+    (:class:`Damage`, in ``damage``). A damaged record reading stops at is in ``damage`` too, not
+    resumed; a record cut short by the file's end is no damage. Raises ValueError when not even the
+    magic and header are whole."""
     size = len(data)
     if size < len(MCAP_MAGIC) + _PREFIX.size or bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
         raise ValueError("no MCAP magic at its start")
@@ -130,46 +183,25 @@ def _scan(data: Any) -> _Scan:
         op, length = _PREFIX.unpack_from(data, at)
         end = at + _PREFIX.size + length
         if end > size:
-            break
+            if skip and (resume := _next_chunk(data, at + 1)) is not None:  # its length is what was damaged
+                found.damage.append(Damage(at, resume, f"the record at byte {at} runs past the file's end (its "
+                                                       "length is damaged)", True))
+                at = resume
+                continue
+            break  # cut short: the end of what was written
+        problem = _record(found, data, op, at, end, skip)
+        if problem is not None:
+            if not skip:
+                found.damage.append(Damage(at, size, problem, False, why_stopped="a damaged record"))
+                break
+            damage = _skip(data, op, at, end, problem)
+            found.damage.append(damage)
+            if not damage.resumed:
+                break
+            at = damage.end
+            continue
         if op in (Opcode.DATA_END, Opcode.FOOTER):
             found.data_complete = True
-            break
-        body = data[at + _PREFIX.size:end]
-        try:
-            if op == Opcode.CHUNK:
-                chunk, messages, schemas, channels, first, last = _read_chunk(body)
-                index = ChunkIndex(chunk_length=end - at, chunk_start_offset=at, compression=chunk.compression,
-                                   compressed_size=len(chunk.data), message_end_time=last,
-                                   message_index_length=0, message_index_offsets={}, message_start_time=first,
-                                   uncompressed_size=chunk.uncompressed_size)
-                counts = {channel: len(records) for channel, records in messages.items()}
-                found.chunks.append(_ChunkEntry(index, counts, schemas, channels, end, 0, end, 0))
-                # the last chunk's message index may be cut off behind it: kept to be written anew
-                found.last_indexes = [MessageIndex(channel_id=c, records=r) for c, r in sorted(messages.items())]
-            elif op == Opcode.MESSAGE_INDEX:
-                if not found.chunks or found.chunks[-1].end != at:
-                    break  # a message index belongs right after its chunk
-                entry = found.chunks[-1]
-                channel = MessageIndex.read(ReadDataStream(BytesIO(body))).channel_id
-                entry.index.message_index_offsets[channel] = at
-                entry.index.message_index_length += end - at
-                entry.end = end
-            elif op == Opcode.ATTACHMENT:
-                stream = ReadDataStream(BytesIO(body))
-                log_time, create_time = stream.read8(), stream.read8()
-                name, media_type = stream.read_prefixed_string(), stream.read_prefixed_string()
-                data_size = stream.read8()
-                found.attachments.append((AttachmentIndex(offset=at, length=end - at, log_time=log_time,
-                                                          create_time=create_time, data_size=data_size,
-                                                          name=name, media_type=media_type), end, 0))
-            elif op == Opcode.METADATA:
-                name = ReadDataStream(BytesIO(body)).read_prefixed_string()
-                found.metadata.append((MetadataIndex(offset=at, length=end - at, name=name), end, 0))
-            elif op == Opcode.SCHEMA:
-                found.schemas.append(Schema.read(ReadDataStream(BytesIO(body))))
-            elif op == Opcode.CHANNEL:
-                found.channels.append(Channel.read(ReadDataStream(BytesIO(body))))
-        except Exception:  # damaged: the end of what was written whole
             break
         crc = zlib.crc32(data[at:end], crc)
         # the file's CRC up to here, kept with the record it follows (a message index: with its chunk)
@@ -182,7 +214,179 @@ def _scan(data: Any) -> _Scan:
         elif op == Opcode.METADATA:
             found.metadata[-1] = (*found.metadata[-1][:2], crc)
         at = end
+    if skip:
+        _stop_where_channels_are_missing(found, size)
+        if found.damage and not found.damage[-1].resumed:
+            before = sum(sum(c.counts.values()) for c in found.chunks
+                         if c.index.chunk_start_offset < found.damage[-1].start)
+            found.damage[-1] = replace(found.damage[-1], kept_before=before)
     return found
+
+
+def _record(found: _Scan, data: Any, op: int, at: int, end: int, strict: bool) -> str | None:
+    """Read the record ``op`` at ``at`` (ending at ``end``) into ``found``; what is wrong with it when
+    it cannot be read (then ``found`` is unchanged). ``strict``: an opcode no data section holds, or a
+    data end or footer of another length, is damage too (else it is passed over, or ends the data)."""
+    if op in _FIXED_LENGTH:
+        if strict and end - at - _PREFIX.size != _FIXED_LENGTH[op]:
+            return (f"the {_name(op)} record at byte {at} is {end - at - _PREFIX.size} bytes long, not "
+                    f"{_FIXED_LENGTH[op]}")
+        return None
+    if strict and op not in _DATA_OPS:
+        return f"the record at byte {at} has opcode 0x{op:02x}, which no data section holds"
+    body = data[at + _PREFIX.size:end]
+    try:
+        if op == Opcode.CHUNK:
+            chunk, messages, schemas, channels, first, last = _read_chunk(body)
+            index = ChunkIndex(chunk_length=end - at, chunk_start_offset=at, compression=chunk.compression,
+                               compressed_size=len(chunk.data), message_end_time=last,
+                               message_index_length=0, message_index_offsets={}, message_start_time=first,
+                               uncompressed_size=chunk.uncompressed_size)
+            counts = {channel: len(records) for channel, records in messages.items()}
+            found.chunks.append(_ChunkEntry(index, counts, schemas, channels, end, 0, end, 0))
+            # the last chunk's message index may be cut off behind it: kept to be written anew
+            found.last_indexes = [MessageIndex(channel_id=c, records=r) for c, r in sorted(messages.items())]
+        elif op == Opcode.MESSAGE_INDEX:
+            if not found.chunks or found.chunks[-1].end != at:
+                return f"the message index at byte {at} follows no chunk"  # it belongs right after its chunk
+            entry = found.chunks[-1]
+            channel = MessageIndex.read(ReadDataStream(BytesIO(body))).channel_id
+            entry.index.message_index_offsets[channel] = at
+            entry.index.message_index_length += end - at
+            entry.end = end
+        elif op == Opcode.ATTACHMENT:
+            stream = ReadDataStream(BytesIO(body))
+            log_time, create_time = stream.read8(), stream.read8()
+            name, media_type = stream.read_prefixed_string(), stream.read_prefixed_string()
+            data_size = stream.read8()
+            found.attachments.append((AttachmentIndex(offset=at, length=end - at, log_time=log_time,
+                                                      create_time=create_time, data_size=data_size,
+                                                      name=name, media_type=media_type), end, 0))
+        elif op == Opcode.METADATA:
+            name = ReadDataStream(BytesIO(body)).read_prefixed_string()
+            found.metadata.append((MetadataIndex(offset=at, length=end - at, name=name), end, 0))
+        elif op == Opcode.SCHEMA:
+            found.schemas.append(Schema.read(ReadDataStream(BytesIO(body))))
+        elif op == Opcode.CHANNEL:
+            found.channels.append(Channel.read(ReadDataStream(BytesIO(body))))
+    except Exception as exc:  # damaged
+        if op == Opcode.CHUNK and isinstance(exc, CRCValidationError):
+            return f"the chunk at byte {at} fails its CRC"
+        what = "chunk" if op == Opcode.CHUNK else f"{_name(op)} record"
+        return f"the {what} at byte {at} cannot be read ({type(exc).__name__}: {_short(exc)})"
+    return None
+
+
+def _skip(data: Any, op: int, at: int, end: int, problem: str) -> Damage:
+    """The damaged stretch that begins with the record ``op`` at ``at`` (which should end at ``end``),
+    said by ``problem``: a chunk whose own lengths agree with its record's, with the message index
+    records that follow it (their count and times kept); otherwise up to the next whole chunk."""
+    if op == Opcode.CHUNK and _framed(data, at, end):
+        listed, first, last = 0, None, None
+        resume = end
+        while resume + _PREFIX.size <= len(data):
+            next_op, length = _PREFIX.unpack_from(data, resume)
+            next_end = resume + _PREFIX.size + length
+            if next_op != Opcode.MESSAGE_INDEX or next_end > len(data):
+                break
+            try:
+                times = [t for t, _ in MessageIndex.read(ReadDataStream(BytesIO(data[resume + _PREFIX.size:next_end])))
+                         .records]
+            except Exception:  # no index of it (reading goes on there, and finds what it is)
+                break
+            listed += len(times)
+            first = min([*times, first] if first is not None else times, default=None)
+            last = max([*times, last] if last is not None else times, default=None)
+            resume = next_end
+        return Damage(at, resume, problem, True, listed if first is not None else None, first or 0, last or 0)
+    resume = _next_chunk(data, at + 1)
+    if resume is None:
+        return Damage(at, len(data), problem, False, why_stopped="no whole chunk follows it")
+    return Damage(at, resume, problem, True)
+
+
+def _framed(data: Any, at: int, end: int) -> bool:
+    """Whether the chunk record at ``at`` ends at ``end`` by its own lengths too (its compression's
+    name and its records' length add up to the record's), a known compression: its length whole."""
+    head = at + _PREFIX.size
+    if head + _CHUNK_HEAD.size > len(data):
+        return False
+    compression_length = _CHUNK_HEAD.unpack_from(data, head)[4]
+    records_at = head + _CHUNK_HEAD.size + compression_length
+    if compression_length > 8 or records_at + 8 > len(data):
+        return False
+    try:
+        compression = bytes(data[head + _CHUNK_HEAD.size:records_at]).decode()
+    except UnicodeDecodeError:
+        return False
+    (records_length,) = struct.unpack_from("<Q", data, records_at)
+    return compression in _COMPRESSIONS and records_at + 8 + records_length == end
+
+
+def _next_chunk(data: Any, start: int) -> int | None:
+    """The offset of the first chunk record at or after ``start`` that is whole, framed by its own
+    lengths, and read back passing its CRC; None if there is none."""
+    at = start
+    while (at := data.find(bytes([Opcode.CHUNK]), at)) >= 0:
+        if at + _PREFIX.size <= len(data):
+            length = _PREFIX.unpack_from(data, at)[1]
+            end = at + _PREFIX.size + length
+            if end <= len(data) and _framed(data, at, end):
+                try:
+                    _read_chunk(data[at + _PREFIX.size:end])
+                except Exception:  # not a chunk after all: searched on
+                    pass
+                else:
+                    return at
+        at += 1
+    return None
+
+
+def _stop_where_channels_are_missing(found: _Scan, size: int) -> None:
+    """A chunk after a damaged stretch whose messages use a channel not defined before it (or one
+    whose schema is not): the damaged chunk may have defined it, so reading stops at that stretch
+    instead (``found`` then holds the chunks before it, for what is said of it; a scan that skips is
+    not sealed)."""
+    known = {c.id for c in found.channels}
+    schemas = {s.id for s in found.schemas} | {0}
+    for entry in found.chunks:
+        schemas |= {s.id for s in entry.schemas}
+        known |= {c.id for c in entry.channels if c.schema_id in schemas}
+        at = entry.index.chunk_start_offset
+        before = [d for d in found.damage if d.start < at]
+        if not before or all(channel in known for channel in entry.counts):
+            continue  # (a channel missing before any damage is the file's own: the reader says what it makes of it)
+        stop = before[-1]
+        why = f"the chunk at byte {at} after it uses a channel not defined before it, which it may have defined"
+        found.damage[found.damage.index(stop):] = [replace(stop, end=size, resumed=False, why_stopped=why)]
+        found.chunks = [c for c in found.chunks if c.index.chunk_start_offset < stop.start]
+        found.data_complete = False
+        return
+
+
+def find_damage(path: str | Path) -> list[Damage]:
+    """The damaged stretches of the MCAP file ``path``, read past each to the next whole chunk (the
+    last not resumed when reading stops there); empty when what it holds is whole, up to a cut at its
+    end. Raises ValueError when not even its magic and header are whole, OSError when it cannot be read."""
+    with open(path, "rb") as f:
+        if os.fstat(f.fileno()).st_size == 0:
+            raise ValueError("the file is empty")
+        with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+            return _scan(data, skip=True).damage
+
+
+def _name(op: int) -> str:
+    """An opcode's record name as the specification gives it ("message index")."""
+    try:
+        return Opcode(op).name.lower().replace("_", " ")
+    except ValueError:
+        return f"0x{op:02x}"
+
+
+def _short(exc: BaseException) -> str:
+    """An exception's message on one line, at most about 100 characters."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 100 else text[:97] + "..."
 
 
 def _cut(scan: _Scan, chunks: int) -> tuple[int, int, bool]:

@@ -35,7 +35,9 @@ not wanted).
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
+import logging
 import os
 import re
 import signal
@@ -87,19 +89,56 @@ class SinkError(CosimError):
     that fitted (when not even its end fits, it is removed and the target keeps what it held)."""
 
 
-# how a failed write is reported: by the SDK's MCAP writer over a path, or by _File below
-_OS_ERROR = re.compile(r"Os \{ code: (\d+)|\[Errno (\d+)\]")
+# how a failed write is reported: by the SDK's MCAP writer over a path (``Os { code: 28 ...``), by
+# _File below (``[Errno 28] ...``), or by the SDK's MCAP writer over _File (``PyErr { type: <class
+# 'OSError'>, value: OSError(28, '...')``)
+_OS_ERROR = re.compile(r"Os \{ code: (\d+)|\[Errno (\d+)\]|value: \w*Error\((\d+), ")
+# the writer process's exit status when the file system refused a write: this plus the error's
+# number (1 to 191), so that the simulating process knows it even when the writer could not say so
+# on its error output (a temporary file, on a disk that may be the full one, under the same limit)
+REFUSED_EXIT = 64
+# the SDK's logger of a message its MCAP writer could not write ("error logging message: ..."): it
+# logs every such message and goes on, rather than raising (pyo3-log names it after the Rust module)
+_SDK_LOGGER = "foxglove.log_sink_set"
+_REASON_CHARS = 300  # at most this much of a writer's own words goes into the run's error line
 
 
 def _reason(text: str) -> str:
     """The cause of a writer failure from its error output: the operating system's words for the
-    first failed write (disk full, file too large...), else its last line."""
+    first failed write (disk full, file too large...), else its last line, without the traceback
+    text the SDK's errors carry, and cut short should it be long."""
     text = "\n".join(line for line in text.splitlines() if not line.startswith(RELAY_TAG))  # not its warnings
     match = _OS_ERROR.search(text)
     if match:
-        return os.strerror(int(match.group(1) or match.group(2)))
+        return os.strerror(int(next(group for group in match.groups() if group)))
     lines = text.strip().splitlines()
-    return lines[-1] if lines else ""
+    return _one_line(lines[-1]) if lines else ""
+
+
+def _one_line(text: str) -> str:
+    """An error's words for the run's one error line: the traceback a Python error inside the SDK's
+    carries (``PyErr { ..., traceback: Some("Traceback ...") }``) left out, at most
+    :data:`_REASON_CHARS` characters."""
+    text = re.sub(r",? ?traceback: Some\(.*", "", " ".join(text.split()))
+    return text if len(text) <= _REASON_CHARS else text[:_REASON_CHARS - 3] + "..."
+
+
+def _refused_exit(exc: BaseException) -> int:
+    """The writer process's exit status for a failure ``exc`` while writing its file:
+    :data:`REFUSED_EXIT` plus the error's number when the system refused a write, else 1."""
+    code = exc.errno if isinstance(exc, OSError) else None
+    return REFUSED_EXIT + code if isinstance(code, int) and 0 < code < 256 - REFUSED_EXIT else 1
+
+
+def _say(line: str) -> None:
+    """Write one line on the error output, if it can be written at all (on a full disk, the writer
+    process's error output, a temporary file, may be refused too: its exit status says why)."""
+    with contextlib.suppress(OSError, ValueError):
+        print(line, file=sys.stderr, flush=True)
+
+
+# writes that fail for want of room: a rebuilt copy of the recording would need as much again
+_NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 class _File(io.FileIO):
@@ -115,6 +154,31 @@ class _File(io.FileIO):
             if self.failure is None:
                 self.failure = exc
             raise
+
+
+class _Refusals(logging.Filter):
+    """The SDK's "error logging message: ..." for each message its MCAP writer could not write: it
+    logs them rather than raising, one for every message after a write the system refused
+    (thousands of lines, each with a Python traceback, which flooded the writer's error output on a
+    full disk: a temporary file on that disk). Once ``file`` has refused a write they are kept from
+    the log (its :attr:`_File.failure` says it all); before that, one is let through as the SDK
+    gives it (it may come from another of its writers in this process, such as a live view), the
+    first one kept here (:meth:`_Apply.check`)."""
+
+    def __init__(self, file: _File) -> None:
+        super().__init__()
+        self.file = file
+        self.first: str | None = None
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if not message.startswith("error logging message"):
+            return True  # any other word of the SDK's goes on as it would
+        if self.file.failure is not None:
+            return False  # the file refused a write: every message after it fails the same way
+        if self.first is None:
+            self.first = message
+        return True
 
 
 class _Apply:
@@ -133,13 +197,15 @@ class _Apply:
         # that rewrite a file in place): about 40 ms for the reference skip's 40 MB, which the
         # simulating process would wait for at the end of every recorded run.
         self.file = _File(part, "r+")  # closed in finish() or abandon()
+        self.refusals = _Refusals(self.file)  # the messages the SDK's writer could not write (it only logs them)
+        logging.getLogger(_SDK_LOGGER).addFilter(self.refusals)  # taken off in finish() or abandon()
         try:
             self.writer = foxglove.open_mcap(
                 self.file, context=self.context,
                 writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd, compression_level=ZSTD_LEVEL,
                                                 compression_threads=0, profile="", chunk_size=262144))
         except BaseException:
-            self.file.close()
+            self._let_go()
             raise
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
@@ -173,6 +239,22 @@ class _Apply:
             else:
                 raise SinkError(f"unknown record kind {kind}")
         return count
+
+    def check(self, strict: bool = False) -> None:
+        """Raise the first write the system refused (the disk full, a file-size limit: an OSError),
+        and, when ``strict`` (in the writer process, where the SDK writes nothing else), a SinkError
+        when the SDK's MCAP writer could not write a message for another reason. The SDK only logs
+        such failures and goes on (:class:`_Refusals`): it is asked after each batch, so that the
+        first failure stops the writing."""
+        if self.file.failure is not None:
+            raise self.file.failure
+        if strict and self.refusals.first is not None:
+            raise SinkError(f"the MCAP writer could not write a message ({_one_line(self.refusals.first)})")
+
+    def _let_go(self) -> None:
+        """Close the file and stop catching the SDK's messages about it."""
+        logging.getLogger(_SDK_LOGGER).removeFilter(self.refusals)
+        self.file.close()
 
     def after(self, channel: int, time_ns: int, data: bytes) -> None:
         """A message of ``channel`` was written: write the viewer channels derived from it here."""
@@ -224,7 +306,7 @@ class _Apply:
                 raise self.file.failure from None
             raise
         finally:
-            self.file.close()
+            self._let_go()
         finish(self.part, self.final)
 
     def _rescue(self) -> None:
@@ -255,7 +337,7 @@ class _Apply:
         except Exception:
             pass
         finally:
-            self.file.close()
+            self._let_go()
 
 
 _PACKAGE_ROOT = str(Path(__file__).resolve().parents[2])  # the folder holding the cosim package
@@ -331,33 +413,40 @@ def writer_main(argv: list[str]) -> int:
         try:
             for (batch,) in ring.batches():
                 written += sink.apply_batch(batch)
+                sink.check(strict=True)  # a write refused in it (the SDK's writer goes on regardless): stop here
                 ring.tally(written)
             if not ring.ended:  # the simulating process died: the steps it completed but had not sent
                 unsent = ring.unsent()
                 if unsent is not None:
                     sink.apply_batch(unsent)
-        except Exception:
+                    sink.check(strict=True)
+        except Exception as exc:
             refused = sink.file.failure
             if refused is not None:
-                # the system refused a write (the disk full), which the MCAP library reports only as an
-                # "I/O error": said in the system's words, so that the simulating process closes the
-                # file where it was cut (seal) rather than salvage it, and says why
-                print(f"cannot write the file: {refused}", file=sys.stderr, flush=True)
+                # the system refused a write (the disk full, a file-size limit), which the MCAP library
+                # only logs: said in the system's words and by the exit status (should even that line
+                # not fit), so that the simulating process closes the file where it was cut (seal)
+                # rather than salvage it, and says why
+                _say(f"cannot write the file: {refused}")
                 sink.abandon()
-                return 1
+                return _refused_exit(refused)
             # a record this process cannot write: the file is left as it is, for the simulating
             # process to salvage (with what the ring still holds) and say so; it is not passed off
             # as finished
-            import traceback
+            if isinstance(exc, SinkError):
+                _say(str(exc))
+            else:
+                import traceback
 
-            traceback.print_exc()
+                with contextlib.suppress(OSError, ValueError):
+                    traceback.print_exc()
             sink.abandon()
             return 2
         try:
             sink.finish()
         except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
-            print(f"cannot finish the file: {exc}", file=sys.stderr, flush=True)
-            return 1
+            _say(f"cannot finish the file: {exc}")
+            return _refused_exit(exc)
         if not ring.ended:
             ring.finish()  # the file is complete under its final name: the simulating process need not wait
             return 0
@@ -819,7 +908,9 @@ class ProcessSink(_Sink):
             proc.kill()
             code = proc.wait(WRITER_TIMEOUT_S)
         text = self._writer.new_errors()  # (what it wrote since its last file: a writer may be kept)
-        reason = _reason(text)
+        # the system's refusal of a write, by the writer's exit status (REFUSED_EXIT + errno) or its words
+        refused = code - REFUSED_EXIT if REFUSED_EXIT < code < 256 else None
+        reason = os.strerror(refused) if refused is not None else _reason(text)
         # the salvage derives the viewer channels again here, so a deriver's warning comes again; it
         # is held until the file is safe (an "error" filter would have it end the salvage, losing
         # the recording) and given once with those the writer relayed
@@ -831,7 +922,7 @@ class ProcessSink(_Sink):
                 except ValueError:
                     name = f"signal {-code}"
                 self._failed = self._salvage(f"the recording writer was killed ({name})")
-            elif not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
+            elif refused is None and not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
                 self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
             else:
                 self._failed = self._seal(reason)
@@ -839,14 +930,15 @@ class ProcessSink(_Sink):
         _give(list(dict.fromkeys(given)), failing=True)
         return self._failed
 
-    def _seal(self, reason: str) -> str:
+    def _seal(self, reason: str, fate: str | None = None) -> str:
         """The file system refused the writer's writes (the disk full, a file-size limit): close the
         private file where it was cut (:mod:`cosim.record.seal`), ending with the recorder's
         :attr:`epitaph`, and move it onto the target; the line saying so (or, when not even that
-        could be written, that no file was left)."""
+        could be written, that no file was left). ``fate``: what happened, when other than that
+        writing the recording failed for ``reason``."""
         from cosim.record.seal import seal
 
-        fate = f"writing the recording failed ({reason})"
+        fate = fate or f"writing the recording failed ({reason})"
         cut = []  # asked for an ending: the data section was cut short (else only the move onto the target failed)
 
         def ending(end_ns: int) -> tuple[int, Any] | None:
@@ -871,7 +963,8 @@ class ProcessSink(_Sink):
         if not cut:  # the data section was whole: only the move onto the target failed, nothing was lost
             return (f"{self.path}: the recording is whole ({kept.messages} messages, to t = {kept.end_ns / 1e9:g} s)"
                     f"{where or f', after {reason}'}")
-        dropped = f"; its last {kept.chunks_dropped} chunks gave way to its end" if kept.chunks_dropped else ""
+        gave_way = "chunk" if kept.chunks_dropped == 1 else f"{kept.chunks_dropped} chunks"
+        dropped = f"; its last {gave_way} gave way to its end" if kept.chunks_dropped else ""
         # the run's own messages: the file holds its status record (and viewer items) beside them
         return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {kept.end_ns / 1e9:g} s "
                 f"(the run's first {kept.messages} messages{dropped}), and what the run recorded after that was "
@@ -911,8 +1004,14 @@ class ProcessSink(_Sink):
                 out.abandon()
             if new is not None:
                 new.release(remove=True)
+            if isinstance(exc, OSError) and exc.errno in _NO_ROOM and old.part.exists():
+                # no room for a second copy (the disk full, a file-size limit): the writer's own file
+                # is closed in place where it stopped instead, keeping what it had written
+                reason = os.strerror(exc.errno)
+                self._failed = self._seal(reason, f"{fate}, and there was no room to salvage the rest ({reason})")
+                return self._failed
             old.release(remove=True)
-            why = f"{type(exc).__name__}: {exc}" if isinstance(exc, Exception) else "interrupted"
+            why = f"{type(exc).__name__}: {_one_line(str(exc))}" if isinstance(exc, Exception) else "interrupted"
             self._failed = (f"{path}: the recording could not be written: {fate}, and salvaging what it "
                             f"had recorded failed too ({why}); no file was left")
             if not isinstance(exc, Exception):  # (Ctrl-C) the run is told the same line when it next records
@@ -1015,6 +1114,8 @@ def open_sink(path: Path, background: bool = True, preloads: tuple[str, ...] = (
 if __name__ == "__main__":
     status = writer_main(sys.argv[1:])
     # the file is finished: exit at once (tearing down the interpreter costs tens of milliseconds
-    # that the simulating process would spend waiting)
-    sys.stderr.flush()
+    # that the simulating process would spend waiting); an error output that cannot be written (a
+    # full disk) changes nothing: the exit status says what happened
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.flush()
     os._exit(status)
