@@ -288,3 +288,29 @@ def test_a_step_missing_or_beyond_a_recordings_times_is_refused_by_inspect_and_r
 def test_the_largest_step_a_recording_holds_is_read(small, tmp_path):
     good = _rewritten(small, tmp_path / "edge.mcap", lambda m: {**m, "dt_ns": "0" + str(2**63 - 1)})
     assert Recording(good).dt_ns == 2**63 - 1
+
+
+def test_a_step_other_than_the_scenes_is_refused_by_replay(small, tmp_path, capsys):
+    """dt_ns edited to 2 ms beside a scene of 1 ms: inspect showed the one and replay ran the other."""
+    edited = _rewritten(small, tmp_path / "edited.mcap", lambda m: {**m, "dt_ns": "2000000"})
+    assert main(["replay", str(edited)]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {edited}: its run's step dt_ns = 2000000 ns is not its scene's dt = 1000000 ns (with its "
+        "overrides): the recording was edited")
+
+
+@pytest.mark.parametrize("start", ["x", "-5", "1e9", "99999999999999999999999"])
+def test_a_restart_time_that_is_not_a_time_is_refused(small, tmp_path, capsys, start):
+    """start_ns that is not a whole number of nanoseconds was read as 0: the restart taken for a run
+    from t = 0."""
+    bad = _rewritten(small, tmp_path / "start.mcap", lambda m: {**m, "start_ns": start})
+    assert main(["inspect", str(bad)]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line.startswith(f"error: {bad}: not a cosim recording (its metadata cannot be read: start_ns is ")
+
+
+def test_a_run_from_the_start_reads_its_restart_time_as_zero(small, tmp_path):
+    assert Recording(small).restart_ns == 0
+    assert Recording(_rewritten(small, tmp_path / "zero.mcap", lambda m: {**m, "start_ns": "000"})).restart_ns == 0
+    assert Recording(_rewritten(small, tmp_path / "half.mcap", lambda m: {**m, "start_ns": "5000000"})).restart_ns \
+        == 5_000_000

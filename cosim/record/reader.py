@@ -212,19 +212,29 @@ class Recording:
                 schema.encoding if schema else "", schema.data if schema else b"")
         self.start_ns = summary.statistics.message_start_time
         self.end_ns = summary.statistics.message_end_time
-        restart = self.metadata.get("start_ns", "0")
         # the checkpoint a restart began at [ns]; 0 for a run from t = 0 (and recordings before the mark)
-        self.restart_ns = int(restart) if restart.isdigit() else 0
+        restart = self.metadata.get("start_ns", "0")
+        try:
+            self.restart_ns = 0 if _DIGITS.fullmatch(restart) and not restart.strip("0") else \
+                _nanoseconds("start_ns", restart)
+        except ValueError as exc:  # a crafted value was read as 0: a restart taken for a run from t = 0
+            raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
 
     def scene(self, overrides: list[str] | None = None) -> Scene:
-        """The recorded scene, with the recorded overrides and then ``overrides`` applied."""
+        """The recorded scene, with the recorded overrides and then ``overrides`` applied. Without
+        ``overrides`` its step must be the run's (``dt_ns``): one file saying two steps was edited, and
+        inspect (the metadata's) and replay (the scene's) would each believe another."""
         try:
-            return loads(self.scene_text, source=f"{self.path}:{SCENE_ATTACHMENT}",
-                         overrides=self.overrides + list(overrides or []), base_dir=self.metadata.get("base_dir"))
+            scene = loads(self.scene_text, source=f"{self.path}:{SCENE_ATTACHMENT}",
+                          overrides=self.overrides + list(overrides or []), base_dir=self.metadata.get("base_dir"))
         except ScenarioError:
             raise
         except Exception as exc:
             raise RecordingError(f"{self.path}: the recorded scene cannot be loaded ({exc})") from None
+        if not overrides and scene.dt_ns != self.dt_ns:
+            raise RecordingError(f"{self.path}: its run's step dt_ns = {self.dt_ns} ns is not its scene's dt = "
+                                 f"{scene.dt_ns} ns (with its overrides): the recording was edited")
+        return scene
 
     def raw(self, topics: list[str] | None = None) -> Iterator[tuple[str, int, bytes]]:
         """(topic, log_time_ns, payload) in log-time order; errors become RecordingError."""
