@@ -28,6 +28,33 @@ from typing import Any, Literal
 
 _REQUIRED = MISSING
 INT_LIMIT = 2**63  # an int parameter is an int64 where the arithmetic runs
+FLOAT_LIMIT = "1.8e+308"  # a float's range (sys.float_info.max), as messages say it
+
+
+def fits_float(value: Any) -> bool:
+    """Whether number ``value`` converts to a float (an integer beyond a float's range does not)."""
+    try:
+        float(value)
+    except OverflowError:
+        return False
+    return True
+
+
+def number_text(value: Any) -> str:
+    """A number for a message, as ``:g`` writes it: ``0.001``, ``1e+21``; an integer beyond a
+    float's range (which ``:g`` cannot write) in the same form from its leading digits: ``1e+309``."""
+    if isinstance(value, int) and not isinstance(value, bool) and not fits_float(value):
+        size = abs(value)
+        exponent = int(math.log10(size))  # (a float's log10, which may be one off at a power of ten)
+        while 10**exponent > size:
+            exponent -= 1
+        while 10 ** (exponent + 1) <= size:
+            exponent += 1
+        lead = size // 10 ** (exponent - 5)  # its first six digits
+        return f"{'-' if value < 0 else ''}{lead / 10**5:g}e+{exponent}"
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return f"{value:g}"
+    return repr(value)
 
 
 def param(default: Any = _REQUIRED, *, unit: str = "", doc: str = "", gt: float | None = None,
@@ -73,62 +100,80 @@ def _type_name(tp: Any) -> str:
         tp, getattr(tp, "__name__", str(tp)))
 
 
-def _show(value: Any) -> str:
+def show_value(value: Any) -> str:
+    """A value for a message: its repr, at most 60 characters; an integer of 30 digits or more as
+    :func:`number_text` writes it (``1e+309``)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**30:
+        return number_text(value)
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def convert(tp: Any, value: Any, path: str, problems: list[str]) -> Any:
-    """Convert plain data ``value`` to type ``tp``; append ``path: problem`` lines on failure."""
+def convert(tp: Any, value: Any, path: str, problems: list[str], rule: str = "") -> Any:
+    """Convert plain data ``value`` to type ``tp``; append ``path: problem`` lines on failure.
+    ``rule``: the field's declared bounds (``> 0 m``), said where a number is refused before they
+    could be checked (an integer beyond a float's range)."""
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(tp) if a is not type(None)]
         if value is None:
             return None
-        return convert(args[0], value, path, problems)
+        return convert(args[0], value, path, problems, rule)
     if origin is Literal:
         choices = typing.get_args(tp)
         if value not in choices:
-            problems.append(f"{path}: must be one of {', '.join(map(repr, choices))} (got {_show(value)})")
+            problems.append(f"{path}: must be one of {', '.join(map(repr, choices))} (got {show_value(value)})")
         return value
     if origin is tuple:
         args = typing.get_args(tp)
         if not isinstance(value, (list, tuple)) or len(value) != len(args):
-            problems.append(f"{path}: must be {_type_name(tp)} (got {_show(value)})")
+            problems.append(f"{path}: must be {_type_name(tp)} (got {show_value(value)})")
             return value
         return tuple(convert(a, v, f"{path}[{i}]", problems) for i, (a, v) in enumerate(zip(args, value, strict=False)))
     if origin is list:
         (item,) = typing.get_args(tp)
         if not isinstance(value, list):
-            problems.append(f"{path}: must be {_type_name(tp)} (got {_show(value)})")
+            problems.append(f"{path}: must be {_type_name(tp)} (got {show_value(value)})")
             return value
         return [convert(item, v, f"{path}[{i}]", problems) for i, v in enumerate(value)]
     if dataclasses.is_dataclass(tp):
         return build(tp, value, path, problems)
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            problems.append(f"{path}: must be a number (got {_show(value)})")
+            problems.append(f"{path}: must be a number (got {show_value(value)})")
+            return value
+        if not fits_float(value):  # an integer of 309 digits or more
+            problems.append(f"{path}: must be a number {rule + ' ' if rule else ''}within a float's range, at most "
+                            f"{FLOAT_LIMIT} in size (got {number_text(value)})")
             return value
         if not math.isfinite(value):
             problems.append(f"{path}: must be finite (got {value})")
         return float(value)
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            problems.append(f"{path}: must be an integer (got {_show(value)})")
+            problems.append(f"{path}: must be an integer (got {show_value(value)})")
         elif not -INT_LIMIT <= value < INT_LIMIT:  # counts and sizes reach numpy and the kernels as int64
-            problems.append(f"{path}: must be a 64-bit integer, below 2^63 in size (got {value})")
+            problems.append(f"{path}: must be a 64-bit integer, below 2^63 in size (got {show_value(value)})")
         return value
     if tp is bool:
         if not isinstance(value, bool):
-            problems.append(f"{path}: must be true or false (got {_show(value)})")
+            problems.append(f"{path}: must be true or false (got {show_value(value)})")
         return value
     if tp is str:
         if not isinstance(value, str):
-            problems.append(f"{path}: must be a string (got {_show(value)})")
+            problems.append(f"{path}: must be a string (got {show_value(value)})")
         return value
     if tp is Any:
         return value
     raise TypeError(f"unsupported parameter type {tp!r} at {path}")
+
+
+def _bounds_text(meta: dict[str, Any]) -> str:
+    """A field's declared bounds as a rule: ``> 0 m``, ``>= 0, <= 1``."""
+    unit = f" {meta['unit']}" if meta.get("unit") else ""
+    rule = ", ".join(f"{word} {meta[key]:g}" for key, word in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
+                     if meta.get(key) is not None)
+    return rule + unit if rule else ""
 
 
 def _bounds(meta: dict[str, Any], value: Any, path: str, problems: list[str]) -> None:
@@ -148,7 +193,7 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     if data is None:
         data = {}
     if not isinstance(data, dict):
-        problems.append(f"{path or '<root>'}: must be a mapping (got {_show(data)})")
+        problems.append(f"{path or '<root>'}: must be a mapping (got {show_value(data)})")
         return None
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -163,7 +208,7 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     for name, f in fields.items():
         if name in data:
             said = len(problems)
-            value = convert(hints[name], data[name], prefix + name, problems)
+            value = convert(hints[name], data[name], prefix + name, problems, _bounds_text(dict(f.metadata)))
             if len(problems) == said:  # a value already refused (not finite, not a number) is not also out of bounds
                 _bounds(dict(f.metadata), value, prefix + name, problems)
             values[name] = value

@@ -35,7 +35,7 @@ from cosim.codec.json_codec import CodecError, codec_for
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, substep_count
 from cosim.errors import ScenarioError
 from cosim.messages import Message
-from cosim.params import build
+from cosim.params import FLOAT_LIMIT, build, fits_float, number_text, show_value
 from cosim.registry import UnknownComponentType, resolve
 from cosim.timebase import NS_PER_S, seconds_to_ns
 
@@ -102,8 +102,16 @@ RECORD_NUMBERS = ("every", "checkpoint_every", "visual_rate")  # RecordConfig's 
 
 
 def _plain_number(value: Any) -> bool:
-    """A finite int or float, not a bool (YAML's true is no number of steps; a NaN is said as such)."""
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    """A finite int or float, not a bool (YAML's true is no number of steps; a NaN is said as such);
+    an integer of any size (one beyond a float's range is refused by its own range)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    return isinstance(value, int) or math.isfinite(value)
+
+
+def _beyond_float(value: Any) -> bool:
+    """An integer too large to be a float (1 followed by 309 zeros): no float value can take it."""
+    return isinstance(value, int) and not isinstance(value, bool) and not fits_float(value)
 
 
 @dataclass
@@ -140,6 +148,17 @@ class _StrictLoader(yaml.SafeLoader):
     """SafeLoader that records duplicate mapping keys instead of silently keeping the last one."""
 
     duplicates: list[str]
+
+    def construct_object(self, node: yaml.Node, deep: bool = False) -> Any:
+        """A value as SafeLoader builds it; one it cannot build (``!!bool maybe``, the date
+        ``2024-13-45``) is a YAML error at its line, not an exception from inside PyYAML."""
+        try:
+            return super().construct_object(node, deep=deep)
+        except (ValueError, TypeError, KeyError, AttributeError, OverflowError) as exc:
+            what = repr(node.value) if isinstance(node, yaml.ScalarNode) else f"a {node.id}"
+            why = f" ({exc})" if isinstance(exc, ValueError) else ""  # (month must be in 1..12)
+            raise yaml.constructor.ConstructorError(
+                None, None, f"cannot read {what} as {node.tag.rpartition(':')[2]}{why}", node.start_mark) from None
 
 
 _MERGE_TAG = "tag:yaml.org,2002:merge"  # the key << (YAML 1.1 merge): its mappings' pairs join this one
@@ -200,10 +219,52 @@ def _merge_sources(node: yaml.MappingNode, value_node: yaml.Node) -> list[yaml.M
 
 
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-# YAML 1.1 (PyYAML) reads 5e-4 and 1e21 as strings, because it wants a dot in a float; YAML 1.2 and
-# every other tool read them as numbers, and so does a scene
-_FLOAT_1_2 = re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$")
-_StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_1_2, list("-+0123456789."))
+
+# Numbers as YAML 1.2's core schema reads them, not as PyYAML's YAML 1.1: 5e-4 and 1e21 are floats
+# (1.1 wants a dot in a float), 017 is 17 (1.1: octal 15), 0o17 octal and 0x10 hexadecimal; 1:30 and
+# 12:30:00 are text (1.1: base-60 numbers, 90 and 45000), as are 1_000, 0b101 and -0x10
+_INT_TAG, _FLOAT_TAG = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
+_INT_1_2 = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
+_FLOAT_1_2 = re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+                        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$")
+_StrictLoader.yaml_implicit_resolvers = {
+    first: [(tag, regexp) for tag, regexp in resolvers if tag not in (_INT_TAG, _FLOAT_TAG)]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_StrictLoader.add_implicit_resolver(_INT_TAG, _INT_1_2, list("-+0123456789"))  # before float: 1 is an int
+_StrictLoader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_1_2, list("-+0123456789."))
+
+
+def _construct_int(loader: _StrictLoader, node: yaml.Node) -> int:
+    """A YAML 1.2 integer (also one tagged ``!!int``): decimal, ``0o`` octal or ``0x`` hexadecimal."""
+    text = loader.construct_scalar(node)
+    if not isinstance(text, str) or not _INT_1_2.fullmatch(text):
+        raise yaml.constructor.ConstructorError(None, None, f"{text!r} is not an integer (YAML 1.2: decimal "
+                                                "digits, 0o octal or 0x hexadecimal)", node.start_mark)
+    if text[:2] in ("0o", "0x"):
+        return int(text[2:], 8 if text[1] == "o" else 16)
+    try:
+        return int(text)
+    except ValueError:  # more digits than Python reads (sys.get_int_max_str_digits)
+        raise yaml.constructor.ConstructorError(None, None, f"an integer of {len(text.lstrip('+-'))} digits is "
+                                                "too long to read", node.start_mark) from None
+
+
+def _construct_float(loader: _StrictLoader, node: yaml.Node) -> float:
+    """A YAML 1.2 float (also one tagged ``!!float``, which may be written as an integer)."""
+    text = loader.construct_scalar(node)
+    if not isinstance(text, str) or not (_FLOAT_1_2.fullmatch(text) or _INT_1_2.fullmatch(text)):
+        raise yaml.constructor.ConstructorError(None, None, f"{text!r} is not a number", node.start_mark)
+    if text.lower().lstrip("+-") == ".inf":
+        return -math.inf if text.startswith("-") else math.inf
+    if text.lower() == ".nan":
+        return math.nan
+    if text[:2] in ("0o", "0x"):
+        return float(_construct_int(loader, node))
+    return float(text)  # (a 1e999 is inf, as YAML's own readers make it)
+
+
+_StrictLoader.add_constructor(_INT_TAG, _construct_int)
+_StrictLoader.add_constructor(_FLOAT_TAG, _construct_float)
 
 
 def _shape_problem(data: Any) -> str | None:
@@ -294,9 +355,21 @@ def find_parent(data: Any, parts: list[str]) -> tuple[Any, str | None]:
         elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
             node = node[int(part)]
         else:
-            known = ", ".join(map(str, node)) if isinstance(node, dict) else "none"
-            return None, f"{'.'.join(parts[: depth + 1])!r} (known there: {known})"
+            return None, f"{'.'.join(parts[: depth + 1])!r} ({_known_there(node)})"
     return node, None
+
+
+def _known_there(node: Any) -> str:
+    """What a key path may name inside ``node``: its keys, a list's indices, or that it holds none."""
+    if isinstance(node, dict):
+        return f"known there: {', '.join(map(str, node)) or 'none'}"
+    if isinstance(node, list):
+        if len(node) == 1:
+            return "a list of 1 item: index 0"
+        return f"a list of {len(node)} items: indices 0 to {len(node) - 1}" if node else "an empty list: no index"
+    kind = ("null" if node is None else "true or false" if isinstance(node, bool) else "text" if isinstance(node, str)
+            else "a number" if isinstance(node, int | float) else f"a {type(node).__name__}")
+    return f"{kind}, which holds no keys"
 
 
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
@@ -320,12 +393,38 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
             node[last] = value
         elif isinstance(node, list) and last.isdigit() and int(last) < len(node):
             node[int(last)] = value
+        elif isinstance(node, list):
+            problems.append(f"--set {key}: no such key {key!r} ({_known_there(node)})")
         else:
             problems.append(f"--set {key}: cannot set {last!r} inside a {type(node).__name__}")
     return problems
 
 
 # --- validation ----------------------------------------------------------------------------------
+
+def _seconds_text(ns: int) -> str:
+    """A time in whole nanoseconds as seconds, in as many digits as it takes (``0.0015``)."""
+    return repr(ns / NS_PER_S)
+
+
+def _whole_multiple(value: float, value_ns: int, dt_ns: int) -> bool:
+    """Whether a time of ``value`` seconds, ``value_ns`` in whole nanoseconds, is a whole number
+    (>= 1) of base steps: in nanoseconds exactly, and in seconds to a relative 1e-9 (the nanoseconds
+    are rounded to 1e-6 of themselves: 0.0010000001 s is 1 ms in them, yet no multiple of 1 ms)."""
+    steps, rest = divmod(value_ns, dt_ns)
+    return steps >= 1 and rest == 0 and abs(value * NS_PER_S / dt_ns - steps) <= 1e-9 * steps
+
+
+def _nearest_multiples(value: float, value_ns: int, dt_ns: int) -> str:
+    """The two whole multiples of the base step around a time of ``value`` seconds, ``value_ns`` in
+    whole nanoseconds (those of them from one step to the largest time), for a problem:
+    ``0.001 s or 0.0015 s``."""
+    lower = value_ns // dt_ns * dt_ns
+    if lower == value_ns and value * NS_PER_S < value_ns:
+        lower -= dt_ns  # whole in nanoseconds, a little below them in seconds: between the one below and it
+    near = [m for m in (lower, lower + dt_ns) if dt_ns <= m <= MAX_TIME_NS]
+    return " or ".join(f"{_seconds_text(m)} s" for m in near)
+
 
 def _range_text(low_ns: int) -> str:
     return f"between {low_ns / NS_PER_S:g} s and {MAX_TIME_NS / NS_PER_S:.3g} s"
@@ -344,24 +443,26 @@ def seconds_value(value: Any, path: str, problems: list[str], *, zero: str | Non
     """A time [s] > 0 as whole nanoseconds, from one tick (1 ns) to the largest time a recording can
     hold; otherwise a problem naming the range. ``zero``: what a 0 means where it is allowed too
     (e.g. "no checkpoints"), said in the problem so that it states the whole rule."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        problems.append(f"{path}: must be a number of seconds (got {value!r})")
+    if not _plain_number(value):
+        base60 = isinstance(value, str) and re.fullmatch(r"[-+]?[0-9]+(?::[0-5]?[0-9])+(?:\.[0-9]*)?", value)
+        hint = "; YAML 1.2 reads a base-60 time as text: write it in seconds" if base60 else ""
+        problems.append(f"{path}: must be a number of seconds (got {show_value(value)}{hint})")
         return None
     if zero is not None and value == 0:
         return 0
     if value <= 0:
         rule = "> 0 s" if zero is None else f">= 0 s (0: {zero})"
-        problems.append(f"{path}: must be {rule} (got {value:g})")
+        problems.append(f"{path}: must be {rule} (got {number_text(value)})")
         return None
-    if not MIN_STEP_NS <= value * NS_PER_S <= MAX_TIME_NS:
+    if not MIN_STEP_NS <= value * NS_PER_S <= MAX_TIME_NS:  # (exact for an integer of any size)
         below = " (shorter than the clock's 1 ns tick)" if value * NS_PER_S < MIN_STEP_NS else ""
         rule = _range_text(MIN_STEP_NS) if zero is None else f"0 ({zero}) or {_range_text(MIN_STEP_NS)}"
-        problems.append(f"{path}: must be {rule}{below} (got {value:g})")
+        problems.append(f"{path}: must be {rule}{below} (got {number_text(value)})")
         return None
     try:
         return seconds_to_ns(float(value), what=path)
-    except ValueError as exc:
-        problems.append(str(exc))
+    except ValueError:  # said with the path in front, as every other problem
+        problems.append(f"{path}: must be a whole number of nanoseconds (got {value!r} s)")
         return None
 
 
@@ -411,14 +512,16 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
         if isinstance(step, bool) or not isinstance(step, (int, float)) or not step > 0:
             problems.append(f"{path}.step: must be a positive number of seconds (got {step!r})")
             return None
-        if seconds_value(step, f"{path}.step", problems) is None or dt_ns is None:
+        step_ns = seconds_value(step, f"{path}.step", problems)
+        if step_ns is None or dt_ns is None:
             return None
-        ratio = step * NS_PER_S / dt_ns
-        if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
-            problems.append(f"{path}.step: {step:g} s is not a whole multiple of dt = {dt_ns / NS_PER_S:g} s "
-                            f"(ratio {ratio:g}); rates must divide exactly")
+        if not _whole_multiple(step, step_ns, dt_ns):
+            # in full digits: 0.0010000001 s is no multiple of 0.001 s, which :g would print as both
+            problems.append(f"{path}.step: {step!r} s is not a whole multiple of dt = {_seconds_text(dt_ns)} s "
+                            f"(ratio {step * NS_PER_S / dt_ns:.12g}); rates must divide exactly: use "
+                            f"{_nearest_multiples(step, step_ns, dt_ns)}")
             return None
-        return round(ratio)
+        return step_ns // dt_ns
     every = spec.get("every", 1)
     if isinstance(every, bool) or not isinstance(every, int):
         problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}); "
@@ -428,7 +531,8 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
         problems.append(f"{path}.every: must be >= 1 (got {every})")
         return None
     if dt_ns is not None and every * dt_ns > MAX_TIME_NS:
-        problems.append(f"{path}.every: a step of {every} x dt is longer than {MAX_TIME_NS / NS_PER_S:.3g} s")
+        problems.append(f"{path}.every: a step of {show_value(every)} x dt is longer than "
+                        f"{MAX_TIME_NS / NS_PER_S:.3g} s")
         return None
     return every
 
@@ -483,8 +587,12 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
             ends.extend(match.groups())
         src, sport, dst, dport = ends
         delay = item.get("delay", 0)
-        if delay not in (0, 1) or isinstance(delay, bool):
-            problems.append(f"{path}.delay: must be 0 or 1 (got {delay!r})")
+        if isinstance(delay, bool) or not isinstance(delay, int):  # 1.0 is refused as every: 2.0 is
+            problems.append(f"{path}.delay: must be 0 or 1, a whole number of base steps (got "
+                            f"{show_value(delay)}); a non-integer delay is not rounded")
+            return None
+        if delay not in (0, 1):
+            problems.append(f"{path}.delay: must be 0 or 1 (got {show_value(delay)})")
             return None
         initial_data = item.get("initial")
     else:
@@ -518,6 +626,12 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
             problems.append(f"{path}.initial: a delayed edge needs an initial value (fields of "
                             f"{out_type.__name__}: {', '.join(s.name for s in codec_for(out_type).fields)})")
             return None
+        huge = _beyond_float_in(initial_data)
+        if huge is not None:  # (the codec's float() of it was an internal OverflowError)
+            where, value = huge
+            problems.append(f"{path}.initial{where}: must be a number within a float's range, at most "
+                            f"{FLOAT_LIMIT} in size (got {number_text(value)})")
+            return None
         try:
             initial = codec_for(out_type).from_dict(initial_data)
         except CodecError as exc:
@@ -530,6 +644,18 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
     elif initial_data is not None:
         problems.append(f"{path}.initial: only a delayed edge (delay: 1) takes an initial value")
     return Connection(src, sport, dst, dport, delay, initial)
+
+
+def _beyond_float_in(data: Any, where: str = "") -> tuple[str, int] | None:
+    """(".FIELD[i]", value) of the first integer beyond a float's range in a message's fields, else None."""
+    if _beyond_float(data):
+        return where, data
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for key, value in items:
+        found = _beyond_float_in(value, f"{where}[{key}]" if isinstance(data, list) else f"{where}.{key}")
+        if found is not None:
+            return found
+    return None
 
 
 def _written_target(item: Any) -> tuple[str, str] | None:
@@ -718,6 +844,18 @@ def _check_start(scene: Scene, built: dict[str, Component], problems: list[str])
         problems.extend(f"components.{name}: {problem}" for problem in found)
 
 
+def default_scene_name(source: str) -> str:
+    """The name of a scene without ``name:``: its file's name without the extension, made a safe
+    one (:data:`SCENE_NAME_RE`, it names the recording's file): each character outside letters,
+    digits, ``_``, ``-`` and ``.`` becomes ``_``, as does a first ``-`` or ``.`` and the second dot
+    of ``..``; cut to 100 characters. A name that is safe already is kept as it is."""
+    name = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(source).stem)[:100] or "scene"
+    name = re.sub(r"\.\.", "._", name)
+    if not re.match(r"[A-Za-z0-9_]", name):
+        name = "_" + name[1:]
+    return name
+
+
 def scene_folder(source: str) -> Path:
     """Where a scene's relative file names start: the folder of its file, or the working folder for
     a scene that is not a file (text, a recording's attachment)."""
@@ -739,13 +877,15 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     for key in data:
         if key not in TOP_KEYS:
             problems.append(f"{key}: unknown key (known: {', '.join(sorted(TOP_KEYS))})")
-    name = data.get("name", Path(source).stem)
+    name = data.get("name", default_scene_name(source))
     if not isinstance(name, str):
         problems.append(f"name: must be a string (got {name!r})")
     elif "name" in data and (not SCENE_NAME_RE.fullmatch(name) or ".." in name):
         problems.append(f"name: must be letters, digits, _, - and . (not first), at most 100 characters, "
                         f"no '..': it names the recording's file (got {name!r})")
     description = data.get("description", "")
+    if not isinstance(description, str):  # (null became the text 'None', a mapping its repr)
+        problems.append(f"description: must be text (got {show_value(description)})")
     dt_ns = _seconds(data, "dt", problems, required=True)
     until_ns = _seconds(data, "until", problems, required=True)
     if dt_ns is not None and until_ns is not None and until_ns < dt_ns:
@@ -794,8 +934,10 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         problems.append(f"record: must be a mapping (got {raw_record!r})")
     else:
         record_problems_before = len(problems)
-        built = build(RecordConfig, raw_record, "record", problems)
-        typed = built is not None and len(problems) == record_problems_before
+        # a time or rate beyond a float's range is refused by its own range below, not also as no float
+        huge = {k for k in ("checkpoint_every", "visual_rate") if _beyond_float(raw_record.get(k))}
+        built = build(RecordConfig, {k: v for k, v in raw_record.items() if k not in huge}, "record", problems)
+        typed = built is not None and len(problems) == record_problems_before and not huge
         if typed:
             record = built
         # the ranges, also of the values that are numbers when another record key is wrong (they were
@@ -806,10 +948,10 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         if values.every < 1:
             problems.append(f"record.every: must be >= 1 (got {values.every})")
         if values.visual_rate < 0:
-            problems.append(f"record.visual_rate: must be >= 0 frames/s (got {values.visual_rate:g})")
+            problems.append(f"record.visual_rate: must be >= 0 frames/s (got {number_text(values.visual_rate)})")
         elif values.visual_rate > NS_PER_S:
             problems.append(f"record.visual_rate: must be between 0 and {NS_PER_S:g} frames/s (a frame "
-                            f"per nanosecond; got {values.visual_rate:g})")
+                            f"per nanosecond; got {number_text(values.visual_rate)})")
         if typed and record.channels is not None and not any(str(c).strip() for c in record.channels):
             # as --record ',,' is refused: a run whose recording silently holds no exchange at all
             problems.append(f"record.channels: names no channel (got {record.channels!r}); give channel globs "
@@ -819,6 +961,13 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         if cp and dt_ns is not None and cp < dt_ns:
             problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
                             f"(got {values.checkpoint_every:g})")
+        elif (cp and dt_ns is not None and "checkpoint_every" in raw_record
+              and not _whole_multiple(values.checkpoint_every, cp, dt_ns)):
+            # checkpoints are taken at base steps: one given between them was rounded to the nearest
+            # (half to even) without a word; the default (about a second) still is, as any dt gives it
+            problems.append(f"record.checkpoint_every: {values.checkpoint_every!r} s is not a whole multiple of "
+                            f"dt = {_seconds_text(dt_ns)} s; checkpoints are taken at base steps: use "
+                            f"{_nearest_multiples(values.checkpoint_every, cp, dt_ns)}")
 
     order, cycle = execution_order(list(classes), edges)
     if cycle:
@@ -828,7 +977,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         _check_memory(components, problems)
     if problems or dt_ns is None or until_ns is None:
         raise ScenarioError(problems, source)
-    scene = Scene(name=name, description=str(description), dt_ns=dt_ns, until_ns=until_ns,
+    scene = Scene(name=name, description=description, dt_ns=dt_ns, until_ns=until_ns,
                   components=components, connections=edges, record=record, order=order, text=text,
                   data=data, source=source, overrides=overrides, base_dir=str(folder))
     built_components: dict[str, Component] = {}

@@ -53,6 +53,7 @@ import numpy as np
 import yaml
 
 from cosim.errors import ScenarioError
+from cosim.params import FLOAT_LIMIT, fits_float, number_text, show_value
 from cosim.scenario import find_parent, loads, read_input, read_yaml
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
@@ -148,6 +149,15 @@ class Expression:
         return self._eval(self.tree, env)
 
     def _eval(self, node: ast.AST, env: dict[str, Any]) -> Any:
+        value = self._value(node, env)
+        if isinstance(value, int) and not isinstance(value, bool) and not fits_float(value):
+            # no scene value can take it (attack**1000 reached the scene as an integer of 1001 digits),
+            # and refusing each such step keeps the integers, and the time they take, small
+            raise ValueError(f"{ast.unparse(node)} is {number_text(value)}, beyond a float's range (at most "
+                             f"{FLOAT_LIMIT} in size)")
+        return value
+
+    def _value(self, node: ast.AST, env: dict[str, Any]) -> Any:
         if isinstance(node, ast.Constant):
             return node.value
         if isinstance(node, ast.Name):
@@ -275,12 +285,23 @@ def _parse_yaml(text: str, source: str) -> dict[str, Any]:
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    """A finite number a float holds (an integer beyond a float's range is not: math.isfinite of it
+    overflowed, an internal error)."""
+    return (isinstance(value, (int, float)) and not isinstance(value, bool) and fits_float(value)
+            and math.isfinite(value))
+
+
+def _shown(value: Any) -> str:
+    """A value for a problem line: a list's items (and a lone value) as :func:`cosim.params.show_value`
+    writes them, so that an integer of hundreds of digits is shown as 1e+309."""
+    if isinstance(value, list):
+        return "[" + ", ".join(show_value(v) for v in value) + "]"
+    return show_value(value)
 
 
 def _numbers(spec: Any, count: int, path: str, problems: list[str]) -> list[float] | None:
     if not isinstance(spec, list) or len(spec) != count or not all(_is_number(v) for v in spec):
-        problems.append(f"{path}: expected a list of {count} finite numbers (got {spec!r})")
+        problems.append(f"{path}: expected a list of {count} finite numbers (got {_shown(spec)})")
         return None
     return spec
 
@@ -480,7 +501,7 @@ def _figure(spec: Any, problems: list[str]) -> dict[str, Any] | None:
         if key in spec and not isinstance(spec[key], str):
             problems.append(f"figure.{key}: must be a name (got {spec[key]!r})")
     if "threshold" in spec and not _is_number(spec["threshold"]):
-        problems.append(f"figure.threshold: must be a number (got {spec['threshold']!r})")
+        problems.append(f"figure.threshold: must be a number (got {_shown(spec['threshold'])})")
     ref = spec.get("reference")
     if ref is not None:
         points = ref.get("points") if isinstance(ref, dict) else None
@@ -584,7 +605,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         raw_set = {}
     if "until" in data:
         if not (_is_number(data["until"]) and data["until"] > 0):
-            problems.append(f"until: must be a number of seconds > 0 (got {data['until']!r})")
+            problems.append(f"until: must be a number of seconds > 0 (got {_shown(data['until'])})")
         elif "until" in raw_set:
             problems.append("until: given twice (here and in set)")
         else:
