@@ -27,7 +27,7 @@ try:
     from pathlib import Path
     from typing import Any
 
-    from cosim.errors import CosimError, RecordingError, ScenarioError, one_line, quiet_interrupts
+    from cosim.errors import CosimError, RecordingError, ScenarioError, ending_signals, one_line, quiet_interrupts
     from cosim.timebase import NS_PER_S
 except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the same one line as later
     sys.stderr.write("error: cosim: interrupted (Ctrl-C)\n")
@@ -580,10 +580,6 @@ def report(exc: BaseException, command: str) -> int:
     return EXIT_FAILED
 
 
-# besides Ctrl-C, the signals that end a command the same way: SIGTERM, and SIGHUP (its terminal closed)
-ENDING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
-
-
 class _CtrlC:
     """Remembers a Ctrl-C (or a SIGTERM or SIGHUP, the terminal closed, which end a command the same
     way: its files cleaned up, one line, exit code 1) while a command runs: whatever error follows it
@@ -610,13 +606,13 @@ class _CtrlC:
     def _handler(self, signum: int, frame: Any) -> None:
         self.seen = True
         self.signum = signum
-        if signum in ENDING_SIGNALS:  # the next one is not caught: it ends the process, whatever runs
+        if signum != signal.SIGINT:  # the next one is not caught: it ends the process, whatever runs
             signal.signal(signum, signal.SIG_DFL)
         raise self.interruption()
 
     def interruption(self) -> KeyboardInterrupt:
         """The KeyboardInterrupt that tells the signal seen (a SIGTERM's or SIGHUP's says so)."""
-        if self.signum in ENDING_SIGNALS:
+        if self.signum != signal.SIGINT:
             return KeyboardInterrupt(signal.Signals(self.signum).name)
         return KeyboardInterrupt()
 
@@ -631,11 +627,8 @@ class _CtrlC:
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
             return self
-        for signum in ENDING_SIGNALS:
-            old = signal.getsignal(signum)
-            if old in (signal.SIG_DFL, signal.default_int_handler) or callable(old):
-                self._old_term[signum] = old  # not one ignored, or set outside Python
-                signal.signal(signum, self._handler)
+        for signum in ending_signals():
+            self._old_term[signum] = signal.signal(signum, self._handler)
         self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         _CtrlC.active = self
         return self

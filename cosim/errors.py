@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import signal
 from typing import Any
 
 from cosim.timebase import format_time
@@ -64,3 +65,18 @@ def quiet_interrupts(hook: Any) -> Any:
         if not isinstance(unraisable.exc_value, KeyboardInterrupt):
             hook(unraisable)
     return quiet
+
+
+def ending_signals() -> tuple[int, ...]:
+    """Besides Ctrl-C, the signals that end a command or a run the way Ctrl-C does: SIGTERM, and
+    SIGHUP (its terminal closed), where the system has them and the process was not started
+    ignoring them (``nohup``) or with a handler set outside Python; those stay as they are."""
+    found = []
+    for name in ("SIGTERM", "SIGHUP"):
+        signum = getattr(signal, name, None)
+        if signum is None:
+            continue
+        old = signal.getsignal(signum)
+        if old in (signal.SIG_DFL, signal.default_int_handler) or callable(old):
+            found.append(signum)
+    return tuple(found)

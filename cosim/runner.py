@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import ScenarioError, SimulationError
+from cosim.errors import ScenarioError, SimulationError, ending_signals
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
 from cosim.record.recorder import Recorder, physics_topics
@@ -57,11 +57,8 @@ def _signals_interrupt(sim: Simulation, recorder: Any = None) -> Iterator[None]:
             raise KeyboardInterrupt
         sim.interrupt(f"interrupted by {signal.Signals(signum).name}")
 
-    hup = getattr(signal, "SIGHUP", None)
-    ending = (signal.SIGINT, signal.SIGTERM,
-              *((hup,) if hup is not None and signal.getsignal(hup) is not signal.SIG_IGN else ()))
     try:
-        old = {s: signal.signal(s, handler) for s in ending}
+        old = {s: signal.signal(s, handler) for s in (signal.SIGINT, *ending_signals())}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return

@@ -225,6 +225,7 @@ _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _c
 # 12:30:00 are text (1.1: base-60 numbers, 90 and 45000), as are 1_000, 0b101 and -0x10
 _INT_TAG, _FLOAT_TAG = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
 _INT_1_2 = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
+_LEADING_ZERO = re.compile(r"[-+]?0[0-9]+")  # 017: octal to YAML 1.1, decimal to YAML 1.2
 _FLOAT_1_2 = re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
                         r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$")
 _StrictLoader.yaml_implicit_resolvers = {
@@ -242,6 +243,14 @@ def _construct_int(loader: _StrictLoader, node: yaml.Node) -> int:
                                                 "digits, 0o octal or 0x hexadecimal)", node.start_mark)
     if text[:2] in ("0o", "0x"):
         return int(text[2:], 8 if text[1] == "o" else 16)
+    if _LEADING_ZERO.fullmatch(text):
+        # YAML 1.1 (PyYAML, and scenes written before) reads 017 as octal 15, YAML 1.2 as 17: which one
+        # was meant cannot be told, so neither is taken
+        digits = text.lstrip("+-")
+        octal = f"{int(digits, 8)}" if set(digits) <= set("01234567") else "no number"
+        raise yaml.constructor.ConstructorError(
+            None, None, f"{text!r}: an integer with a leading zero is {int(text)} in YAML 1.2 and {octal} in "
+            f"YAML 1.1 (octal); write {int(text)}, or 0o{digits.lstrip('0') or '0'} for octal", node.start_mark)
     try:
         return int(text)
     except ValueError:  # more digits than Python reads (sys.get_int_max_str_digits)
@@ -524,8 +533,8 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
         return step_ns // dt_ns
     every = spec.get("every", 1)
     if isinstance(every, bool) or not isinstance(every, int):
-        problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}); "
-                        "a non-integer rate ratio is not rounded")
+        rounded = "; a non-integer rate ratio is not rounded" if isinstance(every, float) else ""
+        problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}){rounded}")
         return None
     if every < 1:
         problems.append(f"{path}.every: must be >= 1 (got {every})")
@@ -588,8 +597,9 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
         src, sport, dst, dport = ends
         delay = item.get("delay", 0)
         if isinstance(delay, bool) or not isinstance(delay, int):  # 1.0 is refused as every: 2.0 is
+            rounded = "; a non-integer delay is not rounded" if isinstance(delay, float) else ""
             problems.append(f"{path}.delay: must be 0 or 1, a whole number of base steps (got "
-                            f"{show_value(delay)}); a non-integer delay is not rounded")
+                            f"{show_value(delay)}){rounded}")
             return None
         if delay not in (0, 1):
             problems.append(f"{path}.delay: must be 0 or 1 (got {show_value(delay)})")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import re
+import struct
 from pathlib import Path
 
 import pytest
@@ -25,6 +26,7 @@ from mcap.writer import Writer
 from PIL import Image
 
 from cosim.cli import main
+from cosim.record.output import MCAP_MAGIC
 from cosim.record.reader import Recording
 from cosim.record.repair import repair
 from cosim.runner import run_scene
@@ -314,3 +316,31 @@ def test_a_run_from_the_start_reads_its_restart_time_as_zero(small, tmp_path):
     assert Recording(_rewritten(small, tmp_path / "zero.mcap", lambda m: {**m, "start_ns": "000"})).restart_ns == 0
     assert Recording(_rewritten(small, tmp_path / "half.mcap", lambda m: {**m, "start_ns": "5000000"})).restart_ns \
         == 5_000_000
+
+
+def _nested_candidates(path: Path, size: int) -> Path:
+    """A crafted file: a header, a chunk whose length runs past the end, then a chunk record every 49
+    bytes, each framed by its own lengths to the file's end and failing its CRC (the resync's worst case)."""
+    out = bytearray(MCAP_MAGIC)
+    body = struct.pack("<I", 0) + struct.pack("<I", 0)  # profile "", library ""
+    out += struct.pack("<BQ", 0x01, len(body)) + body
+    out += struct.pack("<BQ", 0x06, 1 << 40)
+    while len(out) + 49 <= size:
+        rest = size - (len(out) + 49)
+        out += struct.pack("<BQ", 0x06, size - len(out) - 9) + struct.pack("<QQQII", 0, 0, rest, 1, 0)
+        out += struct.pack("<Q", rest)
+    path.write_bytes(bytes(out + b"\0" * (size - len(out))))
+    return path
+
+
+def test_resynchronising_past_damage_reads_a_bounded_share_of_the_file(tmp_path, monkeypatch):
+    """Nested candidate chunks, each running to the file's end, were each read back whole: quadratic
+    in the file's size (54 s for 4 MB, hours for a recording's 40 MB, in inspect and repair)."""
+    from cosim.record import seal
+
+    read = []
+    real = seal._read_chunk
+    monkeypatch.setattr(seal, "_read_chunk", lambda chunk: (read.append(len(chunk)), real(chunk))[1])
+    size = 256 * 1024
+    seal.find_damage(_nested_candidates(tmp_path / "crafted.mcap", size))
+    assert sum(read) <= seal.RESYNC_BUDGET * size  # (before: 2600 candidates, 340 times the file)

@@ -230,3 +230,6 @@ def test_the_sdks_words_for_a_refused_write_are_the_systems_reason():
     other = ("error logging message: McapError(Io(Custom { kind: Other, error: PyErr { type: <class 'ValueError'>, "
              "value: ValueError('odd'), traceback: Some(\"Traceback (most recent call last):\\n\") } }))")
     assert "Traceback" not in _reason(other) and _reason(other).startswith("error logging message: McapError(")
+    # a number first in another error's arguments is no errno: ValueError(3, ...) is not "No such process"
+    numbered = other.replace("ValueError('odd')", "ValueError(3, 'odd')")
+    assert _reason(numbered).startswith("error logging message: McapError(")

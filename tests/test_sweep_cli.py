@@ -186,9 +186,11 @@ def test_ctrl_c_keeps_finished_rows_and_exits_1(tmp_path):
     assert 2 <= rows < 12
 
 
-@pytest.mark.parametrize("how", ["ctrl_c", "sigterm"])
+@pytest.mark.parametrize("how", ["ctrl_c", "sigterm", "hangup"])
 def test_a_stopped_sweep_starts_no_queued_run_and_resumes_the_rest(tmp_path, how):
-    """Stopped (Ctrl-C to the process group, or SIGTERM to the sweep alone), a sweep starts none of
+    """Stopped (Ctrl-C to the process group, SIGTERM to the sweep alone, or SIGHUP to the process
+    group as a closing terminal sends it: its workers died of it, and the sweep waited for good on
+    the stop it had given them), a sweep starts none of
     the runs queued behind those in flight: it ran them, or one until SIGKILL, its rows discarded. The
     run in flight ends `interrupted` with its recording closed; resuming runs exactly the points with
     no row."""
@@ -208,8 +210,8 @@ def test_a_stopped_sweep_starts_no_queued_run_and_resumes_the_rest(tmp_path, how
         if out.exists() and len(out.read_text().splitlines()) >= 2 and list(runs.glob("*.part")):
             break
         time.sleep(0.02)
-    if how == "ctrl_c":
-        os.killpg(proc.pid, signal.SIGINT)
+    if how in ("ctrl_c", "hangup"):
+        os.killpg(proc.pid, signal.SIGINT if how == "ctrl_c" else signal.SIGHUP)
     else:
         proc.send_signal(signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=60)

@@ -36,6 +36,7 @@ from cosim.component import Component  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load, loads  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
+from tools.options import check_output, description, positive_int  # noqa: E402
 
 SKIP = ROOT / "scenarios" / "held_skip.yaml"
 CELL = 0.01  # [m] as tools/bench_water.py
@@ -206,12 +207,14 @@ def skip_share() -> tuple[float, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=15, help="alternating batches per grid")
-    parser.add_argument("--batch", type=int, default=100, help="ticks per batch")
-    parser.add_argument("--repeats", type=int, default=5, help="runs of the held skip")
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--rounds", type=positive_int, default=15,
+                        help="alternating batches per grid (default %(default)s)")
+    parser.add_argument("--batch", type=positive_int, default=100, help="ticks per batch (default %(default)s)")
+    parser.add_argument("--repeats", type=positive_int, default=5, help="runs of the held skip (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the coupler section of this file")
     args = parser.parse_args()
+    check_output(parser, args.write, "--write", text=True)
     Simulation(load(SKIP, overrides=["until=0.05"])).run()  # kernels loaded from numba's cache
     load_before = os.getloadavg()[0]
     rows = []

@@ -5,7 +5,7 @@ that is the compiled call, and (``--against REV``) how it compares with another 
     python tools/bench_coupler_alone.py --against HEAD~3     # this checkout against another revision
 
 The held skip (``scenarios/held_skip.yaml``, recording off) is run once and every input its coupler
-receives is kept (4,300 steps: the flight, four contacts, the glide). A fresh coupler then takes
+receives is kept (about 4,500 steps: the flight, four contacts, the glide). A fresh coupler then takes
 those inputs in turn, ``--passes`` times; each pass is timed, and one more with the compiled call
 timed on its own (its share of the step; the rest is the Python around it and the framework's
 checks of the outputs). Only the coupler runs, so the water, the body and the scheduler neither
@@ -33,6 +33,11 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # for tools.options; appended, so a root _import_from puts first wins for the rest
+    sys.path.append(str(ROOT))
+
+from tools.options import description  # noqa: E402
+
 SCENE = "scenarios/held_skip.yaml"
 OVERRIDES = ["record.visual_rate=0"]  # the coupler's inputs do not depend on the viewer
 COMPILED = ("met_ring_step", "ring_step")  # the usual step's compiled call, newest name first
@@ -129,7 +134,7 @@ def _worker(root: Path, steps_file: Path, passes: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--passes", type=int, default=5, help="timed passes over the inputs (default 5)")
     parser.add_argument("--against", metavar="REV", help="compare with this git revision's coupler")
     parser.add_argument("--pairs", type=int, default=8, help="with --against: pairs of processes (default 8)")

@@ -27,6 +27,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.record.recorder import Recorder  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
+from tools.options import check_output, description, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 PEER_TARGET = 25.0  # cosim's overhead per component-step at least this many times below mosaik's
@@ -64,11 +65,14 @@ def mosaik_loop(ticks: int) -> float:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--ticks", type=int, default=20000)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--ticks", type=positive_int, default=20000,
+                        help="ticks of the ping-pong scene (default %(default)s)")
+    parser.add_argument("--repeats", type=positive_int, default=5,
+                        help="runs of each kind, the best kept (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the framework section of this file")
     args = parser.parse_args(argv)
+    check_output(parser, args.write, "--write", text=True)
     steps = 2 * args.ticks
     runs = {"plain": lambda: plain_loop(args.ticks), "off": lambda: framework(args.ticks, False),
             "on": lambda: framework(args.ticks, True), "mosaik": lambda: mosaik_loop(args.ticks)}

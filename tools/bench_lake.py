@@ -29,6 +29,7 @@ sys.path.insert(0, str(ROOT))
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
+from tools.options import check_output, description, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "held_skip.yaml"
 POND: list[str] = []  # the scene as it is: 800 x 100 cells
@@ -186,11 +187,13 @@ def report(rounds: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rounds", type=int, default=7, help="rounds of pond and lake in turn")
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--rounds", type=positive_int, default=7,
+                        help="rounds of pond and lake in turn (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="put the table into this file's lake section")
     parser.add_argument("--memory-child", metavar="OVERRIDES", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    check_output(parser, args.write, "--write", text=True)
     if args.memory_child is not None:
         memory_child(json.loads(args.memory_child))
         return 0

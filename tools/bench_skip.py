@@ -43,6 +43,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.record import writer as writer_module  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
+from tools.options import check_output, description, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
 
@@ -108,16 +109,19 @@ BUSY_LOOP = "while True: pass"  # the other job: one core's worth of pure CPU
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=7)
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--repeats", type=positive_int, default=7, help="runs of each kind (default %(default)s)")
     parser.add_argument("--busy", action="store_true", help="keep one core busy with another job meanwhile")
     parser.add_argument("--fresh", action="store_true", help="each run a one-off `cosim run` in a fresh process")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the reference-skip section of this file")
     parser.add_argument("--scene", type=Path, default=SCENE,
                         help="the scene to run (default: the reference skip; another one's figures are not written)")
     args = parser.parse_args()
+    if not args.scene.is_file():
+        parser.error(f"--scene {args.scene}: no such file")
     if args.write and args.scene.resolve() != SCENE:
         parser.error(f"--write updates the reference skip's sections; {args.scene} is another scene")
+    check_output(parser, args.write, "--write", text=True)
     busy = subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) if args.busy else None
     try:
         report(args)
@@ -133,23 +137,30 @@ def _cosim() -> list[str]:
     return [str(script)] if script.exists() else [sys.executable, "-m", "cosim.cli"]
 
 
+def _checkout_env() -> dict[str, str]:
+    """The environment of a ``cosim`` subprocess that imports this checkout's packages (not whatever
+    cosim is installed): its root first on PYTHONPATH."""
+    return {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
 def fresh_run(overrides: list[str], record: bool, scene_file: Path) -> tuple[float, float, float]:
     """(wall s, CPU s of the process and its writer, 0.0) of a one-off ``cosim run`` of the scene in a
-    fresh process."""
+    fresh process (this checkout's cosim, see ``_checkout_env``)."""
     sets = [arg for o in overrides for arg in ("--set", o)]
     with tempfile.TemporaryDirectory() as tmp:
         output = ["-o", str(Path(tmp) / "skip.mcap")] if record else ["--no-record"]
         children, start = _children_cpu(), time.perf_counter()
-        subprocess.run([*_cosim(), "run", str(scene_file), "-q", *sets, *output], check=True, cwd=tmp,
-                       stdout=subprocess.DEVNULL)
+        subprocess.run([*_cosim(), "run", str(scene_file.resolve()), "-q", *sets, *output], check=True, cwd=tmp,
+                       stdout=subprocess.DEVNULL, env=_checkout_env())
         wall = time.perf_counter() - start
     return wall, _children_cpu() - children, 0.0
 
 
 def report(args: argparse.Namespace) -> None:
-    for overrides, record in RUNS.values():  # compile / load kernels, import the writer's modules
-        run_scene(load(args.scene, overrides=["until=0.05", *overrides]),
-                  Path(tempfile.mkdtemp()) / "warm.mcap" if record else None, progress=False)
+    with tempfile.TemporaryDirectory() as warm:
+        for overrides, record in RUNS.values():  # compile / load kernels, import the writer's modules
+            run_scene(load(args.scene, overrides=["until=0.05", *overrides]),
+                      Path(warm) / "warm.mcap" if record else None, progress=False)
     sim_s = timed_run([], False, args.scene)[0] if args.fresh else 0.0
     load_before = os.getloadavg()[0]
     samples: dict[str, list[tuple[float, float, float]]] = {name: [] for name in RUNS}

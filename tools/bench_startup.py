@@ -30,6 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from cosim.docsection import replace_section  # noqa: E402
+from tools.options import check_output, description, positive_int  # noqa: E402
 
 TARGET = 2.0  # a 1 ms run at most this many times `import numba` (DESIGN.md section 5)
 SCENE = "scenarios/skip.yaml"
@@ -59,17 +60,21 @@ def byte_compile() -> None:
 def wall(cmd: list[str]) -> float:
     """Seconds from starting ``cmd`` to its exit (it must succeed)."""
     t0 = time.perf_counter()
-    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    # this checkout's packages first (not whatever cosim is installed); the command itself is unchanged
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL, env=env)
     return time.perf_counter() - t0
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rounds", type=int, default=11)
+    ap = argparse.ArgumentParser(description=description(__doc__))
+    ap.add_argument("--rounds", type=positive_int, default=11,
+                    help="rounds of the commands in turn (default %(default)s)")
     ap.add_argument("--write", metavar="MARKDOWN", help="update the start-up section of this file")
     ap.add_argument("--no-byte-compile", action="store_true",
                     help="leave the project's modules as they are (without bytecode, compiled at every start)")
     args = ap.parse_args(argv)
+    check_output(ap, args.write, "--write", text=True)
     if not args.no_byte_compile:
         byte_compile()
     with tempfile.TemporaryDirectory() as tmp:

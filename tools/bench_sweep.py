@@ -31,6 +31,7 @@ from cosim.scenario import load  # noqa: E402
 from cosim.sweep.backends import DaskBackend, ProcessBackend  # noqa: E402
 from cosim.sweep.plan import loads_sweep  # noqa: E402
 from cosim.sweep.run import run_sweep  # noqa: E402
+from tools.options import check_output, description, positive_float, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 
@@ -82,13 +83,17 @@ def in_process(until: float, repeats: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=16, help="runs in the throughput sweep")
-    parser.add_argument("--until", type=float, default=60.0, help="simulated seconds per run (ping-pong)")
-    parser.add_argument("--tiny-runs", type=int, default=200, help="one-tick runs in the overhead sweep")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--runs", type=positive_int, default=16,
+                        help="runs in the throughput sweep (default %(default)s)")
+    parser.add_argument("--until", type=positive_float, default=60.0,
+                        help="simulated seconds per run (ping-pong) (default %(default)s)")
+    parser.add_argument("--tiny-runs", type=positive_int, default=200,
+                        help="one-tick runs in the overhead sweep (default %(default)s)")
+    parser.add_argument("--repeats", type=positive_int, default=5, help="repeats of each sweep (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the sweeps section of this file")
     args = parser.parse_args()
+    check_output(parser, args.write, "--write", text=True)
     tiny = 0.001  # one tick of ping-pong: the run itself costs next to nothing
     run_s = in_process(args.until, 3)
     tiny_ms = in_process(tiny, 20) * 1e3

@@ -27,8 +27,14 @@ from pathlib import Path
 
 import numpy as np
 
-from components.water import WaterParams, WaterSurface
-from components.water.kernels_numba import PARALLEL_MIN_CELLS
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from components.water import WaterParams, WaterSurface  # noqa: E402
+from components.water.boundaries import BOUNDARIES  # noqa: E402
+from components.water.kernels_numba import PARALLEL_MIN_CELLS  # noqa: E402
+from components.water.models import MODELS  # noqa: E402
+from tools.options import check_output, description, positive_float, positive_int  # noqa: E402
 
 COPY_TARGET = 0.50  # the step at least this share of the copy's throughput (DESIGN.md section 5)
 
@@ -178,16 +184,22 @@ def write_section(path: Path, text: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512], help="grid sizes n (n x n)")
-    ap.add_argument("--models", nargs="+", default=["wave", "shallow_water"])
-    ap.add_argument("--boundaries", nargs="+", default=["reflecting", "absorbing"])
+    ap = argparse.ArgumentParser(description=description(__doc__))
+    ap.add_argument("--sizes", type=positive_int, nargs="+", default=[256, 512],
+                    help="grid sizes n (n x n) (default %(default)s)")
+    ap.add_argument("--models", nargs="+", default=["wave", "shallow_water"], choices=sorted(MODELS),
+                    help="water models (default %(default)s)")
+    ap.add_argument("--boundaries", nargs="+", default=["reflecting", "absorbing"], choices=sorted(BOUNDARIES),
+                    help="boundaries (default %(default)s)")
     ap.add_argument("--parallel", action="store_true", help="also time the multi-threaded compiled kernels")
     ap.add_argument("--numpy", action="store_true", help="also time the numpy reference kernels")
-    ap.add_argument("--rounds", type=int, default=41, help="interleaved rounds (median ratio, best times)")
-    ap.add_argument("--min-time", type=float, default=0.01, help="seconds per timed batch")
+    ap.add_argument("--rounds", type=positive_int, default=41,
+                    help="interleaved rounds (median ratio, best times) (default %(default)s)")
+    ap.add_argument("--min-time", type=positive_float, default=0.01,
+                    help="seconds per timed batch (default %(default)s)")
     ap.add_argument("--markdown", type=Path, help="write the results section into this markdown file")
     args = ap.parse_args(argv)
+    check_output(ap, args.markdown, "--markdown", text=True)
     backends = ["numba"] + ["numba-parallel"] * args.parallel + ["numpy"] * args.numpy
     load_start = os.getloadavg()[0]
     rows = []

@@ -33,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 from components.messages import OccupiedHeight  # noqa: E402
 from components.water import WaterParams, WaterSurface  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
+from tools.options import check_output, description, positive_float, positive_int  # noqa: E402
 
 NS = 1_000_000_000
 BODY_CELLS = 11  # side of the occupied window a body sends [cells] (a 5 cm stone over 1 cm columns)
@@ -135,12 +136,15 @@ HEADER = ["| grid | path | step [us] (median) | / uniform step (median) | copy /
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512])
-    ap.add_argument("--rounds", type=int, default=31)
-    ap.add_argument("--min-time", type=float, default=0.01, help="seconds per timed batch")
+    ap = argparse.ArgumentParser(description=description(__doc__))
+    ap.add_argument("--sizes", type=positive_int, nargs="+", default=[256, 512],
+                    help="grid sizes n (n x n) (default %(default)s)")
+    ap.add_argument("--rounds", type=positive_int, default=31, help="interleaved rounds (default %(default)s)")
+    ap.add_argument("--min-time", type=positive_float, default=0.01,
+                    help="seconds per timed batch (default %(default)s)")
     ap.add_argument("--write", metavar="MARKDOWN", help="update the water-paths section of this file")
     args = ap.parse_args(argv)
+    check_output(ap, args.write, "--write", text=True)
     load = [os.getloadavg()[0]]
     rows = []
     worst = 0.0

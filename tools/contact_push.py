@@ -1,6 +1,6 @@
 """How hard the water pushes in each contact, as an instantaneous peak and as a sensor averaging it.
 
-    python tools/contact_push.py            # the table of docs/validation.md section 2c (about 1 min)
+    python tools/contact_push.py            # the table of docs/validation.md section 2c (about 10 s)
 
 Tang et al. (2021) give a bounce condition on the vertical acceleration a disk's on-board inertial
 module measured, whose sampling and filtering are not in what was read here. The stage monitor's
@@ -15,6 +15,7 @@ bounced off or one it surfed on until it sank.
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from pathlib import Path
@@ -28,6 +29,7 @@ from components.analysis import experiments as ex  # noqa: E402
 from components.stages import _vertical_water_force  # noqa: E402
 from cosim.scenario import Scene, load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
+from tools.options import description  # noqa: E402
 from tools.validate_targets import PEAK_THROWS, STEEP_PEAK_THROWS  # noqa: E402
 
 WINDOWS = (0.005, 0.010, 0.020)  # [s] the sensor-like averaging windows
@@ -95,7 +97,9 @@ def _scene(key: tuple) -> tuple[str, Scene]:
             ex.throw_scene(*key, cell=0.01, until=3.0, length=8.0))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.parse_args(argv)  # no options: --help, and a refusal of anything else
     print("| throw | contact | peak [g] | " + " | ".join(f"{w * 1e3:g} ms mean [g]" for w in WINDOWS) + " |")
     print("|---|---|---:|" + "---:|" * len(WINDOWS))
     for key in (*PEAK_THROWS, *STEEP_PEAK_THROWS):

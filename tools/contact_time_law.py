@@ -23,6 +23,7 @@ if str(ROOT) not in sys.path:
 
 from components.analysis import experiments as ex  # noqa: E402
 from components.coupler.forces import C_LIFT  # noqa: E402
+from tools.options import angle_deg, description, positive_float  # noqa: E402
 
 RHO = 1000.0  # [kg/m^3] water
 GRAVITY = ex.GRAVITY  # [m/s^2]
@@ -64,9 +65,10 @@ def law_contact(speed: float, alpha_deg: float, beta_deg: float, *, radius: floa
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--speed", type=float, default=3.5, help="[m/s] (default 3.5)")
-    parser.add_argument("--beta", type=float, default=20.0, help="impact angle [deg] (default 20)")
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--speed", type=positive_float, default=3.5, help="[m/s] (default %(default)s)")
+    parser.add_argument("--beta", type=angle_deg(0.0, 90.0), default=20.0,
+                        help="impact angle, between 0 and 90 [deg] (default %(default)s)")
     args = parser.parse_args(argv)
     print(f"| alpha [deg] | the law alone [ms] | the co-simulation [ms] |  (U = {args.speed:g} m/s, "
           f"beta = {args.beta:g} deg)")

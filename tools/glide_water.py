@@ -1,6 +1,6 @@
 """The water around the reference stone's glide, on one-speed and on dispersive water (docs/accuracy.md).
 
-    python tools/glide_water.py --figure docs/figures/glide_water.png     # ~2 min on 2 cores
+    python tools/glide_water.py --figure docs/figures/glide_water.png     # under a minute on 2 cores
 
 The reference skip (scenarios/skip.yaml, recording off) run whole: as the scene is, its water's
 one wave speed that of the ripples the stone makes (`wave_length`: a wave as long as the stone is
@@ -32,6 +32,7 @@ from components.water import WaterSurface  # noqa: E402
 from components.water.grid import GRAVITY  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
+from tools.options import check_output, description  # noqa: E402
 
 FINE = ("components.pond.cell=0.005", "components.pond.nx=2800", "components.pond.ny=700",
         "components.pond.every=2")
@@ -134,9 +135,10 @@ def figure(path: Path, traces: list[Trace], long_speed: float, ripple_speed: flo
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--figure", type=Path, help="draw the runs into this PNG")
     args = parser.parse_args(argv)
+    check_output(parser, args.figure, "--figure")
     traces = []
     print("| water | skips | end | largest surface speed after the skips [m/s] | the stone's speed then [m/s] |")
     print("|---|---:|---|---:|---:|")

@@ -14,10 +14,18 @@ as in cosim.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import mosaik
 import mosaik_api_v3
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from tools.options import description, positive_int  # noqa: E402
 
 
 def _meta(model: str) -> dict:
@@ -95,8 +103,8 @@ def run(ticks: int) -> tuple[float, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--ticks", type=int, default=20000)
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--ticks", type=positive_int, default=20000, help="ticks of the scene (default %(default)s)")
     args = parser.parse_args()
     seconds, last = run(args.ticks)
     print(f"mosaik {getattr(mosaik, '__version__', '')}: {args.ticks} ticks in {seconds:.3f} s, "

@@ -1,7 +1,7 @@
 """How much vertical speed a held disk's planing contacts give back, in a point model of the planing
 law, with and without a lag of the water piled up ahead of the face (docs/validation.md, section 2).
 
-    python tools/planing_lag.py          # ~1 min
+    python tools/planing_lag.py          # about 10 s
     python tools/planing_lag.py --exit   # and the lag on the way out only
     python tools/planing_lag.py --held-angle   # and the impact angle held through each contact
 
@@ -36,6 +36,7 @@ that bounces falls to about 1 m/s, at about 10 deg (docs/validation.md, section 
 
 from __future__ import annotations
 
+import argparse
 import itertools
 import math
 import sys
@@ -55,6 +56,7 @@ from components.coupler.forces import (  # noqa: E402
     pressure_magnitude,
     segment_area,
 )
+from tools.options import description  # noqa: E402
 
 WAGNER_RISE = math.pi / 2.0 - 1.0  # the 2-D pile-up ahead of a flat face over its geometric depth [-]
 DT = 2e-5  # [s] the point model's step (semi-implicit Euler)
@@ -168,13 +170,17 @@ def u_min(attack_deg: float, rise: float, exit_only: bool = False, held_angle: b
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--exit", action="store_true", help="also the variant with the rise lagged on the way out only")
+    parser.add_argument("--held-angle", action="store_true",
+                        help="also the variant with the impact angle held through each contact")
+    args = parser.parse_args(argv)
     variants = [("the coupler's law", 0.0, False, False),
                 (f"with the lagged rise, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE, False, False)]
-    if "--exit" in args:
+    if args.exit:
         variants.append((f"with the rise lagged on the way out only, kappa = {WAGNER_RISE:.2f}", WAGNER_RISE,
                          True, False))
-    if "--held-angle" in args:
+    if args.held_angle:
         variants.append(("with the impact angle held through each contact", 0.0, False, True))
     for label, rise, exit_only, held_angle in variants:
         options = dict(exit_only=exit_only, held_angle=held_angle)

@@ -38,6 +38,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
 from tools.bench_coupler import StepTimer  # noqa: E402
+from tools.options import check_output, description, positive_int  # noqa: E402
 
 # (the doc section, its title, the scene)
 SCENES = (
@@ -119,10 +120,11 @@ def report(scene: Path, runs: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=5)
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--runs", type=positive_int, default=5, help="runs of each measure (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the two profile sections of this file")
     args = parser.parse_args(argv)
+    check_output(parser, args.write, "--write", text=True)
     for section, title, scene in SCENES:
         text = f"## {title}\n\n" + report(scene, args.runs)
         print(text + "\n")

@@ -24,6 +24,7 @@ if str(ROOT) not in sys.path:
 
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
+from tools.options import check_output, description  # noqa: E402
 from tools.validate_scenes import Watch  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
@@ -96,9 +97,10 @@ def figure(path: Path, runs: list[Path3]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--figure", type=Path, help="draw the three paths into this PNG")
     args = parser.parse_args(argv)
+    check_output(parser, args.figure, "--figure")
     runs = [throw(overrides) for _, overrides in THROWS]
     print(table(runs))
     if args.figure is not None:

@@ -1,9 +1,9 @@
 """How far each contact turns the spin axis of the thin slate thrown free, at a range of spins
 (docs/validation.md, section 2).
 
-    python tools/spin_precession.py                                  # the table on stdout (~1 min)
+    python tools/spin_precession.py                                  # the table on stdout (about 5 s)
     python tools/spin_precession.py --markdown docs/validation.md    # also rewrite its section
-    python tools/spin_precession.py --throws                         # skips of 120 free throws (~3 min)
+    python tools/spin_precession.py --throws                         # skips of 120 free throws (under a minute)
     python tools/spin_precession.py --lake                           # the lake's throw free (~1 min)
 
 The held skip's throw (scenarios/held_skip.yaml: the 6 mm slate at 20 deg) with its attitude free
@@ -35,6 +35,7 @@ from components.rigid.quaternion import body_axis  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
+from tools.options import check_output, description  # noqa: E402
 
 SPINS = [10.0, 14.0, 20.0, 30.0, 45.0, 65.0]  # [rev/s]
 CONTACTS_SHOWN = 3
@@ -307,13 +308,15 @@ def survey(workers: int = 2) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=description(__doc__))
     ap.add_argument("--markdown", type=Path, help="rewrite the spin-precession section of this page")
     ap.add_argument("--throws", action="store_true", help="count the skips of the survey's free throws instead")
     ap.add_argument("--figure", type=Path, help="draw the axis through the first contact into this PNG")
     ap.add_argument("--lake", action="store_true",
                     help="the same for the lake's throw, with every effect and with the pressure alone")
     args = ap.parse_args(argv)
+    check_output(ap, args.markdown, "--markdown", text=True)
+    check_output(ap, args.figure, "--figure")
     if args.lake:
         print(lake_table())
         return 0

@@ -21,6 +21,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from components.analysis import experiments as ex  # noqa: E402
+from tools.options import check_output, description  # noqa: E402
 
 SPEED = 3.5  # [m/s]
 IMPACT = 20.0  # [deg]
@@ -64,9 +65,10 @@ def figure(path: Path, runs: list[ex.AttackHistory]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--figure", type=Path, help="draw the three regimes into this PNG")
     args = parser.parse_args(argv)
+    check_output(parser, args.figure, "--figure")
     runs = histories()
     print("| regime | published | attack min / end [deg] | outcome |")
     print("|---|---|---:|---|")

@@ -31,6 +31,7 @@ from components.analysis import experiments  # noqa: E402
 from components.coupler import WaterCoupler, WaterCouplerParams  # noqa: E402
 from components.coupler.fixtures import body, pitched, still_water  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
+from tools.options import check_output, description  # noqa: E402
 
 RADIUS = 0.025  # [m] Clanet et al.'s aluminium disk
 THICKNESS = 0.00275  # [m]
@@ -179,11 +180,13 @@ def table(series: list[tuple[str, list[float], tuple[np.ndarray, list[list[float
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--quick", action="store_true", help="fewer angles and a coarser search")
     parser.add_argument("--figure", type=Path, help="also draw the curve in this PNG")
     parser.add_argument("--markdown", type=Path, help="rewrite the magic-angle table in this markdown file")
     args = parser.parse_args(argv)
+    check_output(parser, args.figure, "--figure")
+    check_output(parser, args.markdown, "--markdown", text=True)
     alphas = QUICK_ALPHAS if args.quick else ALPHAS
     step = 0.2 if args.quick else 0.1
     tol = 0.05 if args.quick else 0.01

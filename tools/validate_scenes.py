@@ -1,7 +1,7 @@
 """Validation figures from the water scenes: Archimedes, a tilted float flattening, Bocquet's
 friction-like drag on the reference skip.
 
-    python tools/validate_scenes.py                          # markdown on stdout
+    python tools/validate_scenes.py                          # markdown on stdout (about 5 s)
     python tools/validate_scenes.py --markdown docs/validation.md   # also (re)write that section
 
 * float_sphere: the pine ball's submerged volume fraction once settled (its relative density is
@@ -30,6 +30,7 @@ from components.coupler.forces import C_FRICTION, C_LIFT  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
+from tools.options import check_output, description  # noqa: E402
 
 SCENES = ROOT / "scenarios"
 
@@ -152,9 +153,10 @@ def bocquet() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--markdown", type=Path, help="rewrite the generated sections of this markdown file")
     args = parser.parse_args(argv)
+    check_output(parser, args.markdown, "--markdown", text=True)
     sections = {"archimedes": archimedes(), "flattening": flattening(), "bocquet": bocquet()}
     for name, text in sections.items():
         print(f"<!-- {name} -->\n{text}\n")

@@ -28,6 +28,7 @@ if str(ROOT) not in sys.path:
 
 from components.analysis import experiments as ex  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
+from tools.options import check_output, description, figure_beside, positive_int  # noqa: E402
 from tools.validate_scenes import skip_impulses  # noqa: E402
 
 ALPHAS = [5.0, 10.0, 15.0, 17.5, 20.0, 22.5, 25.0, 30.0, 35.0, 40.0, 45.0]  # [deg]
@@ -37,6 +38,7 @@ U_MIN_BAND = (2.4, 2.8)  # [m/s] accepted model values around the published 2.5-
 MAGIC_BAND = (17.5, 22.5)  # [deg] accepted place of the model's minimum around the published 20
 TAU_ALPHAS = [7.0, 10.0, 12.5, 15.0, 20.0, 25.0, 30.0, 40.0]  # [deg] contact time against attack angle, 3.5 m/s
 TAU_MINIMUM_BAND = (15.0, 25.0)  # [deg] accepted place of the shortest contact around the published 20
+FIGURE = "magic_angle.png"  # written to figures/ beside the --markdown page (docs/figures/ for docs/validation.md)
 CLEARANCES = [0.0, 0.0005, 0.001, 0.002, 0.005]  # [m] bounce criteria compared in the criterion section
 SPHERE_SPEEDS = (5.0, 10.0, 20.0, 40.0)  # [m/s] of the sphere ricochets, 1 cm sphere: U^2 / g R = 255 to 16,000
 LAW_SPEEDS = (20.0, 40.0)  # [m/s] where Johnson & Reid's law applies: gravity (which it leaves out) 4000x and
@@ -282,11 +284,15 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--markdown", type=Path, help="rewrite the table's sections in this markdown file")
+    parser = argparse.ArgumentParser(description=description(__doc__))
+    parser.add_argument("--markdown", type=Path, help="rewrite the table's sections in this markdown file, and its "
+                        "figure figures/magic_angle.png beside it")
     parser.add_argument("--quick", action="store_true", help="a coarser speed search (0.25 m/s, then 0.05)")
-    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--workers", type=positive_int, default=2, help="worker processes (default %(default)s)")
     args = parser.parse_args(argv)
+    check_output(parser, args.markdown, "--markdown", text=True)
+    if args.markdown is not None:
+        check_output(parser, figure_beside(args.markdown, FIGURE), "--markdown's figure")
     step, tol = (0.25, 0.05) if args.quick else (0.1, 0.02)
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
@@ -358,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
         replace_section(args.markdown, "magic-angle-default", "\n".join(curve_rows))
         replace_section(args.markdown, "criterion", "\n".join(criterion_rows))
         replace_section(args.markdown, "sphere-speeds", "\n".join(sphere_rows))
-        _figure(ROOT / "docs" / "figures" / "magic_angle.png", curves)
+        _figure(figure_beside(args.markdown, FIGURE), curves)
     return 0
 
 

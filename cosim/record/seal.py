@@ -323,15 +323,25 @@ def _framed(data: Any, at: int, end: int) -> bool:
     return compression in _COMPRESSIONS and records_at + 8 + records_length == end
 
 
+RESYNC_BUDGET = 4  # candidate chunks read back while resynchronising, at most this many times the file's bytes
+
+
 def _next_chunk(data: Any, start: int) -> int | None:
     """The offset of the first chunk record at or after ``start`` that is whole, framed by its own
-    lengths, and read back passing its CRC; None if there is none."""
+    lengths, and read back passing its CRC; None if there is none, or none found within
+    :data:`RESYNC_BUDGET` times the file's bytes read back (a crafted file of nested candidates, each
+    running to its end, made the search quadratic: 54 s for 4 MB). A candidate must carry a CRC (the
+    format lets a chunk leave it 0, unchecked, which junk bytes could pass as)."""
     at = start
+    budget = RESYNC_BUDGET * len(data)
     while (at := data.find(bytes([Opcode.CHUNK]), at)) >= 0:
         if at + _PREFIX.size <= len(data):
             length = _PREFIX.unpack_from(data, at)[1]
             end = at + _PREFIX.size + length
-            if end <= len(data) and _framed(data, at, end):
+            if end <= len(data) and _framed(data, at, end) and _has_crc(data, at):
+                budget -= end - at
+                if budget < 0:
+                    return None
                 try:
                     _read_chunk(data[at + _PREFIX.size:end])
                 except Exception:  # not a chunk after all: searched on
@@ -340,6 +350,11 @@ def _next_chunk(data: Any, start: int) -> int | None:
                     return at
         at += 1
     return None
+
+
+def _has_crc(data: Any, at: int) -> bool:
+    """Whether the chunk record at ``at`` carries a CRC of its records (not 0, "unchecked")."""
+    return _CHUNK_HEAD.unpack_from(data, at + _PREFIX.size)[3] != 0
 
 
 def _stop_where_channels_are_missing(found: _Scan, size: int) -> None:

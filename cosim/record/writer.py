@@ -34,6 +34,7 @@ not wanted).
 
 from __future__ import annotations
 
+import builtins
 import contextlib
 import errno
 import io
@@ -92,7 +93,9 @@ class SinkError(CosimError):
 # how a failed write is reported: by the SDK's MCAP writer over a path (``Os { code: 28 ...``), by
 # _File below (``[Errno 28] ...``), or by the SDK's MCAP writer over _File (``PyErr { type: <class
 # 'OSError'>, value: OSError(28, '...')``)
-_OS_ERROR = re.compile(r"Os \{ code: (\d+)|\[Errno (\d+)\]|value: \w*Error\((\d+), ")
+_OS_ERRORS = "|".join(sorted(name for name, value in vars(builtins).items()  # OSError and its kinds
+                              if isinstance(value, type) and issubclass(value, OSError)))
+_OS_ERROR = re.compile(rf"Os \{{ code: (\d+)|\[Errno (\d+)\]|value: (?:{_OS_ERRORS})\((\d+), ")
 # the writer process's exit status when the file system refused a write: this plus the error's
 # number (1 to 191), so that the simulating process knows it even when the writer could not say so
 # on its error output (a temporary file, on a disk that may be the full one, under the same limit)

@@ -224,10 +224,14 @@ def _watch_parent(parent: int) -> None:
 
 
 def _worker_init(parent: int | None = None, stop: Any = None) -> None:
-    # Ctrl-C reaches the whole process group: the parent decides what to do. A run in progress
-    # still ends cleanly (run_scene installs its own handler for the run's duration).
+    # Ctrl-C, and SIGHUP when the terminal closes, reach the whole process group: the parent decides
+    # what to do, and its stop event ends the runs in flight (a worker that died of the SIGHUP never
+    # answered that event, and the sweep waited on it for good). A run in progress still ends
+    # cleanly (run_scene installs its own handler for the run's duration).
     global _stop
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
     # a second Ctrl-C raised inside a callback the interpreter runs itself (numba's compiler notifying
     # its cache through ctypes) cannot be passed on: it is dropped, and printed with a traceback by the
     # default hook; the run ends at its next tick all the same (the first one stopped it)
@@ -238,6 +242,28 @@ def _worker_init(parent: int | None = None, stop: Any = None) -> None:
         _stop = stop
         threading.Thread(target=_watch_stop, args=(stop,), name="cosim-stop-watch", daemon=True).start()
     import cosim.runner  # noqa: F401  (import once per worker, not once per run)
+
+
+def _start_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (the process that removes the pool's semaphores) with
+    SIGHUP ignored, as it ignores Ctrl-C and SIGTERM itself: in the terminal's process group it died
+    when the terminal closed, and the one started in its place printed a traceback for each of the
+    pool's semaphores it did not know as the sweep ended."""
+    from multiprocessing import resource_tracker
+
+    hup = getattr(signal, "SIGHUP", None)
+    if hup is None:
+        resource_tracker.ensure_running()
+        return
+    try:
+        before = signal.signal(hup, signal.SIG_IGN)  # inherited by the tracker as it starts
+    except ValueError:  # not the main thread: signals are not ours to set
+        resource_tracker.ensure_running()
+        return
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.signal(hup, before)
 
 
 class ProcessBackend:
@@ -268,6 +294,7 @@ class ProcessBackend:
 
     def start(self) -> None:
         if self.pool is None:
+            _start_resource_tracker()
             context = multiprocessing.get_context("spawn")
             self.stop = context.Event()
             self.pool = cf.ProcessPoolExecutor(self.workers, mp_context=context, initializer=_worker_init,

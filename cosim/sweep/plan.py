@@ -442,8 +442,8 @@ def _base_scene(data: dict[str, Any], base_dir: Path, source: str,
         problems.append(f"scene: cannot read {spec!r}: {exc}")
         return None
     try:
-        scene_data = yaml.safe_load(text)
-    except yaml.YAMLError:
+        scene_data = read_yaml(text, spec)  # read as the scene is loaded (YAML 1.2's numbers)
+    except ScenarioError:
         scene_data = None  # the scene's own validation reports it, with the line
     if isinstance(scene_data, dict) and "axes" in scene_data and "components" not in scene_data:
         problems.append(f"scene: {spec!r} is a sweep file (it has axes and no components), not the scene "

@@ -25,6 +25,8 @@ from typing import Any
 
 from tqdm import tqdm
 
+from cosim.errors import ending_signals
+from cosim.runner import counted
 from cosim.sweep.backends import NOT_RESULTS, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
 from cosim.sweep.table import ResultTable, cannot
@@ -63,13 +65,16 @@ class SweepOutcome:
         return self.total - sum(self.counts.values())
 
     def stopped_line(self) -> str:
-        """Why an incomplete sweep stopped, in one line for standard error (the summary says it too)."""
+        """Why an incomplete sweep stopped and what is left, in one line: the summary's, and the
+        command's error line on standard error."""
         left = f"{self.points_left()} of {self.total} points left"
         if self.limit is not None:
-            return (f"stopped, the machine has no room for the recordings ({self.limit}): {left}; the same "
-                    "command runs them once there is room")
-        why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
-        return f"{why}: {left}; the same command resumes them"
+            return (f"stopped, the machine has no room for the recordings ({self.limit}): {left}; they run "
+                    "when the same command is run again once there is room")
+        why = ("interrupted" if self.interrupted
+               else f"{counted(self.unfinished, 'run was', 'runs were')} interrupted")
+        return f"{why}: {left}; run the same command again to resume"
+
 
     def summary(self) -> str:
         """The closing lines printed by ``cosim sweep``."""
@@ -81,14 +86,7 @@ class SweepOutcome:
         lines.append(f"  ran {self.ran}, {self.already} already in the table; {statuses}; "
                      f"wall {self.wall_s:.3g} s{per_run}")
         if not self.complete:
-            left = self.points_left()
-            if self.limit is not None:
-                lines.append(f"  stopped, the machine has no room for the recordings ({self.limit}): {left} of "
-                             f"{self.total} points left; they run when the same command is run again once there "
-                             "is room")
-            else:
-                why = "interrupted" if self.interrupted else f"{self.unfinished} runs were interrupted"
-                lines.append(f"  {why}: {left} of {self.total} points left; run the same command again to resume")
+            lines.append(f"  {self.stopped_line()}")
         lines.append(f"  table: {self.output}")
         if self.figure is not None:
             lines.append(f"  figure: {self.figure}")
@@ -101,19 +99,21 @@ class SweepOutcome:
 
 @contextmanager
 def _sigterm_interrupts() -> Iterator[None]:
-    """SIGTERM ends the sweep like Ctrl-C: rows written so far are kept, queued runs are dropped."""
+    """SIGTERM (and SIGHUP, the terminal closed) end the sweep like Ctrl-C: rows written so far are
+    kept, queued runs are dropped."""
     def handler(signum: int, frame: Any) -> None:
         raise KeyboardInterrupt
 
     try:
-        old = signal.signal(signal.SIGTERM, handler)
+        old = {signum: signal.signal(signum, handler) for signum in ending_signals()}
     except ValueError:  # not the main thread
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for signum, handler_before in old.items():
+            signal.signal(signum, handler_before)
 
 
 def _failed_row(point: Point, reason: str, error_type: str) -> dict[str, Any]:

@@ -5,12 +5,29 @@
 // counts equal the summary statistics, log_time == publish_time, sequence numbers increase, and a
 // foxglove payload's timestamp equals its log time.
 //
-// usage: node check.mjs RUN.mcap [RUN2.mcap ...]   (exit 1 on any problem)
+// usage: node check.mjs RUN.mcap [RUN2.mcap ...]   (exit 1 on any problem; 2 with no file given)
 import { open } from "node:fs/promises";
-import { McapIndexedReader } from "@mcap/core";
-import { decompress } from "fzstd";
-import protobuf from "protobufjs";
-import descriptor from "protobufjs/ext/descriptor/index.js";
+
+const USAGE = "usage: node check.mjs RUN.mcap [RUN2.mcap ...]   (exit 1 on any problem)";
+const args = process.argv.slice(2);
+if (args.includes("-h") || args.includes("--help")) {
+  console.log(USAGE);
+  console.log("Opens cosim recordings with @mcap/core and checks CRCs, decoding, counts against the summary, times and sequences.");
+  process.exit(0);
+}
+const paths = args.filter((a) => a !== "--");
+const unknown = args.find((a, k) => a.startsWith("-") && a !== "--" && !args.slice(0, k).includes("--"));
+if (unknown !== undefined || paths.length === 0) {
+  console.error(USAGE);
+  console.error(unknown !== undefined ? `check.mjs: unknown option ${unknown}` : "check.mjs: no recording given");
+  process.exit(2);
+}
+
+// loaded once the arguments are known, so --help and a usage error work before `npm install`
+const { McapIndexedReader } = await import("@mcap/core");
+const { decompress } = await import("fzstd");
+const protobuf = (await import("protobufjs")).default;
+const descriptor = (await import("protobufjs/ext/descriptor/index.js")).default;
 
 function fileReadable(handle, size) {
   return {
@@ -95,7 +112,7 @@ async function check(path) {
 
 let failed = 0;
 let passed = 0;
-for (const path of process.argv.slice(2)) {
+for (const path of paths) {
   try {
     const { total, channels, problems } = await check(path);
     if (problems.length) {

@@ -1,0 +1,82 @@
+"""tools/options.py and the tools' command lines: a bad option value is one usage line and exit
+status 2 before any run, never a traceback; --help describes without running."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tools import options
+from tools.validate_targets import FIGURE
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _tool(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    return subprocess.run([sys.executable, *args], cwd=ROOT, env=env, capture_output=True, text=True, timeout=60)
+
+
+@pytest.mark.parametrize("args", [
+    ("tools/bench_water.py", "--rounds", "0"),
+    ("tools/bench_water.py", "--models", "nope"),
+    ("tools/bench_framework.py", "--repeats", "0"),
+    ("tools/contact_time_law.py", "--beta", "95"),
+    ("tools/bench_skip.py", "--scene", "scenarios/no_such_scene.yaml"),
+    ("tools/validate_targets.py", "--markdown", "tools"),  # a folder, refused before the ~6 min study
+])
+def test_a_bad_option_is_a_usage_error(args):
+    done = _tool(*args)
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert "Traceback" not in done.stderr
+    assert done.stderr.startswith("usage:")
+    assert "error:" in done.stderr.splitlines()[-1]
+
+
+def test_contact_push_help_runs_no_study():
+    start = time.perf_counter()
+    done = _tool("tools/contact_push.py", "--help")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("usage:") and "| throw |" not in done.stdout
+    assert time.perf_counter() - start < 10.0  # the study takes about 10 s on its own
+
+
+def test_validate_targets_figure_goes_beside_the_page(tmp_path):
+    assert options.figure_beside(Path("docs/validation.md"), FIGURE) == Path("docs/figures/magic_angle.png")
+    assert options.figure_beside(tmp_path / "page.md", FIGURE) == tmp_path / "figures" / "magic_angle.png"
+
+
+def test_description_is_the_whole_first_paragraph():
+    doc = "First line of a sentence\nthat goes on.\n\n    python tools/x.py\n"
+    assert options.description(doc) == "First line of a sentence that goes on."
+
+
+def test_types_refuse_bad_values():
+    assert options.positive_int("3") == 3
+    assert options.positive_float("0.5") == 0.5
+    assert options.angle_deg(0.0, 90.0)("20") == 20.0
+    for kind, text in ((options.positive_int, "0"), (options.positive_int, "x"), (options.positive_float, "-1"),
+                       (options.positive_float, "nan"), (options.positive_float, "inf"),
+                       (options.angle_deg(0.0, 90.0), "95")):
+        with pytest.raises(argparse.ArgumentTypeError):
+            kind(text)
+
+
+def test_check_output(tmp_path):
+    parser = argparse.ArgumentParser()
+    assert options.check_output(parser, None, "--write") is None
+    page = tmp_path / "new" / "page.md"
+    assert options.check_output(parser, page, "--write", text=True) == page
+    assert not (tmp_path / "new").exists()  # checked, not made
+    (tmp_path / "bad.md").write_bytes(b"\xff\xfe not text")
+    (tmp_path / "file").write_text("x")
+    for path, text in ((tmp_path, False), (tmp_path / "bad.md", True), (tmp_path / "file" / "page.md", False)):
+        with pytest.raises(SystemExit) as exit_:
+            options.check_output(parser, path, "--write", text=text)
+        assert exit_.value.code == 2

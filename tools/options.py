@@ -1,0 +1,92 @@
+"""Shared command-line pieces of the tools: argparse types that refuse bad values with one usage line
+(exit status 2) instead of a traceback after a long run, the ``--help`` description taken from a
+tool's docstring, and a check of an output path made before the run starts."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+
+def description(doc: str | None) -> str:
+    """The first paragraph of a tool's docstring as one line, for ``ArgumentParser(description=...)``."""
+    return " ".join((doc or "").split("\n\n")[0].split())
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number of at least 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 1")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite number above 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number above 0")
+    return value
+
+
+def angle_deg(lo: float, hi: float) -> Callable[[str], float]:
+    """An argparse type: an angle in degrees strictly between ``lo`` and ``hi``."""
+
+    def angle(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not lo < value < hi:
+            raise argparse.ArgumentTypeError(f"{text!r}: must be an angle between {lo:g} and {hi:g} degrees")
+        return value
+
+    angle.__name__ = "angle"  # argparse names the type in its message
+    return angle
+
+
+def check_output(parser: argparse.ArgumentParser, path: str | Path | None, option: str,
+                 *, text: bool = False) -> Path | None:
+    """Refuse (``parser.error``, exit status 2) an output path that the run could not write at its end.
+
+    The path must not be a directory; its folder must exist or be makeable (its nearest existing
+    ancestor a writable directory); an existing file must be writable and, with ``text`` (a markdown
+    page whose sections are rewritten), UTF-8 text. Returns the path (None when not given)."""
+    if path is None:
+        return None
+    path = Path(path)
+    if path.is_dir():
+        parser.error(f"{option} {path}: is a directory")
+    if path.exists():
+        if not os.access(path, os.W_OK):
+            parser.error(f"{option} {path}: not writable")
+        if text:
+            try:
+                path.read_text(encoding="utf-8")
+            except UnicodeDecodeError:
+                parser.error(f"{option} {path}: not UTF-8 text")
+            except OSError as exc:
+                parser.error(f"{option} {path}: {exc.strerror or exc}")
+        return path
+    folder = path.absolute().parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        parser.error(f"{option} {path}: {folder} is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        parser.error(f"{option} {path}: cannot write in {folder}")
+    return path
+
+
+def figure_beside(page: str | Path, name: str) -> Path:
+    """Where a page's figure goes: ``figures/NAME`` in the page's own folder (docs/validation.md ->
+    docs/figures/NAME)."""
+    return Path(page).parent / "figures" / name
