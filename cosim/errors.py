@@ -18,6 +18,13 @@ def one_line(text: str) -> str:
     return _CONTROL.sub(lambda m: repr(m.group())[1:-1], str(text))
 
 
+def shortened(text: str, most: int) -> str:
+    """``text`` on one line (its runs of white space, line breaks among them, as one space), cut to
+    at most ``most`` characters, an ellipsis ending what was cut."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= most else text[:most - 3] + "..."
+
+
 class CosimError(Exception):
     """Base of the framework's errors."""
 

@@ -35,7 +35,7 @@ from cosim.codec.json_codec import CodecError, codec_for
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, substep_count
 from cosim.errors import ScenarioError
 from cosim.messages import Message
-from cosim.params import FLOAT_LIMIT, build, fits_float, number_text, show_value
+from cosim.params import build, fits_float, number_text, show_value
 from cosim.registry import UnknownComponentType, resolve
 from cosim.timebase import NS_PER_S, seconds_to_ns
 
@@ -639,8 +639,9 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
         huge = _beyond_float_in(initial_data)
         if huge is not None:  # (the codec's float() of it was an internal OverflowError)
             where, value = huge
-            problems.append(f"{path}.initial{where}: must be a number within a float's range, at most "
-                            f"{FLOAT_LIMIT} in size (got {number_text(value)})")
+            # the field's own rule, as a value a float holds is told (_out_of_range_field)
+            problems.append(f"{path}.initial{where}: {number_text(value)} is beyond {LARGEST_INITIAL:g} (too large "
+                            "for any start of a run)")
             return None
         try:
             initial = codec_for(out_type).from_dict(initial_data)

@@ -85,12 +85,15 @@ def test_a_huge_record_every_on_the_command_line_is_bad_input(tmp_path, capsys):
 
 
 def test_a_huge_integer_in_a_delayed_edges_initial_value_names_its_field():
-    """The codec's float() of it was an internal OverflowError."""
+    """The codec's float() of it was an internal OverflowError. It is told the field's own rule, as a
+    value a float holds is (at most 1e15), not the float's range."""
     edge = "{from: b.out, to: a.inp, delay: 1, initial: {value: VALUE}}"
     text = ("dt: 0.001\nuntil: 0.01\ncomponents:\n  a: {type: 'cosim.examples:Ping'}\n"
             "  b: {type: 'cosim.examples:Pong'}\nconnections:\n  - a.out -> b.inp\n  - " + edge + "\n")
     assert problem(text.replace("VALUE", str(HUGE))) == (
-        "connections[1].initial.value: must be a number within a float's range, at most 1.8e+308 in size (got 1e+309)")
+        "connections[1].initial.value: 1e+309 is beyond 1e+15 (too large for any start of a run)")
+    assert problem(text.replace("VALUE", "2e15")) == (
+        "connections[1].initial.value: 2e+15 is beyond 1e+15 (too large for any start of a run)")
     assert loads(text.replace("VALUE", "2")).connections[1].initial.value == 2.0
 
 

@@ -27,3 +27,12 @@ def test_a_run_of_one_step_says_one_step(tmp_path, capsys):
     scene = ROOT / "scenarios" / "ping_pong.yaml"
     assert main(["run", str(scene), "--no-record", "-q", "--set", "until=0.001", "--set", "dt=0.001"]) == 0
     assert "in 1 step of 1 ms (" in capsys.readouterr().out
+
+
+def test_shortened_puts_a_message_on_one_line_within_its_length():
+    from cosim.errors import shortened
+
+    assert shortened("disk\n  full", 100) == "disk full"
+    cut = shortened("x" * 500, 200)
+    assert len(cut) == 200 and cut.endswith("...")
+    assert shortened("y" * 200, 200) == "y" * 200

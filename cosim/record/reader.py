@@ -24,7 +24,7 @@ from cosim.codec import state_proto
 from cosim.codec.json_codec import codec_for, decode_state
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import ProtoError, proto_codec_for
-from cosim.errors import RecordingError, ScenarioError
+from cosim.errors import RecordingError, ScenarioError, shortened
 from cosim.messages import Message
 from cosim.record.output import MCAP_MAGIC
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
@@ -320,6 +320,5 @@ def _shown(value: str) -> str:
 
 
 def _short(exc: BaseException) -> str:
-    """An exception's message on one line, at most about 200 characters."""
-    text = " ".join(str(exc).split())
-    return text if len(text) <= 200 else text[:197] + "..."
+    """An exception's message on one line, at most 200 characters."""
+    return shortened(str(exc), 200)

@@ -54,6 +54,7 @@ from mcap.records import (
 )
 from mcap.stream_reader import CRCValidationError
 
+from cosim.errors import shortened
 from cosim.record.output import MCAP_MAGIC
 from cosim.record.salvage import chunk_records, message_head
 
@@ -399,9 +400,8 @@ def _name(op: int) -> str:
 
 
 def _short(exc: BaseException) -> str:
-    """An exception's message on one line, at most about 100 characters."""
-    text = " ".join(str(exc).split())
-    return text if len(text) <= 100 else text[:97] + "..."
+    """An exception's message on one line, at most 100 characters."""
+    return shortened(str(exc), 100)
 
 
 def _cut(scan: _Scan, chunks: int) -> tuple[int, int, bool]:

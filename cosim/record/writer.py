@@ -52,7 +52,7 @@ from typing import Any
 from cosim.codec.jsontext import RecordLayout, Renderer, renderer
 from cosim.codec.records import BYTES, MESSAGE, OTHER, Stage, Write, iter_records, read_other
 from cosim.codec.state_proto import state_bytes
-from cosim.errors import CosimError
+from cosim.errors import CosimError, shortened
 from cosim.record.derive import (
     RELAY_TAG,
     Derivation,
@@ -122,8 +122,7 @@ def _one_line(text: str) -> str:
     """An error's words for the run's one error line: the traceback a Python error inside the SDK's
     carries (``PyErr { ..., traceback: Some("Traceback ...") }``) left out, at most
     :data:`_REASON_CHARS` characters."""
-    text = re.sub(r",? ?traceback: Some\(.*", "", " ".join(text.split()))
-    return text if len(text) <= _REASON_CHARS else text[:_REASON_CHARS - 3] + "..."
+    return shortened(re.sub(r",? ?traceback: Some\(.*", "", " ".join(text.split())), _REASON_CHARS)
 
 
 def _refused_exit(exc: BaseException) -> int:
