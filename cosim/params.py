@@ -40,10 +40,15 @@ def fits_float(value: Any) -> bool:
     return True
 
 
+def beyond_float(value: Any) -> bool:
+    """An integer too large to be a float (1 followed by 309 zeros): no float value can take it."""
+    return isinstance(value, int) and not isinstance(value, bool) and not fits_float(value)
+
+
 def number_text(value: Any) -> str:
     """A number for a message, as ``:g`` writes it: ``0.001``, ``1e+21``; an integer beyond a
     float's range (which ``:g`` cannot write) in the same form from its leading digits: ``1e+309``."""
-    if isinstance(value, int) and not isinstance(value, bool) and not fits_float(value):
+    if beyond_float(value):
         size = abs(value)
         exponent = int(math.log10(size))  # (a float's log10, which may be one off at a power of ten)
         while 10**exponent > size:

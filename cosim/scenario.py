@@ -35,7 +35,7 @@ from cosim.codec.json_codec import CodecError, codec_for
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, substep_count
 from cosim.errors import ScenarioError
 from cosim.messages import Message
-from cosim.params import build, fits_float, number_text, show_value
+from cosim.params import beyond_float, build, number_text, show_value
 from cosim.registry import UnknownComponentType, resolve
 from cosim.timebase import NS_PER_S, seconds_to_ns
 
@@ -107,11 +107,6 @@ def _plain_number(value: Any) -> bool:
     if isinstance(value, bool) or not isinstance(value, int | float):
         return False
     return isinstance(value, int) or math.isfinite(value)
-
-
-def _beyond_float(value: Any) -> bool:
-    """An integer too large to be a float (1 followed by 309 zeros): no float value can take it."""
-    return isinstance(value, int) and not isinstance(value, bool) and not fits_float(value)
 
 
 @dataclass
@@ -221,8 +216,9 @@ def _merge_sources(node: yaml.MappingNode, value_node: yaml.Node) -> list[yaml.M
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 # Numbers as YAML 1.2's core schema reads them, not as PyYAML's YAML 1.1: 5e-4 and 1e21 are floats
-# (1.1 wants a dot in a float), 017 is 17 (1.1: octal 15), 0o17 octal and 0x10 hexadecimal; 1:30 and
-# 12:30:00 are text (1.1: base-60 numbers, 90 and 45000), as are 1_000, 0b101 and -0x10
+# (1.1 wants a dot in a float), 0o17 octal and 0x10 hexadecimal; 1:30 and 12:30:00 are text (1.1:
+# base-60 numbers, 90 and 45000), as are 1_000, 0b101 and -0x10; 017, octal 15 to 1.1 and 17 to 1.2,
+# is refused (_construct_int)
 _INT_TAG, _FLOAT_TAG = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
 _INT_1_2 = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
 _LEADING_ZERO = re.compile(r"[-+]?0[0-9]+")  # 017: octal to YAML 1.1, decimal to YAML 1.2
@@ -659,7 +655,7 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
 
 def _beyond_float_in(data: Any, where: str = "") -> tuple[str, int] | None:
     """(".FIELD[i]", value) of the first integer beyond a float's range in a message's fields, else None."""
-    if _beyond_float(data):
+    if beyond_float(data):
         return where, data
     items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
     for key, value in items:
@@ -946,7 +942,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     else:
         record_problems_before = len(problems)
         # a time or rate beyond a float's range is refused by its own range below, not also as no float
-        huge = {k for k in ("checkpoint_every", "visual_rate") if _beyond_float(raw_record.get(k))}
+        huge = {k for k in ("checkpoint_every", "visual_rate") if beyond_float(raw_record.get(k))}
         built = build(RecordConfig, {k: v for k, v in raw_record.items() if k not in huge}, "record", problems)
         typed = built is not None and len(problems) == record_problems_before and not huge
         if typed:

@@ -306,17 +306,22 @@ def output_folder(folder: Path) -> Iterator[Path]:
 COPY_BLOCK = 1 << 20  # bytes read and written at a time by copy_file
 
 
-def copy_file(source: Path, target: Path) -> None:
-    """Copy the file ``source`` to ``target`` by plain reads and writes. Not shutil.copyfile: its
-    sendfile copy fails on a full disk with the source's name on the error, where the target's is
-    due (:func:`written_whole` names the output for an error that names no file); a read error
-    names ``source``."""
+def copy_file(source: Path, target: Path, spans: Iterable[tuple[int, int | None]] = ((0, None),)) -> None:
+    """Copy the file ``source`` to ``target`` by plain reads and writes: its byte ``spans`` (start,
+    end; end None: to the end of the file), one after another, by default the whole file. Not
+    shutil.copyfile: its sendfile copy fails on a full disk with the source's name on the error,
+    where the target's is due (:func:`written_whole` names the output for an error that names no
+    file); a read error names ``source``."""
     with open(source, "rb") as src, open(target, "wb") as dst:
-        while True:
-            try:
-                block = src.read(COPY_BLOCK)
-            except OSError as exc:
-                raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
-            if not block:
-                return
-            dst.write(block)
+        for start, end in spans:
+            src.seek(start)
+            left = None if end is None else end - start
+            while left is None or left > 0:
+                try:
+                    block = src.read(COPY_BLOCK if left is None else min(COPY_BLOCK, left))
+                except OSError as exc:
+                    raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
+                if not block:
+                    break
+                dst.write(block)
+                left = None if left is None else left - len(block)

@@ -213,10 +213,8 @@ class Recording:
         self.start_ns = summary.statistics.message_start_time
         self.end_ns = summary.statistics.message_end_time
         # the checkpoint a restart began at [ns]; 0 for a run from t = 0 (and recordings before the mark)
-        restart = self.metadata.get("start_ns", "0")
         try:
-            self.restart_ns = 0 if _DIGITS.fullmatch(restart) and not restart.strip("0") else \
-                _nanoseconds("start_ns", restart)
+            self.restart_ns = _nanoseconds("start_ns", self.metadata.get("start_ns", "0"), zero=True)
         except ValueError as exc:  # a crafted value was read as 0: a restart taken for a run from t = 0
             raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
 
@@ -302,12 +300,15 @@ class Recording:
             yield stamp, checkpoint
 
 
-def _nanoseconds(key: str, value: str) -> int:
-    """The time ``value`` of the metadata entry ``key`` [ns]: a whole number > 0 that a recording's
-    times hold (at most 2^63 - 1); a ValueError saying what it is otherwise."""
+def _nanoseconds(key: str, value: str, zero: bool = False) -> int:
+    """The time ``value`` of the metadata entry ``key`` [ns]: a whole number > 0 (>= 0 with
+    ``zero``) that a recording's times hold (at most 2^63 - 1); a ValueError saying what it is
+    otherwise."""
     digits = value.lstrip("0") if _DIGITS.fullmatch(value) else None
+    if digits == "" and zero:
+        return 0
     if not digits:
-        raise ValueError(f"{key} is {_shown(value)}, not a whole number of nanoseconds > 0")
+        raise ValueError(f"{key} is {_shown(value)}, not a whole number of nanoseconds {'>=' if zero else '>'} 0")
     if len(digits) > len(str(MAX_TIME_NS)) or int(digits) > MAX_TIME_NS:
         raise ValueError(f"{key} is {_shown(value)}, more nanoseconds than a recording's times hold (at most "
                          "2^63 - 1, about 292 years)")

@@ -30,10 +30,10 @@ from typing import TYPE_CHECKING
 
 from cosim.errors import RecordingError
 from cosim.record.output import (
-    COPY_BLOCK,
     PART_SUFFIX,
     being_written,
     check_output,
+    copy_file,
     output_folder,
     written_whole,
 )
@@ -152,26 +152,14 @@ def damage_text(damage: list[Damage], most: int = 3) -> str:
 
 def _copy_leaving_out(source: Path, target: Path, damage: list[Damage]) -> None:
     """Copy ``source`` to ``target`` without its damaged stretches: each one read past is left out,
-    and the copy ends where one that reading stopped at begins. As :func:`cosim.record.output.copy_file`,
-    by plain reads and writes, a read error naming ``source``."""
-    kept, at = [], 0
+    and the copy ends where one that reading stopped at begins."""
+    spans: list[tuple[int, int | None]] = []
+    at: int | None = 0
     for stretch in damage:
-        kept.append((at, stretch.start))
+        spans.append((at, stretch.start))
         at = stretch.end if stretch.resumed else None
         if at is None:
             break
     if at is not None:
-        kept.append((at, None))
-    with open(source, "rb") as src, open(target, "wb") as dst:
-        for start, end in kept:
-            src.seek(start)
-            left = None if end is None else end - start
-            while left is None or left > 0:
-                try:
-                    block = src.read(COPY_BLOCK if left is None else min(COPY_BLOCK, left))
-                except OSError as exc:
-                    raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
-                if not block:
-                    break
-                dst.write(block)
-                left = None if left is None else left - len(block)
+        spans.append((at, None))
+    copy_file(source, target, spans)

@@ -53,7 +53,7 @@ import numpy as np
 import yaml
 
 from cosim.errors import ScenarioError
-from cosim.params import FLOAT_LIMIT, fits_float, number_text, show_value
+from cosim.params import FLOAT_LIMIT, beyond_float, fits_float, number_text, show_value
 from cosim.scenario import find_parent, loads, read_input, read_yaml
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
@@ -150,7 +150,7 @@ class Expression:
 
     def _eval(self, node: ast.AST, env: dict[str, Any]) -> Any:
         value = self._value(node, env)
-        if isinstance(value, int) and not isinstance(value, bool) and not fits_float(value):
+        if beyond_float(value):
             # no scene value can take it (attack**1000 reached the scene as an integer of 1001 digits),
             # and refusing each such step keeps the integers, and the time they take, small
             raise ValueError(f"{ast.unparse(node)} is {number_text(value)}, beyond a float's range (at most "
