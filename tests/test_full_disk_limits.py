@@ -26,12 +26,12 @@ import pytest
 from cosim.cli import main
 from cosim.record import writer
 from cosim.record.reader import Recording
-from cosim.record.recorder import STATUS_TOPIC, physics_topics
 from cosim.record.writer import SinkError, _reason
 from cosim.runner import run_scene
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
 from tests.cli_toys import one_error_line
+from tests.test_reliability_salvage import messages
 
 ROOT = Path(__file__).resolve().parents[1]
 HELD_SKIP = ROOT / "scenarios" / "held_skip.yaml"  # 30 MB in 2 s: any of the limits below cuts it
@@ -84,21 +84,12 @@ def _limited(kb: int):
     return limit
 
 
-def _physics(path: Path) -> dict[str, list[tuple[int, bytes]]]:
-    """Every physics channel's (log time, payload) pairs, in order (the status left out)."""
-    rec = Recording(path)
-    out: dict[str, list[tuple[int, bytes]]] = {}
-    for topic, stamp, data in rec.raw(sorted(set(rec.channels) & physics_topics(rec.scene()) - {STATUS_TOPIC})):
-        out.setdefault(topic, []).append((stamp, data))
-    return out
-
-
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory) -> dict[str, list[tuple[int, bytes]]]:
     """The messages of the held skip recorded with room for all of them, to REFERENCE_UNTIL."""
     out = tmp_path_factory.mktemp("room") / "room.mcap"
     assert main(["run", str(HELD_SKIP), "--until", REFERENCE_UNTIL, "-q", "-o", str(out)]) == 0
-    return _physics(out)
+    return messages(out)
 
 
 def _assert_kept_what_fitted(out: Path, line: str, reason: str, reference: dict, limit_kb: int | None = None) -> None:
@@ -116,7 +107,7 @@ def _assert_kept_what_fitted(out: Path, line: str, reason: str, reference: dict,
     status = rec.status()
     assert status.status == "failed" and f"writing the recording failed ({reason})" in status.reason
     assert "the recording was closed where it stopped, at t = " in status.reason
-    kept = _physics(out)
+    kept = messages(out)
     assert sum(len(pairs) for pairs in kept.values()) > 100
     for topic, pairs in kept.items():
         assert pairs == reference[topic][:len(pairs)], topic
