@@ -131,12 +131,16 @@ def test_a_half_immersed_sphere_meets_the_water_as_a_blunt_body(speed):
 
 
 def test_relative_velocity_uses_the_surface_velocity():
-    """A disk at rest in water rising at V feels what a disk sinking at V in still water feels."""
+    """A disk at rest in water rising at V feels what a disk sinking at V in still water feels, on
+    water so deep that the water at its lower face (5 mm down) rises as the surface does (on 1 m of
+    water it rises 0.5% slower there: the long-wave profile, see
+    test_a_submerged_disk_meets_the_water_moving_as_it_moves_at_its_depth)."""
     pos = (0.0, 0.0, -0.002)
-    _, rising = run(body(position=pos), still_water(0.01, surface_velocity=0.7), effects=["pressure"])
-    _, sinking = run(body(position=pos, velocity=(0, 0, -0.7)), still_water(0.01), effects=["pressure"])
+    deep = still_water(0.01, surface_velocity=0.7, depth=1e5)
+    _, rising = run(body(position=pos), deep, effects=["pressure"])
+    _, sinking = run(body(position=pos, velocity=(0, 0, -0.7)), still_water(0.01, depth=1e5), effects=["pressure"])
     assert rising["contact"].pressure[2] > 0
-    assert rising["contact"].pressure == pytest.approx(sinking["contact"].pressure, rel=1e-12)
+    assert rising["contact"].pressure == pytest.approx(sinking["contact"].pressure, rel=1e-6)
 
 
 def test_spin_changes_friction_but_not_pressure():
@@ -280,6 +284,22 @@ def test_forces_are_smooth_as_the_body_crosses_cells(effect, tolerance):
     series = np.array(series)
     assert series.min() > 0
     assert np.abs(np.diff(series)).max() < tolerance * series.mean()
+
+
+@pytest.mark.parametrize("down", [0.05, 0.2, 0.35])
+def test_a_submerged_disk_meets_the_water_moving_as_it_moves_at_its_depth(down):
+    """Under a surface rising at W on water 0.4 m deep, the water at height z above the bed rises at
+    W z / 0.4 (the long-wave profile). A thin disk held level and still, its lower face ``down``
+    under, is pushed up by that water's drag alone: 1/2 rho C_D (W (1 - down / 0.4))^2 pi R^2, its
+    upper face meeting no oncoming water (the surface's own speed at every depth pushed the disk on
+    the bed as hard as one just under the surface)."""
+    w, depth, e = 0.5, 0.4, 1e-3
+    b = body(position=(0.0013, -0.0021, -down + 0.5 * e), thickness=e)
+    _, out = run(b, still_water(0.01, surface_velocity=w, depth=depth), effects=["pressure"])
+    force = np.asarray(out["contact"].pressure)
+    expected = 0.5 * 1000 * 1.17 * (w * (1.0 - down / depth)) ** 2 * math.pi * R * R
+    assert force[2] == pytest.approx(expected, rel=0.02)
+    assert np.abs(force[:2]).max() < 1e-9 * force[2]
 
 
 @pytest.mark.parametrize("attack_deg", [0, 20])

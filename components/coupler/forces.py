@@ -1,8 +1,12 @@
 """Water force laws on a body, as plain functions (physics.md section 3).
 
 Sign convention: ``n`` is the element's OUTWARD normal and ``u`` its velocity relative to the water
-(body point velocity minus the water's velocity, which in a height field is the vertical surface
-velocity). A face advances into the water when ``u.n > 0``; the pressure then pushes it back along
+(body point velocity minus the water's velocity). A height field knows the surface's vertical
+velocity only; under the surface the water's is taken on the long-wave profile, falling linearly
+from the surface's at the surface to 0 at the bed (continuity through a layer whose horizontal flow
+is uniform over its depth). Shorter waves die out faster with depth (sinh(k z) / sinh(k H) <= z / H
+for a wave of number k on depth H), so this is the most the surface's motion can move the water at
+a submerged element. A face advances into the water when ``u.n > 0``; the pressure then pushes it back along
 ``-n``. (physics.md writes the same condition as ``u.n < 0`` with ``u`` the water's velocity seen
 from the face.)
 

@@ -805,6 +805,14 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                     frac -= box_coverage(t_bed, w1, w2)
                     if frac <= 0.0:
                         continue
+            # the water's vertical speed at the element's height: the surface's, falling linearly to
+            # 0 at the bed. That is the long-wave profile (continuity through a layer whose horizontal
+            # flow is uniform over its depth), and shorter waves fall off faster (sinh(k z) / sinh(k H)
+            # <= z / H), so it is the most a wave can move the water at that depth. A body under the
+            # surface then meets the water as it is where the body is: a ball on the bed of a pond
+            # is not pushed by the surface's bobbing 24 cm above it
+            if t > 0.0:
+                wv *= max(1.0 - t / depth, 0.0)
             nel += 1
             a_el = el_area[k]
             fa = frac * a_el
