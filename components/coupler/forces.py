@@ -41,7 +41,8 @@ from the face.)
       dF = -1/2 rho_w C_D (u.n) u dA        where u.n > 0
 
   which sums to the textbook ``-1/2 rho_w C_D |u| u A_projected`` (C_D = 1.17 for a disk face on,
-  0.47 for a sphere), with no lift; its torque still comes from the geometry.
+  0.47 for a sphere), with no lift; on a disk its torque comes from the geometry, and on a sphere
+  it passes through the centre (a pressure is normal to the surface).
 * Friction (Bocquet 2003): ``dF_t = -1/2 rho_w C_f |u| u_t dA`` on every wetted element, with
   ``u_t = u - (u.n) n``. The default C_f = 0.005 is a smooth turbulent flat plate's skin friction
   at the stones' Reynolds numbers: the ITTC-1957 line C_f = 0.075 / (log10 Re - 2)^2, the one

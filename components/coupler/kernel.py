@@ -877,7 +877,11 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                         add_wrench(fp, rx, ry, rz, -p * fa * nx, -p * fa * ny, -p * fa * nz)
                     # submerged: a pressure drag along -u on the face's projected area (u.n / |u|) dA
                     kd = (1.0 - planing) * 0.5 * rho * c_d * un * fa
-                    add_wrench(fp, rx, ry, rz, -kd * ux, -kd * uy, -kd * uz)
+                    if shape == SHAPE_DISK:
+                        add_wrench(fp, rx, ry, rz, -kd * ux, -kd * uy, -kd * uz)
+                    else:
+                        # a sphere's: a pressure, normal to its surface, so through its centre
+                        add_wrench(fp, 0.0, 0.0, 0.0, -kd * ux, -kd * uy, -kd * uz)
                     adv += fa
                     ce = rho * (planing * (c_lin * speed + c_sq * un) + (1.0 - planing) * c_d * speed) * fa
                     cxn = ry * nz - rz * ny
