@@ -125,7 +125,7 @@ def test_shipped_ground_books_never_fall(scene):
 def test_a_ball_resting_on_the_bed_does_not_start_to_roll():
     """The granite ball of float_sphere.yaml rests on the bed from 0.43 s. The water's pressure on a
     sphere acts through its centre, so nothing turns it there: its spin stays what the landing left
-    (about 1e-6 rad/s). The columns' buoyancy torque, sampling error that grew with the ball's place
+    (about 3e-7 rad/s). The columns' buoyancy torque, sampling error that grew with the ball's place
     on the grid, set it rolling: 2.7e-6, 7.9e-4 and 4.0e-3 rad/s at 0.5, 2 and 6 s."""
     watch = Channels("granite.state")
     sim = Simulation(load(SCENES / "float_sphere.yaml"), observers=[watch])
