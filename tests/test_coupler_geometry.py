@@ -155,6 +155,19 @@ def test_sphere_tiling_has_the_sphere_area_and_unit_normals():
     assert np.allclose(el.pos, 0.03 * el.nrm)
 
 
+@pytest.mark.parametrize("bands", [6, 24, 25])
+def test_sphere_tiling_is_its_own_mirror_image_across_x_and_y(bands):
+    """Each element's mirror image across x = 0 and across y = 0 is an element too, so water moving
+    symmetrically about a vertical plane turns a sphere not at all. A band of an odd number of
+    pieces is not symmetric across one of the two planes: a ball sinking straight down through
+    rising water was set turning about y (3e-3 rad/s on float_sphere's bed)."""
+    el = sphere_elements(0.03, bands=bands)
+    for mirror in (np.array([-1.0, 1.0, 1.0]), np.array([1.0, -1.0, 1.0])):
+        image = el.pos * mirror
+        nearest = np.abs(image[:, None, :] - el.pos[None, :, :]).max(axis=2).min(axis=1)
+        assert nearest.max() < 1e-15
+
+
 def test_sphere_tiling_wets_exactly_the_cap_area_in_still_water():
     """Bands wetted by coverage give the spherical cap area 2 pi R h for any immersion h."""
     radius = 0.03
