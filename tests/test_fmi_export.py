@@ -11,6 +11,7 @@ from __future__ import annotations
 import errno
 import math
 import os
+import re
 import shutil
 import subprocess
 import zipfile
@@ -261,6 +262,63 @@ def test_a_file_name_that_is_no_python_class_name_gets_an_identifier_that_is(nam
     from cosim.fmi.export import model_identifier
 
     assert model_identifier(Path(name)) == identifier
+
+
+@pytest.mark.parametrize("name, identifier", [("skïp.fmu", "sk_p"), ("été.fmu", "_t_"), ("ü.fmu", "_"),
+                                              ("٣lives.fmu", "_lives"), ("Ωmega 2.fmu", "_mega_2")])
+def test_a_file_name_beyond_ascii_gets_an_ascii_c_identifier(name, identifier):
+    """FMI's model identifier is a C identifier, ASCII letters, digits and _ (skïp.fmu kept its ï, a
+    letter to Python's \\w but none to C)."""
+    from cosim.fmi.export import model_identifier
+
+    got = model_identifier(Path(name))
+    assert got == identifier and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", got)
+
+
+def test_an_fmu_named_beyond_ascii_exports_and_passes_fmpys_validation(tmp_path):
+    """skïp.fmu exports with the model identifier sk_p, in which FMPy finds no problem."""
+    out = tmp_path / "skïp.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), "--step", str(STEP)]) == 0
+    assert fmpy.read_model_description(str(out)).coSimulation.modelIdentifier == "sk_p"
+    assert validate_fmu(str(out)) == []
+
+
+INNER_SCENE = """
+name: outer
+dt: 0.001
+until: 0.01
+components:
+  stone: {type: RigidBody, position: [0, 0, 1.0], velocity: [8.0, 0.0, -1.0], lock_attitude: true}
+  gust:
+    type: FMU
+    path: inner.fmu
+    inputs: {body: {type: BodyState, fields: {"velocity[0]": vx}}}
+    outputs: {wrench: {type: Wrench, fields: {"force[0]": Fx}}}
+connections:
+  - stone.state -> gust.body
+  - {from: gust.wrench, to: stone.wrench, delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}
+"""
+
+
+@pytest.mark.parametrize("given", ["inner.fmu", "new/../inner.fmu", "link.fmu"])
+def test_an_fmu_the_scene_itself_uses_is_not_replaced_by_its_export(tmp_path, monkeypatch, capsys, given):
+    """-o naming the scene's own FMU (components.gust.path), as written, through a folder not made
+    yet, or through a link: exit 2 naming the component and its key, the FMU as it was and no
+    folder made (the export silently replaced it, and the scene in it then ran itself)."""
+    from cosim.fmi.build import cached_fmu
+    from tests.fmu_toys import GUST_MODEL
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "inner.fmu").write_bytes(cached_fmu(GUST_MODEL).read_bytes())
+    (tmp_path / "link.fmu").symlink_to("inner.fmu")
+    (tmp_path / "outer.yaml").write_text(INNER_SCENE)
+    before = (tmp_path / "inner.fmu").read_bytes()
+    assert main(["fmu", "export", "outer.yaml", "-o", given]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: outer.yaml: -o {Path(given)}: is the FMU of component 'gust' (components.gust.path); it is not "
+        "replaced")
+    assert (tmp_path / "inner.fmu").read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["inner.fmu", "link.fmu", "outer.yaml"]
 
 
 def test_the_default_experiment_runs_the_whole_scene_on_its_grid(exported):

@@ -160,3 +160,84 @@ def test_a_cosim_scene_holding_a_failing_exported_scene_says_why_in_one_line(tmp
     # failure comes after that call, outside any cosim call into it, and is said on standard error
     done = _in_a_process(f"import fmpy; fmpy.simulate_fmu({str(fmu)!r}, stop_time=0.6)")
     assert "error: FMU gusty (instance 'gusty'): component 'gust' failed at t = 0.359 s: " in done.stderr
+
+
+def test_a_parameter_set_after_initialization_is_refused_and_keeps_its_value(held):
+    """The parameters are fixed: setReal of speed after exitInitializationMode fails (it answered OK,
+    and speed then read 20 while the scene ran with the speed it had); before, it is taken. Through
+    pythonfmu's binaries the refusal is Fatal (pythonfmu's answer to any exception of a setter)."""
+    slave = SceneSlave(instance_name="early", resources=str(Path(fmpy.extract(str(held))) / "resources"))
+    speed = next(v.value_reference for v in slave.vars.values() if v.name == "speed")
+    slave.set_real([speed], [9.0])  # before initialization: taken
+    slave.setup_experiment(0.0, None, None)
+    slave.exit_initialization_mode()
+    assert slave.get_real([speed]) == [9.0]
+    with pytest.raises(RuntimeError, match=r"parameter 'speed' set to 20\.0 after initialization: a fixed "
+                                           r"parameter takes a value only before exitInitializationMode "
+                                           r"\(FMI 2\.0\); it stays 9\.0"):
+        slave.set_real([speed], [20.0])
+    assert slave.get_real([speed]) == [9.0] and slave.values["speed"] == 9.0
+    done = _in_a_process(
+        "from fmpy import read_model_description, extract\nfrom fmpy.fmi2 import FMU2Slave\n"
+        f"md = read_model_description({str(held)!r})\n"
+        f"s = FMU2Slave(guid=md.guid, unzipDirectory=extract({str(held)!r}), modelIdentifier='held', "
+        "instanceName='late')\n"
+        "s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode(); s.exitInitializationMode()\n"
+        "s.setReal([next(v.valueReference for v in md.modelVariables if v.name == 'speed')], [20.0])\n")
+    assert "fmi2SetReal failed with status 4 (fatal)" in done.stderr
+    assert "error: FMU held (instance 'late'): parameter 'speed' set to 20.0 after initialization" in done.stderr
+
+
+def test_a_state_saved_before_initialization_takes_the_instance_back_to_before_it(held):
+    """setFMUstate of a state saved before initialization, on an instance 20 ms into its run: no scene
+    and no latest messages, so doStep waits for initialization, which then runs from t = 0 again with
+    the state's parameters (the scene stayed at 20 ms while the outputs read 0: a doStep from 0 was
+    refused, one from 20 ms accepted)."""
+    resources = str(Path(fmpy.extract(str(held))) / "resources")
+    fresh = SceneSlave(instance_name="fresh", resources=resources)
+    fresh.values["speed"] = 9.0
+    before_initialization = fresh._get_fmu_state()
+    slave = _slave(held, "back")
+    slave.do_step(0.0, STEP)
+    slave.do_step(STEP, STEP)
+    slave._set_fmu_state(before_initialization)
+    assert slave.sim is None and slave.latest.messages == {}
+    assert slave.values == before_initialization["values"] and slave.values["x"] == 0.0
+    assert not slave.do_step(2 * STEP, STEP)  # refused: doStep before initialization
+    slave.setup_experiment(0.0, None, None)
+    slave.exit_initialization_mode()
+    assert slave.do_step(0.0, STEP)
+    fresh.setup_experiment(0.0, None, None)
+    fresh.exit_initialization_mode()
+    fresh.do_step(0.0, STEP)
+    assert [slave.values[k] for k in MOTION] == [fresh.values[k] for k in MOTION]
+
+
+def test_do_step_after_terminate_is_refused_and_reset_makes_the_fmu_run_again(held, capfd):
+    """FMI 2.0 allows only reset or freeInstance after terminate: a doStep is refused with Discard and
+    its reason (it was run, and the stone moved on); reset then makes the instance run the scene from
+    t = 0 again, to the same values."""
+    from fmpy.fmi2 import FMU2Slave
+
+    md = fmpy.read_model_description(str(held))
+    x = next(v.valueReference for v in md.modelVariables if v.name == "x")
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(held)), modelIdentifier="held",
+                      instanceName="ended")
+    slave.instantiate()
+    seen = []
+    for _ in range(2):  # the run, then the run again after reset
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=STEP)
+        seen.append(slave.getReal([x]))
+        slave.terminate()
+        with pytest.raises(Exception, match=r"fmi2DoStep failed with status 2 \(discard\)"):
+            slave.doStep(currentCommunicationPoint=STEP, communicationStepSize=STEP)
+        assert slave.getReal([x]) == seen[-1]
+        slave.reset()
+    slave.freeInstance()
+    assert seen[0] == seen[1] and seen[0][0] > 0.3  # the stone moved on from x = 0.3 m, twice alike
+    err = capfd.readouterr().err
+    assert err.count("error: FMU held (instance 'ended'): doStep from t = 0.01 s after terminate: a terminated "
+                     "FMU takes only reset or freeInstance (FMI 2.0)") == 2

@@ -219,3 +219,144 @@ def test_an_fmu_without_a_binary_for_this_platform_is_named_inside_the_fmu_file(
         load(path)
     (problem,) = info.value.problems
     assert f"{damaged}:binaries/" in problem and "/tmp/tmp" not in problem
+
+
+BOUNDED_MODEL = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+
+globals().setdefault("_held_namespaces", []).append(globals())  # see scenarios/models/wind_gust.py
+
+
+class Bounded(Fmi2Slave):
+    """y = gain * count."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.count, self.gain, self.y = 1, 1.0, 0.0
+        for variable in (Integer("count", causality=Fmi2Causality.parameter, variability=Fmi2Variability.tunable),
+                         Real("gain", causality=Fmi2Causality.parameter, variability=Fmi2Variability.tunable),
+                         Real("y", causality=Fmi2Causality.output)):
+            self.register_variable(variable)
+
+    def do_step(self, current_time, step_size):
+        self.y = self.gain * self.count
+        return True
+'''
+
+BOUNDED_SCENE = """
+name: bounded
+dt: 0.001
+until: 0.01
+components:
+  scale:
+    type: FMU
+    path: bounded.fmu
+    start: <START>
+    outputs: {y: y}
+"""
+
+
+@pytest.fixture(scope="module")
+def bounded_fmu(tmp_path_factory):
+    """An FMU with an Integer parameter count (min 0, max 100) and a Real one, gain (max 30): the
+    bounds written into its model description (pythonfmu writes none)."""
+    import re
+    import zipfile
+
+    folder = tmp_path_factory.mktemp("bounded")
+    (folder / "bounded.py").write_text(BOUNDED_MODEL)
+    plain = build_fmu(folder / "bounded.py", folder / "plain.fmu")
+    with zipfile.ZipFile(plain) as src, zipfile.ZipFile(folder / "bounded.fmu", "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                text = re.sub(r'(name="count"[^>]*>\s*<Integer)', r'\1 min="0" max="100"', data.decode())
+                data = re.sub(r'(name="gain"[^>]*>\s*<Real)', r'\1 max="30"', text).encode()
+            dst.writestr(item, data)
+    return folder
+
+
+@pytest.mark.parametrize(("start", "said"), [
+    ("{count: 10000000000}", "components.scale.start.count: variable 'count' of FMU 'bounded.fmu' is Integer, a "
+     "32-bit signed integer, from -2147483648 to 2147483647; got 10000000000"),
+    ("{count: 101}", "components.scale.start.count: must be at most 100, the max of variable 'count' of FMU "
+     "'bounded.fmu' (got 101)"),
+    ("{count: -1}", "components.scale.start.count: must be at least 0, the min of variable 'count' of FMU "
+     "'bounded.fmu' (got -1)"),
+    ("{gain: 30.5}", "components.scale.start.gain: must be at most 30, the max of variable 'gain' of FMU "
+     "'bounded.fmu' (got 30.5)"),
+])
+def test_a_start_value_outside_its_variables_range_is_refused_when_the_scene_loads(bounded_fmu, start, said):
+    """An integer beyond its type's 32 bits, or a value beyond the min or max the model description
+    gives: bad input naming the variable, the rule and the value (10000000000 was set as 1410065408,
+    wrapped around, and the bounds were not read)."""
+    path = bounded_fmu / "scene.yaml"
+    path.write_text(BOUNDED_SCENE.replace("<START>", start))
+    with pytest.raises(ScenarioError) as info:
+        load(path)
+    assert info.value.problems == [said]
+    path.write_text(BOUNDED_SCENE.replace("<START>", "{count: 100, gain: 30.0}"))  # on the bounds: taken
+    assert load(path).components["scale"].cls.start_values == {"count": 100, "gain": 30.0}
+
+
+@pytest.mark.parametrize(("fmu_type", "version", "inside", "outside"), [
+    ("Int8", "3.0", (-128, 127), (-129, 128)), ("UInt8", "3.0", (0, 255), (-1, 256)),
+    ("Int16", "3.0", (-32768, 32767), (-32769, 32768)), ("UInt16", "3.0", (0, 65535), (-1, 65536)),
+    ("Int32", "3.0", (-2**31, 2**31 - 1), (-2**31 - 1, 2**31)), ("UInt32", "3.0", (0, 2**32 - 1), (-1, 2**32)),
+    ("Int64", "3.0", (-2**63, 2**63 - 1), (-2**63 - 1, 2**63)), ("UInt64", "3.0", (0, 2**64 - 1), (-1, 2**64)),
+    ("Enumeration", "3.0", (-2**63, 2**63 - 1), (-2**63 - 1, 2**63)),
+    ("Enumeration", "2.0", (-2**31, 2**31 - 1), (-2**31 - 1, 2**31)),
+])
+def test_each_integer_type_takes_the_start_values_its_width_holds(fmu_type, version, inside, outside):
+    """FMI 3.0's Int8 ... UInt64 as their names say, an Enumeration as FMI 2.0's Integer or FMI 3.0's
+    Int64: each end taken, one past it refused naming the type and the value."""
+    from types import SimpleNamespace
+
+    from components.fmu.mapping import parse_start
+
+    var = SimpleNamespace(name="n", type=fmu_type, causality="parameter", variability="fixed", min=None, max=None,
+                          declaredType=None)
+    for value in inside:
+        problems: list[str] = []
+        assert parse_start({"n": value}, "'m.fmu'", {"n": var}, "components.m", problems, version) == {"n": value}
+        assert problems == []
+    for value in outside:
+        problems = []
+        assert parse_start({"n": value}, "'m.fmu'", {"n": var}, "components.m", problems, version) == {}
+        (problem,) = problems
+        assert problem.startswith(f"components.m.start.n: variable 'n' of FMU 'm.fmu' is {fmu_type}, a ")
+        assert problem.endswith(f"; got {value}")
+
+
+def test_a_declared_types_bounds_hold_where_the_variable_gives_none():
+    """A variable with declaredType="Angle" (min -180, max 180) and a max of its own, 90: its own max
+    and its type's min hold, as FMI reads them."""
+    from types import SimpleNamespace
+
+    from components.fmu.mapping import parse_start
+
+    angle = SimpleNamespace(min="-180", max="180")
+    var = SimpleNamespace(name="a", type="Real", causality="parameter", variability="fixed", min=None, max="90",
+                          declaredType=angle)
+    problems: list[str] = []
+    assert parse_start({"a": -180.0}, "'m.fmu'", {"a": var}, "components.m", problems) == {"a": -180.0}
+    assert parse_start({"a": -181.0}, "'m.fmu'", {"a": var}, "components.m", problems) == {}
+    assert parse_start({"a": 91}, "'m.fmu'", {"a": var}, "components.m", problems) == {}
+    assert problems == [
+        "components.m.start.a: must be at least -180, the min of variable 'a' of FMU 'm.fmu' (got -181.0)",
+        "components.m.start.a: must be at most 90, the max of variable 'a' of FMU 'm.fmu' (got 91)"]
+
+
+def test_an_fmu_cache_that_cannot_be_used_is_named_with_its_setting_and_the_reason(tmp_path, monkeypatch, capsys):
+    """$COSIM_FMU_CACHE naming a file: exit 2 in one line naming the component's model, the cache, the
+    setting and the system's reason (the line named only a folder inside the cache: 'error:
+    .../f8c2...: Not a directory')."""
+    not_a_folder = tmp_path / "some_file"
+    not_a_folder.write_text("a file")
+    monkeypatch.setenv("COSIM_FMU_CACHE", str(not_a_folder))
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene())
+    assert main(["validate", str(path)]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {path}: components.gust.model: {GUST_MODEL}: cannot keep its FMU in the FMU cache {not_a_folder} "
+        "($COSIM_FMU_CACHE): Not a directory")

@@ -129,7 +129,7 @@ class FMU(Component):
             return None
         variables = {v.name: v for v in md.modelVariables}
         before = len(problems)
-        start = parse_start(params.start, label, variables, path, problems)
+        start = parse_start(params.start, label, variables, path, problems, md.fmiVersion)
         ins = parse_ports(params.inputs, "inputs", label, variables, path, problems)
         outs = parse_ports(params.outputs, "outputs", label, variables, path, problems)
         if len(problems) > before:

@@ -35,6 +35,12 @@ INTEGER_TYPES = {"Integer", "Enumeration", "Int8", "UInt8", "Int16", "UInt16", "
 KIND_OF_TYPE = {**dict.fromkeys(REAL_TYPES, "real"), **dict.fromkeys(INTEGER_TYPES, "integer"),
                 "Boolean": "boolean", "String": "string"}
 START_CAUSALITIES = ("parameter", "structuralParameter", "input")
+# each integer type's width in bits and whether it is signed: FMI 2.0's Integer is a C int, 32-bit
+# signed (a start value beyond it was wrapped around, 10000000000 set as 1410065408); an Enumeration
+# is FMI 2.0's Integer, FMI 3.0's Int64 (see integer_width)
+INTEGER_WIDTHS = {"Integer": (32, True), "Int8": (8, True), "UInt8": (8, False), "Int16": (16, True),
+                  "UInt16": (16, False), "Int32": (32, True), "UInt32": (32, False), "Int64": (64, True),
+                  "UInt64": (64, False)}
 
 
 def message_types() -> dict[str, type[Message]]:
@@ -173,9 +179,56 @@ def _binding(item: tuple[Any, Any], msg_type: type[Message], causality: str, lab
     return Binding(spec.name, int(index) if index is not None else None, name, var.valueReference, var.type)
 
 
-def parse_start(data: Any, label: str, variables: dict[str, Any], path: str, problems: list[str]) -> dict[str, Any]:
+def integer_width(fmu_type: str, fmi_version: str) -> tuple[int, bool]:
+    """The width in bits of the integer type ``fmu_type`` of an FMU of FMI ``fmi_version``, and
+    whether it is signed."""
+    if fmu_type == "Enumeration":
+        return (64, True) if fmi_version.startswith("3") else (32, True)
+    return INTEGER_WIDTHS[fmu_type]
+
+
+def _declared(var: Any, bound: str) -> tuple[str, float] | None:
+    """The variable's ``min`` or ``max`` (``bound``) as the model description writes it and as a
+    number, the variable's own else its declared type's, as FMI reads them; None where there is
+    none (or none that reads as a number: FMPy's validation of the model description names that)."""
+    text = getattr(var, bound, None)
+    if text is None and getattr(var, "declaredType", None) is not None:
+        text = getattr(var.declaredType, bound, None)
+    if text is None:
+        return None
+    try:
+        return text, int(text)  # an integer's bound as written: a float would round one above 2**53
+    except ValueError:
+        try:
+            return text, float(text)
+        except ValueError:
+            return None
+
+
+def _out_of_bounds(value: Any, var: Any, kind: str, fmi_version: str, label: str) -> str | None:
+    """Why the number ``value`` cannot be the start of ``var`` (its type's range, its min and max),
+    or None if it can."""
+    name = var.name
+    if kind == "integer":
+        bits, signed = integer_width(var.type, fmi_version)
+        low, high = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if signed else (0, 2**bits - 1)
+        if not low <= value <= high:
+            sign = "signed" if signed else "unsigned"
+            return (f"variable {name!r} of FMU {label} is {var.type}, a {bits}-bit {sign} integer, from {low} to "
+                    f"{high}; got {value!r}")
+    lowest, highest = _declared(var, "min"), _declared(var, "max")
+    if lowest is not None and value < lowest[1]:
+        return f"must be at least {lowest[0]}, the min of variable {name!r} of FMU {label} (got {value!r})"
+    if highest is not None and value > highest[1]:
+        return f"must be at most {highest[0]}, the max of variable {name!r} of FMU {label} (got {value!r})"
+    return None
+
+
+def parse_start(data: Any, label: str, variables: dict[str, Any], path: str, problems: list[str],
+                fmi_version: str = "2.0") -> dict[str, Any]:
     """The ``start`` mapping (variable -> value) for parameters and inputs, values checked against
-    each variable's type; returns name -> value."""
+    each variable's type (an integer within its type's range) and its min and max where the model
+    description gives them; returns name -> value."""
     at = f"{path}.start"
     if not isinstance(data, dict):
         problems.append(f"{at}: must be a mapping of FMU variable -> value (got {data!r})")
@@ -200,6 +253,9 @@ def parse_start(data: Any, label: str, variables: dict[str, Any], path: str, pro
             continue
         if kind == "real" and not math.isfinite(float(value)):  # it would reach the outputs at the first step
             problems.append(f"{at}.{name}: must be finite (got {value!r})")
+            continue
+        if kind in ("real", "integer") and (why := _out_of_bounds(value, var, kind, fmi_version, label)):
+            problems.append(f"{at}.{name}: {why}")
             continue
         out[name] = float(value) if kind == "real" else value
     return out

@@ -86,7 +86,13 @@ def cached_fmu(model: str | Path, *, extra_files: Iterable[str | Path] = (), sta
                             "pip install 'cosim[fmi]'")
     model = Path(model)
     extras = [Path(f) for f in extra_files]
-    target = cache_dir() / cache_key(model, extras, state) / f"{model.stem}.fmu"
-    if not target.is_file():
-        build_fmu(model, target, extra_files=extras, state=state)
+    folder = cache_dir()
+    target = folder / cache_key(model, extras, state) / f"{model.stem}.fmu"
+    try:
+        if not target.is_file():
+            build_fmu(model, target, extra_files=extras, state=state)
+    except OSError as exc:  # a cache that is a file, not writable or full (the system's error named a folder in it)
+        said = "$" + CACHE_ENV if os.environ.get(CACHE_ENV) else f"the default; ${CACHE_ENV} names another"
+        raise FmuBuildError(f"{model}: cannot keep its FMU in the FMU cache {folder} ({said}): "
+                            f"{exc.strerror or exc}") from None
     return target

@@ -11,6 +11,7 @@ then finds nothing to report.
 from __future__ import annotations
 
 import keyword
+import os
 import re
 import tempfile
 import zipfile
@@ -34,7 +35,8 @@ MAX_IDENTIFIER = 200  # characters in a model identifier: it names files inside 
 def model_identifier(output: Path) -> str:
     """The FMU's model identifier from its file name (``skip.fmu`` -> ``skip``): a C identifier, as
     FMI asks, since it names the FMU's binaries and functions."""
-    name = re.sub(r"\W", "_", output.stem)
+    # ASCII only: a C identifier has no other letters (\w kept skïp's ï: a Python name, no C one)
+    name = re.sub(r"[^A-Za-z0-9_]", "_", output.stem)
     # a C identifier, and a Python class name for the slave (class.fmu made a class named class)
     return name if name and not name[0].isdigit() and not keyword.iskeyword(name) else f"fmu_{name}"
 
@@ -88,6 +90,23 @@ def _rewrite_description(fmu: Path, edit: Callable[[str], str]) -> None:
     part.replace(fmu)
 
 
+def _fmu_used_by(scene: Scene, output: Path) -> tuple[str, str] | None:
+    """The component of ``scene`` whose FMU file ``output`` is, by any name (a symbolic or hard link,
+    another spelling of the path), and its key (``path``, or ``model`` for the FMU built from a
+    model); or None. An FMU component holds its file as ``fmu_file`` on its class."""
+    for name, config in scene.components.items():
+        used = getattr(config.cls, "fmu_file", None)
+        if not isinstance(used, Path):
+            continue
+        # resolved, for a path through a folder not made yet (sub/../inner.fmu, which exists() denies);
+        # samefile for a hard link
+        same = output.resolve() == used.resolve() or (output.exists() and used.exists()
+                                                      and os.path.samefile(output, used))
+        if same:
+            return name, "path" if getattr(config.params, "path", None) is not None else "model"
+    return None
+
+
 def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
     """Build the FMU ``output`` (a ``.fmu`` file) running ``scene`` as ``spec`` says."""
     output = Path(output)
@@ -95,6 +114,11 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
         raise ScenarioError(f"-o {output}: an FMU file name ends in .fmu", scene.source)
     if output.exists() and not zipfile.is_zipfile(output):
         raise ScenarioError(f"-o {output}: exists and is not an FMU; it is not replaced", scene.source)
+    used = _fmu_used_by(scene, output)
+    if used is not None:  # the exported FMU would hold a scene whose own FMU it had replaced
+        name, key = used
+        raise ScenarioError(f"-o {output}: is the FMU of component {name!r} (components.{name}.{key}); it is "
+                            "not replaced", scene.source)
     identifier = model_identifier(output)
     if len(identifier) > MAX_IDENTIFIER:  # it names the FMU's module file and its binaries
         raise ScenarioError(f"-o {output}: an FMU's name (its model identifier) is at most {MAX_IDENTIFIER} "

@@ -2,11 +2,13 @@
 
 The FMU's resources hold the scene (``scene.yaml``) and what it shows (``export.json``, an
 :class:`~cosim.fmi.spec.ExportSpec`). Its parameters are set before initialization; leaving
-initialization loads the scene with them (as ``--set`` overrides) and publishes the t = 0 values.
+initialization loads the scene with them (as ``--set`` overrides) and publishes the t = 0 values,
+and a parameter set after that is refused (they are fixed: the scene runs with the values it had).
 Each ``doStep(t, h)`` runs ``h / dt`` base steps of the scene, exactly as ``cosim run`` does, so the
 outputs at a communication point are the scene's values at that time, bit for bit. Once the scene
 stops itself (the stone sank), the outputs hold their last values. A start time after 0 (setupExperiment)
-is run up to during initialization, so that holds from the first communication point on.
+is run up to during initialization, so that holds from the first communication point on. After
+terminate, doStep is refused; reset (a new instance of the class) makes the FMU ready to run again.
 
 Each failure is logged as an Error through the FMU's logger and also written to the process's
 standard error (see :meth:`SceneSlave._report`).
@@ -95,6 +97,7 @@ class SceneSlave(Fmi2Slave):
         self.sim: Simulation | None = None
         self.latest = _Latest({(o.component, o.port) for o in self.spec.outputs})
         self.start_ns = 0  # setupExperiment's start time [ns]: initialization runs the scene up to it
+        self.terminated = False  # set by terminate: FMI 2.0 then allows only reset (a new instance) and freeInstance
         for p in self.spec.parameters:
             self.values[p.name] = p.start
             kind = Integer if p.kind == "integer" else Real
@@ -121,6 +124,12 @@ class SceneSlave(Fmi2Slave):
 
     def _setter(self, name: str) -> Any:
         def put(value: Any) -> None:
+            if self.sim is not None or self.terminated:
+                # the scene was built from the parameters as they were when initialization ended: a
+                # later value would be read back but never used (FMI 2.0 forbids setting a fixed one then)
+                when = "after terminate" if self.terminated else "after initialization"
+                self._fail(f"parameter {name!r} set to {value!r} {when}: a fixed parameter takes a value only "
+                           f"before exitInitializationMode (FMI 2.0); it stays {self.values[name]!r}")
             self.values[name] = value
         return put
 
@@ -221,6 +230,9 @@ class SceneSlave(Fmi2Slave):
         return False
 
     def do_step(self, current_time: float, step_size: float) -> bool:
+        if self.terminated:
+            return self._refuse(f"doStep from t = {current_time:.9g} s after terminate: a terminated FMU takes "
+                                "only reset or freeInstance (FMI 2.0)")
         sim = self.sim
         if sim is None:
             return self._refuse("doStep before initialization")
@@ -239,6 +251,12 @@ class SceneSlave(Fmi2Slave):
         self._publish()
         return True
 
+    def terminate(self) -> None:
+        """End the simulation: every later doStep is refused, with Discard as any refused doStep, so
+        that the instance can still be reset (pythonfmu's reset makes a new instance of this class;
+        after Fatal, FMI 2.0 allows no further call)."""
+        self.terminated = True
+
     # --- state (what pythonfmu's getFMUstate / setFMUstate and their serialization carry) ------------
 
     def _get_fmu_state(self) -> dict[str, Any]:
@@ -255,7 +273,8 @@ class SceneSlave(Fmi2Slave):
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         """Restore ``state``, or fail having changed nothing: the state is checked and the scene
         restored first, the variables' values taken only once that worked (a state of another scene
-        left this instance with its values and half its scene replaced)."""
+        left this instance with its values and half its scene replaced). A state saved before
+        initialization takes the instance back to before it: no scene, initialization to come."""
         try:
             values = state["values"]
             if set(values) != set(self.values):
@@ -265,6 +284,11 @@ class SceneSlave(Fmi2Slave):
                 self._restore_scene(state, values)
         except Exception as exc:  # a state from another scene or another version of cosim
             self._fail(f"cannot restore this state: {exc}")
+        if "checkpoint" not in state:
+            # a state saved before initialization: back to then, with no scene (its outputs of 0 with the
+            # scene left at its later time made a doStep from 0 refused and one from that time accepted)
+            self.sim = None
+            self.latest.messages = {}
         self.values.update(values)
 
     def _restore_scene(self, state: dict[str, Any], values: dict[str, Any]) -> None:
