@@ -35,6 +35,9 @@ BODIES = {
                          velocity=(5.0, 0.2, -1.3), angular_velocity=(0.0, 0.0, 60.0)),
     "sunk disk": body(position=(0.01, 0.0, -0.05), orientation=pitched(0.3), velocity=(0.2, 0.0, -0.4)),
     "disk above the rest level": body(position=(0.0, 0.0, 0.012), velocity=(1.0, 0.0, -0.5)),
+    # its displaced water spread over its depth (kernel.depth_spread), within the patch and past its edge
+    "disk just under": body(position=(0.002, 0.001, -0.0045), velocity=(0.5, 0.0, -0.3)),
+    "sunk ball": body(Shape.SPHERE, position=(-0.004, 0.003, -0.08), radius=0.02, velocity=(0.1, 0.2, -0.3)),
 }
 
 

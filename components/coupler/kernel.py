@@ -1307,3 +1307,78 @@ def smooth_conservative(b, passes):
                 tmp[j] = 0.25 * (down - 2.0 * b[j, i] + up)
             for j in range(nj):
                 b[j, i] += tmp[j]
+
+
+# The water a submerged body displaces rises through the water above it, over a width set by the
+# depth: an image source at depth d under a flat surface sends half its flux through the surface
+# within sqrt(3) d of the point over it, and a Gaussian of the same half-flux radius has
+# sigma = sqrt(3) d / sqrt(2 ln 2) = 1.47 d.
+DEPTH_SPREAD = math.sqrt(3.0) / math.sqrt(2.0 * math.log(2.0))
+SPREAD_REACH = 2.5  # the spread's kernel is cut at this many sigma (1.2% of a column's volume beyond, kept in)
+SPREAD_LEAST = 0.05  # [columns] a narrower spread leaves the deposit as it is
+# [radii] the widest spread: beyond it the mound over a stone is a fraction of a millimetre (a cap of 1.5
+# or 3 radii left the surface over the sunk reference stone within 0.6 mm of this one's), and the
+# deposit's window, which the patch must hold, stays small
+SPREAD_CAP = 1.0
+
+
+@njit(cache=True, inline="always")
+def depth_spread(top_under, radius):
+    """The width sigma [m] over which the water displaced by a body of ``radius`` [m] whose top is
+    ``top_under`` [m] under the rest level rises beyond its band: 0 while the body pierces the
+    level, then DEPTH_SPREAD times the top's depth (the spread of the water displaced nearest the
+    surface, the body's shallowest: the rest of its volume, deeper, would spread wider), at most
+    SPREAD_CAP radii."""
+    if not top_under > 0.0:
+        return 0.0
+    return min(DEPTH_SPREAD * top_under, SPREAD_CAP * radius)
+
+
+@njit(cache=True, inline="always")
+def _mirror(k, n):
+    """Index k reflected into 0..n-1 about the window's edges (half a column out: k = -1 is 0)."""
+    period = 2 * n
+    k %= period
+    return k if k < n else period - 1 - k
+
+
+@njit(cache=True)
+def spread_reach(sigma):
+    """How many columns [-] the spread of ``sigma`` [columns] reaches each way (0: no spread)."""
+    return math.ceil(SPREAD_REACH * sigma) if sigma >= SPREAD_LEAST else 0
+
+
+@njit(cache=True)
+def spread_gaussian(b, sigma):
+    """Spread ``b`` (nj, ni) in place by a Gaussian of ``sigma`` [columns] along x then y, reflected at
+    the window's edges (no flux through them), so sum(b) is unchanged; the filter is symmetric, so
+    reading a field through it is the adjoint of depositing through it. Its weights are the
+    Gaussian's at whole columns, normalised, cut at SPREAD_REACH sigma: they change smoothly with
+    sigma, and sigma below SPREAD_LEAST columns leaves b as it is."""
+    reach = spread_reach(sigma)
+    if reach == 0:
+        return
+    weights = np.empty(2 * reach + 1)
+    total = 0.0
+    for k in range(-reach, reach + 1):
+        weights[k + reach] = math.exp(-0.5 * (k / sigma) ** 2)
+        total += weights[k + reach]
+    weights /= total
+    nj, ni = b.shape
+    line = np.empty(max(ni, nj))
+    for j in range(nj):
+        for i in range(ni):
+            acc = 0.0
+            for k in range(-reach, reach + 1):
+                acc += weights[k + reach] * b[j, _mirror(i + k, ni)]
+            line[i] = acc
+        for i in range(ni):
+            b[j, i] = line[i]
+    for i in range(ni):
+        for j in range(nj):
+            acc = 0.0
+            for k in range(-reach, reach + 1):
+                acc += weights[k + reach] * b[_mirror(j + k, nj), i]
+            line[j] = acc
+        for j in range(nj):
+            b[j, i] = line[j]

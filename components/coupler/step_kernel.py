@@ -270,14 +270,27 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
             kernel.clear_box(b_out, out_box)  # b_out is zero outside the last deposit's window
             i_lo, i_hi, j_lo, j_hi = kernel.deposit_onto_zero(b_rest, band_j, band_i, col_j, col_i, columns, band,
                                                               b_out)
+            # a submerged body's water rises over a width set by its depth (the top as far above the
+            # centre as the lowest point is below it)
+            sigma = kernel.depth_spread(rest_level - (2.0 * centre[2] - z_low), radius) / cell
+            reach = kernel.spread_reach(sigma) if i_lo <= i_hi else 0
+            if reach:
+                nj, ni = b_out.shape
+                i_lo, i_hi = max(0, i_lo - reach), min(ni - 1, i_hi + reach)
+                j_lo, j_hi = max(0, j_lo - reach), min(nj - 1, j_hi + reach)
+                kernel.spread_gaussian(b_out[j_lo:j_hi + 1, i_lo:i_hi + 1], sigma)
             out_box[0], out_box[1], out_box[2], out_box[3] = i_lo, i_hi, j_lo, j_hi
             if i_lo <= i_hi:
                 results[R_I_LO] = i_lo
                 results[R_I_HI] = i_hi
                 results[R_J_LO] = j_lo
                 results[R_J_HI] = j_hi
-                _ring_lift_live(waterline, height, held, has_held, b_out, rest_level,
-                                band_j, band_i, col_j, col_i, columns, band, lifted)
+                if reach:
+                    _ring_lift_spread(waterline, height, held, has_held, b_out, rest_level, sigma,
+                                      i_lo, i_hi, j_lo, j_hi, band_j, band_i, col_j, col_i, columns, band, lifted)
+                else:
+                    _ring_lift_live(waterline, height, held, has_held, b_out, rest_level,
+                                    band_j, band_i, col_j, col_i, columns, band, lifted)
     results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
     _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share)
     results[R_BOUND] = stability_bound(body, stats, prm)
@@ -322,6 +335,36 @@ def _ring_lift_live(waterline, height, held, has_held, b_out, rest_level, band_j
         if area <= 0.0:
             continue
         level = _field(height, held, has_held, b_out, rest_level, j, i)
+        lifted[0] += level * area
+        lifted[1] += level * waterline[2, j, i]
+        lifted[2] -= level * waterline[1, j, i]
+
+
+@njit(cache=True)
+def _ring_lift_spread(waterline, height, held, has_held, b_out, rest_level, sigma, i_lo, i_hi, j_lo, j_hi,
+                      band_j, band_i, col_j, col_i, columns, band, lifted):
+    """:func:`_ring_lift_live` for a deposit spread by a Gaussian of ``sigma`` [columns] over the
+    window [j_lo, j_hi] x [i_lo, i_hi]: the field over the window read through the same filter (the
+    adjoint of spreading the deposit through it), as WaterCoupler._ring does."""
+    field = np.empty((j_hi - j_lo + 1, i_hi - i_lo + 1))
+    for j in range(j_lo, j_hi + 1):
+        for i in range(i_lo, i_hi + 1):
+            field[j - j_lo, i - i_lo] = _field(height, held, has_held, b_out, rest_level, j, i)
+    kernel.spread_gaussian(field, sigma)
+    n = band_j.size
+    if n > 0:
+        band_field = np.empty(n)
+        for k in range(n):
+            band_field[k] = field[band_j[k] - j_lo, band_i[k] - i_lo]
+        kernel.ring_levels(band_field, waterline, col_j, col_i, columns, band, lifted)
+        return
+    lifted[:] = 0.0
+    for c in range(col_j.size):
+        j, i = col_j[c], col_i[c]
+        area = waterline[0, j, i]
+        if area <= 0.0:
+            continue
+        level = field[j - j_lo, i - i_lo]
         lifted[0] += level * area
         lifted[1] += level * waterline[2, j, i]
         lifted[2] -= level * waterline[1, j, i]
