@@ -178,3 +178,21 @@ def test_a_body_that_comes_down_before_the_waters_first_patch_raises_the_water()
     assert sim.run(30_000_000).status == "ok"
     windows = [m for m in watch.messages("coupler.occupied") if m.b.size]
     assert windows and not any(m.already_displaced for m in windows)
+
+
+def _pine_height(level: float) -> float:
+    """float_sphere's pine ball let go with its lower 2 cm in a pond resting at ``level`` [m]: its
+    height over the level [m] after 1 s."""
+    scene = load_scene(Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml",
+                       [f"components.pine_pond.rest_level={level}", f"components.pine.position=[0, 0, {level + 0.03}]",
+                        "until=1.0", "record.visual_rate=0"])
+    watch = Channels("pine.state")
+    assert Simulation(scene, observers=[watch]).run().status == "ok"
+    return float(watch.messages("pine.state")[-1].position[2]) - level
+
+
+def test_a_body_over_a_pond_resting_above_zero_meets_its_water():
+    """The coupler takes the water's rest level from its first answer, even one with no columns in it
+    (the body has asked for none yet): taken as 0 until then, a ball let go over a pond resting at
+    0.5 m was dry to the coupler, asked for no water, and fell through the pond onto its bed."""
+    assert _pine_height(0.5) == pytest.approx(_pine_height(0.0), abs=1e-6)

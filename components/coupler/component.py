@@ -562,6 +562,11 @@ class WaterCoupler(Component):
             # the water answered that it has no columns where the body is: no still water is assumed
             # there, and the body falls through as off any edge of the water
             self.rest_level, self.cell = float(patch.rest_level), float(patch.cell)
+        elif patch is not None and self.cell == 0.0 and patch.cell > 0.0:
+            # an empty patch (nothing asked for yet) still says where the water's surface rests: taken
+            # as 0 instead, a body let go over a pond resting at 0.5 m was dry to the coupler, asked
+            # for no water, and fell through the pond onto its bed
+            self.rest_level = float(patch.rest_level)
         self._account_work(pos, omega, dt, bool(body.attitude_locked))
         self._submerged = 0.0
         if self.added_mass_on:
