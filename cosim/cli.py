@@ -162,11 +162,15 @@ def _default_output(scene_path: str, name: str, overrides: list[str]) -> Path:
     overrides), so that a variant never replaces the scene's own recording."""
     stem = name or Path(scene_path).stem
     if overrides:
-        import hashlib
-
-        digest = hashlib.sha256("\n".join(overrides).encode()).hexdigest()[:8]
-        stem = f"{stem}-set-{digest}"
+        stem = f"{stem}-set-{_overrides_digest(overrides)}"
     return Path("runs") / f"{stem}.mcap"
+
+
+def _overrides_digest(overrides: list[str]) -> str:
+    """Eight hex digits naming a list of overrides: a variant's recording is named by them."""
+    import hashlib
+
+    return hashlib.sha256("\n".join(overrides).encode()).hexdigest()[:8]
 
 
 def _record_overrides(args: argparse.Namespace) -> list[str]:
@@ -388,7 +392,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise ScenarioError(f"--from {args.from_time / NS_PER_S:g} s is not before the restarted run's end, the "
                             f"scene's until = {end_ns / NS_PER_S:g} s{beyond}: give --until T, later than "
                             f"{args.from_time / NS_PER_S:g} s", f"cosim replay {args.recording}")
-    default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s.mcap")
+    # a restart with --set or --until is a variant: named by its overrides as `cosim run` names one,
+    # so that one variant never silently replaces another (or the plain restart)
+    variant = f"-set-{_overrides_digest(overrides)}" if overrides else ""
+    default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s{variant}.mcap")
     output = Path(args.output) if args.output else default
     def restarting() -> None:  # said once the output is accepted and the run about to begin
         print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s", flush=True)
@@ -470,7 +477,9 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("--from", dest="from_time", type=_seconds_arg, metavar="T",
                    help="restart the whole scene from the last checkpoint at or before T [s]")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="with --from: changed settings")
-    p.add_argument("-o", "--output", type=_output_path, help="with --from: MCAP file for the restarted run")
+    p.add_argument("-o", "--output", type=_output_path,
+                   help="with --from: MCAP file for the restarted run (default RECORDING-fromTs.mcap beside the "
+                        "recording; with --set or --until, RECORDING-fromTs-set-<hash>.mcap)")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="with --from: end time [s]")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_replay)

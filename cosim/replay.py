@@ -12,13 +12,16 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
-from cosim.codec.json_codec import codec_for
+from cosim.codec import state_proto
+from cosim.codec.json_codec import codec_for, decode_state
 from cosim.component import Component
-from cosim.errors import RecordingError
+from cosim.errors import CosimError, RecordingError, shortened
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
-from cosim.record.recorder import topic_of
+from cosim.record.recorder import CHECKPOINT_TOPIC, topic_of
+from cosim.scenario import Scene
 from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start, restore_component, saved_messages
 from cosim.timebase import NS_PER_S
 
@@ -240,6 +243,177 @@ def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
     return rec.restart_ns, checkpoint
 
 
+def _checkpoint_at_or_before(rec: Recording, from_ns: int) -> tuple[list[int], int | None, dict[str, Any] | None]:
+    """The times [ns] of the recording's checkpoints, in order, and the last one at or before
+    ``from_ns`` with its checkpoint (None, None when there is none). The times are read from the
+    records' log times: only the checkpoint chosen is decoded (decoding them all cost as much as
+    reading the file), so one that cannot be decoded elsewhere in the file does not stop a restart."""
+    channel = rec.channels.get(CHECKPOINT_TOPIC)
+    if channel is None:
+        return [], None, None
+    stamps: list[int] = []
+    chosen: tuple[int, bytes] | None = None
+    for _, stamp, data in rec.raw([CHECKPOINT_TOPIC]):
+        stamps.append(stamp)
+        if stamp <= from_ns:
+            chosen = (stamp, data)
+    if chosen is None:
+        return stamps, None, None
+    # protobuf (cosim.codec.state_proto); JSON in recordings made before it, as Recording reads them
+    decode = state_proto.decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
+    stamp, data = chosen
+    try:
+        checkpoint = decode(data)
+    except Exception as exc:  # whatever a damaged payload makes the decoder raise
+        raise RecordingError(f"{rec.path}: the checkpoint at {stamp} ns cannot be read "
+                             f"({shortened(str(exc), 200)})") from None
+    return stamps, stamp, checkpoint
+
+
+def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:
+    """Why there is no checkpoint at or before ``from_ns`` to restart from, and what to do."""
+    times = ", ".join(f"{s / NS_PER_S:g}" for s in stamps[:10]) or "none"
+    if rec.restart_ns and from_ns < rec.restart_ns:
+        # a restart's recording begins at its checkpoint: what came before is in the one it came from
+        began = f"{rec.restart_ns / NS_PER_S:g} s"
+        hint = (f"this recording is a restart from {began}: restart from the recording it came from, or from "
+                f"{began} or later" if stamps else
+                f"this recording is a restart from {began}, recorded without checkpoints: restart from the "
+                "recording it came from")
+    elif stamps:
+        hint = f"restart from {stamps[0] / NS_PER_S:g} s or later"
+    else:
+        hint = "record with record.checkpoint_every > 0"
+    return RecordingError(f"{rec.path}: no checkpoint at or before t = {from_ns / NS_PER_S:g} s "
+                          f"(checkpoints at [s]: {times}); {hint}")
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two parameter values are equal (arrays element by element)."""
+    try:
+        return bool(a == b)
+    except (ValueError, TypeError):  # arrays, or containers of them: no single truth value
+        return repr(a) == repr(b)
+
+
+def _recorded_scene(rec: Recording) -> tuple[Scene | None, str]:
+    """The recorded scene, without a restart's overrides, or (None, why it cannot be loaded: a file it
+    names has moved, which a restart's --set may give again)."""
+    try:
+        return rec.scene(), ""
+    except CosimError as exc:
+        return None, shortened(str(exc), 200)
+
+
+def _refuse_start_only_overrides(sim: Simulation, recorded: Scene | None, unread: str, overrides: list[str],
+                                 stamp: int) -> None:
+    """Refuse an override of what only sets a component's state at t = 0 (its ``start_only_params``):
+    a restart takes that state from the checkpoint at ``stamp`` [ns], so the override would do
+    nothing. A key naming the parameter (``components.stone.position``) is refused as such; one
+    replacing whole components (``components.stone``, ``components``) when a start-only parameter
+    of theirs differs from the ``recorded`` one (``unread``: why the recorded scene is None)."""
+    for override in overrides:
+        key = override.partition("=")[0].strip()
+        path = key.split(".")
+        if path[0] != "components":
+            continue
+        if len(path) >= 3:
+            if path[1] in sim.components:
+                comp, param = sim.components[path[1]], path[2].partition("[")[0]
+                if param in comp.start_only_params:
+                    raise RecordingError(f"--set {key}: sets {path[1]}'s state at t = 0, which a restart takes "
+                                         f"from the checkpoint at {stamp / NS_PER_S:g} s instead; to change it, "
+                                         "run the scene from the start (cosim run)")
+            continue
+        if recorded is None:
+            raise RecordingError(f"--set {key}: replaces whole components, whose values that set the state at "
+                                 "t = 0 a restart must compare with the recorded ones, but the recorded scene "
+                                 f"cannot be loaded ({unread}); set the values one by one "
+                                 "(components.NAME.KEY=VALUE)")
+        names = path[1:2] if len(path) == 2 else list(sim.components)
+        for name in names:
+            if name not in sim.components or name not in recorded.components:
+                continue  # a component the recording has none of: the checkpoint holds no state to restore
+            was, now = recorded.components[name].params, sim.scene.components[name].params
+            changed = sorted(param for param in sim.components[name].start_only_params
+                             if not _same(getattr(was, param, None), getattr(now, param, None)))
+            if changed:
+                verb = "sets" if len(changed) == 1 else "set"
+                raise RecordingError(f"--set {key}: changes {name}'s {_changed(was, now, changed)}, which only "
+                                     f"{verb} its state at t = 0: a restart takes that state from the checkpoint "
+                                     f"at {stamp / NS_PER_S:g} s instead; keep the recorded values, or run the "
+                                     "scene from the start (cosim run)")
+
+
+def _changed(was: Any, now: Any, names: list[str]) -> str:
+    """``start (recorded {...}, given {...})`` for each parameter of ``names``, shortened."""
+    return shortened("; ".join(f"{name} (recorded {getattr(was, name, None)!r}, given {getattr(now, name, None)!r})"
+                               for name in names), 200)
+
+
+def _state_times(sim: Simulation, recorded: Scene | None, cp: dict[str, Any], stamp: int) -> dict[str, int]:
+    """The time [ns] each component's restored state is at: the end of its step that spans the
+    checkpoint at ``stamp`` (a component stepping every few ticks steps from before the checkpoint to
+    after it), else the checkpoint's time. That end is the stamp of the step's outputs the checkpoint
+    holds (``ahead``); for a component none of whose outputs it holds, the end of its step on the
+    recorded grid (its recorded every, the checkpoint's dt). A component whose recorded every cannot
+    be read (the recorded scene no longer loads) is left out."""
+    times: dict[str, int] = {}
+    for when, channel, _ in cp.get("ahead", []):  # (not in checkpoints of older recordings)
+        name = channel.partition(".")[0]
+        if when > stamp:
+            times[name] = max(times.get(name, when), when)
+    tick, dt_ns = cp["tick"], cp["dt_ns"]
+    for runner in sim.runners:
+        if runner.name not in times and recorded is not None and runner.name in recorded.components:
+            every = recorded.components[runner.name].every
+            times[runner.name] = -(-tick // every) * every * dt_ns
+    return times
+
+
+def _check_step_grids(rec: Recording, sim: Simulation, recorded: Scene | None, cp: dict[str, Any],
+                      stamp: int) -> None:
+    """Refuse a restart whose dt or every would start a component's steps elsewhere than where its
+    restored state is: its state would be stamped with a time it is not at (a step spanning the
+    checkpoint already took it past it; a later first step would skip time). Each component's
+    first step from the checkpoint on must begin at its state's time."""
+    dt_ns = sim.dt_ns
+    tick = stamp // dt_ns
+    state_times = _state_times(sim, recorded, cp, stamp)
+    for runner in sim.runners:
+        name, every = runner.name, runner.every
+        state_ns = state_times.get(name)
+        first_ns = -(-tick // every) * every * dt_ns  # where its first step at or after the checkpoint begins
+        if state_ns is None or first_ns == state_ns:
+            continue
+        spans = " (its step spans the checkpoint)" if state_ns > stamp else ""
+        gap = abs(state_ns - first_ns) / 1e6
+        what = (f"{gap:g} ms before it, counting that time twice" if first_ns < state_ns else
+                f"{gap:g} ms after it, skipping that time")
+        fits = _on_grid(rec, recorded, name, state_ns, tick, dt_ns)
+        raise RecordingError(
+            f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s with dt = "
+            f"{dt_ns / NS_PER_S:g} s: {name} (every {every}, a step of {every * dt_ns / 1e6:g} ms) has its state "
+            f"at t = {state_ns / NS_PER_S:.9g} s{spans}, but its first step would begin at t = "
+            f"{first_ns / NS_PER_S:.9g} s, {what}; {fits}, or run the scene from t = 0 (cosim run)")
+
+
+def _on_grid(rec: Recording, recorded: Scene | None, name: str, state_ns: int, tick: int, dt_ns: int) -> str:
+    """What to give component ``name`` so that its steps, from the restart's ``tick`` of ``dt_ns``
+    on, begin at its state's time ``state_ns``: its recorded step in ticks of this dt, when that
+    fits, else the recorded dt and every."""
+    if recorded is None or name not in recorded.components:
+        return f"give {name} a dt and every whose steps pass through t = {state_ns / NS_PER_S:.9g} s"
+    cfg, recorded_dt = recorded.components[name], rec.dt_ns
+    span = cfg.every * recorded_dt
+    every, rest = divmod(span, dt_ns)
+    if not rest and every >= 1 and -(-tick // every) * every * dt_ns == state_ns:
+        return (f"give {name} a step whose grid passes through t = {state_ns / NS_PER_S:.9g} s, such as its "
+                f"recorded {span / 1e6:g} ms: every {every} with this dt (components.{name}.every={every})")
+    return (f"give {name} a step whose grid passes through t = {state_ns / NS_PER_S:.9g} s, such as the "
+            f"recorded dt = {recorded_dt / NS_PER_S:g} s with every {cfg.every}")
+
+
 def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None = None,
                        observers: list | None = None) -> tuple[Simulation, int]:
     """A simulation of the recorded scene (with ``overrides``) restored at the last checkpoint at or
@@ -250,24 +424,13 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
         # the checkpoint before it would be the run's last: a restart there is not what was asked
         raise RecordingError(f"{rec.path}: --from {from_ns / NS_PER_S:g} s is after the recorded run's end "
                              f"(t = {end_ns / NS_PER_S:g} s); restart from a time within it")
-    checkpoints = rec.checkpoints()
-    usable = [(stamp, cp) for stamp, cp in checkpoints if stamp <= from_ns]
-    if not usable:
-        times = ", ".join(f"{s / NS_PER_S:g}" for s, _ in checkpoints[:10]) or "none"
-        raise RecordingError(f"{rec.path}: no checkpoint at or before t = {from_ns / NS_PER_S:g} s "
-                             f"(checkpoints at [s]: {times}); record with record.checkpoint_every > 0")
-    stamp, cp = usable[-1]
+    stamps, stamp, cp = _checkpoint_at_or_before(rec, from_ns)
+    if stamp is None or cp is None:
+        raise _no_checkpoint(rec, from_ns, stamps)
     scene = rec.scene(overrides)
+    recorded, unread = _recorded_scene(rec)  # what the checkpoint was made with, to compare the overrides with
     sim = Simulation(scene, observers=observers)
-    for override in overrides or []:
-        key = override.partition("=")[0].strip()
-        path = key.split(".")
-        if len(path) >= 3 and path[0] == "components" and path[1] in sim.components:
-            comp, param = sim.components[path[1]], path[2].partition("[")[0]
-            if param in comp.start_only_params:
-                raise RecordingError(f"--set {key}: sets {path[1]}'s state at t = 0, "
-                                     f"which a restart takes from the checkpoint at {stamp / NS_PER_S:g} s instead; "
-                                     "to change it, run the scene from the start (cosim run)")
+    _refuse_start_only_overrides(sim, recorded, unread, overrides or [], stamp)
     try:
         sim.restore(cp)
     except (ValueError, KeyError) as exc:
@@ -275,4 +438,5 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
                "changed by --set?)" if isinstance(exc, KeyError) else str(exc))
         raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s: "
                              f"{why}") from None
+    _check_step_grids(rec, sim, recorded, cp, stamp)
     return sim, stamp

@@ -9,6 +9,7 @@ from cosim.record.reader import Recording
 from cosim.replay import replay_component, restart_simulation
 from cosim.runner import run_scene
 from cosim.scenario import loads
+from tests.fmu_toys import fmu_cache  # noqa: F401  (FMUs the tests build go to a folder of their own)
 from tests.toys import Gain
 
 SCENE = """
@@ -111,9 +112,16 @@ def test_replay_errors_are_clear(recording):
 def test_a_checkpoint_missing_what_a_component_restores_is_named(recording, monkeypatch):
     """A checkpoint whose component state lacks a key the scene's component reads (a component or
     setting changed by --set) names the key, not just the KeyError's bare 'total'."""
-    broken = [(stamp, {**cp, "components": {**cp["components"], "acc": {**cp["components"]["acc"], "state": {}}}})
-              for stamp, cp in recording.checkpoints()]
-    monkeypatch.setattr(recording, "checkpoints", lambda: broken)
+    import cosim.replay
+
+    found = cosim.replay._checkpoint_at_or_before
+
+    def broken(rec, from_ns):
+        stamps, stamp, cp = found(rec, from_ns)
+        acc = {**cp["components"]["acc"], "state": {}}
+        return stamps, stamp, {**cp, "components": {**cp["components"], "acc": acc}}
+
+    monkeypatch.setattr(cosim.replay, "_checkpoint_at_or_before", broken)
     with pytest.raises(RecordingError, match=r"cannot restart from the checkpoint at 0\.06 s: it holds no 'total', "
                                              r"which this scene's components restore"):
         restart_simulation(recording, 60_000_000)
@@ -129,11 +137,12 @@ def test_a_restart_after_the_recorded_end_is_refused_with_the_end_named(recordin
 
 
 def _cut_off(full: Recording, path, until_ns: int, metadata: dict[str, str] | None = None,
-             cut_inside: str | None = None) -> None:
+             cut_inside: str | None = None, damaged: tuple[str, int] | None = None) -> None:
     """The recording of a run cut off at ``until_ns``: its messages up to then, without the final
     status (as a run killed there leaves it); ``metadata`` changes entries of its cosim metadata;
     ``cut_inside`` a topic whose message at ``until_ns`` is left out too (the cut fell between a
-    step's outputs)."""
+    step's outputs); ``damaged`` (topic, time [ns]) a message whose payload is replaced by bytes no
+    decoder reads (the file's checksums still match)."""
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
@@ -154,8 +163,9 @@ def _cut_off(full: Recording, path, until_ns: int, metadata: dict[str, str] | No
             writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
         for _, channel, message in reader.iter_messages(log_time_order=False):
             cut = channel.topic == cut_inside and message.log_time == until_ns
+            data = b"\xff\xff not a payload" if damaged == (channel.topic, message.log_time) else message.data
             if channel.topic != STATUS_TOPIC and message.log_time <= until_ns and not cut:
-                writer.add_message(ids[channel.id], message.log_time, message.data, message.publish_time)
+                writer.add_message(ids[channel.id], message.log_time, data, message.publish_time)
         writer.finish()
 
 
@@ -277,3 +287,141 @@ def test_a_recording_whose_scene_does_not_match_its_channels_is_named(tmp_path, 
                                              r"the recording holds no message of \(the run ended before its first, "
                                              r"or the attached scene is not the one that made the channels"):
         replay_component(recording, "ping")
+
+
+def test_a_restart_refuses_a_changed_fmu_start_value_or_whole_component_mapping(tmp_path, capsys):
+    """An FMU's ``start`` values, like a body's position, set what the restart takes from the
+    checkpoint (the FMU's own saved state): `--set components.gust.start.peak_speed=0` is refused
+    (the restart went on byte for byte as without it, and inspect listed it as applied), and so is
+    a whole mapping (`components.gust={...}`, `components={...}`) whose start-only values differ from
+    the recorded ones: exit 2, one line, no file. The recorded mapping given again is accepted."""
+    pytest.importorskip("fmpy")
+    pytest.importorskip("pythonfmu")
+    import json
+
+    import yaml
+
+    from cosim.cli import main
+    from tests.cli_toys import one_error_line
+    from tests.fmu_toys import gust_scene
+
+    scene = tmp_path / "gust.yaml"
+    scene.write_text(gust_scene())
+    path = tmp_path / "gust.mcap"
+    assert main(["run", str(scene), "--until", "0.06", "-o", str(path), "-q"]) == 0
+    capsys.readouterr()
+    components = yaml.safe_load(gust_scene())["components"]
+    calm = {**components["gust"], "start": {**components["gust"]["start"], "peak_speed": 0.0}}
+    higher = {**components, "stone": {**components["stone"], "position": [0, 0, 2.0]}}
+    out = tmp_path / "again.mcap"
+    for override, said in (
+            ("components.gust.start.peak_speed=0",
+             "--set components.gust.start.peak_speed: sets gust's state at t = 0"),
+            (f"components.gust={json.dumps(calm)}",
+             "--set components.gust: changes gust's start (recorded {'peak_speed': 8.0, 'start_time': 0.05, "
+             "'duration': 0.1}, given {'peak_speed': 0.0, "),
+            (f"components={json.dumps(higher)}",
+             "--set components: changes stone's position (recorded (0.0, 0.0, 1.0), given (0.0, 0.0, 2.0)), which "
+             "only sets its state at t = 0")):
+        assert main(["replay", str(path), "--from", "0.05", "--set", override, "-o", str(out), "-q"]) == 2
+        line = one_error_line(capsys.readouterr().err)
+        assert said in line and "from the checkpoint at 0.05 s instead" in line, line
+        assert not out.exists()
+    assert main(["replay", str(path), "--from", "0.05", "--set", f"components={json.dumps(components)}",
+                 "-o", str(out), "-q"]) == 0
+
+
+@pytest.mark.parametrize(("from_ms", "overrides", "said"), [
+    (40, ["dt=0.0005"], "acc (every 3, a step of 1.5 ms) has its state at t = 0.042 s (its step spans the checkpoint), "
+                        "but its first step would begin at t = 0.0405 s, 1.5 ms before it, counting that time twice; "
+                        "give acc a step whose grid passes through t = 0.042 s, such as its recorded 3 ms: every 6 "
+                        "with this dt (components.acc.every=6), or run the scene from t = 0 (cosim run)"),
+    (40, ["components.acc.every=2"], "acc (every 2, a step of 2 ms) has its state at t = 0.042 s (its step spans the "
+                                     "checkpoint), but its first step would begin at t = 0.04 s, 2 ms before it"),
+    (60, ["components.acc.every=7"], "acc (every 7, a step of 7 ms) has its state at t = 0.06 s, but its first step "
+                                     "would begin at t = 0.063 s, 3 ms after it, skipping that time"),
+])
+def test_a_restart_that_would_move_a_components_steps_off_its_state_is_refused(recording, from_ms, overrides, said):
+    """acc steps every 3 ticks of 1 ms: at the checkpoint at 40 ms its state is at 42 ms (its step
+    from 39 ms spans the checkpoint). A dt or every that starts its steps anywhere else shifted its
+    clock silently (dt = 0.5 ms: a step from 40.5 ms published a second output stamped 42 ms;
+    every 2: 2 ms counted twice; at 60 ms, every 7: 3 ms skipped); refused, naming the component,
+    its every, the checkpoint's time and its state's, and a step that fits."""
+    import re
+
+    with pytest.raises(RecordingError, match=re.escape(f"cannot restart from the checkpoint at {from_ms / 1000:g} s "
+                                                       "with dt = ") + ".*" + re.escape(said)):
+        restart_simulation(recording, from_ms * 1_000_000, overrides)
+
+
+def test_a_restart_on_the_components_step_grid_runs_on_and_an_off_grid_one_writes_nothing(recording, tmp_path,
+                                                                                            capsys):
+    """The step the refusal names (every 6 of 0.5 ms, acc's recorded 3 ms) restarts acc where its
+    state is: its outputs from there on are the original run's, no stamp twice; the off-grid
+    restart on the command line is exit 2, one line, no file."""
+    from cosim.cli import main
+    from tests.cli_toys import one_error_line
+    from tests.toys import Scalar
+
+    out = tmp_path / "again.mcap"
+    assert main(["replay", str(recording.path), "--from", "0.045", "--set", "dt=0.0005", "-o", str(out), "-q"]) == 2
+    assert "acc (every 3, a step of 1.5 ms) has its state at t = 0.042 s" in one_error_line(capsys.readouterr().err)
+    assert not out.exists()
+    sim, stamp = restart_simulation(recording, 45_000_000, ["dt=0.0005", "components.acc.every=6"])
+    outcome = run_scene(sim.scene, out, progress=False, simulation=sim)
+    assert outcome.result.status == "ok"
+    again = [(t, m.value) for t, m in Recording(out).messages("/acc/total", Scalar)]
+    assert again == [(t, m.value) for t, m in recording.messages("/acc/total", Scalar) if t > stamp]
+    assert again[0][0] == 42_000_000
+
+
+def test_a_restarts_default_name_tells_its_variants_apart(recording, tmp_path):
+    """Without -o a restart is written beside its recording as NAME-fromTs.mcap; one with --set or
+    --until as NAME-fromTs-set-<hash>.mcap, the hash of its overrides, as `cosim run` names a variant
+    (each variant wrote NAME-fromTs.mcap, the last silently replacing the others)."""
+    import hashlib
+    import shutil
+
+    from cosim.cli import main
+
+    path = tmp_path / "run.mcap"
+    shutil.copy(recording.path, path)
+    for extra in ([], ["--set", "dt=0.0005", "--until", "0.08"], ["--until", "0.08"], ["--until", "0.09"]):
+        assert main(["replay", str(path), "--from", "0.065", "-q", *extra]) == 0
+    digest = hashlib.sha256(b"dt=0.0005\nuntil=0.08").hexdigest()[:8]
+    names = sorted(p.name for p in tmp_path.glob("run-from*.mcap"))
+    assert len(names) == 4 and {"run-from0.06s.mcap", f"run-from0.06s-set-{digest}.mcap"} <= set(names)
+
+
+def test_a_restart_decodes_only_its_checkpoint_and_a_damaged_one_elsewhere_does_not_stop_it(recording, tmp_path,
+                                                                                             monkeypatch):
+    """--from T decoded every checkpoint in the file to use one (as costly as reading the file), and
+    one that could not be decoded anywhere stopped every restart: the checkpoints' times are read
+    from their records, and only the one restarted from is decoded."""
+    from cosim.codec import state_proto
+    from cosim.record.recorder import CHECKPOINT_TOPIC
+
+    damaged = tmp_path / "damaged.mcap"
+    _cut_off(recording, damaged, 10**12, damaged=(CHECKPOINT_TOPIC, 80_000_000))
+    rec = Recording(damaged)
+    with pytest.raises(RecordingError, match="the checkpoint at 80000000 ns cannot be read"):
+        rec.checkpoints()
+    decoded = []
+    decode = state_proto.decode_checkpoint
+    monkeypatch.setattr(state_proto, "decode_checkpoint", lambda data: decoded.append(len(data)) or decode(data))
+    sim, stamp = restart_simulation(rec, 45_000_000)
+    assert stamp == 40_000_000 and len(decoded) == 1 and sim.tick == 40
+    with pytest.raises(RecordingError, match=r"damaged.mcap: the checkpoint at 80000000 ns cannot be read \("):
+        restart_simulation(rec, 85_000_000)
+
+
+def test_a_restart_from_before_a_restarted_recordings_start_says_where_it_began(recording, tmp_path):
+    """A recording made by a restart from 40 ms holds no checkpoint before it: --from 30 ms says the
+    recording is a restart and where it began (it said to record with record.checkpoint_every > 0,
+    which it was)."""
+    sim, _ = restart_simulation(recording, 45_000_000)
+    outcome = run_scene(sim.scene, tmp_path / "again.mcap", progress=False, simulation=sim)
+    with pytest.raises(RecordingError, match=r"no checkpoint at or before t = 0.03 s \(checkpoints at \[s\]: 0.04, "
+                                             r"0.06, 0.08, 0.1\); this recording is a restart from 0.04 s: restart "
+                                             r"from the recording it came from, or from 0.04 s or later$"):
+        restart_simulation(Recording(outcome.recording), 30_000_000)

@@ -102,6 +102,9 @@ class FMU(Component):
     Params = FMUParams
     inputs: ClassVar[dict[str, Port]] = {}
     outputs: ClassVar[dict[str, Port]] = {}
+    # the start values are set once, as the FMU is instantiated: a restart restores the FMU's own
+    # serialized state, every variable with it, so a changed start value would do nothing there
+    start_only_params: ClassVar[frozenset[str]] = frozenset({"start"})
     # set on the class configure() makes for one scene's component
     fmu_file: ClassVar[Path | None] = None
     label: ClassVar[str] = ""
