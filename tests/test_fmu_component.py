@@ -9,6 +9,7 @@ The gust is the example model (scenarios/models/wind_gust.py), built with python
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -73,6 +74,15 @@ def test_the_crosswind_gust_pushes_the_stone_sideways_while_it_blows(recorded):
     assert lateral[200_000_000] < 0.0
     states = dict(rec.messages("/stone/state", BodyState))
     assert states[200_000_000].velocity[1] > 0.05  # about half the peak force over 0.1 s on 0.125 kg
+
+
+def test_the_fmus_pythonfmu_binary_releases_python_at_pythons_exit(recorded):
+    """The gust FMU's pythonfmu binary, hosted by the run, is let go of Python at Python's exit,
+    before the C exit handlers that would release its state a second time into freed memory
+    (cosim.fmi.pythonfmu_exit)."""
+    from cosim.fmi import pythonfmu_exit
+
+    assert any(Path(p).name == "WindGust.so" for p in pythonfmu_exit._guarded)
 
 
 def test_replay_re_runs_the_fmu_alone_bit_for_bit(recorded):

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import cosim.fmi
+from cosim.fmi.pythonfmu_exit import release_at_exit
 
 LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
 STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
@@ -168,6 +169,8 @@ class FmuInstance:
             addLoggerProxy(byref(callbacks))  # formats the FMU's printf-style messages before they reach us
             self._callbacks = callbacks  # kept alive as long as the FMU may call back
             self._call("instantiate", self.fmu.instantiate, callbacks=callbacks, loggingOn=True)
+            # a pythonfmu binary releases its Python state twice at exit unless let go first
+            release_at_exit(self.fmu.dll._name)
             self._call("setupExperiment", self.fmu.setupExperiment, startTime=0.0)
 
     # --- the FMU's log -------------------------------------------------------------------------

@@ -30,6 +30,7 @@ from pythonfmu.enums import Fmi2Status
 import cosim.fmi
 from cosim.codec.json_codec import codec_for, decode_state, encode_state
 from cosim.errors import one_line
+from cosim.fmi.pythonfmu_exit import release_binaries_at_exit
 from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
 from cosim.scenario import loads
@@ -90,6 +91,7 @@ class SceneSlave(Fmi2Slave):
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         folder = Path(self.resources)
+        release_binaries_at_exit(folder)  # the binary's double release at exit (cosim.fmi.pythonfmu_exit)
         self.scene_text = (folder / SCENE_FILE).read_text(encoding="utf-8")
         self.spec = ExportSpec.from_json((folder / SPEC_FILE).read_text(encoding="utf-8"))
         self.description = "A cosim scene as a co-simulation FMU (cosim fmu export)"
