@@ -104,6 +104,10 @@ def _run_until(text: str) -> int:
 def _live_address(text: str) -> str:
     """``--live [HOST:]PORT`` (or ``HOST``), checked before anything runs: a port outside 0..65535
     is bad input."""
+    if text.count(":") > 1 and not text.strip().startswith("["):
+        # an IPv6 address has colons of its own: ::1 would read as host ':' and port 1
+        raise argparse.ArgumentTypeError(f"write an IPv6 address in brackets, [ADDRESS]:PORT (e.g. [::1]:8765), "
+                                         f"got {text!r}")
     host, sep, port = text.strip().rpartition(":")
     if not text.strip() or (sep and not port.isdigit()):
         raise argparse.ArgumentTypeError(f"expected [HOST:]PORT, got {text!r}")

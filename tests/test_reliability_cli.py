@@ -247,6 +247,15 @@ def test_a_live_host_that_is_no_host_name_is_bad_input(scene, capsys):
     assert "'no such host' is not a host name or address" in one_error_line(capsys.readouterr().err)
 
 
+@pytest.mark.parametrize("address", ["::1", "::1:8765", "fe80::1"])
+def test_a_live_ipv6_address_without_brackets_is_bad_input_saying_how_to_write_it(scene, capsys, address):
+    """--live ::1 read as host ':' and port 1, and the server then failed to resolve ':'."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", str(scene), "--live", address, "--no-record", "-q"])
+    assert exit_.value.code == 2
+    assert "[ADDRESS]:PORT (e.g. [::1]:8765)" in one_error_line(capsys.readouterr().err)
+
+
 @pytest.mark.parametrize("pattern", ["/gg/*", "nothing", "["])
 def test_a_record_pattern_that_matches_no_channel_is_bad_input(scene, tmp_path, capsys, pattern):
     """A misspelt --record pattern would record none of the channels it meant: exit 2, naming it
