@@ -19,7 +19,7 @@ import pytest
 
 pytest.importorskip("foxglove", reason="the foxglove-sdk package is not installed")
 
-from components.messages import BodyState
+from components.messages import BodyState, SkipRecord
 from cosim.codec.json_codec import codec_for
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
@@ -218,3 +218,95 @@ def test_without_the_sdk_live_fails_with_a_hint(tmp_path, capsys, monkeypatch):
     assert main(["run", str(scene), "-o", str(tmp_path / "r.mcap"), "-q", "--live"]) == 2
     assert "pip install foxglove-sdk" in capsys.readouterr().err
     assert list(tmp_path.glob("r.mcap*")) == []
+
+
+def advertised(client: WsClient, wanted: set[str], within: float = 2.0) -> dict[str, dict]:
+    """The channels the server advertises to ``client`` (by topic), read until ``wanted`` are all
+    there or ``within`` seconds have passed."""
+    channels: dict[str, dict] = {}
+    deadline = time.monotonic() + within
+    client.sock.settimeout(0.2)
+    while not wanted <= channels.keys() and time.monotonic() < deadline:
+        try:
+            op, data = client.recv()
+        except TimeoutError:
+            continue
+        if op == 1 and (msg := json.loads(data))["op"] == "advertise":
+            channels.update((ch["topic"], ch) for ch in msg["channels"])
+    return channels
+
+
+def test_every_channel_is_advertised_before_the_first_step():
+    """As it starts, the live view makes every channel the run is known to publish on: each output
+    port (the stage monitor's /stages/skip too, first published at the first skip) and the viewer
+    topics their looks give. A viewer connected before the first step knows them all. Made at each
+    topic's first message instead, a channel advertised mid-run could be lost by the SDK to a viewer
+    subscribing at once ('Unknown channel ID: 16' for /stages/skip, 2 runs in 4 of held_skip)."""
+    scene = loads(SKIP_SCENE)
+    sim = Simulation(scene)
+    view = LiveView(scene, "127.0.0.1:0", speed=0.0, components=sim.components, announce=False)
+    ports = {f"/{name}/{port}" for name, cfg in scene.components.items() for port in cfg.cls.outputs}
+    viewer = {"/tf": "foxglove.FrameTransforms", "/log": "foxglove.Log", "/scene/stone": "foxglove.SceneUpdate",
+              "/scene/stone/trail": "foxglove.SceneUpdate", "/scene/stone/velocity": "foxglove.SceneUpdate",
+              "/scene/pond": "foxglove.SceneUpdate"}
+    try:
+        client = WsClient("127.0.0.1", view.port)
+        try:
+            channels = advertised(client, ports | viewer.keys())
+        finally:
+            client.close()
+    finally:
+        view.close()
+    assert sim.tick == 0  # nothing has run
+    assert "/stages/skip" in ports and ports | viewer.keys() <= channels.keys()
+    skip = channels["/stages/skip"]
+    assert (skip["schemaName"], skip["encoding"]) == ("cosim.SkipRecord", "json")
+    assert {topic: channels[topic]["schemaName"] for topic in viewer} == viewer
+    assert all(channels[topic]["encoding"] == "protobuf" for topic in viewer)
+
+
+def test_a_live_run_sends_a_channel_made_up_front_its_first_message_and_its_latest():
+    """A channel advertised before its first message works as one made at it: a viewer subscribed
+    early gets the messages, and subscribing before any message is sent nothing (no error)."""
+    scene = loads(SKIP_SCENE, overrides=["until=0.35"])  # the first skip is at 0.12 s
+    channels, got, clock = stream(scene, {"/stages/skip", "/log"})
+    assert channels["/stages/skip"]["schemaName"] == "cosim.SkipRecord"
+    skips = [codec_for(SkipRecord).decode(data) for _, data in got["/stages/skip"]]
+    assert skips and skips[0].index == 1
+    assert got["/log"] and clock[-1] == 350_000_000
+
+
+def test_a_viewer_that_drops_is_said_once_not_logged_per_message(capsys, caplog):
+    """A viewer gone without closing the connection is one line on stderr ('live view: viewer ADDR
+    disconnected'), however many messages the server then fails to send it; the SDK's records stay
+    out of the application's logging. Before, each failed send was a line of its own through
+    Python's last-resort handler (40 to 57 lines for one viewer)."""
+    import foxglove
+
+    view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
+    channel = foxglove.Channel("/noise", schema=foxglove.Schema(name="noise", encoding="jsonschema", data=b"{}"),
+                               message_encoding="json", context=view.context)
+    try:
+        client = WsClient("127.0.0.1", view.port)
+        host, port = client.sock.getsockname()[:2]
+        address = f"{host}:{port}"
+        noise = advertised(client, {"/noise"})["/noise"]
+        client.send_json({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": noise["id"]}]})
+        deadline = time.monotonic() + 5
+        while channel.has_sinks() is False and time.monotonic() < deadline:
+            time.sleep(0.01)
+        # gone without a close frame: a reset, as a viewer killed or cut off leaves it
+        client.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        client.close()
+        err = ""
+        while address not in err and time.monotonic() < deadline:
+            for _ in range(50):
+                channel.log(b"{}" + b" " * 10_000)
+            time.sleep(0.02)
+            err += capsys.readouterr().err
+    finally:
+        view.close()
+    time.sleep(0.2)  # a failed send still on its way to being logged
+    err += capsys.readouterr().err
+    assert err.splitlines() == [f"live view: viewer {address} disconnected"]
+    assert [r for r in caplog.records if r.name.startswith("foxglove")] == []

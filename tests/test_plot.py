@@ -391,3 +391,88 @@ def test_a_restarts_contacts_are_numbered_as_its_skips(tmp_path):
     assert [r.index for r in restart.skips] == [2, 3]
     titles = [a.get_title() for a in figure_contacts(restart).axes if a.get_visible()]
     assert titles[0].startswith("contact 2: t = 0.312 s") and titles[1].startswith("contact 3: t = 0.490 s")
+
+
+RAISED_PINE = ["until=0.05", "record.visual_rate=0", "components.pine_pond.rest_level=0.5",
+               "components.pine_water.water_level=0.5", "components.pine.position=[0,0,0.53]"]
+
+
+def test_the_water_line_is_the_level_of_the_bodys_own_water(tmp_path):
+    """Two ponds at two levels (float_sphere with the pine's pond raised to z = 0.5 m): each body's
+    water line is its own pond's level. Before, every body got the first pond's by name
+    (/granite_pond/patch, z = 0), and the pine's water line was drawn 0.5 m under its water."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml"
+    path = run_scene(load(scene, RAISED_PINE), tmp_path / "raised.mcap", progress=False).recording
+    pine, granite = load_run(path, "pine"), load_run(path, "granite")
+    assert (pine.rest_level, granite.rest_level) == (0.5, 0.0)
+    (water_line,) = [line for line in figure_trajectory(pine).axes[0].lines if line.get_label() == "water level"]
+    assert list(water_line.get_ydata()) == [0.5, 0.5]
+
+
+def test_contacts_after_the_last_skip_are_the_monitors_not_each_wetted_span(run):
+    """After the last skip, wetted spans split only by a dry moment in which the stage monitor never
+    had the stone airborne (approach, fly-away) are one contact, as the monitor counts it: the glide
+    at the end of a throw is one long contact (docs/stages.md). Before, held_skip's final glide was
+    drawn as two contacts, 78 ms from 0.758 s and 1392 ms from 0.847 s."""
+    import dataclasses
+
+    from components.analysis.data import ContactTrack, StageTrack
+
+    last = max(run.skips, key=lambda s: s.index)
+    t0 = float(last.touchdown_time + last.contact_time)  # the last fly-away
+    t = t0 + 0.001 * np.arange(400)
+    wetted = np.zeros(len(t), dtype=bool)
+    glide, flicker, hop = (100, 150), (153, 220), (300, 320)  # (first, past the last) sample of each
+    for a, b in (glide, flicker, hop):
+        wetted[a:b] = True
+    zeros = np.zeros((len(t), 3))
+    contact = ContactTrack("/coupler/contact", t, wetted, wetted.astype(float), zeros, zeros, zeros, zeros,
+                           np.zeros(len(t)), np.zeros(len(t)))
+    # fly-away, approach, hit at the glide, slide through its dry flicker, fly-away and approach
+    # before the hop, hit at the hop
+    changes = [(t0, StageId.FLY_AWAY), (t[50], StageId.APPROACH), (t[100], StageId.HIT), (t[130], StageId.SLIDE),
+               (t[160], StageId.HIT), (t[240], StageId.FLY_AWAY), (t[270], StageId.APPROACH), (t[300], StageId.HIT)]
+    stages = StageTrack("/stages/stage", np.array([c for c, _ in changes]), np.array([int(s) for _, s in changes]),
+                        [s.name for _, s in changes], np.zeros(len(changes), dtype=int))
+    glided = dataclasses.replace(run, contacts=[contact], stages=stages)
+    after = contact_intervals(glided)[len(run.skips):]
+    assert after == [(t[glide[0]], t[flicker[1]]), (t[hop[0]], t[hop[1]])]
+    # without a stage monitor, every wetted span is a contact
+    assert len(contact_intervals(dataclasses.replace(glided, stages=None))[len(run.skips):]) == 3
+
+
+def test_a_figure_name_taken_by_a_folder_is_bad_input_and_writes_nothing(skip_path, tmp_path, capsys):
+    """`cosim plot -o DIR` where DIR/trajectory.png is a folder: exit 2, one line naming it, and no
+    figure written. Before, it failed as 'Is a directory' after motion.png and energy.png were
+    written, a partial set."""
+    out = tmp_path / "pdir"
+    (out / "trajectory.png").mkdir(parents=True)
+    assert main(["plot", str(skip_path), "-o", str(out), "--dpi", "30"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"error: {out / 'trajectory.png'}: is a folder, where cosim plot writes its figure "
+                   "trajectory.png (remove it or choose another folder, -o DIR)")
+    assert [p.name for p in out.iterdir()] == ["trajectory.png"]
+
+
+def test_figures_are_put_in_place_all_or_none(skip_path, tmp_path):
+    """A figure that cannot be put in place (its name taken by a folder) takes back those already
+    moved: the figures of an earlier plot are as they were, no new one is left, nor any temporary
+    file. Before, the figures moved before the failing one stayed, a set that looked finished."""
+    out = tmp_path / "figs"
+    out.mkdir()
+    for name in ("motion.png", "contacts.png"):  # one moved before the failing figure, one after
+        (out / name).write_bytes(b"an earlier plot's")
+    (out / "energy.png").mkdir()
+    with pytest.raises(IsADirectoryError) as failed:
+        plot_run(skip_path, out, dpi=30)
+    assert failed.value.filename == str(out / "energy.png")
+    assert sorted(p.name for p in out.iterdir()) == ["contacts.png", "energy.png", "motion.png"]
+    assert (out / "motion.png").read_bytes() == (out / "contacts.png").read_bytes() == b"an earlier plot's"
+    (out / "energy.png").rmdir()
+    written, _ = plot_run(skip_path, out, dpi=30)
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in written) == [
+        "contacts.png", "energy.png", "motion.png", "trajectory.png"]
+    assert (out / "motion.png").read_bytes()[:4] == b"\x89PNG"

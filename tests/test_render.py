@@ -331,3 +331,90 @@ def test_a_recording_without_body_or_water_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and "no BodyState or WaterField channel, nothing to show" in err
     assert len(err.splitlines()) == 1
+
+
+RAISED_PINE = ["until=0.05", "record.visual_rate=0", "components.pine_pond.rest_level=0.5",
+               "components.pine_water.water_level=0.5", "components.pine.position=[0,0,0.53]"]
+
+
+@pytest.fixture(scope="module")
+def raised_path(tmp_path_factory):
+    """float_sphere with the pine's pond raised to z = 0.5 m (the granite's stays at 0)."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml"
+    path = tmp_path_factory.mktemp("raised") / "raised.mcap"
+    return run_scene(load(scene, RAISED_PINE), path, progress=False).recording
+
+
+def test_a_body_is_drawn_against_its_own_waters_level(raised_path, tmp_path, monkeypatch):
+    """The frames of a body measure it against the level of the water it meets: the pine's pond, at
+    z = 0.5 m, not the first pond by name (the granite's, at 0), which made the follow view reach
+    down to z = 0 and a flat surface or a gap be drawn there."""
+    from components.analysis import render as render_module
+
+    levels = []
+
+    class Spy(render_module.FrameRenderer):
+        def __init__(self, body, options, rest, *args, **kwargs):
+            levels.append((body.name, rest))
+            super().__init__(body, options, rest, *args, **kwargs)
+
+    monkeypatch.setattr(render_module, "FrameRenderer", Spy)
+    render(raised_path, tmp_path / "pine.png", RenderOptions(width=WIDTH, at=0.04, body="pine", progress=False))
+    render(raised_path, tmp_path / "granite.png", RenderOptions(width=WIDTH, at=0.04, body="granite", progress=False))
+    assert levels == [("pine", 0.5), ("granite", 0.0)]
+
+
+def test_water_alone_is_drawn_about_the_level_of_the_water_shown(tmp_path, monkeypatch):
+    """Water alone, two ponds at two levels: the frames of --water /b_high/field are drawn about its
+    own level (0.5 m), not the first pond's by name."""
+    from components.analysis import render as render_module
+    from cosim.runner import run_scene
+    from cosim.scenario import loads
+
+    pond = "{type: WaterSurface, nx: 12, ny: 12, cell: 0.02, depth: 0.1, field_rate: 100"
+    scene = loads(f"dt: 0.001\nuntil: 0.02\ncomponents:\n  a_low: {pond}}}\n"
+                  f"  b_high: {pond}, rest_level: 0.5, origin_x: 1.0}}\n")
+    path = run_scene(scene, tmp_path / "ponds.mcap", progress=False).recording
+    levels = []
+
+    class Spy(render_module.WaterRenderer):
+        def __init__(self, first, swing, options, rest, title):
+            levels.append(rest)
+            super().__init__(first, swing, options, rest, title)
+
+    monkeypatch.setattr(render_module, "WaterRenderer", Spy)
+    render(path, tmp_path / "high.png", RenderOptions(width=WIDTH, water="/b_high/field", progress=False))
+    render(path, tmp_path / "low.png", RenderOptions(width=WIDTH, progress=False))
+    assert levels == [0.5, 0.0]
+
+
+def test_a_chosen_water_that_no_frame_shows_is_warned_of(raised_path, tmp_path):
+    """--water naming a pond that lies outside every frame's view (the granite's, 2 m from the pine)
+    is a warning naming it, its extent, the flat surface drawn instead and the water the body meets;
+    the frames are still written. Before, a flat plane was drawn without a word."""
+    from components.analysis.render import RenderWarning
+
+    out = tmp_path / "pine.png"
+    with pytest.warns(RenderWarning) as caught:
+        render(raised_path, out, RenderOptions(width=WIDTH, at=0.04, body="pine", water="/granite_pond/field",
+                                               progress=False))
+    assert [str(w.message) for w in caught] == [
+        "--water /granite_pond/field: no frame of pine has that water (x 1.7 .. 2.3 m, y -0.3 .. 0.3 m) in view; "
+        "the frames show a flat surface at z = 0.5 m instead; leave --water out to draw /pine_pond/field, "
+        "the water pine meets"]
+    assert out.is_file()
+    render(raised_path, out, RenderOptions(width=WIDTH, at=0.04, body="pine", water="/pine_pond/field",
+                                           progress=False))  # in view: no warning (an error in this suite)
+
+
+def test_an_output_under_a_file_names_that_file(skip_path, capsys):
+    """-o run.mcap/x.png, where run.mcap is a file: exit 2, one line saying that run.mcap is a file,
+    not a folder (it said 'File exists'), and the recording untouched."""
+    before = skip_path.read_bytes()
+    assert main(["render", str(skip_path), "-o", str(skip_path / "x.png"), "--width", str(WIDTH), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: {skip_path / 'x.png'}: cannot be made: {skip_path} is a file, not a folder"
+    assert skip_path.read_bytes() == before

@@ -50,6 +50,13 @@ def cmd_plot(args: argparse.Namespace) -> int:
             print(f"error: {out_dir / name}: is the recording plotted; its figure would replace it "
                   "(choose another folder, -o DIR)", file=sys.stderr)
             return EXIT_BAD_INPUT
+        # checked before any figure is drawn: a figure's name taken by a folder was found only when
+        # the figures were put in place
+        if (out_dir / name).exists() and not (out_dir / name).is_file():
+            what = "a folder" if (out_dir / name).is_dir() else "not a regular file"
+            print(f"error: {out_dir / name}: is {what}, where cosim plot writes its figure {name} "
+                  "(remove it or choose another folder, -o DIR)", file=sys.stderr)
+            return EXIT_BAD_INPUT
     written, skipped = plot_run(args.recording, out_dir, body=args.body, dpi=args.dpi)
     for path in written:
         print(f"wrote {path}")

@@ -185,7 +185,7 @@ class RunData:
     wrenches: list[WrenchTrack] = field(default_factory=list)
     skips: list[SkipRecord] = field(default_factory=list)
     field_topics: list[str] = field(default_factory=list)
-    rest_level: float = 0.0
+    rest_level: float = 0.0  # [m] undisturbed level of the water the body meets
     end: float = 0.0
     step: float = 0.0  # the body's step [s] (the scene's dt times its every; 0 when not known)
 
@@ -300,8 +300,8 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
         skips += [m for _, m in rec.messages(topic, SkipRecord)]
     end = (rec.end_ns or 0) / NS_PER_S
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
-                   wrenches, skips, topics_of(rec, WaterField), rest_level(rec), max(end, float(track.t[-1])),
-                   body_step(rec, track.name))
+                   wrenches, skips, topics_of(rec, WaterField), rest_level(rec, track.name),
+                   max(end, float(track.t[-1])), body_step(rec, track.name))
 
 
 def body_step(rec: Recording, body: str) -> float:
@@ -314,12 +314,29 @@ def body_step(rec: Recording, body: str) -> float:
         return 0.0
 
 
-def rest_level(rec: Recording) -> float:
-    """The undisturbed water level [m]: from the first water patch if recorded, else 0."""
-    for topic in topics_of(rec, HeightPatch):
-        decode = rec.decoder(topic, HeightPatch)
-        for _, _, data in rec.raw([topic]):
-            return float(decode(data).rest_level)  # type: ignore[attr-defined]
+def rest_level(rec: Recording, body: str | None = None) -> float:
+    """The undisturbed level [m] of the water body ``body`` meets: the ``rest_level`` of its water's
+    patches (the water feeding the coupler that body's state feeds, as :func:`body_water_topic`
+    finds it), else of the first water's by name (also without ``body``); 0 without any patch."""
+    patches = topics_of(rec, HeightPatch)
+    if not patches:
+        return 0.0
+    return _first_rest_level(rec, patches[0] if body is None else body_water_topic(rec, body, patches) or patches[0])
+
+
+def water_rest_level(rec: Recording, water_topic: str) -> float:
+    """The undisturbed level [m] of the water publishing ``water_topic`` (a WaterField channel,
+    ``/<water>/field``): the ``rest_level`` of that water's own patches, else :func:`rest_level`'s."""
+    water = component_of(water_topic)
+    own_patches = [t for t in topics_of(rec, HeightPatch) if component_of(t) == water]
+    return _first_rest_level(rec, own_patches[0]) if own_patches else rest_level(rec)
+
+
+def _first_rest_level(rec: Recording, topic: str) -> float:
+    """The ``rest_level`` [m] of the first HeightPatch on ``topic`` (a water's level never changes)."""
+    decode = rec.decoder(topic, HeightPatch)
+    for _, _, data in rec.raw([topic]):
+        return float(decode(data).rest_level)  # type: ignore[attr-defined]
     return 0.0
 
 

@@ -21,7 +21,8 @@ Each ``figure_*`` function returns the figure, so tests can check what was drawn
 from __future__ import annotations
 
 import math
-from contextlib import ExitStack
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -29,10 +30,18 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from components.analysis.data import RunData, contact_spans, iter_fields, load_run, rest_level, topics_of
+from components.analysis.data import (
+    RunData,
+    StageTrack,
+    contact_spans,
+    iter_fields,
+    load_run,
+    topics_of,
+    water_rest_level,
+)
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
-from cosim.record.output import output_folder, written_whole
+from cosim.record.output import output_folder, remove_quietly, sibling_stem, written_whole
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 
@@ -280,21 +289,25 @@ def figure_energy(run: RunData) -> Figure:
     return fig
 
 
+AIRBORNE = (StageId.APPROACH, StageId.FLY_AWAY, StageId.LEFT_POND)  # stages that end a contact
+
+
 def contact_intervals(run: RunData) -> list[tuple[float, float]]:
     """(start, end) [s] of each contact: the stage monitor's skips (the durations the run's summary
     gives) and then the wetted spans of the first water coupler after the last skip; without skips,
-    the wetted spans, else ground contact spans, else the hit/slide stage spans."""
+    the wetted spans, else ground contact spans, else the hit/slide stage spans. Wetted spans are
+    contacts as the monitor counts them (:func:`_as_the_monitor_counts`)."""
     if run.skips:
         skips = sorted(run.skips, key=lambda s: s.index)
         spans = [(float(s.touchdown_time), float(s.touchdown_time + s.contact_time)) for s in skips]
         if run.contacts:
             c = run.contacts[0]
-            later = _spans(c.wetted, c.t)
+            later = _as_the_monitor_counts(run, _spans(c.wetted, c.t))
             spans += [span for span in later if span[0] > spans[-1][1]]
         return spans
     if run.contacts:
         c = run.contacts[0]
-        return _spans(c.wetted, c.t)
+        return _as_the_monitor_counts(run, _spans(c.wetted, c.t))
     if run.grounds:
         g = run.grounds[0]
         return _spans(g.in_contact, g.t)
@@ -308,6 +321,31 @@ def contact_intervals(run: RunData) -> list[tuple[float, float]]:
                 current = None
         return [*spans, current] if current else spans
     return []
+
+
+def _as_the_monitor_counts(run: RunData, spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Wetted ``spans`` joined into the contacts the stage monitor counts, when it was recorded: two
+    spans are one contact unless the stone was airborne (approach, fly-away, left the pond) at some
+    time in the dry gap between them. The monitor keeps a contact going while the stone is dry but
+    still skimming or coming down (docs/stages.md): the glide at the end of a throw, one contact to
+    the monitor, was drawn as several (held_skip: 78 ms from 0.758 s, then 1392 ms from 0.847 s)."""
+    if run.stages is None or len(spans) < 2:
+        return spans
+    joined = [spans[0]]
+    for start, end in spans[1:]:
+        if _airborne_between(run.stages, joined[-1][1], start):
+            joined.append((start, end))
+        else:
+            joined[-1] = (joined[-1][0], end)
+    return joined
+
+
+def _airborne_between(stages: StageTrack, t0: float, t1: float) -> bool:
+    """Whether the stage monitor had the stone airborne at some time from ``t0`` up to (not at) ``t1``
+    [s]: the stage in force at ``t0`` or any it changed to before ``t1``."""
+    first = max(0, int(np.searchsorted(stages.t, t0, side="right")) - 1)
+    last = int(np.searchsorted(stages.t, t1, side="left"))
+    return any(int(stage) in AIRBORNE for stage in stages.stage[first:last])
 
 
 def _spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[float, float]]:
@@ -410,7 +448,7 @@ def figure_water(rec: Recording, topic: str) -> Figure:
     (:mod:`components.water.diagnostics`: in a closed basin without losses it oscillates within
     O(c dt / s) about the explicit step's invariant and never drifts; it falls as waves leave through
     absorbing edges)."""
-    rest = rest_level(rec)
+    rest = water_rest_level(rec, topic)
     rows = [(t, float(f.height.max()) - rest, float(f.height.min()) - rest, f.volume, f.energy)
             for t, f in iter_fields(rec, topic)]
     t, crest, trough, volume, energy = (np.array(column) for column in zip(*rows, strict=True))
@@ -444,23 +482,85 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
                if _scene_publishes(rec, (BodyState,)) else "no body in this run")
         return [path], [(", ".join(FIGURES), why)]
     run = load_run(rec, body)
-    written, skipped = [], []
-    # every figure is drawn into a temporary file first and all are moved into place at the end: a
-    # plot cut short (Ctrl-C, a full disk) leaves the folder as it was, not a set that looks finished
-    with output_folder(out_dir), ExitStack() as pending:
-        for name, make in FIGURES.items():
-            fig = make(run)
-            if fig is None:
-                # a run without contacts, or a recording that left their channels out (--record)
-                why = ("no contact in this run" if run.contacts or run.grounds
-                       else "the recording holds no contact channel (WaterContact or GroundContact)"
-                       if _reports_contacts(rec) else "the scene has neither water nor ground to touch")
-                skipped.append((name, why))
-                continue
-            path = out_dir / name
-            fig.savefig(pending.enter_context(written_whole(path)), dpi=dpi, format="png")
-            written.append(path)
-    return written, skipped
+    figures: dict[Path, Figure] = {}
+    skipped = []
+    for name, make in FIGURES.items():
+        fig = make(run)
+        if fig is None:
+            # a run without contacts, or a recording that left their channels out (--record)
+            why = ("no contact in this run" if run.contacts or run.grounds
+                   else "the recording holds no contact channel (WaterContact or GroundContact)"
+                   if _reports_contacts(rec) else "the scene has neither water nor ground to touch")
+            skipped.append((name, why))
+            continue
+        figures[out_dir / name] = fig
+    with output_folder(out_dir):
+        _save_together(figures, dpi)
+    return list(figures), skipped
+
+
+def _save_together(figures: dict[Path, Figure], dpi: int) -> None:
+    """Write each figure as the PNG at its path, all of them or none: each is drawn into a temporary
+    file beside its path first, and they are moved into place once all are drawn, so a plot cut short
+    (Ctrl-C, a full disk) or a figure that cannot be put in place (its name taken by a folder) leaves
+    the folder as it was, not a set that looks finished with some figures from before. An OSError
+    names the figure, not its temporary file."""
+    staged: list[tuple[Path, Path]] = []  # (temporary file, figure)
+    try:
+        for path, fig in figures.items():
+            tmp = path.with_name(sibling_stem(path.name, 4) + ".tmp")
+            staged.append((tmp, path))
+            try:
+                fig.savefig(tmp, dpi=dpi, format="png")
+            except OSError as exc:
+                if exc.filename is None or Path(os.fsdecode(exc.filename)) == tmp:
+                    raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+                raise
+        _move_together(staged)
+    finally:
+        for tmp, _ in staged:
+            remove_quietly(tmp)  # (moved already, unless the plot failed)
+
+
+def _move_together(staged: list[tuple[Path, Path]]) -> None:
+    """Move each temporary file onto its figure, all or none: a figure's previous file is set aside
+    until every move is done, and if one fails, the figures moved so far are taken back and the
+    previous files put back. An OSError names the figure that could not be put in place."""
+    done: list[tuple[Path, Path | None, bool]] = []  # (figure, its previous file set aside, the new one in place)
+    try:
+        for tmp, path in staged:
+            kept = _set_aside(path) if path.is_file() else None
+            done.append((path, kept, False))
+            try:
+                os.replace(tmp, path)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+            done[-1] = (path, kept, True)
+    except BaseException:
+        for path, kept, moved in reversed(done):
+            try:
+                if kept is not None:
+                    os.replace(kept, path)
+                elif moved:
+                    path.unlink()
+            except OSError:
+                pass  # already failing: the error being reported matters more than this one
+        raise
+    for _, kept, _ in done:
+        if kept is not None:
+            remove_quietly(kept)
+
+
+def _set_aside(path: Path) -> Path:
+    """Move the file ``path`` to a new name of its own beside it (``NAME.<random>.old``); that name."""
+    fd, name = tempfile.mkstemp(prefix=f"{sibling_stem(path.name, 16)}.", suffix=".old", dir=path.parent)
+    os.close(fd)
+    try:
+        os.replace(path, name)
+    except BaseException:
+        remove_quietly(Path(name))
+        raise
+    return Path(name)
 
 
 def _save(fig: Figure, path: Path, dpi: int) -> None:

@@ -25,6 +25,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from decimal import Decimal
@@ -46,6 +47,7 @@ from components.analysis.data import (
     rest_level,
     stage_changes,
     topics_of,
+    water_rest_level,
 )
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
 from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stage_color
@@ -85,6 +87,10 @@ WATER_MIN_SWING = 1e-3  # [m] water alone: the box reaches at least this far abo
 
 class RenderError(Exception):
     """Bad render request (format, encoder, times): reported in one line, exit code 2."""
+
+
+class RenderWarning(UserWarning):
+    """The render goes on, but its frames will not show what was asked (said on one line)."""
 
 
 @dataclass
@@ -395,12 +401,16 @@ class FrameRenderer(_Frames):
         i = max(0, int(np.searchsorted(self.stages[0], t, side="right")) - 1)
         return int(self.stages[1][i])
 
+    def view_at(self, t: float) -> _View:
+        """The box the frame at time ``t`` [s] shows: the whole run's, or the window on the stone."""
+        return self.fixed if self.fixed is not None else self._follow_view(self.body.position[self.body.index_at(t)])
+
     def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
         body = self.body
         i = body.index_at(t)
         pos, quat = body.position[i], body.orientation[i]
-        view = self.fixed if self.fixed is not None else self._follow_view(pos)
+        view = self.view_at(t)
         aspect = view.box
         if self.fixed is not None:  # heights exaggerated so the flight shows over a long run
             aspect = (aspect[0], aspect[1], max(aspect[2], FIXED_MIN_ZRATIO * aspect[0]))
@@ -722,9 +732,34 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         pairs = stage_changes(rec, stage_topics[0])
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
-    renderer = FrameRenderer(body, options, rest_level(rec), f"{rec.metadata.get('scene', '')}: {body.name}",
+    renderer = FrameRenderer(body, options, rest_level(rec, body.name), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water)
+    if options.water is not None and has_water:
+        _warn_if_never_in_view(rec, options.water, renderer, times, body_water_topic(rec, body.name, fields))
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
+
+
+def _warn_if_never_in_view(rec: Recording, water: str, renderer: FrameRenderer, times: np.ndarray,
+                           meets: str | None) -> None:
+    """A :class:`RenderWarning` when the water chosen (``--water``) lies outside the view of every
+    frame at ``times``: each would show a flat plane at the rest level, not that water (``cosim render
+    float_sphere.mcap --body pine --water /granite_pond/field`` did so without a word). ``meets``:
+    the field of the water the body meets, suggested instead."""
+    field = next((f for _, f in iter_fields(rec, water)), None)
+    if field is None:
+        return
+    for t in times:
+        view = renderer.view_at(float(t))
+        if crop_field(field, view.x, view.y) is not None:
+            return
+    ny, nx = field.height.shape
+    x0, y0 = field.origin_x - field.cell / 2, field.origin_y - field.cell / 2
+    x1, y1 = x0 + nx * field.cell, y0 + ny * field.cell
+    instead = (f"; leave --water out to draw {meets}, the water {renderer.body.name} meets"
+               if meets is not None and meets != water else "")
+    warnings.warn(f"--water {water}: no frame of {renderer.body.name} has that water (x {x0:.3g} .. {x1:.3g} m, "
+                  f"y {y0:.3g} .. {y1:.3g} m) in view; the frames show a flat surface at z = {renderer.rest:g} m "
+                  f"instead{instead}", RenderWarning, stacklevel=3)
 
 
 def _check_request(output: Path, options: RenderOptions) -> None:
@@ -835,7 +870,7 @@ def _render_water(rec: Recording, output: Path, options: RenderOptions) -> Rende
         raise RecordingError(f"{rec.path}: no WaterField channel {options.water!r} "
                              f"(WaterField channels: {', '.join(fields)})")
     water = options.water or fields[0]
-    rest = rest_level(rec)
+    rest = water_rest_level(rec, water)  # the level of the water shown, not of the first by name
     first, stamps, swings = None, [], []  # the first field; each field's time [s] and largest |height - rest| [m]
     for t, field in iter_fields(rec, water):
         first = first if first is not None else field

@@ -21,6 +21,7 @@ This module imports only the standard library (and :mod:`cosim.errors`): the wri
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import os
 import stat
@@ -292,8 +293,12 @@ def written_whole(path: Path) -> Iterator[Path]:
 def output_folder(folder: Path) -> Iterator[Path]:
     """Make ``folder`` (and its parents) for a command's outputs; if the writing fails, each folder
     made here that is still empty goes again, the deepest first: a failed command leaves no empty
-    folder behind."""
+    folder behind. A NotADirectoryError naming ``folder`` when it, or the nearest of its parents
+    that exists, is a file: ``-o run.mcap/x.png`` was refused as 'File exists', naming neither."""
     made = [f for f in (folder, *folder.parents) if not f.exists()]  # the deepest first
+    nearest = next((f for f in (folder, *folder.parents) if f.exists()), None)
+    if nearest is not None and not nearest.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, f"cannot be made: {nearest} is a file, not a folder", str(folder))
     folder.mkdir(parents=True, exist_ok=True)
     try:
         yield folder

@@ -313,6 +313,18 @@ def to_wire(time_ns: int, items: Sequence[v.Item]) -> list[tuple[str, type[Proto
             + logs)
 
 
+def item_schema(item: v.Item) -> type[ProtoMessage]:
+    """The protobuf message class that carries ``item`` on its topic (what :func:`to_wire` makes of
+    it): transforms go in FrameTransforms, entities and trails in SceneUpdate, log lines in Log."""
+    if isinstance(item, v.Transform):
+        return FrameTransforms
+    if isinstance(item, (v.Entity, v.Trail)):
+        return SceneUpdate
+    if isinstance(item, v.LogLine):
+        return Log
+    raise TypeError(f"not a visual item: {type(item).__name__}")
+
+
 def to_protobuf(time_ns: int, items: Sequence[v.Item]) -> list[tuple[str, ProtoMessage]]:
     """(topic, protobuf message) pairs for one frame's items: :func:`to_wire`, parsed."""
     return [(topic, cls.FromString(data)) for topic, cls, data in to_wire(time_ns, items)]

@@ -44,7 +44,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from cosim.messages import Message
+from cosim.messages import FieldKind, Message
 from cosim.timebase import NS_PER_S
 from cosim.view.lookup import draws_itself, installed_visuals, type_key
 
@@ -361,6 +361,21 @@ class VisualDeriver:
             slot = self._slots[(component, port)] = self._resolve(component, message_type)
         return slot is not None
 
+    def foreseen(self, component: str, port: str, message_type: type) -> list[Item]:
+        """The items this port's looks give for a :func:`stand_in` of its message type: the viewer
+        topics it is expected to publish on, known before the run (a live view advertises them then).
+        [] when the port has no looks or they fail on the stand-in (its topics are then learnt at
+        its first message); the frames due, the trails and the entities sent are left untouched."""
+        if not self.watches(component, port, message_type):
+            return []
+        slot = self._slots[(component, port)]
+        try:
+            items = list(slot.function(component, port, stand_in(message_type)))
+        except Exception:  # the stand-in is no real message: the run's own messages will tell
+            return []
+        return [item for item in items if isinstance(item, (Transform, Entity, LogLine, Trail))
+                and item.topic not in self.reserved_topics]
+
     def due_ns(self, component: str, port: str) -> int:
         """The time [ns] before which messages of this port give no items (0: every message may)."""
         slot = self._slots.get((component, port))
@@ -450,6 +465,28 @@ class VisualDeriver:
     @staticmethod
     def _warn(text: str) -> None:
         warnings.warn(text, VisualsWarning, stacklevel=3)
+
+
+STAND_IN_SIDE = 2  # [elements] along a free dimension of a stand-in's arrays (a height field needs 2 x 2)
+
+
+def stand_in(message_type: type[Message]) -> Message:
+    """A message of ``message_type`` with plain values: numbers 1 (not 0: looks that divide by a size
+    or normalise a vector do not fail on it), arrays of ones (:data:`STAND_IN_SIDE` along a free
+    dimension), an enum's first member, False, "". Made without calling the class (its checks are
+    for real messages): only for asking looks which topics they publish on."""
+    msg = object.__new__(message_type)
+    for spec in message_type.__cosim_fields__:
+        value: Any
+        if spec.kind is FieldKind.ARRAY and spec.array is not None:
+            shape = tuple(STAND_IN_SIDE if n is None else n for n in spec.array.shape)
+            value = np.ones(shape, dtype=spec.array.dtype)
+        elif spec.kind is FieldKind.ENUM and spec.enum_type is not None:
+            value = next(iter(spec.enum_type))
+        else:
+            value = {FieldKind.FLOAT: 1.0, FieldKind.INT: 1, FieldKind.BOOL: False, FieldKind.STR: ""}[spec.kind]
+        object.__setattr__(msg, spec.name, value)
+    return msg
 
 
 def same(a: Any, b: Any) -> bool:

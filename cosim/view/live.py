@@ -8,7 +8,10 @@ also writes every recording). It publishes the same channels as a recording: eve
 announces the simulation clock (the ``time`` capability), and the run is paced at ``speed`` times
 real time so it can be watched (``speed`` 0: as fast as it goes). Like the recorder, it only reads
 messages: the physics is the same with or without it. Messages are encoded only for channels a
-client subscribes to.
+client subscribes to. The channels are made as the server starts, before the run (every output port
+and the viewer topics its looks give), so a viewer is told of all of them at once; a topic not
+foreseen is made at its first message. The SDK's own warnings and errors are not passed to the
+application's logging: a viewer that drops is one line on stderr, not one per message it missed.
 
 Every channel is latched: it keeps its latest message from each port that publishes on it (``/tf``
 carries every body's transform, each from its own body's state), and a client that subscribes is
@@ -22,7 +25,9 @@ connect after a run that lasted two seconds; Ctrl-C or SIGTERM then end it clean
 
 from __future__ import annotations
 
+import logging
 import math
+import re
 import signal
 import sys
 import threading
@@ -62,6 +67,52 @@ def parse_address(address: str) -> tuple[str, int]:
     if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
         raise LiveViewError(f"--live {address!r}: expected PORT or HOST:PORT with a port in 0..65535")
     return host, int(port_text)
+
+
+SDK_LOGGER = "foxglove"  # the logger whose children carry the SDK's records into Python's logging
+# a client's address in the SDK's records ("Error sending message to client 127.0.0.1:5170: ...")
+CLIENT_ADDRESS = re.compile(r"\bclient (\[[^\]]*\]:\d+|[^\s:]+:\d+)", re.IGNORECASE)
+
+
+class _ViewerNotes(logging.Handler):
+    """Where the SDK's warnings and errors go instead of the application's logging: one line on
+    stderr per viewer its errors are about, saying the viewer has gone, and each other text once.
+
+    A viewer that drops without closing the connection (a browser tab closed, a laptop asleep) made
+    the SDK log an error for every message it could then not send, 40 to 57 lines for one viewer,
+    through Python's last-resort handler onto the run's output: all of them about one event."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self._said: set[str] = set()  # the clients and texts said so far
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = " ".join(record.getMessage().split())
+        found = CLIENT_ADDRESS.search(text)
+        # the SDK's errors about a client are failures to talk to it (sending, receiving, its
+        # handshake): after the first, the connection is gone
+        gone = found is not None and record.levelno >= logging.ERROR
+        key = found.group(1) if gone and found else text
+        if key in self._said:
+            return
+        self._said.add(key)
+        line = f"live view: viewer {key} disconnected" if gone else f"live view: foxglove-sdk: {text}"
+        try:
+            # sys.stderr looked up now, not when made: it may have been replaced since (tests, a caller)
+            print(line, file=sys.stderr, flush=True)
+        except (OSError, ValueError):  # stderr closed or gone: nothing to tell it with
+            pass
+
+
+def _quiet_sdk_logs() -> None:
+    """Route the SDK's log records to :class:`_ViewerNotes` only (once per process), before a server
+    starts: the SDK forwards them to Python's logging, where with no handler configured Python's
+    last-resort handler printed every one on stderr."""
+    logger = logging.getLogger(SDK_LOGGER)
+    if not any(isinstance(h, _ViewerNotes) for h in logger.handlers):
+        logger.addHandler(_ViewerNotes())
+        logger.setLevel(logging.WARNING)  # its debug and info records are never even formatted
+        logger.propagate = False
 
 
 class _Subscriptions:
@@ -112,6 +163,7 @@ class LiveView(BaseObserver):
         self._foxglove = foxglove
         self.context = foxglove.Context()
         self._subscriptions = _Subscriptions()
+        _quiet_sdk_logs()
         try:
             self.server = foxglove.start_server(
                 name=f"cosim: {scene.name}", host=host, port=port, context=self.context,
@@ -124,6 +176,11 @@ class LiveView(BaseObserver):
         if components:
             self.deriver.bind(components)
         self._channels: dict[str, Any] = {}
+        try:
+            self._advertise(scene)
+        except BaseException:  # a server left running would keep the process alive
+            self.server.stop()
+            raise
         # per topic, the latest message from each (component, port) publishing on it, with its log
         # time [ns]: a physics Message (encoded only when a client subscribes) or a viewer
         # channel's bytes; a viewer channel such as /tf or /log has several sources, and the latest
@@ -142,6 +199,29 @@ class LiveView(BaseObserver):
         """The address a Foxglove client opens (an IPv6 host in brackets)."""
         host = f"[{self.host}]" if ":" in self.host and not self.host.startswith("[") else self.host
         return f"ws://{host}:{self.port}"
+
+    def _advertise(self, scene: Scene) -> None:
+        """Make now, before the run, every channel it is known to publish on: each component's output
+        ports, and the viewer topics their looks give (:meth:`VisualDeriver.foreseen`). The SDK's
+        server can lose a channel made mid-run: advertised to a connected client while this thread
+        holds the GIL, a subscription that follows at once may be answered "Unknown channel ID", and
+        the viewer then never gets that channel (the stage monitor's /stages/skip, first published
+        at the first skip). A topic not foreseen is still made at its first message."""
+        from cosim.view.foxglove import MESSAGE_ENCODING as VIEWER_ENCODING
+        from cosim.view.foxglove import SCHEMA_ENCODING as VIEWER_SCHEMA_ENCODING
+        from cosim.view.foxglove import item_schema, schema_data
+
+        ports = [(name, port, spec.type) for name, cfg in scene.components.items()
+                 for port, spec in cfg.cls.outputs.items()]
+        for name, port, message_type in ports:
+            codec = codec_for(message_type)
+            self._channel(f"/{name}/{port}", codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
+                          MESSAGE_ENCODING)
+        for name, port, message_type in ports:
+            for item in self.deriver.foreseen(name, port, message_type):
+                cls = item_schema(item)
+                self._channel(item.topic, cls.DESCRIPTOR.full_name, VIEWER_SCHEMA_ENCODING, schema_data(cls),
+                              VIEWER_ENCODING)
 
     def _channel(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes,
                  message_encoding: str) -> Any:
@@ -187,7 +267,8 @@ class LiveView(BaseObserver):
         """
         for topic in self._subscriptions.take():
             # oldest first (a stable sort: sources with equal times keep their first-publish order)
-            for data, log_time in sorted(self._latest[topic].values(), key=lambda latest: latest[1]):
+            # (a channel made before the run may have none yet: its first message goes to it as usual)
+            for data, log_time in sorted(self._latest.get(topic, {}).values(), key=lambda latest: latest[1]):
                 if not isinstance(data, bytes):
                     data = codec_for(type(data)).encode(data)
                 self._channels[topic].log(data, log_time=log_time)
