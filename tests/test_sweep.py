@@ -168,6 +168,48 @@ def test_a_list_in_an_expression_is_a_value_never_repeated_or_joined(text):
     assert Expression("[a * 2, 0, -a]")({"a": 1.5}) == [3.0, 0, -1.5]
 
 
+@pytest.mark.parametrize(("text", "message"), [
+    ("'ab' * 50000000 * u", r"'ab' \* 50000000: a text can only be a value, not repeated or joined"),
+    ("u + 'x'", r"u \+ 'x': a text can only be a value"),
+    ("'%0999999999d' % u", r"a text can only be a value"),
+    ("round(u, -100000000)", r"round\(u, -100000000\): round's digits must be within \+-400 \(got -1e\+08\)"),
+    ("round(u * 1.5, 1000)", r"round's digits must be within \+-400 \(got 1000\)"),
+])
+def test_an_expression_that_would_run_for_minutes_is_refused_at_once(text, message):
+    """A text repeated or joined by arithmetic, and round() to more digits than any float has, are
+    refused naming the expression and the bound ('ab' * 50000000 * u and round(u, -100000000) each
+    ran for minutes); round within the bound still rounds."""
+    import time
+
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=message):
+        Expression(text)({"u": 3})
+    assert time.perf_counter() - start < 1.0
+    assert Expression("round(u, -1)")({"u": 37}) == 40 and Expression("round(u, 400)")({"u": 0.5}) == 0.5
+
+
+def test_a_complex_derived_value_is_named_as_complex(tmp_path):
+    """A negative number to a fractional power is complex: its point's problem says so, naming the
+    expression (it was a RepresenterError from the YAML writer)."""
+    body = "scene: ball.yaml\naxes: {v: [4, -4]}\nderived: {components.ball.speed: 'v ** 0.5'}\n"
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    assert sweep.points[0].problem is None
+    assert sweep.points[1].problem.startswith(
+        "derived.components.ball.speed: cannot evaluate 'v ** 0.5': ValueError: v ** 0.5 is the complex number (")
+    assert sweep.points[1].problem.endswith("j), not a real value")
+
+
+@pytest.mark.parametrize(("line", "problem"), [
+    ('name: "run\\0s"', r"name: must not hold a NUL character \(got 'run\\x00s'\)"),
+    ('output: "runs/a\\0b.csv"', r"output: must not hold a NUL character \(got 'runs/a\\x00b\.csv'\)"),
+])
+def test_a_nul_character_in_the_name_or_output_is_refused(tmp_path, line, problem):
+    """A NUL in `name:` (the default table is runs/NAME.csv) or `output:` is bad input naming the key
+    (no file name can hold it: an internal "embedded null byte" ValueError, and --dry-run said ok)."""
+    with pytest.raises(ScenarioError, match=problem):
+        load_sweep(write_sweep(tmp_path, f"scene: ball.yaml\naxes: {{components.ball.speed: [1, 2]}}\n{line}\n"))
+
+
 def test_a_derived_value_that_fails_fails_its_point_only(tmp_path):
     """A math error at one point (sqrt of a negative) marks that point, not the sweep."""
     body = "scene: ball.yaml\naxes: {v: [4, -4]}\nderived: {components.ball.speed: 'sqrt(v)'}\n"

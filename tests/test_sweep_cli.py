@@ -231,6 +231,17 @@ def test_a_stopped_sweep_starts_no_queued_run_and_resumes_the_rest(tmp_path, how
     assert (outcome.already, outcome.ran, outcome.complete) == (len(rows), 6 - len(rows), True)
 
 
+def test_a_nul_character_in_the_sweeps_name_is_one_line_even_in_a_dry_run(tmp_path, capsys):
+    """A NUL in `name:` exits 2 with one line naming the key, nothing written (an internal ValueError
+    "embedded null byte" when run; --dry-run said ok)."""
+    path = write_sweep(tmp_path, 'scene: ball.yaml\naxes: {components.ball.speed: [1, 2]}\nname: "run\\0s"\n')
+    for dry in (["--dry-run"], []):
+        assert main(["sweep", str(path), "-q", *dry]) == 2
+        err = capsys.readouterr().err
+        assert err == f"error: {path}: name: must not hold a NUL character (got 'run\\x00s')\n"
+    assert not (tmp_path / "runs").exists()
+
+
 def test_a_huge_sweep_is_refused_at_once_even_in_a_dry_run(tmp_path, capsys):
     """A typo that makes an axis huge exits 2 with one line naming the axis, its count and the limit,
     before any value is built (a range of 10**18 values could never be built)."""

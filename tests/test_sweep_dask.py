@@ -189,3 +189,173 @@ def test_a_scheduler_whose_handshake_comes_in_pieces_and_late_passes_the_probe()
         probe_scheduler(address, 3.0)
     finally:
         stop()
+
+
+SLOW = """
+scene: ball.yaml
+axes:
+  components.ball.speed: [2, 3, 4, 5, 6, 7, 8, 9]
+set: {components.ball.burn: 2000}
+"""
+
+DIE = """
+scene: ball.yaml
+axes:
+  components.ball.speed: [2, 3, 4]
+  components.ball.die: [false, true]
+set: {components.ball.burn: 2000}
+"""
+
+
+def test_a_point_that_kills_its_dask_worker_is_the_only_one_lost(tmp_path):
+    """On a local cluster of worker processes, a point that ends its worker is retried alone, as on
+    the process pool: only it is a failed row (WorkerLost), with the same words as the pool's, so the
+    table equals the pool's. Dask blamed every run the dead worker held (KilledWorker), and those
+    innocent points were failed rows for good; each reason held a task id and a worker's port."""
+    sweep = load_sweep(write_sweep(tmp_path, DIE))
+    dask = DaskBackend("local", 2, processes=True)
+    try:
+        outcome = run_sweep(sweep, tmp_path / "dask.csv", dask, progress=False, figure=False)
+    finally:
+        dask.close()
+    assert outcome.complete and outcome.counts["failed"] == 3
+    pool = ProcessBackend(2)
+    try:
+        run_sweep(sweep, tmp_path / "pool.csv", pool, progress=False, figure=False)
+    finally:
+        pool.close()
+    on_dask = read_table(tmp_path / "dask.csv")
+    assert on_dask == read_table(tmp_path / "pool.csv")
+    reasons = {row[5] for row in on_dask[1:] if row[3] == "true"}
+    assert reasons == {"the worker running this point died (it ran alone: this point ends its worker)"}
+
+
+def _sweep_until(run, seconds: float):
+    """``run()``'s result, run in a thread; None if it has not returned within ``seconds`` (a hang
+    fails the test instead of stalling the suite)."""
+    import threading
+
+    box = []
+    thread = threading.Thread(target=lambda: box.append(run()), daemon=True)
+    thread.start()
+    thread.join(seconds)
+    return box[0] if box else None
+
+
+def test_a_cluster_left_without_workers_stops_the_sweep_saying_so(tmp_path, cluster, monkeypatch):
+    """Every worker gone during a sweep (workers that died and were not replaced): once the cluster
+    has had none for DASK_IDLE_S, the sweep stops as an interrupted one, its rows kept, its line
+    naming the cause and saying that running it again resumes (it waited without end, without a
+    word). A result fetched from a worker that has left is bounded the same way."""
+    import cosim.sweep.backends as backends
+
+    monkeypatch.setattr(backends, "DASK_IDLE_S", 1.0, raising=False)
+    monkeypatch.setattr(backends, "DASK_POLL_S", 0.2, raising=False)
+    sweep = load_sweep(write_sweep(tmp_path, SLOW))
+    dask = DaskBackend(cluster.scheduler_address, timeout_s=10)
+    fetch = dask.outcome
+
+    def outcome(future):  # the workers leave as the first row comes back
+        row = fetch(future)
+        cluster.scale(0)
+        return row
+
+    dask.outcome = outcome
+    try:
+        stopped = _sweep_until(lambda: run_sweep(sweep, tmp_path / "t.csv", dask, progress=False, figure=False), 60)
+    finally:
+        dask.close()
+    assert stopped is not None, "the sweep should have stopped"
+    assert stopped.interrupted and not stopped.complete
+    rows = len((tmp_path / "t.csv").read_text().splitlines()) - 1
+    assert rows >= 1 and stopped.points_left() == 8 - rows
+    assert stopped.stopped_line() == (f"the Dask cluster at {cluster.scheduler_address} has had no workers for 1 s "
+                                      f"(they died, and none came back): {8 - rows} of 8 points left; run the same "
+                                      "command again to resume")
+
+
+
+@pytest.fixture
+def doomed_cluster():
+    """A cluster like ``cluster`` whose scheduler a test closes: ending it then tries to reach that
+    scheduler, for 2 s rather than Dask's 30."""
+    import dask
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}), distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, host="127.0.0.1", protocol="tcp://",
+            dashboard_address="127.0.0.1:0") as local:
+        yield local
+
+
+def test_a_lost_scheduler_stops_the_sweep_in_one_line(tmp_path, doomed_cluster):
+    """The scheduler gone during a sweep: the sweep stops as an interrupted one, its rows kept, and
+    says in one line that it lost the scheduler and that running it again resumes (it ended in an
+    internal FuturesCancelledError, a point became a failed row, and Dask's loggers printed
+    tracebacks); while the backend is open, Dask's loggers say nothing short of critical."""
+    import logging
+
+    records: list[logging.LogRecord] = []
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            records.append(record)
+
+    sweep = load_sweep(write_sweep(tmp_path, SLOW))
+    dask = DaskBackend(doomed_cluster.scheduler_address, timeout_s=2)
+    fetch = dask.outcome
+
+    def outcome(future):  # the scheduler goes as the first row comes back
+        row = fetch(future)
+        if doomed_cluster.scheduler.status.name == "running":
+            doomed_cluster.sync(doomed_cluster.scheduler.close)
+        return row
+
+    dask.outcome = outcome
+    keep = Keep()
+    loggers = [logging.getLogger(name) for name in ("distributed", "distributed.client", "tornado")]
+    dask.start()
+    for logger in loggers:
+        logger.addHandler(keep)
+    try:
+        stopped = _sweep_until(lambda: run_sweep(sweep, tmp_path / "t.csv", dask, progress=False, figure=False), 60)
+    finally:
+        dask.close()
+        for logger in loggers:
+            logger.removeHandler(keep)
+    assert stopped is not None, "the sweep should have stopped"
+    assert stopped.interrupted and stopped.counts.get("failed", 0) == 0
+    rows = len((tmp_path / "t.csv").read_text().splitlines()) - 1
+    assert rows >= 1 and stopped.points_left() == 8 - rows
+    assert re.fullmatch(re.escape(f"lost the Dask scheduler at {doomed_cluster.scheduler_address} (") + r"\w+\): "
+                        + re.escape(f"{8 - rows} of 8 points left; run the same command again to resume"),
+                        stopped.stopped_line()), stopped.stopped_line()
+    assert [r for r in records if r.levelno < logging.CRITICAL] == []
+
+
+def test_ctrl_c_on_a_local_dask_cluster_says_one_line(tmp_path):
+    """Ctrl-C (SIGINT to the process group, workers of `--dask local` included): exit 1, the rows kept,
+    one line saying how to resume, no traceback (each worker process printed its KeyboardInterrupt)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    path = write_sweep(tmp_path, SLOW.replace("burn: 2000", "burn: 20000"))
+    out = tmp_path / "c.csv"
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-q", "-o", str(out), "--dask",
+                             "local", "--workers", "2", "--no-figure"], cwd=tmp_path, env=env,
+                            start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.exists() and len(out.read_text().splitlines()) >= 2:
+            break
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 1, stderr
+    assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
+    assert stderr.strip().splitlines() == [f"error: cosim sweep: {stdout.splitlines()[2].strip()}"], (stdout, stderr)
+    assert "interrupted: " in stdout and "run the same command again to resume" in stdout

@@ -225,13 +225,22 @@ def test_the_record_keeps_the_first_start_and_adds_each_resume(tmp_path, pool):
     assert (tmp_path / "full.meta.json").read_bytes() == record
 
 
+def semaphores() -> set[str]:
+    """The named semaphores multiprocessing has in /dev/shm (a pool's, under the spawn start method)."""
+    shm = Path("/dev/shm")
+    return {p.name for p in shm.iterdir() if p.name.startswith("sem.mp-")} if shm.is_dir() else set()
+
+
 def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
     """`cosim sweep` killed with SIGKILL (workers and all) keeps the rows it wrote; running it again
-    finishes the rest, and the table equals that of a sweep never interrupted."""
+    finishes the rest, and the table equals that of a sweep never interrupted. The pool's semaphores
+    do not outlive it: its resource tracker, out of the killed process group, removes them (each
+    such kill left ten files in /dev/shm for good)."""
     body = GRID.replace("[2, 3, 5]", "[2, 3, 4, 5]") + "set: {components.ball.burn: 3000}\n"
     path = write_sweep(tmp_path, body)
     out = tmp_path / "killed.csv"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    before = semaphores()
     proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-o", str(out), "-q",
                              "--workers", "1"], cwd=tmp_path, env=env, start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -245,6 +254,10 @@ def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
     proc.stderr.close()
     written = len(out.read_text().splitlines()) - 1
     assert 3 <= written < 12, "the sweep should have been killed halfway"
+    deadline = time.monotonic() + 30
+    while semaphores() - before and time.monotonic() < deadline:  # removed once the tracker sees all gone
+        time.sleep(0.05)
+    assert not semaphores() - before, "the killed sweep left its semaphores in /dev/shm"
     sweep = load_sweep(path)
     outcome = run_sweep(sweep, out, pool, progress=False, figure=False)
     assert outcome.already == written and outcome.ran == 12 - written
@@ -284,6 +297,37 @@ def test_a_table_that_is_not_text_is_refused_and_left_as_it_is(tmp_path, pool):
     with pytest.raises(ScenarioError, match=r"out\.csv: is not UTF-8 text \(byte 0\).*--fresh"):
         run_sweep(sweep, out, pool, progress=False, figure=False)
     assert out.read_bytes() == garbage
+
+
+def test_an_output_path_with_a_nul_character_is_bad_input(tmp_path, pool):
+    """An output given through the API with a NUL character (no file name can hold it) is a
+    ScenarioError naming it, nothing written (an internal ValueError "embedded null byte")."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    with pytest.raises(ScenarioError, match=r"a\\x00b\.csv: cannot write the sweep's results here \(not a path "
+                                            r"the system can take: embedded null byte\)"):
+        run_sweep(sweep, tmp_path / "a\0b.csv", pool, progress=False, figure=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ball.yaml", "sweep.yaml"]
+
+
+def test_a_finished_table_is_sorted_again_when_the_axis_values_change_order(tmp_path, pool):
+    """Listing an axis's values in another order gives the points other indices: a table finished for
+    the old order is sorted again, each row with its new index, though nothing is left to run (it
+    kept the old order and indices); run again as it is, it changes nothing, to the byte."""
+    out = tmp_path / "t.csv"
+
+    def run(values: str):
+        body = f"scene: ball.yaml\naxes:\n  components.ball.speed: {values}\n"
+        sweep = load_sweep(write_sweep(tmp_path, body))
+        outcome = run_sweep(sweep, out, pool, progress=False, figure=False)
+        assert outcome.complete
+        return [(r["index"], r["components.ball.speed"]) for r in rows_of(out)]
+
+    assert run("[2, 3]") == [("0", "2"), ("1", "3")]
+    assert run("[4, 3, 2]") == [("0", "4"), ("1", "3"), ("2", "2")]
+    assert run("[2, 3, 4]") == [("0", "2"), ("1", "3"), ("2", "4")]
+    table, record = out.read_bytes(), (tmp_path / "t.meta.json").read_bytes()
+    assert run("[2, 3, 4]") == [("0", "2"), ("1", "3"), ("2", "4")]
+    assert out.read_bytes() == table and (tmp_path / "t.meta.json").read_bytes() == record
 
 
 def test_record_writes_an_mcap_per_run_and_the_meta_names_the_scene(tmp_path, pool):

@@ -11,13 +11,16 @@ not keep, so the point runs again when the sweep is resumed.
 
 A backend offers ``start``, ``submit(task) -> future``, ``wait(futures) -> done``, ``outcome(future)
 -> row``, ``restart``, ``close`` and ``abort``; ``submit`` and ``outcome`` raise :class:`WorkerLost`
-when a worker died. Dask is imported only by :class:`DaskBackend`.
+when a worker died, and ``submit``, ``wait`` and ``outcome`` raise :class:`BackendLost` when the
+backend can run nothing more (the Dask scheduler lost, a cluster left without workers): the sweep
+then stops as if interrupted. Dask is imported only by :class:`DaskBackend`.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import errno
+import logging
 import math
 import multiprocessing
 import os
@@ -25,10 +28,12 @@ import platform
 import signal
 import socket
 import struct
+import subprocess
 import sys
 import threading
 import time
 from collections.abc import Iterable
+from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +42,14 @@ from cosim.timebase import NS_PER_S
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
 DASK_HANDSHAKE_MAX = 1 << 20  # [bytes] more than any scheduler's first message (its handshake, about 60)
+DASK_POLL_S = 1.0  # how often a sweep waiting on Dask looks at whether its cluster can still run its points (s)
+# how long a Dask cluster may go on without a worker, or with every worker idle while the sweep's points
+# wait, before the sweep stops (s): a local worker that dies is back within seconds, but a cluster whose
+# workers do not come back left the sweep waiting without end and without a word
+DASK_IDLE_S = 30.0
+# what Dask's loggers still print during a sweep: they said, with tracebacks, what the sweep itself says
+# in one line (a worker that died and was replaced, a run retried, the scheduler lost)
+DASK_LOG_LEVEL = logging.CRITICAL
 WORKER_JOIN_TIMEOUT_S = 10  # how long a worker gets to leave at each step of ending a pool (s)
 PARENT_POLL_S = 0.2  # how often a pool worker checks that the sweep that started it is still there (s)
 # how long a worker whose run a signal interrupted waits for the sweep's stop before taking its next run
@@ -79,6 +92,11 @@ def _worker_died(exc: BaseException) -> WorkerLost:
 
 class BackendError(CosimError):
     """A backend that cannot be used (Dask missing, a scheduler out of reach, workers without cosim)."""
+
+
+class BackendLost(BackendError):
+    """A backend that stopped working during the sweep (the Dask scheduler lost, a cluster left without
+    workers): nothing more can run on it, and the sweep stops as if interrupted, its rows kept."""
 
 
 def _cell(value: Any) -> Any:
@@ -244,26 +262,43 @@ def _worker_init(parent: int | None = None, stop: Any = None) -> None:
     import cosim.runner  # noqa: F401  (import once per worker, not once per run)
 
 
-def _start_resource_tracker() -> None:
-    """Start multiprocessing's resource tracker (the process that removes the pool's semaphores) with
-    SIGHUP ignored, as it ignores Ctrl-C and SIGTERM itself: in the terminal's process group it died
-    when the terminal closed, and the one started in its place printed a traceback for each of the
-    pool's semaphores it did not know as the sweep ended."""
-    from multiprocessing import resource_tracker
+# the resource tracker this process started, held so that subprocess never reaps it behind the back of
+# multiprocessing, which waits for it by its pid
+_tracker: subprocess.Popen | None = None
 
-    hup = getattr(signal, "SIGHUP", None)
-    if hup is None:
-        resource_tracker.ensure_running()
+
+def _start_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker, the process that removes the pool's semaphores
+    (named files under spawn, /dev/shm/sem.mp-*) once every process using them is gone, in a session
+    of its own. In the sweep's process group it died with the group: a SIGKILL of the group left ten
+    semaphores in /dev/shm for good, and SIGHUP (the terminal closed) ended it, after which the
+    tracker started in its place printed a traceback for each semaphore it did not know. Out of the
+    group it sees the sweep and its workers gone, removes what they left, and leaves (it ignores
+    Ctrl-C and SIGTERM itself). Its warnings about what it removes go nowhere: it speaks only once
+    the sweep is gone, killed, and what it announces is the cleanup it is there for.
+
+    It is multiprocessing's own tracker (its ``main``), started as ``ensure_running`` would start it;
+    a tracker already running in this process is kept."""
+    global _tracker
+    from multiprocessing import resource_tracker, spawn
+
+    tracker = resource_tracker._resource_tracker
+    if getattr(tracker, "_fd", None) is not None or not hasattr(tracker, "_pid"):
+        resource_tracker.ensure_running()  # started already (or a Python whose tracker is built otherwise)
         return
-    try:
-        before = signal.signal(hup, signal.SIG_IGN)  # inherited by the tracker as it starts
-    except ValueError:  # not the main thread: signals are not ours to set
-        resource_tracker.ensure_running()
-        return
-    try:
-        resource_tracker.ensure_running()
-    finally:
-        signal.signal(hup, before)
+    with tracker._lock:
+        read, write = os.pipe()
+        try:
+            _tracker = subprocess.Popen(
+                [spawn.get_executable(), "-c", f"from multiprocessing.resource_tracker import main; main({read})"],
+                pass_fds=(read,), start_new_session=True, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL)
+        except BaseException:
+            os.close(write)
+            raise
+        finally:
+            os.close(read)
+        tracker._fd, tracker._pid = write, _tracker.pid
 
 
 class ProcessBackend:
@@ -376,25 +411,78 @@ class ProcessBackend:
             manager.join(WORKER_JOIN_TIMEOUT_S)  # it only joins the workers, all gone by now
 
 
+def dask_setup(worker: Any) -> None:
+    """Run by Dask in each worker process of a local cluster as it starts (its ``preload``).
+
+    Ctrl-C, and SIGHUP when the terminal closes, reach the whole process group, the workers of
+    ``--dask local`` with the sweep: each printed a KeyboardInterrupt traceback as it died. They are
+    ignored here, as in a pool worker (:func:`_worker_init`); the sweep stops its cluster itself. A
+    worker the nanny starts again after one died runs this again."""
+    if threading.current_thread() is not threading.main_thread():
+        return  # a worker thread of this very process (processes=False): signals are not its to set
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGHUP"):
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+
+def _quiet_loggers(level: int) -> ExitStack:
+    """Set Dask's loggers (``distributed`` and those below it that have a level of their own, such
+    as ``distributed.client``, and ``tornado``, whose errors come from Dask's connections) to
+    ``level`` until the returned stack is closed."""
+    stack = ExitStack()
+    names = {"distributed", "tornado", *(name for name in logging.root.manager.loggerDict
+                                         if name.split(".")[0] in ("distributed", "tornado"))}
+    for name in sorted(names):
+        logger = logging.getLogger(name)
+        if logger.level != logging.NOTSET or "." not in name:  # the others take their parent's
+            stack.callback(logger.setLevel, logger.level)
+            logger.setLevel(max(level, logger.level))
+    return stack
+
+
+def _lost_errors() -> tuple[type[BaseException], ...]:
+    """What Dask raises once its scheduler is gone: the sweep's futures cancelled when the client gave
+    up reconnecting (FuturesCancelledError, a concurrent.futures CancelledError), asyncio's
+    CancelledError from a call cut off, and a closed or refused connection (CommClosedError and any
+    other OSError)."""
+    import asyncio
+
+    return (cf.CancelledError, asyncio.CancelledError, OSError)
+
+
 class DaskBackend:
     """Runs on a Dask cluster: ``address`` ``tcp://HOST:PORT`` of a running scheduler, or ``local``
     for a LocalCluster of ``workers`` single-threaded workers on 127.0.0.1 (``processes=False``:
-    threads of this process, for tests). Every worker must have this project installed."""
+    threads of this process, for tests). Every worker must have this project installed.
+
+    A worker that dies takes down every run it held (Dask blames them all, KilledWorker): as in the
+    process pool, each is retried alone before it is taken for the one that kills its worker. Waiting
+    is bounded: a cluster left without workers, or whose workers all stay idle while the sweep's
+    points wait, for ``DASK_IDLE_S``, and a scheduler lost, raise :class:`BackendLost`. ``quiet``: Dask's
+    loggers print only critical messages while the backend is open (the sweep says what happened)."""
 
     def __init__(self, address: str = "local", workers: int | None = None, *, processes: bool = True,
-                 timeout_s: float | None = None):
+                 timeout_s: float | None = None, quiet: bool = True):
         self.address = address
         self.timeout_s = timeout_s
         self.workers = max(1, workers or os.cpu_count() or 1)
         self.processes = processes
+        self.quiet = quiet
         self.client: Any = None
         self.cluster: Any = None
         self.worker_versions: dict[str, dict[str, str]] = {}
         self._slots = 0
+        self._settings = ExitStack()  # undone by close(): Dask's loggers quieted, its settings for a local cluster
 
     @property
     def slots(self) -> int:
         return self._slots
+
+    def _where(self, part: str = "") -> str:
+        """The cluster (or ``part`` of it: "scheduler"), as the sweep's lines name it."""
+        if self.address == "local":
+            return f"the local Dask cluster's {part}" if part else "the local Dask cluster"
+        return f"the Dask {part} at {self.address}" if part else f"the Dask cluster at {self.address}"
 
     def describe(self) -> str:
         where = (f"a local Dask cluster of {self.workers} workers" if self.address == "local"
@@ -409,16 +497,38 @@ class DaskBackend:
         if self.client is not None:
             return
         try:
+            import dask
             from distributed import Client, LocalCluster
         except ImportError:
             raise BackendError("--dask needs dask and distributed: pip install 'cosim[dask]' "
                                "(or pip install dask distributed)") from None
+        if self.quiet:
+            self._settings.enter_context(_quiet_loggers(DASK_LOG_LEVEL))
         try:
             if self.address == "local":
-                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
-                                            processes=self.processes, host="127.0.0.1",
-                                            protocol="tcp://",
-                                            dashboard_address="127.0.0.1:0")  # any free port, not 8787
+                options: dict[str, Any] = {}
+                if self.processes:
+                    # the tracker of the semaphores its nannies make, out of reach of the terminal's
+                    # signals as for a pool (a SIGHUP ended it, and the one started in its place printed
+                    # a traceback for each of them)
+                    _start_resource_tracker()
+                    # each worker process ignores the terminal's signals (dask_setup), and logs as quietly
+                    options.update(preload=[__name__],
+                                   silence_logs=DASK_LOG_LEVEL if self.quiet else logging.WARNING)
+                # a nanny starts its worker again when it dies, but the cluster also closed any nanny
+                # whose worker was gone lost-worker-timeout (15 s) after some earlier death: one caught
+                # between its worker's lives was closed for good, and the sweep left without workers
+                # (read whenever a worker leaves: set while the backend is open)
+                self._settings.enter_context(dask.config.set({"distributed.deploy.lost-worker-timeout": "1000d"}))
+                # a task whose worker died fails at once (KilledWorker) rather than being retried on
+                # three more workers with whatever runs there: the sweep retries each such point alone
+                # itself, and Dask's retries only multiplied the deaths, and the innocent points blamed
+                with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                    self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
+                                                processes=self.processes, host="127.0.0.1",
+                                                protocol="tcp://",
+                                                dashboard_address="127.0.0.1:0",  # any free port, not 8787
+                                                **options)
                 self.client = Client(self.cluster)
             else:
                 timeout = self.timeout_s or DASK_CONNECT_TIMEOUT_S
@@ -451,37 +561,95 @@ class DaskBackend:
                 for worker, theirs in sorted(self.worker_versions.items())
                 for key in ("cosim", "python", "numpy") if theirs.get(key) != here[key]]
 
+    def _lost(self, exc: BaseException) -> BackendLost:
+        return BackendLost(f"lost {self._where('scheduler')} ({type(exc).__name__})")
+
     def submit(self, task: Task) -> Any:
-        return self.client.submit(run_task, task, pure=False)
+        try:
+            return self.client.submit(run_task, task, pure=False)
+        except _lost_errors() as exc:
+            raise self._lost(exc) from None
 
     def wait(self, futures: Iterable[Any]) -> set[Any]:
+        """The futures done, once one is; raises :class:`BackendLost` when none can be (see the class)."""
         from distributed import wait
 
-        return set(wait(list(futures), return_when="FIRST_COMPLETED").done)
+        futures = list(futures)
+        stalled_since: float | None = None
+        while True:
+            try:
+                return set(wait(futures, timeout=DASK_POLL_S, return_when="FIRST_COMPLETED").done)
+            except TimeoutError:  # (an OSError: before the lost connections below)
+                pass
+            except _lost_errors() as exc:
+                raise self._lost(exc) from None
+            stalled_since = self._check(stalled_since)
 
     def outcome(self, future: Any) -> dict[str, Any]:
+        """The row of a future that is done. Fetching it is bounded as waiting is: a result whose worker
+        left before it was fetched is computed again, on a worker there may no longer be."""
         from distributed import KilledWorker
 
+        stalled_since: float | None = None
+        while True:
+            try:
+                return future.result(timeout=DASK_POLL_S)
+            except KilledWorker:
+                # every run the dead worker held is blamed, not only the one that killed it: retried alone
+                raise WorkerLost("a Dask worker died (KilledWorker)", isolate=True) from None
+            except TimeoutError:  # (an OSError: before the lost connections below)
+                pass
+            except _lost_errors() as exc:
+                raise self._lost(exc) from None
+            stalled_since = self._check(stalled_since)
+
+    def _check(self, stalled_since: float | None) -> float | None:
+        """After a wait that timed out: when the cluster has been stalled (:meth:`_stalled`) since
+        ``stalled_since`` for ``DASK_IDLE_S``, raise :class:`BackendLost`; else return since when it
+        is stalled (None: it is not)."""
+        stalled = self._stalled()
+        now = time.monotonic()
+        if stalled is None:
+            return None
+        if stalled_since is None:
+            return now
+        if now - stalled_since >= DASK_IDLE_S:
+            raise BackendLost(stalled.format(where=self._where(), s=f"{DASK_IDLE_S:g} s"))
+        return stalled_since
+
+    def _stalled(self) -> str | None:
+        """Why the cluster runs none of the sweep's waiting points now (a message with ``{where}`` and
+        ``{s}`` to fill), or None while it can: workers busy, with the sweep's runs or with another
+        client's, are progress."""
         try:
-            return future.result()
-        except KilledWorker as exc:
-            # Dask already retried the task on other workers; it is this task that kills them.
-            raise WorkerLost(f"the task killed its Dask workers ({exc})", isolate=False) from None
+            if not self.client.nthreads():
+                return "{where} has had no workers for {s} (they died, and none came back)"
+            if not any(self.client.processing().values()):
+                return "{where} has left the sweep's points waiting for {s} with every worker idle"
+        except _lost_errors() as exc:
+            raise self._lost(exc) from None
+        return None
 
     def restart(self) -> None:
         pass  # Dask replaces lost workers itself
 
     def close(self) -> None:
-        if self.client is not None:
-            self.client.close()
-            self.client = None
-        if self.cluster is not None:
-            self.cluster.close()
-            self.cluster = None
+        try:
+            if self.client is not None:
+                self.client.close()
+                self.client = None
+            if self.cluster is not None:
+                self.cluster.close()
+                self.cluster = None
+        finally:
+            self._settings.close()
 
     def abort(self, futures: Iterable[Any]) -> None:
         if self.client is not None:
-            self.client.cancel(list(futures))
+            try:
+                self.client.cancel(list(futures))
+            except _lost_errors():
+                pass  # the scheduler is gone: nothing runs there to cancel
         self.close()
 
 
@@ -533,8 +701,10 @@ def probe_scheduler(address: str, timeout_s: float) -> None:
                            f"message; {hint}")
 
 
-def make_backend(dask: str | None = None, workers: int | None = None) -> ProcessBackend | DaskBackend:
-    """The backend the CLI flags ask for: a process pool, or Dask at ``dask`` (``local`` or an address)."""
+def make_backend(dask: str | None = None, workers: int | None = None, *,
+                 quiet: bool = True) -> ProcessBackend | DaskBackend:
+    """The backend the CLI flags ask for: a process pool, or Dask at ``dask`` (``local`` or an address).
+    ``quiet``: Dask's own log lines are left out (see :class:`DaskBackend`)."""
     if dask is None:
         return ProcessBackend(workers)
-    return DaskBackend(dask, workers)
+    return DaskBackend(dask, workers, quiet=quiet)

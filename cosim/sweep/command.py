@@ -68,7 +68,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                       "above); each would be a failed row", file=sys.stderr)
                 return EXIT_BAD_INPUT
             return EXIT_OK
-        backend = make_backend(args.dask, args.workers)
+        # Dask's own log lines (tracebacks of what the sweep says in one line) only with --debug, which
+        # the command line's parser takes out before the command sees its arguments
+        backend = make_backend(args.dask, args.workers, quiet="--debug" not in sys.argv[1:])
         if isinstance(backend, DaskBackend):  # a process pool starts with the sweep's points, no more workers
             backend.start()
     except (ScenarioError, BackendError) as exc:

@@ -108,6 +108,9 @@ _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
            ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod, ast.Pow: operator.pow}
 _UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 MAX_EXPONENT = 1024  # larger integer powers would take unbounded time and memory
+# round()'s digits at most this far either side of the point: a float has 17 significant digits and
+# none beyond about 1e308 or below 5e-324, and round(u, -100000000) of an integer took minutes
+MAX_ROUND_DIGITS = 400
 
 
 class Expression:
@@ -150,6 +153,8 @@ class Expression:
 
     def _eval(self, node: ast.AST, env: dict[str, Any]) -> Any:
         value = self._value(node, env)
+        if isinstance(value, complex):  # a negative number to a fractional power: no scene value is one
+            raise ValueError(f"{ast.unparse(node)} is the complex number {value!r}, not a real value")
         if beyond_float(value):
             # no scene value can take it (attack**1000 reached the scene as an integer of 1001 digits),
             # and refusing each such step keeps the integers, and the time they take, small
@@ -171,13 +176,22 @@ class Expression:
                 # ([attack] * 100000000 took a minute and ended out of memory)
                 raise ValueError("a list can only be a value (its items computed one by one), not "
                                  "repeated or joined with +, -, *, /")
+            if isinstance(left, str) or isinstance(right, str):
+                # a text is a value as it stands: 'ab' * 50000000 * u took minutes and gigabytes
+                raise ValueError(f"{ast.unparse(node)}: a text can only be a value, not repeated or joined "
+                                 "with +, -, *, /, //, %, **")
             return _BINARY[type(node.op)](left, right)
         if isinstance(node, ast.UnaryOp):
             return _UNARY[type(node.op)](self._eval(node.operand, env))
         if isinstance(node, (ast.List, ast.Tuple)):
             return [self._eval(item, env) for item in node.elts]
         if isinstance(node, ast.Call):
-            return _FUNCTIONS[node.func.id](*(self._eval(arg, env) for arg in node.args))  # type: ignore[attr-defined]
+            args = [self._eval(arg, env) for arg in node.args]
+            if node.func.id == "round" and len(args) == 2 and isinstance(args[1], int):  # type: ignore[attr-defined]
+                if abs(args[1]) > MAX_ROUND_DIGITS:
+                    raise ValueError(f"{ast.unparse(node)}: round's digits must be within +-{MAX_ROUND_DIGITS} "
+                                     f"(got {number_text(args[1])})")
+            return _FUNCTIONS[node.func.id](*args)  # type: ignore[attr-defined]
         raise AssertionError(f"unchecked node {node!r}")  # _check admits nothing else
 
 
@@ -532,6 +546,9 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     if not isinstance(name, str) or not name:
         problems.append(f"name: must be a non-empty string (got {name!r})")
         name = "sweep"
+    elif "\0" in name:  # no file name can hold it (the table's default is runs/NAME.csv)
+        problems.append(f"name: must not hold a NUL character (got {name!r})")
+        name = "sweep"
     description = data.get("description", "")
     base = _base_scene(data, Path(base_dir), source, problems)
     scene_data = base[2] if base else {}
@@ -684,6 +701,9 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     out = output if output is not None else data.get("output", f"runs/{name}.csv")
     if not isinstance(out, (str, Path)) or Path(out).suffix not in TABLE_SUFFIXES:
         problems.append(f"output: must be a .csv or .parquet file name (got {out!r})")
+        out = f"runs/{name}.csv"
+    elif "\0" in str(out):  # no file name can hold it
+        problems.append(f"output: must not hold a NUL character (got {str(out)!r})")
         out = f"runs/{name}.csv"
     elif Path(out).suffix == ".parquet":
         try:

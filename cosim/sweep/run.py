@@ -2,11 +2,13 @@
 
 Nothing is lost: a run that fails is a row with status ``failed`` and the sweep goes on; a worker
 process that dies is replaced, and the points it may have taken down are retried one at a time, so
-only the point that kills a worker is recorded as failed (``error_type`` WorkerLost). An interrupted
-sweep (Ctrl-C, SIGTERM, a kill) keeps every row written so far; running it again resumes: points
-already in the table are skipped. A run that the machine cut short for want of room (the disk full,
-a quota) is no result of its point either: it gets no row, the sweep says so once and submits no
-more points (each would end the same way), and running it again once there is room resumes it.
+only the point that kills a worker is recorded as failed (``error_type`` WorkerLost), on either
+backend. An interrupted sweep (Ctrl-C, SIGTERM, a kill, or a backend that can run no more: the Dask
+scheduler lost, a cluster left without workers) keeps every row written so far; running it again
+resumes: points already in the table are skipped. A run that the machine cut short for want of room
+(the disk full, a quota) is no result of its point either: it gets no row, the sweep says so once and
+submits no more points (each would end the same way), and running it again once there is room
+resumes it.
 When every point has a row, the table is sorted by point index and the summary figure is drawn.
 """
 
@@ -27,12 +29,15 @@ from tqdm import tqdm
 
 from cosim.errors import ending_signals
 from cosim.runner import counted
-from cosim.sweep.backends import NOT_RESULTS, DaskBackend, ProcessBackend, Task, WorkerLost, versions
+from cosim.sweep.backends import NOT_RESULTS, BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
 from cosim.sweep.table import ResultTable, cannot
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 RECORDING_FAILURES = ("SinkError", "RecordingError")  # error types of a run whose recording failed
+# the reason of the row of a point whose worker died while it ran alone: the same words whatever the
+# backend (a point gives the same row on any), with no task id or address of the run that said so
+WORKER_DIED = "the worker running this point died (it ran alone: this point ends its worker)"
 
 
 @dataclass
@@ -49,6 +54,7 @@ class SweepOutcome:
     interrupted: bool = False
     unfinished: int = 0
     limit: str | None = None  # the machine limit that stopped the sweep (the disk full), in the system's words
+    lost: str | None = None  # why the backend could run no more (the Dask scheduler lost), if it stopped so
     wall_s: float = 0.0
     run_wall_s: float = 0.0  # the runs' own wall times summed [s] (each in its worker)
     rows: list[dict[str, str]] = field(default_factory=list)
@@ -71,7 +77,7 @@ class SweepOutcome:
         if self.limit is not None:
             return (f"stopped, the machine has no room for the recordings ({self.limit}): {left}; they run "
                     "when the same command is run again once there is room")
-        why = ("interrupted" if self.interrupted
+        why = (self.lost if self.lost is not None else "interrupted" if self.interrupted
                else f"{counted(self.unfinished, 'run was', 'runs were')} interrupted")
         return f"{why}: {left}; run the same command again to resume"
 
@@ -142,7 +148,7 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         "sweep_file": sweep.text, "scene_source": sweep.scene_source, "scene": sweep.scene_text,
         "fixed_overrides": sweep.fixed, "versions": versions()}
     table = ResultTable(output, sweep.columns, meta)
-    done = table.open(set(order), fresh=fresh)
+    done = table.open(order, fresh=fresh)
     if on_resume is not None:
         on_resume(len(done))
     outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done))
@@ -226,18 +232,27 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
                             suspects.append(point)
                             broken = True
                             continue
-                        row = _failed_row(point, f"the worker running this point died: {exc}", "WorkerLost")
+                        row = _failed_row(point, WORKER_DIED if exc.isolate else "the worker running this point died",
+                                          "WorkerLost")
+                    except BackendLost:  # no row: the point runs when the sweep is resumed
+                        raise
                     except Exception as exc:  # the backend could not run the task at all
                         row = _failed_row(point, f"{type(exc).__name__}: {exc}", type(exc).__name__)
                     if point.point_id == alone:
                         alone = None
                         broken = broken or row["error_type"] == "WorkerLost"
                     record(point, row)
+                # no future outlives its row here: Dask keeps a referenced future's result, and runs it
+                # again (a run nobody waits for, on the cluster's workers) should its worker die
+                future = None
                 if broken and not pending:
                     backend.restart()
                     broken = False
     except KeyboardInterrupt:
         outcome.interrupted = True
+        backend.abort(list(pending))
+    except BackendLost as exc:  # nothing more can run: stopped as by an interruption, to resume later
+        outcome.interrupted, outcome.lost = True, str(exc)
         backend.abort(list(pending))
     finally:
         bar.close()

@@ -6,7 +6,8 @@ a row, the table is rewritten sorted by point index, so equal sweeps give equal 
 order the runs finished in; only ``wall_s`` differs. Beside the table, ``<stem>.meta.json`` records
 the sweep file, the base scene, the fingerprint of the runs' settings, the versions and the backend,
 as the sweep was first started, and under ``resumes`` each later command that ran more of it or
-finished it (one that finds the table finished changes nothing).
+finished it (one that finds the table finished, in the order of the sweep's points, changes nothing;
+one whose sweep file lists an axis's values in another order sorts it again).
 A ``.parquet`` output is written from the finished CSV (``<stem>.csv`` beside it) with pyarrow.
 """
 
@@ -47,12 +48,14 @@ def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else output.with_suffix(".csv")
 
 
-def cannot(output: Path, exc: OSError, action: str, then: str = "") -> ScenarioError:
+def cannot(output: Path, exc: OSError | ValueError, action: str, then: str = "") -> ScenarioError:
     """The bad-input error for ``exc``, raised while trying to ``action`` (the table at ``output``, or the
     files beside it). It names the path the user gave; the file that failed, when it is another (the
     record beside the table, a folder), is named in the reason, by its final name, not a temporary one
     (:func:`cosim.record.output.written_whole` names it so). ``then``: what the user should know next,
-    appended to the line."""
+    appended to the line. A ValueError is a path the system cannot take at all (a NUL character in it)."""
+    if isinstance(exc, ValueError):
+        return ScenarioError(f"cannot {action} here (not a path the system can take: {exc})", str(output))
     reason = exc.strerror or str(exc)
     if exc.filename is not None:
         failed = Path(os.fsdecode(exc.filename))
@@ -76,21 +79,22 @@ class ResultTable:
         self._made: list[Path] = []  # what open() created: the files and folders discard() removes
         self.already_finished = False  # resumed a table that was finished: open() and finish() write nothing
 
-    def open(self, known_ids: set[str], fresh: bool = False) -> dict[str, dict[str, str]]:
+    def open(self, order: dict[str, int], fresh: bool = False) -> dict[str, dict[str, str]]:
         """Start the table, or resume it; returns the rows already there, by point id.
 
-        Resuming needs the same fingerprint (the runs' settings) and columns; rows of points that are
-        not in this sweep are an error (a different sweep wrote them).
+        ``order``: this sweep's point ids and their indices. Resuming needs the same fingerprint (the
+        runs' settings) and columns; rows of points that are not in this sweep are an error (a different
+        sweep wrote them).
         """
         rows: dict[str, dict[str, str]] = {}
         resume = self.path.exists() and not fresh
         started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
         if resume:
             try:
-                rows, first = self._read_existing(known_ids)
+                rows, first = self._read_existing(set(order))
             except OSError as exc:
                 raise cannot(self.output, exc, "read the sweep's table to resume it") from None
-            if "finished" in first and set(rows) == known_ids and self.output.exists():
+            if "finished" in first and set(rows) == set(order) and self._in_order(rows, order) and self.output.exists():
                 # nothing to run and nothing to finish: the table and its record stay as they are
                 self.meta, self.already_finished = first, True
                 return rows
@@ -122,13 +126,21 @@ class ResultTable:
             if new:
                 self._writer.writerow(self.columns)
                 self._file.flush()
-        except OSError as exc:
+        except (OSError, ValueError) as exc:  # (a ValueError: a NUL character in the path)
             self.close()
             for path in made:
                 remove_quietly(path)
             raise cannot(self.output, exc, "write the sweep's results") from None
         self._made = made
         return rows
+
+    @staticmethod
+    def _in_order(rows: dict[str, dict[str, str]], order: dict[str, int]) -> bool:
+        """Whether the table's rows (by point id, in the table's order) are this sweep's in its order, each
+        with its index: a sweep file that lists an axis's values in another order gives its points
+        other indices, and the table finished for the old order is sorted again."""
+        return [(point, row["index"]) for point, row in rows.items()] == sorted(
+            ((point, str(order[point])) for point in rows), key=lambda item: order[item[0]])
 
     def _read_existing(self, known_ids: set[str]) -> tuple[dict[str, dict[str, str]], dict[str, Any]]:
         """(the table's whole rows by point id, its record) of a table this sweep wrote."""
