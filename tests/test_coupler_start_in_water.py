@@ -18,12 +18,14 @@ columns are off by up to 1.3% for this disk, which alone moves it 0.15 mm to the
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from components.coupler import WaterCoupler, WaterCouplerParams
-from components.messages import BodyState, HeightPatch, PatchRequest
+from components.messages import BodyState, HeightPatch, PatchRequest, Shape
 from components.rigid_body import RigidBody
 from components.water import WaterSurface
 from cosim.params import build
@@ -196,3 +198,32 @@ def test_a_body_over_a_pond_resting_above_zero_meets_its_water():
     (the body has asked for none yet): taken as 0 until then, a ball let go over a pond resting at
     0.5 m was dry to the coupler, asked for no water, and fell through the pond onto its bed."""
     assert _pine_height(0.5) == pytest.approx(_pine_height(0.0), abs=1e-6)
+
+
+def test_the_load_checks_step_bound_takes_the_waters_own_rest_level():
+    """A body that starts in the water gets no approach bound at load (its own forces bound it from
+    its first step): judged against level 0 instead of the water's 0.5 m, a stone 20 cm under that
+    water was held to be in the air and its throw refused as too fast for the step."""
+    from components.coupler.fixtures import body, still_water
+
+    coupler = WaterCoupler("c", WaterCouplerParams())
+    stone = body(position=(0.0, 0.0, 0.3), velocity=(30.0, 0.0, 0.0))
+    empty = replace(still_water(0.01, level=0.5), i0=0, j0=0, height=np.zeros((0, 0)), velocity=np.zeros((0, 0)),
+                    bottom=np.zeros((0, 0)))
+    assert coupler.start_stable_step({"body": stone, "water": empty}) == math.inf
+    assert coupler.start_stable_step({"body": stone, "water": None}) < math.inf  # level 0 then: in the air
+
+
+def test_a_sunk_body_asks_for_water_its_widest_spread_fits_in():
+    """Under the rest level the window asked for holds the displaced water's widest spread
+    (kernel.SPREAD_CAP radii, SPREAD_REACH of them): the window lags the request by up to a water
+    step, over which a sinking body's spread grows; sized by this step's spread, a ball dropped in
+    fast had up to 3% of its displaced water folded back at the patch's edge."""
+    from components.coupler import kernel
+    from components.coupler.fixtures import body, still_water
+
+    radius = 0.05
+    coupler = WaterCoupler("c", WaterCouplerParams(effects=["displacement", "buoyancy"]))
+    ball = body(Shape.SPHERE, position=(0.0, 0.0, -0.0505), radius=radius, velocity=(0.0, 0.0, -1.0))
+    request = coupler.step(0, 500_000, {"body": ball, "water": still_water(0.01, half_width=0.3)})["request"]
+    assert request.x_max - 0.0 >= radius + kernel.SPREAD_REACH * kernel.SPREAD_CAP * radius + 0.01

@@ -74,3 +74,20 @@ def test_a_stone_swimming_deep_hardly_moves_the_surface():
     assert Simulation(scene, observers=[watch]).run().status == "ok"
     assert watch.eta < 0.002
     assert -0.11 < min(watch.z) and max(watch.z) <= -0.1
+
+
+def test_the_compiled_steps_shortcuts_give_the_whole_spreads_numbers_bit_for_bit():
+    """The compiled step spreads a deposit without its rows of zeros, and reads the field through
+    the spread in the columns it reads only: the same numbers, bit for bit, where they are used."""
+    rng = np.random.default_rng(3)
+    deposit = np.zeros((30, 26))
+    deposit[11:17, 9:18] = rng.random((6, 9))
+    whole, shortcut = deposit.copy(), deposit.copy()
+    kernel.spread_gaussian(whole, 2.3)
+    kernel.spread_deposit(shortcut, 2.3, 11, 16)
+    assert whole.tobytes() == shortcut.tobytes()
+    field = rng.standard_normal((30, 26))
+    whole, shortcut = field.copy(), field.copy()
+    kernel.spread_gaussian(whole, 2.3)
+    kernel.spread_columns(shortcut, 2.3, 8, 19)
+    assert whole[:, 8:20].tobytes() == shortcut[:, 8:20].tobytes()

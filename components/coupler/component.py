@@ -883,7 +883,11 @@ class WaterCoupler(Component):
         margin = p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
         if self.flags & DISPLACEMENT:
             margin += 2.0 * kernel.band_width(p.ring_cells, p.ring_share, self.cell, radius)
-            margin += kernel.SPREAD_REACH * spread
+            if spread > 0.0:
+                # the widest spread's reach, not this step's: the window lags the request by up to a
+                # water step, over which a sinking body's spread grows (sigma by 1.47 times the depth
+                # it sinks), and its reach is rounded up to a whole column
+                margin += kernel.SPREAD_REACH * kernel.SPREAD_CAP * radius + self.cell
         margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
         cx, cy = centre
         held = self._held_request
@@ -1143,7 +1147,11 @@ class WaterCoupler(Component):
         body = inputs.get("body")
         if not isinstance(body, BodyState):
             return math.inf
-        if float(body.position[2]) - _bounding_radius(body) < self._assumed_level():
+        water = inputs.get("water")
+        # the water's own rest level where its first answer gives it (the empty patch before any request)
+        known = isinstance(water, HeightPatch) and water.cell > 0.0
+        level = float(water.rest_level) if known else self._assumed_level()
+        if float(body.position[2]) - _bounding_radius(body) < level:
             return math.inf
         # near the water a step may also carry the body only so far (the motion bound), as the step
         # before the water's first patch bounds it: without it here a run the load check passed

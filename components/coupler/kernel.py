@@ -1349,6 +1349,47 @@ def spread_reach(sigma):
 
 
 @njit(cache=True)
+def _spread_weights(sigma, reach):
+    """The spread's weights at whole columns -reach..reach: the Gaussian's, normalised."""
+    weights = np.empty(2 * reach + 1)
+    total = 0.0
+    for k in range(-reach, reach + 1):
+        weights[k + reach] = math.exp(-0.5 * (k / sigma) ** 2)
+        total += weights[k + reach]
+    return weights / total
+
+
+@njit(cache=True)
+def _spread_along_x(b, weights, reach, j_lo, j_hi, i_lo, i_hi):
+    """The spread along x of rows j_lo..j_hi of ``b``, kept in its columns i_lo..i_hi only."""
+    ni = b.shape[1]
+    line = np.empty(ni)
+    for j in range(j_lo, j_hi + 1):
+        for i in range(i_lo, i_hi + 1):
+            acc = 0.0
+            for k in range(-reach, reach + 1):
+                acc += weights[k + reach] * b[j, _mirror(i + k, ni)]
+            line[i] = acc
+        for i in range(i_lo, i_hi + 1):
+            b[j, i] = line[i]
+
+
+@njit(cache=True)
+def _spread_along_y(b, weights, reach, i_lo, i_hi):
+    """The spread along y of columns i_lo..i_hi of ``b``."""
+    nj = b.shape[0]
+    line = np.empty(nj)
+    for i in range(i_lo, i_hi + 1):
+        for j in range(nj):
+            acc = 0.0
+            for k in range(-reach, reach + 1):
+                acc += weights[k + reach] * b[_mirror(j + k, nj), i]
+            line[j] = acc
+        for j in range(nj):
+            b[j, i] = line[j]
+
+
+@njit(cache=True)
 def spread_gaussian(b, sigma):
     """Spread ``b`` (nj, ni) in place by a Gaussian of ``sigma`` [columns] along x then y, reflected at
     the window's edges (no flux through them), so sum(b) is unchanged; the filter is symmetric, so
@@ -1358,27 +1399,33 @@ def spread_gaussian(b, sigma):
     reach = spread_reach(sigma)
     if reach == 0:
         return
-    weights = np.empty(2 * reach + 1)
-    total = 0.0
-    for k in range(-reach, reach + 1):
-        weights[k + reach] = math.exp(-0.5 * (k / sigma) ** 2)
-        total += weights[k + reach]
-    weights /= total
+    weights = _spread_weights(sigma, reach)
     nj, ni = b.shape
-    line = np.empty(max(ni, nj))
-    for j in range(nj):
-        for i in range(ni):
-            acc = 0.0
-            for k in range(-reach, reach + 1):
-                acc += weights[k + reach] * b[j, _mirror(i + k, ni)]
-            line[i] = acc
-        for i in range(ni):
-            b[j, i] = line[i]
-    for i in range(ni):
-        for j in range(nj):
-            acc = 0.0
-            for k in range(-reach, reach + 1):
-                acc += weights[k + reach] * b[_mirror(j + k, nj), i]
-            line[j] = acc
-        for j in range(nj):
-            b[j, i] = line[j]
+    _spread_along_x(b, weights, reach, 0, nj - 1, 0, ni - 1)
+    _spread_along_y(b, weights, reach, 0, ni - 1)
+
+
+@njit(cache=True)
+def spread_deposit(b, sigma, j_lo, j_hi):
+    """:func:`spread_gaussian` of a deposit ``b`` that is zero outside its rows j_lo..j_hi: the same
+    numbers, bit for bit, without spreading the rows of zeros along x (they stay zeros)."""
+    reach = spread_reach(sigma)
+    if reach == 0:
+        return
+    weights = _spread_weights(sigma, reach)
+    ni = b.shape[1]
+    _spread_along_x(b, weights, reach, j_lo, j_hi, 0, ni - 1)
+    _spread_along_y(b, weights, reach, 0, ni - 1)
+
+
+@njit(cache=True)
+def spread_columns(b, sigma, i_lo, i_hi):
+    """:func:`spread_gaussian` of ``b`` where it is read, its columns i_lo..i_hi: there the same
+    numbers, bit for bit (each column's spread along y needs only that column spread along x); the
+    other columns are left as they were."""
+    reach = spread_reach(sigma)
+    if reach == 0:
+        return
+    weights = _spread_weights(sigma, reach)
+    _spread_along_x(b, weights, reach, 0, b.shape[0] - 1, i_lo, i_hi)
+    _spread_along_y(b, weights, reach, i_lo, i_hi)

@@ -276,9 +276,10 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
             reach = kernel.spread_reach(sigma) if i_lo <= i_hi else 0
             if reach:
                 nj, ni = b_out.shape
+                rows_lo, rows_hi = j_lo, j_hi  # the deposit's rows before the spread: the others are zeros
                 i_lo, i_hi = max(0, i_lo - reach), min(ni - 1, i_hi + reach)
                 j_lo, j_hi = max(0, j_lo - reach), min(nj - 1, j_hi + reach)
-                kernel.spread_gaussian(b_out[j_lo:j_hi + 1, i_lo:i_hi + 1], sigma)
+                kernel.spread_deposit(b_out[j_lo:j_hi + 1, i_lo:i_hi + 1], sigma, rows_lo - j_lo, rows_hi - j_lo)
             out_box[0], out_box[1], out_box[2], out_box[3] = i_lo, i_hi, j_lo, j_hi
             if i_lo <= i_hi:
                 results[R_I_LO] = i_lo
@@ -350,7 +351,15 @@ def _ring_lift_spread(waterline, height, held, has_held, b_out, rest_level, sigm
     for j in range(j_lo, j_hi + 1):
         for i in range(i_lo, i_hi + 1):
             field[j - j_lo, i - i_lo] = _field(height, held, has_held, b_out, rest_level, j, i)
-    kernel.spread_gaussian(field, sigma)
+    # spread where it is read only: the band's columns (or the body's, with no band)
+    read_lo, read_hi = i_hi, i_lo
+    for k in range(band_i.size):
+        read_lo, read_hi = min(read_lo, band_i[k]), max(read_hi, band_i[k])
+    if band_i.size == 0:
+        for c in range(col_i.size):
+            read_lo, read_hi = min(read_lo, col_i[c]), max(read_hi, col_i[c])
+    if read_lo <= read_hi:
+        kernel.spread_columns(field, sigma, read_lo - i_lo, read_hi - i_lo)
     n = band_j.size
     if n > 0:
         band_field = np.empty(n)
