@@ -1257,7 +1257,7 @@ def ring_levels(band_field, waterline, col_j, col_i, columns, band, lifted):
 
 
 @njit(cache=True)
-def ring_lift(waterline, field, band_j, band_i, col_j, col_i, columns, band, lifted):
+def ring_lift(waterline, field, band_j, band_i, col_j, col_i, columns, band, lifted, j0=0, i0=0):
     """The level at which each column's displaced volume enters the water, summed over the waterline:
     lifted (3,) = sum_k level_k (area_k, moment_y_k, -moment_x_k) [m^3].
 
@@ -1265,13 +1265,14 @@ def ring_lift(waterline, field, band_j, band_i, col_j, col_i, columns, band, lif
     columns, weighted by the shares :func:`ring_deposit` gives them of column k's volume (its own
     ``field`` when the band is empty); ``waterline`` (3, nj, ni) holds the columns' waterline areas
     and moments (:func:`evaluate`). Times rho g, lifted is the force and torque (x, y) that go with
-    the displacement (see the component's _add_hydrostatics).
+    the displacement (see the component's _add_hydrostatics). ``field`` may be a window of the
+    patch whose first column is column (j0, i0).
     """
     n = band_j.size
     if n > 0:
         band_field = np.empty(n)  # the field over the band, read once for every column
         for k in range(n):
-            band_field[k] = field[band_j[k], band_i[k]]
+            band_field[k] = field[band_j[k] - j0, band_i[k] - i0]
         ring_levels(band_field, waterline, col_j, col_i, columns, band, lifted)
         return
     lifted[:] = 0.0
@@ -1280,7 +1281,7 @@ def ring_lift(waterline, field, band_j, band_i, col_j, col_i, columns, band, lif
         area = waterline[0, j, i]
         if area <= 0.0:
             continue
-        level = field[j, i]
+        level = field[j - j0, i - i0]
         lifted[0] += level * area
         lifted[1] += level * waterline[2, j, i]
         lifted[2] -= level * waterline[1, j, i]

@@ -360,23 +360,7 @@ def _ring_lift_spread(waterline, height, held, has_held, b_out, rest_level, sigm
             read_lo, read_hi = min(read_lo, col_i[c]), max(read_hi, col_i[c])
     if read_lo <= read_hi:
         kernel.spread_columns(field, sigma, read_lo - i_lo, read_hi - i_lo)
-    n = band_j.size
-    if n > 0:
-        band_field = np.empty(n)
-        for k in range(n):
-            band_field[k] = field[band_j[k] - j_lo, band_i[k] - i_lo]
-        kernel.ring_levels(band_field, waterline, col_j, col_i, columns, band, lifted)
-        return
-    lifted[:] = 0.0
-    for c in range(col_j.size):
-        j, i = col_j[c], col_i[c]
-        area = waterline[0, j, i]
-        if area <= 0.0:
-            continue
-        level = field[j - j_lo, i - i_lo]
-        lifted[0] += level * area
-        lifted[1] += level * waterline[2, j, i]
-        lifted[2] -= level * waterline[1, j, i]
+    kernel.ring_lift(waterline, field, band_j, band_i, col_j, col_i, columns, band, lifted, j_lo, i_lo)
 
 
 @njit(cache=True, inline="always")
