@@ -19,7 +19,9 @@ work is one compiled call (:mod:`components.coupler.step_kernel`), and Python on
 the messages.
 
 Displacement and buoyancy (``displacement_mode: ring``, the default): the volume the body holds
-under the rest level is pushed out into a ring of columns around it, and the buoyancy is Archimedes'
+under the rest level is pushed out into a ring of columns around it (spread further, once the body
+is under the rest level, over the width an image source at its top's depth gives:
+:func:`kernel.depth_spread`), and the buoyancy is Archimedes'
 force against the rest level plus rho g times the water's height where that volume went, on each
 waterline column (:meth:`WaterCoupler._add_hydrostatics`). The work the buoyancy does on a heaving
 or rocking body is then what the displacement gives the water, so the two together gain no energy
