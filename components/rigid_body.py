@@ -257,10 +257,13 @@ class RigidBody(Component):
         if abs(bank) <= BANK_NOTICE_DEG and pitch >= 0.0:
             return said
         ax, ay = vy / speed + 0.0, -vx / speed + 0.0  # (+ 0.0: no -0 in the text)
-        meets = "on its side" if abs(bank) > BANK_NOTICE_DEG else "front edge first"
+        banked = abs(bank) > BANK_NOTICE_DEG
+        meets = "on its side" if banked else "front edge first"
+        # not banked, it is tilted about the right axis the wrong way (its pitch changes sign with the angle)
+        fix = f"tilt_axis [{ax:.4g}, {ay:.4g}, 0]" if banked else f"tilt_deg {-p.tilt_deg:g}"
         return [*said, f"tilt_deg {p.tilt_deg:g} about tilt_axis {list(p.tilt_axis)} leaves it {pitch + 0.0:.3g} deg "
                 f"nose-up along its throw and banked {bank + 0.0:.3g} deg across it, so it meets the water {meets}; "
-                f"to raise its front edge along the throw, give tilt_axis [{ax:.4g}, {ay:.4g}, 0]"]
+                f"to raise its front edge along the throw, give {fix}"]
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """An added mass it starts with (a connection's initial value) must be one."""

@@ -8,6 +8,15 @@ import os
 from pathlib import Path
 
 
+def section_problem(text: str, name: str) -> str | None:
+    """Why the section ``name`` of a page's ``text`` cannot be replaced (its end marker before its
+    begin marker), or None."""
+    begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+    if begin in text and end in text and end not in text.split(begin, 1)[1]:
+        return f"its '{end}' comes before its '{begin}'; put the section's end after its begin (or remove both)"
+    return None
+
+
 def replace_section(path: str | Path, name: str, body: str) -> None:
     """Put ``body`` between the markers of section ``name`` in the markdown file ``path``.
 
@@ -21,6 +30,9 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
         text = path.read_text(encoding="utf-8") if path.exists() else ""
     except UnicodeDecodeError as exc:
         raise ValueError(f"{path}: not UTF-8 text (byte {exc.start}); its '{name}' section is not written") from None
+    misplaced = section_problem(text, name)
+    if misplaced:
+        raise ValueError(f"{path}: {misplaced}")
     if begin in text and end in text:
         head, rest = text.split(begin, 1)
         _, tail = rest.split(end, 1)

@@ -1028,6 +1028,8 @@ def read_input(path: str | Path, limit: int = MAX_SCENE_BYTES) -> str:
     ``limit`` bytes) is bad input (ScenarioError), found before it is read."""
     import stat
 
+    if not str(path).strip():  # Path('') is '.', the working folder: it would be named instead
+        raise ScenarioError("expected a scene file, got an empty name", repr(str(path)))
     path = Path(path)
     try:
         st = path.stat()

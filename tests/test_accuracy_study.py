@@ -172,7 +172,7 @@ def test_replace_section_that_cannot_be_written_leaves_the_page_as_it_was(tmp_pa
     assert [p.name for p in tmp_path.iterdir()] == ["a.md"]
 
 
-@pytest.mark.parametrize("problem", ["not_utf8", "figure_is_a_folder", "read_only_page"])
+@pytest.mark.parametrize("problem", ["not_utf8", "figure_is_a_folder", "read_only_page", "markers_swapped"])
 def test_a_page_or_figure_the_study_cannot_write_is_bad_input_before_any_run(tmp_path, capsys, monkeypatch,
                                                                             problem):
     """A page that is not UTF-8 text, a folder where the figure goes, a read-only page: exit 2 and one
@@ -186,6 +186,8 @@ def test_a_page_or_figure_the_study_cannot_write_is_bad_input_before_any_run(tmp
         page.write_bytes(b"# Accuracy \xff\xfe\n")
     elif problem == "figure_is_a_folder":
         figure.mkdir(parents=True)
+    elif problem == "markers_swapped":  # (an internal error after the whole study, its figure already replaced)
+        page.write_text(f"x\n<!-- {SECTION}:end -->\ny\n<!-- {SECTION}:begin -->\n", encoding="utf-8")
     else:
         page.write_text("# Accuracy\n", encoding="utf-8")
         page.chmod(0o444)
@@ -218,3 +220,23 @@ def test_an_output_that_cannot_be_a_folder_is_bad_input_before_any_run(tmp_path,
     assert main(["bench", "accuracy", scene, "--quick", "-o", str(tmp_path / where)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"error: {tmp_path / where}: ") and ("not a folder" in err or "is a file" in err)
+
+
+def test_ctrl_c_during_a_run_stops_the_study(tmp_path, capsys, monkeypatch):
+    """A run that Ctrl-C cuts short is no result: the study stops (exit 1, one line, nothing written).
+    It went on with the next runs, wrote its page with the cut-short run as a row, and exited 0."""
+    import components.analysis.accuracy as accuracy
+    import cosim.runner
+
+    real = cosim.runner.run_scene
+
+    def interrupted(scene, *args, **kwargs):
+        outcome = real(scene, *args, **kwargs)
+        outcome.result.status = "interrupted"
+        return outcome
+
+    monkeypatch.setattr(cosim.runner, "run_scene", interrupted)
+    monkeypatch.setattr(accuracy, "QUICK_UNTIL", 0.01)
+    assert main(["bench", "accuracy", str(SKIP), "--quick", "-o", str(tmp_path / "b"), "-q"]) == 1
+    assert "interrupted" in capsys.readouterr().err
+    assert not (tmp_path / "b" / "accuracy.md").exists()

@@ -256,7 +256,12 @@ def test_a_disk_tilted_about_an_axis_not_across_its_throw_is_said_to_meet_the_wa
     # thrown back along -x it comes down front edge first; let go with no horizontal speed, no front edge
     (back,) = load(scene, ["components.stone.velocity=[-10.94, 0, -1.15]"]).notices
     assert "leaves it -8 deg nose-up along its throw and banked 0 deg across it, so it meets the water front " \
-           "edge first; to raise its front edge along the throw, give tilt_axis [0, 1, 0]" in back
+           "edge first; to raise its front edge along the throw, give tilt_deg -8" in back
+    # tilted the wrong way about the right axis: the angle's sign is the fix (it said to give the axis it had)
+    (nose_down,) = load(scene, ["components.stone.tilt_deg=-8"]).notices
+    assert nose_down.endswith("meets the water front edge first; to raise its front edge along the throw, give "
+                              "tilt_deg 8")
+    assert load(scene, ["components.stone.tilt_deg=8"]).notices == []
     assert load(scene, ["components.stone.velocity=[1e-9, 0, -3]"]).notices == []
 
 

@@ -308,3 +308,12 @@ def test_a_set_past_the_end_of_a_list_names_the_lists_indices():
     assert problem(CHECKPOINTED_SCENE, ["dt.x.y=1"]) == ("--set dt.x.y: no such key 'dt.x' (a number, which holds "
                                                          "no keys)")
     assert problem(CHECKPOINTED_SCENE, ["components.g.q=1"]) == "components.g.q: unknown key; known: gain"
+
+
+def test_an_empty_scene_name_is_named_as_empty():
+    """`cosim validate ''` said ".: is a folder, not a scene file": an empty name became the working folder."""
+    from cosim.errors import ScenarioError
+    from cosim.scenario import read_input
+
+    with pytest.raises(ScenarioError, match="expected a scene file, got an empty name"):
+        read_input("")

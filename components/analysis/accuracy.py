@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from cosim.cli import positive_int, positive_seconds
-from cosim.docsection import replace_section
+from cosim.docsection import replace_section, section_problem
 from cosim.record.output import written_whole
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -318,6 +318,8 @@ def run_variant(scene_path: str | Path, variant: Variant, until: float | None) -
     sim = Simulation(scene, observers=[states])
     outcome = run_scene(scene, None, progress=False, simulation=sim)
     result = outcome.result
+    if result.status == "interrupted":  # Ctrl-C ends the study, not only this run (a cut-short run is no result)
+        raise KeyboardInterrupt
     rows = states.rows
     t = np.array([stamp / 1e9 for stamp, _ in rows])
     position = np.array([msg.position for _, msg in rows])
@@ -614,7 +616,9 @@ def output_folder_problem(out_dir: Path) -> str | None:
             return f"{made} cannot be written: no permission"
     if page.is_file():
         try:
-            page.read_text(encoding="utf-8")
+            misplaced = section_problem(page.read_text(encoding="utf-8"), SECTION)
+            if misplaced:
+                return f"{page}: {misplaced}"
         except UnicodeDecodeError as exc:
             return f"{page} is not UTF-8 text (byte {exc.start}); its section could not be written into it"
         except OSError as exc:
