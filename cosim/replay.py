@@ -14,13 +14,12 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from cosim.codec import state_proto
-from cosim.codec.json_codec import codec_for, decode_state
+from cosim.codec.json_codec import codec_for
 from cosim.component import Component
 from cosim.errors import CosimError, RecordingError, shortened
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
-from cosim.record.recorder import CHECKPOINT_TOPIC, topic_of
+from cosim.record.recorder import topic_of
 from cosim.scenario import Scene
 from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start, restore_component, saved_messages
 from cosim.timebase import NS_PER_S
@@ -243,33 +242,6 @@ def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
     return rec.restart_ns, checkpoint
 
 
-def _checkpoint_at_or_before(rec: Recording, from_ns: int) -> tuple[list[int], int | None, dict[str, Any] | None]:
-    """The times [ns] of the recording's checkpoints, in order, and the last one at or before
-    ``from_ns`` with its checkpoint (None, None when there is none). The times are read from the
-    records' log times: only the checkpoint chosen is decoded (decoding them all cost as much as
-    reading the file), so one that cannot be decoded elsewhere in the file does not stop a restart."""
-    channel = rec.channels.get(CHECKPOINT_TOPIC)
-    if channel is None:
-        return [], None, None
-    stamps: list[int] = []
-    chosen: tuple[int, bytes] | None = None
-    for _, stamp, data in rec.raw([CHECKPOINT_TOPIC]):
-        stamps.append(stamp)
-        if stamp <= from_ns:
-            chosen = (stamp, data)
-    if chosen is None:
-        return stamps, None, None
-    # protobuf (cosim.codec.state_proto); JSON in recordings made before it, as Recording reads them
-    decode = state_proto.decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
-    stamp, data = chosen
-    try:
-        checkpoint = decode(data)
-    except Exception as exc:  # whatever a damaged payload makes the decoder raise
-        raise RecordingError(f"{rec.path}: the checkpoint at {stamp} ns cannot be read "
-                             f"({shortened(str(exc), 200)})") from None
-    return stamps, stamp, checkpoint
-
-
 def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:
     """Why there is no checkpoint at or before ``from_ns`` to restart from, and what to do."""
     times = ", ".join(f"{s / NS_PER_S:g}" for s in stamps[:10]) or "none"
@@ -424,7 +396,7 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
         # the checkpoint before it would be the run's last: a restart there is not what was asked
         raise RecordingError(f"{rec.path}: --from {from_ns / NS_PER_S:g} s is after the recorded run's end "
                              f"(t = {end_ns / NS_PER_S:g} s); restart from a time within it")
-    stamps, stamp, cp = _checkpoint_at_or_before(rec, from_ns)
+    stamps, stamp, cp = rec.checkpoint_at_or_before(from_ns)
     if stamp is None or cp is None:
         raise _no_checkpoint(rec, from_ns, stamps)
     scene = rec.scene(overrides)

@@ -112,16 +112,14 @@ def test_replay_errors_are_clear(recording):
 def test_a_checkpoint_missing_what_a_component_restores_is_named(recording, monkeypatch):
     """A checkpoint whose component state lacks a key the scene's component reads (a component or
     setting changed by --set) names the key, not just the KeyError's bare 'total'."""
-    import cosim.replay
-
-    found = cosim.replay._checkpoint_at_or_before
+    found = Recording.checkpoint_at_or_before
 
     def broken(rec, from_ns):
         stamps, stamp, cp = found(rec, from_ns)
         acc = {**cp["components"]["acc"], "state": {}}
         return stamps, stamp, {**cp, "components": {**cp["components"], "acc": acc}}
 
-    monkeypatch.setattr(cosim.replay, "_checkpoint_at_or_before", broken)
+    monkeypatch.setattr(Recording, "checkpoint_at_or_before", broken)
     with pytest.raises(RecordingError, match=r"cannot restart from the checkpoint at 0\.06 s: it holds no 'total', "
                                              r"which this scene's components restore"):
         restart_simulation(recording, 60_000_000)

@@ -283,21 +283,40 @@ class Recording:
         """The checkpoint recorded at ``time_ns``, or None; only that one is decoded."""
         return next((cp for _, cp in self._checkpoints(time_ns)), None)
 
+    def checkpoint_at_or_before(self, time_ns: int) -> tuple[list[int], int | None, dict[str, Any] | None]:
+        """The times [ns] of the recording's checkpoints, in order, and the last one at or before
+        ``time_ns`` with its checkpoint ((None, None) when there is none). The times are the records'
+        log times: only the checkpoint chosen is decoded (decoding them all cost as much as reading
+        the file), so one that cannot be decoded elsewhere in the file does not stop its use."""
+        stamps: list[int] = []
+        chosen: tuple[int, bytes] | None = None
+        if CHECKPOINT_TOPIC in self.channels:
+            for _, stamp, data in self.raw([CHECKPOINT_TOPIC]):
+                stamps.append(stamp)
+                if stamp <= time_ns:
+                    chosen = (stamp, data)
+        if chosen is None:
+            return stamps, None, None
+        return stamps, chosen[0], self._decoded_checkpoint(*chosen)
+
     def _checkpoints(self, only_ns: int | None = None) -> Iterator[tuple[int, dict[str, Any]]]:
-        channel = self.channels.get(CHECKPOINT_TOPIC)
-        if channel is None:
+        if CHECKPOINT_TOPIC not in self.channels:
             return
-        # protobuf (cosim.codec.state_proto); JSON in recordings made before it
-        decode = state_proto.decode_checkpoint if channel.message_encoding == state_proto.ENCODING else decode_state
         for _, stamp, data in self.raw([CHECKPOINT_TOPIC]):
-            if only_ns is not None and stamp != only_ns:
-                continue
-            try:
-                checkpoint = decode(data)
-            except Exception as exc:
-                raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
-                                     f"({_short(exc)})") from None
-            yield stamp, checkpoint
+            if only_ns is None or stamp == only_ns:
+                yield stamp, self._decoded_checkpoint(stamp, data)
+
+    def _decoded_checkpoint(self, stamp: int, data: bytes) -> dict[str, Any]:
+        """The checkpoint recorded at ``stamp`` [ns] as ``data``, or a RecordingError saying it cannot
+        be read."""
+        # protobuf (cosim.codec.state_proto); JSON in recordings made before it
+        encoding = self.channels[CHECKPOINT_TOPIC].message_encoding
+        decode = state_proto.decode_checkpoint if encoding == state_proto.ENCODING else decode_state
+        try:
+            return decode(data)
+        except Exception as exc:  # whatever a damaged payload makes the decoder raise
+            raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
+                                 f"({_short(exc)})") from None
 
 
 def _nanoseconds(key: str, value: str, zero: bool = False) -> int:
