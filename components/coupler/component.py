@@ -593,7 +593,7 @@ class WaterCoupler(Component):
         low = (x_low, y_low, z_low)
         half = (half_x, half_y)
         request = self._request((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), half, (vx, vy), dt,
-                                float(body.radius), self._depth_spread(2.0 * float(pos[2]) - z_low, radius))
+                                float(body.radius), self._depth_spread(2.0 * float(pos[2]) - z_low, radius) > 0.0)
         if (patch is None or patch.height.size == 0) and self.cell == 0.0 and low[2] < level:
             # in the water before the water has sent anything: it is still, at the rest level,
             # until its first patch says otherwise (a large step or a slow water would let the
@@ -792,7 +792,7 @@ class WaterCoupler(Component):
         px, py = pos[:2].tolist()
         vx, vy = vel[:2].tolist()
         request = self._request((px + vx * dt, py + vy * dt), (half_x, half_y), (vx, vy), dt, float(body.radius),
-                                self._depth_spread(2.0 * float(pos[2]) - z_low, float(body.radius)))
+                                self._depth_spread(2.0 * float(pos[2]) - z_low, float(body.radius)) > 0.0)
         self.work = {"columns": int(steer[kernel.S_COLUMNS - kernel.S_VOLUME]),
                      "elements": int(steer[kernel.S_ELEMENTS - kernel.S_VOLUME])}
         wrench = numbers[kernel.S_TOTAL:kernel.S_TOTAL + 6].tolist()
@@ -873,10 +873,10 @@ class WaterCoupler(Component):
         return max(1, min(MAX_AUTO_SUBSAMPLES, math.ceil(SUBSAMPLES_PER_RADIUS * cell / radius - 1e-9)))
 
     def _request(self, centre: tuple[float, float], half: tuple[float, float], vel: tuple[float, float],
-                 dt: float, radius: float, spread: float = 0.0) -> PatchRequest:
+                 dt: float, radius: float, spreading: bool = False) -> PatchRequest:
         """The window of water needed next step around the body's horizontal ``centre`` [m] then,
         for its horizontal velocity ``vel`` [m/s], its ``radius`` [m] (the displacement's band) and
-        the ``spread`` [m] of a submerged body's displacement (:meth:`_depth_spread`)."""
+        whether its displacement is ``spreading`` over its depth (:meth:`_depth_spread`)."""
         p = self.params
         if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
             return self._empty_request
@@ -885,7 +885,7 @@ class WaterCoupler(Component):
         margin = p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
         if self.flags & DISPLACEMENT:
             margin += 2.0 * kernel.band_width(p.ring_cells, p.ring_share, self.cell, radius)
-            if spread > 0.0:
+            if spreading:
                 # the widest spread's reach, not this step's: the window lags the request by up to a
                 # water step, over which a sinking body's spread grows (sigma by 1.47 times the depth
                 # it sinks), and its reach is rounded up to a whole column
@@ -972,9 +972,7 @@ class WaterCoupler(Component):
             if p.smoothing:
                 kernel.smooth_conservative(part, p.smoothing)
             if spread is not None:
-                inner = np.ascontiguousarray(part[spread])
-                kernel.spread_gaussian(inner, sigma)
-                part[spread] = inner
+                kernel.spread_gaussian(part[spread], sigma)  # in place, through the view
             field[region] = part
         kernel.ring_lift(work["waterline"], field, *ring, work["lifted"])
         return _Ring(rest, work["lifted"].copy(), (i_lo, j_lo, window))

@@ -1391,32 +1391,32 @@ def _spread_along_y(b, weights, reach, i_lo, i_hi):
 
 
 @njit(cache=True)
+def _spread(b, sigma, j_lo, j_hi, i_lo, i_hi):
+    """Spread ``b`` (nj, ni) in place by a Gaussian of ``sigma`` [columns] along x (rows j_lo..j_hi,
+    kept in columns i_lo..i_hi) then along y (columns i_lo..i_hi), reflected at the window's edges."""
+    reach = spread_reach(sigma)
+    if reach == 0:
+        return
+    weights = _spread_weights(sigma, reach)
+    _spread_along_x(b, weights, reach, j_lo, j_hi, i_lo, i_hi)
+    _spread_along_y(b, weights, reach, i_lo, i_hi)
+
+
+@njit(cache=True)
 def spread_gaussian(b, sigma):
     """Spread ``b`` (nj, ni) in place by a Gaussian of ``sigma`` [columns] along x then y, reflected at
     the window's edges (no flux through them), so sum(b) is unchanged; the filter is symmetric, so
     reading a field through it is the adjoint of depositing through it. Its weights are the
     Gaussian's at whole columns, normalised, cut at SPREAD_REACH sigma: they change smoothly with
     sigma, and sigma below SPREAD_LEAST columns leaves b as it is."""
-    reach = spread_reach(sigma)
-    if reach == 0:
-        return
-    weights = _spread_weights(sigma, reach)
-    nj, ni = b.shape
-    _spread_along_x(b, weights, reach, 0, nj - 1, 0, ni - 1)
-    _spread_along_y(b, weights, reach, 0, ni - 1)
+    _spread(b, sigma, 0, b.shape[0] - 1, 0, b.shape[1] - 1)
 
 
 @njit(cache=True)
 def spread_deposit(b, sigma, j_lo, j_hi):
     """:func:`spread_gaussian` of a deposit ``b`` that is zero outside its rows j_lo..j_hi: the same
     numbers, bit for bit, without spreading the rows of zeros along x (they stay zeros)."""
-    reach = spread_reach(sigma)
-    if reach == 0:
-        return
-    weights = _spread_weights(sigma, reach)
-    ni = b.shape[1]
-    _spread_along_x(b, weights, reach, j_lo, j_hi, 0, ni - 1)
-    _spread_along_y(b, weights, reach, 0, ni - 1)
+    _spread(b, sigma, j_lo, j_hi, 0, b.shape[1] - 1)
 
 
 @njit(cache=True)
@@ -1424,9 +1424,4 @@ def spread_columns(b, sigma, i_lo, i_hi):
     """:func:`spread_gaussian` of ``b`` where it is read, its columns i_lo..i_hi: there the same
     numbers, bit for bit (each column's spread along y needs only that column spread along x); the
     other columns are left as they were."""
-    reach = spread_reach(sigma)
-    if reach == 0:
-        return
-    weights = _spread_weights(sigma, reach)
-    _spread_along_x(b, weights, reach, 0, b.shape[0] - 1, i_lo, i_hi)
-    _spread_along_y(b, weights, reach, i_lo, i_hi)
+    _spread(b, sigma, 0, b.shape[0] - 1, i_lo, i_hi)
