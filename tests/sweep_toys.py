@@ -93,6 +93,30 @@ def write_sweep(folder, body: str, scene: str = BALL_SCENE, name: str = "sweep.y
     return path
 
 
+def interrupt_sweep(sweep, out, options: list[str], rows: int, timeout: float) -> tuple[int, str, str]:
+    """Run ``cosim sweep SWEEP -q -o OUT OPTIONS`` in a process group of its own, Ctrl-C the group
+    once ``out`` holds ``rows`` lines (or ``timeout`` [s] has passed), and return its exit code,
+    standard output and standard error."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(sweep), "-q", "-o", str(out), *options],
+                            cwd=Path(sweep).parent, env=env, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.exists() and len(out.read_text().splitlines()) >= rows:
+            break
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=timeout)
+    return proc.returncode, stdout, stderr
+
+
 def read_table(path, drop=("wall_s",)) -> list[list[str]]:
     """A results table as rows of text, without the columns that may differ between equal runs."""
     import csv

@@ -13,7 +13,7 @@ import pytest
 
 import cosim.sweep.backends
 from cosim.cli import main
-from tests.sweep_toys import write_sweep
+from tests.sweep_toys import interrupt_sweep, write_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -168,18 +168,8 @@ def test_ctrl_c_keeps_finished_rows_and_exits_1(tmp_path):
     path = write_sweep(tmp_path, SWEEP.replace("[2, 3, 5]", "[2, 3, 4, 5, 6, 7]") +
                        "set: {components.ball.burn: 3000}\n")
     out = tmp_path / "i.csv"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-q", "-o", str(out),
-                             "--workers", "1"], cwd=tmp_path, env=env, start_new_session=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and proc.poll() is None:
-        if out.exists() and len(out.read_text().splitlines()) >= 3:
-            break
-        time.sleep(0.02)
-    os.killpg(proc.pid, signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
-    assert proc.returncode == 1, stderr
+    code, stdout, stderr = interrupt_sweep(path, out, ["--workers", "1"], rows=3, timeout=60)
+    assert code == 1, stderr
     assert "interrupted: " in stdout and "run the same command again to resume" in stdout
     assert "Traceback" not in stderr
     rows = len(out.read_text().splitlines()) - 1

@@ -10,7 +10,7 @@ import pytest
 from cosim.sweep.backends import BackendError, DaskBackend, ProcessBackend
 from cosim.sweep.plan import load_sweep
 from cosim.sweep.run import run_sweep
-from tests.sweep_toys import read_table, write_sweep
+from tests.sweep_toys import interrupt_sweep, read_table, write_sweep
 
 distributed = pytest.importorskip("distributed")
 
@@ -335,27 +335,10 @@ def test_a_lost_scheduler_stops_the_sweep_in_one_line(tmp_path, doomed_cluster):
 def test_ctrl_c_on_a_local_dask_cluster_says_one_line(tmp_path):
     """Ctrl-C (SIGINT to the process group, workers of `--dask local` included): exit 1, the rows kept,
     one line saying how to resume, no traceback (each worker process printed its KeyboardInterrupt)."""
-    import os
-    import signal
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parents[1]
     path = write_sweep(tmp_path, SLOW.replace("burn: 2000", "burn: 20000"))
-    out = tmp_path / "c.csv"
-    env = {**os.environ, "PYTHONPATH": str(root)}
-    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-q", "-o", str(out), "--dask",
-                             "local", "--workers", "2", "--no-figure"], cwd=tmp_path, env=env,
-                            start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if out.exists() and len(out.read_text().splitlines()) >= 2:
-            break
-        time.sleep(0.02)
-    os.killpg(proc.pid, signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 1, stderr
+    code, stdout, stderr = interrupt_sweep(path, tmp_path / "c.csv", ["--dask", "local", "--workers", "2",
+                                                                       "--no-figure"], rows=2, timeout=120)
+    assert code == 1, stderr
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
     assert stderr.strip().splitlines() == [f"error: cosim sweep: {stdout.splitlines()[2].strip()}"], (stdout, stderr)
     assert "interrupted: " in stdout and "run the same command again to resume" in stdout
