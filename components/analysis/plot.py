@@ -21,8 +21,6 @@ Each ``figure_*`` function returns the figure, so tests can check what was drawn
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +39,7 @@ from components.analysis.data import (
 )
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
-from cosim.record.output import output_folder, remove_quietly, sibling_stem, written_whole
+from cosim.record.output import move_together, named_for, output_folder, remove_quietly, sibling_stem, written_whole
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 
@@ -513,54 +511,11 @@ def _save_together(figures: dict[Path, Figure], dpi: int) -> None:
             try:
                 fig.savefig(tmp, dpi=dpi, format="png")
             except OSError as exc:
-                if exc.filename is None or Path(os.fsdecode(exc.filename)) == tmp:
-                    raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
-                raise
-        _move_together(staged)
+                raise named_for(exc, tmp, path) from None
+        move_together(staged)
     finally:
         for tmp, _ in staged:
             remove_quietly(tmp)  # (moved already, unless the plot failed)
-
-
-def _move_together(staged: list[tuple[Path, Path]]) -> None:
-    """Move each temporary file onto its figure, all or none: a figure's previous file is set aside
-    until every move is done, and if one fails, the figures moved so far are taken back and the
-    previous files put back. An OSError names the figure that could not be put in place."""
-    done: list[tuple[Path, Path | None, bool]] = []  # (figure, its previous file set aside, the new one in place)
-    try:
-        for tmp, path in staged:
-            kept = _set_aside(path) if path.is_file() else None
-            done.append((path, kept, False))
-            try:
-                os.replace(tmp, path)
-            except OSError as exc:
-                raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
-            done[-1] = (path, kept, True)
-    except BaseException:
-        for path, kept, moved in reversed(done):
-            try:
-                if kept is not None:
-                    os.replace(kept, path)
-                elif moved:
-                    path.unlink()
-            except OSError:
-                pass  # already failing: the error being reported matters more than this one
-        raise
-    for _, kept, _ in done:
-        if kept is not None:
-            remove_quietly(kept)
-
-
-def _set_aside(path: Path) -> Path:
-    """Move the file ``path`` to a new name of its own beside it (``NAME.<random>.old``); that name."""
-    fd, name = tempfile.mkstemp(prefix=f"{sibling_stem(path.name, 16)}.", suffix=".old", dir=path.parent)
-    os.close(fd)
-    try:
-        os.replace(path, name)
-    except BaseException:
-        remove_quietly(Path(name))
-        raise
-    return Path(name)
 
 
 def _save(fig: Figure, path: Path, dpi: int) -> None:

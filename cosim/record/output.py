@@ -281,12 +281,63 @@ def written_whole(path: Path) -> Iterator[Path]:
         os.replace(tmp, path)
     except OSError as exc:
         remove_quietly(tmp)
-        if exc.filename is None or Path(os.fsdecode(exc.filename)) == tmp:
-            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
-        raise
+        raise named_for(exc, tmp, path) from None
     except BaseException:
         remove_quietly(tmp)
         raise
+
+
+def named_for(exc: OSError, tmp: Path, path: Path) -> OSError:
+    """``exc``, raised writing ``tmp`` (the temporary name of ``path``), as the error to report: one
+    naming ``path`` when it named ``tmp`` or no file at all (a writer that names no file, such as an
+    image library on a full disk, is taken to have failed on it), else ``exc`` itself."""
+    if exc.filename is None or Path(os.fsdecode(exc.filename)) == tmp:
+        return OSError(exc.errno, exc.strerror or str(exc), str(path))
+    return exc
+
+
+def move_together(staged: list[tuple[Path, Path]]) -> None:
+    """Move each (temporary file, target) of ``staged`` onto its target, all or none: a target's
+    previous file is set aside until every move is done, and if one fails, the targets moved so far
+    are taken back and the previous files put back. An OSError names the target that could not be
+    put in place."""
+    done: list[tuple[Path, Path | None, bool]] = []  # (target, its previous file set aside, the new one in place)
+    try:
+        for tmp, path in staged:
+            kept = _set_aside(path) if path.is_file() else None
+            done.append((path, kept, False))
+            try:
+                os.replace(tmp, path)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+            done[-1] = (path, kept, True)
+    except BaseException:
+        for path, kept, moved in reversed(done):
+            try:
+                if kept is not None:
+                    os.replace(kept, path)
+                elif moved:
+                    path.unlink()
+            except OSError:
+                pass  # already failing: the error being reported matters more than this one
+        raise
+    for _, kept, _ in done:
+        if kept is not None:
+            remove_quietly(kept)
+
+
+def _set_aside(path: Path) -> Path:
+    """Move the file ``path`` to a new name of its own beside it (``NAME.<random>.old``); that name."""
+    import tempfile
+
+    fd, name = tempfile.mkstemp(prefix=f"{sibling_stem(path.name, 16)}.", suffix=".old", dir=path.parent)
+    os.close(fd)
+    try:
+        os.replace(path, name)
+    except BaseException:
+        remove_quietly(Path(name))
+        raise
+    return Path(name)
 
 
 @contextmanager
