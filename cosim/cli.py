@@ -92,9 +92,10 @@ def _seconds_arg(text: str) -> int:
     return round(seconds * NS_PER_S)
 
 
-def _run_until(text: str) -> int:
-    """``cosim run --until``: as :func:`_seconds_arg`, and later than t = 0 (a run of no time would
-    do nothing; a time shorter than a step runs one step, as a scene's ``until`` does)."""
+def run_until_ns(text: str) -> int:
+    """``cosim run --until`` (and every other end time a command takes): as :func:`_seconds_arg`, and
+    later than t = 0 (a run of no time would do nothing; a time shorter than a step runs one step, as a
+    scene's ``until`` does)."""
     ns = _seconds_arg(text)
     if ns <= 0:
         raise argparse.ArgumentTypeError(f"must be later than 0 s (a run of no time), got {text}")
@@ -434,7 +435,7 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=_output_path,
                    help="MCAP file to write (default runs/<scene>.mcap; with --set, --until, --record, --record-every "
                         "or --perf, runs/<scene>-set-<hash>.mcap)")
-    p.add_argument("--until", type=_run_until, metavar="T", help="end time [s] (default: the scene's)")
+    p.add_argument("--until", type=run_until_ns, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
     p.add_argument("--record-every", type=positive_int, metavar="N",

@@ -240,3 +240,18 @@ def test_ctrl_c_during_a_run_stops_the_study(tmp_path, capsys, monkeypatch):
     assert main(["bench", "accuracy", str(SKIP), "--quick", "-o", str(tmp_path / "b"), "-q"]) == 1
     assert "interrupted" in capsys.readouterr().err
     assert not (tmp_path / "b" / "accuracy.md").exists()
+
+
+@pytest.mark.parametrize("until, said", [("1e300", "must be at most"), ("0", "must be later than 0 s")])
+def test_an_until_out_of_range_is_bad_input_before_any_run(tmp_path, capsys, monkeypatch, until, said):
+    """--until is bounded as `cosim run --until` is, at once: it was refused only after the warm-up
+    runs, and named as the scene file's own `until`."""
+    import components.analysis.accuracy as accuracy
+
+    monkeypatch.setattr(accuracy, "run_study", lambda *a, **k: pytest.fail("the study ran"))
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "accuracy", str(SKIP), "--quick", "--until", until, "-o", str(tmp_path / "o")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--until" in err[0] and said in err[0]
+    assert not (tmp_path / "o").exists()

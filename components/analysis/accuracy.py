@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from cosim.cli import positive_int, positive_seconds
+from cosim.cli import positive_int, run_until_ns
 from cosim.docsection import replace_section, section_problem
 from cosim.record.output import written_whole
 
@@ -588,11 +588,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="writes DIR/figures/accuracy.png and the table section of DIR/accuracy.md "
                         "(default runs/accuracy; docs/ for the documentation)")
     p.add_argument("--repeats", type=positive_int, help="timed rounds per variant (default 2; 1 with --quick)")
-    p.add_argument("--until", type=positive_seconds, metavar="T",
+    p.add_argument("--until", type=_until_seconds, metavar="T",
                    help=f"end time of every run [s] (default: the scene's until; with --quick, {QUICK_UNTIL:g} s "
                         "or the scene's until, if sooner)")
     p.add_argument("-q", "--quiet", action="store_true", help="no line per run on stderr")
     p.set_defaults(func=cmd_accuracy)
+
+
+def _until_seconds(text: str) -> float:
+    """``--until T`` [s], bounded as ``cosim run --until`` is: checked before the study's warm-up runs,
+    where the scene's own ``until`` check would name the scene file for it."""
+    return run_until_ns(text) / 1e9
 
 
 def output_folder_problem(out_dir: Path) -> str | None:
