@@ -423,3 +423,17 @@ def test_a_restart_from_before_a_restarted_recordings_start_says_where_it_began(
                                              r"0.06, 0.08, 0.1\); this recording is a restart from 0.04 s: restart "
                                              r"from the recording it came from, or from 0.04 s or later$"):
         restart_simulation(Recording(outcome.recording), 30_000_000)
+
+
+def test_inspect_counts_a_restart_at_another_dt_by_its_own_steps(recording, tmp_path):
+    """A restart at half the step from 0.06 s to 0.1 s takes 80 steps of 0.5 ms: inspect says so. It
+    said 200 steps "from t = 0", the last tick counted in the new step, where the run before took its
+    first 60 at 1 ms."""
+    from cosim.record.describe import describe_recording
+
+    sim, _ = restart_simulation(recording, 60_000_000, overrides=["dt=0.0005"])
+    outcome = run_scene(sim.scene, tmp_path / "fine.mcap", progress=False, simulation=sim)
+    assert outcome.result.tick == 200
+    status = [line for line in describe_recording(Recording(outcome.recording)).splitlines()
+              if line.strip().startswith("status:")]
+    assert len(status) == 1 and "(80 steps from t = 0.06 s)" in status[0], status

@@ -65,8 +65,13 @@ def describe_recording(rec: Recording) -> str:
         lines.append(f"  status: missing - the recording is incomplete: the run was cut off (killed?) and it "
                      f"ends at t = {end:g} s, with its last message")
     else:
-        counted = " from t = 0" if rec.restart_ns else ""
-        lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s ({status.tick} steps{counted}) - "
+        # a restart's tick counts its own steps from t = 0, which the run before it may have taken at
+        # another dt: the steps said are the restart's own, from where it began
+        steps, counted = status.tick, ""
+        if rec.restart_ns:
+            steps -= rec.restart_ns // rec.dt_ns
+            counted = f" from t = {rec.restart_ns / NS_PER_S:g} s"
+        lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s ({steps} steps{counted}) - "
                      f"{one_line(status.reason)}")
     lines.append("  channels:")
     width = max((len(one_line(t)) for t in rec.channels), default=10)
