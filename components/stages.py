@@ -119,8 +119,11 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
         if horizontal < sink_speed:
             if water.submerged_fraction >= BUOYANCY_READABLE:
                 return StageId.FLOAT if floats(body, water, water_density) else StageId.SINK
-            if not water.buoyancy[2] > 0.0:
-                return StageId.SINK  # no buoyancy in this scene's water: nothing holds the stone up
+            if water.submerged_fraction > 0.0 and not water.buoyancy[2] > 0.0:
+                # part of the stone under water and no buoyancy on it: this scene's water has none,
+                # nothing holds the stone up. (A stone whose lowest point has only reached the
+                # surface has nothing under water yet, and no buoyancy for that reason: it goes on.)
+                return StageId.SINK
             return StageId.HIT if vz < 0 else StageId.SLIDE
         if water.submerged_fraction >= FULLY_SUBMERGED and vz <= 0.0:
             # under water, the stone has sunk unless it is rising or the water pushes it back up: a

@@ -101,6 +101,41 @@ def test_float_sphere_light_floats_at_its_density_ratio_and_heavy_rests_on_the_b
     assert all(m.in_contact for m in window(seen["bottom.contact"], 4.0))
 
 
+CORK_DROP = """
+name: cork_drop
+dt: 0.0005
+until: 0.25
+components:
+  pond: {type: WaterSurface, nx: 80, ny: 80, cell: 0.01, depth: 0.3, origin_x: 0.005, origin_y: 0.005,
+         boundary: absorbing, every: 2}
+  s: {type: RigidBody, shape: sphere, radius: 0.05, density: 100, position: [0.4, 0.4, 0.1]}
+  s_water: {type: WaterCoupler}
+  s_stages: {type: StageMonitor, stop_after: 0}
+connections:
+  - s.state -> s_water.body
+  - pond.patch -> s_water.water
+  - {from: s_water.wrench, to: s.wrench, delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}
+  - {from: s_water.occupied, to: pond.occupied, delay: 1, initial: {i0: 0, j0: 0, b: []}}
+  - {from: s_water.request, to: pond.request, delay: 1, initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}}
+  - s.state -> s_stages.body
+  - s_water.contact -> s_stages.water
+"""
+
+
+def test_a_cork_ball_dropped_onto_the_water_floats_and_is_not_called_sunk():
+    """A ball of 100 kg/m^3 dropped from 5 cm: its first wetted step (its lowest point at the surface,
+    nothing under water, no buoyancy yet) was taken for water without buoyancy, and the monitor
+    called it sunk, a final stage, while it bobbed up (the run then stopped 0.3 s later)."""
+    from cosim.scenario import loads
+
+    sim = Simulation(loads(CORK_DROP))
+    watch = Channels("s_stages.stage", "s.state")
+    sim.observers.append(watch)
+    assert sim.run().status == "ok"
+    labels = [m.label for _, m in watch["s_stages.stage"]]
+    assert labels[0] == "approach" and labels[-1] == "float" and "sink" not in labels, labels
+
+
 # --- tilted_float -------------------------------------------------------------------------------
 
 def test_tilted_float_flattens_and_the_closed_basin_keeps_its_volume():

@@ -357,6 +357,18 @@ def test_a_slow_stone_barely_touching_waits_for_the_buoyancy_to_tell():
     assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]
 
 
+def test_a_slow_stone_whose_lowest_point_just_reaches_the_surface_is_no_sinking_stone():
+    """The first wetted step of a body dropped onto water: its lowest point at the surface, nothing
+    under it yet, so no buoyancy either. That was taken for a scene without buoyancy, and a cork
+    ball dropped from 5 cm was called sunk (final) while it bobbed; it is a hit, and it floats."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    cork = 0.1 * DISK_WATER
+    out = drive(m, [(body(0.0, 0.01, 0.0, -0.9, cork), water(False), None),
+                    (body(0.0, 0.0, 0.0, -0.9, cork), buoyant_water(0.0, 0.0), None),
+                    (body(0.0, 0.0, 0.0, -0.5, cork), buoyant_water(0.05, 0.05 * DISK_WATER * 9.81), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "float"]
+
+
 def test_a_stone_heavier_than_water_sinks_however_hard_the_raised_water_lifts_it():
     """Floating is decided by density, not by the reported buoyancy: that includes the level of the
     water a body raises around itself, up to twice Archimedes' force as a stone plunges in or starts
