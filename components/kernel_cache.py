@@ -8,7 +8,8 @@ changes, numba keeps loading the old code, and a checkout updated by ``git pull`
 with the previous physics. So :func:`refresh` fingerprints the text of every file compiled code is
 built from (:data:`KERNEL_SOURCES`, kept complete by ``tests/test_kernel_cache.py``); when the
 fingerprint differs from the one written beside the cache, the cached kernels of these files are
-deleted and the next run compiles them afresh (once: about 20 s on two cores).
+deleted and the next run compiles afresh the kernels it calls (about 20 s on two cores; a kernel no
+run has called yet, or called with other argument types, is compiled by the first run that does).
 
 It runs when the ``components`` package is imported, before any kernel can be called: reading and
 checksumming the sources takes a fraction of a millisecond.

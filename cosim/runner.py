@@ -178,8 +178,9 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
         if live_view is not None:
             observers.append(live_view)
         sim.observers.extend(observers)
-        notice = compile_notice(lambda: print(f"{scene.name}: compiling kernels for this checkout (once: later "
-                                              f"runs load them from disk)...", file=sys.stderr, flush=True)
+        notice = compile_notice(lambda: print(f"{scene.name}: compiling the kernels this scene uses (once for this "
+                                              f"checkout: later runs load them from disk)...", file=sys.stderr,
+                                              flush=True)
                                 ) if progress else nullcontext()
         if before_run is not None:
             before_run()

@@ -103,7 +103,7 @@ def test_the_notice_is_given_once_and_only_when_something_compiles():
 def test_a_run_with_progress_says_it_is_compiling(capsys):
     scene = loads(SCENE)
     run_scene(scene, None, progress=True)
-    assert capsys.readouterr().err.count("jit: compiling kernels for this checkout (once") == 1
+    assert capsys.readouterr().err.count("jit: compiling the kernels this scene uses (once for this checkout") == 1
     run_scene(scene, None, progress=False)
     assert "compiling" not in capsys.readouterr().err
 
