@@ -197,7 +197,9 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.Node, deep: bool = Fals
                 "while reading a mapping", node.start_mark,
                 f"found a key that is a {type(key).__name__}, not a name", key_node.start_mark) from None
         if key in written:
-            loader.duplicates.append(f"line {key_node.start_mark.line + 1}: duplicate key {key!r}")
+            written_as = key_node.value if isinstance(key_node, yaml.ScalarNode) else key  # `on`, not True
+            read_as = f" (read as {key!r}, as a key before it)" if written_as != key else ""
+            loader.duplicates.append(f"line {key_node.start_mark.line + 1}: duplicate key {written_as!r}{read_as}")
         written[key] = loader.construct_object(value_node, deep=deep)
     return {**merged, **written} if merged else written
 
@@ -300,7 +302,13 @@ def read_yaml(text: str, source: str) -> Any:
     """YAML text to plain data, refusing duplicate keys; errors as one ScenarioError with the line."""
     try:
         loader = _StrictLoader(text)
-    except yaml.YAMLError as exc:  # a character YAML does not allow, found as the reader starts
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow, found as the reader starts
+        line = text.count("\n", 0, exc.position) + 1
+        column = exc.position - (text.rfind("\n", 0, exc.position) + 1) + 1
+        code = exc.character if isinstance(exc.character, int) else ord(exc.character)  # (an int for text)
+        raise ScenarioError(f"YAML syntax error: line {line}, column {column}: the character U+{code:04X} is not "
+                            "allowed in YAML", source) from None
+    except yaml.YAMLError as exc:
         raise ScenarioError(f"YAML syntax error: {getattr(exc, 'problem', None) or exc}", source) from None
     loader.duplicates = []
     try:
@@ -393,6 +401,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
         if missing is not None:
             problems.append(f"--set {key}: no such key {missing}")
             continue
+        node = _own_path(data, parts)
         last = parts[-1]
         if isinstance(node, dict):
             node[last] = value
@@ -403,6 +412,22 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> list[str]:
         else:
             problems.append(f"--set {key}: cannot set {last!r} inside a {type(node).__name__}")
     return problems
+
+
+def _own_path(data: dict[str, Any], parts: list[str]) -> Any:
+    """The node holding the last of the key ``parts`` (which :func:`find_parent` found), after each
+    mapping and list on the way to it is replaced by a copy of its own. YAML aliases (``b: *a``) and
+    merges (``<<: *base``) share one mapping between several places: an override written into the
+    shared one would change every place that uses it, where it names one."""
+    node: Any = data
+    for part in parts[:-1]:
+        key: Any = int(part) if isinstance(node, list) else part
+        child = node[key]
+        if isinstance(child, dict | list):
+            child = type(child)(child)
+            node[key] = child
+        node = child
+    return node
 
 
 # --- validation ----------------------------------------------------------------------------------
@@ -915,17 +940,28 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         problems.append(f"components: must be a non-empty mapping (got {raw_components!r})")
         raw_components = {}
     for cname, spec in raw_components.items():
+        if not isinstance(cname, str):
+            # YAML reads null, ~, true/false, yes/no, on/off and numbers as values, not names
+            read_as = {None: "null", True: "true", False: "false"}.get(cname, show_value(cname)) \
+                if isinstance(cname, bool | None) else show_value(cname)
+            problems.append(f"components: a component is named {read_as}, not a name: YAML reads "
+                            f"null, ~, yes/no, on/off, true/false and numbers as values; quote the name "
+                            f"(e.g. 'off')")
+            continue
         cfg = _component(str(cname), spec, dt_ns, default_unstable, problems, classes, folder)
         if cfg is not None:
             components[str(cname)] = cfg
 
-    raw_edges = data.get("connections", []) or []
+    raw_edges = data.get("connections")
+    if raw_edges is None:  # left out, or written with nothing after it
+        raw_edges = []
     edges: list[Connection] = []
     if not isinstance(raw_edges, list):
         problems.append(f"connections: must be a list (got {raw_edges!r})")
         raw_edges = []
-    names = {str(n) for n in raw_components}
-    spelled = {str(n): str(spec.get("type")) for n, spec in raw_components.items() if isinstance(spec, dict)}
+    names = {n for n in raw_components if isinstance(n, str)}  # (a name YAML read as a value was refused above)
+    spelled = {n: str(spec.get("type")) for n, spec in raw_components.items()
+               if isinstance(n, str) and isinstance(spec, dict)}
     for i, item in enumerate(raw_edges if not no_components else []):
         # without components every connection would only repeat that its ends are unknown
         edge = _connection(i, item, classes, names, problems, spelled)

@@ -259,3 +259,58 @@ def test_an_end_before_the_first_step_is_refused():
     for (it ran there, "ok - reached t = 0.5 s"); refused naming both."""
     msg = problem('dt: 0.5\nuntil: 0.2\ncomponents:\n  s: {type: RigidBody}\n')
     assert "until: must be at least one base step, dt = 0.5 s (got 0.2 s)" in msg
+
+
+ALIASED = """
+name: aliased
+dt: 0.001
+until: 0.002
+components:
+  src: {type: "tests.toys:Source"}
+  g: &gain {type: "tests.toys:Gain", gain: 2.0}
+  h: *gain
+  k: {<<: *gain}
+connections:
+  - src.out -> g.x
+  - src.out -> h.x
+  - src.out -> k.x
+"""
+
+
+def test_an_override_of_one_component_leaves_the_ones_sharing_its_yaml_alone():
+    """`b: *a` and `<<: *a` share one mapping in the parsed YAML: --set components.g.gain wrote into it
+    and changed h and k too, while the recording listed only g's override."""
+    scene = loads(ALIASED, "s.yaml", ["components.g.gain=3.0"])
+    assert [scene.components[n].params.gain for n in ("g", "h", "k")] == [3.0, 2.0, 2.0]
+    scene = loads(ALIASED, "s.yaml", ["components.k.gain=5.0"])
+    assert [scene.components[n].params.gain for n in ("g", "h", "k")] == [2.0, 2.0, 5.0]
+
+
+@pytest.mark.parametrize(("written", "read_as"), [("null", "null"), ("~", "null"), ("off", "false"),
+                                                  ("yes", "true"), ("12", "12")])
+def test_a_component_name_yaml_reads_as_a_value_is_refused_saying_to_quote_it(written, read_as):
+    """`off:` is false to YAML: it was taken as a component named False (and `null:` as None, its
+    channels /None/...), and a connection naming it then said 'unknown component off (known: False)'."""
+    text = SCENE.replace("  g: {type", f"  {written}: {{type").replace("src.out -> g.x", "src.out -> src.out")
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    said = [p for p in err.value.problems if "not a name" in p]
+    assert said == [f"components: a component is named {read_as}, not a name: YAML reads null, ~, yes/no, "
+                    "on/off, true/false and numbers as values; quote the name (e.g. 'off')"]
+
+
+def test_two_keys_yaml_reads_alike_are_named_as_written():
+    """`on:` and `yes:` are both true to YAML: the duplicate is named as written, and what it reads as."""
+    text = SCENE.replace("  g: {type", "  'on': {type").replace("connections:", "yes: 1\non: 2\nconnections:")
+    with pytest.raises(ScenarioError, match=r"duplicate key 'on' \(read as True, as a key before it\)"):
+        loads(text)
+
+
+def test_a_character_yaml_does_not_allow_is_placed_by_line_and_column():
+    assert problem(SCENE.replace("until: 0.05", "until: 0.05\x00")) == (
+        "YAML syntax error: line 4, column 12: the character U+0000 is not allowed in YAML")
+
+
+def test_connections_given_as_an_empty_mapping_are_no_list():
+    assert problem(SCENE.replace("connections:\n  - src.out -> g.x", "connections: {}")) == (
+        "connections: must be a list (got {})")
