@@ -505,3 +505,22 @@ def test_a_recording_is_named_as_one(scene, tmp_path, capsys, name):
     assert "a recording's file name ends in .mcap" in one_error_line(capsys.readouterr().err)
     assert sorted(p.name for p in tmp_path.iterdir()) == [scene.name]
     assert main(["run", str(scene), "-o", str(tmp_path / "Loud.MCAP"), "-q"]) == 0
+
+
+@pytest.mark.parametrize("where", ["loop.mcap", "loops/x.mcap"])
+def test_an_output_through_a_symlink_loop_is_bad_input(scene, tmp_path, capsys, where):
+    """A link that points at itself, as the output or as its folder: exit 2, one line naming the loop
+    (it was an internal error: Python 3.11's resolve() raises RuntimeError on a loop)."""
+    (tmp_path / "loop.mcap").symlink_to(tmp_path / "loop.mcap")
+    (tmp_path / "loops").symlink_to(tmp_path / "loops")
+    assert main(["run", str(scene), "-o", str(tmp_path / where), "-q"]) == 2
+    assert one_error_line(capsys.readouterr().err).endswith(
+        "cannot use it as the output (Too many levels of symbolic links)")
+
+
+def test_a_hidden_file_named_mcap_is_told_it_needs_a_name(scene, tmp_path, capsys):
+    """`-o o/.mcap` does end in .mcap: it was told that it should, and to write .mcap.mcap."""
+    assert main(["run", str(scene), "-o", str(tmp_path / ".mcap"), "-q"]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {tmp_path / '.mcap'}: a recording's file name needs a name before .mcap "
+        f"(give e.g. {tmp_path / 'run.mcap'})")

@@ -39,7 +39,7 @@ def same_file(a: Path, b: Path) -> bool:
     """Whether paths ``a`` and ``b`` name one file, however spelled (links, ``..``)."""
     try:
         return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
-    except OSError:
+    except (OSError, RuntimeError):  # (Python 3.11's resolve() raises RuntimeError on a symlink loop)
         return False
 
 
@@ -92,6 +92,9 @@ def _named_as_a_recording(path: Path, inputs: Iterable[str | Path] = ()) -> Path
     """``path``, whose name ends in ``.mcap`` as a recording's does (viewers open MCAP files by it);
     otherwise a RecordingError: ``-o skip.png`` wrote a recording a picture viewer could not open.
     The name it suggests is none of ``inputs`` (`repair cut.mcap -o cut.txt` suggested cut.mcap)."""
+    if path.name.lower() == ".mcap":  # a hidden file's name has no suffix: it is all name
+        raise RecordingError(f"{path}: a recording's file name needs a name before .mcap "
+                             f"(give e.g. {path.with_name('run.mcap')})")
     if path.suffix.lower() != ".mcap":
         suggested = path.with_name(path.stem + ".mcap") if path.stem else Path("runs/skip.mcap")
         if any(Path(source).is_file() and same_file(suggested, Path(source)) for source in inputs):
