@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import ScenarioError, SimulationError, ending_signals
+from cosim.errors import ScenarioError, SimulationError, ending_signals, one_line
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
 from cosim.record.recorder import Recorder, physics_topics
@@ -183,7 +183,14 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
                                               flush=True)
                                 ) if progress else nullcontext()
         if before_run is not None:
-            before_run()
+            try:
+                before_run()
+            except BaseException:
+                # (a Ctrl-C remembered from the start-up) nothing ran: no recording, and a recording
+                # already at the output is not replaced by an empty one without a status
+                if recorder is not None:
+                    recorder.discard()
+                raise
         with _signals_interrupt(sim, recorder), notice:
             try:
                 result = sim.run(end_ns)
@@ -198,7 +205,11 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
         finished = True
     finally:
         try:
-            path = recorder.close() if recorder is not None else None
+            # the run's own signal handling stays on while the file is finished: a Ctrl-C or SIGTERM
+            # there (after the run ended) waits for the writer as one during the run would, and the
+            # run is told as what it was, not as interrupted (a second Ctrl-C still aborts)
+            with _signals_interrupt(sim, recorder) if recorder is not None else nullcontext():
+                path = recorder.close() if recorder is not None else None
         except BaseException:
             finished = False  # a recording that could not be finished: nothing left to serve
             raise
@@ -239,5 +250,6 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     lines += [f"  {line}" for line in outcome.summary]
     if outcome.recording is not None:
         size = outcome.recording.stat().st_size
-        lines.append(f"  recording: {outcome.recording} ({size / 1e6:.3g} MB)")
+        # one line whatever the name holds (a newline in it broke the summary over two)
+        lines.append(f"  recording: {one_line(str(outcome.recording))} ({size / 1e6:.3g} MB)")
     return "\n".join(lines)

@@ -524,3 +524,49 @@ def test_a_hidden_file_named_mcap_is_told_it_needs_a_name(scene, tmp_path, capsy
     assert one_error_line(capsys.readouterr().err) == (
         f"error: {tmp_path / '.mcap'}: a recording's file name needs a name before .mcap "
         f"(give e.g. {tmp_path / 'run.mcap'})")
+
+
+def test_an_interrupt_remembered_from_the_start_up_leaves_the_recording_there_as_it_was(scene, tmp_path):
+    """A Ctrl-C that start-up remembered is raised just before the first step: nothing ran, so no
+    recording is written. The recording already at the output was replaced by an empty one without
+    a status."""
+    out = tmp_path / "run.mcap"
+    run_scene(loads(SCENE), out, progress=False)
+    before = out.read_bytes()
+
+    def interrupted() -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_scene(loads(SCENE), out, progress=False, before_run=interrupted)
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([out.name, scene.name])
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_while_the_finished_run_is_written_out_still_tells_the_run_as_it_ended(scene, tmp_path, capsys,
+                                                                                      monkeypatch, signum):
+    """A Ctrl-C or SIGTERM after the last step, while the writer finishes the file: the run had ended
+    and its recording is whole, so the summary is printed and the exit code is the run's (it said
+    'interrupted' with exit 1, no summary, and a whole recording with an 'ok' status)."""
+    from cosim.record.recorder import Recorder
+
+    close = Recorder.close
+
+    def signalled_close(self):
+        os.kill(os.getpid(), signum)
+        return close(self)
+
+    monkeypatch.setattr(Recorder, "close", signalled_close)
+    out = tmp_path / "run.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    assert f"recording: {out}" in capsys.readouterr().out
+    assert Recording(out).status().status == "ok"
+
+
+def test_a_recording_whose_name_holds_a_newline_is_named_on_one_line(scene, tmp_path, capsys):
+    out = tmp_path / "new\nline.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    said = [line for line in capsys.readouterr().out.splitlines() if "recording:" in line]
+    assert len(said) == 1 and "new\\nline.mcap (" in said[0], said
+    assert Recording(out).status().status == "ok"
