@@ -230,16 +230,34 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
 
 def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
     """(time [ns], checkpoint) a recording made by a restart began at (its metadata's ``start_ns``,
-    the checkpoint recorded then); None for a run from t = 0. A restart recorded without
-    checkpoints cannot be replayed (RecordingError)."""
+    the checkpoint recorded then); None for a run from t = 0. A restart whose recording does not
+    hold that checkpoint cannot be replayed (RecordingError, saying why it is not there)."""
     if not rec.restart_ns:
         return None
     checkpoint = rec.checkpoint_at(rec.restart_ns)  # (only that one is decoded)
     if checkpoint is None:
-        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.restart_ns / NS_PER_S:g} s, "
-                             "recorded without the checkpoint it started from (record.checkpoint_every 0): replay "
-                             "the recording it was restarted from")
+        lost = _why_no_checkpoint(rec)
+        why = ("recorded without the checkpoint it started from (record.checkpoint_every 0)" if lost is None else
+               f"and the checkpoint it started from is not in the file ({lost})")
+        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.restart_ns / NS_PER_S:g} s, {why}: "
+                             "replay the recording it was restarted from")
     return rec.restart_ns, checkpoint
+
+
+def _why_no_checkpoint(rec: Recording) -> str | None:
+    """Why ``rec`` holds no checkpoint where its run records one, as its scene and status say: None
+    when it recorded none (record.checkpoint_every 0); else its run failed (a full disk: what was
+    not yet on disk is lost), or it was cut off, or, neither said, it was taken out."""
+    scene, _ = _recorded_scene(rec)
+    if scene is not None and scene.record.checkpoint_every == 0:
+        return None
+    status = rec.status()
+    if status is None:
+        return "the recording was cut off: it holds no final status"
+    if status.status == "failed":
+        return f"its run failed: {shortened(status.reason, 200)}"
+    every = f", though its scene records one every {scene.record.checkpoint_every:g} s" if scene is not None else ""
+    return f"its run ended {status.status}{every}: it was taken out of the file"
 
 
 def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:
@@ -248,14 +266,19 @@ def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> Recording
     if rec.restart_ns and from_ns < rec.restart_ns:
         # a restart's recording begins at its checkpoint: what came before is in the one it came from
         began = f"{rec.restart_ns / NS_PER_S:g} s"
+        lost = None if stamps else _why_no_checkpoint(rec)
         hint = (f"this recording is a restart from {began}: restart from the recording it came from, or from "
                 f"{began} or later" if stamps else
                 f"this recording is a restart from {began}, recorded without checkpoints: restart from the "
+                "recording it came from" if lost is None else
+                f"this recording is a restart from {began}, and holds no checkpoint ({lost}): restart from the "
                 "recording it came from")
     elif stamps:
         hint = f"restart from {stamps[0] / NS_PER_S:g} s or later"
     else:
-        hint = "record with record.checkpoint_every > 0"
+        lost = _why_no_checkpoint(rec)
+        hint = ("record with record.checkpoint_every > 0" if lost is None else
+                f"the recording holds none ({lost})")
     return RecordingError(f"{rec.path}: no checkpoint at or before t = {from_ns / NS_PER_S:g} s "
                           f"(checkpoints at [s]: {times}); {hint}")
 
@@ -405,7 +428,7 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     _refuse_start_only_overrides(sim, recorded, unread, overrides or [], stamp)
     try:
         sim.restore(cp)
-    except (ValueError, KeyError) as exc:
+    except (ValueError, KeyError, TypeError) as exc:  # (TypeError: a component's state holding a wrong kind of value)
         why = (f"it holds no {exc.args[0]!r}, which this scene's components restore (a component or setting "
                "changed by --set?)" if isinstance(exc, KeyError) else str(exc))
         raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s: "

@@ -198,25 +198,6 @@ def test_a_whole_recording_with_a_damaged_chunk_keeps_the_rest_and_its_status(pa
     assert done.status is not None and done.status.status == Recording(paint).status().status
 
 
-def test_a_damaged_chunk_that_may_have_defined_a_later_channel_ends_what_is_kept(paint, tmp_path, capsys):
-    """The sixth chunk defines the status channel, which the seventh uses: the damaged sixth may have
-    defined more, so what is kept ends where it begins, and both inspect and repair say why."""
-    chunks = _chunks(paint)
-    sixth = chunks[5]
-    bad = _damaged(paint, tmp_path / "bad.mcap", sixth.chunk_start_offset + _CRC_AT)
-    why = (f"the chunk at byte {chunks[6].chunk_start_offset} after it uses a channel not defined before it, which it "
-           "may have defined")
-    assert main(["inspect", str(bad)]) == 2
-    assert one_error_line(capsys.readouterr().err).endswith(
-        f"the chunk at byte {sixth.chunk_start_offset} fails its CRC (cosim repair keeps only the 51 messages before "
-        f"it: {why})")
-    with pytest.warns(UserWarning) as said:
-        done = repair(bad, tmp_path / "fixed.mcap")
-    assert done.messages == 51 and done.status is None
-    assert [str(w.message) for w in said] == [
-        f"{bad}: the chunk at byte {sixth.chunk_start_offset} fails its CRC: nothing from there on is kept ({why})"]
-
-
 def test_a_file_cut_short_without_damage_says_nothing_more(paint, tmp_path, recwarn):
     part = tmp_path / "cut.part"
     part.write_bytes(paint.read_bytes()[:_chunks(paint)[3].chunk_start_offset + 100])

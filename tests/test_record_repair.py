@@ -11,6 +11,7 @@ with its header damaged, or one cut before its first message was "repaired" (exi
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import pytest
@@ -18,9 +19,11 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from cosim.cli import main
+from cosim.record.output import MCAP_MAGIC
 from cosim.record.reader import Recording
+from cosim.record.repair import repair
 from cosim.runner import run_scene
-from cosim.scenario import load
+from cosim.scenario import load, loads
 from tests.cli_toys import one_error_line
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -149,3 +152,144 @@ def test_a_refused_repair_leaves_no_folder_it_made(whole, tmp_path, capsys):
     assert main(["repair", str(cut), "-o", str(tmp_path / "new" / "deeper" / "x.mcap")]) == 2
     assert "nothing in it can be kept" in one_error_line(capsys.readouterr().err)
     assert not (tmp_path / "new").exists()
+
+
+# --- a damaged chunk that defined the channels of the chunks after it ------------------------------
+
+_CRC_AT = 9 + 8 + 8 + 8  # a chunk's uncompressed CRC: after its record's opcode and length, times and size
+
+
+@pytest.fixture(scope="module")
+def paint(tmp_path_factory) -> Path:
+    """A whole recording of seven chunks of ten frames each, the sixth defining the status channel
+    that the seventh uses (the run's status)."""
+    from tests.test_reliability_output import PAINT
+
+    out = tmp_path_factory.mktemp("repair_paint") / "whole.mcap"
+    run_scene(loads(PAINT, overrides=["until=0.06"]), out, progress=False)
+    return out
+
+
+def _chunk_indexes(path: Path) -> list:
+    with open(path, "rb") as f:
+        return sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+
+
+def _flipped(src: Path, dst: Path, *at: int) -> Path:
+    data = bytearray(src.read_bytes())
+    for offset in at:
+        data[offset] ^= 0xFF
+    dst.write_bytes(bytes(data))
+    return dst
+
+
+def _in_file_order(path: Path) -> list[tuple[str, int, bytes]]:
+    with open(path, "rb") as f:
+        return [(channel.topic, msg.log_time, msg.data)
+                for _, channel, msg in make_reader(f).iter_messages(log_time_order=False)]
+
+
+def test_a_closed_recording_keeps_the_chunks_after_one_that_defined_their_channels(paint, tmp_path, capsys):
+    """The sixth chunk, defining the status channel the seventh uses, fails its CRC: the file's
+    summary is intact and defines that channel, so its records are written where the damaged chunk
+    was and the seventh chunk is kept, the run's status with it (repair kept only the five chunks
+    before the damage: "the chunk ... after it uses a channel not defined before it")."""
+    chunks = _chunk_indexes(paint)
+    sixth = chunks[5]
+    bad = _flipped(paint, tmp_path / "bad.mcap", sixth.chunk_start_offset + _CRC_AT)
+    assert main(["inspect", str(bad)]) == 2
+    assert one_error_line(capsys.readouterr().err).endswith(
+        f"the chunk at byte {sixth.chunk_start_offset} fails its CRC (cosim repair makes what it holds a valid "
+        "recording, leaving it out)")
+    with pytest.warns(UserWarning) as said:
+        done = repair(bad, tmp_path / "fixed.mcap")
+    assert [str(w.message) for w in said] == [
+        f"{bad}: the chunk at byte {sixth.chunk_start_offset} fails its CRC: left out, with the 10 messages its index "
+        f"lists (t = {sixth.message_start_time / 1e9:g} .. {sixth.message_end_time / 1e9:g} s)"]
+    whole = _in_file_order(paint)
+    kept = [m for m in whole if m[0] != "/p/frame" or not sixth.message_start_time <= m[1] <= sixth.message_end_time]
+    assert len(whole) - len(kept) == 10
+    assert _in_file_order(done.path) == kept  # every message of every other chunk, bytes and all
+    assert done.status is not None and done.status.status == Recording(paint).status().status
+    assert main(["inspect", str(done.path)]) == 0
+
+
+def test_without_an_intact_summary_what_is_kept_still_ends_at_a_chunk_that_may_have_defined_a_channel(
+        paint, tmp_path):
+    """The same damage with the summary's CRC failing too: nothing says what the damaged chunk
+    defined, so the copy ends where it begins, as before."""
+    chunks = _chunk_indexes(paint)
+    sixth = chunks[5]
+    footer = paint.read_bytes()[-len(MCAP_MAGIC) - 29:-len(MCAP_MAGIC)]  # opcode, length, summary start, ...
+    summary_start = struct.unpack("<BQQQI", footer)[2]
+    bad = _flipped(paint, tmp_path / "bad.mcap", sixth.chunk_start_offset + _CRC_AT, summary_start + 20)
+    with pytest.warns(UserWarning) as said:
+        done = repair(bad, tmp_path / "fixed.mcap")
+    assert done.messages == 51 and done.status is None
+    assert [str(w.message) for w in said] == [
+        f"{bad}: the chunk at byte {sixth.chunk_start_offset} fails its CRC: nothing from there on is kept (the chunk "
+        f"at byte {chunks[6].chunk_start_offset} after it uses a channel not defined before it, which it may have "
+        "defined)"]
+
+
+# --- what is no recording to repair, or not yet one -------------------------------------------------
+
+
+@pytest.mark.parametrize("content", [b"hello, this is not an mcap file\n" * 100, bytes(range(256)) * 40])
+def test_a_file_that_is_not_mcap_at_all_is_said_to_be_none(tmp_path, capsys, content):
+    """A text or random bytes were "cut short at 3200 bytes": they are no MCAP file."""
+    path = _written(tmp_path, "text.mcap", content)
+    _refused(path, capsys, "not an MCAP file (no MCAP magic at its start), so not a recording cosim repair can mend")
+
+
+def test_a_file_a_live_run_is_writing_is_said_to_be_written_by_inspect_too(whole, tmp_path, capsys):
+    """A run's private file, locked by the run writing it: inspect (as plot and replay, through the
+    reader) said it was truncated or corrupt and that repair would mend it, where repair refused it
+    as being written; both say a run is writing it."""
+    import fcntl
+    import os
+
+    part = _written(tmp_path, "live.mcap.0123abcd.part", whole.read_bytes()[:_second_chunk_at(whole) + 100])
+    fd = os.open(part, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # as the run writing it holds it
+        for command in ("inspect", "repair"):
+            assert main([command, str(part)]) == 2
+            assert one_error_line(capsys.readouterr().err) == (
+                f"error: {part}: a run is writing it now; it is finished when that run ends")
+    finally:
+        os.close(fd)
+    assert main(["inspect", str(part)]) == 2  # once no run holds it, it is what a killed run left
+    assert "cosim repair makes what it holds a valid recording" in one_error_line(capsys.readouterr().err)
+
+
+def _with_scene(src: Path, dst: Path, scene: bytes) -> Path:
+    """A copy of the recording ``src`` whose scene attachment is ``scene`` (every CRC matching)."""
+    with open(src, "rb") as f, open(dst, "wb") as out:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        writer = Writer(out)
+        writer.start(profile="", library="test")
+        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
+        ids = {cid: writer.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
+               for cid, c in summary.channels.items()}
+        for meta in reader.iter_metadata():
+            writer.add_metadata(meta.name, meta.metadata)
+        for att in reader.iter_attachments():
+            data = scene if att.name == "scene.yaml" else att.data
+            writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, data)
+        for _, channel, message in reader.iter_messages(log_time_order=False):
+            writer.add_message(ids[channel.id], message.log_time, message.data, message.publish_time)
+        writer.finish()
+    return dst
+
+
+def test_a_scene_attachment_that_is_not_utf8_is_named(whole, tmp_path, capsys):
+    """Every command said "not a cosim recording (its metadata cannot be read: 'utf-8' codec ...)":
+    it is the scene that cannot be read."""
+    bad = _with_scene(whole, tmp_path / "bad.mcap", b"\x00\xff: [")
+    said = (f"error: {bad}: its scene (the 'scene.yaml' attachment) cannot be read: it is not UTF-8 text (byte 0xff "
+            "at offset 1: invalid start byte)")
+    for command in ("inspect", "replay"):
+        assert main([command, str(bad)]) == 2
+        assert one_error_line(capsys.readouterr().err) == said

@@ -5,13 +5,23 @@ recording, and a record block that names no channel is bad input."""
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
+from mcap.reader import make_reader
+from mcap.writer import Writer
 
 from components.analysis import plot
 from cosim.cli import main
-from cosim.scenario import ScenarioError, load
+from cosim.codec import state_proto
+from cosim.codec.json_codec import plain_state
+from cosim.record.recorder import CHECKPOINT_TOPIC
+from cosim.runner import run_scene
+from cosim.scenario import ScenarioError, load, loads
+from tests.cli_toys import one_error_line
 from tests.viewer_toys import record_skip
 
 SCENES = Path(__file__).resolve().parent.parent / "scenarios"
@@ -104,3 +114,141 @@ def test_render_refuses_a_follow_view_too_wide_to_show_the_stone(skip_path, tmp_
     assert err == ("error: --span 1e+06 m: the stone (0.06 m across) would be narrower than a pixel of the 800 px "
                    "frame; give at most 48 m (or --view fixed)\n")
     assert list(tmp_path.iterdir()) == []
+
+
+# --- a checkpoint that decodes but is not one ----------------------------------------------------
+
+BODY = """
+dt: 0.001
+until: 0.05
+components:
+  stone: {type: RigidBody, shape: disk, radius: 0.03, thickness: 0.005}
+record: {checkpoint_every: 0.01, visual_rate: 0}
+"""
+
+
+@pytest.fixture(scope="module")
+def body_path(tmp_path_factory) -> Path:
+    """A falling disk alone, 50 steps, a checkpoint every 10."""
+    path = tmp_path_factory.mktemp("body") / "body.mcap"
+    run_scene(loads(BODY), path, progress=False)
+    return path
+
+
+def _with_checkpoint(src: Path, dst: Path, time_ns: int, change: Callable[[dict], Any]) -> Path:
+    """A copy of the recording ``src`` whose checkpoint at ``time_ns`` is ``change(checkpoint)``,
+    encoded as the recorder encodes one (a valid payload, every CRC matching)."""
+    with open(src, "rb") as f, open(dst, "wb") as out:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        writer = Writer(out)
+        writer.start(profile="", library="test")
+        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
+        ids = {cid: writer.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
+               for cid, c in summary.channels.items()}
+        for meta in reader.iter_metadata():
+            writer.add_metadata(meta.name, meta.metadata)
+        for att in reader.iter_attachments():
+            writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
+        for _, channel, message in reader.iter_messages(log_time_order=False):
+            data = message.data
+            if channel.topic == CHECKPOINT_TOPIC and message.log_time == time_ns:
+                data = state_proto.state_bytes(plain_state(change(state_proto.decode_checkpoint(data))))
+            writer.add_message(ids[channel.id], message.log_time, data, message.publish_time)
+        writer.finish()
+    return dst
+
+
+def _with_stone_state(cp: dict, **state: Any) -> dict:
+    stone = cp["components"]["stone"]
+    return {**cp, "components": {**cp["components"], "stone": {**stone, "state": {**stone["state"], **state}}}}
+
+
+@pytest.mark.parametrize(("change", "said"), [
+    (lambda cp: [1, 2, 3], "it is a list [1, 2, 3], not a mapping of tick, dt_ns, components, slots and edges"),
+    (lambda cp: "hello", "it is a text 'hello', not a mapping of tick, dt_ns, components, slots and edges"),
+    (lambda cp: {**cp, "components": [1]}, "its components is a list [1], not a mapping of component names to "
+                                           "their states"),
+    (lambda cp: {**cp, "slots": {"stone.state": [[1, 2, 3]]}}, "its slots['stone.state'][0] is a list [1, 2, 3], "
+                                                               "not [stamp, payload]"),
+    (lambda cp: {**cp, "tick": 7}, "its time, tick 7 x dt_ns 1000000 = 0.007 s, is not the time it was recorded "
+                                   "at, 0.02 s"),
+    (lambda cp: _with_stone_state(cp, orientation=5), "'int' object is not iterable"),  # the body's own state
+])
+def test_a_checkpoint_of_the_wrong_form_is_bad_input_naming_what_is_wrong(body_path, tmp_path, capsys, change, said):
+    """A valid payload holding a list, a text or `components: [1]` ended in an internal TypeError
+    (exit 1) where the scheduler restored it: exit 2, one line naming the checkpoint and what is
+    wrong with it, no file."""
+    bad = _with_checkpoint(body_path, tmp_path / "bad.mcap", 20_000_000, change)
+    assert main(["replay", str(bad), "--from", "0.02", "-q", "-o", str(tmp_path / "again.mcap")]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line == f"error: {bad}: cannot restart from the checkpoint at 0.02 s: {said}"
+    assert [p.name for p in tmp_path.iterdir()] == ["bad.mcap"]
+
+
+# --- a restart whose recording lost the checkpoint it started from --------------------------------
+
+FULL_DISK = ("writing the recording failed (No space left on device); the recording was closed where it stopped, "
+             "at t = 0 s, and what the run recorded after that was lost")
+
+
+def _closed_where_the_disk_filled(path: Path) -> Path:
+    """``path`` as a full disk leaves it: cut inside its first chunk (which holds the checkpoint a
+    restart records first) and closed in place with the `failed` status the writer gives it."""
+    from cosim.codec.json_codec import codec_for
+    from cosim.record.recorder import STATUS_TOPIC, DerivedMessage, RunStatus
+    from cosim.record.seal import seal
+
+    with open(path, "rb") as f:
+        first = min(c.chunk_start_offset for c in make_reader(f).get_summary().chunk_indexes)
+    os.truncate(path, first + 10)
+    codec = codec_for(RunStatus)
+    status = DerivedMessage(STATUS_TOPIC, codec.schema_name, "jsonschema", codec.schema_bytes(), "json",
+                            codec.encode(RunStatus("failed", FULL_DISK, 0, 0.0, 0)))
+    seal(path, lambda end_ns: (0, status))
+    return path
+
+
+def test_a_restart_whose_checkpoint_the_full_disk_lost_says_so(body_path, tmp_path, capsys):
+    """A restart recorded onto a full disk keeps no chunk, its checkpoint with them: replay said it
+    was "recorded without the checkpoint it started from (record.checkpoint_every 0)", which it was
+    not; it says the checkpoint is not in the file and why, from the recorded status."""
+    restart = tmp_path / "from.mcap"
+    assert main(["replay", str(body_path), "--from", "0.02", "-q", "-o", str(restart)]) == 0
+    _closed_where_the_disk_filled(restart)
+    capsys.readouterr()
+    assert main(["replay", str(restart), "-q"]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line == (f"error: {restart}: cannot replay: a restart from t = 0.02 s, and the checkpoint it started from "
+                    f"is not in the file (its run failed: {FULL_DISK}): replay the recording it was restarted from")
+    assert main(["replay", str(restart), "--from", "0", "-q", "-o", str(tmp_path / "again.mcap")]) == 2
+    assert one_error_line(capsys.readouterr().err).endswith(
+        f"this recording is a restart from 0.02 s, and holds no checkpoint (its run failed: {FULL_DISK}): restart "
+        "from the recording it came from")
+
+
+def test_a_restart_recorded_without_checkpoints_says_so(body_path, tmp_path, capsys):
+    """What the line said of every restart without its checkpoint is still said when it is true."""
+    restart = tmp_path / "from.mcap"
+    assert main(["replay", str(body_path), "--from", "0.02", "-q", "-o", str(restart), "--set",
+                 "record.checkpoint_every=0"]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(restart), "-q"]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {restart}: cannot replay: a restart from t = 0.02 s, recorded without the checkpoint it started from "
+        "(record.checkpoint_every 0): replay the recording it was restarted from")
+
+
+def test_a_run_whose_checkpoints_the_full_disk_lost_is_not_told_to_record_them(body_path, tmp_path, capsys):
+    """--from on a run from t = 0 whose every chunk the full disk took was told to "record with
+    record.checkpoint_every > 0", which it had."""
+    run = _closed_where_the_disk_filled(_written_copy(body_path, tmp_path / "run.mcap"))
+    assert main(["replay", str(run), "--from", "0", "-q", "-o", str(tmp_path / "again.mcap")]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {run}: no checkpoint at or before t = 0 s (checkpoints at [s]: none); the recording holds none (its "
+        f"run failed: {FULL_DISK})")
+
+
+def _written_copy(src: Path, dst: Path) -> Path:
+    dst.write_bytes(src.read_bytes())
+    return dst

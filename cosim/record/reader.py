@@ -26,7 +26,7 @@ from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import ProtoError, proto_codec_for
 from cosim.errors import RecordingError, ScenarioError, shortened
 from cosim.messages import Message
-from cosim.record.output import MCAP_MAGIC
+from cosim.record.output import MCAP_MAGIC, being_written
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
 from cosim.scenario import MAX_TIME_NS, Scene, loads
 
@@ -177,6 +177,9 @@ class Recording:
                 metadata = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
                 attachments = {a.name: a.data for a in reader.iter_attachments()}
         except RecordingError:
+            if being_written(str(self.path)):  # not cut short: a live run's private file, unfinished yet
+                raise RecordingError(f"{self.path}: a run is writing it now; it is finished when that run ends") \
+                    from None
             raise
         except Exception as exc:  # whatever a damaged file makes the reader raise
             raise RecordingError(f"{self.path}: not a readable MCAP recording (truncated or corrupt: "
@@ -188,8 +191,8 @@ class Recording:
                                  f"or '{SCENE_ATTACHMENT}' attachment; written by {header.library!r})")
         self.library = header.library
         self.metadata = metadata[METADATA_NAME]
+        self.scene_text = self._scene_text(attachments[SCENE_ATTACHMENT])
         try:
-            self.scene_text = attachments[SCENE_ATTACHMENT].decode()
             self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
             if not isinstance(self.overrides, list) or not all(isinstance(o, str) for o in self.overrides):
                 raise ValueError("overrides are not a list of strings")
@@ -217,6 +220,16 @@ class Recording:
             self.restart_ns = _nanoseconds("start_ns", self.metadata.get("start_ns", "0"), zero=True)
         except ValueError as exc:  # a crafted value was read as 0: a restart taken for a run from t = 0
             raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
+
+    def _scene_text(self, attachment: bytes) -> str:
+        """The scene attachment's text; a RecordingError naming it when it is not UTF-8 (it was taken
+        for the metadata: "its metadata cannot be read: 'utf-8' codec ...")."""
+        try:
+            return attachment.decode()
+        except UnicodeDecodeError as exc:
+            bad = f"byte 0x{attachment[exc.start]:02x} at offset {exc.start}: {exc.reason}"
+            raise RecordingError(f"{self.path}: its scene (the '{SCENE_ATTACHMENT}' attachment) cannot be read: it "
+                                 f"is not UTF-8 text ({bad})") from None
 
     def scene(self, overrides: list[str] | None = None) -> Scene:
         """The recorded scene, with the recorded overrides and then ``overrides`` applied. Without
@@ -313,10 +326,104 @@ class Recording:
         encoding = self.channels[CHECKPOINT_TOPIC].message_encoding
         decode = state_proto.decode_checkpoint if encoding == state_proto.ENCODING else decode_state
         try:
-            return decode(data)
+            checkpoint = decode(data)
         except Exception as exc:  # whatever a damaged payload makes the decoder raise
             raise RecordingError(f"{self.path}: the checkpoint at {stamp} ns cannot be read "
                                  f"({_short(exc)})") from None
+        # a payload that decodes may still not be a checkpoint (a list, a text, components [1]):
+        # said here, where it is read, rather than as a TypeError wherever a part of it is used
+        problem = _checkpoint_problem(checkpoint, stamp)
+        if problem is not None:
+            raise RecordingError(f"{self.path}: cannot restart from the checkpoint at {stamp / 1e9:g} s: {problem}")
+        return checkpoint
+
+
+def _checkpoint_problem(checkpoint: Any, stamp: int) -> str | None:
+    """What keeps ``checkpoint``, decoded from the record logged at ``stamp`` [ns], from having the
+    form :meth:`cosim.scheduler.Simulation.checkpoint` gives it ("its components is [1], not a
+    mapping ..."); None when it has it. What a component's own state holds, its ``set_state`` checks."""
+    if not isinstance(checkpoint, dict):
+        return f"it is {_shown_value(checkpoint)}, not a mapping of tick, dt_ns, components, slots and edges"
+    missing = [key for key in ("tick", "dt_ns", "components", "slots", "edges") if key not in checkpoint]
+    if missing:
+        return f"it holds no {missing[0]!r} (a checkpoint holds tick, dt_ns, components, slots and edges)"
+    tick, dt_ns = checkpoint["tick"], checkpoint["dt_ns"]
+    if not _whole(tick):
+        return f"its tick is {_shown_value(tick)}, not a whole number >= 0"
+    if not _whole(dt_ns) or dt_ns == 0:
+        return f"its dt_ns is {_shown_value(dt_ns)}, not a whole number of nanoseconds > 0"
+    if tick * dt_ns != stamp:
+        return (f"its time, tick {tick} x dt_ns {dt_ns} = {tick * dt_ns / 1e9:g} s, is not the time it was "
+                f"recorded at, {stamp / 1e9:g} s")
+    return (_components_problem(checkpoint["components"]) or _slots_problem(checkpoint["slots"])
+            or _list_problem("edges", checkpoint["edges"], "a whole number (the stamp last delivered)", _is_int)
+            or _list_problem("ahead", checkpoint.get("ahead", []), "[stamp, channel, payload]",
+                             lambda entry: _entry(entry, (_is_int, _is_text, _is_text))))
+
+
+def _components_problem(components: Any) -> str | None:
+    """What is wrong with a checkpoint's ``components``: {name: {"state": ..., "step_count": n}}."""
+    if not isinstance(components, dict):
+        return f"its components is {_shown_value(components)}, not a mapping of component names to their states"
+    for name, saved in components.items():
+        where = f"its components[{name!r}]"
+        if not isinstance(saved, dict) or "state" not in saved or "step_count" not in saved:
+            return f"{where} is {_shown_value(saved)}, not a mapping of its state and step_count"
+        if not isinstance(saved["state"], (dict, str, bytes)):  # (text or bytes: JSON, in older recordings)
+            return f"{where}['state'] is {_shown_value(saved['state'])}, not a mapping"
+        if not _whole(saved["step_count"]):
+            return f"{where}['step_count'] is {_shown_value(saved['step_count'])}, not a whole number >= 0"
+    return None
+
+
+def _slots_problem(slots: Any) -> str | None:
+    """What is wrong with a checkpoint's ``slots``: {"component.port": [[stamp, payload], ...]}."""
+    if not isinstance(slots, dict):
+        return f"its slots is {_shown_value(slots)}, not a mapping of outputs to their last messages"
+    for name, entries in slots.items():
+        problem = _list_problem(f"slots[{name!r}]", entries, "[stamp, payload]",
+                                lambda entry: _entry(entry, (_is_int, _is_text)))
+        if problem is not None:
+            return problem
+    return None
+
+
+def _list_problem(name: str, value: Any, item: str, fits: Callable[[Any], bool]) -> str | None:
+    """What is wrong with the checkpoint's list ``name`` whose every item ``fits``, as ``item`` says."""
+    if not isinstance(value, list):
+        return f"its {name} is {_shown_value(value)}, not a list"
+    wrong = next((i for i, entry in enumerate(value) if not fits(entry)), None)
+    if wrong is not None:
+        return f"its {name}[{wrong}] is {_shown_value(value[wrong])}, not {item}"
+    return None
+
+
+def _entry(value: Any, fields: tuple[Callable[[Any], bool], ...]) -> bool:
+    """Whether ``value`` is a list of as many items as ``fields``, each passing its field's check."""
+    return (isinstance(value, list) and len(value) == len(fields)
+            and all(fits(v) for fits, v in zip(fields, value, strict=True)))
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_text(value: Any) -> bool:
+    return isinstance(value, str)
+
+
+def _whole(value: Any) -> bool:
+    """A whole number >= 0 (a tick, a count; not a bool)."""
+    return _is_int(value) and value >= 0
+
+
+_KINDS = {dict: "a mapping", list: "a list", str: "a text", bytes: "bytes", bool: "a flag", float: "a number",
+          int: "a number", type(None): "nothing"}
+
+
+def _shown_value(value: Any) -> str:
+    """A decoded value for an error line: its kind and its repr, shortened ("a list [1]")."""
+    return f"{_KINDS.get(type(value), type(value).__name__)} {shortened(repr(value), 40)}"
 
 
 def _nanoseconds(key: str, value: str, zero: bool = False) -> int:

@@ -14,11 +14,16 @@ A file damaged on disk as well (a chunk that fails its CRC, found by
 after it are kept (before, reading stopped there, and the file was called cut short at the damage);
 each stretch left out is said in a warning naming where it lies and what its index listed, and is
 in :attr:`Repaired.damage`. When a chunk after it uses a channel the damaged chunk may have defined,
-the copy ends where the damage begins, and the warning says so.
+the file's summary, when it is intact, says what that channel and its schema were: their records
+are written in the stretch's place, and the chunks after it kept (a closed recording damaged early
+on kept only what preceded the damage, though its summary defined every channel). Without an intact
+summary (a killed run's private file) the copy ends where the damage begins, and the warning says so.
 
 Refused (a RecordingError, bad input), with nothing written: a whole recording (nothing to repair),
-a whole MCAP file that is not a cosim recording, and a file whose whole records make no readable
-cosim recording or hold no message (cut off before its first, or damaged there).
+a whole MCAP file that is not a cosim recording, a file that is no MCAP file at all (it does not
+start with the MCAP magic: a text, random bytes; it was called cut short at its size), a file a run
+is still writing, and a file whose whole records make no readable cosim recording or hold no
+message (cut off before its first, or damaged there).
 """
 
 from __future__ import annotations
@@ -26,19 +31,22 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, BinaryIO
 
 from cosim.errors import RecordingError
 from cosim.record.output import (
+    COPY_BLOCK,
+    MCAP_MAGIC,
     PART_SUFFIX,
     being_written,
     check_output,
-    copy_file,
     output_folder,
     written_whole,
 )
 
 if TYPE_CHECKING:
+    from mcap.records import Channel, Schema
+
     from cosim.record.recorder import RunStatus
     from cosim.record.seal import Damage
 
@@ -101,6 +109,13 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
     else:
         raise RecordingError(f"{cut}: is a whole recording already (it was closed, and its checks pass); there "
                              "is nothing to repair")
+    try:
+        start = _start(cut)
+    except OSError:  # what the reader said of it (permission denied) is all there is to say
+        raise RecordingError(f"{cut}: {problem}") from None
+    if start != MCAP_MAGIC[:len(start)]:  # (a file cut short within its magic still starts as one)
+        raise RecordingError(f"{cut}: not an MCAP file (no MCAP magic at its start), so not a recording cosim repair "
+                             "can mend")
     cut_short = not ends_in_footer(cut)
     if not cut_short:
         from cosim.record.reader import check_integrity
@@ -144,6 +159,12 @@ def repair(cut: str | Path, output: str | Path | None = None) -> Repaired:
     return Repaired(out, messages, rec.end_ns, status, cut_short, tuple(damage))
 
 
+def _start(path: Path) -> bytes:
+    """The first bytes of the file ``path``, as many as an MCAP file's magic has (fewer in a shorter file)."""
+    with open(path, "rb") as f:
+        return f.read(len(MCAP_MAGIC))
+
+
 def damage_text(damage: list[Damage], most: int = 3) -> str:
     """The damaged stretches ``damage`` in one line, the first ``most`` of them in full."""
     text = "; ".join(str(d) for d in damage[:most])
@@ -152,14 +173,47 @@ def damage_text(damage: list[Damage], most: int = 3) -> str:
 
 def _copy_leaving_out(source: Path, target: Path, damage: list[Damage]) -> None:
     """Copy ``source`` to ``target`` without its damaged stretches: each one read past is left out,
-    and the copy ends where one that reading stopped at begins."""
-    spans: list[tuple[int, int | None]] = []
-    at: int | None = 0
+    the schema and channel records it may have held that the file's summary restores
+    (:attr:`Damage.restores`) written in its place (the chunks after it use them), and the copy ends
+    where one that reading stopped at begins."""
+    pieces: list[tuple[int, int | None, bytes]] = []  # a span of ``source`` (end None: to its end), then bytes
+    at = 0
     for stretch in damage:
-        spans.append((at, stretch.start))
-        at = stretch.end if stretch.resumed else None
-        if at is None:
+        if not stretch.resumed:
+            pieces.append((at, stretch.start, b""))
             break
-    if at is not None:
-        spans.append((at, None))
-    copy_file(source, target, spans)
+        pieces.append((at, stretch.start, _records(stretch.restores)))
+        at = stretch.end
+    else:
+        pieces.append((at, None, b""))
+    with open(source, "rb") as src, open(target, "wb") as dst:
+        for start, end, after in pieces:
+            _copy_span(src, dst, start, end, source)
+            dst.write(after)
+
+
+def _copy_span(src: BinaryIO, dst: BinaryIO, start: int, end: int | None, source: Path) -> None:
+    """Append the bytes ``start`` to ``end`` (None: the end) of ``src`` to ``dst`` by plain reads and
+    writes, as :func:`cosim.record.output.copy_file` does: a read error names ``source``; one in a
+    write names no file, and :func:`cosim.record.output.written_whole` names the output."""
+    src.seek(start)
+    left = None if end is None else end - start
+    while left is None or left > 0:
+        try:
+            block = src.read(COPY_BLOCK if left is None else min(COPY_BLOCK, left))
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
+        if not block:
+            break
+        dst.write(block)
+        left = None if left is None else left - len(block)
+
+
+def _records(records: tuple[Schema | Channel, ...]) -> bytes:
+    """The MCAP records ``records`` as a data section holds them."""
+    from mcap.data_stream import RecordBuilder
+
+    out = RecordBuilder()
+    for record in records:
+        record.write(out)
+    return out.end()

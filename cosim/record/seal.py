@@ -20,9 +20,12 @@ A file damaged on disk (a chunk failing its CRC, a record that cannot be read) i
 CRC (a chunk record gives its own length; when that length is what was damaged, the next chunk is
 searched for), and says where each damaged stretch lies and what its message index lists. ``cosim
 repair`` leaves those stretches out of the copy it seals (:mod:`cosim.record.repair`), and ``cosim
-inspect`` names them (:func:`cosim.record.reader.check_integrity`). Reading stops at a damaged
-stretch when a chunk after it uses a channel that was not defined before it (the damaged chunk may
-have defined it). :func:`seal`, closing a file in place, keeps only what precedes the first damage.
+inspect`` names them (:func:`cosim.record.reader.check_integrity`). A chunk after a damaged stretch
+may use a channel that was not defined before it (the damaged chunk may have defined it): when the
+file's summary is intact (its CRC given and matching), its schema and channel records say what
+they were, and the stretch carries them (:attr:`Damage.restores`) to be written in its place;
+without one, reading stops at that stretch. :func:`seal`, closing a file in place, keeps only what
+precedes the first damage.
 """
 
 from __future__ import annotations
@@ -60,6 +63,7 @@ from cosim.record.salvage import chunk_records, message_head
 
 _PREFIX = struct.Struct("<BQ")  # a record's opcode and length
 _CHUNK_HEAD = struct.Struct("<QQQII")  # a chunk's start and end times, uncompressed size and CRC, compression length
+_FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
 _COMPRESSIONS = ("", "zstd", "lz4")
 # the records a data section holds (the header before it; the summary's after the data end)
 _DATA_OPS = (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE, Opcode.CHUNK, Opcode.MESSAGE_INDEX, Opcode.ATTACHMENT,
@@ -68,6 +72,7 @@ _FIXED_LENGTH = {Opcode.DATA_END: 4, Opcode.FOOTER: 20}
 
 
 Ending = Callable[[int], "tuple[int, Any] | None"]
+_Definitions = tuple[dict[int, Schema], dict[int, Channel]]  # schemas and channels by id
 
 
 @dataclass
@@ -112,6 +117,7 @@ class Damage:
     last_ns: int = 0
     why_stopped: str = ""
     kept_before: int = 0
+    restores: tuple[Schema | Channel, ...] = ()
 
     def lost(self) -> str:
         """What leaving it out loses: "the 20 messages its index lists (t = 0.123 .. 0.132 s)"."""
@@ -216,7 +222,7 @@ def _scan(data: Any, skip: bool = False) -> _Scan:
             found.metadata[-1] = (*found.metadata[-1][:2], crc)
         at = end
     if skip:
-        _stop_where_channels_are_missing(found, size)
+        _stop_where_channels_are_missing(found, size, _summary_definitions(data))
         if found.damage and not found.damage[-1].resumed:
             before = sum(sum(c.counts.values()) for c in found.chunks
                          if c.index.chunk_start_offset < found.damage[-1].start)
@@ -358,11 +364,12 @@ def _has_crc(data: Any, at: int) -> bool:
     return _CHUNK_HEAD.unpack_from(data, at + _PREFIX.size)[3] != 0
 
 
-def _stop_where_channels_are_missing(found: _Scan, size: int) -> None:
+def _stop_where_channels_are_missing(found: _Scan, size: int, summary: _Definitions) -> None:
     """A chunk after a damaged stretch whose messages use a channel not defined before it (or one
-    whose schema is not): the damaged chunk may have defined it, so reading stops at that stretch
-    instead (``found`` then holds the chunks before it, for what is said of it; a scan that skips is
-    not sealed)."""
+    whose schema is not): the damaged chunk may have defined it. When the file's intact ``summary``
+    defines it (and its schema), the last stretch before the chunk restores those records
+    (:attr:`Damage.restores`); otherwise reading stops at that stretch instead (``found`` then holds
+    the chunks before it, for what is said of it; a scan that skips is not sealed)."""
     known = {c.id for c in found.channels}
     schemas = {s.id for s in found.schemas} | {0}
     for entry in found.chunks:
@@ -370,14 +377,70 @@ def _stop_where_channels_are_missing(found: _Scan, size: int) -> None:
         known |= {c.id for c in entry.channels if c.schema_id in schemas}
         at = entry.index.chunk_start_offset
         before = [d for d in found.damage if d.start < at]
-        if not before or all(channel in known for channel in entry.counts):
+        missing = sorted(channel for channel in entry.counts if channel not in known)
+        if not before or not missing:
             continue  # (a channel missing before any damage is the file's own: the reader says what it makes of it)
-        stop = before[-1]
+        stretch = before[-1]
+        restored = _restored(missing, schemas, summary)
+        if restored is not None:
+            found.damage[found.damage.index(stretch)] = replace(stretch, restores=stretch.restores + restored)
+            schemas |= {r.id for r in restored if isinstance(r, Schema)}
+            known |= set(missing)
+            continue
         why = f"the chunk at byte {at} after it uses a channel not defined before it, which it may have defined"
-        found.damage[found.damage.index(stop):] = [replace(stop, end=size, resumed=False, why_stopped=why)]
-        found.chunks = [c for c in found.chunks if c.index.chunk_start_offset < stop.start]
+        found.damage[found.damage.index(stretch):] = [replace(stretch, end=size, resumed=False, why_stopped=why)]
+        found.chunks = [c for c in found.chunks if c.index.chunk_start_offset < stretch.start]
         found.data_complete = False
         return
+
+
+def _restored(channels: list[int], schemas: set[int], summary: _Definitions) -> tuple[Schema | Channel, ...] | None:
+    """The records defining the channels of ids ``channels`` (and their schemas not among the ids
+    ``schemas``, defined already), as the file's ``summary`` gives them; None when it lacks one."""
+    summary_schemas, summary_channels = summary
+    if not all(c in summary_channels for c in channels):
+        return None
+    wanted = [summary_channels[c] for c in channels]
+    needed = sorted({c.schema_id for c in wanted} - schemas)
+    if not all(s in summary_schemas for s in needed):
+        return None
+    return (*(summary_schemas[s] for s in needed), *wanted)
+
+
+def _summary_definitions(data: Any) -> _Definitions:
+    """The schemas and channels the summary of the MCAP bytes ``data`` defines, when the file ends in
+    a footer whose summary CRC is given and matches (the summary is as its writer wrote it, whatever
+    happened to the data before it); none when it does not, or a record of it cannot be read."""
+    none: _Definitions = ({}, {})
+    footer_at = len(data) - len(MCAP_MAGIC) - _FOOTER.size
+    if footer_at < len(MCAP_MAGIC) or bytes(data[footer_at + _FOOTER.size:]) != MCAP_MAGIC:
+        return none
+    op, length, summary_start, _, summary_crc = _FOOTER.unpack_from(data, footer_at)
+    if (op != Opcode.FOOTER or length != _FIXED_LENGTH[Opcode.FOOTER]
+            or not len(MCAP_MAGIC) < summary_start <= footer_at):
+        return none
+    if not summary_crc or zlib.crc32(data[summary_start:footer_at + _FOOTER.size - 4]) != summary_crc:
+        return none  # (a summary without a CRC cannot be told intact)
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    at = summary_start
+    try:
+        while at < footer_at:
+            op, length = _PREFIX.unpack_from(data, at)
+            end = at + _PREFIX.size + length
+            if end > footer_at:
+                return none
+            stream = ReadDataStream(BytesIO(data[at + _PREFIX.size:end]))
+            if op == Opcode.SCHEMA:
+                schema = Schema.read(stream)
+                schemas[schema.id] = schema
+            elif op == Opcode.CHANNEL:
+                channel = Channel.read(stream)
+                channels[channel.id] = channel
+            at = end
+    except Exception:  # a record that cannot be read, though its CRC matched: no definition is taken from it
+        return none
+    return schemas, channels
 
 
 def find_damage(path: str | Path) -> list[Damage]:
