@@ -43,12 +43,17 @@ CONSUMER = r"""
 import hashlib, json, os, sys, time
 from cosim.record.ring import RingConsumer
 
-fd, size, control, ack, delay, die_after = sys.argv[1:]
-delay, die_after = float(delay), int(die_after)
+fd, size, control, ack, delay, die_after, busy = sys.argv[1:]
+delay, die_after, busy = float(delay), int(die_after), busy == "busy"
 report = []
 for parts in RingConsumer(int(fd), int(size), int(control), int(ack)).batches():
     sums = [hashlib.sha256(p).hexdigest() for p in parts]
-    time.sleep(delay)  # a slow consumer: the producer must wait rather than overwrite these bytes
+    if busy:  # a consumer working on the batch all that time (CPU time used, nothing said)
+        end = time.monotonic() + delay
+        while time.monotonic() < end:
+            pass
+    else:
+        time.sleep(delay)  # a slow consumer: the producer must wait rather than overwrite these bytes
     report.append([[memoryview(p).nbytes, s, hashlib.sha256(p).hexdigest() == s] for p, s in zip(parts, sums)])
     if len(report) == die_after:
         os._exit(0)  # dies holding this batch, never acknowledged
@@ -63,15 +68,16 @@ def digest(batch: list) -> list:
 
 class Child:
     """A RingConsumer in a child process, connected to ``producer`` through two fresh pipes; it sleeps
-    ``delay`` seconds on each batch, and exits holding batch number ``die_after`` (0: never)."""
+    ``delay`` seconds on each batch (or, ``busy``, works that long), and exits holding batch number
+    ``die_after`` (0: never)."""
 
-    def __init__(self, producer: RingProducer, delay: float = 0.0, die_after: int = 0):
+    def __init__(self, producer: RingProducer, delay: float = 0.0, die_after: int = 0, busy: bool = False):
         control_r, control_w = os.pipe()
         ack_r, ack_w = os.pipe()
         self.producer = producer
         self.proc = subprocess.Popen(
             [sys.executable, "-P", "-c", CONSUMER, str(producer.fd), str(producer.size), str(control_r),
-             str(ack_w), str(delay), str(die_after)],
+             str(ack_w), str(delay), str(die_after), "busy" if busy else "idle"],
             pass_fds=(producer.fd, control_r, ack_w), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
             env={**os.environ, "PYTHONPATH": str(ROOT)})
         os.close(control_r)
@@ -563,7 +569,7 @@ def test_asked_to_stop_the_producer_stops_waiting_for_a_consumer_that_does_not_a
     local.producer.put([b"b" * 2000])
     put_c = in_thread(local.producer.put, [b"c" * 1000])
     put_c.join(0.5)
-    assert put_c.is_alive()  # no interrupt of its own: it waits for the consumer, however long
+    assert put_c.is_alive()  # no interrupt of its own: it waits for the consumer (up to SILENT_S)
     local.producer.interrupted()
     put_c.join(WATCHDOG_S)
     assert not put_c.is_alive() and isinstance(put_c.error, ring.RingStalled)
@@ -572,3 +578,75 @@ def test_asked_to_stop_the_producer_stops_waiting_for_a_consumer_that_does_not_a
     put_d = in_thread(local.producer.put, [b"d" * 1000])
     put_d.join(WATCHDOG_S)
     assert not put_d.is_alive() and isinstance(put_d.error, ring.RingStalled)
+
+
+# --- a consumer that is there but gets nowhere ------------------------------------------------------------
+
+
+def fill_the_ring(producer: RingProducer) -> Worker:
+    """Two batches that fill the ring, then a put that must wait for the consumer (in a thread)."""
+    producer.put([b"a" * 2000])
+    producer.put([b"b" * 2000])
+    return in_thread(producer.put, [b"c" * 1000])
+
+
+def test_a_consumer_that_makes_no_progress_is_given_up_on_unasked(local, monkeypatch):
+    """With the ring full and the consumer silent (alive, but reading nothing; here its process is
+    not known, so only an answer is progress), a put gives up once there has been no progress for
+    SILENT_S, though nobody asked the producer to stop: RingStuck, saying so. (It waited for ever:
+    a writer stopped, or stuck, held `cosim run` without a word.)"""
+    import cosim.record.ring as ring
+
+    monkeypatch.setattr(ring, "SILENT_S", 0.3)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    put_c = fill_the_ring(local.producer)
+    put_c.join(WATCHDOG_S)
+    assert not put_c.is_alive() and isinstance(put_c.error, ring.RingStuck)
+    assert str(put_c.error) == "it has not answered for 0.3 s"
+
+
+def test_a_consumer_whose_process_is_stopped_is_given_up_on(child, monkeypatch):
+    """The consumer's process stopped (SIGSTOP) with the ring full: once found stopped for STOPPED_S
+    the put gives up (RingStuck, saying so), however long SILENT_S is."""
+    import signal
+
+    import cosim.record.ring as ring
+
+    monkeypatch.setattr(ring, "SILENT_S", WATCHDOG_S * 10)  # only the stopped process can end the wait
+    monkeypatch.setattr(ring, "STOPPED_S", 0.3)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    producer = RingProducer(RING)
+    consumer = child(producer)
+    producer.consumer_pid = consumer.proc.pid
+    os.kill(consumer.proc.pid, signal.SIGSTOP)  # before it can read anything: the third put must wait
+    try:
+        put_c = fill_the_ring(producer)
+        put_c.join(WATCHDOG_S)
+    finally:
+        os.kill(consumer.proc.pid, signal.SIGCONT)
+    assert not put_c.is_alive() and isinstance(put_c.error, ring.RingStuck)
+    assert str(put_c.error) == "its process has been stopped for 0.3 s"
+
+
+@pytest.mark.parametrize("busy", [False, True], ids=["answering-slowly", "working-without-a-word"])
+def test_a_slow_consumer_is_waited_for_however_long_it_takes(child, monkeypatch, busy):
+    """No progress, not time, ends a wait: a consumer answering every 50 ms keeps the producer
+    waiting for it well past SILENT_S in all; one that works on a batch for longer than SILENT_S
+    without a word uses CPU time all along, which counts as progress (its process known). Every
+    batch arrives."""
+    import cosim.record.ring as ring
+
+    silent_s = 0.5
+    monkeypatch.setattr(ring, "SILENT_S", silent_s)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    producer = RingProducer(RING)
+    if busy:  # one batch worked on for three times SILENT_S, the ring full behind it
+        consumer = child(producer, delay=3 * silent_s, busy=True)
+        batches = [[b"a" * 3000], [b"b" * 3000]]
+    else:  # forty batches, each waited for, three times SILENT_S in all
+        consumer = child(producer, delay=3 * silent_s / 40)
+        batches = [[bytes([i]) * 3000] for i in range(40)]
+    producer.consumer_pid = consumer.proc.pid
+    for batch in batches:
+        producer.put(batch)
+    assert consumer.finish() == [digest(batch) for batch in batches]

@@ -47,7 +47,7 @@ from cosim.errors import RecordingError
 from cosim.messages import Message, message
 from cosim.record.derive import DerivedMessage
 from cosim.record.output import METADATA_NAME, check_output
-from cosim.record.writer import open_sink
+from cosim.record.writer import NO_ROOM, SinkError, open_sink
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
 
@@ -123,6 +123,7 @@ class Recorder(BaseObserver):
 
         self.path = check_output(path, (scene.source, *inputs))
         self.scene = scene
+        self.start_ns = start_ns
         self.perf = perf
         self.derivers = list(derivers or [])
         self.patterns = scene.record.channels
@@ -138,8 +139,12 @@ class Recorder(BaseObserver):
                                        if getattr(d, "writer_recipe", None) is not None))
         try:
             self.sink = open_sink(self.path, background, preloads)
-        except OSError as exc:  # an output path that cannot be written is bad input, said plainly
-            raise RecordingError(f"{self.path}: cannot write the recording ({exc.strerror or exc})") from None
+        except OSError as exc:  # an output path that cannot be written is bad input, said plainly...
+            reason = exc.strerror or str(exc)
+            if exc.errno in NO_ROOM:  # ...but no room for even an empty file (its inodes used up) is a full disk
+                raise SinkError(f"{self.path}: the recording could not be written: {reason}; no file was left") \
+                    from None
+            raise RecordingError(f"{self.path}: cannot write the recording ({reason})") from None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._routes: dict[tuple[str, str], list] = {}
@@ -150,6 +155,7 @@ class Recorder(BaseObserver):
         self._steps0 = 0  # its component steps when it started
         self._finished = False  # the final status has been written
         self.sink.epitaph = self.epitaph
+        self.sink.start_ns = start_ns  # a recording cut short before its first message ends where the run began
         self._mark = self.sink.mark
         self._perf_wall = time.perf_counter()
         self._perf_tick = 0
@@ -320,7 +326,8 @@ class Recorder(BaseObserver):
             reason = f"{fate} at t = {tick * dt_ns / 1e9:g} s; the recording holds all the run had recorded"
         else:
             slowest = max((c.every for c in self.scene.components.values()), default=1)
-            tick, steps = max(0, end_ns // dt_ns - slowest), 0
+            # (never before a restart's own start: the state it began from is whole there)
+            tick, steps = max(self.start_ns // dt_ns, end_ns // dt_ns - slowest), 0
             reason = (f"{fate}; the recording was {kept} t = {end_ns / 1e9:g} s, and what the run "
                       f"recorded after that was lost")
         codec = codec_for(RunStatus)  # JSON, as write_message has it: a status has text fields

@@ -31,6 +31,13 @@ the shared memory holds a small control block (:data:`CONTROL_BYTES`):
   it had done before it (a recording's writer: messages written). The producer keeps the batches
   that are still whole in the ring (:meth:`RingProducer.held`): with the tallies it can tell which of
   them hold what a consumer that died had not yet made durable.
+
+A consumer that is alive but gets nowhere (its process stopped, or stuck) would hold a producer
+waiting for room, or for its last word, for ever: a wait gives up (:class:`RingStuck`) once the
+consumer has made no progress at all for :data:`SILENT_S` (no answer, and, where the producer knows
+its process, no CPU time used), or its process has been found stopped for :data:`STOPPED_S`. A
+merely slow consumer answers, or at least uses CPU time, now and then, and is waited for however
+long it takes.
 """
 
 from __future__ import annotations
@@ -69,8 +76,69 @@ class RingStalled(RingError):
     (:meth:`RingProducer.interrupted`): it may still be there (stopped, or stuck on a file system)."""
 
 
+class RingStuck(RingError):
+    """The consumer makes no progress while the producer waits for it, though nobody asked the
+    producer to stop: its process found stopped, or neither an answer from it nor CPU time used by it
+    for a long while (see :class:`_Progress`). The message says which."""
+
+
 WAIT_SLICE_S = 0.25  # a wait for the consumer looks at the clock this often
 STALL_S = 10.0  # asked to stop once, the producer waits at most this long for the consumer's next word
+# unasked, a wait gives up on a consumer that has made no progress at all for this long: no answer,
+# and no CPU time used (a slow consumer on a busy machine, a large batch, a file being finished all
+# use some, however slowly they go)
+SILENT_S = 60.0
+# ... or whose process has been found stopped (SIGSTOP, a debugger's stop) for this long: it goes
+# nowhere until someone continues it
+STOPPED_S = 10.0
+_STOPPED_STATES = ("T", "t")  # /proc/PID/stat: stopped by a signal, stopped by a debugger
+
+
+def _process_state(pid: int) -> tuple[str, int] | None:
+    """(state letter, CPU time used [clock ticks], all its threads') of process ``pid`` from
+    ``/proc/PID/stat``; None where there is no such file (another system, the process gone)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            fields = f.read().rsplit(b")", 1)[1].split()  # after the command name, which may hold anything
+        return fields[0].decode(), int(fields[11]) + int(fields[12])  # fields 3, 14 (utime) and 15 (stime)
+    except (OSError, ValueError, IndexError, UnicodeDecodeError):
+        return None
+
+
+class _Progress:
+    """Whether a consumer the producer waits for (without an answer so far) is getting anywhere.
+
+    Its process using CPU time counts as progress; where its process is not known (``pid`` None, or
+    no ``/proc``) only an answer does, which ends the wait. :meth:`stuck` says why the wait should
+    give up: no progress for :data:`SILENT_S`, or the process found stopped for :data:`STOPPED_S`
+    (the constants are read when asked, so that tests can shorten them)."""
+
+    def __init__(self, pid: int | None):
+        self.pid = pid
+        self.progress_at = time.monotonic()  # the wait's start, then the last time CPU time was seen used
+        self.cpu: int | None = None  # CPU time used when last looked at
+        self.stopped_at: float | None = None  # when the process was first found stopped, in a row
+
+    def stuck(self) -> str | None:
+        """Why the consumer is to be given up on, or None while it may still be getting somewhere."""
+        now = time.monotonic()
+        found = _process_state(self.pid) if self.pid is not None else None
+        if found is not None:
+            state, cpu = found
+            if self.cpu is not None and cpu != self.cpu:
+                self.progress_at = now
+            self.cpu = cpu
+            if state not in _STOPPED_STATES:
+                self.stopped_at = None
+            elif self.stopped_at is None:
+                self.stopped_at = now
+            elif now - self.stopped_at >= STOPPED_S:
+                return f"its process has been stopped for {STOPPED_S:g} s"
+        if now - self.progress_at >= SILENT_S:
+            if found is None:
+                return f"it has not answered for {SILENT_S:g} s"
+            return f"it has neither answered nor used any CPU time for {SILENT_S:g} s"
+        return None
 
 
 def shared_memory_fd(size: int) -> int:
@@ -142,6 +210,9 @@ class RingProducer:
         self.finished = False  # the consumer said FINISHED
         self.interrupts = 0  # how often the producer was asked to stop (interrupted())
         self._heard_at = 0.0  # time.monotonic() of the consumer's last word, or of the first interrupt
+        # the consumer's process, when known (set by whoever started it): a wait watches whether it
+        # gets anywhere (_Progress)
+        self.consumer_pid: int | None = None
 
     def interrupted(self) -> None:
         """The producer's process was asked to stop (a Ctrl-C, a SIGTERM; safe from a signal handler):
@@ -267,12 +338,27 @@ class RingProducer:
                 found[number] = count
         return found
 
+    @property
+    def sent(self) -> int:
+        """Batches sent so far (the next one's number)."""
+        return self._sent
+
+    def _wait_for_answer(self) -> None:
+        """Wait until the consumer has something to say on the acknowledgement pipe (or has closed
+        it): :class:`RingStalled` when asked to stop and it stays silent (:meth:`interrupted`),
+        :class:`RingStuck` when it makes no progress at all (:class:`_Progress`)."""
+        since = time.monotonic()
+        progress = _Progress(self.consumer_pid)
+        while not select.select([self.ack_fd], [], [], WAIT_SLICE_S)[0]:
+            if self._stalled(since):
+                raise RingStalled("the consumer has not answered")
+            stuck = progress.stuck()
+            if stuck is not None:
+                raise RingStuck(stuck)
+
     def _read_acks(self, wait: bool) -> None:
         if wait:
-            since = time.monotonic()
-            while not select.select([self.ack_fd], [], [], WAIT_SLICE_S)[0]:
-                if self._stalled(since):
-                    raise RingStalled("the consumer has not answered")
+            self._wait_for_answer()
         try:
             data = os.read(self.ack_fd, 1 << 16)
         except BlockingIOError:
@@ -300,7 +386,7 @@ class RingProducer:
             _write_all(self.control_fd, _HEAD.pack(END, 0))
             while not self.finished:
                 self._read_acks(wait=True)
-        except RingStalled:
+        except (RingStalled, RingStuck):  # the consumer is there, but not answering: the caller decides
             raise
         except (RingError, OSError):
             return False
@@ -314,9 +400,10 @@ class RingProducer:
     def hang_up(self, wait: bool = True) -> bool:
         """Close the control pipe (the consumer then finishes) and read the consumer's last
         acknowledgements until it closes its end (so it never waits on a full pipe), or, asked to stop
-        (:meth:`interrupted`), until it has not answered for :data:`STALL_S`. True when its last word
-        was :data:`FINISHED`. Without ``wait`` (a consumer given up on), nothing is read, and the mark
-        stays for the consumer to read the records it covers (:meth:`RingConsumer.unsent`)."""
+        (:meth:`interrupted`), until it has not answered for :data:`STALL_S`, or until it makes no
+        progress at all (:class:`RingStuck`). True when its last word was :data:`FINISHED`. Without
+        ``wait`` (a consumer given up on), nothing is read, and the mark stays for the consumer to
+        read the records it covers (:meth:`RingConsumer.unsent`)."""
         if self.fd >= 0 and wait:  # hanging up on purpose: nothing is left unsent
             self.marked[1] = 0
         if self.control_fd >= 0:

@@ -62,7 +62,7 @@ from cosim.record.derive import (
     use_site_dirs,
 )
 from cosim.record.output import Claim, claim, finish, sibling_stem
-from cosim.record.ring import STALL_S, RingConsumer, RingError, RingProducer, RingStalled
+from cosim.record.ring import STALL_S, RingConsumer, RingError, RingProducer, RingStalled, RingStuck
 
 BATCH = 4096  # a batch is sent at this many records...
 # ...or this many bytes: each batch wakes the writer process, which on a shared core can preempt the
@@ -139,8 +139,38 @@ def _say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
 
+# the writer's line on a finished recording it could not put at its target (its folder gone and
+# replaced by a file): TAG, where it put the recording instead, tab, why
+RESCUED_TAG = "cosim-rescued\t"
+
+
+def _rescued(text: str) -> tuple[str, str] | None:
+    """(where, why) of a recording the writer rescued elsewhere than its target, from its error
+    output ``text`` (:data:`RESCUED_TAG`); None when it did not."""
+    for line in text.splitlines():
+        if line.startswith(RESCUED_TAG):
+            where, _, why = line[len(RESCUED_TAG):].partition("\t")
+            return where, why
+    return None
+
+
+def _rescued_line(path: Path, where: str, why: str) -> str:
+    """The run's error line for a finished recording of ``path`` rescued into ``where``."""
+    return (f"{path}: the finished recording could not be put there ({why}; its folder was removed or replaced "
+            f"during the run); the whole recording was rescued into {where}")
+
+
+def _warn_whole(line: str) -> None:
+    """Say that the recording is whole though its writer failed as it finished it (``line``): a
+    warning, as the run stands; under an "error" warnings filter, the run's error."""
+    try:
+        warnings.warn(line, RuntimeWarning, stacklevel=3)
+    except Warning:
+        raise SinkError(line) from None
+
+
 # writes that fail for want of room: a rebuilt copy of the recording would need as much again
-_NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 class _File(io.FileIO):
@@ -186,7 +216,10 @@ class _Refusals(logging.Filter):
 class _Apply:
     """Applies records to an MCAP writer over ``part``, then finishes the file and renames it."""
 
-    def __init__(self, part: str, final: str):
+    def __init__(self, part: str, final: str, fd: int | None = None):
+        """``fd``: a descriptor of the private file ``part`` to write it through (closed with it),
+        when the file was handed over open: its name may be gone by the time it would be opened (its
+        folder removed early in the run)."""
         import foxglove  # the SDK's compiled MCAP writer: several times faster than a pure-Python one
         from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
@@ -198,7 +231,7 @@ class _Apply:
         # written again waits for its blocks to be allocated (the file system's guard for programs
         # that rewrite a file in place): about 40 ms for the reference skip's 40 MB, which the
         # simulating process would wait for at the end of every recorded run.
-        self.file = _File(part, "r+")  # closed in finish() or abandon()
+        self.file = _File(part if fd is None else fd, "r+")  # closed in finish() or abandon()
         self.refusals = _Refusals(self.file)  # the messages the SDK's writer could not write (it only logs them)
         logging.getLogger(_SDK_LOGGER).addFilter(self.refusals)  # taken off in finish() or abandon()
         try:
@@ -217,6 +250,8 @@ class _Apply:
         self.renderers: dict[int, Renderer] = {}  # channel id -> the writer of its messages' text
         self.derivation: Derivation | None = None  # the viewer channels made here, once asked for
         self.derived: dict[int, list] = {}  # channel id -> the ports derived from its messages (the derivation's)
+        # (where, why) when the finished file could not be put at its target and was rescued elsewhere
+        self.rescued: tuple[str, str] | None = None
 
     def apply_batch(self, batch: memoryview) -> int:
         """Write every record of a batch (see :mod:`cosim.codec.records`), and the channels derived
@@ -296,7 +331,8 @@ class _Apply:
     def finish(self) -> None:
         """Finish the file and move it onto its target; the system's own error (``[Errno N] ...``)
         when it refused a write. A private file whose folder was removed while it was written lives
-        on through this process's descriptor: it is copied into the folder, made again."""
+        on through this process's descriptor: it is copied into the folder, made again, or, where
+        that cannot be, elsewhere (:meth:`_rescue`; :attr:`rescued` then says where and why)."""
         try:
             self.writer.close()
             self.file.truncate()  # the recording ends where the writer stopped (nothing stale after it)
@@ -314,23 +350,66 @@ class _Apply:
     def _rescue(self) -> None:
         """The finished file, its private name gone (the file or its folder removed during the run),
         copied from this process's descriptor to its final name, the folder made again if it went;
-        said as a warning."""
-        import shutil
-
+        said as a warning. Where the folder cannot be made again (a file stands where it or a folder
+        above it was), the recording is copied into the working folder, else the system's temporary
+        folder, as ``NAME.rescued.mcap`` (:meth:`_rescue_elsewhere`), and :attr:`rescued` says
+        where and why."""
         folder = os.path.dirname(self.final)
-        os.makedirs(folder or ".", exist_ok=True)
         tmp = os.path.join(folder, "." + sibling_stem(os.path.basename(self.final), 12) + ".rescue.tmp")
         try:
-            self.file.seek(0)
-            with open(tmp, "wb") as out:
-                shutil.copyfileobj(self.file, out, 1 << 20)
+            os.makedirs(folder or ".", exist_ok=True)
+            self._copy_to(tmp, os.O_TRUNC)
             os.replace(tmp, self.final)
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            self.rescued = (self._rescue_elsewhere(exc), exc.strerror or str(exc))
+            return
         except BaseException:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
             raise
         warnings.warn(f"{self.final}: its private file was removed while the run was recorded (with its folder?); "
                       "the whole recording was written there all the same", RuntimeWarning, stacklevel=2)
+
+    def _rescue_elsewhere(self, refused: OSError) -> str:
+        """Copy the finished file into the first folder that takes it, the working one, then the
+        system's temporary one, under a name saying what it is (``NAME.rescued.mcap``, or with a
+        random part should that be taken); where it now is. ``refused``, the error that kept it from
+        its target, is raised when no folder takes it."""
+        import secrets
+        import tempfile
+
+        stem = os.path.basename(self.final)
+        stem = sibling_stem(stem[:-len(".mcap")] if stem.endswith(".mcap") else stem, len(".rescued-1a2b3c4d.mcap"))
+        folders = list(dict.fromkeys(os.path.abspath(f) for f in (os.getcwd(), tempfile.gettempdir())))
+        for folder in folders:
+            for name in (f"{stem}.rescued.mcap", f"{stem}.rescued-{secrets.token_hex(4)}.mcap"):
+                where = os.path.join(folder, name)
+                try:
+                    self._copy_to(where, os.O_EXCL)
+                except FileExistsError:
+                    continue  # never over another file: the next name
+                except OSError:
+                    break  # this folder takes nothing (full, read-only): the next folder
+                return where
+        raise refused
+
+    def _copy_to(self, path: str, mode: int) -> None:
+        """Copy the finished file, from this process's descriptor, into a file ``path`` created with
+        the open flag ``mode`` (``os.O_TRUNC``, or ``os.O_EXCL``: only a new file); a copy that fails
+        part-way is removed."""
+        import shutil
+
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_CLOEXEC | mode, 0o666)
+        try:
+            with open(fd, "wb") as out:
+                self.file.seek(0)
+                shutil.copyfileobj(self.file, out, 1 << 20)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+            raise
 
     def abandon(self) -> None:
         """Close the writer and the file, whatever state they are in (the file is dropped anyway)."""
@@ -410,7 +489,7 @@ def writer_main(argv: list[str]) -> int:
         if handed is None:
             return 0
         part, final, lock_fd = handed
-        sink = _Apply(part, final)
+        sink = _Apply(part, final, os.dup(lock_fd))  # (the lock stays on the file until both are closed)
         written = 0
         try:
             for (batch,) in ring.batches():
@@ -449,6 +528,9 @@ def writer_main(argv: list[str]) -> int:
         except Exception as exc:  # e.g. the disk filled up: one line for the simulating process to show
             _say(f"cannot finish the file: {exc}")
             return _refused_exit(exc)
+        if sink.rescued is not None:  # finished, but not at its target: the simulating process says where
+            where, why = sink.rescued
+            _say(f"{RESCUED_TAG}{where}\t{why}")
         if not ring.ended:
             ring.finish()  # the file is complete under its final name: the simulating process need not wait
             return 0
@@ -540,6 +622,9 @@ class _Sink:
         # (log time [ns], a message with the attributes of a cosim.record.recorder.DerivedMessage), or
         # None to add nothing
         self.epitaph: Callable[..., tuple[int, Any] | None] | None = None
+        # the time [ns] a restart begins at (the recorder's start_ns; 0 for a run from the start): a
+        # recording cut short before its first message still stands there, not at t = 0
+        self.start_ns = 0
 
     def _send(self, batch: memoryview) -> None:
         raise NotImplementedError
@@ -620,6 +705,9 @@ class InProcessSink(_Sink):
             self.claim.release(remove=True)
             raise SinkError(f"{self.path}: the recording could not be written ({exc}); no file was left") from None
         self.claim.release(remove=False)
+        if self._apply.rescued is not None:
+            where, why = self._apply.rescued
+            raise SinkError(_rescued_line(self.path, where, why))
 
     def discard(self) -> None:
         """Close and remove the private file (the target keeps what it held)."""
@@ -691,6 +779,7 @@ class _Writer:
             os.close(ack_w)
             theirs.close()
         self.ring.connect(control_w, ack_r)
+        self.ring.consumer_pid = self.proc.pid  # a wait for it watches whether it gets anywhere
         self.placement = WriterPlacement(self.proc.pid)
 
     def hand_over(self, part: Path, final: Path, lock_fd: int) -> bool:
@@ -821,6 +910,7 @@ class ProcessSink(_Sink):
         self.path = path
         self._failed: str | None = None  # the line saying how the writer failed, once it has
         self._abandoned = False  # the writer was given up on (_abandon): it keeps the private file
+        self._whole = False  # the writer failed, but its file holds the whole run (_seal): the run stands
         # a path that cannot be written fails at once, in this process (the private file is created
         # here, empty, and locked; the writer opens it by name and holds the lock too)
         self.claim = claim(path)
@@ -855,6 +945,8 @@ class ProcessSink(_Sink):
             return self._ring.reserve(n)
         except RingStalled:  # asked to stop, and the writer does not answer
             raise SinkError(self._abandon()) from None
+        except RingStuck as exc:  # the writer is there, but gets nowhere (stopped, or stuck)
+            raise SinkError(self._failure(unresponsive=str(exc))) from None
         except (RingError, OSError):  # the writer has gone while this process waited for room
             raise SinkError(self._failure()) from None
 
@@ -867,6 +959,8 @@ class ProcessSink(_Sink):
                 self._ring.put([batch])
         except RingStalled:
             raise SinkError(self._abandon()) from None
+        except RingStuck as exc:
+            raise SinkError(self._failure(unresponsive=str(exc))) from None
         except (RingError, OSError):
             raise SinkError(self._failure()) from None
 
@@ -894,16 +988,21 @@ class ProcessSink(_Sink):
     def mark(self) -> None:
         self._marked[1] = self.stage.offset  # RingProducer.mark, inlined: the recorder calls it every step
 
-    def _failure(self) -> str:
+    def _failure(self, unresponsive: str | None = None) -> str:
         """What went wrong with the writer, in one line (the same line when asked again). A writer that
         died (killed, or failing otherwise than in writing the file) has its recording salvaged
         (:meth:`_salvage`); when writing failed (the disk full) the file is closed where it was cut
-        (:meth:`_seal`). Called while the ring is still open: the salvage reads it."""
+        (:meth:`_seal`). ``unresponsive``: why the writer, still there, is given up on (stopped, or
+        stuck: :class:`cosim.record.ring.RingStuck`); it is killed first, and its recording salvaged
+        as a killed writer's is. Called while the ring is still open: the salvage reads it."""
         import subprocess
 
         if self._failed is not None:
             return self._failed
         proc = self._writer.proc
+        if unresponsive is not None:  # (SIGKILL ends a stopped process too)
+            with contextlib.suppress(OSError):
+                proc.kill()
         try:
             code = proc.wait(5)
         except subprocess.TimeoutExpired:
@@ -919,11 +1018,7 @@ class ProcessSink(_Sink):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             if code < 0:
-                try:
-                    name = signal.Signals(-code).name
-                except ValueError:
-                    name = f"signal {-code}"
-                self._failed = self._salvage(f"the recording writer was killed ({name})")
+                self._failed = self._salvage(self._killed(code, unresponsive))
             elif refused is None and not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
                 self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
             else:
@@ -931,6 +1026,18 @@ class ProcessSink(_Sink):
         given = relayed_warnings(text) + [(w.category, str(w.message)) for w in caught]
         _give(list(dict.fromkeys(given)), failing=True)
         return self._failed
+
+    def _killed(self, code: int, unresponsive: str | None) -> str:
+        """How the writer, ended by the signal ``-code``, came to its end: killed here, for
+        ``unresponsive`` reasons, or by someone else."""
+        if unresponsive is not None:
+            return (f"the recording writer (process {self._writer.proc.pid}) stopped responding ({unresponsive}), "
+                    "so it was killed")
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = f"signal {-code}"
+        return f"the recording writer was killed ({name})"
 
     def _seal(self, reason: str, fate: str | None = None) -> str:
         """The file system refused the writer's writes (the disk full, a file-size limit): close the
@@ -941,9 +1048,10 @@ class ProcessSink(_Sink):
         from cosim.record.seal import seal
 
         fate = fate or f"writing the recording failed ({reason})"
-        cut = []  # asked for an ending: the data section was cut short (else only the move onto the target failed)
+        cut = []  # asked for an ending: the data section was cut short (else only its end, or the move, failed)
 
         def ending(end_ns: int) -> tuple[int, Any] | None:
+            end_ns = max(end_ns, self.start_ns)  # a restart that kept nothing stopped where it began, not at t = 0
             cut.append(end_ns)
             return self.epitaph(fate, end_ns, False, "closed where it stopped, at") if self.epitaph is not None \
                 else None
@@ -962,15 +1070,23 @@ class ProcessSink(_Sink):
         except OSError as exc:  # the target cannot be replaced (a folder made there): the recording is kept
             where = f"; it could not be moved there ({exc.strerror or exc}) and is kept as {self._keep()}"
         self.claim.release(remove=False)
-        if not cut:  # the data section was whole: only the move onto the target failed, nothing was lost
-            return (f"{self.path}: the recording is whole ({kept.messages} messages, to t = {kept.end_ns / 1e9:g} s)"
-                    f"{where or f', after {reason}'}")
+        if not cut:  # the data section was whole: only its summary, or the move onto the target, failed
+            whole = f"the recording is whole ({kept.messages} messages, to t = {kept.end_ns / 1e9:g} s)"
+            if where:
+                return f"{self.path}: {whole}{where}"
+            if self._took_everything():  # nothing was lost: the run's recording stands, said in a warning
+                self._whole = True
+                return (f"{self.path}: {whole}; its summary, cut short ({reason}) as the writer finished the file, was "
+                        "written again without the summary offsets (readers do not need them)")
+            return f"{self.path}: {whole}, after {reason}"
         gave_way = "chunk" if kept.chunks_dropped == 1 else f"{kept.chunks_dropped} chunks"
         dropped = f"; its last {gave_way} gave way to its end" if kept.chunks_dropped else ""
+        end_ns = max(kept.end_ns, self.start_ns)  # (a restart that kept nothing: where it began)
+        first = ("none of the run's messages" if not kept.messages else "the run's first message" if kept.messages == 1
+                 else f"the run's first {kept.messages} messages")
         # the run's own messages: the file holds its status record (and viewer items) beside them
-        return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {kept.end_ns / 1e9:g} s "
-                f"(the run's first {kept.messages} messages{dropped}), and what the run recorded after that was "
-                f"lost{where}")
+        return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {end_ns / 1e9:g} s "
+                f"({first}{dropped}), and what the run recorded after that was lost{where}")
 
     def _keep(self) -> Path:
         """Give the private file that could not be moved onto the target a recording's name beside it
@@ -997,6 +1113,7 @@ class ProcessSink(_Sink):
             new = claim(path, replacing=old)
             out = _Apply(str(new.part), str(path))
             kept = rebuild(out, old.part, self.directory, self._ring.held(), self._ring.tallies())
+            kept.end_ns = max(kept.end_ns, self.start_ns)  # a restart that kept nothing: where it began
             ending = self.epitaph(fate, kept.end_ns, kept.complete) if self.epitaph is not None else None
             if ending is not None:
                 self._end_with(out, kept.channels, *ending)
@@ -1006,7 +1123,7 @@ class ProcessSink(_Sink):
                 out.abandon()
             if new is not None:
                 new.release(remove=True)
-            if isinstance(exc, OSError) and exc.errno in _NO_ROOM and old.part.exists():
+            if isinstance(exc, OSError) and exc.errno in NO_ROOM and old.part.exists():
                 # no room for a second copy (the disk full, a file-size limit): the writer's own file
                 # is closed in place where it stopped instead, keeping what it had written
                 reason = os.strerror(exc.errno)
@@ -1053,6 +1170,8 @@ class ProcessSink(_Sink):
         if self._abandoned:
             raise SinkError(self._failed or "")
         finished = cut_short = False
+        relayed: list[tuple[type[Warning], str]] = []
+        rescued: tuple[str, str] | None = None
         try:
             try:
                 self.flush()
@@ -1063,10 +1182,16 @@ class ProcessSink(_Sink):
                     finished = self._failed is None and self._ring.end_stream()
                 except RingStalled:
                     raise SinkError(self._abandon()) from None
-            # (a writer killed after moving the finished file into place, before it could say so, finished it)
-            if self._failed is not None or (not finished and self.claim.part.exists()):
-                raise SinkError(self._failure())  # the ring is still open here: the salvage reads it
-            relayed = relayed_warnings(self._writer.new_errors())
+                except RingStuck as exc:
+                    raise SinkError(self._failure(unresponsive=str(exc))) from None
+            if self._failed is not None or (not finished and not self._finished_unsaid()):
+                line = self._failure()  # the ring is still open here: the salvage reads it
+                if not self._whole:
+                    raise SinkError(line)
+                _warn_whole(line)
+            else:
+                said = self._writer.new_errors()
+                relayed, rescued = relayed_warnings(said), _rescued(said)
         except BaseException as exc:
             if finished:  # the file is whole, but closing was interrupted (Ctrl-C): the writer is let go
                 self._writer.close()
@@ -1084,6 +1209,27 @@ class ProcessSink(_Sink):
         if finished:
             _keep(self._writer)
         _give(relayed)
+        if rescued is not None:
+            raise SinkError(_rescued_line(self.path, *rescued))
+
+    def _finished_unsaid(self) -> bool:
+        """Whether a writer that ended without saying it had finished the file had finished it all the
+        same (killed after moving it onto the target, before it could say so): its private file gone,
+        the target there, and no failure in its exit status. (A writer that failed with its private
+        file gone, its folder removed, is not taken for one that finished.)"""
+        import subprocess
+
+        if self.claim.part.exists() or not self.path.exists():
+            return False
+        try:
+            return self._writer.proc.wait(5) <= 0
+        except subprocess.TimeoutExpired:
+            return False
+
+    def _took_everything(self) -> bool:
+        """Whether the writer had written every batch this recording sent (it tallies in the ring after
+        each, :meth:`cosim.record.ring.RingConsumer.tally`): its file then holds the whole run."""
+        return self._ring.sent in self._ring.tallies()
 
     def discard(self) -> None:
         """Stop the writer and remove the private file (the target keeps what it held; a recording
