@@ -85,11 +85,15 @@ _time_since_start = number_arg(float, "seconds", at_least=0, unit=" s")
 def _seconds_arg(text: str) -> int:
     """A time [s] >= 0 as integer nanoseconds, at most the longest time a recording holds."""
     from cosim.scenario import MAX_TIME_NS
+    from cosim.timebase import seconds_to_ns
 
     seconds = _time_since_start(text)
     if seconds * NS_PER_S > MAX_TIME_NS:
         raise argparse.ArgumentTypeError(f"must be at most {MAX_TIME_NS / NS_PER_S:.3g} s, got {text}")
-    return round(seconds * NS_PER_S)
+    try:  # refused as a scene's times are, not rounded: 1.5 ns ran as 2 ns and was said to be 2e-09 s
+        return seconds_to_ns(seconds)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number of nanoseconds, got {text} s") from None
 
 
 def run_until_ns(text: str) -> int:
@@ -286,7 +290,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         check_channel_patterns(scene)
     from cosim.runner import counted
 
-    print(f"{args.scene}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
+    print(f"{one_line(args.scene)}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
           f"{counted(len(scene.connections), 'connection')}, dt = {scene.dt:g} s, "
           f"until = {scene.until_ns / NS_PER_S:g} s")
     print(f"  order within a tick: {' -> '.join(scene.order)}")

@@ -570,3 +570,29 @@ def test_a_recording_whose_name_holds_a_newline_is_named_on_one_line(scene, tmp_
     said = [line for line in capsys.readouterr().out.splitlines() if "recording:" in line]
     assert len(said) == 1 and "new\\nline.mcap (" in said[0], said
     assert Recording(out).status().status == "ok"
+
+
+@pytest.mark.parametrize("below", ["x.mcap", "deeper/x.mcap"])
+def test_an_output_under_a_file_names_the_file(scene, tmp_path, capsys, below):
+    """-o a_file/x.mcap: the file standing where a folder should be is named (it said "cannot create
+    its folder (File exists)", naming neither)."""
+    (tmp_path / "a_file").write_text("x")
+    assert main(["run", str(scene), "-o", str(tmp_path / "a_file" / below), "-q"]) == 2
+    assert one_error_line(capsys.readouterr().err).endswith(
+        f"cannot create its folder: {tmp_path / 'a_file'} is a file, not a folder")
+
+
+def test_until_in_parts_of_a_nanosecond_is_refused_not_rounded(scene, capsys):
+    """--until 1.5 ns ran to 2 ns and was said to be 2e-09 s: refused as a scene's times are."""
+    with pytest.raises(SystemExit) as exc:
+        main(["run", str(scene), "--until", "0.0000000015", "--no-record"])
+    assert exc.value.code == 2
+    assert one_error_line(capsys.readouterr().err).endswith(
+        "--until: must be a whole number of nanoseconds, got 0.0000000015 s")
+
+
+def test_validate_names_a_scene_whose_name_holds_a_newline_on_one_line(tmp_path, capsys):
+    path = tmp_path / "new\nline.yaml"
+    path.write_text(DEMO_SCENE)
+    assert main(["validate", str(path)]) == 0
+    assert capsys.readouterr().out.splitlines()[0].startswith(f"{tmp_path!s}/new\\nline.yaml: ok - ")

@@ -133,6 +133,11 @@ class Recorder(BaseObserver):
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
+            # a file where a folder of the path should be is named (it said "File exists", naming neither)
+            blocking = next((f for f in self.path.parents if f.exists()), None)
+            if blocking is not None and not blocking.is_dir():
+                raise RecordingError(f"{self.path}: cannot create its folder: {blocking} is a file, not a "
+                                     "folder") from None
             raise RecordingError(f"{self.path}: cannot create its folder ({exc.strerror or exc})") from None
         # the modules a writer process imports as it starts, for the viewer channels it will derive
         preloads = tuple(dict.fromkeys(d.writer_recipe[0] for d in self.derivers
