@@ -22,7 +22,6 @@ from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
-from mcap.writer import Writer
 from PIL import Image
 
 from cosim.cli import main
@@ -32,6 +31,7 @@ from cosim.record.repair import repair
 from cosim.runner import run_scene
 from cosim.scenario import loads
 from tests.cli_toys import one_error_line
+from tests.recording_copies import copy_recording
 from tests.test_reliability_output import PAINT
 from tests.viewer_toys import record_skip
 
@@ -210,22 +210,7 @@ def test_a_file_cut_short_without_damage_says_nothing_more(paint, tmp_path, recw
 
 def _rewritten(src: Path, dst: Path, change) -> Path:
     """A copy of the recording ``src`` whose cosim metadata is ``change(metadata)`` (CRCs intact)."""
-    with open(src, "rb") as f, open(dst, "wb") as out:
-        reader = make_reader(f)
-        summary = reader.get_summary()
-        writer = Writer(out)
-        writer.start(profile="", library="test")
-        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
-        ids = {cid: writer.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
-               for cid, c in summary.channels.items()}
-        for meta in reader.iter_metadata():
-            writer.add_metadata(meta.name, change(dict(meta.metadata)) if meta.name == "cosim" else meta.metadata)
-        for att in reader.iter_attachments():
-            writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
-        for _, channel, message in reader.iter_messages(log_time_order=False):
-            writer.add_message(ids[channel.id], message.log_time, message.data, message.publish_time)
-        writer.finish()
-    return dst
+    return copy_recording(src, dst, metadata=lambda name, fields: change(fields) if name == "cosim" else fields)
 
 
 @pytest.fixture(scope="module")

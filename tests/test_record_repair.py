@@ -25,6 +25,7 @@ from cosim.record.repair import repair
 from cosim.runner import run_scene
 from cosim.scenario import load, loads
 from tests.cli_toys import one_error_line
+from tests.recording_copies import copy_recording
 
 ROOT = Path(__file__).resolve().parents[1]
 UNTIL_NS = 5_000_000_000  # ping_pong for 5 s: two chunks, the second ending with the run's status
@@ -265,23 +266,7 @@ def test_a_file_a_live_run_is_writing_is_said_to_be_written_by_inspect_too(whole
 
 def _with_scene(src: Path, dst: Path, scene: bytes) -> Path:
     """A copy of the recording ``src`` whose scene attachment is ``scene`` (every CRC matching)."""
-    with open(src, "rb") as f, open(dst, "wb") as out:
-        reader = make_reader(f)
-        summary = reader.get_summary()
-        writer = Writer(out)
-        writer.start(profile="", library="test")
-        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
-        ids = {cid: writer.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
-               for cid, c in summary.channels.items()}
-        for meta in reader.iter_metadata():
-            writer.add_metadata(meta.name, meta.metadata)
-        for att in reader.iter_attachments():
-            data = scene if att.name == "scene.yaml" else att.data
-            writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, data)
-        for _, channel, message in reader.iter_messages(log_time_order=False):
-            writer.add_message(ids[channel.id], message.log_time, message.data, message.publish_time)
-        writer.finish()
-    return dst
+    return copy_recording(src, dst, attachment=lambda att: scene if att.name == "scene.yaml" else att.data)
 
 
 def test_a_scene_attachment_that_is_not_utf8_is_named(whole, tmp_path, capsys):

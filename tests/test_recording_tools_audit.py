@@ -12,7 +12,6 @@ from typing import Any
 
 import pytest
 from mcap.reader import make_reader
-from mcap.writer import Writer
 
 from components.analysis import plot
 from cosim.cli import main
@@ -22,6 +21,7 @@ from cosim.record.recorder import CHECKPOINT_TOPIC
 from cosim.runner import run_scene
 from cosim.scenario import ScenarioError, load, loads
 from tests.cli_toys import one_error_line
+from tests.recording_copies import copy_recording
 from tests.viewer_toys import record_skip
 
 SCENES = Path(__file__).resolve().parent.parent / "scenarios"
@@ -138,25 +138,12 @@ def body_path(tmp_path_factory) -> Path:
 def _with_checkpoint(src: Path, dst: Path, time_ns: int, change: Callable[[dict], Any]) -> Path:
     """A copy of the recording ``src`` whose checkpoint at ``time_ns`` is ``change(checkpoint)``,
     encoded as the recorder encodes one (a valid payload, every CRC matching)."""
-    with open(src, "rb") as f, open(dst, "wb") as out:
-        reader = make_reader(f)
-        summary = reader.get_summary()
-        writer = Writer(out)
-        writer.start(profile="", library="test")
-        schemas = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
-        ids = {cid: writer.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
-               for cid, c in summary.channels.items()}
-        for meta in reader.iter_metadata():
-            writer.add_metadata(meta.name, meta.metadata)
-        for att in reader.iter_attachments():
-            writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, att.data)
-        for _, channel, message in reader.iter_messages(log_time_order=False):
-            data = message.data
-            if channel.topic == CHECKPOINT_TOPIC and message.log_time == time_ns:
-                data = state_proto.state_bytes(plain_state(change(state_proto.decode_checkpoint(data))))
-            writer.add_message(ids[channel.id], message.log_time, data, message.publish_time)
-        writer.finish()
-    return dst
+    def message(channel, msg) -> bytes:
+        if channel.topic == CHECKPOINT_TOPIC and msg.log_time == time_ns:
+            return state_proto.state_bytes(plain_state(change(state_proto.decode_checkpoint(msg.data))))
+        return msg.data
+
+    return copy_recording(src, dst, message=message)
 
 
 def _with_stone_state(cp: dict, **state: Any) -> dict:

@@ -365,14 +365,16 @@ def output_folder(folder: Path) -> Iterator[Path]:
 COPY_BLOCK = 1 << 20  # bytes read and written at a time by copy_file
 
 
-def copy_file(source: Path, target: Path, spans: Iterable[tuple[int, int | None]] = ((0, None),)) -> None:
+def copy_file(source: Path, target: Path,
+              spans: Iterable[tuple[int, int | None] | tuple[int, int | None, bytes]] = ((0, None),)) -> None:
     """Copy the file ``source`` to ``target`` by plain reads and writes: its byte ``spans`` (start,
-    end; end None: to the end of the file), one after another, by default the whole file. Not
-    shutil.copyfile: its sendfile copy fails on a full disk with the source's name on the error,
-    where the target's is due (:func:`written_whole` names the output for an error that names no
-    file); a read error names ``source``."""
+    end; end None: to the end of the file), one after another, each followed by the bytes a third
+    item gives (what a repair writes in place of a stretch it leaves out), by default the whole
+    file. Not shutil.copyfile: its sendfile copy fails on a full disk with the source's name on the
+    error, where the target's is due (:func:`written_whole` names the output for an error that names
+    no file); a read error names ``source``."""
     with open(source, "rb") as src, open(target, "wb") as dst:
-        for start, end in spans:
+        for start, end, *after in spans:
             src.seek(start)
             left = None if end is None else end - start
             while left is None or left > 0:
@@ -384,3 +386,5 @@ def copy_file(source: Path, target: Path, spans: Iterable[tuple[int, int | None]
                     break
                 dst.write(block)
                 left = None if left is None else left - len(block)
+            for extra in after:
+                dst.write(extra)

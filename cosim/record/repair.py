@@ -31,15 +31,15 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, BinaryIO
+from typing import TYPE_CHECKING
 
 from cosim.errors import RecordingError
 from cosim.record.output import (
-    COPY_BLOCK,
     MCAP_MAGIC,
     PART_SUFFIX,
     being_written,
     check_output,
+    copy_file,
     output_folder,
     written_whole,
 )
@@ -186,27 +186,7 @@ def _copy_leaving_out(source: Path, target: Path, damage: list[Damage]) -> None:
         at = stretch.end
     else:
         pieces.append((at, None, b""))
-    with open(source, "rb") as src, open(target, "wb") as dst:
-        for start, end, after in pieces:
-            _copy_span(src, dst, start, end, source)
-            dst.write(after)
-
-
-def _copy_span(src: BinaryIO, dst: BinaryIO, start: int, end: int | None, source: Path) -> None:
-    """Append the bytes ``start`` to ``end`` (None: the end) of ``src`` to ``dst`` by plain reads and
-    writes, as :func:`cosim.record.output.copy_file` does: a read error names ``source``; one in a
-    write names no file, and :func:`cosim.record.output.written_whole` names the output."""
-    src.seek(start)
-    left = None if end is None else end - start
-    while left is None or left > 0:
-        try:
-            block = src.read(COPY_BLOCK if left is None else min(COPY_BLOCK, left))
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror or str(exc), str(source)) from None
-        if not block:
-            break
-        dst.write(block)
-        left = None if left is None else left - len(block)
+    copy_file(source, target, pieces)
 
 
 def _records(records: tuple[Schema | Channel, ...]) -> bytes:
