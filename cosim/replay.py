@@ -121,7 +121,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
     comp = component if component is not None else cfg.build()
     dt_ns = scene.dt_ns
     position = {n: i for i, n in enumerate(scene.order)}
-    restart = _restart_checkpoint(rec)  # a recording made by a restart (replay --from) begins at its checkpoint
+    restart = _restart_checkpoint(rec, scene)  # a recording made by a restart (replay --from) begins at its checkpoint
 
     def channel(component_name: str, port: str, msg_type: type[Message]) -> list[tuple[int, Message]]:
         topic = topic_of(component_name, port)
@@ -228,7 +228,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
     return ReplayReport(name, steps, compared, None, cut_off, seconds)
 
 
-def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
+def _restart_checkpoint(rec: Recording, scene: Scene) -> tuple[int, dict] | None:
     """(time [ns], checkpoint) a recording made by a restart began at (its metadata's ``start_ns``,
     the checkpoint recorded then); None for a run from t = 0. A restart whose recording does not
     hold that checkpoint cannot be replayed (RecordingError, saying why it is not there)."""
@@ -241,6 +241,17 @@ def _restart_checkpoint(rec: Recording) -> tuple[int, dict] | None:
                f"and the checkpoint it started from is not in the file ({lost})")
         raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.restart_ns / NS_PER_S:g} s, {why}: "
                              "replay the recording it was restarted from")
+    # the checkpoint's form is the reader's to check; whether it fits the scene that ran, here (a
+    # component or an edge it lacks ended in an internal KeyError or IndexError)
+    began = f"the checkpoint at {rec.restart_ns / NS_PER_S:g} s it restarted from"
+    missing = [name for name in scene.order if name not in checkpoint["components"]]
+    if missing:
+        raise RecordingError(f"{rec.path}: cannot replay: {began} holds no state of {missing[0]!r}, a component of "
+                             "the recorded scene")
+    if len(checkpoint["edges"]) != len(scene.connections):
+        raise RecordingError(f"{rec.path}: cannot replay: {began} holds the deliveries of "
+                             f"{len(checkpoint['edges'])} connections, the recorded scene has "
+                             f"{len(scene.connections)}")
     return rec.restart_ns, checkpoint
 
 

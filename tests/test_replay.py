@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from cosim.errors import RecordingError
@@ -437,3 +439,32 @@ def test_inspect_counts_a_restart_at_another_dt_by_its_own_steps(recording, tmp_
     status = [line for line in describe_recording(Recording(outcome.recording)).splitlines()
               if line.strip().startswith("status:")]
     assert len(status) == 1 and "(80 steps from t = 0.06 s)" in status[0], status
+
+
+@pytest.mark.parametrize(("change", "said"), [
+    (lambda cp: {**cp, "components": {k: v for k, v in cp["components"].items() if k != "acc"}},
+     "holds no state of 'acc', a component of the recorded scene"),
+    (lambda cp: {**cp, "edges": cp["edges"][:1]}, "holds the deliveries of 1 connections, the recorded scene has 5"),
+])
+def test_a_restart_whose_checkpoint_does_not_fit_its_scene_is_refused_in_one_line(recording, tmp_path, change, said):
+    """Replaying a restart's recording whose checkpoint lacks a component or an edge of the scene that
+    ran: exit 2 naming it (an internal KeyError or IndexError)."""
+    from cosim.cli import main
+    from cosim.codec import state_proto
+    from cosim.codec.json_codec import plain_state
+    from cosim.record.recorder import CHECKPOINT_TOPIC
+    from tests.recording_copies import copy_recording
+
+    sim, stamp = restart_simulation(recording, 40_000_000)
+    outcome = run_scene(sim.scene, tmp_path / "restart.mcap", progress=False, simulation=sim)
+
+    def message(channel, msg) -> bytes:
+        if channel.topic == CHECKPOINT_TOPIC and msg.log_time == stamp:
+            return state_proto.state_bytes(plain_state(change(state_proto.decode_checkpoint(msg.data))))
+        return msg.data
+
+    bad = copy_recording(outcome.recording, tmp_path / "bad.mcap", message=message)
+    with pytest.raises(RecordingError, match=re.escape(f"cannot replay: the checkpoint at 0.04 s it restarted from "
+                                                       f"{said}")):
+        replay_component(Recording(bad), "g")
+    assert main(["replay", str(bad)]) == 2
