@@ -39,7 +39,9 @@ class BodyState(Message):
     shape; radius [m]; thickness [m] (disk; 0 for a sphere); mass [kg]; inertia: (3,) principal
     moments about body x, y, z [kg m^2].
     Derived for viewers and plots: attack_angle_deg, the angle between the disk face and the
-    horizontal plane [deg] (0 for a sphere); speed [m/s]; kinetic_energy and potential_energy [J]
+    horizontal plane [deg] (0 for a sphere), unsigned and whichever way the face leans: the attack
+    angle while the lean stays along the path (components.analysis.data.attack_along_motion gives
+    the signed angle along the motion); speed [m/s]; kinetic_energy and potential_energy [J]
     (potential relative to z = 0).
     attitude_locked: the body ignores torques and angular impulses (locked or scripted attitude), so
     contact components must not expect it to turn.

@@ -476,3 +476,20 @@ def test_figures_are_put_in_place_all_or_none(skip_path, tmp_path):
     assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in written) == [
         "contacts.png", "energy.png", "motion.png", "trajectory.png"]
     assert (out / "motion.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_attack_angle_is_measured_along_the_motion_nose_up_positive():
+    """A disk tilted 20 deg about y (its leading edge up when it moves along +x): +20 moving along +x,
+    -20 moving along -x (nose down), about 0 moving along y (the lean across the path) where the
+    recorded tilt says 20; straight down, and for a sphere, the recorded tilt."""
+    from components.analysis.data import attack_along_motion
+
+    half = np.radians(-20.0) / 2  # about y, negative: the axis leans back, towards -x
+    q = np.array([[np.cos(half), 0.0, np.sin(half), 0.0]] * 5)
+    v = np.array([[3.0, 0.0, -1.0], [-3.0, 0.0, -1.0], [0.0, 3.0, -1.0], [0.0, 0.0, -1.0], [3.0, 0.0, 0.0]])
+    tilt = np.array([20.0, 20.0, 20.0, 20.0, 0.0])
+    assert np.allclose(attack_along_motion(q, v, tilt), [20.0, -20.0, 0.0, 20.0, 0.0], atol=1e-9)
+    # the same face upside down (turned 160 deg about y: its axis points down and forward): alike
+    flip = np.radians(160.0) / 2
+    upside_down = np.array([[np.cos(flip), 0.0, np.sin(flip), 0.0]] * 5)
+    assert np.allclose(attack_along_motion(upside_down, v, tilt), [20.0, -20.0, 0.0, 20.0, 0.0], atol=1e-9)

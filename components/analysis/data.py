@@ -79,10 +79,30 @@ def _stack(msgs: list, name: str, width: int | None = None) -> np.ndarray:
     return np.array([np.asarray(getattr(m, name), dtype=float) for m in msgs], dtype=float)
 
 
+def attack_along_motion(orientation: np.ndarray, velocity: np.ndarray, tilt_deg: np.ndarray) -> np.ndarray:
+    """The attack angle [deg] of each state: the face's angle to the horizontal in the vertical plane
+    of the horizontal motion, nose up positive, nose down negative (Clanet et al.'s alpha), from the
+    orientations (n, 4) (w, x, y, z) and velocities (n, 3). The recorded ``attack_angle_deg``
+    (``tilt_deg``, (n,)) is the face's unsigned tilt from the horizontal, whichever way it leans:
+    the same for a stone whose lean stays along its path, not once its lean turns (a free, spinning
+    stone). Where the body moves straight up or down (no horizontal motion to measure along), and
+    for a sphere (a tilt of 0), the tilt is kept."""
+    w, x, y, z = orientation.T
+    axis = np.stack([2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)], axis=1)
+    axis *= np.where(axis[:, 2] < 0.0, -1.0, 1.0)[:, None]  # a disk's two faces are alike: the one facing up
+    horizontal = np.hypot(velocity[:, 0], velocity[:, 1])
+    moving = horizontal > 1e-9
+    along = np.where(moving, (axis[:, 0] * velocity[:, 0] + axis[:, 1] * velocity[:, 1])
+                     / np.where(moving, horizontal, 1.0), 0.0)
+    signed = np.degrees(np.arctan2(-along, axis[:, 2]))
+    return np.where(moving & (tilt_deg != 0.0), signed, tilt_deg)
+
+
 @dataclass
 class BodyTrack:
     """One body's recorded states: times t (n,) [s], position/velocity (n, 3), orientation (n, 4)
-    (w, x, y, z), speed, attack angle [deg], kinetic and potential energy [J], and its geometry."""
+    (w, x, y, z), speed, attack angle along the motion [deg] (:func:`attack_along_motion`), kinetic
+    and potential energy [J], and its geometry."""
 
     topic: str
     t: np.ndarray
@@ -224,7 +244,9 @@ def load_body(rec: Recording, body: str | None = None) -> BodyTrack:
     return BodyTrack(
         topic=topic, t=t, position=_stack(msgs, "position", 3), velocity=_stack(msgs, "velocity", 3),
         orientation=_stack(msgs, "orientation", 4), speed=_stack(msgs, "speed"),
-        attack_deg=_stack(msgs, "attack_angle_deg"), kinetic=_stack(msgs, "kinetic_energy"),
+        attack_deg=attack_along_motion(_stack(msgs, "orientation", 4), _stack(msgs, "velocity", 3),
+                                       _stack(msgs, "attack_angle_deg")),
+        kinetic=_stack(msgs, "kinetic_energy"),
         potential=_stack(msgs, "potential_energy"), shape=int(first.shape), radius=float(first.radius),
         thickness=float(first.thickness), mass=float(first.mass),
         attitude_locked=all(bool(m.attitude_locked) for m in msgs))

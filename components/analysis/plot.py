@@ -199,7 +199,7 @@ def figure_motion(run: RunData) -> Figure:
     ax_speed.set_ylabel("speed [m/s]")
     ax_speed.set_title(f"{run.scene}: {body.name}")
     ax_angle.plot(body.t, body.attack_deg, color="k", linewidth=1.2)
-    ax_angle.set_ylabel("attack angle [deg]")
+    ax_angle.set_ylabel("attack angle [deg]\n(along the motion, nose up +)")
     if body.attitude_locked:
         ax_angle.set_title("attitude held (lock_attitude, the high-spin limit): the face keeps its tilt "
                            "to the horizontal", fontsize="small")
