@@ -418,3 +418,29 @@ def test_an_output_under_a_file_names_that_file(skip_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err == f"error: {skip_path / 'x.png'}: cannot be made: {skip_path} is a file, not a folder"
     assert skip_path.read_bytes() == before
+
+
+def test_the_gap_is_the_one_reported_at_the_frames_time_not_the_drawn_fields(skip_path):
+    """The surface drawn is the last field recorded (a few times a second): its gap to the stone
+    could be up to a field's interval old (6.2 cm said where the stone was 5.4 cm in). The caption
+    takes the gap the body's coupler reported at the frame's time, and the header says how old the
+    water drawn is; with no report of that time (the coupler quiet, far above the water) the gap is
+    measured to the water drawn, as before."""
+    from components.analysis.data import load_body, rest_level
+    from components.analysis.render import FrameRenderer
+    from cosim.record.reader import Recording
+
+    rec = Recording(skip_path)
+    body = load_body(rec)
+    depths = (np.array([0.1, 0.2]), np.array([-0.031, 0.054]))  # 3.1 cm above, then 5.4 cm in
+    renderer = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip", depths=depths, step=0.0005)
+    renderer.draw(0.2, None)
+    assert renderer.caption == "5.4 cm into the water"
+    renderer.draw(0.1004, None)
+    assert renderer.caption == "3.1 cm above the water"
+    renderer.draw(0.15, None)  # the last report 50 ms old: measured to the (rest) water instead
+    plain = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip")
+    plain.draw(0.15, None)
+    assert renderer.caption == plain.caption
+    assert FrameRenderer._field_age(0.17, 0.1) == "  (water drawn as at t = 0.100 s)"
+    assert FrameRenderer._field_age(0.1, 0.1) == ""

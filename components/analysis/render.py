@@ -207,11 +207,12 @@ class _FieldCursor:
         self._it: Iterator[tuple[float, WaterField]] = iter_fields(rec, topic) if topic else iter(())
         self._next = next(self._it, None)
         self.current: WaterField | None = None
+        self.time: float | None = None  # when the current field was recorded [s]
         self.mean = 0.0
 
     def at(self, t: float) -> WaterField | None:
         while self._next is not None and self._next[0] <= t + 1e-12:
-            self.current = self._next[1]
+            self.time, self.current = self._next
             self.mean = float(np.mean(self.current.height))
             self._next = next(self._it, None)
         return self.current
@@ -280,8 +281,10 @@ class _Frames:
         self.text_px = max(9, round(width / 70))
         self.top = round(2.2 * self.text_px)  # the header line's band [px]
 
-    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
-        """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
+    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0,
+             field_time: float | None = None) -> np.ndarray:
+        """The frame at time ``t`` [s] as an (H, W, 3) uint8 array; ``field``, the water drawn, was
+        recorded at ``field_time`` [s] (None: at ``t``)."""
         raise NotImplementedError
 
     def _canvas(self, view: _View, aspect: tuple[float, float, float]) -> tuple[Box, Camera, Image.Image]:
@@ -357,9 +360,15 @@ class FrameRenderer(_Frames):
     the water with the gap written beside it, then the rest of the stone and its path."""
 
     def __init__(self, body: BodyTrack, options: RenderOptions, rest: float, title: str,
-                 stages: tuple[np.ndarray, np.ndarray] | None = None, has_water: bool = True):
+                 stages: tuple[np.ndarray, np.ndarray] | None = None, has_water: bool = True,
+                 depths: tuple[np.ndarray, np.ndarray] | None = None, step: float = 0.0):
         super().__init__(options, rest, title)
         self.body = body
+        # the body's coupler's reports, (times [s], depth of the lowest point under the surface [m]):
+        # the gap at a frame's time, where the drawn surface (a field recorded a few times a second)
+        # may be up to its interval old; ``step`` [s]: how old a report may be and still be that time's
+        self.depths = depths
+        self.step = step
         self.has_water = has_water  # without water (a bounce on a floor) no surface is drawn nor measured to
         self.stages = stages  # (times, stage ids)
         pos = body.position
@@ -405,7 +414,8 @@ class FrameRenderer(_Frames):
         """The box the frame at time ``t`` [s] shows: the whole run's, or the window on the stone."""
         return self.fixed if self.fixed is not None else self._follow_view(self.body.position[self.body.index_at(t)])
 
-    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
+    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0,
+             field_time: float | None = None) -> np.ndarray:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
         body = self.body
         i = body.index_at(t)
@@ -427,7 +437,9 @@ class FrameRenderer(_Frames):
         draw = ImageDraw.Draw(image)
         self._draw_stone(draw, cam, polys, under, pos)
         self._draw_trail(draw, cam, trail, trail_inside & trail_under)
-        gap = height_above_water(polys, surface, self.rest)
+        gap = self._reported_gap(t)
+        if gap is None:
+            gap = height_above_water(polys, surface, self.rest)
         if surface is not None:
             image = self._paint_water(image, cam, surface)
         draw = ImageDraw.Draw(image, "RGBA")
@@ -451,10 +463,30 @@ class FrameRenderer(_Frames):
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
         header = (f"{self.title}   t = {t:.3f} s   {label}   x = {pos[0]:.2f} m, "
-                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}")
+                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{self._field_age(t, field_time)}")
         color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
         self._header(draw, header, color)
         return np.asarray(image)
+
+    def _reported_gap(self, t: float) -> float | None:
+        """The gap [m] between the lowest point and the water at ``t`` [s] as the body's coupler
+        reported it that step (minus its depth), or None without a report of that time (no coupler
+        channel; the coupler quiet, far above the water)."""
+        if self.depths is None or not len(self.depths[0]):
+            return None
+        times, depths = self.depths
+        k = int(np.searchsorted(times, t + 1e-12)) - 1
+        if k < 0 or t - times[k] > self.step * (1 + 1e-9):
+            return None
+        return -float(depths[k])
+
+    @staticmethod
+    def _field_age(t: float, field_time: float | None) -> str:
+        """``  (water drawn as at t = 1.700 s)`` when the drawn surface is a field recorded before the
+        frame's time ``t`` [s] (fields come a few times a second), else nothing."""
+        if field_time is None or t - field_time <= 1e-9:
+            return ""
+        return f"  (water drawn as at t = {field_time:.3f} s)"
 
     # --- the pieces of a frame ----------------------------------------------------------------------
 
@@ -543,7 +575,8 @@ class WaterRenderer(_Frames):
         self.aspect = (length, y[1] - y[0], max(2 * reach, FIXED_MIN_ZRATIO * length))
         self.exaggeration = self.aspect[2] / (2 * reach)
 
-    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0) -> np.ndarray:
+    def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0,
+             field_time: float | None = None) -> np.ndarray:
         """The frame at time ``t`` [s] as an (H, W, 3) uint8 array."""
         view = self.view
         _, cam, image = self._canvas(view, self.aspect)
@@ -732,8 +765,14 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         pairs = stage_changes(rec, stage_topics[0])
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
+    contacts = own(topics_of(rec, WaterContact), linked)  # this body's coupler's reports
+    depths = None
+    if contacts:
+        pairs = rec.messages(contacts[0], WaterContact)
+        depths = (np.array([stamp for stamp, _ in pairs], dtype=np.int64) / NS_PER_S,
+                  np.array([m.depth for _, m in pairs], dtype=float))
     renderer = FrameRenderer(body, options, rest_level(rec, body.name), f"{rec.metadata.get('scene', '')}: {body.name}",
-                             stages, has_water)
+                             stages, has_water, depths, rec.dt_ns / NS_PER_S)
     if options.water is not None and has_water:
         _warn_if_never_in_view(rec, options.water, renderer, times, body_water_topic(rec, body.name, fields))
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
@@ -899,7 +938,7 @@ def _write_frames(renderer: _Frames, cursor: _FieldCursor, times: np.ndarray, ou
                 for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
                               file=sys.stderr, leave=False, dynamic_ncols=True):
                     field = cursor.at(float(t))
-                    writer.add(renderer.draw(float(t), field, cursor.mean))
+                    writer.add(renderer.draw(float(t), field, cursor.mean, cursor.time))
                 writer.finish()
             except BaseException:
                 writer.abort()
