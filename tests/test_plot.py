@@ -493,3 +493,22 @@ def test_the_attack_angle_is_measured_along_the_motion_nose_up_positive():
     flip = np.radians(160.0) / 2
     upside_down = np.array([[np.cos(flip), 0.0, np.sin(flip), 0.0]] * 5)
     assert np.allclose(attack_along_motion(upside_down, v, tilt), [20.0, -20.0, 0.0, 20.0, 0.0], atol=1e-9)
+
+
+def test_a_contact_the_recording_ends_in_is_titled_as_lasting_at_least_that(run, tmp_path, monkeypatch):
+    """A run that ends (or is cut off) inside a contact: that contact's length is only where the
+    recording stops, and its title says so (a killed run's last contact read as a 444 ms contact).
+    A recording without a final status is warned of."""
+    import dataclasses
+
+    start = contact_intervals(run)[1][0]
+    path = tmp_path / "short.mcap"
+    record_skip(path, ["record.visual_rate=0", f"until={round(start + 0.01, 3)}"])
+    short = load_run(path)
+    titles = [ax.get_title() for ax in figure_contacts(short).axes if ax.get_visible()]
+    assert len(titles) == 2 and "+" not in titles[0] and "ms+ (to the run's end)" in titles[1]
+    cut = dataclasses.replace(short, cut_off=True)
+    assert "ms+ (cut off)" in [ax.get_title() for ax in figure_contacts(cut).axes if ax.get_visible()][1]
+    monkeypatch.setattr(Recording, "status", lambda self: None)
+    with pytest.warns(UserWarning, match="the recording is incomplete: its run was cut off"):
+        plot_run(path, tmp_path / "figs", dpi=40)

@@ -208,6 +208,7 @@ class RunData:
     rest_level: float = 0.0  # [m] undisturbed level of the water the body meets
     end: float = 0.0
     step: float = 0.0  # the body's step [s] (the scene's dt times its every; 0 when not known)
+    cut_off: bool = False  # the recording has no final status: its run was cut off (killed) at ``end``
 
 
 def default_body_topic(rec: Recording, topics: list[str]) -> str:
@@ -323,7 +324,7 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     end = (rec.end_ns or 0) / NS_PER_S
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
                    wrenches, skips, topics_of(rec, WaterField), rest_level(rec, track.name),
-                   max(end, float(track.t[-1])), body_step(rec, track.name))
+                   max(end, float(track.t[-1])), body_step(rec, track.name), rec.status() is None)
 
 
 def body_step(rec: Recording, body: str) -> float:

@@ -21,6 +21,7 @@ Each ``figure_*`` function returns the figure, so tests can check what was drawn
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -415,7 +416,10 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.axhline(BOUNCE_G * weight, color="tab:red", linewidth=0.8, linestyle="-.",
                        label=f"{BOUNCE_G:g} M g: a disk bounces above about this (Tang et al. 2021)")
         peak_text = f", peak {peak:.1f} g" if run.contacts else ""
-        ax.set_title(f"contact {first + k}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{peak_text}",
+        # a contact still going on when the recording ends lasted at least this long, not this long
+        going_on = end >= run.body.t[-1] - 1e-9
+        ends = ("+ (cut off)" if run.cut_off else "+ (to the run's end)") if going_on else ""
+        ax.set_title(f"contact {first + k}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{ends}{peak_text}",
                      fontsize="small")
         ax.set_xlabel("time since touchdown [ms]")
         ax.set_ylabel("force [N]")
@@ -480,6 +484,9 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
                if _scene_publishes(rec, (BodyState,)) else "no body in this run")
         return [path], [(", ".join(FIGURES), why)]
     run = load_run(rec, body)
+    if run.cut_off:  # figures of what there is, said to end where the recording does, not the run
+        warnings.warn(f"{rec.path}: the recording is incomplete: its run was cut off (killed?) at t = {run.end:g} s, "
+                      "and the figures end there", UserWarning, stacklevel=2)
     figures: dict[Path, Figure] = {}
     skipped = []
     for name, make in FIGURES.items():

@@ -740,6 +740,9 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                                  f"(channels: {', '.join(sorted(rec.channels))})")
         return _render_water(rec, output, options)
     body = load_body(rec, options.body)
+    if rec.status() is None:  # frames of what there is, said to end where the recording does
+        warnings.warn(f"{rec.path}: the recording is incomplete: its run was cut off (killed?) at t = "
+                      f"{(rec.end_ns or 0) / NS_PER_S:g} s, and the frames end there", UserWarning, stacklevel=2)
     _check_span(options, body)
     linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)
