@@ -512,3 +512,10 @@ def test_a_contact_the_recording_ends_in_is_titled_as_lasting_at_least_that(run,
     monkeypatch.setattr(Recording, "status", lambda self: None)
     with pytest.warns(UserWarning, match="the recording is incomplete: its run was cut off"):
         plot_run(path, tmp_path / "figs", dpi=40)
+
+
+def test_the_trajectorys_legend_names_the_water_level_beside_the_stages(run):
+    """With a stage monitor the legend was the stages' alone: the dashed water line (and a ground's
+    contact markers) went unexplained."""
+    labels = [t.get_text() for t in figure_trajectory(run).axes[0].get_legend().get_texts()]
+    assert "water level" in labels and "approach" in labels

@@ -55,9 +55,13 @@ TOP_VIEW_MIN_SPREAD = 0.01  # [m] sideways spread of the path from which it is a
 PATH_COLOR = "#404040"  # the path without a stage monitor
 
 
-def _stage_legend(ax, stages: list[int]) -> None:
+def _stage_legend(ax, stages: list[int], also: bool = False) -> None:
+    """A legend of the stages met, and with ``also`` of the lines and markers drawn on ``ax`` with a
+    label (the water level, the ground contacts)."""
     handles = [Patch(color=stage_color(s), label=STAGE_LABELS[StageId(s)] if s >= 0 else "before the first stage")
                for s in sorted(set(stages))]
+    if also:
+        handles += [h for h in ax.get_legend_handles_labels()[0] if not h.get_label().startswith("_")]
     if handles:
         ax.legend(handles=handles, loc="upper right", fontsize="small", ncols=min(3, len(handles)))
 
@@ -149,7 +153,7 @@ def figure_trajectory(run: RunData) -> Figure:
     by_stage = f" by stage ({skips} skips)" if run.stages is not None else ""
     ax.set_title(f"{run.scene}: {view} of {body.name}{by_stage}")
     if run.stages is not None:
-        _stage_legend(ax, stages.tolist())
+        _stage_legend(ax, stages.tolist(), also=True)
     elif has_water or len(touches):
         ax.legend(loc="upper right", fontsize="small")
     ax.grid(True, alpha=0.3)
