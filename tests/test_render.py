@@ -439,8 +439,17 @@ def test_the_gap_is_the_one_reported_at_the_frames_time_not_the_drawn_fields(ski
     renderer.draw(0.1004, None)
     assert renderer.caption == "3.1 cm above the water"
     renderer.draw(0.15, None)  # the last report 50 ms old: measured to the (rest) water instead
+    far = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip",
+                        depths=(np.array([0.15]), np.array([np.nan])), step=0.0005)
+    far.draw(0.15, None)  # a dry report (its depth left out): measured to the water drawn
     plain = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip")
     plain.draw(0.15, None)
-    assert renderer.caption == plain.caption
+    assert renderer.caption == plain.caption == far.caption
+    # a gap of a million kilometres (a stand-in depth): its drop line is drawn across the frame only
+    # (its dashes were drawn one by one over the whole length: the render never ended)
+    huge = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip",
+                         depths=(np.array([0.2]), np.array([-1e9])), step=0.0005)
+    huge.draw(0.2, None)
+    assert huge.caption == "100000000000.0 cm above the water"
     assert FrameRenderer._field_age(0.17, 0.1) == "  (water drawn as at t = 0.100 s)"
     assert FrameRenderer._field_age(0.1, 0.1) == ""

@@ -476,7 +476,7 @@ class FrameRenderer(_Frames):
             return None
         times, depths = self.depths
         k = int(np.searchsorted(times, t + 1e-12)) - 1
-        if k < 0 or t - times[k] > self.step * (1 + 1e-9):
+        if k < 0 or t - times[k] > self.step * (1 + 1e-9) or not np.isfinite(depths[k]):
             return None
         return -float(depths[k])
 
@@ -541,7 +541,9 @@ class FrameRenderer(_Frames):
         length = math.hypot(x1 - x0, y1 - y0)
         color = (40, 40, 40)
         dash = max(2.0, self.text_px / 3)
-        for k in range(int(length // (2 * dash)) + 1):
+        # (dashes beyond the frame are not drawn: a gap of kilometres would be millions of them)
+        shown = min(length, 2.0 * math.hypot(*self.size))
+        for k in range(int(shown // (2 * dash)) + 1):
             a, b = 2 * k * dash / max(length, 1e-9), min(1.0, (2 * k + 1) * dash / max(length, 1e-9))
             if a >= 1.0:
                 break
@@ -771,9 +773,11 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     contacts = own(topics_of(rec, WaterContact), linked)  # this body's coupler's reports
     depths = None
     if contacts:
+        # only while it touches the water: there the field drawn is furthest from the water then, and
+        # a dry report's depth may be a stand-in (a coupler with no body yet says -1e9 m)
         pairs = rec.messages(contacts[0], WaterContact)
         depths = (np.array([stamp for stamp, _ in pairs], dtype=np.int64) / NS_PER_S,
-                  np.array([m.depth for _, m in pairs], dtype=float))
+                  np.array([m.depth if m.wetted else np.nan for _, m in pairs], dtype=float))
     renderer = FrameRenderer(body, options, rest_level(rec, body.name), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water, depths, rec.dt_ns / NS_PER_S)
     if options.water is not None and has_water:
