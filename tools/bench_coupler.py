@@ -6,10 +6,11 @@
 Two measures, each a ratio taken within one run (the machine is shared: absolute times move with
 its load, ratios much less):
 
-* **Coupled / bare step.** A floating ball (5 cm radius, 500 kg/m^3, half under water, pushed
-  along at 0.3 m/s so its window moves) on an n x n pond of 1 cm columns, the water stepping every
-  tick; one tick of the scheduler with the ball, the water and the coupler against one tick of the
-  same pond alone (recording off). Batches of coupled and bare ticks alternate; the figure is the
+* **Coupled / bare step.** A floating ball (5 cm radius, 500 kg/m^3, half under water, launched
+  along x at 0.3 m/s so its window moves; the water slows it, and the section says its speed as the
+  timed ticks begin and end) on an n x n pond of 1 cm columns, the water stepping every tick; one
+  tick of the scheduler with the ball, the water and the coupler against one tick of the same pond
+  alone (recording off). Batches of coupled and bare ticks alternate; the figure is the
   median over the rounds of (coupled batch / bare batch). The pond is the one
   ``tools/bench_water.py`` times (cell 0.01 m, depth 0.5 m, reflecting walls, every column stepped:
   ``tile: 0``; tiled, the bare pond at rest would not be stepped at all).
@@ -22,6 +23,7 @@ its load, ratios much less):
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import statistics
 import sys
@@ -36,7 +38,7 @@ from cosim.component import Component  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load, loads  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
-from tools.options import check_output, description, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, machine, positive_int  # noqa: E402
 
 SKIP = ROOT / "scenarios" / "held_skip.yaml"
 CELL = 0.01  # [m] as tools/bench_water.py
@@ -113,9 +115,9 @@ type; the checks of all outputs still take about 9% of the skip's loop in a samp
 the skip (its tiled row kernel now vectorises, see "Water paths"), so the bare water step the
 targets divide by shrank: the coupler's share of the skip's loop rose from about 40% to 57% and
 the coupled / bare ratios grew, while every run got faster (the skip's loop 1.06 s to 0.70 s in
-the same runs). At 256 x 256 a bare tick is now about 45 us, less than the ball's compiled coupler
-call alone (about 75 us: 1200 surface elements, about 670 of them wet, each sampling the surface),
-so the 1.5 target would need that arithmetic itself to shrink, besides the Python around it.
+the same runs). At 256 x 256 a bare tick then took about 45 us, less than the ball's compiled
+coupler call alone (about 75 us: 1200 surface elements, about 670 of them wet, each sampling the
+surface), so the 1.5 target would need that arithmetic itself to shrink, besides the Python around it.
 
 Where the compiled call's time goes, and what the last round took from it (890 calls' arguments
 captured from the two scenes and replayed, each change checked bit for bit on every output array;
@@ -163,20 +165,27 @@ def _ticks(sim: Simulation, count: int) -> float:
     return time.perf_counter() - start
 
 
-def step_ratio(n: int, *, rounds: int, batch: int) -> tuple[float, float, float]:
-    """(median coupled / bare ratio, best coupled tick [s], best bare tick [s]) on an n x n pond."""
+def ball_speed(sim: Simulation) -> float:
+    """The floating ball's speed [m/s]."""
+    return math.hypot(*sim.components["ball"].get_state()["velocity"])
+
+
+def step_ratio(n: int, *, rounds: int, batch: int) -> tuple[float, float, float, tuple[float, float]]:
+    """(median coupled / bare ratio, best coupled tick [s], best bare tick [s], the ball's speed [m/s]
+    as the timed ticks begin and as they end) on an n x n pond."""
     coupled = Simulation(loads(pond_scene(n, True)))
     bare = Simulation(loads(pond_scene(n, False)))
     for sim in (coupled, bare):
         sim.initialize()
         _ticks(sim, 200)  # the ball settles into its first waves; kernels loaded and warm
+    first = ball_speed(coupled)
     ratios, best_c, best_b = [], float("inf"), float("inf")
     for _ in range(rounds):
         t_c = _ticks(coupled, batch)
         t_b = _ticks(bare, batch)
         ratios.append(t_c / t_b)
         best_c, best_b = min(best_c, t_c / batch), min(best_b, t_b / batch)
-    return statistics.median(ratios), best_c, best_b
+    return statistics.median(ratios), best_c, best_b, (first, ball_speed(coupled))
 
 
 class StepTimer:
@@ -206,22 +215,23 @@ def skip_share() -> tuple[float, float]:
     return sum(t.seconds for t in timers) / wall, wall
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--rounds", type=positive_int, default=15,
                         help="alternating batches per grid (default %(default)s)")
     parser.add_argument("--batch", type=positive_int, default=100, help="ticks per batch (default %(default)s)")
     parser.add_argument("--repeats", type=positive_int, default=5, help="runs of the held skip (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the coupler section of this file")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     check_output(parser, args.write, "--write", text=True)
     Simulation(load(SKIP, overrides=["until=0.05"])).run()  # kernels loaded from numba's cache
     load_before = os.getloadavg()[0]
-    rows = []
+    rows, speeds = [], []
     for n, target in TARGETS.items():
-        ratio, t_c, t_b = step_ratio(n, rounds=args.rounds, batch=args.batch)
+        ratio, t_c, t_b, (first, last) = step_ratio(n, rounds=args.rounds, batch=args.batch)
         verdict = "met" if ratio <= target else "not met"
         rows.append(f"| {n} x {n} | {t_b * 1e6:.0f} | {t_c * 1e6:.0f} | **{ratio:.2f}** | {target} | {verdict} |")
+        speeds.append(f"{first:.2f} to {last:.2f} m/s on the {n} x {n} pond")
     shares = [skip_share() for _ in range(args.repeats)]
     share = statistics.median(s for s, _ in shares)
     wall = statistics.median(w for _, w in shares)
@@ -230,10 +240,10 @@ def main() -> None:
     text = "\n".join([
         "## The coupler",
         "",
-        f"One run of `python tools/bench_coupler.py --write docs/performance.md` (load average "
-        f"{load_before:.1f} before, {load_after:.1f} after; 2 cores shared with other jobs).",
+        f"One run of `{command_line('bench_coupler.py', argv)}` ({machine(load_before, load_after)}).",
         "",
-        "A floating ball (5 cm, half under water, drifting at 0.3 m/s) on an n x n pond of 1 cm "
+        "A floating ball (5 cm, half under water, launched along x at 0.3 m/s and slowed by the water: "
+        f"{' and '.join(speeds)} over the timed ticks) on an n x n pond of 1 cm "
         "columns, the water stepping every tick, recording off; a tick of ball + water + coupler "
         f"against a tick of the bare pond, {args.rounds} alternating batches of {args.batch} ticks "
         "(the ratio is the median of the batches' ratios, the times the best batch):",
@@ -242,7 +252,8 @@ def main() -> None:
         "|---|---:|---:|---:|---:|---|",
         *rows,
         "",
-        f"The held skip (`scenarios/held_skip.yaml`, recording off), {args.repeats} runs: the coupler's "
+        f"The held skip (`scenarios/held_skip.yaml`, recording off), {args.repeats} "
+        f"run{'s' if args.repeats != 1 else ''}: the coupler's "
         f"steps take **{share:.0%}** of the run loop (median; target at most {SHARE_TARGET:.0%}: "
         f"{share_verdict}), the loop {wall:.2f} s.",
         "",

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import math
+import os
 import sys
 import tempfile
 import time
@@ -27,7 +28,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.record.recorder import Recorder  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
-from tools.options import check_output, description, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, machine, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 PEER_TARGET = 25.0  # cosim's overhead per component-step at least this many times below mosaik's
@@ -80,9 +81,11 @@ def main(argv: list[str] | None = None) -> None:
         del runs["mosaik"]
         print("mosaik is not installed (pip install -e '.[test]'): the peer's row is left out", file=sys.stderr)
     best = {name: math.inf for name in runs}
+    load_before = os.getloadavg()[0]
     for _ in range(args.repeats):  # interleaved, so a noisy spell of the machine hits every kind alike
         for name, fn in runs.items():
             best[name] = min(best[name], fn())
+    load_after = os.getloadavg()[0]
     us = {k: v / steps * 1e6 for k, v in best.items()}
     rows = [
         "| run | us per component-step | ratio to plain loop |",
@@ -106,8 +109,8 @@ def main(argv: list[str] | None = None) -> None:
         "## Framework overhead",
         "",
         f"Ping-pong scene (2 components, one direct and one delayed edge), {args.ticks} ticks, best of "
-        f"{args.repeats}, the kinds in turn, one run of `python tools/bench_framework.py --write "
-        "docs/performance.md`:",
+        f"{args.repeats}, the kinds in turn ({machine(load_before, load_after)}), one run of "
+        f"`{command_line('bench_framework.py', argv)}`:",
         "",
         *rows,
         "",

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
-from tools.options import check_output, description, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, machine, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "held_skip.yaml"
 POND: list[str] = []  # the scene as it is: 800 x 100 cells
@@ -122,8 +122,9 @@ def skips_line(summary: list[str]) -> str:
     return next((line for line in summary if line.startswith("skips:")), "")
 
 
-def report(rounds: int) -> str:
+def report(rounds: int, command: str) -> str:
     timed(["until=0.05"]), timed(["until=0.05", *LAKE])  # kernels compiled or loaded from their cache
+    load_before = os.getloadavg()[0]
     pond_s, lake_s, ratios = [], [], []
     lake_peak = lake_mean = pond_peak = pond_mean = 0.0
     summaries: dict[str, list[str]] = {}
@@ -136,17 +137,19 @@ def report(rounds: int) -> str:
         print(f"pond {p:.3f} s, lake {q:.3f} s: {q / p:.2f}", file=sys.stderr)
     ratio = statistics.median(ratios)
     best = min(lake_s) / min(pond_s)
-    same = skips_line(summaries["pond"]) == skips_line(summaries["lake"])
+    pond_throw = skips_line(summaries["pond"]).removeprefix("skips: ")
+    lake_throw = skips_line(summaries["lake"]).removeprefix("skips: ")
+    throw = (f"The throw is the same on both (skips: {lake_throw})." if pond_throw == lake_throw else
+             f"The throw differs between the two: on the pond skips: {pond_throw}; on the lake skips: {lake_throw}.")
     small = measure_memory(POND)
     dense = measure_memory([*BIG_LAKE, "components.pond.tile=0", "until=0.01"])
     big = measure_memory(BIG_LAKE)
-    load_avg = os.getloadavg()[0]
+    load_after = os.getloadavg()[0]
     mb = 1e6
     lines = [
         "## The lake",
         "",
-        f"One run of `python tools/bench_lake.py --rounds {rounds} --write docs/performance.md` "
-        f"(2 cores shared with other jobs; load average {load_avg:.1f} at the end).",
+        f"One run of `{command}` ({machine(load_before, load_after)}).",
         "",
         "The held skip's throw (`scenarios/held_skip.yaml`, recording off) on its own 8 m x 1 m pond and on a "
         "40 m x 6 m lake of the same 1 cm columns (2.4 million, 30 times the pond), in turn, "
@@ -161,8 +164,7 @@ def report(rounds: int) -> str:
         "",
         f"Lake / pond: **{ratio:.2f}** (median of the rounds' own ratios; {best:.2f} best against best; "
         f"rounds from {min(ratios):.2f} to {max(ratios):.2f}); target at most 1.5: "
-        f"{'met' if ratio <= 1.5 else 'not met'}. The throw is the same on both "
-        f"({'same skips' if same else 'skips differ'}: {skips_line(summaries['lake']).removeprefix('skips: ')}).",
+        f"{'met' if ratio <= 1.5 else 'not met'}. {throw}",
         "",
         f"Columns stepped per water step, on average: pond {pond_mean * 80_000:,.0f}, lake "
         f"{lake_mean * 2_400_000:,.0f} ({lake_mean * 30 / pond_mean:.1f} times as many).",
@@ -197,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.memory_child is not None:
         memory_child(json.loads(args.memory_child))
         return 0
-    text = report(args.rounds)
+    text = report(args.rounds, command_line("bench_lake.py", argv))
     print(text)
     if args.write:
         replace_section(args.write, "lake", text)

@@ -12,7 +12,7 @@ The recorded wall time includes closing the file.
 
 With ``--busy`` another job keeps one core busy throughout the timed runs (a process spinning in a
 loop), as on a shared machine: the simulation, the recording's writer process and that job then
-share the two cores.
+share the machine's cores (two on the machine of docs/performance.md).
 
 In one process, every recording after the warm-up is written by the writer process kept from the
 one before (``cosim.record.writer``), as in any process that records more than once (a sweep's
@@ -43,7 +43,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.record import writer as writer_module  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
-from tools.options import check_output, description, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
 
@@ -108,7 +108,7 @@ DEFAULT_TARGET = 0.15  # recording with the scene's defaults at most this much o
 BUSY_LOOP = "while True: pass"  # the other job: one core's worth of pure CPU
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--repeats", type=positive_int, default=7, help="runs of each kind (default %(default)s)")
     parser.add_argument("--busy", action="store_true", help="keep one core busy with another job meanwhile")
@@ -116,7 +116,7 @@ def main() -> None:
     parser.add_argument("--write", metavar="MARKDOWN", help="update the reference-skip section of this file")
     parser.add_argument("--scene", type=Path, default=SCENE,
                         help="the scene to run (default: the reference skip; another one's figures are not written)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if not args.scene.is_file():
         parser.error(f"--scene {args.scene}: no such file")
     if args.write and args.scene.resolve() != SCENE:
@@ -124,7 +124,7 @@ def main() -> None:
     check_output(parser, args.write, "--write", text=True)
     busy = subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) if args.busy else None
     try:
-        report(args)
+        report(args, command_line("bench_skip.py", argv))
     finally:
         if busy is not None:
             busy.kill()
@@ -156,7 +156,7 @@ def fresh_run(overrides: list[str], record: bool, scene_file: Path) -> tuple[flo
     return wall, _children_cpu() - children, 0.0
 
 
-def report(args: argparse.Namespace) -> None:
+def report(args: argparse.Namespace, command: str) -> None:
     with tempfile.TemporaryDirectory() as warm:
         for overrides, record in RUNS.values():  # compile / load kernels, import the writer's modules
             run_scene(load(args.scene, overrides=["until=0.05", *overrides]),
@@ -194,8 +194,6 @@ def report(args: argparse.Namespace) -> None:
 
     scene = args.scene.resolve()
     name = scene.relative_to(ROOT).as_posix() if scene.is_relative_to(ROOT) else str(args.scene)
-    command = "python tools/bench_skip.py" + (" --fresh" if args.fresh else "") + (" --busy" if args.busy else "") + (
-        " --write docs/performance.md" if scene == SCENE else f" --scene {name}")
     where = ("as a one-off `cosim run` each, in a fresh process (start-up and the file's finishing included; "
              "the real-time factor counts them too)" if args.fresh else "in one process")
     text = "\n".join([

@@ -31,7 +31,7 @@ from cosim.scenario import load  # noqa: E402
 from cosim.sweep.backends import DaskBackend, ProcessBackend  # noqa: E402
 from cosim.sweep.plan import loads_sweep  # noqa: E402
 from cosim.sweep.run import run_sweep  # noqa: E402
-from tools.options import check_output, description, positive_float, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, positive_float, positive_int  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "ping_pong.yaml"
 
@@ -82,7 +82,7 @@ def in_process(until: float, repeats: int) -> float:
     return best
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--runs", type=positive_int, default=16,
                         help="runs in the throughput sweep (default %(default)s)")
@@ -92,7 +92,7 @@ def main() -> None:
                         help="one-tick runs in the overhead sweep (default %(default)s)")
     parser.add_argument("--repeats", type=positive_int, default=5, help="repeats of each sweep (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the sweeps section of this file")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     check_output(parser, args.write, "--write", text=True)
     tiny = 0.001  # one tick of ping-pong: the run itself costs next to nothing
     run_s = in_process(args.until, 3)
@@ -154,9 +154,9 @@ def main() -> None:
         "## Sweeps",
         "",
         f"`cosim sweep` on this machine ({ncpu} cores): {args.runs} identical runs of the ping-pong scene "
-        f"({args.until:g} simulated s each, {run_s:.2f} s of CPU), best of {args.repeats} interleaved "
-        f"repeats, backends started and warmed before timing (load average {load_before:.1f} before, "
-        f"{load_after:.1f} after); one run of `python tools/bench_sweep.py --write docs/performance.md`:",
+        f"({args.until:g} simulated s each, {run_s:.2f} s of wall time in one process), best of {args.repeats} "
+        f"interleaved repeats, backends started and warmed before timing (load average {load_before:.1f} before, "
+        f"{load_after:.1f} after); one run of `{command_line('bench_sweep.py', argv)}`:",
         "",
         *rows,
         "",

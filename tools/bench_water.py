@@ -34,13 +34,16 @@ from components.water import WaterParams, WaterSurface  # noqa: E402
 from components.water.boundaries import BOUNDARIES  # noqa: E402
 from components.water.kernels_numba import PARALLEL_MIN_CELLS  # noqa: E402
 from components.water.models import MODELS  # noqa: E402
-from tools.options import check_output, description, positive_float, positive_int  # noqa: E402
+from cosim.docsection import replace_section  # noqa: E402
+from cosim.record.output import written_whole  # noqa: E402
+from tools.options import check_output, command_line, description, positive_float, positive_int  # noqa: E402
 
 COPY_TARGET = 0.50  # the step at least this share of the copy's throughput (DESIGN.md section 5)
 
 SECTION = "## Water step throughput"
-BEGIN = "<!-- water-throughput:begin -->"
-END = "<!-- water-throughput:end -->"
+NAME = "water-throughput"  # the section's markers (cosim.docsection)
+BEGIN = f"<!-- {NAME}:begin -->"
+END = f"<!-- {NAME}:end -->"
 NS = 1_000_000_000
 
 
@@ -162,25 +165,25 @@ def write_section(path: Path, text: str) -> None:
     The section sits between ``BEGIN`` and ``END`` marker comments: a marked section is replaced, an
     unmarked one (from its heading to the next heading or marker comment) is replaced and marked, and
     a file without it gets it appended.
+
+    The page is written whole under a temporary name and moved onto it (``cosim.docsection.replace_section``,
+    as every tool writes its section), so a write that fails (a full disk) leaves it as it was, never cut
+    short.
     """
-    block = f"{BEGIN}\n{text.rstrip()}\n{END}\n"
-    old = path.read_text() if path.exists() else ""
-    if BEGIN in old and END in old:
-        head, rest = old.split(BEGIN, 1)
-        tail = rest.split(END, 1)[1].lstrip("\n")
-        new = head + block + ("\n" + tail if tail else "")
-    else:
-        lines = old.splitlines(keepends=True)
-        start = next((k for k, line in enumerate(lines) if line.rstrip() == SECTION), None)
-        if start is None:
-            body = old.rstrip("\n")
-            new = (body + "\n\n" if body else "") + block
-        else:
-            end = next((k for k in range(start + 1, len(lines))
-                        if lines[k].startswith(("## ", "<!--"))), len(lines))
-            rest = "".join(lines[end:])
-            new = "".join(lines[:start]) + block + ("\n" + rest if rest else "")
-    path.write_text(new)
+    path = Path(path)
+    old = path.read_text(encoding="utf-8") if path.exists() else ""
+    lines = old.splitlines(keepends=True)
+    start = next((k for k, line in enumerate(lines) if line.rstrip() == SECTION), None)
+    if (BEGIN in old and END in old) or start is None:
+        replace_section(path, NAME, text)
+        return
+    # an unmarked section (a page from before the markers): replaced from its heading to the next
+    # heading or marker comment, and marked
+    end = next((k for k in range(start + 1, len(lines)) if lines[k].startswith(("## ", "<!--"))), len(lines))
+    rest = "".join(lines[end:])
+    new = "".join(lines[:start]) + f"{BEGIN}\n{text.rstrip()}\n{END}\n" + ("\n" + rest if rest else "")
+    with written_whole(path) as tmp:
+        tmp.write_text(new, encoding="utf-8")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -213,9 +216,8 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print("\n".join(table(rows)))
     if args.markdown is not None:
-        given = argv if argv is not None else sys.argv[1:]
-        command = "python tools/bench_water.py " + " ".join(given)
-        write_section(args.markdown, markdown(rows, command.strip(), (load_start, os.getloadavg()[0])))
+        command = command_line("bench_water.py", argv)
+        write_section(args.markdown, markdown(rows, command, (load_start, os.getloadavg()[0])))
         print(f"\nwrote {args.markdown}")
     return 0
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -90,3 +92,19 @@ def figure_beside(page: str | Path, name: str) -> Path:
     """Where a page's figure goes: ``figures/NAME`` in the page's own folder (docs/validation.md ->
     docs/figures/NAME)."""
     return Path(page).parent / "figures" / name
+
+
+def command_line(tool: str, argv: list[str] | None = None) -> str:
+    """The command that ran a tool, as typed from the project's root: ``python tools/TOOL`` and the
+    options it was given (``argv``, else this process's own arguments), quoted where a shell needs it.
+    A section a tool writes names this command, so that it regenerates what the section shows."""
+    given = sys.argv[1:] if argv is None else list(argv)
+    return shlex.join(["python", f"tools/{tool}", *given])
+
+
+def machine(load_before: float, load_after: float) -> str:
+    """The machine a benchmark ran on, as measured: its cores (``os.cpu_count``) and the load
+    average before and after the run (other jobs share these machines)."""
+    cores = os.cpu_count()
+    return (f"{cores if cores is not None else 'an unknown number of'} cores; load average "
+            f"{load_before:.1f} before, {load_after:.1f} after")

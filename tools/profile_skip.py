@@ -38,7 +38,7 @@ from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
 from tools.bench_coupler import StepTimer  # noqa: E402
-from tools.options import check_output, description, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, machine, positive_int  # noqa: E402
 
 # (the doc section, its title, the scene)
 SCENES = (
@@ -90,7 +90,7 @@ def functions(scene: Path, top: int) -> tuple[list[tuple[str, int, float, float]
     return rows[:top], stats.total_tt  # type: ignore[attr-defined]
 
 
-def report(scene: Path, runs: int) -> str:
+def report(scene: Path, runs: int, command: str) -> str:
     Simulation(load(scene, ["until=0.05", "record.visual_rate=0"])).run()  # kernels from the disk cache
     load_before = os.getloadavg()[0]
     measured = [shares(scene) for _ in range(runs)]
@@ -100,9 +100,8 @@ def report(scene: Path, runs: int) -> str:
     share = {k: statistics.median(m[0][k] / m[1] for m in measured) for k in kinds}
     wall = statistics.median(m[1] for m in measured)
     lines = [
-        f"`{scene.relative_to(ROOT)}` with recording off ({measured[0][2]}), {runs} runs, median; load "
-        f"average {load_before:.1f} before, {load_after:.1f} after (2 cores shared with other jobs); "
-        f"`python tools/profile_skip.py --write docs/performance.md`:",
+        f"`{scene.relative_to(ROOT)}` with recording off ({measured[0][2]}), {runs} runs, median "
+        f"({machine(load_before, load_after)}); `{command}`:",
         "",
         "| part of the loop | share of the loop (median) |",
         "|---|---:|",
@@ -126,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     check_output(parser, args.write, "--write", text=True)
     for section, title, scene in SCENES:
-        text = f"## {title}\n\n" + report(scene, args.runs)
+        text = f"## {title}\n\n" + report(scene, args.runs, command_line("profile_skip.py", argv))
         print(text + "\n")
         if args.write:
             replace_section(Path(args.write), section, text)
