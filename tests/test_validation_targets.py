@@ -1,48 +1,87 @@
 """The default model (every effect on, default coefficients and bounce criterion) against the published
-experiments: one test per target of docs/validation.md that the model holds.
+experiments: one test per target of docs/validation.md that the model holds, each with its row's
+criterion (the paragraph under the table).
 
 The throws are those of the experiments (components/analysis/experiments.py): the Clanet/Rosellini
 aluminium disk (R = 2.5 cm, e = 2.75 mm) through the full co-simulation. Where a curve is checked,
-the test brackets it with a few throws instead of bisecting it (tools/validate_targets.py does that).
+the test brackets it with a few throws instead of bisecting it (tools/validate_targets.py does that):
+a throw that does not bounce at a speed puts that angle's critical speed (the speed above which every
+throw bounces) at or above it, and one that bounces, with the faster throws tried, puts it at or
+below.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
 import pytest
 
 from components.analysis import experiments as ex
+from tools.validate_targets import (
+    ALPHAS,
+    MAGIC_BAND,
+    PEAK_DISK_THROWS,
+    PERSONS_SPINS,
+    U_MIN_BAND,
+    reference_throw_on_a_long_pond,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
+BELOW = 2.45  # [m/s] just below the model's lowest critical speed (2.51 m/s), inside the row's 2.4-2.8
+INSIDE = 2.54  # [m/s] between the model's critical speed at 20 deg (2.51) and at 15 and 25 deg (2.57, 2.56)
+ABOVE = (2.6, 2.7, 2.8)  # [m/s] the faster throws up to the top of the row's band
+SIDES = 2.7  # [m/s] above 1.05 x INSIDE = 2.67: the row's "5% above the minimum" at 10 and 40 deg
+
+
+@functools.cache
+def _bounces(speed: float, alpha: float, cell: float) -> bool:
+    """ex.bounces of a held throw at beta = 20 deg, each run once in the session."""
+    return ex.bounces(speed, alpha, 20.0, cell=cell)
 
 
 @pytest.mark.parametrize("cell", [0.005, 0.01])
-def test_the_magic_angle_disk_bounces_at_the_published_critical_speed_and_not_below(cell):
-    """At alpha = beta = 20 deg the disk bounces at 2.8 m/s (the top of the published 2.5-2.6 m/s band
-    with the model's tolerance) and sinks at 2.3 m/s, on 5 mm and on 1 cm columns: the lowest
-    critical speed lies between them, as published."""
-    assert ex.bounces(2.8, 20.0, cell=cell)
-    assert not ex.bounces(2.3, 20.0, cell=cell)
+def test_the_lowest_critical_speed_is_the_published_one_and_lies_at_the_magic_angle(cell):
+    """Clanet et al. 2004 (fig. 1b), Rosellini et al. 2005 (fig. 6b): over the row's angles (5 to 45 deg)
+    the lowest critical speed lies within 2.4-2.8 m/s and at 17.5 to 22.5 deg, on 5 mm and on 1 cm
+    columns. At 2.45 m/s no angle of the band bounces, and at 2.54 m/s none outside it does (10 and
+    40 deg are thrown at 2.7 m/s instead, which puts theirs higher still): every angle's critical
+    speed is at least 2.45 m/s, and outside the band above 2.54 m/s. At 2.54 m/s and every faster
+    speed tried up to 2.8 m/s the disk bounces at 20 deg: its critical speed is at most 2.54 m/s, so
+    the minimum is within the band of angles and of speeds. The model's curve is flat near its
+    minimum (2.51 m/s at 20 deg, 2.56 and 2.57 at 25 and 15 deg): the margins about 2.54 m/s are
+    0.02-0.03 m/s."""
+    assert U_MIN_BAND[0] <= BELOW < INSIDE <= U_MIN_BAND[1] and max(ABOVE) == U_MIN_BAND[1]
+    band = [a for a in ALPHAS if MAGIC_BAND[0] <= a <= MAGIC_BAND[1]]
+    assert band == [17.5, 20.0, 22.5]
+    assert not any(_bounces(BELOW, a, cell) for a in band)
+    assert all(_bounces(u, 20.0, cell) for u in (INSIDE, *ABOVE))
+    for alpha in ALPHAS:
+        if alpha not in band:
+            assert not _bounces(SIDES if alpha in (10.0, 40.0) else INSIDE, alpha, cell), alpha
 
 
 @pytest.mark.parametrize("cell", [0.005, 0.01])
 @pytest.mark.parametrize("alpha", [10.0, 40.0])
 def test_the_critical_speed_rises_on_both_sides_of_the_magic_angle(cell, alpha):
-    """At 2.7 m/s, which bounces at 20 deg, the disk does not bounce at 10 or at 40 deg."""
-    assert ex.bounces(2.7, 20.0, cell=cell)
-    assert not ex.bounces(2.7, alpha, cell=cell)
+    """The row: the critical speeds at 10 and at 40 deg more than 5% above the lowest. The disk bounces at
+    20 deg at 2.54 m/s and every faster speed tried up to 2.8 m/s (the lowest critical speed is at
+    most 2.54 m/s), and does not at 10 or at 40 deg at 2.7 m/s, 6% above it."""
+    assert all(_bounces(u, 20.0, cell) for u in (INSIDE, *ABOVE))
+    assert SIDES > 1.05 * INSIDE
+    assert not _bounces(SIDES, alpha, cell)
 
 
-def test_no_throw_steeper_than_about_45_degrees_bounces():
-    """Clanet et al. 2004 (fig. 1c), Rosellini et al. 2005 (fig. 6c): at 3.5 m/s and alpha = 20 deg the
-    disk bounces at beta = 40 deg and not at 50 deg; at alpha = 10 and 30 deg the window is narrower
-    (no bounce at 40 deg)."""
+def test_no_throw_steeper_than_about_45_degrees_bounces_and_the_window_is_widest_at_20_degrees():
+    """Clanet et al. 2004 (fig. 1c), Rosellini et al. 2005 (fig. 6c): at 3.5 m/s the steepest impact
+    angle that bounces (tried every 5 deg from 20 to 60 deg) is at alpha = 20 deg within 40-50 deg: it
+    bounces at 40 deg and at none steeper than 50; and at alpha = 10 and 30 deg it is no steeper than
+    at 20 deg: at neither does any impact steeper than 40 deg bounce."""
     assert ex.bounces(3.5, 20.0, 40.0)
-    assert not ex.bounces(3.5, 20.0, 50.0)
-    assert not ex.bounces(3.5, 10.0, 40.0)
-    assert not ex.bounces(3.5, 30.0, 40.0)
+    assert not any(ex.bounces(3.5, 20.0, beta) for beta in (55.0, 60.0))
+    for alpha in (10.0, 30.0):
+        assert not any(ex.bounces(3.5, alpha, beta) for beta in (45.0, 50.0, 55.0, 60.0)), alpha
 
 
 def test_the_contact_time_is_the_published_one_and_falls_like_one_over_the_speed():
@@ -57,35 +96,36 @@ def test_the_contact_time_is_the_published_one_and_falls_like_one_over_the_speed
 
 def test_the_contact_is_shortest_between_long_ones_at_low_and_at_steep_attack():
     """Clanet et al. 2004 (fig. 1d, as reported): at 3.5 m/s and beta = 20 deg the contact is shortest at
-    an intermediate attack angle and longer both at very low angles and at steep ones. The part of the
-    row the model holds; where its shortest lies (12.5 deg, not near 20) it does not, and the table
-    says so."""
-    low, mid, steep = (ex.run_throw(ex.throw_scene(3.5, a, 20.0)) for a in (7.0, 12.5, 30.0))
+    an intermediate attack angle and longer both at very low angles and at steep ones: the row's
+    lowest and steepest angles (7 and 40 deg) both last longer than 12.5 deg's, so its shortest lies
+    between them. The part of the row the model holds; where its shortest lies (12.5 deg, not near
+    20) it does not, and the table says so."""
+    low, mid, steep = (ex.run_throw(ex.throw_scene(3.5, a, 20.0)) for a in (7.0, 12.5, 40.0))
     assert low.bounced and mid.bounced and steep.bounced
-    assert low.contact_s > 1.05 * mid.contact_s
-    assert steep.contact_s > 1.2 * mid.contact_s
+    assert low.contact_s > mid.contact_s < steep.contact_s
 
 
 @pytest.mark.parametrize("alpha", [10.0, 20.0, 30.0])
 def test_the_contact_time_is_the_force_laws_own_at_every_attack_angle(alpha):
     """The co-simulation's contact (every effect on, 5 mm columns) lasts what Rosellini et al.'s law
     alone gives a held disk on flat, still water (tools/contact_time_law.py's point model: 33.7, 36.5
-    and 44.2 ms at 10, 20 and 30 deg), within 2%: where the shortest contact lies is the law's."""
+    and 44.2 ms at 10, 20 and 30 deg), within 0.3 ms, as docs/validation.md says: where the shortest
+    contact lies is the law's."""
     from tools.contact_time_law import law_contact
 
     tau, bounced = law_contact(3.5, alpha, 20.0)
     run = ex.run_throw(ex.throw_scene(3.5, alpha, 20.0))
     assert bounced and run.bounced
-    assert run.contact_s == pytest.approx(tau, rel=0.02)
+    assert abs(run.contact_s - tau) <= 0.3e-3
 
 
 def test_at_65_rev_per_s_a_free_disk_keeps_its_attitude_through_the_contact():
     """Rosellini et al. 2005 (fig. 3): spun at 65 rev/s the disk's attitude hardly changes; here its
-    attack angle stays within 3 deg of the thrown 20 deg and it bounces."""
+    attack angle stays within 3 deg of the thrown 20 deg, its lowest and its highest, and it bounces."""
     out = ex.run_throw(ex.throw_scene(3.5, 20.0, 20.0, spin_rev_s=65.0))
     assert out.bounced
-    assert 20.0 - out.attack_deg[0] < 3.0
-    assert out.tilt_change_deg < 3.0
+    assert 20.0 - out.attack_deg[0] <= 3.0
+    assert out.attack_deg[1] - 20.0 <= 3.0
 
 
 def test_at_10_rev_per_s_the_tilt_dips_and_recovers_and_the_disk_still_bounces():
@@ -99,20 +139,22 @@ def test_at_10_rev_per_s_the_tilt_dips_and_recovers_and_the_disk_still_bounces()
 
 def test_without_spin_a_steep_disk_tumbles_and_dives():
     """Rosellini et al. 2005 (fig. 5): no spin, alpha = 35, beta = 20 deg: the disk pitches nose-down
-    and dives."""
+    and dives: it does not bounce, and its attack angle is below 0 (nose down) at the end."""
     out = ex.run_throw(ex.throw_scene(3.5, 35.0, 20.0, spin_rev_s=0.0))
     assert not out.bounced
     assert out.attack_deg[2] < 0.0
 
 
+@pytest.mark.parametrize("speed", [20.0, 40.0])
 @pytest.mark.parametrize("relative_density", [1.0, 2.65])
-def test_a_fast_sphere_ricochets_below_johnson_and_reids_critical_angle(relative_density):
+def test_a_fast_sphere_ricochets_below_johnson_and_reids_critical_angle(relative_density, speed):
     """Johnson & Reid (1975): a sphere ricochets below 18 deg / sqrt(relative density), a law of fast
     ricochets (gravity left out, so the angle does not depend on speed). The model's sphere, thrown
-    at 20 m/s (U^2 / g R = 4000), bounces 15% below that angle and not 15% above it."""
+    at the table's 20 and 40 m/s (U^2 / g R = 4000 and 16,000), bounces 15% below that angle and not
+    15% above it: its critical angle is within 15% of the law's."""
     critical = 18.0 / math.sqrt(relative_density)
-    assert ex.run_throw(ex.sphere_throw_scene(20.0, 0.85 * critical, relative_density)).bounced
-    assert not ex.run_throw(ex.sphere_throw_scene(20.0, 1.15 * critical, relative_density)).bounced
+    assert ex.run_throw(ex.sphere_throw_scene(speed, 0.85 * critical, relative_density)).bounced
+    assert not ex.run_throw(ex.sphere_throw_scene(speed, 1.15 * critical, relative_density)).bounced
 
 
 @pytest.mark.parametrize("shape", ["disk", "sphere"])
@@ -145,24 +187,62 @@ def test_a_stone_driven_wholly_under_water_swims_and_sinks_instead_of_planing_ba
     assert sim.components["stages"].stage.name == "SINK"
 
 
-@pytest.mark.parametrize("throw", ["held_skip", "skip", "disk"])
+# the row's disk throws it holds on (all of tools/validate_targets.py's grid but one, which the table names
+# as not held): one in the quick run, the others marked slow (about 6 s each)
+NOT_HELD_DISK_THROWS = ((7.0, 15.0, 10.0),)  # surfs on at 4.76 g
+QUICK_DISK_THROW = (6.0, 15.0, 10.0)
+TANG_THROWS = ["held_skip", "skip", QUICK_DISK_THROW] + [
+    pytest.param(key, marks=pytest.mark.slow) for key in PEAK_DISK_THROWS
+    if key not in NOT_HELD_DISK_THROWS and key != QUICK_DISK_THROW]
+
+
+@pytest.mark.parametrize("throw", TANG_THROWS, ids=str)
 def test_a_contact_bounces_above_about_four_g_and_surfs_below(throw):
     """Tang et al. 2021 (Phys. Fluids 33, 043316): a disk bounces when its vertical acceleration in
-    the contact passes 3.80 g (about 4 g), and surfs on, planing without leaving, just below. Every
-    contact of the held skip, the reference skip and Clanet's aluminium disk held over an 8 m pond
-    (6 m/s, 15 deg nose-up, 10 deg down) that bounces peaks above 3.8 g (the water's vertical force
+    the contact passes 3.80 g (the abstract; about 4 g), and surfs on, planing without leaving, just
+    below. Every contact of the held skip, the reference skip and Clanet's aluminium disk held over an
+    8 m pond (the row's grid of 5, 6 and 7 m/s, 15 and 20 deg nose-up, 10 and 15 deg down, but the
+    throw the table says it is not held on) that bounces peaks above 3.8 g (the water's vertical force
     over the weight, what an accelerometer in the stone reads), and the contact the stone then surfs
-    on until it sinks below 4.6 g (4 g and 15%)."""
+    on until it sinks below 4.6 g (4 g and 15%); each contact is softer than the one before
+    (docs/validation.md section 2c)."""
     from cosim.scenario import load
 
-    if throw == "disk":
-        scene = ex.throw_scene(6.0, 15.0, 10.0, cell=0.01, until=3.0, length=8.0)
+    if isinstance(throw, tuple):
+        scene = ex.throw_scene(*throw, cell=0.01, until=3.0, length=8.0)
     else:
         scene = load(ROOT / "scenarios" / f"{throw}.yaml", ["record.visual_rate=0"])
     contacts = ex.contact_peaks(scene)
     *bounces, surf = contacts
-    assert len(bounces) >= 3 and all(c.bounced for c in bounces) and not surf.bounced
+    assert bounces and all(c.bounced for c in bounces) and not surf.bounced
     assert min(c.peak_g for c in bounces) > 3.8
     assert surf.peak_g < 4.6
     peaks = [c.peak_g for c in contacts]
     assert peaks == sorted(peaks, reverse=True)  # each contact softer than the one before, down to the surf
+
+
+def test_the_water_drags_the_held_skip_by_bocquets_fraction_of_its_lift_at_every_contact():
+    """Bocquet 2003: the drag over the lift is the same at every contact, whatever the speed, mu =
+    (C sin a + C_f cos a) / (C cos a - C_f sin a), 0.370 at the held skip's 20 deg with the model's
+    own C = C_L = 1 and C_f = 0.005. Every skip of the held skip takes an upward impulse from the water
+    (none is left out), and its backward over its upward impulse is within 10% of mu."""
+    from components.coupler.forces import C_FRICTION, C_LIFT
+    from tools.validate_scenes import skip_impulses
+
+    a = math.radians(20.0)
+    mu = (C_LIFT * math.sin(a) + C_FRICTION * math.cos(a)) / (C_LIFT * math.cos(a) - C_FRICTION * math.sin(a))
+    assert mu == pytest.approx(0.370, abs=5e-4)
+    skips = skip_impulses("held_skip")
+    assert len(skips) >= 2
+    for _, _, jx, jz in skips:
+        assert jz > 0.0
+        assert -jx / jz == pytest.approx(mu, rel=0.1)
+
+
+@pytest.mark.parametrize("spin", PERSONS_SPINS)
+def test_the_reference_throw_skips_several_times_at_a_persons_spin(spin):
+    """Bocquet 2003, Rosellini et al. 2005: a stone thrown with a person's spin (10 and 14 rev/s) skips
+    several times: the reference throw, free, over the table's 16 m x 6 m pond, at least 3 times. (The
+    row's other half, more skips with more spin, the model does not hold: 3 at both.)"""
+    skips, _ = reference_throw_on_a_long_pond(spin)
+    assert skips >= 3

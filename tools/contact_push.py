@@ -1,6 +1,6 @@
 """How hard the water pushes in each contact, as an instantaneous peak and as a sensor averaging it.
 
-    python tools/contact_push.py            # the table of docs/validation.md section 2c (about 10 s)
+    python tools/contact_push.py            # the table of docs/validation.md section 2c (about 2-3 min)
 
 Tang et al. (2021) give a bounce condition on the vertical acceleration a disk's on-board inertial
 module measured, whose sampling and filtering are not in what was read here. The stage monitor's
@@ -8,9 +8,10 @@ module measured, whose sampling and filtering are not in what was read here. The
 weight, one value per base step. This tool gives that peak beside the largest mean over a sliding
 window of 5, 10 and 20 ms (what a sensor sampling or filtering that coarsely would read), for every
 contact of the throws `tools/validate_targets.py` compares with Tang et al.'s condition: the held and
-reference skips, Clanet's aluminium disk held at 5, 6 and 7 m/s, and the magic-angle throws' steep
-first contacts (``PEAK_THROWS``, ``STEEP_PEAK_THROWS``). Each contact is marked as one the stone
-bounced off or one it surfed on until it sank.
+reference skips, Clanet's aluminium disk held at 5, 6 and 7 m/s (alpha 15 and 20 deg, beta 10
+and 15 deg), and the magic-angle throws' steep first contacts (``PEAK_THROWS``,
+``STEEP_PEAK_THROWS``). Each contact is marked as one the stone bounced off or one it surfed on
+until it sank.
 """
 
 from __future__ import annotations
