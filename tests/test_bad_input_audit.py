@@ -111,13 +111,18 @@ def test_a_gif_frame_longer_than_a_gif_holds_is_refused(skip_path, tmp_path, cap
 _CRC_AT = 9 + 8 + 8 + 8  # a chunk's uncompressed CRC: after its record's opcode and length, times and size
 
 
-@pytest.fixture(scope="module")
-def paint(tmp_path_factory) -> Path:
-    """A whole recording of seven chunks: ten frames each (the first also the checkpoint at t = 0, its
-    channels defined there), the sixth defining the status channel, the seventh holding the status."""
-    out = tmp_path_factory.mktemp("audit_repair") / "whole.mcap"
+def seven_chunks(folder: Path) -> Path:
+    """A whole recording of seven chunks in ``folder``: ten frames each (the first also the checkpoint
+    at t = 0, its channels defined there), the sixth defining the status channel, the seventh holding
+    the status."""
+    out = folder / "whole.mcap"
     run_scene(loads(PAINT, overrides=["until=0.06"]), out, progress=False)
     return out
+
+
+@pytest.fixture(scope="module")
+def paint(tmp_path_factory) -> Path:
+    return seven_chunks(tmp_path_factory.mktemp("audit_repair"))
 
 
 def _chunks(path: Path) -> list:

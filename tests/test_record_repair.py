@@ -23,9 +23,11 @@ from cosim.record.output import MCAP_MAGIC
 from cosim.record.reader import Recording
 from cosim.record.repair import repair
 from cosim.runner import run_scene
-from cosim.scenario import load, loads
+from cosim.scenario import load
 from tests.cli_toys import one_error_line
 from tests.recording_copies import copy_recording
+from tests.test_bad_input_audit import _CRC_AT, seven_chunks
+from tests.test_bad_input_audit import _chunks as _chunk_indexes
 
 ROOT = Path(__file__).resolve().parents[1]
 UNTIL_NS = 5_000_000_000  # ping_pong for 5 s: two chunks, the second ending with the run's status
@@ -157,23 +159,9 @@ def test_a_refused_repair_leaves_no_folder_it_made(whole, tmp_path, capsys):
 
 # --- a damaged chunk that defined the channels of the chunks after it ------------------------------
 
-_CRC_AT = 9 + 8 + 8 + 8  # a chunk's uncompressed CRC: after its record's opcode and length, times and size
-
-
 @pytest.fixture(scope="module")
 def paint(tmp_path_factory) -> Path:
-    """A whole recording of seven chunks of ten frames each, the sixth defining the status channel
-    that the seventh uses (the run's status)."""
-    from tests.test_reliability_output import PAINT
-
-    out = tmp_path_factory.mktemp("repair_paint") / "whole.mcap"
-    run_scene(loads(PAINT, overrides=["until=0.06"]), out, progress=False)
-    return out
-
-
-def _chunk_indexes(path: Path) -> list:
-    with open(path, "rb") as f:
-        return sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+    return seven_chunks(tmp_path_factory.mktemp("repair_paint"))
 
 
 def _flipped(src: Path, dst: Path, *at: int) -> Path:
