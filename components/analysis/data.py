@@ -24,6 +24,7 @@ from components.messages import (
     WaterField,
     Wrench,
 )
+from components.rigid.quaternion import body_axis
 from components.stages import STAGE_NAMES
 from cosim.codec.json_codec import codec_for
 from cosim.errors import RecordingError
@@ -87,8 +88,7 @@ def attack_along_motion(orientation: np.ndarray, velocity: np.ndarray, tilt_deg:
     the same for a stone whose lean stays along its path, not once its lean turns (a free, spinning
     stone). Where the body moves straight up or down (no horizontal motion to measure along), and
     for a sphere (a tilt of 0), the tilt is kept."""
-    w, x, y, z = orientation.T
-    axis = np.stack([2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)], axis=1)
+    axis = np.stack(body_axis(orientation.T), axis=1)  # (each of w, x, y, z a column of states)
     axis *= np.where(axis[:, 2] < 0.0, -1.0, 1.0)[:, None]  # a disk's two faces are alike: the one facing up
     horizontal = np.hypot(velocity[:, 0], velocity[:, 1])
     moving = horizontal > 1e-9

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from components.analysis.data import attack_along_motion
 from components.messages import BodyState
-from components.rigid.quaternion import body_axis
 from cosim.scenario import Scene, loads
 from cosim.scheduler import BaseObserver, Simulation
 
@@ -141,9 +141,9 @@ def _attack_along_motion(state: BodyState) -> float:
     """The attack angle along the horizontal motion [deg]: the face nose-up (positive) or nose-down
     (negative) in the plane of the motion, unlike BodyState.attack_angle_deg, the face's unsigned
     tilt from the horizontal."""
-    ax, ay, az = body_axis(tuple(state.orientation.tolist()))
-    h = state.velocity[:2] / max(float(np.linalg.norm(state.velocity[:2])), 1e-12)
-    return math.degrees(math.atan2(-(ax * h[0] + ay * h[1]), az))
+    return float(attack_along_motion(np.asarray(state.orientation, dtype=float)[None],
+                                     np.asarray(state.velocity, dtype=float)[None],
+                                     np.array([state.attack_angle_deg]))[0])
 
 
 def run_throw(scene: Scene) -> ThrowOutcome:
