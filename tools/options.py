@@ -11,6 +11,8 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from cosim.record.output import nearest_existing
+
 
 def description(doc: str | None) -> str:
     """The first paragraph of a tool's docstring as one line, for ``ArgumentParser(description=...)``."""
@@ -78,9 +80,7 @@ def check_output(parser: argparse.ArgumentParser, path: str | Path | None, optio
             except OSError as exc:
                 parser.error(f"{option} {path}: {exc.strerror or exc}")
         return path
-    folder = path.absolute().parent
-    while not folder.exists() and folder != folder.parent:
-        folder = folder.parent
+    folder = nearest_existing(path.absolute().parent) or Path(path.absolute().anchor)
     if not folder.is_dir():
         parser.error(f"{option} {path}: {folder} is not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):

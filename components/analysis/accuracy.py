@@ -44,7 +44,7 @@ import numpy as np
 
 from cosim.cli import positive_int, run_until_ns
 from cosim.docsection import replace_section, section_problem
-from cosim.record.output import written_whole
+from cosim.record.output import nearest_existing, written_whole
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 SECTION = "accuracy-table"
@@ -604,11 +604,9 @@ def _until_seconds(text: str) -> float:
 def output_folder_problem(out_dir: Path) -> str | None:
     """Why the study could not write into ``out_dir`` (its figure and page), or None: the folder, or
     the nearest of its parents that exists, must be a folder this process may write in."""
-    here = out_dir
-    while not here.exists():
-        if here.parent == here:
-            return None
-        here = here.parent
+    here = nearest_existing(out_dir)
+    if here is None:
+        return None
     if not here.is_dir():
         return ("not a folder; cosim bench accuracy writes a folder (-o DIR)" if here == out_dir
                 else f"cannot be made: {here} is a file, not a folder")

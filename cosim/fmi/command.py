@@ -76,10 +76,10 @@ def fmu_path(text: str) -> str:
     path = Path(file_name(text, "out/skip.fmu"))
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a folder; give the FMU's file name, e.g. {path / 'skip.fmu'}")
-    folder = path.parent
-    while not folder.exists() and folder != folder.parent:
-        folder = folder.parent
-    if not folder.is_dir():
+    from cosim.record.output import nearest_existing
+
+    folder = nearest_existing(path.parent)
+    if folder is not None and not folder.is_dir():
         raise argparse.ArgumentTypeError(f"{folder} is a file, so the folder of {text} cannot be made")
     return text
 

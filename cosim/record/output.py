@@ -343,6 +343,12 @@ def _set_aside(path: Path) -> Path:
     return Path(name)
 
 
+def nearest_existing(path: Path) -> Path | None:
+    """``path``, or the nearest of its parents that exists (None when none does): where an output's
+    folders would be made from, and a file there stands in their way."""
+    return next((p for p in (path, *path.parents) if p.exists()), None)
+
+
 @contextmanager
 def output_folder(folder: Path) -> Iterator[Path]:
     """Make ``folder`` (and its parents) for a command's outputs; if the writing fails, each folder
@@ -350,7 +356,7 @@ def output_folder(folder: Path) -> Iterator[Path]:
     folder behind. A NotADirectoryError naming ``folder`` when it, or the nearest of its parents
     that exists, is a file: ``-o run.mcap/x.png`` was refused as 'File exists', naming neither."""
     made = [f for f in (folder, *folder.parents) if not f.exists()]  # the deepest first
-    nearest = next((f for f in (folder, *folder.parents) if f.exists()), None)
+    nearest = nearest_existing(folder)
     if nearest is not None and not nearest.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, f"cannot be made: {nearest} is a file, not a folder", str(folder))
     folder.mkdir(parents=True, exist_ok=True)

@@ -46,7 +46,7 @@ from cosim.codec.wire import wire_codec
 from cosim.errors import RecordingError
 from cosim.messages import Message, message
 from cosim.record.derive import DerivedMessage
-from cosim.record.output import METADATA_NAME, check_output
+from cosim.record.output import METADATA_NAME, check_output, nearest_existing
 from cosim.record.writer import NO_ROOM, SinkError, open_sink
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
@@ -134,7 +134,7 @@ class Recorder(BaseObserver):
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             # a file where a folder of the path should be is named (it said "File exists", naming neither)
-            blocking = next((f for f in self.path.parents if f.exists()), None)
+            blocking = nearest_existing(self.path.parent)
             if blocking is not None and not blocking.is_dir():
                 raise RecordingError(f"{self.path}: cannot create its folder: {blocking} is a file, not a "
                                      "folder") from None
