@@ -277,13 +277,13 @@ def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> Recording
     if rec.restart_ns and from_ns < rec.restart_ns:
         # a restart's recording begins at its checkpoint: what came before is in the one it came from
         began = f"{rec.restart_ns / NS_PER_S:g} s"
-        lost = None if stamps else _why_no_checkpoint(rec)
-        hint = (f"this recording is a restart from {began}: restart from the recording it came from, or from "
-                f"{began} or later" if stamps else
-                f"this recording is a restart from {began}, recorded without checkpoints: restart from the "
-                "recording it came from" if lost is None else
-                f"this recording is a restart from {began}, and holds no checkpoint ({lost}): restart from the "
-                "recording it came from")
+        if stamps:
+            hint = (f"this recording is a restart from {began}: restart from the recording it came from, or "
+                    f"from {began} or later")
+        else:
+            lost = _why_no_checkpoint(rec)
+            none = "recorded without checkpoints" if lost is None else f"and holds no checkpoint ({lost})"
+            hint = f"this recording is a restart from {began}, {none}: restart from the recording it came from"
     elif stamps:
         hint = f"restart from {stamps[0] / NS_PER_S:g} s or later"
     else:
