@@ -28,12 +28,12 @@ from cosim.errors import RecordingError, ScenarioError, shortened
 from cosim.messages import Message
 from cosim.record.output import MCAP_MAGIC, being_written
 from cosim.record.recorder import CHECKPOINT_TOPIC, METADATA_NAME, SCENE_ATTACHMENT, STATUS_TOPIC, RunStatus
+from cosim.record.seal import FOOTER, FOOTER_TAIL, footer_fields
 from cosim.scenario import MAX_TIME_NS, Scene, loads
 
 MAGIC = MCAP_MAGIC
-_FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
 _DATA_END = struct.Struct("<BQI")  # opcode, record length, data section CRC
-FOOTER_OP, DATA_END_OP = 0x02, 0x0F
+DATA_END_OP = 0x0F
 _DIGITS = re.compile(r"[0-9]+")  # a whole number as the recorder writes it (str.isdigit also takes "²")
 _READ = 1 << 20
 
@@ -54,14 +54,10 @@ def _crc(f: Any, start: int, end: int) -> int:
 def _footer(f: Any, size: int) -> tuple[int, int, int] | None:
     """(summary start, summary offset start, summary CRC) of the open MCAP file ``f`` of ``size``
     bytes when it ends as a closed one does, its footer record then the magic; None if it does not."""
-    if size < 2 * len(MAGIC) + _FOOTER.size:
+    if size < len(MAGIC) + FOOTER_TAIL:
         return None
-    f.seek(size - len(MAGIC) - _FOOTER.size)
-    tail = f.read(_FOOTER.size + len(MAGIC))
-    op, length, summary_start, summary_offsets, summary_crc = _FOOTER.unpack(tail[:_FOOTER.size])
-    if tail[_FOOTER.size:] != MAGIC or op != FOOTER_OP or length != _FOOTER.size - 9:
-        return None
-    return summary_start, summary_offsets, summary_crc
+    f.seek(size - FOOTER_TAIL)
+    return footer_fields(f.read(FOOTER_TAIL))
 
 
 def ends_in_footer(path: Path) -> bool:
@@ -79,7 +75,7 @@ def check_integrity(path: Path) -> None:
         f.seek(0)
         if f.read(len(MAGIC)) != MAGIC:
             raise RecordingError(f"{path}: not a readable MCAP recording (no MCAP magic at its start)")
-        if size < 2 * len(MAGIC) + _FOOTER.size:
+        if size < 2 * len(MAGIC) + FOOTER.size:
             raise RecordingError(f"{path}: not a readable MCAP recording (truncated: {size} bytes, no footer)")
         footer = _footer(f, size)
         if footer is None:
@@ -91,12 +87,12 @@ def check_integrity(path: Path) -> None:
                                  "end; the file was cut short, or its writer was killed: cosim repair makes what "
                                  "it holds a valid recording)")
         summary_start, summary_offsets, summary_crc = footer
-        footer_at = size - len(MAGIC) - _FOOTER.size
+        footer_at = size - len(MAGIC) - FOOTER.size
         if not 0 <= summary_start <= footer_at or not 0 <= summary_offsets <= footer_at:
             raise RecordingError(f"{path}: corrupt: its footer points outside the file")
         if summary_start == 0:
             raise RecordingError(f"{path}: the recording has no summary (truncated or not closed)")
-        if summary_crc and _crc(f, summary_start, footer_at + _FOOTER.size - 4) != summary_crc:
+        if summary_crc and _crc(f, summary_start, footer_at + FOOTER.size - 4) != summary_crc:
             raise RecordingError(f"{path}: corrupt: the CRC of its summary does not match (changed on disk?)")
         data_end = summary_start - _DATA_END.size
         f.seek(data_end)

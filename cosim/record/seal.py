@@ -63,7 +63,8 @@ from cosim.record.salvage import chunk_records, message_head
 
 _PREFIX = struct.Struct("<BQ")  # a record's opcode and length
 _CHUNK_HEAD = struct.Struct("<QQQII")  # a chunk's start and end times, uncompressed size and CRC, compression length
-_FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
+FOOTER = struct.Struct("<BQQQI")  # opcode, record length, summary start, summary offset start, summary CRC
+FOOTER_TAIL = FOOTER.size + len(MCAP_MAGIC)  # a closed MCAP file's last bytes: its footer record, then the magic
 _COMPRESSIONS = ("", "zstd", "lz4")
 # the records a data section holds (the header before it; the summary's after the data end)
 _DATA_OPS = (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE, Opcode.CHUNK, Opcode.MESSAGE_INDEX, Opcode.ATTACHMENT,
@@ -407,19 +408,31 @@ def _restored(channels: list[int], schemas: set[int], summary: _Definitions) -> 
     return (*(summary_schemas[s] for s in needed), *wanted)
 
 
+def footer_fields(tail: bytes) -> tuple[int, int, int] | None:
+    """(summary start, summary offset start, summary CRC) from ``tail``, the last :data:`FOOTER_TAIL`
+    bytes of an MCAP file, when they are a footer record and then the magic, as a closed file ends;
+    None when they are not."""
+    if len(tail) != FOOTER_TAIL or tail[FOOTER.size:] != MCAP_MAGIC:
+        return None
+    op, length, summary_start, summary_offsets, summary_crc = FOOTER.unpack(tail[:FOOTER.size])
+    if op != Opcode.FOOTER or length != _FIXED_LENGTH[Opcode.FOOTER]:
+        return None
+    return summary_start, summary_offsets, summary_crc
+
+
 def _summary_definitions(data: Any) -> _Definitions:
     """The schemas and channels the summary of the MCAP bytes ``data`` defines, when the file ends in
     a footer whose summary CRC is given and matches (the summary is as its writer wrote it, whatever
     happened to the data before it); none when it does not, or a record of it cannot be read."""
     none: _Definitions = ({}, {})
-    footer_at = len(data) - len(MCAP_MAGIC) - _FOOTER.size
-    if footer_at < len(MCAP_MAGIC) or bytes(data[footer_at + _FOOTER.size:]) != MCAP_MAGIC:
+    footer_at = len(data) - FOOTER_TAIL
+    footer = footer_fields(bytes(data[footer_at:])) if footer_at >= len(MCAP_MAGIC) else None
+    if footer is None:
         return none
-    op, length, summary_start, _, summary_crc = _FOOTER.unpack_from(data, footer_at)
-    if (op != Opcode.FOOTER or length != _FIXED_LENGTH[Opcode.FOOTER]
-            or not len(MCAP_MAGIC) < summary_start <= footer_at):
+    summary_start, _, summary_crc = footer
+    if not len(MCAP_MAGIC) < summary_start <= footer_at:
         return none
-    if not summary_crc or zlib.crc32(data[summary_start:footer_at + _FOOTER.size - 4]) != summary_crc:
+    if not summary_crc or zlib.crc32(data[summary_start:footer_at + FOOTER.size - 4]) != summary_crc:
         return none  # (a summary without a CRC cannot be told intact)
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
