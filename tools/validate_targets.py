@@ -177,9 +177,9 @@ def _held(ok: bool) -> str:
     return "held" if ok else "**not held**"
 
 
-def _span(values: list[float]) -> str:
-    """'lo-hi' of ``values`` to 0.1, or 'none'."""
-    return f"{min(values):.1f}-{max(values):.1f}" if values else "none"
+def _span(values: list[float], digits: int = 1) -> str:
+    """'lo-hi' of ``values`` to ``digits`` decimals, or 'none'."""
+    return f"{min(values):.{digits}f}-{max(values):.{digits}f}" if values else "none"
 
 
 def contact_time_row(taus: dict[float, float]) -> str:
@@ -240,18 +240,13 @@ def bocquet_row(skips: list, mu: float) -> str:
     is counted against the row, not dropped."""
     ratios = [-jx / jz for _, _, jx, jz in skips if jz > 0]
     upwards = len(ratios) == len(skips) and bool(skips)
-    shown = f"{_span3(ratios)} over {len(ratios)} skips"
+    shown = f"{_span(ratios, 3)} over {len(ratios)} skips"
     if not upwards:
         shown += f"; {len(skips) - len(ratios)} of {len(skips)} skips with no upward impulse (no ratio)"
     return (f"| Bocquet 2003 | drag over lift per contact, the held skip (alpha = 20 deg): his theory gives the "
             f"same ratio at every contact, whatever the speed, mu = (C sin a + C_f cos a) / (C cos a - C_f sin a) | "
             f"the same at every contact; mu = {mu:.3f} with the model's own C = C_L = 1 and C_f = "
             f"{C_FRICTION:g} | {shown} | {_held(upwards and all(abs(r / mu - 1) <= 0.1 for r in ratios))} |")
-
-
-def _span3(values: list[float]) -> str:
-    """'lo-hi' of ``values`` to 0.001, or 'none'."""
-    return f"{min(values):.3f}-{max(values):.3f}" if values else "none"
 
 
 def persons_spin_row(skips_at: dict) -> str:
