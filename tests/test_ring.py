@@ -628,6 +628,61 @@ def test_a_consumer_whose_process_is_stopped_is_given_up_on(child, monkeypatch):
     assert str(put_c.error) == "its process has been stopped for 0.3 s"
 
 
+PIPE_FILLER = 1 << 20  # [bytes] a batch larger than the ring and than any pipe's buffer: its inline write must wait
+
+
+def test_a_batch_larger_than_the_ring_gives_up_on_a_consumer_that_reads_nothing(local, monkeypatch):
+    """A batch larger than the ring goes down the control pipe itself; with the consumer silent
+    (reading nothing; its process not known) the write waits like a wait for room in the ring and gives
+    up once there has been no progress for SILENT_S: RingStuck. (The write blocked for ever.)"""
+    import cosim.record.ring as ring
+
+    monkeypatch.setattr(ring, "SILENT_S", 0.3)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    put = in_thread(local.producer.put, [b"x" * PIPE_FILLER])
+    put.join(WATCHDOG_S)
+    assert not put.is_alive() and isinstance(put.error, ring.RingStuck)
+    assert str(put.error) == "it has not answered for 0.3 s"
+
+
+def test_a_batch_larger_than_the_ring_gives_up_on_a_stopped_consumer(child, monkeypatch):
+    """The consumer's process stopped (SIGSTOP) while a batch larger than the ring goes down the
+    pipe: found stopped for STOPPED_S, the put gives up (RingStuck), however long SILENT_S is; once
+    asked to stop, it gives up after STALL_S without a read."""
+    import signal
+
+    import cosim.record.ring as ring
+
+    monkeypatch.setattr(ring, "SILENT_S", WATCHDOG_S * 10)
+    monkeypatch.setattr(ring, "STOPPED_S", 0.3)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    producer = RingProducer(RING)
+    consumer = child(producer)
+    producer.consumer_pid = consumer.proc.pid
+    os.kill(consumer.proc.pid, signal.SIGSTOP)
+    try:
+        put = in_thread(producer.put, [b"x" * PIPE_FILLER])
+        put.join(WATCHDOG_S)
+    finally:
+        os.kill(consumer.proc.pid, signal.SIGCONT)
+    assert not put.is_alive() and isinstance(put.error, ring.RingStuck)
+    assert str(put.error) == "its process has been stopped for 0.3 s"
+
+
+def test_a_batch_larger_than_the_ring_stops_waiting_when_asked(local, monkeypatch):
+    """Asked to stop (RingProducer.interrupted) while a batch larger than the ring waits on a full
+    pipe: RingStalled once the consumer has read nothing for STALL_S."""
+    import cosim.record.ring as ring
+
+    monkeypatch.setattr(ring, "SILENT_S", WATCHDOG_S * 10)
+    monkeypatch.setattr(ring, "STALL_S", 0.3)
+    monkeypatch.setattr(ring, "WAIT_SLICE_S", 0.05)
+    local.producer.interrupted()
+    put = in_thread(local.producer.put, [b"x" * PIPE_FILLER])
+    put.join(WATCHDOG_S)
+    assert not put.is_alive() and isinstance(put.error, ring.RingStalled)
+
+
 @pytest.mark.parametrize("busy", [False, True], ids=["answering-slowly", "working-without-a-word"])
 def test_a_slow_consumer_is_waited_for_however_long_it_takes(child, monkeypatch, busy):
     """No progress, not time, ends a wait: a consumer answering every 50 ms keeps the producer

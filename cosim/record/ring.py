@@ -237,6 +237,36 @@ class RingProducer:
         """Start talking to the consumer: its control pipe (write end) and acknowledgement pipe (read end)."""
         self.control_fd, self.ack_fd = control_fd, ack_fd
         os.set_blocking(ack_fd, False)
+        os.set_blocking(control_fd, False)  # a full pipe is waited on as the ring is (see _send)
+
+    def _send(self, data: Any) -> None:
+        """Write ``data`` whole down the control pipe. While the pipe is full (the consumer not reading:
+        a batch larger than the ring goes down it whole, :meth:`put`), wait for it as for an answer:
+        :class:`RingStalled` when asked to stop and it reads nothing for :data:`STALL_S`,
+        :class:`RingStuck` when it makes no progress at all (:class:`_Progress`). A blocking write
+        waited for ever on a stopped consumer."""
+        view = memoryview(data).cast("B")
+        since = time.monotonic()
+        progress: _Progress | None = None
+        while view:
+            try:
+                view = view[os.write(self.control_fd, view):]
+            except BlockingIOError:
+                pass
+            else:  # the consumer read some: a new wait from here
+                since, progress = time.monotonic(), None
+                if self.interrupts:
+                    self._heard_at = since
+                continue
+            if progress is None:
+                progress = _Progress(self.consumer_pid)
+            self._read_acks(wait=False)  # the consumer never waits on a full acknowledgement pipe meanwhile
+            if not select.select([], [self.control_fd], [], WAIT_SLICE_S)[1]:
+                if self._stalled(since):
+                    raise RingStalled("the consumer has not read the control pipe")
+                stuck = progress.stuck()
+                if stuck is not None:
+                    raise RingStuck(stuck)
 
     def _free(self, total: int) -> int:
         """Where in the stream ``total`` bytes go next (after the head, or at the ring's start when
@@ -281,7 +311,7 @@ class RingProducer:
         self._head = start + used
         self._held.append((self._sent, start, used))
         self._sent += 1
-        _write_all(self.control_fd, _HEAD.pack(start % self.size, 1) + _LENGTH.pack(used))
+        self._send(_HEAD.pack(start % self.size, 1) + _LENGTH.pack(used))
 
     def put(self, parts: Sequence[Any]) -> None:
         """Send one batch (bytes-like parts); waits while the consumer is a ring's length behind."""
@@ -293,9 +323,9 @@ class RingProducer:
             self._held.clear()
             self._unsent = (self._sent, parts)
             self._sent += 1
-            _write_all(self.control_fd, _HEAD.pack(INLINE, len(parts)) + lengths)
+            self._send(_HEAD.pack(INLINE, len(parts)) + lengths)
             for part in parts:
-                _write_all(self.control_fd, part)
+                self._send(part)
             self._unsent = None
             return
         self._reserved = None  # any space reserved is given up: this batch may take it
@@ -309,7 +339,7 @@ class RingProducer:
         self._held.append((self._sent, start, total))
         self._sent += 1
         # only now that the bytes are in place may the consumer hear of them
-        _write_all(self.control_fd, _HEAD.pack(offset, len(parts)) + lengths)
+        self._send(_HEAD.pack(offset, len(parts)) + lengths)
 
     def mark(self, used: int) -> None:
         """Mark the first ``used`` bytes of the space :meth:`reserve` gave last as whole records: should
@@ -383,7 +413,7 @@ class RingProducer:
         then, False when the consumer has gone (its batches are still :meth:`held`)."""
         self.marked[1] = 0  # ending on purpose: nothing is left unsent
         try:
-            _write_all(self.control_fd, _HEAD.pack(END, 0))
+            self._send(_HEAD.pack(END, 0))
             while not self.finished:
                 self._read_acks(wait=True)
         except (RingStalled, RingStuck):  # the consumer is there, but not answering: the caller decides
