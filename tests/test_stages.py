@@ -482,3 +482,18 @@ def test_rest_is_final_though_the_body_rocks_faster_than_rest_speed_now_and_then
                     (body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.0, 0.0), None, touching)])
     assert [o["stage"].label for o in out if "stage" in o] == ["rest"]
     assert m.stop_reason is not None and "rest" in m.stop_reason
+
+
+def test_a_floating_stone_that_comes_to_rest_on_the_ground_rests_and_only_then():
+    """Float is final but for the ground: a light stone floating in water too shallow for it, on the
+    bed and slower than rest_speed, rests (docs/stages.md); one still moving, or off the ground,
+    floats on."""
+    from components.stages import classify
+
+    light = body(1.0, 0.0, 0.01, 0.0, mass=0.5 * DISK_WATER)
+    wet = WaterContact(True, 0.5, 0.001, np.array([0.0, 0.0, 1.0]), *([np.zeros(3)] * 3), 0.001, 0.0)
+    touching = GroundContact(True, 1.0, 0.0, False, 0.0)
+    assert classify(StageId.FLOAT, light, wet, None, sink_speed=0.1, rest_speed=0.05) is StageId.FLOAT
+    assert classify(StageId.FLOAT, light, wet, touching, sink_speed=0.1, rest_speed=0.05) is StageId.REST
+    moving = body(1.0, 0.0, 0.2, 0.0, mass=0.5 * DISK_WATER)
+    assert classify(StageId.FLOAT, moving, wet, touching, sink_speed=0.1, rest_speed=0.05) is StageId.FLOAT
