@@ -226,7 +226,9 @@ class StageMonitor(Component):
         track = self.track
         if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
             self._start_at(body)
-        self.final_x, self.final_y = x, float(body.position[1])
+        if math.isnan(self.left_at):  # where it left the pond, its distance ends: a stone of a monitor that
+            # ends no run (stop_after 0) falls on beside the water, and its fall is no distance travelled
+            self.final_x, self.final_y = x, float(body.position[1])
         outputs: dict[str, Message] = {}
 
         previous = StageId.APPROACH if self.stage is None else self.stage
@@ -387,7 +389,10 @@ class StageMonitor(Component):
         distance = self.travelled()
         # rounded first: a stone that moved back by less than 5 mm travelled 0.00 m, not -0.00 m
         travelled = f"{round(distance, 2) + 0.0:.2f} m" if not math.isnan(distance) else "none yet"
-        lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {self._outcome()}")
+        outcome = self._outcome()
+        if outcome == LEFT_POND and math.isnan(self.track.touchdown_time):
+            outcome += " (it never touched the water)"
+        lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {outcome}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
         for r in self.records:

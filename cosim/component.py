@@ -148,6 +148,14 @@ class Component:
         refused when one feeds nothing. Default: none."""
         return {}
 
+    def answers(self) -> dict[str, str]:
+        """Outputs that answer an input: each output port with the input port whose senders it must
+        reach (a pond's patch for a body goes back to the coupler that asked for it on the request
+        port beside it). The scene is refused when a component sending on the input is not fed by the
+        output: wired to another body's answer, it would meet water that is not where it asked.
+        Default: none."""
+        return {}
+
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """Problems with what this component will receive at t = 0, as plain sentences; the scene is
         refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then

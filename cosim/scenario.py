@@ -844,6 +844,28 @@ def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: l
                 problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
 
 
+def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
+    component sending on that input."""
+    for name, comp in built.items():
+        for out_port, in_port in comp.answers().items():
+            senders = sorted({e.source for e in scene.connections if e.target == name and e.target_port == in_port})
+            receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
+            for sender in senders:
+                if sender in receivers:
+                    continue
+                wrong = sorted((e.source_port, e.target_port) for e in scene.connections
+                               if e.source == name and e.target == sender and e.source_port in comp.answers())
+                if wrong:
+                    got, port = wrong[0]
+                    problems.append(f"components.{name}: {sender} sends {in_port!r} but is sent {got!r}, the answer "
+                                    f"to another: connect {name}.{out_port} -> {sender}.{port} instead")
+                else:
+                    fed = ", ".join(sorted(receivers)) or "nothing"
+                    problems.append(f"components.{name}: {sender} sends {in_port!r}, but {out_port!r}, the answer "
+                                    f"to it, feeds {fed}: connect {name}.{out_port} -> {sender}")
+
+
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each component's :meth:`~cosim.component.Component.check_start` on what it will receive at
     t = 0: for each input port, its source's initial output (a direct edge) or the edge's ``initial``
@@ -1036,6 +1058,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     _check_stability(scene, built_components, problems)
     _check_freshness(scene, built_components, problems)
     _check_needed_outputs(scene, built_components, problems)
+    _check_answers(scene, built_components, problems)
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)

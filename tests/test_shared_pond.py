@@ -162,6 +162,29 @@ def test_a_shared_pond_has_no_unnamed_ports():
         loads(text, SCENES / "skip.yaml")
 
 
+@pytest.mark.parametrize("swap, messages", [
+    ({"pond.patch_right -> right_water.water": "pond.patch_left -> right_water.water"},
+     ["right_water sends 'request_right' but is sent 'patch_left', the answer to another: connect "
+      "pond.patch_right -> right_water.water instead"]),
+    ({"pond.patch_right -> right_water.water": "pond.patch_left -> right_water.water",
+      "pond.patch_left -> left_water.water": "pond.patch_right -> left_water.water"},
+     ["left_water sends 'request_left' but is sent 'patch_right'", "right_water sends 'request_right' but is "
+                                                                   "sent 'patch_left'"]),
+], ids=["one-copied", "both-swapped"])
+def test_a_coupler_sent_another_bodys_water_is_refused(swap, messages):
+    """Each body's patch must go back to the coupler that asks on the request beside it. Wired to
+    another body's (a copied line), the coupler met water that was not where it asked: the stone fell
+    through the pond, 6 m under a 0.5 m bed, and the run ended ok."""
+    text = (SCENES / "two_stones.yaml").read_text()
+    for old, new in swap.items():
+        assert old in text
+        text = text.replace(old, new)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "two_stones.yaml")
+    for message in messages:
+        assert f"components.pond: {message}" in str(refused.value)
+
+
 def test_plots_of_one_body_show_only_its_own_monitor_coupler_and_skips(tmp_path):
     """In a recording of two stones, the figures' data for one stone come from its own monitor,
     coupler and wrench channels (the scene's edges say which), not from the other stone's."""

@@ -497,3 +497,25 @@ def test_a_floating_stone_that_comes_to_rest_on_the_ground_rests_and_only_then()
     assert classify(StageId.FLOAT, light, wet, touching, sink_speed=0.1, rest_speed=0.05) is StageId.REST
     moving = body(1.0, 0.0, 0.2, 0.0, mass=0.5 * DISK_WATER)
     assert classify(StageId.FLOAT, moving, wet, touching, sink_speed=0.1, rest_speed=0.05) is StageId.FLOAT
+
+
+def test_the_distance_of_a_stone_that_left_the_pond_ends_where_it_left():
+    """A monitor that ends no run (stop_after 0, one of several bodies'): once its stone has left the
+    pond, its distance travelled stays where it left (it went on counting the stone's fall beside the
+    water: 10.17 m for a stone that left a 9 m pond at x = 2.94 m), and the summary says so; one that
+    never touched the water says that too."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0, outside_after=0.002))
+    outside = water(False, depth=0.05)  # dry, its lowest point below the water level: off the grid
+    script = [(body(0.0, 0.10, 5.0, -1.0), water(False), None),
+              (body(0.5, 0.00, 5.0, -1.0), water(True), None),
+              (body(0.7, 0.01, 4.6, 0.8), water(False), None),
+              (body(1.0, -0.05, 4.6, -0.5), outside, None),
+              (body(1.2, -0.10, 4.6, -1.0), outside, None),
+              (body(1.4, -0.20, 4.6, -1.5), outside, None)]  # left the pond here, at x = 1.4
+    drive(m, script + [(body(x, -1.0 - x, 4.6, -5.0), outside, None) for x in (3.0, 6.0, 9.0)])
+    assert m.timeline[-1][1] == "left-pond"
+    assert m.travelled() == pytest.approx(1.4)
+    assert "distance travelled: 1.40 m; final stage: left-pond" in "\n".join(m.summary())
+    missed = StageMonitor("stages", StageMonitor.Params(stop_after=0.0, outside_after=0.002))
+    drive(missed, [(body(0.2 * k, 0.1 - 0.1 * k, 5.0, -1.0), outside if k else water(False), None) for k in range(6)])
+    assert "final stage: left-pond (it never touched the water)" in "\n".join(missed.summary())

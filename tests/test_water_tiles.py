@@ -258,6 +258,38 @@ def test_the_field_window_follows_the_water_a_body_asks_for():
     assert surface.field_window()[1] == 400
 
 
+def test_the_field_window_follows_the_body_whose_water_moved():
+    """Several bodies: the field's window follows the one that asked for new water (a stone in flight),
+    not the first of them, whose request stays (a floating ball held the window at its place for the
+    whole run, while the stone skipped out of it); a restored state follows as the run did."""
+    from components.messages import PatchRequest
+
+    params = WaterParams(nx=400, ny=100, cell=0.01, depth=0.5, boundary="absorbing", tile=16, rest_below=0.0,
+                         field_every=1, field_window=(0.64, 0.32), bodies=["ball", "stone"])
+    shared = WaterSurface.configure(params, "pond", None, [])
+
+    def made() -> WaterSurface:
+        return shared("pond", params)
+
+    surface = made()
+    ball = PatchRequest(x_min=0.5, x_max=0.6, y_min=0.4, y_max=0.5)
+
+    def step(k: int, stone_x: float, on: WaterSurface = surface) -> tuple[int, int, int, int]:
+        stone = PatchRequest(x_min=stone_x, x_max=stone_x + 0.1, y_min=0.4, y_max=0.5)
+        on.step(k * DT_NS, DT_NS, {"occupied_ball": None, "request_ball": ball,
+                                   "occupied_stone": None, "request_stone": stone})
+        return on.field_window()
+
+    i0, i1, _, _ = step(0, 0.5)
+    assert i0 <= 55 <= i1  # both ask at once: the first
+    for k, x in enumerate((1.5, 2.0, 3.0), start=1):
+        i0, i1, _, _ = step(k, x)
+        assert i0 <= round(100 * x) + 5 <= i1, (x, i0, i1)  # the stone's, the ball's window unchanged
+    restored = made()
+    restored.set_state(surface.get_state())
+    assert step(4, 3.0, restored) == step(4, 3.0)  # nobody asked anew: both stay with the stone
+
+
 def test_volume_and_energy_by_tiles_are_the_whole_waters_to_round_off():
     """Volume and energy, summed over the moving water only, match the dense sums over the grid."""
     surface = run(pond(16, field_every=1, boundary="reflecting"), 60, stone_input)

@@ -149,7 +149,8 @@ class WaterParams:
             "1e-30 m is far below any wave's round-off (0: only exact zeros rest, and the tiled step is "
             "the dense one bit for bit)")
     bodies: list[str] = param([], doc="bodies sharing this water, each on its own ports occupied_<name>, "
-                                      "request_<name>, patch_<name> (empty: one body on occupied, request, patch)")
+                                      "request_<name>, patch_<name>, the patch going back to the coupler that "
+                                      "sends the request (empty: one body on occupied, request, patch)")
 
     def check(self) -> list[tuple[str, str]]:
         """Rules across fields and registry names, as (field, problem) pairs."""
@@ -312,6 +313,8 @@ class WaterSurface(Component):
         self._steps = 0
         self._next_frame = 1
         self._follow: tuple[float, float] | None = None  # centre of the last water a body asked for [m]
+        # the centre of each body's request when last seen [m]: the one that changes is the one followed
+        self._asked: list[tuple[float, float] | None] = [None] * len(self.body_ports)
         # each body's last request and its index window (patch): requests are immutable
         self._windows: dict[int, tuple[PatchRequest, tuple[int, int, int, int] | None]] = {}
         self._empty_patch = HeightPatch(
@@ -426,6 +429,7 @@ class WaterSurface(Component):
             "next_frame": self._next_frame,
             "displaced_before": self._displaced_before,
             "follow": list(self._follow) if self._follow is not None else None,
+            "asked": [list(c) if c is not None else None for c in self._asked],
             "model": self.model.get_state(),
         } | ({"tiles": self.tiles.get_state()} if self.tiles is not None else {}) | (
             {"bodies": [_window_state(o.b, o.window) for o in self._occupants]} if len(self._occupants) > 1 else {})
@@ -460,12 +464,19 @@ class WaterSurface(Component):
         self._displaced_before = float(state.get("displaced_before", 0.0))
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
+        asked = state.get("asked") or [None] * len(self.body_ports)  # saved before it was kept: each new again
+        self._asked = [(float(c[0]), float(c[1])) if c is not None else None for c in asked][:len(self.body_ports)]
+        self._asked += [None] * (len(self.body_ports) - len(self._asked))
         if state.get("model"):
             self.model.set_state(state["model"])
         else:  # a state built by hand, or saved by a model that keeps none (a restart with another model):
             self.model.reset(self._h, self._v)  # the model starts from the columns
 
     # --- the step -------------------------------------------------------------------------------
+
+    def answers(self) -> dict[str, str]:
+        """Each body's patch goes back to the coupler that asks on the request port beside it."""
+        return {patch: request for _, request, patch in self.body_ports}
 
     def initial_outputs(self) -> dict[str, Message]:
         out: dict[str, Message] = {patch_port: self._empty_patch for _, _, patch_port in self.body_ports}
@@ -588,11 +599,18 @@ class WaterSurface(Component):
     # --- outputs --------------------------------------------------------------------------------
 
     def _outputs(self, t_end: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        for _, request_port, _ in self.body_ports:
+        # the field's window follows the water a body last asked for anew: with several bodies, the one
+        # whose window moved (a stone in flight), not the first of them (a floating ball, whose window
+        # stays, held it for the whole run)
+        followed = False
+        for k, (_, request_port, _) in enumerate(self.body_ports):
             request = inputs.get(request_port)
             if isinstance(request, PatchRequest) and request.x_min <= request.x_max and request.y_min <= request.y_max:
-                self._follow = (0.5 * (request.x_min + request.x_max), 0.5 * (request.y_min + request.y_max))
-                break
+                centre = (0.5 * (request.x_min + request.x_max), 0.5 * (request.y_min + request.y_max))
+                if centre != self._asked[k]:
+                    self._asked[k] = centre
+                    if not followed:
+                        self._follow, followed = centre, True
         out: dict[str, Message] = {
             patch_port: self.patch(inputs.get(request_port), k)  # type: ignore[arg-type]
             for k, (_, request_port, patch_port) in enumerate(self.body_ports)}
