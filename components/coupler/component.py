@@ -429,10 +429,13 @@ class WaterCoupler(Component):
 
     def start_inputs(self, inputs: dict[str, Message | None]) -> None:
         """Where the body began: the lowest point of its bounding sphere at t = 0 (see
-        :meth:`_mound_raised`)."""
+        :meth:`_mound_raised`); and the bound of the first step (:meth:`start_stable_step`)."""
         body = inputs.get("body")
         if isinstance(body, BodyState):
             self._start_bottom = float(body.position[2]) - _bounding_radius(body)
+            # the first step's bound, as every later step near the water has one: without it the first
+            # step was taken whole however fast the body came in (at 2 km/s it was thrown out at 25)
+            self.bound = min(self.bound, self.start_stable_step(inputs))
 
     def needed_outputs(self) -> dict[str, str]:
         """The wrench whenever a force acts, the request always (the water sends only the window asked
@@ -1201,7 +1204,14 @@ class WaterCoupler(Component):
                  nsub: int) -> np.ndarray:
         """Mean of the effects' forces and torques and their sum (S_TOTAL + 6,) over n substeps of a
         private copy of the body moved by them and gravity (semi-implicit Euler). ``met``: the water
-        the surface effects are evaluated on (see :mod:`components.coupler.met_surface`), ``water`` the patch itself."""
+        the surface effects are evaluated on (see :mod:`components.coupler.met_surface`), ``water`` the patch itself.
+
+        A substep longer than the stable step of the forces it meets (:meth:`max_stable_step` of the
+        private copy there) takes the rest of the step in substeps that short, and the mean is then
+        the forces' impulse over the step: the step's substeps were set from the bound the step began
+        with, which for a body meeting the water far faster than thrown stones do (hundreds of m/s)
+        is its dry approach's, and the water threw such a body out faster than it came (25 km/s from
+        2 km/s). More than MAX_PREDICTED_SUBSTEPS in a step: refused in words."""
         h = dt / n
         mass = float(body.mass)
         inertia_body = np.asarray(body.inertia, dtype=float)
@@ -1210,7 +1220,8 @@ class WaterCoupler(Component):
         w = np.array(body.angular_velocity, dtype=float)
         q = np.array(body.orientation, dtype=float)
         size = kernel.S_TOTAL + 6
-        total = stats0[:size].copy()
+        total = np.zeros(size)  # the substeps' forces summed, while they are all h long
+        impulse: np.ndarray | None = None  # once refined: each substep's forces times its length
         b_scratch = np.zeros_like(self._b_geo)
         s_scratch = np.zeros(kernel.N_STATS)
         ring_mode = self._ring_on
@@ -1224,7 +1235,11 @@ class WaterCoupler(Component):
         carried = any(added.values())
         moments = np.array(added.with_inertia(inertia_body.tolist())) if carried else inertia_body
         current = stats0[:size].copy()
-        for i in range(n):
+        bound = self.bound  # the first substep's own: of stats0, the body as it is
+        private = self._body_vector(body)  # the private copy's, for the bound of each substep after
+        parameters = self._parameters_of(body.shape)
+        left, i = n, 0
+        while left > 0:
             if i > 0:
                 axes = quat_to_matrix(q)
                 axis = axes[:, 2]
@@ -1236,7 +1251,25 @@ class WaterCoupler(Component):
                     self._add_hydrostatics(stats, self._ring(body, x, axes, half, low, water, elements,
                                                              nsub, ring_scratch))
                 current = stats[:size].copy()
+                private[step_kernel.B_POS:step_kernel.B_POS + 3] = x
+                private[step_kernel.B_QUAT:step_kernel.B_QUAT + 4] = q
+                private[step_kernel.B_VEL:step_kernel.B_VEL + 3] = v
+                private[step_kernel.B_OMEGA:step_kernel.B_OMEGA + 3] = w
+                bound = float(step_kernel.stability_bound(private, stats, parameters))
+            if bound < h:  # too long for the forces met here: the rest of the step in substeps of the bound
+                more = math.ceil(h * left / bound)
+                if i + more > MAX_PREDICTED_SUBSTEPS:
+                    raise ValueError(
+                        f"the water's forces on the body need substeps of {bound:.3g} s here, {i + more} in this "
+                        f"step of {dt:.3g} s, more than the limit {MAX_PREDICTED_SUBSTEPS} (the body at "
+                        f"{float(np.sqrt(v @ v)):.3g} m/s): a smaller dt")
+                if impulse is None:
+                    impulse = total * h  # the substeps before, each h long
+                h, left = h * left / more, more
+            if impulse is None:
                 total += current
+            else:
+                impulse += current * h
             force = current[kernel.S_TOTAL:kernel.S_TOTAL + 3]
             torque = current[kernel.S_TOTAL + 3:kernel.S_TOTAL + 6]
             if carried:
@@ -1250,9 +1283,11 @@ class WaterCoupler(Component):
                 with np.errstate(over="ignore", invalid="ignore"):
                     w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h
             x = x + v * h
-            _check_predicted_motion(v, w, i, n, h)
+            _check_predicted_motion(v, w, i, i + left, h)
             q = _rotate(q, w * h)
-        return total / n
+            left -= 1
+            i += 1
+        return total / n if impulse is None else impulse / dt
 
     def _assumed_still_water(self, pos: np.ndarray, half: tuple[float, float], level: float) -> HeightPatch:
         """Still water at the rest ``level`` over the body's footprint (columns of an eighth of its
@@ -1276,6 +1311,13 @@ class WaterCoupler(Component):
         if bed is not None and top < bed and bed > float(patch.rest_level):
             if self.stop_reason is None:
                 self.request_stop(_in_dry_land(pos, top, bed, float(patch.rest_level), late=True))
+            return
+        began_top = None if self._start_bottom is None else self._start_bottom + 2.0 * (top - float(pos[2]))
+        if bed is not None and began_top is not None and began_top >= bed:
+            # it began above the bed and has gone through it before the water's first answer (a body
+            # far faster than thrown stones): it ends as any body through the bed does, not as one
+            # started under it
+            self._check_not_through_the_bed(top, pos, patch)
             return
         problem = None if bed is None else _under_the_bed(float(pos[2]), top, bed)
         if problem is not None:
@@ -1326,6 +1368,9 @@ def _ring_scratch(shape: tuple[int, int]) -> dict[str, np.ndarray]:
     """Work arrays of WaterCoupler._ring over a patch of ``shape``."""
     return {"b_rest": np.zeros(shape), "waterline": np.zeros((3, *shape)), "b_out": np.zeros(shape),
             "stats": np.zeros(kernel.N_STATS), "lifted": np.zeros(3)}
+
+
+MAX_PREDICTED_SUBSTEPS = 100_000  # substeps of one coupler step's prediction, refined included
 
 
 def _check_predicted_motion(v: np.ndarray, w: np.ndarray, i: int, n: int, h: float) -> None:
