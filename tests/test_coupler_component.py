@@ -189,19 +189,27 @@ def test_body_partly_off_the_patch_is_partly_dry():
 
 
 def test_max_stable_step_near_and_far():
-    """The bound is inf far from water, finite when wetted, and smaller at 30 m/s than at 3 m/s."""
+    """The bound is inf far from water. Wetted, the 6 mm slate's is its motion bound, a quarter of
+    its radius over its speed (4.17 ms at 3 m/s, 0.417 ms at 30 m/s); a slate 0.1 mm thin, 60 times
+    lighter, is bound by the water's damping instead, whose rate grows with the speed and falls with
+    the mass: its bound is 10 times shorter at 30 m/s than at 3, and halves with its mass."""
     patch = still_water()
     c = WaterCoupler("c")
     step(c, body(position=(0.0, 0.0, 1.0)), patch)
     assert c.max_stable_step() == math.inf
-    step(c, skipping_disk(speed=3.0, depth=0.01), patch)
-    slow = c.max_stable_step()
-    step(c, skipping_disk(speed=30.0, depth=0.01), patch)
-    fast = c.max_stable_step()
-    assert 0 < fast < slow < math.inf
-    # the pressure damping sets the scale: a fraction of m / (rho C_L U S)
-    m = skipping_disk().mass
-    assert fast > 0.1 * m / (1000.0 * 30.0 * math.pi * 0.05**2)
+
+    def bound(speed: float, **kw) -> float:
+        c = WaterCoupler("c")
+        step(c, skipping_disk(speed=speed, depth=0.01, **kw), patch)
+        return c.max_stable_step()
+
+    for speed in (3.0, 30.0):
+        assert bound(speed) == pytest.approx(0.25 * 0.05 / speed, rel=1e-12)
+    thin = {"thickness": 1e-4, "density": 2700.0}
+    slow, fast = bound(3.0, **thin), bound(30.0, **thin)
+    assert slow < 0.25 * 0.05 / 3.0 / 10
+    assert slow / fast == pytest.approx(10.0, rel=1e-3)
+    assert bound(3.0, **(thin | {"density": 1350.0})) == pytest.approx(0.5 * slow, rel=1e-9)
 
 
 def test_floating_body_at_rest_has_a_finite_bound():
@@ -305,13 +313,31 @@ def test_dissipated_energy_is_minus_the_work_of_the_held_wrench():
 
 
 def test_lock_attitude_predictor_keeps_the_orientation():
-    """For a body whose attitude is locked, substeps move the private body copy without turning it
-    (the mean torque is still reported)."""
-    c = WaterCoupler("c", WaterCouplerParams())
-    b = skipping_disk(speed=30.0, depth=0.01, attitude_locked=True)
-    out = c._substep(0.0, 1e-3, 4, {"body": b, "water": still_water()})
-    assert out["wrench"].torque.any()
-    assert c.get_state()["prev"]["position"].tolist() == b.position.tolist()
+    """For a body whose attitude is locked (it holds its orientation, whatever its angular velocity:
+    a held spin), substeps move the private body copy without turning it, as the body itself does
+    not turn; the mean torque is still reported. The copy was turned by the angular velocity (6e-3
+    of a quaternion a substep for 50 rad/s across its axis), meeting the water at an attitude the
+    body never had; a free body's copy turns."""
+    def axes_met(attitude_locked: bool) -> list[np.ndarray]:
+        c = WaterCoupler("c", WaterCouplerParams())
+        b = skipping_disk(speed=30.0, depth=0.01, attitude_locked=attitude_locked, angular_velocity=(0.0, 50.0, 0.0))
+        met = []
+        evaluate = c._evaluate
+
+        def spy(body, pos, vel, omega, axes, *args):
+            met.append(np.array(axes))
+            return evaluate(body, pos, vel, omega, axes, *args)
+
+        c._evaluate = spy
+        out = c._substep(0.0, 1e-3, 4, {"body": b, "water": still_water()})
+        assert out["wrench"].torque.any()
+        assert len(met) == 4  # the step's own evaluation, then one for each substep after the first
+        return met
+
+    locked = axes_met(True)
+    assert all(np.array_equal(a, locked[0]) for a in locked)
+    free = axes_met(False)
+    assert not np.allclose(free[-1], free[0], atol=1e-4)
 
 
 def test_a_body_held_still_in_the_water_makes_no_waves_after_it_is_put_in():

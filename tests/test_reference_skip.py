@@ -4,6 +4,7 @@ the spin gives is reported per skip and stays on the pond (docs/validation.md, s
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -25,8 +26,10 @@ def run(*overrides: str) -> Simulation:
     return sim
 
 
+@functools.cache
 def throw(*overrides: str):
-    """The stage monitor after the reference skip with ``overrides``, run to its end."""
+    """The stage monitor after the reference skip with ``overrides``, run to its end (each throw once
+    in a session: two tests ask for 10 rev/s)."""
     return run(*overrides).components["stages"]
 
 

@@ -1284,7 +1284,8 @@ class WaterCoupler(Component):
                     w = w + np.linalg.solve(inertia, torque - np.cross(w, inertia @ w)) * h
             x = x + v * h
             _check_predicted_motion(v, w, i, i + left, h)
-            q = _rotate(q, w * h)
+            if not body.attitude_locked:  # a locked body holds its attitude, whatever its (held) spin
+                q = _rotate(q, w * h)
             left -= 1
             i += 1
         return total / n if impulse is None else impulse / dt
