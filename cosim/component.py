@@ -223,6 +223,12 @@ class Component:
         while it builds."""
         return 0
 
+    @classmethod
+    def memory_advice(cls, params: Any) -> str:
+        """What to change when the scene is refused for the memory this component would hold
+        (:meth:`estimate_bytes`), said with the refusal."""
+        return "use a smaller grid"
+
     def summary(self) -> list[str]:
         """Lines for the closing run summary."""
         return []

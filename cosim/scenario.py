@@ -784,8 +784,13 @@ def _check_memory(components: dict[str, ComponentConfig], problems: list[str]) -
     total, memory = sum(needs.values()), machine_memory()
     if memory and total > MEMORY_SHARE * memory:
         parts = ", ".join(f"{n} {_gb(b)}" for n, b in sorted(needs.items(), key=lambda kv: -kv[1]) if b)
+        largest = max(needs, key=lambda n: needs[n])
+        try:  # the advice of the component that holds the most
+            advice = str(components[largest].cls.memory_advice(components[largest].params))
+        except Exception:
+            advice = "use a smaller grid"
         problems.append(f"components: the scene needs about {_gb(total)} of memory ({parts}), more than this "
-                        f"machine's {_gb(memory)} allows ({MEMORY_SHARE:.0%}); use a smaller grid")
+                        f"machine's {_gb(memory)} allows ({MEMORY_SHARE:.0%}); {advice}")
 
 
 def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:

@@ -49,3 +49,15 @@ def test_components_without_an_estimate_count_nothing(monkeypatch):
     assert Component.estimate_bytes(None) == 0
     monkeypatch.setattr(cosim.scenario, "machine_memory", lambda: 1)
     assert loads("dt: 0.001\nuntil: 0.01\ncomponents:\n  s: {type: \"tests.toys:Source\"}\n").components
+
+
+def test_a_pond_of_many_bodies_is_told_that_its_bodies_take_the_memory(sixteen_gb):
+    """Each body sharing a pond keeps its occupied height over the whole grid: a pond of 2000 x 2000
+    cells with 500 bodies needs 16 GB for those alone, and the refusal says so, not "use a smaller
+    grid" (the grid itself is 0.26 GB)."""
+    names = ", ".join(f"b{k}" for k in range(500))
+    with pytest.raises(ScenarioError) as err:
+        loads(POND.format(nx=2000, ny=2000).replace("cell: 0.01}", f"cell: 0.01, bodies: [{names}]}}"))
+    (problem,) = err.value.problems
+    assert problem.endswith("allows (90%); most of it is the 500 bodies' occupied heights, each over the whole "
+                            "grid (32 MB each): fewer bodies on one pond, or a smaller grid")

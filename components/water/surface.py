@@ -267,6 +267,16 @@ class WaterSurface(Component):
         arrays += len(params.bodies) if len(params.bodies) > 1 else 0  # each body's own occupied height
         return int(params.nx) * int(params.ny) * arrays * 8
 
+    @classmethod
+    def memory_advice(cls, params: WaterParams) -> str:
+        bodies = len(params.bodies) if len(params.bodies) > 1 else 0
+        if bodies and bodies >= cls.estimate_bytes(params) / (int(params.nx) * int(params.ny) * 8) / 2:
+            # most of it is the bodies' own occupied heights, a whole grid each
+            grid = int(params.nx) * int(params.ny) * 8
+            return (f"most of it is the {bodies} bodies' occupied heights, each over the whole grid "
+                    f"({grid / 1e6:.3g} MB each): fewer bodies on one pond, or a smaller grid")
+        return "use a smaller grid"
+
     def setup(self) -> None:
         p = self.params
         require_valid(p)
