@@ -1362,32 +1362,55 @@ def _spread_weights(sigma, reach):
 
 @njit(cache=True)
 def _spread_along_x(b, weights, reach, j_lo, j_hi, i_lo, i_hi):
-    """The spread along x of rows j_lo..j_hi of ``b``, kept in its columns i_lo..i_hi only."""
+    """The spread along x of rows j_lo..j_hi of ``b``, kept in its columns i_lo..i_hi only.
+
+    Each value sums its taps from -reach to reach, starting from 0, as one dot product would; the
+    taps go in the outer loop so that the inner one runs along the row (vectorised), and only the
+    columns whose tap falls outside the window are mirrored (a modulo for every tap of every column
+    made the spread of a submerged body's water most of the coupler's step)."""
     ni = b.shape[1]
-    line = np.empty(ni)
+    n = i_hi - i_lo + 1
+    line = np.empty(n)
     for j in range(j_lo, j_hi + 1):
-        for i in range(i_lo, i_hi + 1):
-            acc = 0.0
-            for k in range(-reach, reach + 1):
-                acc += weights[k + reach] * b[j, _mirror(i + k, ni)]
-            line[i] = acc
-        for i in range(i_lo, i_hi + 1):
-            b[j, i] = line[i]
+        row = b[j]
+        line[:] = 0.0
+        for k in range(-reach, reach + 1):
+            w = weights[k + reach]
+            mid_lo, mid_hi = max(i_lo, -k), min(i_hi, ni - 1 - k)  # the columns read inside the window
+            if mid_lo > mid_hi:
+                for i in range(i_lo, i_hi + 1):
+                    line[i - i_lo] += w * row[_mirror(i + k, ni)]
+                continue
+            for i in range(i_lo, mid_lo):
+                line[i - i_lo] += w * row[_mirror(i + k, ni)]
+            dst = line[mid_lo - i_lo:mid_hi - i_lo + 1]
+            src = row[mid_lo + k:mid_hi + k + 1]
+            for t in range(dst.size):
+                dst[t] += w * src[t]
+            for i in range(mid_hi + 1, i_hi + 1):
+                line[i - i_lo] += w * row[_mirror(i + k, ni)]
+        for t in range(n):
+            row[i_lo + t] = line[t]
 
 
 @njit(cache=True)
 def _spread_along_y(b, weights, reach, i_lo, i_hi):
-    """The spread along y of columns i_lo..i_hi of ``b``."""
+    """The spread along y of columns i_lo..i_hi of ``b``: each value's taps summed as along x, a row
+    of the window at a time (a column at a time strode across the rows at every tap)."""
     nj = b.shape[0]
-    line = np.empty(nj)
-    for i in range(i_lo, i_hi + 1):
-        for j in range(nj):
-            acc = 0.0
-            for k in range(-reach, reach + 1):
-                acc += weights[k + reach] * b[_mirror(j + k, nj), i]
-            line[j] = acc
-        for j in range(nj):
-            b[j, i] = line[j]
+    n = i_hi - i_lo + 1
+    out = np.zeros((nj, n))
+    for j in range(nj):
+        dst = out[j]
+        for k in range(-reach, reach + 1):
+            w = weights[k + reach]
+            src = b[_mirror(j + k, nj), i_lo:i_hi + 1]
+            for t in range(n):
+                dst[t] += w * src[t]
+    for j in range(nj):
+        row = b[j]
+        for t in range(n):
+            row[i_lo + t] = out[j, t]
 
 
 @njit(cache=True)
