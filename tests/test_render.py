@@ -128,12 +128,26 @@ def test_with_several_bodies_the_watched_stone_is_shown_over_its_own_water(tmp_p
     assert body_water_topic(rec, "granite", fields) == "/granite_pond/field"
 
 
-@pytest.mark.skipif(_ffmpeg() is None, reason="no ffmpeg (pip install 'cosim[video]')")
+@pytest.mark.skipif(_ffmpeg() is None, reason="no ffmpeg (pip install -e '.[video]')")
 def test_mp4_when_an_encoder_is_installed(skip_path, tmp_path):
     """With ffmpeg available, .mp4 output is an MP4 file."""
     out = tmp_path / "skip.mp4"
     render(skip_path, out, RenderOptions(fps=10, width=WIDTH, stop=0.2, progress=False))
     assert out.stat().st_size > 1000 and out.read_bytes()[4:8] == b"ftyp"
+
+
+def test_mp4_without_an_encoder_says_what_to_install_from_the_checkout(skip_path, tmp_path, capsys, monkeypatch):
+    """Without ffmpeg an .mp4 is bad input, one line naming what to install: imageio-ffmpeg, or the
+    project's [video] extra from its folder (it said pip install 'cosim[video]', which asks the
+    package index for a package of that name instead of this checkout). Nothing is written."""
+    import components.analysis.render as render_module
+
+    monkeypatch.setattr(render_module, "_ffmpeg", lambda: None)
+    assert main(["render", str(skip_path), "-o", str(tmp_path / "skip.mp4"), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "pip install imageio-ffmpeg" in err and "pip install -e '.[video]'" in err and "cosim[video]" not in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def gif_delays_read_back(path) -> list[int]:

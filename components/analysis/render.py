@@ -692,8 +692,9 @@ def _writer(path: Path, fps: float, size: tuple[int, int]) -> _Writer:
         return _PngWriter(path, fps, size)
     exe = _ffmpeg()
     if exe is None:
-        raise RenderError("no video encoder for .mp4: pip install 'cosim[video]' (imageio-ffmpeg) or put "
-                          "ffmpeg on the PATH; .gif and .png need neither")
+        raise RenderError("no video encoder for .mp4: pip install imageio-ffmpeg (the project's [video] extra: "
+                          "pip install -e '.[video]' in its folder) or put ffmpeg on the PATH; .gif and .png need "
+                          "neither")
     return _Mp4Writer(path, fps, size, exe)
 
 
