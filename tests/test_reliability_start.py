@@ -166,3 +166,33 @@ def test_a_coupler_water_level_other_than_its_waters_rest_level_is_refused():
                                             "components.stone.position=[0.3, 1.75, 1.1]"])
     load(ROOT / "scenarios" / "skip.yaml", ["components.pond.rest_level=1",  # water_level left out: taken
                                             "components.stone.position=[0.3, 1.75, 1.1]"])
+
+
+BIG_PINE = ["components.pine.radius=0.3", "components.pine.position=[0, 0, 0.2]"]
+
+
+def test_a_body_whose_pushed_aside_water_falls_past_an_open_edge_is_refused():
+    """A 0.6 m pine ball let go half in the 0.8 m open pond of float_sphere.yaml: the water it pushes
+    aside reaches 0.6 m from its centre, past the absorbing edges 0.4 m away, which took it in as a wave
+    and gave it back: the ball bobbed higher at every bob (133 to 230 J) while the pond's water grew by
+    up to 65%, exit 0. Refused at load, naming the reach and the room; the same ball in a 2 m pond, or
+    in the 0.8 m one with walls, loads."""
+    with pytest.raises(ScenarioError) as refused:
+        load(SCENES / "float_sphere.yaml", BIG_PINE)
+    assert ("components.pine_water: the water the body pushes aside reaches 0.6 m from its centre (its radius "
+            "and the displacement's band), past the open edge of the water feeding it (0.4 m away)") in str(refused.value)
+    load(SCENES / "float_sphere.yaml", [*BIG_PINE, "components.pine_pond.nx=200", "components.pine_pond.ny=200",
+                                        "components.pine_pond.origin_x=-0.995", "components.pine_pond.origin_y=-0.995"])
+    load(SCENES / "float_sphere.yaml", [*BIG_PINE, "components.pine_pond.boundary=reflecting"])
+
+
+def test_a_crest_higher_than_the_couplers_wave_allowance_is_refused():
+    """The held skip's pond started with a 20 cm bump under the stone: the coupler takes a body more
+    than wave_allowance (5 cm) above the rest level to be far from any water, so the stone, let go
+    inside the crest, fell through it untouched for 50 ms and then skipped as over still water.
+    Refused at load, saying what allowance the crest needs; given it, the scene loads."""
+    bump = "components.pond.initial={x: 0.35, y: 0.5, amplitude: 0.2, width: 0.1}"
+    with pytest.raises(ScenarioError, match=r"components\.coupler: the water feeding it starts with a crest 0\.2 m "
+                                            r"above its rest level, higher than wave_allowance 0\.05 m.*at least 0\.2"):
+        load(SCENES / "held_skip.yaml", [bump])
+    load(SCENES / "held_skip.yaml", [bump, "components.coupler.wave_allowance=0.2"])
