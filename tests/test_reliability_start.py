@@ -179,8 +179,9 @@ def test_a_body_whose_pushed_aside_water_falls_past_an_open_edge_is_refused():
     in the 0.8 m one with walls, loads."""
     with pytest.raises(ScenarioError) as refused:
         load(SCENES / "float_sphere.yaml", BIG_PINE)
-    assert ("components.pine_water: the water the body pushes aside reaches 0.6 m from its centre (its radius "
-            "and the displacement's band), past the open edge of the water feeding it (0.4 m away)") in str(refused.value)
+    said = ("components.pine_water: the water the body pushes aside reaches 0.6 m from its centre (its radius "
+            "and the displacement's band), past the open edge of the water feeding it (0.4 m away)")
+    assert said in str(refused.value)
     load(SCENES / "float_sphere.yaml", [*BIG_PINE, "components.pine_pond.nx=200", "components.pine_pond.ny=200",
                                         "components.pine_pond.origin_x=-0.995", "components.pine_pond.origin_y=-0.995"])
     load(SCENES / "float_sphere.yaml", [*BIG_PINE, "components.pine_pond.boundary=reflecting"])
