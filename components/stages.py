@@ -104,9 +104,13 @@ def floats(body: BodyState, water: WaterContact, water_density: float = 1000.0) 
 
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
              sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81,
-             water_density: float = 1000.0) -> StageId:
-    """The stage now, from the previous stage and this step's body and contact reports."""
-    if ground is not None and ground.in_contact and body.speed < rest_speed:
+             water_density: float = 1000.0, step: float = 0.0) -> StageId:
+    """The stage now, from the previous stage and this step's body and contact reports; ``step`` [s]
+    the body's step. A body held still by the ground is reported with up to a step of gravity's speed
+    (|g| step: the ground's answer reaches it at its next step), so at rest means slower than
+    ``rest_speed`` or than that, whichever is more (at 2 ms a ball on the bed of a pond, 12 mm/s a
+    step, never came to rest against 10 mm/s)."""
+    if ground is not None and ground.in_contact and body.speed < max(rest_speed, abs(gravity) * step):
         return StageId.REST
     # sinking is final, but a sunk stone can come to rest on the bottom; rest is final too (a stone
     # settling on the bottom, or on a slope, rocks a little faster than rest_speed now and then: it
@@ -233,7 +237,7 @@ class StageMonitor(Component):
 
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
-                         self.params.takeoff_clearance, self.params.gravity, self.params.water_density)
+                         self.params.takeoff_clearance, self.params.gravity, self.params.water_density, step=dt)
         # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
         # a contact, the dry descent after it would have gone on as one, and the next skip would have
         # taken the brush's touchdown

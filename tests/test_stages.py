@@ -519,3 +519,18 @@ def test_the_distance_of_a_stone_that_left_the_pond_ends_where_it_left():
     missed = StageMonitor("stages", StageMonitor.Params(stop_after=0.0, outside_after=0.002))
     drive(missed, [(body(0.2 * k, 0.1 - 0.1 * k, 5.0, -1.0), outside if k else water(False), None) for k in range(6)])
     assert "final stage: left-pond (it never touched the water)" in "\n".join(missed.summary())
+
+
+def test_a_body_held_still_by_the_ground_rests_at_a_coarse_step():
+    """A body on the ground is reported with up to a step of gravity's speed (the ground's answer
+    reaches it at its next step): at a 2 ms step a ball on a pond's bed, 12 mm/s, never came to rest
+    against rest_speed 10 mm/s (float_sphere.yaml at dt 2 ms never said rest). At rest means slower
+    than rest_speed or |g| dt, whichever is more; at 0.5 ms, rest_speed still decides."""
+    from components.stages import classify
+
+    touching = GroundContact(True, 1.0, 0.0, False, 0.0)
+    held = body(1.0, 0.0, 0.0, -0.012)
+    assert classify(StageId.SINK, held, None, touching, sink_speed=0.1, rest_speed=0.01, step=0.002) is StageId.REST
+    assert classify(StageId.SINK, held, None, touching, sink_speed=0.1, rest_speed=0.01, step=0.0005) is StageId.SINK
+    falling = body(1.0, 0.0, 0.0, -0.03)
+    assert classify(StageId.SINK, falling, None, touching, sink_speed=0.1, rest_speed=0.01, step=0.002) is StageId.SINK
