@@ -326,8 +326,9 @@ class SkipRecord(Message):
     line the stone was thrown along (left of the throw positive); heading_deg, the direction of the
     horizontal velocity at fly-away against the throw's starting direction (turned left positive).
     peak_g: the largest vertical force of the water on the stone during the contact over its weight
-    [g], what an accelerometer riding in the stone reads (Tang et al. 2021 find a disk bounces when
-    it passes about 4 g, docs/validation.md section 2c).
+    [g], what an accelerometer riding in the stone reads along the vertical (Tang et al. 2021 find a
+    disk bounces when it passes about 4 g, docs/validation.md section 2c); the water's drag along the
+    water, which can be larger (a thick edge ploughing in), is not in it.
     """
 
     index: int

@@ -223,8 +223,8 @@ def _throw(scene: Scene, after_s: float | None) -> tuple[ThrowOutcome, list[floa
 @dataclass(frozen=True)
 class ContactPeak:
     """One contact of a throw with the water: the peak of the water's vertical force over the stone's
-    weight during it [-] (in g: what an accelerometer riding in the stone reads), and whether it ended
-    in a bounce (else the stone stayed on the water until it sank)."""
+    weight during it [-] (in g: what an accelerometer riding in the stone reads along the vertical), and
+    whether it ended in a bounce (else the stone stayed on the water until it sank)."""
 
     peak_g: float
     bounced: bool
