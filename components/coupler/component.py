@@ -1291,7 +1291,9 @@ class WaterCoupler(Component):
                 private[step_kernel.B_VEL:step_kernel.B_VEL + 3] = v
                 private[step_kernel.B_OMEGA:step_kernel.B_OMEGA + 3] = w
                 bound = float(step_kernel.stability_bound(private, stats, parameters))
-            if bound < h:  # too long for the forces met here: the rest of the step in substeps of the bound
+            # too long for the forces met here: the rest of the step in substeps of the bound (a bound of 0
+            # or less is the scheduler's to refuse at the next step)
+            if 0.0 < bound < h:
                 more = math.ceil(h * left / bound)
                 if i + more > MAX_PREDICTED_SUBSTEPS:
                     raise ValueError(
