@@ -853,14 +853,15 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
     """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
     component sending on that input."""
     for name, comp in built.items():
-        for out_port, in_port in comp.answers().items():
+        answers = comp.answers()
+        for out_port, in_port in answers.items():
             senders = sorted({e.source for e in scene.connections if e.target == name and e.target_port == in_port})
             receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
             for sender in senders:
                 if sender in receivers:
                     continue
                 wrong = sorted((e.source_port, e.target_port) for e in scene.connections
-                               if e.source == name and e.target == sender and e.source_port in comp.answers())
+                               if e.source == name and e.target == sender and e.source_port in answers)
                 if wrong:
                     got, port = wrong[0]
                     problems.append(f"components.{name}: {sender} sends {in_port!r} but is sent {got!r}, the answer "

@@ -510,8 +510,15 @@ def test_a_contact_the_recording_ends_in_is_titled_as_lasting_at_least_that(run,
     cut = dataclasses.replace(short, cut_off=True)
     assert "ms+ (cut off)" in [ax.get_title() for ax in figure_contacts(cut).axes if ax.get_visible()][1]
     monkeypatch.setattr(Recording, "status", lambda self: None)
-    with pytest.warns(UserWarning, match="the recording is incomplete: its run was cut off"):
+    cut_off = "the recording is incomplete: its run was cut off"
+    with pytest.warns(UserWarning, match=f"{cut_off}.* the figures end") as caught:
         plot_run(path, tmp_path / "figs", dpi=40)
+    assert {w.filename for w in caught} == {__file__}  # named where plot_run was called
+    from components.analysis.render import RenderOptions, render
+
+    with pytest.warns(UserWarning, match=f"{cut_off}.* the frames end") as caught:
+        render(path, tmp_path / "frame.png", RenderOptions(at=0.1, width=200, progress=False))
+    assert __file__ in {w.filename for w in caught}  # named where render was called
 
 
 def test_the_trajectorys_legend_names_the_water_level_beside_the_stages(run):

@@ -203,7 +203,7 @@ def tang_row(peaks: dict) -> str:
     contacts}. Judged throw by throw over PEAK_THROWS (held on those whose every contact meets it, not
     held on the others, by name), and apart on the steep throws' first contacts."""
     bounced, surfed, _ = bounce_condition([c for key in PEAK_THROWS for c in peaks[key]])
-    failed = {key: misses(peaks[key]) for key in PEAK_THROWS if misses(peaks[key])}
+    failed = {key: missed for key in PEAK_THROWS if (missed := misses(peaks[key]))}
     # the steep throws' first contacts (a bounce's later contacts are shallow ones, as the skips')
     steep = [peaks[key][0] for key in STEEP_PEAK_THROWS if peaks[key]]
     steep_bounced, steep_surfed, steep_holds = bounce_condition(steep)

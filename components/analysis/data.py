@@ -7,6 +7,7 @@ streamed (:func:`iter_fields`), never all held at once.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -209,6 +210,14 @@ class RunData:
     end: float = 0.0
     step: float = 0.0  # the body's step [s] (the scene's dt times its every; 0 when not known)
     cut_off: bool = False  # the recording has no final status: its run was cut off (killed) at ``end``
+
+
+def warn_cut_off(path: str | Path, end: float, drawn: str) -> None:
+    """Warn that the recording at ``path`` is incomplete (no final status: its run was cut off) at
+    ``end`` [s], and that what is made of it (``drawn``: "the figures", "the frames") ends there; the
+    warning names the caller of the command's function that calls this."""
+    warnings.warn(f"{path}: the recording is incomplete: its run was cut off (killed?) at t = {end:g} s, "
+                  f"and {drawn} end there", UserWarning, stacklevel=3)
 
 
 def default_body_topic(rec: Recording, topics: list[str]) -> str:

@@ -21,7 +21,6 @@ Each ``figure_*`` function returns the figure, so tests can check what was drawn
 from __future__ import annotations
 
 import math
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +35,7 @@ from components.analysis.data import (
     iter_fields,
     load_run,
     topics_of,
+    warn_cut_off,
     water_rest_level,
 )
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
@@ -489,8 +489,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
         return [path], [(", ".join(FIGURES), why)]
     run = load_run(rec, body)
     if run.cut_off:  # figures of what there is, said to end where the recording does, not the run
-        warnings.warn(f"{rec.path}: the recording is incomplete: its run was cut off (killed?) at t = {run.end:g} s, "
-                      "and the figures end there", UserWarning, stacklevel=2)
+        warn_cut_off(rec.path, run.end, "the figures")
     figures: dict[Path, Figure] = {}
     skipped = []
     for name, make in FIGURES.items():

@@ -47,6 +47,7 @@ from components.analysis.data import (
     rest_level,
     stage_changes,
     topics_of,
+    warn_cut_off,
     water_rest_level,
 )
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
@@ -744,8 +745,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         return _render_water(rec, output, options)
     body = load_body(rec, options.body)
     if rec.status() is None:  # frames of what there is, said to end where the recording does
-        warnings.warn(f"{rec.path}: the recording is incomplete: its run was cut off (killed?) at t = "
-                      f"{(rec.end_ns or 0) / NS_PER_S:g} s, and the frames end there", UserWarning, stacklevel=2)
+        warn_cut_off(rec.path, (rec.end_ns or 0) / NS_PER_S, "the frames")
     _check_span(options, body)
     linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)

@@ -87,7 +87,7 @@ def check_integrity(path: Path) -> None:
                                  "end; the file was cut short, or its writer was killed: cosim repair makes what "
                                  "it holds a valid recording)")
         summary_start, summary_offsets, summary_crc = footer
-        footer_at = size - len(MAGIC) - FOOTER.size
+        footer_at = size - FOOTER_TAIL
         if not 0 <= summary_start <= footer_at or not 0 <= summary_offsets <= footer_at:
             raise RecordingError(f"{path}: corrupt: its footer points outside the file")
         if summary_start == 0:

@@ -262,11 +262,7 @@ class RingProducer:
                 progress = _Progress(self.consumer_pid)
             self._read_acks(wait=False)  # the consumer never waits on a full acknowledgement pipe meanwhile
             if not select.select([], [self.control_fd], [], WAIT_SLICE_S)[1]:
-                if self._stalled(since):
-                    raise RingStalled("the consumer has not read the control pipe")
-                stuck = progress.stuck()
-                if stuck is not None:
-                    raise RingStuck(stuck)
+                self._give_up_if_nowhere(since, progress, "the consumer has not read the control pipe")
 
     def _free(self, total: int) -> int:
         """Where in the stream ``total`` bytes go next (after the head, or at the ring's start when
@@ -380,11 +376,17 @@ class RingProducer:
         since = time.monotonic()
         progress = _Progress(self.consumer_pid)
         while not select.select([self.ack_fd], [], [], WAIT_SLICE_S)[0]:
-            if self._stalled(since):
-                raise RingStalled("the consumer has not answered")
-            stuck = progress.stuck()
-            if stuck is not None:
-                raise RingStuck(stuck)
+            self._give_up_if_nowhere(since, progress, "the consumer has not answered")
+
+    def _give_up_if_nowhere(self, since: float, progress: _Progress, silent: str) -> None:
+        """After a slice of a wait for the consumer begun at ``since`` that brought nothing:
+        :class:`RingStalled` (saying ``silent``) when asked to stop and it stays silent
+        (:meth:`interrupted`), :class:`RingStuck` when it makes no progress at all (``progress``)."""
+        if self._stalled(since):
+            raise RingStalled(silent)
+        stuck = progress.stuck()
+        if stuck is not None:
+            raise RingStuck(stuck)
 
     def _read_acks(self, wait: bool) -> None:
         if wait:
