@@ -78,6 +78,16 @@ def test_bad_input_exits_2_with_no_traceback_and_no_table(tmp_path, capsys):
     with pytest.raises(SystemExit) as info:
         main(["sweep", str(path), "--workers", "0"])
     assert info.value.code == 2 and "--workers: must be >= 1, got 0" in capsys.readouterr().err
+    # a derived expression too deep for Python's parser: RecursionError, exit 1, before
+    chain = "+".join(["s"] * 1000)
+    deep = SWEEP.replace("  components.ball.speed: [2, 3, 5]",
+                         f"  s: [2, 3]\nderived:\n  components.ball.speed: '{chain}'")
+    path = write_sweep(tmp_path, deep)
+    assert main(["sweep", str(path), "-o", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"error: {path}: derived.components.ball.speed: the expression is nested more than 100 "
+                   "operations deep\n")
+    assert not (tmp_path / "x.csv").exists()
     too_many = 4 * (os.cpu_count() or 1) + 1
     assert main(["sweep", str(path), "--workers", str(too_many), "-o", str(tmp_path / "x.csv")]) == 2
     assert f"--workers {too_many}: at most {too_many - 1} on this machine" in capsys.readouterr().err

@@ -111,6 +111,10 @@ MAX_EXPONENT = 1024  # larger integer powers would take unbounded time and memor
 # round()'s digits at most this far either side of the point: a float has 17 significant digits and
 # none beyond about 1e308 or below 5e-324, and round(u, -100000000) of an integer took minutes
 MAX_ROUND_DIGITS = 400
+# an expression's length and nesting: Python's parser and the checks recurse once per operator, and a
+# chain of 1,000 '+' or 50,000 '-' ended in RecursionError or MemoryError (exit 1) instead of a problem
+MAX_EXPRESSION_CHARS = 2000
+MAX_EXPRESSION_DEPTH = 100
 
 
 class Expression:
@@ -119,11 +123,20 @@ class Expression:
 
     def __init__(self, text: str):
         self.text = text
-        self.tree = ast.parse(text.strip(), mode="eval").body
+        if len(text) > MAX_EXPRESSION_CHARS:
+            raise ValueError(f"the expression is {len(text)} characters long (at most {MAX_EXPRESSION_CHARS})")
+        try:
+            self.tree = ast.parse(text.strip(), mode="eval").body
+        except (RecursionError, MemoryError):
+            raise ValueError(f"the expression is nested too deeply to read (at most {MAX_EXPRESSION_DEPTH} "
+                             "operations inside one another)") from None
         self.names: set[str] = set()
         self._check(self.tree)
 
-    def _check(self, node: ast.AST) -> None:
+    def _check(self, node: ast.AST, depth: int = 0) -> None:
+        if depth > MAX_EXPRESSION_DEPTH:
+            raise ValueError(f"the expression is nested more than {MAX_EXPRESSION_DEPTH} operations deep")
+        depth += 1
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float, str)):
                 raise ValueError(f"constant {node.value!r} is not a number or a string")
@@ -131,19 +144,19 @@ class Expression:
             if node.id not in _CONSTANTS:
                 self.names.add(node.id)
         elif isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-            self._check(node.left)
-            self._check(node.right)
+            self._check(node.left, depth)
+            self._check(node.right, depth)
         elif isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
-            self._check(node.operand)
+            self._check(node.operand, depth)
         elif isinstance(node, (ast.List, ast.Tuple)):
             for item in node.elts:
-                self._check(item)
+                self._check(item, depth)
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
             if node.func.id not in _FUNCTIONS:
                 known = ", ".join(sorted(_FUNCTIONS))
                 raise ValueError(f"unknown function {node.func.id!r} (known: {known})")
             for arg in node.args:
-                self._check(arg)
+                self._check(arg, depth)
         else:
             raise ValueError(f"{ast.unparse(node)!r} is not allowed (numbers, names, + - * / // % **, "
                              "math functions and [lists] only)")
