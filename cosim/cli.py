@@ -681,10 +681,14 @@ def main(argv: list[str] | None = None) -> int:
         warnings.showwarning = _one_line_warning
     if as_program and _command(argv) in ENDS_WHEN_DONE:
         _pause_collection()
+    stdout = sys.stdout
+    sys.stdout = _ReaderMayLeave(stdout)
     try:
         with _CtrlC() as ctrl_c:
             code = _main(argv, ctrl_c)
     finally:
+        if isinstance(sys.stdout, _ReaderMayLeave):
+            sys.stdout = stdout
         start_up_done()
         if as_program:  # the command has said all it has to: a Ctrl-C as the process ends adds nothing
             sys.unraisablehook = quiet_interrupts(sys.unraisablehook)
@@ -782,9 +786,9 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
         return code
     except SystemExit:  # argparse: --help, --version, bad arguments (already said, exit 2)
         raise
-    except BrokenPipeError:  # the reader of our output has gone (| head): nothing left to say
+    except BrokenPipeError:  # a pipe other than stdout gone (stdout's reader leaving is _ReaderMayLeave's)
         _quiet_stdout()
-        return EXIT_OK
+        return EXIT_FAILED
     except BaseException as exc:  # the one error boundary: one line, never a traceback
         if not isinstance(exc, Exception | KeyboardInterrupt):
             raise
@@ -798,6 +802,32 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
             # would then end by SIGINT instead of with this exit code; the next exec() clears the mark
             exec("pass")
         return report(ctrl_c.interruption() if ctrl_c.seen else exc, command)
+
+
+class _ReaderMayLeave:
+    """Standard output whose reader may leave (``cosim replay RUN.mcap | head -1``): from then on what
+    is printed goes nowhere, and the command goes on to its end and its own exit code. The pipe's
+    error ended the command where it printed, with exit 0: a replay that had found a divergence, or a
+    restart that never ran, said success."""
+
+    def __init__(self, stream: Any):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            _quiet_stdout()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            _quiet_stdout()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def _quiet_stdout() -> None:

@@ -310,9 +310,17 @@ class Component:
         except SimulationError:
             self.status = "failed"
             raise
-        except Exception as exc:  # any physics failure becomes a named, timed simulation error
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:
+            # SystemExit too (sys.exit() in a component's step): let through, it ended a run with exit 0
+            # and said nothing, its recording without a status
             self.status = "failed"
             raise SimulationError(self.name, t_ns, f"{type(exc).__name__}: {exc}") from exc
+        if not isinstance(outputs, dict):  # a step that forgot its return: named, not an internal error
+            self.status = "failed"
+            raise SimulationError(self.name, t_ns, f"its step returned {type(outputs).__name__}, not a mapping "
+                                  "of output port to message")
         self._check_outputs(t_ns, outputs)
         self.step_count += 1
         return outputs

@@ -7,6 +7,7 @@ step got.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 from cosim.component import Component, Port
@@ -149,7 +150,10 @@ class Summer(Component):
 
 class Faulty(Component):
     """Raises (or returns NaN) once t reaches ``fail_at`` seconds; with ``mode: start``, raises on
-    reading its inputs at t = 0."""
+    reading its inputs at t = 0. Other modes, from ``fail_at``: ``exit`` calls sys.exit(3), ``base``
+    raises a bare BaseException, ``none`` returns None from its step (a forgotten return); ``state``
+    and ``state_object``: its state for a checkpoint raises, or holds an object that is not plain
+    data."""
 
     @dataclass(frozen=True)
     class Params:
@@ -162,10 +166,32 @@ class Faulty(Component):
         if self.params.mode == "start":
             raise RuntimeError("boom at the start")
 
+    def setup(self) -> None:
+        self.t = 0.0
+
+    def get_state(self):
+        if self.t >= self.params.fail_at:
+            if self.params.mode == "state":
+                raise RuntimeError("no state")
+            if self.params.mode == "state_object":
+                return {"t": object()}
+        return {"t": self.t}
+
+    def set_state(self, state):
+        self.t = state["t"]
+
     def _step_impl(self, t, dt, inputs):
-        if t >= self.params.fail_at:
-            if self.params.mode == "nan":
+        self.t = t + dt
+        mode = self.params.mode
+        if t >= self.params.fail_at and not mode.startswith("state"):
+            if mode == "nan":
                 return {"out": Scalar(math.nan)}
+            if mode == "exit":
+                sys.exit(3)
+            if mode == "base":
+                raise BaseException("base")
+            if mode == "none":
+                return None
             raise RuntimeError("boom")
         return {"out": Scalar(t)}
 

@@ -43,7 +43,7 @@ from cosim.codec.jsontext import RecordLayout
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import proto_codec_for
 from cosim.codec.wire import wire_codec
-from cosim.errors import RecordingError
+from cosim.errors import RecordingError, SimulationError
 from cosim.messages import Message, message
 from cosim.record.derive import DerivedMessage
 from cosim.record.output import METADATA_NAME, check_output, nearest_existing
@@ -301,7 +301,17 @@ class Recorder(BaseObserver):
     def write_checkpoint(self, sim: Simulation) -> None:
         channel = self._channel(CHECKPOINT_TOPIC, state_proto.SCHEMA_NAME, state_proto.ENCODING,
                                 state_proto.SCHEMA, state_proto.ENCODING)
-        self.sink.add_state(channel, sim.time_ns, plain_state(sim.checkpoint()))
+        checkpoint = sim.checkpoint()
+        try:
+            state = plain_state(checkpoint)
+        except TypeError:
+            for name, saved in checkpoint["components"].items():  # whose state it is, named
+                try:
+                    plain_state(saved)
+                except TypeError as exc:
+                    raise SimulationError(name, sim.time_ns, f"its state for a checkpoint: {exc}") from None
+            raise
+        self.sink.add_state(channel, sim.time_ns, state)
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
         if self.perf and sim.tick > self._perf_tick:  # the ticks since the last sample, however few

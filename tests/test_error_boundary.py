@@ -1,0 +1,83 @@
+"""A component's own code failing in any way ends the run as a failure of that component: one line
+naming it and the time, exit 1, and a recording with everything up to it and a ``failed`` status.
+Before, sys.exit() in a step ended `cosim run` with exit 0 (or its own code) and nothing said, a bare
+BaseException printed a traceback, and a step returning None, or a state for a checkpoint that
+failed or was not plain data, was an "internal error" whose recording had no status."""
+
+from __future__ import annotations
+
+import pytest
+
+from cosim.cli import main
+from cosim.record.reader import Recording
+from tests.cli_toys import one_error_line
+
+SCENE = """
+dt: 0.001
+until: 0.05
+components:
+  src: {{type: "tests.toys:Source"}}
+  bad: {{type: "tests.toys:Faulty", fail_at: 0.02, mode: {mode}}}
+record: {{checkpoint_every: 0.01}}
+"""
+
+
+@pytest.mark.parametrize(("mode", "reason"), [
+    ("exit", "SystemExit: 3"),
+    ("base", "BaseException: base"),
+    ("none", "its step returned NoneType, not a mapping of output port to message"),
+    ("state", "its state for a checkpoint failed: RuntimeError: no state"),
+    ("state_object", "its state for a checkpoint: state value of type object is not plain data"),
+])
+def test_a_component_failing_any_way_is_named_with_exit_1_and_a_failed_status(mode, reason, tmp_path, capsys):
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(SCENE.format(mode=mode))
+    out = tmp_path / "bad.mcap"
+    assert main(["run", str(scene), "-q", "-o", str(out)]) == 1
+    # the step at 0.02 s fails, or the state the checkpoint at 0.02 s asks for
+    at = "0.02"
+    assert one_error_line(capsys.readouterr().err) == f"error: component 'bad' failed at t = {at} s: {reason}"
+    recording = Recording(out)
+    status = recording.status()
+    assert status.status == "failed" and status.reason == f"component 'bad' failed at t = {at} s: {reason}"
+    assert recording.channels["/src/out"].count >= 20  # everything up to the failure is kept
+    assert not list(tmp_path.glob("bad.mcap*.part"))
+
+
+def test_a_state_that_is_not_a_mapping_is_refused_when_it_is_taken_not_when_restarting(tmp_path, capsys,
+                                                                                   monkeypatch):
+    """A get_state returning None was recorded, and only the restart from it refused it."""
+    from tests import toys
+
+    monkeypatch.setattr(toys.Faulty, "get_state", lambda self: None)
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(SCENE.format(mode="raise").replace("fail_at: 0.02", "fail_at: 1.0"))
+    assert main(["run", str(scene), "-q", "-o", str(tmp_path / "bad.mcap")]) == 1
+    assert one_error_line(capsys.readouterr().err) == (
+        "error: component 'bad' failed at t = 0 s: its state for a checkpoint is NoneType, not a mapping of "
+        "names to plain data")
+
+
+def test_a_reader_that_leaves_does_not_turn_a_failure_into_success(tmp_path):
+    """`cosim run bad.yaml | head -0`: the summary finds the pipe closed. The pipe's error ended the
+    command where it printed, with exit 0; now what is printed goes nowhere and the run's own exit
+    code (1, a component failed) stands, its recording whole with the failed status."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(SCENE.format(mode="raise"))
+    out = tmp_path / "bad.mcap"
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before anything is printed
+    try:
+        done = subprocess.run([sys.executable, "-m", "cosim.cli", "run", str(scene), "-o", str(out)],
+                              stdout=write, stderr=subprocess.PIPE, text=True,
+                              cwd=Path(__file__).resolve().parents[1], timeout=300)
+    finally:
+        os.close(write)
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.strip() == "error: component 'bad' failed at t = 0.02 s: RuntimeError: boom"
+    assert Recording(out).status().status == "failed"
