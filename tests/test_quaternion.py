@@ -87,3 +87,16 @@ def test_angle_between_measures_the_relative_rotation():
     b = quat.mul(quat.from_axis_angle((0.0, 1.0, 0.0), 0.3), a)
     assert math.isclose(quat.angle_between(a, b), 0.3, rel_tol=1e-12)
     assert math.isclose(quat.angle_between(a, tuple(-c for c in b)), 0.3, rel_tol=1e-12)
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-300, 1e-160, 1e154])
+def test_an_axis_of_any_finite_length_gives_the_unit_axis_rotation(scale):
+    """An axis of 1e200 squared to inf: the quaternion came out of length cos(15 deg), the tilt lost
+    (a scene with tilt_axis [1e200, 0, 0] ran as if untilted); one of 1e-300 squared to 0 and was
+    refused as zero."""
+    unit = quat.from_axis_angle((0.6, -0.8, 0.0), math.radians(30.0))
+    scaled = quat.from_axis_angle((0.6 * scale, -0.8 * scale, 0.0), math.radians(30.0))
+    assert scaled == pytest.approx(unit, abs=1e-15)
+    assert math.fsum(c * c for c in scaled) == pytest.approx(1.0, abs=1e-15)
+    with pytest.raises(ValueError, match=r"non-zero and finite \(got \[inf, 0, 0\]\)"):
+        quat.from_axis_angle((math.inf, 0.0, 0.0), 1.0)

@@ -209,6 +209,11 @@ SKIP = ROOT / "scenarios" / "skip.yaml"
     ("components.coupler.rho=1e308", "components.coupler.rho: must be <= 100000 kg/m^3"),
     ("components.stone.position=[1e308, 0, 0.1]", "components.stone.position: must lie within 1000 km"),
     ("components.pond.origin_x=1e308", "components.pond.origin_x: must be <= 1e+06 m"),
+    # passed the scene, and the run failed at its first contact with non-finite forces
+    ("components.coupler.wet_ramp=1e308", "components.coupler.wet_ramp: must be <= 1000 m (got 1e+308)"),
+    ("components.coupler.closure_depth=1e308", "components.coupler.closure_depth: must be <= 1000 m"),
+    ("components.coupler.wave_allowance=1e308", "components.coupler.wave_allowance: must be <= 1000 m"),
+    ("components.coupler.quiet_above=1e308", "components.coupler.quiet_above: must be <= 1000 m"),
     # and values whose error named another key
     ("components.stone.thickness=1e308", "components.stone.thickness: gives the body a mass of inf kg"),
     ("components.stone.angular_velocity=[1e200, 0, 0]", "components.stone.angular_velocity: makes the stone's "

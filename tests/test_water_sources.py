@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from components.messages import OccupiedHeight
 from components.water.sources import DropParams, DropSource
+from cosim.errors import ScenarioError
+from cosim.scenario import load
 
 MS = 1_000_000
 
@@ -72,3 +76,11 @@ def test_a_drop_smaller_than_a_micrometre_is_refused():
     problems: list[str] = []
     build(DropParams, {"radius": 1e-320}, "drop", problems)
     assert problems == ["drop.radius: must be >= 1e-06 m (got 9.99989e-321)"]
+
+
+def test_a_height_beyond_a_kilometre_is_refused_naming_it():
+    """A drop 1e308 m high passed `cosim validate`; the run then failed with overflow warnings and a
+    non-finite water blamed on the pond."""
+    with pytest.raises(ScenarioError) as err:
+        load(Path(__file__).resolve().parents[1] / "scenarios" / "drop_ripple.yaml", ["components.drop.height=1e308"])
+    assert err.value.problems == ["components.drop.height: must be <= 1000 m (got 1e+308)"]

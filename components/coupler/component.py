@@ -136,6 +136,9 @@ COEFFICIENT_MAX = 1e3  # [-] a force coefficient's upper bound: the published on
 RHO_MAX = 1e5  # [kg/m^3] the liquid's density at most: mercury is 13,546, and more only overflows the forces
 
 
+LENGTH_MAX = 1000.0  # [m] the coupler's lengths at most: a wet_ramp of 1e308 overflowed its forces mid-run
+
+
 @dataclass(frozen=True)
 class WaterCouplerParams:
     """Parameters of the water coupler (SI units; coefficients from physics.md section 3)."""
@@ -157,7 +160,7 @@ class WaterCouplerParams:
                             doc="pressure drag coefficient of a submerged disk (face on)")
     c_d_sphere: float = param(C_DRAG_SPHERE, ge=0, le=COEFFICIENT_MAX,
                               doc="pressure drag coefficient of a submerged sphere")
-    closure_depth: float = param(CLOSURE_DEPTH, unit="m", gt=0,
+    closure_depth: float = param(CLOSURE_DEPTH, unit="m", gt=0, le=LENGTH_MAX,
                                  doc="the planing law fades out as the body's top goes this far under the "
                                      "surface (the water closes over it); below, the body is submerged")
     displacement_mode: Literal["ring", "column"] = param(
@@ -173,7 +176,7 @@ class WaterCouplerParams:
     face_elements: int = param(16, ge=2, le=1024, doc="disk face tiling: squares across a diameter")
     rim_elements: int = param(48, ge=3, le=4096, doc="disk rim tiling: strips around the rim")
     sphere_bands: int = param(24, ge=2, le=1024, doc="sphere tiling: equal-area latitude bands")
-    wet_ramp: float = param(5e-4, unit="m", gt=0,
+    wet_ramp: float = param(5e-4, unit="m", gt=0, le=LENGTH_MAX,
                             doc="least depth over which a level element goes from dry to wet")
     margin_cells: int = param(4, ge=0, le=1000, doc="request margin around the footprint [cells]")
     lookahead: float = param(0.06, unit="s", ge=0, le=10,
@@ -182,9 +185,9 @@ class WaterCouplerParams:
     water_level: float | None = param(None, unit="m", ge=-1e6, le=1e6,  # as a water's rest level (1000 km)
                                       doc="rest level assumed until the first patch arrives (within 1000 km of "
                                           "z = 0); default: the water's own, 0 until it is known")
-    wave_allowance: float = param(0.05, unit="m", ge=0,
+    wave_allowance: float = param(0.05, unit="m", ge=0, le=LENGTH_MAX,
                                   doc="highest crest above rest level; a body above it is far")
-    quiet_above: float = param(0.01, unit="m", ge=0,
+    quiet_above: float = param(0.01, unit="m", ge=0, le=LENGTH_MAX,
                                doc="a dry body whose lowest point is this far above the local surface "
                                    "publishes its unchanged outputs once, then holds them")
 

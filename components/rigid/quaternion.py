@@ -44,12 +44,24 @@ def normalize(q: Quat) -> Quat:
 
 
 def from_axis_angle(axis: Vec, angle: float) -> Quat:
-    """Rotation by ``angle`` [rad] about ``axis`` (any non-zero length; right-hand rule)."""
-    n = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
-    if n == 0.0:
-        raise ValueError("rotation axis must be non-zero")
+    """Rotation by ``angle`` [rad] about ``axis`` (any non-zero, finite length; right-hand rule).
+
+    An axis whose squares overflow or underflow is first scaled by its largest component: one of
+    1e200 squared to inf and gave a quaternion of length cos(angle / 2), the tilt lost; one of
+    1e-320 squared to 0 and was refused as zero."""
+    x, y, z = axis[0], axis[1], axis[2]
+    n = math.sqrt(x * x + y * y + z * z)
+    if not TINY_AXIS < n < math.inf:
+        m = max(abs(x), abs(y), abs(z))
+        if not 0.0 < m < math.inf:
+            raise ValueError(f"rotation axis must be non-zero and finite (got [{x:g}, {y:g}, {z:g}])")
+        x, y, z = x / m, y / m, z / m
+        n = math.sqrt(x * x + y * y + z * z)
     s = math.sin(0.5 * angle) / n
-    return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
+    return (math.cos(0.5 * angle), x * s, y * s, z * s)
+
+
+TINY_AXIS = 1e-150  # [-] an axis shorter than this is scaled up first: its squares lose digits below 1e-300
 
 
 def from_rotation_vector(rv: Vec) -> Quat:

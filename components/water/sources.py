@@ -35,7 +35,8 @@ class DropParams:
     x: float = param(0.0, unit="m", doc="centre x of the displacement")
     y: float = param(0.0, unit="m", doc="centre y")
     radius: float = param(0.03, unit="m", ge=CELL_MIN, doc="radius of the occupied disk (at least 1 um)")
-    height: float = param(0.01, unit="m", ge=0, doc="peak occupied height at the centre")
+    height: float = param(0.01, unit="m", ge=0, le=1000,  # 1e308 overflowed the water to inf mid-run
+                          doc="peak occupied height at the centre")
     start: float = param(0.0, unit="s", ge=0, doc="time the body starts entering")
     rise: float = param(0.02, unit="s", gt=0, doc="time to enter fully (and to leave)")
     hold: float | None = param(None, unit="s", ge=0, doc="time spent fully in before leaving; none: stays")
