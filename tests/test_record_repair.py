@@ -231,6 +231,13 @@ def test_a_file_that_is_not_mcap_at_all_is_said_to_be_none(tmp_path, capsys, con
     _refused(path, capsys, "not an MCAP file (no MCAP magic at its start), so not a recording cosim repair can mend")
 
 
+@pytest.mark.parametrize("size", [8, 9, 16, 17])
+def test_a_file_cut_just_after_its_magic_is_said_to_be_cut_in_its_header(whole, tmp_path, capsys, size):
+    """8 to 16 bytes, the MCAP magic whole: "no MCAP magic at its start" was said of them."""
+    path = _written(tmp_path, "cut.mcap", whole.read_bytes()[:size])
+    _refused(path, capsys, f"cut short at {size} bytes; nothing in it can be kept (its header is cut short)")
+
+
 def test_a_file_a_live_run_is_writing_is_said_to_be_written_by_inspect_too(whole, tmp_path, capsys):
     """A run's private file, locked by the run writing it: inspect (as plot and replay, through the
     reader) said it was truncated or corrupt and that repair would mend it, where repair refused it

@@ -179,8 +179,10 @@ def _scan(data: Any, skip: bool = False) -> _Scan:
     resumed; a record cut short by the file's end is no damage. Raises ValueError when not even the
     magic and header are whole."""
     size = len(data)
-    if size < len(MCAP_MAGIC) + _PREFIX.size or bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
+    if size < len(MCAP_MAGIC) or bytes(data[:len(MCAP_MAGIC)]) != MCAP_MAGIC:
         raise ValueError("no MCAP magic at its start")
+    if size < len(MCAP_MAGIC) + _PREFIX.size:  # the magic, and the header's record cut short
+        raise ValueError("its header is cut short")
     op, length = _PREFIX.unpack_from(data, len(MCAP_MAGIC))
     at = len(MCAP_MAGIC) + _PREFIX.size + length
     if op != Opcode.HEADER or at > size:
