@@ -819,15 +819,27 @@ class _ReaderMayLeave:
         except BrokenPipeError:
             _quiet_stdout()
             return len(text)
+        except OSError as exc:  # a full disk under `> out.txt`: said of stdout, not of "its output"
+            raise _named_stdout(exc) from None
 
     def flush(self) -> None:
         try:
             self._stream.flush()
         except BrokenPipeError:
             _quiet_stdout()
+        except OSError as exc:
+            raise _named_stdout(exc) from None
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
+
+
+def _named_stdout(exc: OSError) -> OSError:
+    """``exc``, a write to stdout failing, with "standard output" as its file when it names none (the
+    error said "cosim run: its output: cannot be written", which reads as the recording)."""
+    if exc.filename is None:
+        exc.filename = "standard output"
+    return exc
 
 
 def _quiet_stdout() -> None:

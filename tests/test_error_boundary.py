@@ -81,3 +81,22 @@ def test_a_reader_that_leaves_does_not_turn_a_failure_into_success(tmp_path):
     assert done.returncode == 1, done.stderr
     assert done.stderr.strip() == "error: component 'bad' failed at t = 0.02 s: RuntimeError: boom"
     assert Recording(out).status().status == "failed"
+
+
+def test_a_full_disk_under_stdout_is_said_of_stdout_not_of_the_recording(tmp_path):
+    """`cosim run ... > /dev/full`: "cosim run: its output: cannot be written" read as the recording,
+    which is whole; the line now names standard output."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene = tmp_path / "ok.yaml"
+    scene.write_text(SCENE.format(mode="raise").replace("fail_at: 0.02", "fail_at: 1.0"))
+    out = tmp_path / "ok.mcap"
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "cosim.cli", "run", str(scene), "-o", str(out)],
+                              stdout=full, stderr=subprocess.PIPE, text=True,
+                              cwd=Path(__file__).resolve().parents[1], timeout=300)
+    assert done.returncode == 1
+    assert done.stderr.strip() == "error: standard output: cannot be written (No space left on device)"
+    assert Recording(out).status().status == "ok"
