@@ -117,6 +117,23 @@ def test_an_mcap_file_cosim_did_not_write_is_not_overwritten(scene, tmp_path, ca
     assert bag.read_bytes() == data and not list(tmp_path.glob("*.part"))
 
 
+def test_a_recording_cut_short_is_not_replaced_but_sent_to_repair(scene, tmp_path, capsys):
+    """-o onto a recording cut short (a copy that stopped, a disk that filled): exit 2 pointing to
+    `cosim repair`, the file untouched; it was replaced, and what repair could have kept was lost. A
+    whole recording is still replaced."""
+    whole = tmp_path / "whole.mcap"
+    assert main(["run", str(scene), "-o", str(whole), "-q"]) == 0
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(whole.read_bytes()[:whole.stat().st_size // 2])
+    data = cut.read_bytes()
+    assert main(["run", str(scene), "-o", str(cut), "-q"]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {cut}: exists and is a recording cut short (no MCAP end); it is not replaced: `cosim repair "
+        f"{cut}` keeps what it holds (or remove it, or choose another output)")
+    assert cut.read_bytes() == data and not list(tmp_path.glob("*.part"))
+    assert main(["run", str(scene), "-o", str(whole), "-q"]) == 0
+
+
 def test_an_existing_recording_is_replaced_only_when_the_new_one_is_complete(scene, tmp_path, capsys):
     """The recording is written to a private file with a unique name beside the target and moved
     onto it when complete; until then the target keeps the previous recording."""

@@ -85,7 +85,22 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     if library is not None:
         raise RecordingError(f"{path}: exists and is an MCAP recording cosim did not write (written by "
                              f"{library!r}); it is not overwritten (remove it or choose another output)")
+    if not _ends_whole(path, st.st_size):  # what it holds is kept by repair alone: replaced, it was lost
+        raise RecordingError(f"{path}: exists and is a recording cut short (no MCAP end); it is not replaced: "
+                             f"`cosim repair {path}` keeps what it holds (or remove it, or choose another output)")
     return _named_as_a_recording(path, inputs)
+
+
+def _ends_whole(path: Path, size: int) -> bool:
+    """Whether the MCAP file ``path`` (``size`` bytes) ends with the magic its footer is followed by."""
+    if size < 2 * len(MCAP_MAGIC):
+        return False
+    try:
+        with open(path, "rb") as f:
+            f.seek(size - len(MCAP_MAGIC))
+            return f.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+    except OSError:
+        return True  # unreadable at its end: the other checks decide, as before
 
 
 def _named_as_a_recording(path: Path, inputs: Iterable[str | Path] = ()) -> Path:
