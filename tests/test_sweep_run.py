@@ -286,6 +286,26 @@ def test_a_table_of_another_sweep_is_not_resumed(tmp_path, pool):
         run_sweep(shorter, tmp_path / "ext.csv", pool, progress=False, figure=False)
 
 
+def test_a_row_with_a_status_no_run_gives_is_refused_and_a_rerun_point_keeps_its_result(tmp_path, pool):
+    """A hand-edited status ("weird") was taken and summed as "6 weird"; now the table is refused,
+    naming the line. A point in the table twice (run again after a stop, killed before the sweep
+    rewrote the table) counts once, with its result rather than its interrupted row."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    out = tmp_path / "out.csv"
+    run_sweep(sweep, out, pool, progress=False, figure=False)
+    whole = out.read_text()
+    lines = whole.splitlines(keepends=True)
+    assert all(",stopped,ball: at rest" in line for line in lines[1:])
+    out.write_text("".join([*lines[:3], lines[3].replace(",stopped,", ",weird,", 1), *lines[4:]]))
+    with pytest.raises(ScenarioError, match=r"out\.csv: line 4: status 'weird' is not one a run gives "
+                                            r"\(ok, stopped, failed, interrupted, unfinished\)"):
+        run_sweep(sweep, out, pool, progress=False, figure=False)
+    interrupted = lines[2].replace(",stopped,", ",interrupted,", 1)
+    out.write_text("".join([*lines[:2], interrupted, *lines[2:]]))  # the stopped run's row, then its result
+    again = run_sweep(sweep, out, pool, progress=False, figure=False)
+    assert (again.already, again.ran) == (9, 0)  # the point's result kept: it is not run a second time
+
+
 def test_a_table_that_is_not_text_is_refused_and_left_as_it_is(tmp_path, pool):
     """A table made garbage (not UTF-8) beside its intact meta file: refused naming it, with --fresh
     offered, the file untouched (an internal UnicodeDecodeError, after its last "row" was cut off)."""

@@ -58,7 +58,6 @@ STOP_WAIT_S = 2.0
 # writes the machine refused for want of room (a full disk, a quota, a file-size limit): a run they
 # end is no result of its point
 MACHINE_LIMITS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
-NOT_RESULTS = ("interrupted", "unfinished")  # statuses of runs that a resumed sweep runs again
 
 
 @dataclass(frozen=True)

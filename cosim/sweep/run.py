@@ -29,9 +29,9 @@ from tqdm import tqdm
 
 from cosim.errors import ending_signals
 from cosim.runner import counted
-from cosim.sweep.backends import NOT_RESULTS, BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
+from cosim.sweep.backends import BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
-from cosim.sweep.table import ResultTable, cannot
+from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 RECORDING_FAILURES = ("SinkError", "RecordingError")  # error types of a run whose recording failed

@@ -26,6 +26,9 @@ from cosim.errors import ScenarioError
 from cosim.record.output import remove_quietly, written_whole
 from cosim.sweep.plan import yaml_value
 
+NOT_RESULTS = ("interrupted", "unfinished")  # statuses of runs that a resumed sweep runs again
+ROW_STATUSES = ("ok", "stopped", "failed", *NOT_RESULTS)  # what a run's row may say (RunResult's and those)
+
 
 def cell(value: Any) -> str:
     """A value as CSV text: floats by their exact repr (nan, inf), lists in YAML flow style."""
@@ -176,13 +179,20 @@ class ResultTable:
                                 "for another file", where)
         rows: dict[str, dict[str, str]] = {}
         strangers = []
-        for values in reader:
+        for line, values in enumerate(reader, start=2):
             if len(values) != len(header):
                 continue
             row = dict(zip(header, values, strict=True))
+            if row["status"] not in ROW_STATUSES:  # a hand-edited table: "6 weird" was summed as a status
+                raise ScenarioError(f"line {line}: status {row['status']!r} is not one a run gives "
+                                    f"({', '.join(ROW_STATUSES)}); use --fresh to start over or -o for another "
+                                    "file", where)
             if row["point_id"] not in known_ids:
                 strangers.append(row["point_id"])
-            rows.setdefault(row["point_id"], row)
+            kept = rows.get(row["point_id"])
+            # a point run again after a stop is in the table twice until the sweep ends: its result wins
+            if kept is None or (kept["status"] in NOT_RESULTS and row["status"] not in NOT_RESULTS):
+                rows[row["point_id"]] = row
         if strangers:
             raise ScenarioError(f"holds {len(strangers)} points that are not in this sweep (e.g. "
                                 f"{strangers[0]}); use --fresh to start over or -o for another file", where)
