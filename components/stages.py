@@ -294,9 +294,11 @@ class StageMonitor(Component):
             outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, float(body.position[0]))
             if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
                 x, y = float(body.position[0]), float(body.position[1])
-                where = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
-                self.request_stop(f"stone {where} at x = {x:.3g} m, y = {y:.3g} m (no water under it "
-                                  f"since t = {self.outside_since:.4g} s)")
+                # where it came down beside the water, not where it crossed the water's edge (the
+                # monitor knows no edge): a throw flying past a 14 m pond "left the pond at x = 15.5 m"
+                what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
+                self.request_stop(f"stone {what}: it came down beside the water at x = {x:.3g} m, y = {y:.3g} m "
+                                  f"(no water under it since t = {self.outside_since:.4g} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
         track = self.track

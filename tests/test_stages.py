@@ -141,7 +141,8 @@ def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
         (body(1.1, -0.04, 5.0, -0.8), water(False, depth=0.034), None),
     ]
     drive(m, script)
-    assert m.stop_reason is not None and "left the pond at x = 1.1 m" in m.stop_reason
+    assert m.stop_reason is not None
+    assert "stone left the pond: it came down beside the water at x = 1.1 m" in m.stop_reason
     metrics = m.metrics()
     assert metrics["outcome"] == "left-pond" and metrics["skips"] == 1 and metrics["reached_edge"] == 1
     assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
@@ -170,7 +171,8 @@ def test_a_stone_that_never_touched_the_water_missed_it_rather_than_left_it():
     m = StageMonitor("stages", StageMonitor.Params(outside_after=0.002))
     drive(m, [(body(0.1 * k, 0.05 - 0.02 * k, 5.0, -1.0), water(False, depth=0.02 * k - 0.05), None)
               for k in range(8)])
-    assert m.stop_reason is not None and "stone missed the water at x = 0.5 m" in m.stop_reason
+    assert m.stop_reason is not None
+    assert "stone missed the water: it came down beside the water at x = 0.5 m" in m.stop_reason
     assert m.metrics()["outcome"] == "left-pond"
 
 
