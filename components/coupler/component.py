@@ -675,7 +675,7 @@ class WaterCoupler(Component):
         if assumed and ring is not None:
             ring = ring._replace(window=None)  # the buoyancy, but no displacement into a grid not yet known
         if ring is not None:
-            self._add_hydrostatics(stats, ring)
+            self._add_hydrostatics(stats, ring, int(body.shape) == kernel.SHAPE_SPHERE)
         self.bound = self._stability_bound(body, stats)
         if stats[kernel.S_VOLUME] == 0.0 and stats[kernel.S_AREA] == 0.0:  # dry, as in _ring_advance
             self.bound = min(self.bound, self._approach_bound(body))
@@ -1045,7 +1045,7 @@ class WaterCoupler(Component):
             work = self._ring_work = _ring_scratch(shape)
         return work
 
-    def _add_hydrostatics(self, stats: np.ndarray, ring: _Ring) -> None:
+    def _add_hydrostatics(self, stats: np.ndarray, ring: _Ring, sphere: bool = False) -> None:
         """Put the buoyancy that goes with the ring displacement into ``stats`` (its force, torque
         and the total).
 
@@ -1081,8 +1081,9 @@ class WaterCoupler(Component):
             # met_surface): its level lifts a floating body only
             mound = f * (1.0 - self._planing_share)
             stats[b + 2] += mound * ring.lifted[0]
-            stats[b + 3] += mound * ring.lifted[1]
-            stats[b + 4] += mound * ring.lifted[2]
+            if not sphere:  # a sphere's pressure acts through its centre: the mound lifts it, turns it not
+                stats[b + 3] += mound * ring.lifted[1]
+                stats[b + 4] += mound * ring.lifted[2]
             stats[kernel.S_STIFF] += f * rest[kernel.S_WATERLINE]
         stats[kernel.S_TOTAL:kernel.S_TOTAL + 6] += stats[b:b + 6]
 
@@ -1287,7 +1288,7 @@ class WaterCoupler(Component):
                                        b_scratch, s_scratch, flags, self._planing(x, low, met))
                 if ring_mode:
                     self._add_hydrostatics(stats, self._ring(body, x, axes, half, low, water, elements,
-                                                             nsub, ring_scratch))
+                                                             nsub, ring_scratch), not is_disk)
                 current = stats[:size].copy()
                 private[step_kernel.B_POS:step_kernel.B_POS + 3] = x
                 private[step_kernel.B_QUAT:step_kernel.B_QUAT + 4] = q

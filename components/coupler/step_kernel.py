@@ -293,7 +293,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
                     _ring_lift_live(waterline, height, held, has_held, b_out, rest_level,
                                     band_j, band_i, col_j, col_i, columns, band, lifted)
     results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
-    _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share)
+    _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share, shape == kernel.SHAPE_SPHERE)
     results[R_BOUND] = stability_bound(body, stats, prm)
 
 
@@ -373,17 +373,19 @@ def _field(height, held, has_held, b_out, rest_level, j, i):
 
 
 @njit(cache=True)
-def _add_hydrostatics(stats, rest, lifted, flags, f, share):
+def _add_hydrostatics(stats, rest, lifted, flags, f, share, sphere):
     """WaterCoupler._add_hydrostatics: the rest pass's buoyancy, the mound's lift (a floating body
-    only) and the waterline stiffness into stats, and the total."""
+    only; a sphere's without a torque, its pressure acting through its centre) and the waterline
+    stiffness into stats, and the total."""
     b = kernel.S_BUOYANCY
     for q in range(6):
         stats[b + q] = rest[b + q]
     if flags & BUOYANCY:
         mound = f * (1.0 - share)
         stats[b + 2] += mound * lifted[0]
-        stats[b + 3] += mound * lifted[1]
-        stats[b + 4] += mound * lifted[2]
+        if not sphere:
+            stats[b + 3] += mound * lifted[1]
+            stats[b + 4] += mound * lifted[2]
         stats[kernel.S_STIFF] += f * rest[kernel.S_WATERLINE]
     for q in range(6):
         stats[kernel.S_TOTAL + q] += stats[b + q]
