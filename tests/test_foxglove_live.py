@@ -14,6 +14,7 @@ import socket
 import struct
 import threading
 import time
+import types
 
 import pytest
 
@@ -234,6 +235,32 @@ def advertised(client: WsClient, wanted: set[str], within: float = 2.0) -> dict[
         if op == 1 and (msg := json.loads(data))["op"] == "advertise":
             channels.update((ch["topic"], ch) for ch in msg["channels"])
     return channels
+
+
+def test_a_run_late_after_a_stall_is_paced_on_from_there_not_played_flat_out(monkeypatch):
+    """Paced at 0.5x, a run whose first step took 50 s (its kernels compiling) played its next 25 s
+    of simulation as fast as it could, catching up with the clock of its start: the first skips, as
+    a user watches, at 0.94x real time. Now a late step re-anchors the pacing."""
+    import cosim.view.live as live
+
+    clock = {"now": 100.0}
+    slept: list[float] = []
+    monkeypatch.setattr(live.time, "perf_counter", lambda: clock["now"])
+    monkeypatch.setattr(live.time, "sleep", lambda s: (slept.append(s), clock.update(now=clock["now"] + s)))
+    scene = loads(SKIP_SCENE)
+    view = LiveView(scene, "127.0.0.1:0", speed=0.5, components=Simulation(scene).components, announce=False)
+    sim = types.SimpleNamespace(time_ns=0)  # the run's clock is all the pacing reads
+    try:
+        view.on_initialized(sim)
+        sim.time_ns = 10_000_000  # 10 ms of simulation ...
+        clock["now"] += 50.0  # ... done after 50 s of compiling: late, no sleep
+        view.on_step_complete(sim)
+        assert slept == []
+        sim.time_ns = 20_000_000  # the next 10 ms, done at once: paced at 0.5x, 20 ms of wall time
+        view.on_step_complete(sim)
+        assert slept == [pytest.approx(0.02)]
+    finally:
+        view.close()
 
 
 def test_every_channel_is_advertised_before_the_first_step():
