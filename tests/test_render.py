@@ -467,3 +467,22 @@ def test_the_gap_is_the_one_reported_at_the_frames_time_not_the_drawn_fields(ski
     assert huge.caption == "100000000000.0 cm above the water"
     assert FrameRenderer._field_age(0.17, 0.1) == "  (water drawn as at t = 0.100 s)"
     assert FrameRenderer._field_age(0.1, 0.1) == ""
+
+
+@pytest.mark.parametrize("scene", ["held_skip", "ricochet"])
+def test_the_default_picture_shows_the_stone_leaving_the_water(scene, tmp_path):
+    """--at's default is "as the stone leaves the water after its first skip", snapped to a recorded
+    water field: the nearest one, before the take-off, showed the stone still sliding in the water
+    (the ricochet's 4 ms before it, the held skip's 4.5 ms). Now the first field at or after it."""
+    from components.analysis.render import FIELD_SNAP
+    from components.messages import SkipRecord
+    from cosim.record.reader import Recording
+
+    recording = tmp_path / f"{scene}.mcap"
+    assert main(["run", str(Path(__file__).resolve().parents[1] / "scenarios" / f"{scene}.yaml"), "-q",
+                 "-o", str(recording), "--set", "until=0.3"]) == 0
+    rec = Recording(recording)
+    _, first = rec.messages("/stages/skip", SkipRecord)[0]
+    take_off = first.touchdown_time + first.contact_time
+    result = render(recording, tmp_path / "default.png", RenderOptions(width=WIDTH))
+    assert take_off <= result.start <= take_off + FIELD_SNAP

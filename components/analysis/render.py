@@ -716,7 +716,7 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
 
 
 SPLASH_DELAY = 0.025  # [s] after a first hit that never becomes a skip: the splash is forming
-FIELD_SNAP = 0.05  # [s] the default frame moves to a recorded water field at most this far from its moment
+FIELD_SNAP = 0.05  # [s] the default frame moves on to a recorded water field at most this far after its moment
 
 
 def _default_at(rec: Recording, body: BodyTrack, linked: set[str] | None) -> float:
@@ -758,8 +758,11 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         at = _default_at(rec, body, linked)
         if water is not None:  # at a water field close to it, so the surface drawn is the one then
             stamps = [stamp / NS_PER_S for _, stamp, _ in rec.raw([water])]
-            near = min(stamps, key=lambda t: (abs(t - at), t), default=at)
-            at = near if abs(near - at) <= FIELD_SNAP else at
+            # the first at or after the moment, never one before it: that showed the stone still in
+            # the water, where --at's help promises it leaving (the ricochet's frame fell 4 ms before
+            # its take-off); with none soon after, the moment itself, the water drawn as last recorded
+            after = min((t for t in stamps if t >= at), default=math.inf)
+            at = after if after - at <= FIELD_SNAP else at
         return at
 
     # a restart's recording begins at its checkpoint, a step before the body's first state
