@@ -526,3 +526,28 @@ def test_the_trajectorys_legend_names_the_water_level_beside_the_stages(run):
     contact markers) went unexplained."""
     labels = [t.get_text() for t in figure_trajectory(run).axes[0].get_legend().get_texts()]
     assert "water level" in labels and "approach" in labels
+
+
+def test_a_turn_too_small_to_show_is_plus_zero_in_the_view_from_above(run):
+    """The run's summary rounds a heading before its sign (+0.0 deg); the view from above printed the
+    gust skip's first, -0.04 deg, as -0.0 deg."""
+    import dataclasses
+    import warnings
+
+    from matplotlib.figure import Figure
+
+    from components.analysis.plot import _draw_from_above
+
+    turned = dataclasses.replace(run, skips=[dataclasses.replace(run.skips[0], heading_deg=-0.04)])
+    ax = Figure().add_subplot()
+    with warnings.catch_warnings():  # this straight throw has no sideways spread to scale y to
+        warnings.simplefilter("ignore", UserWarning)
+        _draw_from_above(ax, turned, "0.5")
+    assert [t.get_text() for t in ax.texts] == ["+0.0 deg"]
+
+
+def test_the_contacts_legend_is_below_the_panels_not_over_a_force_peak(run):
+    """In the first panel (loc="best") the legend hid the reference skip's 79 N peak."""
+    fig = figure_contacts(run)
+    assert fig.axes[0].get_legend() is None
+    assert len(fig.legends) == 1 and "pressure z" in [t.get_text() for t in fig.legends[0].get_texts()]

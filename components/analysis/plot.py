@@ -171,7 +171,8 @@ def _draw_from_above(ax, run: RunData, colors) -> None:
     for skip in run.skips:
         y = float(np.interp(skip.touchdown_time, body.t, xy[:, 1]))
         ax.plot(skip.touchdown_x, y, "o", color="0.3", markersize=4)
-        ax.annotate(f"{skip.heading_deg:+.1f} deg", (skip.touchdown_x, y), textcoords="offset points",
+        # rounded first, as the run's summary does: a turn smaller than the last digit is +0.0, not -0.0
+        ax.annotate(f"{round(skip.heading_deg, 1) + 0.0:+.1f} deg", (skip.touchdown_x, y), textcoords="offset points",
                     xytext=(3, 4), fontsize="x-small", color="0.35")
     ax.autoscale_view()
     lo, hi = float(np.min(xy[:, 1])), float(np.max(xy[:, 1]))
@@ -428,8 +429,10 @@ def figure_contacts(run: RunData) -> Figure | None:
         ax.set_xlabel("time since touchdown [ms]")
         ax.set_ylabel("force [N]")
         ax.grid(True, alpha=0.3)
-        if k == 0:
-            ax.legend(fontsize="x-small", loc="best")
+    # one legend below the panels: inside the first it hid its force peak (the reference skip's 79 N)
+    handles, labels = axes[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", fontsize="x-small", ncols=min(3, len(handles)))
     for ax in axes[len(intervals):]:
         ax.set_visible(False)
     shown = (f"the first {len(intervals)} of its {len(every)} contacts" if len(every) > len(intervals)
