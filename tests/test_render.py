@@ -486,3 +486,16 @@ def test_the_default_picture_shows_the_stone_leaving_the_water(scene, tmp_path):
     take_off = first.touchdown_time + first.contact_time
     result = render(recording, tmp_path / "default.png", RenderOptions(width=WIDTH))
     assert take_off <= result.start <= take_off + FIELD_SNAP
+
+
+def test_a_frame_drawn_from_an_older_state_says_so():
+    """In a recording thinned with --record-every the frame at a stage change (kept) drew the stone
+    of the last state kept, 4.5 ms before, with its gap ("fly-away ... 0.3 cm into the water") and
+    said only the water's age; now the stone's too, when more than a step older."""
+    import types
+
+    from components.analysis.render import FrameRenderer
+
+    renderer = types.SimpleNamespace(step=0.0005)
+    assert FrameRenderer._state_age(renderer, 0.1045, 0.100) == "  (stone as at t = 0.100 s)"
+    assert FrameRenderer._state_age(renderer, 0.1005, 0.100) == ""  # the state of the frame's step

@@ -298,7 +298,18 @@ class _Frames:
         return box, cam, image
 
     def _header(self, draw: ImageDraw.ImageDraw, text: str, color: tuple[int, ...]) -> None:
-        draw.text((0.6 * self.text_px, 0.5 * self.text_px), text, fill=color, font=font(self.text_px))
+        """``text`` across the top, broken at its double spaces onto further lines where it would run
+        past the frame's edge (a thinned recording's notes of what is older than the frame did)."""
+        face = font(self.text_px)
+        room = self.size[0] - 1.2 * self.text_px
+        lines: list[str] = []
+        for part in text.split("  "):
+            if lines and draw.textlength(f"{lines[-1]}  {part}", font=face) <= room:
+                lines[-1] = f"{lines[-1]}  {part}"
+            else:
+                lines.append(part)
+        for k, line in enumerate(lines):
+            draw.text((0.6 * self.text_px, (0.5 + 1.25 * k) * self.text_px), line, fill=color, font=face)
 
     def _surface(self, field: WaterField | None, field_mean: float, view: _View) -> Surface | None:
         """The water to draw, cropped to the view; None when the view is wholly above or below it."""
@@ -464,7 +475,8 @@ class FrameRenderer(_Frames):
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
         header = (f"{self.title}   t = {t:.3f} s   {label}   x = {pos[0]:.2f} m, "
-                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{self._field_age(t, field_time)}")
+                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{self._state_age(t, float(body.t[i]))}"
+                  f"{self._field_age(t, field_time)}")
         color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
         self._header(draw, header, color)
         return np.asarray(image)
@@ -480,6 +492,14 @@ class FrameRenderer(_Frames):
         if k < 0 or t - times[k] > self.step * (1 + 1e-9) or not np.isfinite(depths[k]):
             return None
         return -float(depths[k])
+
+    def _state_age(self, t: float, state_time: float) -> str:
+        """``  (stone as at t = 0.100 s)`` when the body's state drawn is more than a step older than
+        the frame's time ``t`` [s] (a recording thinned with --record-every): its place, speed and
+        gap are then that state's, while the stage is the frame's (stage changes are all kept)."""
+        if t - state_time <= self.step * (1 + 1e-9):
+            return ""
+        return f"  (stone as at t = {state_time:.3f} s)"
 
     @staticmethod
     def _field_age(t: float, field_time: float | None) -> str:
