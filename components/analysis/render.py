@@ -298,16 +298,18 @@ class _Frames:
         return box, cam, image
 
     def _header(self, draw: ImageDraw.ImageDraw, text: str, color: tuple[int, ...]) -> None:
-        """``text`` across the top, broken at its double spaces onto further lines where it would run
-        past the frame's edge (a thinned recording's notes of what is older than the frame did)."""
+        """``text`` across the top; its notes in parentheses (what is drawn older than the frame) go
+        on a line of their own where they would run past the frame's edge (a thinned recording's
+        two did). The header itself stays one line, cut at the edge of a small frame."""
         face = font(self.text_px)
         room = self.size[0] - 1.2 * self.text_px
-        lines: list[str] = []
-        for part in text.split("  "):
-            if lines and draw.textlength(f"{lines[-1]}  {part}", font=face) <= room:
-                lines[-1] = f"{lines[-1]}  {part}"
+        head, *notes = text.split("  (")
+        lines = [head]
+        for note in notes:
+            if draw.textlength(f"{lines[-1]}  ({note}", font=face) <= room:
+                lines[-1] = f"{lines[-1]}  ({note}"
             else:
-                lines.append(part)
+                lines.append(f"({note}")
         for k, line in enumerate(lines):
             draw.text((0.6 * self.text_px, (0.5 + 1.25 * k) * self.text_px), line, fill=color, font=face)
 
