@@ -184,12 +184,15 @@ class GroundContact(Message):
 @message
 class PatchRequest(Message):
     """The water region a consumer needs next step, world frame [m]: x in [x_min, x_max],
-    y in [y_min, y_max]. An empty request (x_min > x_max) asks for nothing."""
+    y in [y_min, y_max]. An empty request (x_min > x_max) asks for nothing.
+    columns: False asks for the region's crest only (HeightPatch.crest, no columns): a body far
+    above the water asks so, to learn whether a wave reaches up to it."""
 
     x_min: float
     x_max: float
     y_min: float
     y_max: float
+    columns: bool = True
 
     @staticmethod
     def empty() -> PatchRequest:
@@ -211,6 +214,10 @@ class HeightPatch(Message):
     (hand-made still water).
     off_grid: the window is empty because the request lay wholly outside the water's grid: there is
     no water there (an empty window without it means that nothing was asked yet).
+    crest: the highest the surface stands above rest_level over the window [m] (the occupied height
+    under a body included), rounded up to the millimetre; sent alone, with no columns, for a request
+    of the crest only; at t = 0, before anything is asked, the whole water's. -1 when not known: an
+    empty window (nothing asked, or off the grid), or a source that does not say (hand-made water).
     """
 
     i0: int
@@ -224,6 +231,7 @@ class HeightPatch(Message):
     bottom: Grid
     occupied: Grid = dataclasses.field(default_factory=lambda: np.zeros((0, 0)))
     off_grid: bool = False
+    crest: float = -1.0
 
 
 @message

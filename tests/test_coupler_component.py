@@ -88,16 +88,34 @@ def test_initial_outputs_are_quiet():
 
 
 def test_far_body_costs_no_column_work():
-    """A body high above the water gets a zero wrench, an empty window and request, and no work."""
+    """A body high above the water gets a zero wrench, an empty window and no work; it asks for the
+    water's crest where it goes, not its columns."""
     c = WaterCoupler("c")
     out = step(c, body(position=(0.0, 0.0, 1.0), velocity=(5.0, 0.0, -1.0)), still_water())
     assert set(out) == set(WaterCoupler.outputs) - {"added_mass"}
     assert c.work == {"columns": 0, "elements": 0}
     assert not out["wrench"].force.any()
     assert out["occupied"].b.size == 0
-    assert out["request"].x_min > out["request"].x_max
+    assert not out["request"].columns
     assert out["contact"].depth == pytest.approx(-(1.0 - math.hypot(0.05, 0.003)))
     assert c.max_stable_step() == math.inf
+
+
+def test_a_body_far_above_the_water_asks_for_the_crest_where_it_goes_and_meets_a_higher_one():
+    """A body 20 cm up is far from water whose crest where it goes stands 4 cm high (wave_allowance
+    5 cm): it asks for that crest alone (columns False) over its next footprint and what lies ahead.
+    Told of a 30 cm crest (a wave another body raised), it is near: it asks for the columns. Before,
+    only the allowance counted, and a body above it fell through any higher wave untouched."""
+    from dataclasses import replace
+
+    b = body(position=(0.0, 0.0, 0.2), velocity=(5.0, 0.0, -1.0))
+    far = step(WaterCoupler("c"), b, replace(still_water(), crest=0.04))["request"]
+    assert not far.columns and far.x_min < 0.0 < far.x_max and far.y_min < 0.0 < far.y_max
+    assert far.x_max > 5.0 * WaterCoupler("c").params.lookahead  # as far ahead as it goes in the lookahead
+    near = step(WaterCoupler("c"), b, replace(still_water(), crest=0.3))["request"]
+    assert near.columns and near.x_min < 0.0 < near.x_max and near.y_min < 0.0 < near.y_max
+    unknown = step(WaterCoupler("c"), b, still_water())["request"]  # hand-made water says no crest
+    assert not unknown.columns
 
 
 def test_body_near_water_requests_its_next_footprint():

@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
-from components.coupler import WaterCoupler, step_kernel
+from components.coupler import WaterCoupler, kernel, step_kernel
 from components.coupler.fixtures import body, disk_at_depth, pitched, still_water
 from components.coupler.geometry import Elements
 from components.coupler.met_surface import MetSurface, planing_share
@@ -75,7 +75,7 @@ def _separate(coupler: WaterCoupler, b, patch: HeightPatch):
                               x.elements, x.nsub, coupler._b_geo, np.zeros_like(coupler._stats),
                               coupler._local, coupler._planing(b.position, x.low, x.water))
     ring = coupler._ring(b, b.position, x.axes, x.half, x.low, x.water, x.elements, x.nsub)
-    coupler._add_hydrostatics(stats, ring)
+    coupler._add_hydrostatics(stats, ring, int(b.shape) == kernel.SHAPE_SPHERE)
     return stats, ring, coupler._top_under(b.position, x.low, x.water), coupler._stability_bound(b, stats)
 
 

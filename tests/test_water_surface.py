@@ -122,6 +122,24 @@ def test_initial_outputs_hold_an_empty_patch_and_the_field_when_enabled():
     assert field.energy == pytest.approx(pond().energy(), rel=1e-15)
 
 
+def test_a_patch_says_the_crest_over_its_window_and_a_crest_request_gets_that_alone():
+    """A patch says how high the water stands over its window (rounded up to the millimetre), with
+    its columns or alone for a request of the crest only (columns False); nothing asked, it is not
+    known (-1), but at t = 0 the whole water's is said, so that a body let go inside a wave meets it."""
+    w = pond(initial=GaussianBump(x=0.0, y=0.02, amplitude=0.0123, width=0.02))
+    assert w.initial_outputs()["patch"].crest == 0.013
+    assert w.patch(None).crest == -1.0
+    near = PatchRequest(-0.02, 0.02, 0.0, 0.04)
+    full = w.patch(near)
+    top = np.max(full.height) - full.rest_level
+    assert full.height.size and top <= full.crest < top + 0.001
+    alone = w.patch(PatchRequest(-0.02, 0.02, 0.0, 0.04, columns=False))
+    assert alone.height.size == 0 and alone.crest == full.crest
+    assert w.patch(PatchRequest(-0.02, 0.02, 0.0, 0.04, columns=False)) is alone  # held while it holds
+    aside = w.patch(PatchRequest(0.07, 0.08, -0.04, -0.03, columns=False))  # far from the bump
+    assert 0.0 <= aside.crest <= 0.001  # the bump's tail, rounded up
+
+
 def test_patch_covers_the_requested_rectangle_plus_margin():
     """The patch holds the columns touching the request plus patch_margin cells, with their geometry."""
     p = pond(patch_margin=2)

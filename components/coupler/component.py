@@ -186,7 +186,8 @@ class WaterCouplerParams:
                                       doc="rest level assumed until the first patch arrives (within 1000 km of "
                                           "z = 0); default: the water's own, 0 until it is known")
     wave_allowance: float = param(0.05, unit="m", ge=0, le=LENGTH_MAX,
-                                  doc="highest crest above rest level; a body above it is far")
+                                  doc="a body this high above the rest level is far from the water, or as high "
+                                      "as the crest where it goes when that is higher (HeightPatch.crest)")
     quiet_above: float = param(0.01, unit="m", ge=0, le=LENGTH_MAX,
                                doc="a dry body whose lowest point is this far above the local surface "
                                    "publishes its unchanged outputs once, then holds them")
@@ -333,6 +334,7 @@ class WaterCoupler(Component):
         # the lowest point of the body's bounding sphere when the run began [m] (start_inputs); None
         # when not told (a coupler stepped by hand): taken as a body that came down into the water
         self._start_bottom: float | None = None
+        self._crest = 0.0  # [m] over the rest level: the highest the water said it stands where the body goes
         self.dissipated = 0.0
         self.bound = math.inf
         # last published wrench and the state it acts from (force, position, torque, omega: 3 floats each)
@@ -366,7 +368,7 @@ class WaterCoupler(Component):
                 "bound": self.bound, "prev": prev, "quiet": self.quiet, **self.met.get_state(),
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
-                    self._held_request.y_min, self._held_request.y_max],
+                    self._held_request.y_min, self._held_request.y_max, self._held_request.columns],
                 "start_in_water": self._start_in_water, "start_bottom": self._start_bottom,
                 **(self._added_book.get_state() if self.added_mass_on else {})}
 
@@ -374,9 +376,11 @@ class WaterCoupler(Component):
         self.rest_level = float(state["rest_level"])
         self.quiet = bool(state.get("quiet", False))
         held = state.get("held_request")
-        self._held_request = None if held is None else PatchRequest(*map(float, held))
+        # (a checkpoint before the crest-only windows holds four numbers: a window of columns)
+        self._held_request = None if held is None else PatchRequest(
+            *map(float, held[:4]), columns=bool(held[4]) if len(held) > 4 else True)
         empty = self._empty_request
-        if held is not None and [float(v) for v in held] == [empty.x_min, empty.x_max, empty.y_min, empty.y_max]:
+        if held is not None and [float(v) for v in held[:4]] == [empty.x_min, empty.x_max, empty.y_min, empty.y_max]:
             # the request is held by identity (_publishable): the empty one is always this object, or a
             # restart would publish the empty request again, which the run it continues did not
             self._held_request = self._empty_request
@@ -417,14 +421,6 @@ class WaterCoupler(Component):
             # a body with water that is not there
             return [f"water_level {given:g} m is not the rest level {level:g} m of the water feeding it; leave "
                     "water_level out (the water's own is taken from its first patch) or give the water's rest_level"]
-        bump = getattr(getattr(water, "params", None), "initial", None)
-        crest = float(getattr(bump, "amplitude", 0.0) or 0.0)
-        if self.flags and crest > self.params.wave_allowance:
-            # a body higher than the allowance above the rest level is taken as far from any water, its
-            # steps idle: a stone let go inside a 20 cm crest fell through it untouched for 50 ms
-            return [f"the water feeding it starts with a crest {crest:g} m above its rest level, higher than "
-                    f"wave_allowance {self.params.wave_allowance:g} m, the highest crest it looks for (a body "
-                    f"above that is taken to be far from any water): give wave_allowance at least {crest:g}"]
         bed_at = getattr(water, "bed_at", None)
         if not isinstance(body, BodyState) or bed_at is None:
             return []
@@ -555,9 +551,10 @@ class WaterCoupler(Component):
 
     def _publishable(self, outputs: dict[str, Message]) -> dict[str, Message]:
         """Idle outputs (zero wrench, empty windows, a dry report) are published once when the body
-        moves away from the water and then held by the receivers: a stone in flight costs neither
-        column work nor recorded messages. Likewise a request is published only when the window the
-        water holds no longer covers the body with half its margin."""
+        moves away from the water and then held by the receivers: a stone in flight costs no column
+        work, and its only messages are the requests for the crest where it goes. A request, of
+        columns or of the crest alone, is published only when the window the water holds no longer
+        covers the body with half its margin."""
         request = outputs.get("request")
         new_request = None
         if request is not None:
@@ -578,6 +575,8 @@ class WaterCoupler(Component):
     def _advance(self, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
         body = inputs.get("body")
         patch = inputs.get("water")
+        if patch is not None and patch.crest >= 0.0:  # else not known (an empty window): the last one holds
+            self._crest = float(patch.crest)
         if body is None:
             self.bound = math.inf
             return self._idle(-math.inf)
@@ -614,16 +613,18 @@ class WaterCoupler(Component):
         self._submerged = 0.0
         if self.added_mass_on:
             self.dissipated += self._added_book.settle(body, dt)
-        # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest
+        # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest:
+        # the allowance, or the crest the water says stands where the body goes when that is higher (a
+        # wave another body raised; the body, far, asks for that crest alone: _far_request)
         z_bottom = float(pos[2]) - r_bound
         level = self.rest_level
         reach = min(0.0, float(vel[2])) * 2.0 * dt
-        if self.flags == 0 or z_bottom + reach > level + self.params.wave_allowance:
+        if self.flags == 0 or z_bottom + reach > level + max(self.params.wave_allowance, self._crest):
             self.bound = math.inf
             self._prev = None
             if self.cell != 0.0:
                 self._start_in_water = False  # dry with the water known: whatever it displaces later is new
-            return self._idle(level - z_bottom)
+            return self._idle(level - z_bottom, self._far_request(pos, vel, dt, r_bound))
         if n == 1 and patch is not None and patch.height.size != 0 and self._ring_on and not self.params.smoothing:
             return self._ring_advance(body, _fill_body_vector(self._bv, body), patch, dt)  # the usual step
         bv = self._body_vector(body)
@@ -934,7 +935,7 @@ class WaterCoupler(Component):
         margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
         cx, cy = centre
         held = self._held_request
-        if held is not None and held.x_min <= held.x_max:
+        if held is not None and held.columns and held.x_min <= held.x_max:
             # the held window still covers the body, its displacement ring and at least half the
             # margin cells (which absorb a slower water's lag): keep it
             need = margin - 0.5 * (p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
@@ -947,6 +948,31 @@ class WaterCoupler(Component):
         ahead_x, ahead_y = vel[0] * lookahead, vel[1] * lookahead
         return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
                             cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0))
+
+    def _far_request(self, pos: np.ndarray, vel: np.ndarray, dt: float, r_bound: float) -> PatchRequest:
+        """The window whose crest alone (``columns`` False) a body far above the water asks for: its
+        bounding circle of radius ``r_bound`` [m] at its next place, with the margin cells and the
+        distance one step covers, reaching ahead along its motion as far as it goes in ``lookahead``;
+        the held one while it still covers the body with half its margin. Without it a body higher
+        than ``wave_allowance`` was far however high the water stood, and fell through any higher
+        wave untouched (a stone let go inside a 20 cm crest did for 50 ms)."""
+        p = self.params
+        if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
+            return self._empty_request
+        cells = p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
+        vx, vy = float(vel[0]), float(vel[1])
+        cx, cy = float(pos[0]) + vx * dt, float(pos[1]) + vy * dt
+        margin = cells + math.hypot(vx, vy) * dt
+        held = self._held_request
+        if held is not None and not held.columns:
+            need = r_bound + margin - 0.5 * cells
+            if (held.x_min <= cx - need and cx + need <= held.x_max
+                    and held.y_min <= cy - need and cy + need <= held.y_max):
+                return held
+        ahead_x, ahead_y = vx * p.lookahead, vy * p.lookahead
+        reach = r_bound + margin
+        return PatchRequest(cx - reach + min(ahead_x, 0.0), cx + reach + max(ahead_x, 0.0),
+                            cy - reach + min(ahead_y, 0.0), cy + reach + max(ahead_y, 0.0), columns=False)
 
     def _rest_pass(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
                    b_rest: np.ndarray, waterline: np.ndarray, stats: np.ndarray) -> np.ndarray:
@@ -1045,7 +1071,7 @@ class WaterCoupler(Component):
             work = self._ring_work = _ring_scratch(shape)
         return work
 
-    def _add_hydrostatics(self, stats: np.ndarray, ring: _Ring, sphere: bool = False) -> None:
+    def _add_hydrostatics(self, stats: np.ndarray, ring: _Ring, sphere: bool) -> None:
         """Put the buoyancy that goes with the ring displacement into ``stats`` (its force, torque
         and the total).
 
@@ -1380,12 +1406,12 @@ class WaterCoupler(Component):
                               f"z = {z:.4g} m, wholly under the bed at z = {bed:.4g} m): the bed is not solid; to "
                               "land the body on it, add a SolidGround there (as scenarios/float_sphere.yaml does)")
 
-    def _idle(self, depth: float) -> dict[str, Message]:
+    def _idle(self, depth: float, request: PatchRequest | None = None) -> dict[str, Message]:
         self.met.in_contact = False
         self.work = {"columns": 0, "elements": 0}
         self._went_idle = True
         return {"wrench": self._zero_wrench, "occupied": self._empty_occupied,
-                "request": self._empty_request, "contact": self._dry_contact(depth)}
+                "request": self._empty_request if request is None else request, "contact": self._dry_contact(depth)}
 
     def _dry_contact(self, depth: float) -> WaterContact:
         if not math.isfinite(depth):

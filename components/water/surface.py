@@ -68,7 +68,7 @@ from components.water.grid import (
 )
 from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, REST_BELOW, Tiles, tiling_applies
-from components.water.windows import apply_window, patch_arrays
+from components.water.windows import apply_window, patch_arrays, window_top
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param, require_valid
@@ -80,6 +80,7 @@ KERNELS: dict[str, Any] = {"numba": kernels_numba.SERIAL, "numpy": kernels_numpy
 MAX_BUMP = 1000.0  # [m] the highest initial bump taken: far above any pond's, far below where squares overflow
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
 FIELD_WINDOW_STEP = 32  # [cells] the field window's corner moves in steps of this many cells
+CREST_RESOLUTION = 1000.0  # [1/m] the crest a patch says is rounded up to 1 / this (a millimetre)
 BLUR_WEIGHT = 0.125  # weight of each neighbour difference in one displacement blur pass (<= 1/8: monotone)
 
 
@@ -331,6 +332,7 @@ class WaterSurface(Component):
             i0=0, j0=0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y, rest_level=g.rest_level,
             height=np.zeros((0, 0)), velocity=np.zeros((0, 0)), bottom=np.zeros((0, 0)))
         self._off_grid_patch = replace(self._empty_patch, off_grid=True)
+        self._crests: dict[int, HeightPatch] = {}  # each body's last crest-only patch (PatchRequest.columns)
         self.initial_volume = self.volume()
 
     # --- diagnostics --------------------------------------------------------------------------
@@ -489,7 +491,11 @@ class WaterSurface(Component):
         return {patch: request for _, request, patch in self.body_ports}
 
     def initial_outputs(self) -> dict[str, Message]:
-        out: dict[str, Message] = {patch_port: self._empty_patch for _, _, patch_port in self.body_ports}
+        # at t = 0, nothing asked yet, the whole water's crest: a body let go inside a wave meets it at once
+        g = self.grid
+        crest = math.ceil(window_top(self._h, 0, g.nx, 0, g.ny) * CREST_RESOLUTION) / CREST_RESOLUTION
+        start = replace(self._empty_patch, crest=crest)
+        out: dict[str, Message] = {patch_port: start for _, _, patch_port in self.body_ports}
         if self.params.field_every or self.params.field_rate:
             out["field"] = self._field()
         return out
@@ -643,12 +649,18 @@ class WaterSurface(Component):
         if win is None:
             asked = request.x_min <= request.x_max and request.y_min <= request.y_max
             return self._off_grid_patch if asked else self._empty_patch
-        i0, _, j0, _ = win
+        i0, i1, j0, j1 = win
+        crest = math.ceil(window_top(self._h, i0, i1, j0, j1) * CREST_RESOLUTION) / CREST_RESOLUTION
+        if not request.columns:  # the crest alone, held while it stays within its millimetre
+            held = self._crests.get(body)
+            if held is None or held.crest != crest or (held.i0, held.j0) != (i0, j0):
+                held = self._crests[body] = replace(self._empty_patch, i0=i0, j0=j0, crest=crest)
+            return held
         height, velocity, bottom, occupied = patch_arrays(g.surface0, self._h, self._v, g.bed,
                                                           self._occupants[body].b, win)
         return HeightPatch(i0=i0, j0=j0, cell=g.cell, origin_x=g.origin_x, origin_y=g.origin_y,
                            rest_level=g.rest_level, height=height, velocity=velocity, bottom=bottom,
-                           occupied=occupied)
+                           occupied=occupied, crest=crest)
 
     def _field_due(self, t_end: float) -> bool:
         p = self.params

@@ -53,3 +53,28 @@ def patch_arrays(surface0: np.ndarray, h: np.ndarray, v: np.ndarray, bed: np.nda
     out = np.empty((4, j1 - j0, i1 - i0))
     read_window(surface0, h, v, bed, occupied, i0, i1, j0, j1, out)
     return out[0], out[1], out[2], out[3]
+
+
+@njit(cache=True)
+def _top_bits(row, lo, hi):  # pragma: no cover - compiled
+    # The highest of row[lo:hi] and 0, as the bits of a float64. Doubles of one sign order as their
+    # bits do, and a negative one's bits are negative, below those of 0: the integer maximum of the
+    # bits is the one wanted, and unlike a float maximum (held to one lane by NaN's comparisons) it
+    # vectorises. A NaN with its sign bit clear is above every number: the highest.
+    bits = row.view(np.int64)
+    top = 0
+    for i in range(lo, hi):
+        b = bits[i]
+        top = b if b > top else top
+    return top
+
+
+@njit(cache=True)
+def window_top(h, i0, i1, j0, j1):  # pragma: no cover - compiled
+    """The highest h [m] over the window [j0:j1, i0:i1] of the C-ordered grid ``h``, or 0 if none is
+    higher: the crest a patch says (HeightPatch.crest)."""
+    top = 0
+    for j in range(j0, j1):
+        top = max(top, _top_bits(h[j], i0, i1))
+    return np.array([top], dtype=np.int64).view(np.float64)[0]
+
