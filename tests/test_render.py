@@ -499,3 +499,15 @@ def test_a_frame_drawn_from_an_older_state_says_so():
     renderer = types.SimpleNamespace(step=0.0005)
     assert FrameRenderer._state_age(renderer, 0.1045, 0.100) == "  (stone as at t = 0.100 s)"
     assert FrameRenderer._state_age(renderer, 0.1005, 0.100) == ""  # the state of the frame's step
+
+
+def test_a_recording_that_left_the_water_out_says_no_water_is_drawn(tmp_path):
+    """A scene with water recorded with --record '/stone/*' rendered without water and without a
+    word (plot says what it skips); now a warning says the water was left out."""
+    from components.analysis.render import RenderWarning
+
+    recording = tmp_path / "stone.mcap"
+    assert main(["run", str(Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"), "-q",
+                 "-o", str(recording), "--set", "until=0.2", "--record", "/stone/*"]) == 0
+    with pytest.warns(RenderWarning, match="the scene has water, but the recording holds none of its channels"):
+        render(recording, tmp_path / "stone.png", RenderOptions(width=WIDTH))

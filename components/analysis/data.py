@@ -220,6 +220,16 @@ def warn_cut_off(path: str | Path, end: float, drawn: str) -> None:
                   f"and {drawn} end there", UserWarning, stacklevel=3)
 
 
+def scene_publishes(rec: Recording, kinds: tuple[type, ...]) -> bool:
+    """Whether the recorded scene has a component with an output of one of the message types
+    ``kinds``; True when its scene cannot be read."""
+    try:
+        configs = rec.scene().components.values()
+    except Exception:
+        return True
+    return any(port.type in kinds for cfg in configs for port in cfg.cls.outputs.values())
+
+
 def default_body_topic(rec: Recording, topics: list[str]) -> str:
     """Of several bodies' channels, the one to show by default: the first body, in the scene's
     order, that a stage monitor watches (the thrown stone, not a ball floating beside it), else the

@@ -34,6 +34,7 @@ from components.analysis.data import (
     contact_spans,
     iter_fields,
     load_run,
+    scene_publishes,
     topics_of,
     warn_cut_off,
     water_rest_level,
@@ -244,17 +245,7 @@ def energy_terms(run: RunData) -> dict[str, np.ndarray]:
 def _reports_contacts(rec: Recording) -> bool:
     """Whether the recorded scene has a component that reports contacts (water or ground); True when
     its scene cannot be read."""
-    return _scene_publishes(rec, (WaterContact, GroundContact))
-
-
-def _scene_publishes(rec: Recording, kinds: tuple[type, ...]) -> bool:
-    """Whether the recorded scene has a component with an output of one of the message types
-    ``kinds``; True when its scene cannot be read."""
-    try:
-        configs = rec.scene().components.values()
-    except Exception:
-        return True
-    return any(port.type in kinds for cfg in configs for port in cfg.cls.outputs.values())
+    return scene_publishes(rec, (WaterContact, GroundContact))
 
 
 def _hold_a_step_before(t: np.ndarray, values: np.ndarray, at: np.ndarray, step: float) -> np.ndarray:
@@ -488,7 +479,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
             path = out_dir / WATER_FIGURE
             _save(figure_water(rec, fields[0]), path, dpi)
         why = ("the recording holds no body's state (its channels were left out: --record)"
-               if _scene_publishes(rec, (BodyState,)) else "no body in this run")
+               if scene_publishes(rec, (BodyState,)) else "no body in this run")
         return [path], [(", ".join(FIGURES), why)]
     run = load_run(rec, body)
     if run.cut_off:  # figures of what there is, said to end where the recording does, not the run

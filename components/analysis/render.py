@@ -45,6 +45,7 @@ from components.analysis.data import (
     load_body,
     own,
     rest_level,
+    scene_publishes,
     stage_changes,
     topics_of,
     warn_cut_off,
@@ -796,6 +797,10 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         pairs = stage_changes(rec, stage_topics[0])
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
+    if not has_water and scene_publishes(rec, (WaterField, WaterContact)):
+        # left out by --record: the frames show no water at all, where the scene had some
+        warnings.warn(f"{rec.path}: the scene has water, but the recording holds none of its channels (a "
+                      "--record that left them out): no water is drawn", RenderWarning, stacklevel=2)
     contacts = own(topics_of(rec, WaterContact), linked)  # this body's coupler's reports
     depths = None
     if contacts:
