@@ -521,6 +521,22 @@ def test_a_contact_the_recording_ends_in_is_titled_as_lasting_at_least_that(run,
     assert __file__ in {w.filename for w in caught}  # named where render was called
 
 
+@pytest.mark.parametrize(("status", "said"), [("interrupted", "its run was interrupted at t = 0.05 s"),
+                                              ("failed", "its run failed at t = 0.05 s")])
+def test_figures_and_frames_of_a_run_ended_early_say_so(skip_path, tmp_path, monkeypatch, status, said):
+    """Only a recording with no final status was warned of: the figures of an interrupted (Ctrl-C)
+    or failed run carried no mark that the run ended before its scene did."""
+    from components.analysis.render import RenderOptions, render
+    from cosim.record.recorder import RunStatus
+
+    monkeypatch.setattr(Recording, "status", lambda self: RunStatus(status, "why", 100, 0.05, 300))
+    with pytest.warns(UserWarning, match=f"{said} \\(why\\), and the figures end there") as caught:
+        plot_run(skip_path, tmp_path / "figs", dpi=40)
+    assert __file__ in {w.filename for w in caught}  # named where plot_run was called
+    with pytest.warns(UserWarning, match=f"{said} \\(why\\), and the frames end there"):
+        render(skip_path, tmp_path / "frame.png", RenderOptions(at=0.1, width=200, progress=False))
+
+
 def test_the_trajectorys_legend_names_the_water_level_beside_the_stages(run):
     """With a stage monitor the legend was the stages' alone: the dashed water line (and a ground's
     contact markers) went unexplained."""

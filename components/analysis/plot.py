@@ -36,7 +36,7 @@ from components.analysis.data import (
     load_run,
     scene_publishes,
     topics_of,
-    warn_cut_off,
+    warn_ended_early,
     water_rest_level,
 )
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
@@ -482,8 +482,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
                if scene_publishes(rec, (BodyState,)) else "no body in this run")
         return [path], [(", ".join(FIGURES), why)]
     run = load_run(rec, body)
-    if run.cut_off:  # figures of what there is, said to end where the recording does, not the run
-        warn_cut_off(rec.path, run.end, "the figures")
+    warn_ended_early(rec, "the figures")  # figures of what there is, said to end where the run did
     figures: dict[Path, Figure] = {}
     skipped = []
     for name, make in FIGURES.items():

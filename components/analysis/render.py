@@ -48,7 +48,7 @@ from components.analysis.data import (
     scene_publishes,
     stage_changes,
     topics_of,
-    warn_cut_off,
+    warn_ended_early,
     water_rest_level,
 )
 from components.analysis.raster import Box, Camera, font, paint_polygons, to_uint8, water_mask
@@ -767,8 +767,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                                  f"(channels: {', '.join(sorted(rec.channels))})")
         return _render_water(rec, output, options)
     body = load_body(rec, options.body)
-    if rec.status() is None:  # frames of what there is, said to end where the recording does
-        warn_cut_off(rec.path, (rec.end_ns or 0) / NS_PER_S, "the frames")
+    warn_ended_early(rec, "the frames")  # frames of what there is, said to end where the run did
     _check_span(options, body)
     linked = linked_components(rec, body.name)  # with several bodies, the channels that are this one's
     fields = topics_of(rec, WaterField)
