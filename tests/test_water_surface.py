@@ -375,3 +375,24 @@ def test_components_with_compiled_kernels_start_numba_when_built(monkeypatch):
     pond(backend="numba")
     WaterCoupler("c")
     assert started == [True, True]
+
+
+def test_a_windowed_fields_first_frame_is_around_the_stone_not_the_grids_middle(tmp_path):
+    """The reference skip's field window (6 m of its 14 m pond) was centred on the grid at t = 0,
+    before the stone had asked for any water, and stayed there until the next frame at 0.1 s: the
+    viewer and the render showed the stone over no water. The first frame now waits for the first
+    body to ask (a water step later) and is around it."""
+    from pathlib import Path
+
+    from cosim.record.reader import Recording
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    skip = Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml"
+    scene = load(skip, ["until=0.12", "record.visual_rate=0"])
+    run_scene(scene, tmp_path / "skip.mcap", progress=False)
+    fields = Recording(tmp_path / "skip.mcap").messages("/pond/field", WaterField)
+    assert [round(stamp / 1e9, 3) for stamp, _ in fields] == [0.004, 0.1]
+    first = fields[0][1]
+    x_stone = 0.3 + 10.94 * 0.004
+    assert first.origin_x <= x_stone <= first.origin_x + first.height.shape[1] * first.cell

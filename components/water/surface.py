@@ -136,7 +136,8 @@ class WaterParams:
                               doc="or publish it at this frame rate (0: never; at most 1 MHz)")
     field_window: tuple[float, float] | None = param(
         None, unit="m", doc="the published field covers this (x, y) size around the bodies, following the "
-                            "last water they asked for (none: the whole surface)")
+                            "last water they asked for, its first frame when one first asks (none: the "
+                            "whole surface, its first frame at t = 0)")
     backend: str = param("numba", doc="numba (compiled) or numpy (reference)")
     parallel: bool = param(False, doc="compiled kernels split large grids across threads")
     tile: int = param(DEFAULT_TILE, ge=0, doc="side of the tiles the wave model steps by [cells]: a tile at rest "
@@ -323,6 +324,7 @@ class WaterSurface(Component):
         self._displaced_before = 0.0  # [m^3] pushed aside by bodies in the water when the run began
         self._steps = 0
         self._next_frame = 1
+        self._first_frame_waits = False  # the frame of t = 0 withheld until a body asks (initial_outputs)
         self._follow: tuple[float, float] | None = None  # centre of the last water a body asked for [m]
         # the centre of each body's request when last seen [m]: the one that changes is the one followed
         self._asked: list[tuple[float, float] | None] = [None] * len(self.body_ports)
@@ -439,6 +441,7 @@ class WaterSurface(Component):
             **_window_state(self._b, w),
             "steps": self._steps,
             "next_frame": self._next_frame,
+            "first_frame_waits": self._first_frame_waits,
             "displaced_before": self._displaced_before,
             "follow": list(self._follow) if self._follow is not None else None,
             "asked": [list(c) if c is not None else None for c in self._asked],
@@ -473,6 +476,7 @@ class WaterSurface(Component):
             self.tiles.set_state(state.get("tiles", {}))
         self._steps = int(state["steps"])
         self._next_frame = int(state["next_frame"])
+        self._first_frame_waits = bool(state.get("first_frame_waits", False))
         self._displaced_before = float(state.get("displaced_before", 0.0))
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
@@ -497,7 +501,13 @@ class WaterSurface(Component):
         start = replace(self._empty_patch, crest=crest)
         out: dict[str, Message] = {patch_port: start for _, _, patch_port in self.body_ports}
         if self.params.field_every or self.params.field_rate:
-            out["field"] = self._field()
+            if self.params.field_window is not None and self.body_ports and self._follow is None:
+                # a window around the bodies, none of which has asked yet: its first frame waits for
+                # the first that asks (a step or two), instead of showing the grid's middle, away from
+                # the stone, until the next frame (the reference skip's first 0.1 s)
+                self._first_frame_waits = True
+            else:
+                out["field"] = self._field()
         return out
 
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
@@ -630,7 +640,8 @@ class WaterSurface(Component):
         out: dict[str, Message] = {
             patch_port: self.patch(inputs.get(request_port), k)  # type: ignore[arg-type]
             for k, (_, request_port, patch_port) in enumerate(self.body_ports)}
-        if self._field_due(t_end):
+        if self._field_due(t_end) or (self._first_frame_waits and followed):
+            self._first_frame_waits = False
             out["field"] = self._field()
         return out
 
