@@ -207,3 +207,23 @@ def test_a_stone_let_go_inside_a_crest_higher_than_the_wave_allowance_meets_it()
     assert free[3] == pytest.approx(7.88, abs=0.01)
     assert met[3] < 1.5 and raised[3] < 1.5
     assert met[3] == pytest.approx(raised[3], abs=0.05)  # a step later at most: met as the crest is learnt
+
+
+@pytest.mark.parametrize("at_ms", [1.5, 2.0])
+def test_a_run_restarted_inside_the_crest_continues_the_same(at_ms):
+    """The crest the coupler last learnt is part of its state: restored from a checkpoint taken while
+    the water's patches said nothing new (an empty window), the coupler took the crest to be 0 and
+    the stone fell through the 20 cm bump again (1.74 m/s off the run it continued)."""
+    import copy
+
+    overrides = ["components.pond.initial={x: 0.35, y: 0.5, amplitude: 0.2, width: 0.1}", "until=0.03",
+                 "record.visual_rate=0"]
+    first = Simulation(load(SCENES / "held_skip.yaml", overrides))
+    first.run(round(at_ms * 1e6))
+    checkpoint = copy.deepcopy(first.checkpoint())
+    first.run()
+    again = Simulation(load(SCENES / "held_skip.yaml", overrides))
+    again.restore(checkpoint)
+    again.run()
+    a, b = first.components["stone"].body_state(), again.components["stone"].body_state()
+    assert np.array_equal(a.position, b.position) and np.array_equal(a.velocity, b.velocity)

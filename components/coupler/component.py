@@ -369,7 +369,7 @@ class WaterCoupler(Component):
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max, self._held_request.columns],
-                "start_in_water": self._start_in_water, "start_bottom": self._start_bottom,
+                "start_in_water": self._start_in_water, "start_bottom": self._start_bottom, "crest": self._crest,
                 **(self._added_book.get_state() if self.added_mass_on else {})}
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -391,6 +391,7 @@ class WaterCoupler(Component):
         self._prev = None if prev is None else {k: [float(x) for x in v] for k, v in prev.items()}
         self.met.set_state(state)
         self._start_in_water = bool(state.get("start_in_water", False))
+        self._crest = float(state.get("crest", 0.0))  # (a checkpoint from before the crest: none known)
         bottom = state.get("start_bottom", math.inf)  # a checkpoint without it: as if it began above the water
         self._start_bottom = None if bottom is None else float(bottom)
         self._added_book.set_state(state)
