@@ -240,7 +240,8 @@ def advertised(client: WsClient, wanted: set[str], within: float = 2.0) -> dict[
 def test_a_run_late_after_a_stall_is_paced_on_from_there_not_played_flat_out(monkeypatch):
     """Paced at 0.5x, a run whose first step took 50 s (its kernels compiling) played its next 25 s
     of simulation as fast as it could, catching up with the clock of its start: the first skips, as
-    a user watches, at 0.94x real time. Now a late step re-anchors the pacing."""
+    a user watches, at 0.94x real time. Now a step a quarter second late or more starts the pacing
+    again from itself; a step less late (jitter) is made up, so the pace holds on average."""
     import cosim.view.live as live
 
     clock = {"now": 100.0}
@@ -259,6 +260,13 @@ def test_a_run_late_after_a_stall_is_paced_on_from_there_not_played_flat_out(mon
         sim.time_ns = 20_000_000  # the next 10 ms, done at once: paced at 0.5x, 20 ms of wall time
         view.on_step_complete(sim)
         assert slept == [pytest.approx(0.02)]
+        # jitter is made up: a step 10 ms late, then one on time, keep the pace of 0.5x on average
+        sim.time_ns = 30_000_000
+        clock["now"] += 0.03  # due 20 ms after the last, done 30 ms after: 10 ms late, no sleep
+        view.on_step_complete(sim)
+        sim.time_ns = 40_000_000
+        view.on_step_complete(sim)  # due 20 ms on: 10 ms of it already spent
+        assert slept == [pytest.approx(0.02), pytest.approx(0.01)]
     finally:
         view.close()
 

@@ -46,6 +46,7 @@ DEFAULT_ADDRESS = "127.0.0.1:8765"
 DEFAULT_RATE = 30.0  # [frames/s] of viewer channels when the scene records none
 CLOCK_PERIOD_S = 1 / 60  # [s of wall time] between clock broadcasts
 MIN_SLEEP_S = 0.002  # [s] pacing sleeps shorter than this are skipped (timer resolution)
+STALL_S = 0.25  # [s] a step this late is a stall: the pacing starts again from it instead of catching up
 LINGER_TICK_S = 0.25  # [s of wall time] between checks (and clock broadcasts) while lingering
 
 
@@ -280,10 +281,11 @@ class LiveView(BaseObserver):
             if due - now > MIN_SLEEP_S:
                 time.sleep(due - now)
                 now = time.perf_counter()
-            elif now - due > MIN_SLEEP_S:
-                # late (kernels compiling, a slow step, a stopped process): paced on from here, not run
-                # flat out until the time lost is made up (after 50 s of compiling, a 0.5x run played
-                # its first 2.2 s, the skips, at 0.94x real time)
+            elif now - due > STALL_S:
+                # stalled (kernels compiling, a stopped process): paced on from here, not run flat out
+                # until the time lost is made up (after 50 s of compiling, a 0.5x run played its first
+                # 2.2 s, the skips, at 0.94x real time); a late step short of that, the jitter of a slow
+                # frame or a collection, is made up as before, so the pace holds on average
                 self._wall0, self._sim0 = now, sim.time_ns
         if now - self._last_clock >= CLOCK_PERIOD_S:
             self._last_clock = now
