@@ -262,6 +262,10 @@ class Component:
         """What the component publishes at t = 0 (:meth:`initial_outputs`), checked like a step's
         outputs; any failure is a :class:`SimulationError` naming the component at t = 0."""
         outputs = self._at_start("outputs", self.initial_outputs)
+        if not isinstance(outputs, dict):
+            self.status = "failed"
+            raise SimulationError(self.name, 0, f"its outputs at t = 0 are {type(outputs).__name__}, not a mapping "
+                                  "of output port to message")
         self._check_outputs(0, outputs)
         return outputs
 
@@ -276,7 +280,9 @@ class Component:
         except SimulationError:
             self.status = "failed"
             raise
-        except Exception as exc:
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # sys.exit() too, as in a step (see step)
             self.status = "failed"
             raise SimulationError(self.name, 0, f"its {what} at t = 0: {type(exc).__name__}: {exc}") from exc
 

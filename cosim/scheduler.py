@@ -414,10 +414,14 @@ class Simulation:
         recorded, then refused by the restart from it)."""
         try:
             state = comp.checkpoint_state()
-        except Exception as exc:
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # sys.exit() too, as in a step
+            comp.status = "failed"
             raise SimulationError(comp.name, self.time_ns,
                                   f"its state for a checkpoint failed: {type(exc).__name__}: {exc}") from exc
         if not isinstance(state, dict):
+            comp.status = "failed"
             raise SimulationError(comp.name, self.time_ns, f"its state for a checkpoint is {type(state).__name__}, "
                                   "not a mapping of names to plain data")
         return state

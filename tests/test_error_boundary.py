@@ -27,6 +27,7 @@ record: {{checkpoint_every: 0.01}}
     ("base", "BaseException: base"),
     ("none", "its step returned NoneType, not a mapping of output port to message"),
     ("state", "its state for a checkpoint failed: RuntimeError: no state"),
+    ("state_exit", "its state for a checkpoint failed: SystemExit: 4"),
     ("state_object", "its state for a checkpoint: state value of type object is not plain data"),
 ])
 def test_a_component_failing_any_way_is_named_with_exit_1_and_a_failed_status(mode, reason, tmp_path, capsys):
@@ -42,6 +43,25 @@ def test_a_component_failing_any_way_is_named_with_exit_1_and_a_failed_status(mo
     assert status.status == "failed" and status.reason == f"component 'bad' failed at t = {at} s: {reason}"
     assert recording.channels["/src/out"].count >= 20  # everything up to the failure is kept
     assert not list(tmp_path.glob("bad.mcap*.part"))
+
+
+@pytest.mark.parametrize(("mode", "reason"), [
+    ("start_exit", "its inputs at t = 0: SystemExit: 3"),
+    ("start_base", "its inputs at t = 0: BaseException: base"),
+    ("start_none", "its outputs at t = 0 are NoneType, not a mapping of output port to message"),
+])
+def test_a_component_failing_any_way_at_the_start_is_named_with_exit_1_and_a_failed_status(mode, reason, tmp_path,
+                                                                                           capsys):
+    """The hooks at t = 0 as the step: sys.exit() in start_inputs ended the run silently with its own
+    exit code and no status, a BaseException printed a traceback, and initial outputs of None were an
+    internal error."""
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(SCENE.format(mode=mode))
+    out = tmp_path / "bad.mcap"
+    assert main(["run", str(scene), "-q", "-o", str(out)]) == 1
+    assert one_error_line(capsys.readouterr().err) == f"error: component 'bad' failed at t = 0 s: {reason}"
+    status = Recording(out).status()
+    assert status.status == "failed" and status.reason == f"component 'bad' failed at t = 0 s: {reason}"
 
 
 def test_a_state_that_is_not_a_mapping_is_refused_when_it_is_taken_not_when_restarting(tmp_path, capsys,

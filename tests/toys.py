@@ -150,10 +150,11 @@ class Summer(Component):
 
 class Faulty(Component):
     """Raises (or returns NaN) once t reaches ``fail_at`` seconds; with ``mode: start``, raises on
-    reading its inputs at t = 0. Other modes, from ``fail_at``: ``exit`` calls sys.exit(3), ``base``
-    raises a bare BaseException, ``none`` returns None from its step (a forgotten return); ``state``
-    and ``state_object``: its state for a checkpoint raises, or holds an object that is not plain
-    data."""
+    reading its inputs at t = 0 (``start_exit``, ``start_base``: sys.exit(3), a bare BaseException;
+    ``start_none``: its outputs at t = 0 are None). Other modes, from ``fail_at``: ``exit`` calls
+    sys.exit(3), ``base`` raises a bare BaseException, ``none`` returns None from its step (a
+    forgotten return); ``state``, ``state_exit`` and ``state_object``: its state for a checkpoint
+    raises, calls sys.exit(4), or holds an object that is not plain data."""
 
     @dataclass(frozen=True)
     class Params:
@@ -165,6 +166,13 @@ class Faulty(Component):
     def start_inputs(self, inputs):
         if self.params.mode == "start":
             raise RuntimeError("boom at the start")
+        if self.params.mode == "start_exit":
+            sys.exit(3)
+        if self.params.mode == "start_base":
+            raise BaseException("base")
+
+    def initial_outputs(self):
+        return None if self.params.mode == "start_none" else {}
 
     def setup(self) -> None:
         self.t = 0.0
@@ -173,6 +181,8 @@ class Faulty(Component):
         if self.t >= self.params.fail_at:
             if self.params.mode == "state":
                 raise RuntimeError("no state")
+            if self.params.mode == "state_exit":
+                sys.exit(4)
             if self.params.mode == "state_object":
                 return {"t": object()}
         return {"t": self.t}

@@ -309,6 +309,7 @@ class Recorder(BaseObserver):
                 try:
                     plain_state(saved)
                 except TypeError as exc:
+                    sim.components[name].status = "failed"
                     raise SimulationError(name, sim.time_ns, f"its state for a checkpoint: {exc}") from None
             raise
         self.sink.add_state(channel, sim.time_ns, state)
