@@ -396,3 +396,14 @@ def test_a_windowed_fields_first_frame_is_around_the_stone_not_the_grids_middle(
     first = fields[0][1]
     x_stone = 0.3 + 10.94 * 0.004
     assert first.origin_x <= x_stone <= first.origin_x + first.height.shape[1] * first.cell
+
+
+def test_a_water_gone_non_finite_is_named_so_in_the_crest_not_a_rounding_error():
+    """Rounding the crest of a window holding NaN or inf raised ValueError or OverflowError: the pond
+    failed with "cannot convert float NaN to integer" where a non-finite water is named."""
+    for bad in (math.nan, math.inf):
+        w = pond()
+        w._h[4, 9] = bad
+        for columns in (True, False):
+            crest = w.patch(PatchRequest(-0.02, 0.02, -0.02, 0.02, columns=columns)).crest
+            assert math.isnan(crest) if math.isnan(bad) else crest == math.inf

@@ -497,7 +497,7 @@ class WaterSurface(Component):
     def initial_outputs(self) -> dict[str, Message]:
         # at t = 0, nothing asked yet, the whole water's crest: a body let go inside a wave meets it at once
         g = self.grid
-        crest = math.ceil(window_top(self._h, 0, g.nx, 0, g.ny) * CREST_RESOLUTION) / CREST_RESOLUTION
+        crest = _said_crest(window_top(self._h, 0, g.nx, 0, g.ny))
         start = replace(self._empty_patch, crest=crest)
         out: dict[str, Message] = {patch_port: start for _, _, patch_port in self.body_ports}
         if self.params.field_every or self.params.field_rate:
@@ -661,7 +661,7 @@ class WaterSurface(Component):
             asked = request.x_min <= request.x_max and request.y_min <= request.y_max
             return self._off_grid_patch if asked else self._empty_patch
         i0, i1, j0, j1 = win
-        crest = math.ceil(window_top(self._h, i0, i1, j0, j1) * CREST_RESOLUTION) / CREST_RESOLUTION
+        crest = _said_crest(window_top(self._h, i0, i1, j0, j1))
         if not request.columns:  # the crest alone, held while it stays within its millimetre
             held = self._crests.get(body)
             if held is None or held.crest != crest or (held.i0, held.j0) != (i0, j0):
@@ -728,6 +728,12 @@ class _Occupant:
 
     b: np.ndarray
     window: tuple[int, int, int, int] | None = None
+
+
+def _said_crest(top: float) -> float:
+    """A highest column ``top`` [m] as a patch says it: rounded up to the millimetre; a NaN or an
+    infinity as it is, for the outputs' finiteness check to name (rounding it raised ValueError)."""
+    return math.ceil(top * CREST_RESOLUTION) / CREST_RESOLUTION if math.isfinite(top) else top
 
 
 def _window_state(b: np.ndarray, w: tuple[int, int, int, int] | None) -> dict[str, Any]:
