@@ -241,9 +241,10 @@ def _under_the_bed(z: float, top: float, bed: float) -> str | None:
 def _in_dry_land(pos: np.ndarray, top: float, bed: float, level: float, late: bool) -> str:
     """Why a run ends with a body (centred at ``pos``, its bounding sphere's top at ``top`` [m])
     wholly inside a bed at ``bed`` [m] that rises above the water's rest ``level`` [m]: it ran into
-    dry land, which is no solid. ``late``: found at the water's first patch, which a body above
-    the water does not ask for (the coupler idles until it comes within wave_allowance of the
-    rest level), so the body went in before."""
+    dry land, which is no solid. ``late``: found at the water's first patch of columns, which a
+    body above the water does not ask for (the coupler asks only for the crest where it goes until
+    the body comes within wave_allowance, or that crest, of the rest level), so the body went in
+    before."""
     x, y, z = (float(c) for c in pos)
     found = (" (found as it came down to the water's level: the coupler does not look at the bed while the "
              "body is above the water)") if late else ""

@@ -625,9 +625,9 @@ class WaterSurface(Component):
     # --- outputs --------------------------------------------------------------------------------
 
     def _outputs(self, t_end: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        # the field's window follows the water a body last asked for anew: with several bodies, the one
-        # whose window moved (a stone in flight), not the first of them (a floating ball, whose window
-        # stays, held it for the whole run)
+        # the field's window follows the water a body last asked for anew, its columns or the crest where
+        # it goes (a stone in flight is followed): with several bodies, the one whose window moved, not
+        # the first of them (a floating ball, whose window stays, held it for the whole run)
         followed = False
         for k, (_, request_port, _) in enumerate(self.body_ports):
             request = inputs.get(request_port)
