@@ -496,9 +496,11 @@ def test_a_frame_drawn_from_an_older_state_says_so():
 
     from components.analysis.render import FrameRenderer
 
-    renderer = types.SimpleNamespace(step=0.0005)
+    renderer = types.SimpleNamespace(body_step=0.0005)
     assert FrameRenderer._state_age(renderer, 0.1045, 0.100) == "  (stone as at t = 0.100 s)"
     assert FrameRenderer._state_age(renderer, 0.1005, 0.100) == ""  # the state of the frame's step
+    every_two = types.SimpleNamespace(body_step=0.001)  # a body stepping every second tick: no note
+    assert FrameRenderer._state_age(every_two, 0.1009, 0.100) == ""
 
 
 def test_a_recording_that_left_the_water_out_says_no_water_is_drawn(tmp_path):
@@ -511,3 +513,29 @@ def test_a_recording_that_left_the_water_out_says_no_water_is_drawn(tmp_path):
                  "-o", str(recording), "--set", "until=0.2", "--record", "/stone/*"]) == 0
     with pytest.warns(RenderWarning, match="the scene has water, but the recording holds none of its channels"):
         render(recording, tmp_path / "stone.png", RenderOptions(width=WIDTH))
+
+
+def test_notes_that_would_run_past_the_frames_edge_go_to_its_foot():
+    """A thinned recording's header with two notes ran past the frame's edge; the notes that do not
+    fit go to the frame's foot, the header itself stays one line at the top."""
+    import types
+
+    from components.analysis.render import FrameRenderer
+
+    class Draw:  # each character 10 px wide; the texts drawn kept with where they went
+        def __init__(self):
+            self.texts = []
+
+        def textlength(self, text, font=None):
+            return 10 * len(text)
+
+        def text(self, xy, text, fill=None, font=None):
+            self.texts.append((round(xy[1]), text))
+
+    header = "skip: stone   t = 0.104 s   fly-away  (stone as at t = 0.100 s)  (water drawn as at t = 0.000 s)"
+    wide, narrow = Draw(), Draw()
+    FrameRenderer._header(types.SimpleNamespace(size=(2000, 450), text_px=10), wide, header, (0, 0, 0))
+    assert wide.texts == [(5, header)]
+    FrameRenderer._header(types.SimpleNamespace(size=(700, 450), text_px=10), narrow, header, (0, 0, 0))
+    assert narrow.texts == [(5, "skip: stone   t = 0.104 s   fly-away  (stone as at t = 0.100 s)"),
+                            (435, "(water drawn as at t = 0.000 s)")]

@@ -39,6 +39,7 @@ from tqdm import tqdm
 
 from components.analysis.data import (
     BodyTrack,
+    body_step,
     body_water_topic,
     iter_fields,
     linked_components,
@@ -299,20 +300,23 @@ class _Frames:
         return box, cam, image
 
     def _header(self, draw: ImageDraw.ImageDraw, text: str, color: tuple[int, ...]) -> None:
-        """``text`` across the top; its notes in parentheses (what is drawn older than the frame) go
-        on a line of their own where they would run past the frame's edge (a thinned recording's
-        two did). The header itself stays one line, cut at the edge of a small frame."""
+        """``text`` across the top; its notes in parentheses (what is drawn older than the frame) that
+        would run past the frame's edge go to the frame's foot, at its left, clear of the picture's
+        band below the header (a thinned recording's two notes ran past the edge). The header itself
+        stays one line, cut at the edge of a small frame."""
         face = font(self.text_px)
         room = self.size[0] - 1.2 * self.text_px
         head, *notes = text.split("  (")
-        lines = [head]
+        line, rest = head, []
         for note in notes:
-            if draw.textlength(f"{lines[-1]}  ({note}", font=face) <= room:
-                lines[-1] = f"{lines[-1]}  ({note}"
+            if not rest and draw.textlength(f"{line}  ({note}", font=face) <= room:
+                line = f"{line}  ({note}"
             else:
-                lines.append(f"({note}")
-        for k, line in enumerate(lines):
-            draw.text((0.6 * self.text_px, (0.5 + 1.25 * k) * self.text_px), line, fill=color, font=face)
+                rest.append(f"({note}")
+        draw.text((0.6 * self.text_px, 0.5 * self.text_px), line, fill=color, font=face)
+        if rest:
+            draw.text((0.6 * self.text_px, self.size[1] - 1.5 * self.text_px), "  ".join(rest), fill=color,
+                      font=face)
 
     def _surface(self, field: WaterField | None, field_mean: float, view: _View) -> Surface | None:
         """The water to draw, cropped to the view; None when the view is wholly above or below it."""
@@ -376,9 +380,11 @@ class FrameRenderer(_Frames):
 
     def __init__(self, body: BodyTrack, options: RenderOptions, rest: float, title: str,
                  stages: tuple[np.ndarray, np.ndarray] | None = None, has_water: bool = True,
-                 depths: tuple[np.ndarray, np.ndarray] | None = None, step: float = 0.0):
+                 depths: tuple[np.ndarray, np.ndarray] | None = None, step: float = 0.0,
+                 body_step: float = 0.0):
         super().__init__(options, rest, title)
         self.body = body
+        self.body_step = max(body_step, step)  # [s] between the body's states in a whole recording
         # the body's coupler's reports, (times [s], depth of the lowest point under the surface [m]):
         # the gap at a frame's time, where the drawn surface (a field recorded a few times a second)
         # may be up to its interval old; ``step`` [s]: how old a report may be and still be that time's
@@ -497,10 +503,11 @@ class FrameRenderer(_Frames):
         return -float(depths[k])
 
     def _state_age(self, t: float, state_time: float) -> str:
-        """``  (stone as at t = 0.100 s)`` when the body's state drawn is more than a step older than
-        the frame's time ``t`` [s] (a recording thinned with --record-every): its place, speed and
-        gap are then that state's, while the stage is the frame's (stage changes are all kept)."""
-        if t - state_time <= self.step * (1 + 1e-9):
+        """``  (stone as at t = 0.100 s)`` when the body's state drawn is more than the body's step
+        older than the frame's time ``t`` [s] (a recording thinned with --record-every): its place,
+        speed and gap are then that state's, while the stage is the frame's (stage changes are all
+        kept)."""
+        if t - state_time <= self.body_step * (1 + 1e-9):
             return ""
         return f"  (stone as at t = {state_time:.3f} s)"
 
@@ -809,7 +816,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         depths = (np.array([stamp for stamp, _ in pairs], dtype=np.int64) / NS_PER_S,
                   np.array([m.depth if m.wetted else np.nan for _, m in pairs], dtype=float))
     renderer = FrameRenderer(body, options, rest_level(rec, body.name), f"{rec.metadata.get('scene', '')}: {body.name}",
-                             stages, has_water, depths, rec.dt_ns / NS_PER_S)
+                             stages, has_water, depths, rec.dt_ns / NS_PER_S, body_step(rec, body.name))
     if options.water is not None and has_water:
         _warn_if_never_in_view(rec, options.water, renderer, times, body_water_topic(rec, body.name, fields))
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
