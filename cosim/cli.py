@@ -786,8 +786,10 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
         return code
     except SystemExit:  # argparse: --help, --version, bad arguments (already said, exit 2)
         raise
-    except BrokenPipeError:  # a pipe other than stdout gone (stdout's reader leaving is _ReaderMayLeave's)
+    except BrokenPipeError as exc:  # a pipe other than stdout gone (stdout's reader leaving is _ReaderMayLeave's)
         _quiet_stdout()
+        print(f"error: cosim {command}: a pipe it wrote to was closed by its reader ({exc.strerror or exc})",
+              file=sys.stderr)
         return EXIT_FAILED
     except BaseException as exc:  # the one error boundary: one line, never a traceback
         if not isinstance(exc, Exception | KeyboardInterrupt):

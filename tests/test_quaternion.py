@@ -100,3 +100,5 @@ def test_an_axis_of_any_finite_length_gives_the_unit_axis_rotation(scale):
     assert math.fsum(c * c for c in scaled) == pytest.approx(1.0, abs=1e-15)
     with pytest.raises(ValueError, match=r"non-zero and finite \(got \[inf, 0, 0\]\)"):
         quat.from_axis_angle((math.inf, 0.0, 0.0), 1.0)
+    with pytest.raises(ValueError, match=r"non-zero and finite \(got \[1, nan, 0\]\)"):  # not only first
+        quat.from_axis_angle((1.0, math.nan, 0.0), 1.0)

@@ -85,8 +85,8 @@ def test_bad_input_exits_2_with_no_traceback_and_no_table(tmp_path, capsys):
     path = write_sweep(tmp_path, deep)
     assert main(["sweep", str(path), "-o", str(tmp_path / "x.csv")]) == 2
     err = capsys.readouterr().err
-    assert err == (f"error: {path}: derived.components.ball.speed: the expression is nested more than 100 "
-                   "operations deep\n")
+    assert err == (f"error: {path}: derived.components.ball.speed: the expression has more than 100 operations "
+                   "inside one another (a sum of 102 terms is one)\n")
     assert not (tmp_path / "x.csv").exists()
     too_many = 4 * (os.cpu_count() or 1) + 1
     assert main(["sweep", str(path), "--workers", str(too_many), "-o", str(tmp_path / "x.csv")]) == 2

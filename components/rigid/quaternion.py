@@ -51,9 +51,9 @@ def from_axis_angle(axis: Vec, angle: float) -> Quat:
     1e-320 squared to 0 and was refused as zero."""
     x, y, z = axis[0], axis[1], axis[2]
     n = math.sqrt(x * x + y * y + z * z)
-    if not TINY_AXIS < n < math.inf:
+    if not TINY_AXIS < n < math.inf:  # (a NaN anywhere makes n NaN: here, refused below)
         m = max(abs(x), abs(y), abs(z))
-        if not 0.0 < m < math.inf:
+        if not 0.0 < m < math.inf or not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
             raise ValueError(f"rotation axis must be non-zero and finite (got [{x:g}, {y:g}, {z:g}])")
         x, y, z = x / m, y / m, z / m
         n = math.sqrt(x * x + y * y + z * z)

@@ -135,7 +135,8 @@ class Expression:
 
     def _check(self, node: ast.AST, depth: int = 0) -> None:
         if depth > MAX_EXPRESSION_DEPTH:
-            raise ValueError(f"the expression is nested more than {MAX_EXPRESSION_DEPTH} operations deep")
+            raise ValueError(f"the expression has more than {MAX_EXPRESSION_DEPTH} operations inside one another "
+                             f"(a sum of {MAX_EXPRESSION_DEPTH + 2} terms is one)")
         depth += 1
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float, str)):

@@ -179,12 +179,13 @@ class ResultTable:
                                 "for another file", where)
         rows: dict[str, dict[str, str]] = {}
         strangers = []
-        for line, values in enumerate(reader, start=2):
+        for values in reader:
             if len(values) != len(header):
                 continue
             row = dict(zip(header, values, strict=True))
             if row["status"] not in ROW_STATUSES:  # a hand-edited table: "6 weird" was summed as a status
-                raise ScenarioError(f"line {line}: status {row['status']!r} is not one a run gives "
+                # (the reader's line, where the row ends: a reason may run over several lines)
+                raise ScenarioError(f"line {reader.line_num}: status {row['status']!r} is not one a run gives "
                                     f"({', '.join(ROW_STATUSES)}); use --fresh to start over or -o for another "
                                     "file", where)
             if row["point_id"] not in known_ids:
