@@ -935,46 +935,41 @@ class WaterCoupler(Component):
                 # it sinks), and its reach is rounded up to a whole column
                 margin += kernel.SPREAD_REACH * kernel.SPREAD_CAP * radius + self.cell
         margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
-        cx, cy = centre
-        held = self._held_request
-        if held is not None and held.columns and held.x_min <= held.x_max:
-            # the held window still covers the body, its displacement ring and at least half the
-            # margin cells (which absorb a slower water's lag): keep it
-            need = margin - 0.5 * (p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
-            if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
-                    and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
-                return held
         # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
         # the surface it meets during a contact was in the window before it touched down (met_surface)
-        lookahead = p.lookahead if self._ring_on else 0.0
-        ahead_x, ahead_y = vel[0] * lookahead, vel[1] * lookahead
-        return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
-                            cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0))
+        return self._window(centre, half, vel, margin, p.lookahead if self._ring_on else 0.0, True)
 
     def _far_request(self, pos: np.ndarray, vel: np.ndarray, dt: float, r_bound: float) -> PatchRequest:
         """The window whose crest alone (``columns`` False) a body far above the water asks for: its
         bounding circle of radius ``r_bound`` [m] at its next place, with the margin cells and the
-        distance one step covers, reaching ahead along its motion as far as it goes in ``lookahead``;
-        the held one while it still covers the body with half its margin. Without it a body higher
-        than ``wave_allowance`` was far however high the water stood, and fell through any higher
-        wave untouched (a stone let go inside a 20 cm crest did for 50 ms)."""
-        p = self.params
+        distance one step covers, reaching ahead along its motion as far as it goes in ``lookahead``.
+        Without it a body higher than ``wave_allowance`` was far however high the water stood, and
+        fell through any higher wave untouched (a stone let go inside a 20 cm crest did for 50 ms)."""
         if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
             return self._empty_request
-        cells = p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
         vx, vy = float(vel[0]), float(vel[1])
-        cx, cy = float(pos[0]) + vx * dt, float(pos[1]) + vy * dt
-        margin = cells + math.hypot(vx, vy) * dt
+        cells = self.params.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
+        return self._window((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), (r_bound, r_bound), (vx, vy),
+                            cells + math.hypot(vx, vy) * dt, self.params.lookahead, False)
+
+    def _window(self, centre: tuple[float, float], half: tuple[float, float], vel: tuple[float, float],
+                margin: float, lookahead: float, columns: bool) -> PatchRequest:
+        """The request of ``columns`` (or of the crest alone) over the body's outline, ``half`` [m]
+        either side of ``centre`` [m], widened by ``margin`` [m] and reaching ahead along ``vel``
+        [m/s] as far as the body goes in ``lookahead`` [s]; the held request of the same kind while
+        it still covers the body, its margin less half the margin cells (which absorb a slower
+        water's lag)."""
+        cx, cy = centre
         held = self._held_request
-        if held is not None and not held.columns:
-            need = r_bound + margin - 0.5 * cells
-            if (held.x_min <= cx - need and cx + need <= held.x_max
-                    and held.y_min <= cy - need and cy + need <= held.y_max):
+        if held is not None and held.columns == columns and held.x_min <= held.x_max:
+            need = margin - 0.5 * (self.params.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
+            if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
+                    and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
                 return held
-        ahead_x, ahead_y = vx * p.lookahead, vy * p.lookahead
-        reach = r_bound + margin
-        return PatchRequest(cx - reach + min(ahead_x, 0.0), cx + reach + max(ahead_x, 0.0),
-                            cy - reach + min(ahead_y, 0.0), cy + reach + max(ahead_y, 0.0), columns=False)
+        ahead_x, ahead_y = vel[0] * lookahead, vel[1] * lookahead
+        return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
+                            cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0),
+                            columns=columns)
 
     def _rest_pass(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
                    b_rest: np.ndarray, waterline: np.ndarray, stats: np.ndarray) -> np.ndarray:
