@@ -539,3 +539,24 @@ def test_notes_that_would_run_past_the_frames_edge_go_to_its_foot():
     FrameRenderer._header(types.SimpleNamespace(size=(700, 450), text_px=10), narrow, header, (0, 0, 0))
     assert narrow.texts == [(5, "skip: stone   t = 0.104 s   fly-away  (stone as at t = 0.100 s)"),
                             (435, "(water drawn as at t = 0.000 s)")]
+
+
+def test_the_water_at_rest_drawn_before_any_field_stops_at_the_ponds_edge(skip_path):
+    """Before a water field is recorded (or where none covers the view), the water is drawn as a
+    plane at rest: it ran across the whole view, 0.2 m past the pond's edge behind a stone thrown
+    from 0.3 m; it now stops at the grid's edges, read from the recorded scene."""
+    import types
+
+    from components.analysis.render import _Frames, _View, _water_extent
+    from cosim.record.reader import Recording
+
+    rec = Recording(skip_path)
+    pond = rec.scene().components["pond"].params
+    assert _water_extent(rec, "/pond/field") == pytest.approx(
+        (pond.origin_x - pond.cell / 2, pond.origin_x + (pond.nx - 0.5) * pond.cell,
+         pond.origin_y - pond.cell / 2, pond.origin_y + (pond.ny - 0.5) * pond.cell))
+    frames = types.SimpleNamespace(rest=0.0, extent=(-0.005, 8.0, -0.005, 1.0))
+    plane = _Frames._surface(frames, None, 0.0, _View((-0.2, 0.8), (-0.5, 0.5), (-0.1, 0.1)))
+    assert plane.gx.min() == pytest.approx(-0.005) and plane.gy.min() == pytest.approx(-0.005)
+    assert plane.gx.max() == pytest.approx(0.8) and plane.gy.max() == pytest.approx(0.5)
+    assert _Frames._surface(frames, None, 0.0, _View((-3.0, -1.0), (-0.5, 0.5), (-0.1, 0.1))) is None

@@ -59,6 +59,7 @@ from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
 from cosim.record.output import output_folder, sibling_stem
 from cosim.record.reader import Recording
+from cosim.record.recorder import component_of
 from cosim.timebase import NS_PER_S
 from cosim.view.items import decimation
 
@@ -283,6 +284,9 @@ class _Frames:
         self.size = (width, height)
         self.text_px = max(9, round(width / 70))
         self.top = round(2.2 * self.text_px)  # the header line's band [px]
+        # (x0, x1, y0, y1) [m] of the water's grid, where known: the plane drawn for it at rest (no
+        # field recorded there yet) stops at its edges, not at the view's
+        self.extent: tuple[float, float, float, float] | None = None
 
     def draw(self, t: float, field: WaterField | None, field_mean: float = 0.0,
              field_time: float | None = None) -> np.ndarray:
@@ -324,7 +328,13 @@ class _Frames:
         if grid is None:
             if not view.z[0] <= self.rest <= view.z[1]:
                 return None
-            gx, gy = np.meshgrid(np.linspace(*view.x, 2), np.linspace(*view.y, 2))
+            x, y = view.x, view.y
+            if self.extent is not None:  # (a plane past the pond's edge stood for water that is not there)
+                x = (max(x[0], self.extent[0]), min(x[1], self.extent[1]))
+                y = (max(y[0], self.extent[2]), min(y[1], self.extent[3]))
+                if not (x[0] < x[1] and y[0] < y[1]):
+                    return None
+            gx, gy = np.meshgrid(np.linspace(*x, 2), np.linspace(*y, 2))
             return Surface(gx, gy, np.full(gx.shape, self.rest), np.broadcast_to(REST_COLOR[:3], (*gx.shape, 3)))
         gx, gy, gz = grid
         if gz.max() < view.z[0] or gz.min() > view.z[1]:
@@ -817,6 +827,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                   np.array([m.depth if m.wetted else np.nan for _, m in pairs], dtype=float))
     renderer = FrameRenderer(body, options, rest_level(rec, body.name), f"{rec.metadata.get('scene', '')}: {body.name}",
                              stages, has_water, depths, rec.dt_ns / NS_PER_S, body_step(rec, body.name))
+    renderer.extent = _water_extent(rec, water)
     if options.water is not None and has_water:
         _warn_if_never_in_view(rec, options.water, renderer, times, body_water_topic(rec, body.name, fields))
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
@@ -943,6 +954,20 @@ def _frame_times(output: Path, options: RenderOptions, begin: float, end: float,
                  else f"frame times {times[0]:g} .. {times[-1]:g} s are")
         raise RenderError(f"{asked} outside the {what} {begin:g} .. {end:g} s")
     return times
+
+
+def _water_extent(rec: Recording, water: str | None) -> tuple[float, float, float, float] | None:
+    """(x0, x1, y0, y1) [m] of the grid of the water publishing ``water`` (a field topic), from the
+    recorded scene; None when it cannot be told (no such water, a scene that cannot be read)."""
+    if water is None:
+        return None
+    try:
+        p = rec.scene().components[component_of(water)].params
+        half = 0.5 * float(p.cell)
+        return (float(p.origin_x) - half, float(p.origin_x) + (int(p.nx) - 0.5) * float(p.cell),
+                float(p.origin_y) - half, float(p.origin_y) + (int(p.ny) - 0.5) * float(p.cell))
+    except Exception:  # an old or damaged scene, a water without a grid: the view's plane, as before
+        return None
 
 
 def _render_water(rec: Recording, output: Path, options: RenderOptions) -> RenderResult:
