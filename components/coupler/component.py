@@ -926,7 +926,7 @@ class WaterCoupler(Component):
             return self._empty_request
         # the band reaches twice its half-width outside the outline (its floor in columns waits for
         # the first patch to tell the cell size)
-        margin = p.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
+        margin = self._margin_cells()
         if self.flags & DISPLACEMENT:
             margin += 2.0 * kernel.band_width(p.ring_cells, p.ring_share, self.cell, radius)
             if spreading:
@@ -948,9 +948,13 @@ class WaterCoupler(Component):
         if not self.flags & (COLUMN_MASK | ELEMENT_MASK):
             return self._empty_request
         vx, vy = float(vel[0]), float(vel[1])
-        cells = self.params.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
         return self._window((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), (r_bound, r_bound), (vx, vy),
-                            cells + math.hypot(vx, vy) * dt, self.params.lookahead, False)
+                            self._margin_cells() + math.hypot(vx, vy) * dt, self.params.lookahead, False)
+
+    def _margin_cells(self) -> float:
+        """The request's margin of ``margin_cells`` columns [m], DEFAULT_MARGIN before the first patch
+        tells the cell size."""
+        return self.params.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
 
     def _window(self, centre: tuple[float, float], half: tuple[float, float], vel: tuple[float, float],
                 margin: float, lookahead: float, columns: bool) -> PatchRequest:
@@ -962,7 +966,7 @@ class WaterCoupler(Component):
         cx, cy = centre
         held = self._held_request
         if held is not None and held.columns == columns and held.x_min <= held.x_max:
-            need = margin - 0.5 * (self.params.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN)
+            need = margin - 0.5 * self._margin_cells()
             if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
                     and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
                 return held
