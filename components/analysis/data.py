@@ -213,23 +213,19 @@ class RunData:
 
 
 def warn_ended_early(rec: Recording, drawn: str) -> None:
-    """Warn that the run of ``rec`` ended before its scene's end: cut off (no final status, see
-    :func:`warn_cut_off`), interrupted or failed, and that ``drawn`` end there (figures of an
-    interrupted run carried no mark of it)."""
+    """Warn that the run of ``rec`` ended before its scene's end, and that what is made of it
+    (``drawn``: "the figures", "the frames") ends there: cut off (no final status: the recording is
+    incomplete), interrupted or failed (figures of an interrupted run carried no mark of it). The
+    warning names the caller of the command's function that calls this."""
     status = rec.status()
     if status is None:
-        warn_cut_off(rec.path, (rec.end_ns or 0) / NS_PER_S, drawn, stacklevel=4)
+        why = f"the recording is incomplete: its run was cut off (killed?) at t = {(rec.end_ns or 0) / NS_PER_S:g} s"
     elif status.status in ("interrupted", "failed"):
-        warnings.warn(f"{rec.path}: its run {'was interrupted' if status.status == 'interrupted' else 'failed'} at "
-                      f"t = {status.time:g} s ({status.reason}), and {drawn} end there", UserWarning, stacklevel=3)
-
-
-def warn_cut_off(path: str | Path, end: float, drawn: str, stacklevel: int = 3) -> None:
-    """Warn that the recording at ``path`` is incomplete (no final status: its run was cut off) at
-    ``end`` [s], and that what is made of it (``drawn``: "the figures", "the frames") ends there; the
-    warning names the caller of the command's function that calls this."""
-    warnings.warn(f"{path}: the recording is incomplete: its run was cut off (killed?) at t = {end:g} s, "
-                  f"and {drawn} end there", UserWarning, stacklevel=stacklevel)
+        how = "was interrupted" if status.status == "interrupted" else "failed"
+        why = f"its run {how} at t = {status.time:g} s ({status.reason})"
+    else:
+        return
+    warnings.warn(f"{rec.path}: {why}, and {drawn} end there", UserWarning, stacklevel=3)
 
 
 def scene_publishes(rec: Recording, kinds: tuple[type, ...]) -> bool:
