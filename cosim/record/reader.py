@@ -188,6 +188,7 @@ class Recording:
         self.library = header.library
         self.metadata = metadata[METADATA_NAME]
         self.scene_text = self._scene_text(attachments[SCENE_ATTACHMENT])
+        self._scene: Scene | None = None  # the recorded scene once loaded (scene() without overrides)
         try:
             self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
             if not isinstance(self.overrides, list) or not all(isinstance(o, str) for o in self.overrides):
@@ -230,7 +231,11 @@ class Recording:
     def scene(self, overrides: list[str] | None = None) -> Scene:
         """The recorded scene, with the recorded overrides and then ``overrides`` applied. Without
         ``overrides`` its step must be the run's (``dt_ns``): one file saying two steps was edited, and
-        inspect (the metadata's) and replay (the scene's) would each believe another."""
+        inspect (the metadata's) and replay (the scene's) would each believe another. Loaded once and
+        kept (read it, do not change it): render asks for it for the body's step and the water's
+        extent, replay once per component, 16 ms each for the reference skip."""
+        if not overrides and self._scene is not None:
+            return self._scene
         try:
             scene = loads(self.scene_text, source=f"{self.path}:{SCENE_ATTACHMENT}",
                           overrides=self.overrides + list(overrides or []), base_dir=self.metadata.get("base_dir"))
@@ -241,6 +246,8 @@ class Recording:
         if not overrides and scene.dt_ns != self.dt_ns:
             raise RecordingError(f"{self.path}: its run's step dt_ns = {self.dt_ns} ns is not its scene's dt = "
                                  f"{scene.dt_ns} ns (with its overrides): the recording was edited")
+        if not overrides:
+            self._scene = scene
         return scene
 
     def raw(self, topics: list[str] | None = None) -> Iterator[tuple[str, int, bytes]]:
