@@ -261,20 +261,25 @@ class Component:
     def start_outputs(self) -> dict[str, Message]:
         """What the component publishes at t = 0 (:meth:`initial_outputs`), checked like a step's
         outputs; any failure is a :class:`SimulationError` naming the component at t = 0."""
-        outputs = self._at_start("outputs", self.initial_outputs)
-        if not isinstance(outputs, dict):
-            self.status = "failed"
-            raise SimulationError(self.name, 0, f"its outputs at t = 0 are {type(outputs).__name__}, not a mapping "
-                                  "of output port to message")
+        outputs = self._own_failure(0, "its outputs at t = 0: ", self.initial_outputs)
+        self._mapping(outputs, 0, "its outputs at t = 0 are", "output port to message")
         self._check_outputs(0, outputs)
         return outputs
 
     def begin(self, inputs: dict[str, Message | None]) -> None:
         """:meth:`start_inputs`, any failure a :class:`SimulationError` naming the component at t = 0."""
-        self._at_start("inputs", lambda: self.start_inputs(inputs))
+        self._own_failure(0, "its inputs at t = 0: ", lambda: self.start_inputs(inputs))
 
-    def _at_start(self, what: str, call: Callable[[], _T]) -> _T:
-        """``call()``, its failure the component's (status failed) at t = 0, about its ``what``."""
+    def state_for_checkpoint(self, t_ns: int) -> dict[str, Any]:
+        """:meth:`checkpoint_state` for a checkpoint at ``t_ns``: a state that fails, or is not a
+        mapping, is a :class:`SimulationError` naming the component then (it was an internal error,
+        and a state of None was recorded, then refused by the restart from it)."""
+        state = self._own_failure(t_ns, "its state for a checkpoint failed: ", self.checkpoint_state)
+        return self._mapping(state, t_ns, "its state for a checkpoint is", "names to plain data")
+
+    def _own_failure(self, t_ns: int, about: str, call: Callable[[], _T]) -> _T:
+        """``call()``, its failure the component's (status failed) at ``t_ns``, said after ``about``;
+        sys.exit() and a bare BaseException too, as in a step (see :meth:`step`), not a Ctrl-C."""
         try:
             return call()
         except SimulationError:
@@ -282,9 +287,18 @@ class Component:
             raise
         except KeyboardInterrupt:
             raise
-        except BaseException as exc:  # sys.exit() too, as in a step (see step)
+        except BaseException as exc:
             self.status = "failed"
-            raise SimulationError(self.name, 0, f"its {what} at t = 0: {type(exc).__name__}: {exc}") from exc
+            raise SimulationError(self.name, t_ns, f"{about}{type(exc).__name__}: {exc}") from exc
+
+    def _mapping(self, value: Any, t_ns: int, said: str, of: str) -> Any:
+        """``value``, which a component hook returns as a mapping (of ``of``); anything else the
+        component's failure at ``t_ns``: "``said`` NoneType, not a mapping of ``of``" (a forgotten
+        return was an internal error)."""
+        if not isinstance(value, dict):
+            self.status = "failed"
+            raise SimulationError(self.name, t_ns, f"{said} {type(value).__name__}, not a mapping of {of}")
+        return value
 
     def step(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
              on_unstable: OnUnstable = "error") -> dict[str, Message]:
@@ -323,10 +337,7 @@ class Component:
             # and said nothing, its recording without a status
             self.status = "failed"
             raise SimulationError(self.name, t_ns, f"{type(exc).__name__}: {exc}") from exc
-        if not isinstance(outputs, dict):  # a step that forgot its return: named, not an internal error
-            self.status = "failed"
-            raise SimulationError(self.name, t_ns, f"its step returned {type(outputs).__name__}, not a mapping "
-                                  "of output port to message")
+        self._mapping(outputs, t_ns, "its step returned", "output port to message")
         self._check_outputs(t_ns, outputs)
         self.step_count += 1
         return outputs

@@ -393,7 +393,7 @@ class Simulation:
         return {
             "tick": self.tick,
             "dt_ns": self.dt_ns,
-            "components": {r.name: {"state": self._state_of(r.comp), "step_count": r.comp.step_count}
+            "components": {r.name: {"state": r.comp.state_for_checkpoint(self.time_ns), "step_count": r.comp.step_count}
                            for r in self.runners},
             # only the ports some edge reads: the others' past messages cannot change what follows
             "slots": {f"{r.name}.{port}": [[stamp, codec_for(type(msg)).encode(msg).decode()]
@@ -407,24 +407,6 @@ class Simulation:
                       for r in self.runners for port, slot in r.slots.items()
                       for stamp, msg in slot.entries if stamp > self.time_ns],
         }
-
-    def _state_of(self, comp: Component) -> dict[str, Any]:
-        """``comp``'s state for a checkpoint; a state that fails, or is not a mapping, is the
-        component's error, named at this time (it was an internal error, and a state of None was
-        recorded, then refused by the restart from it)."""
-        try:
-            state = comp.checkpoint_state()
-        except KeyboardInterrupt:
-            raise
-        except BaseException as exc:  # sys.exit() too, as in a step
-            comp.status = "failed"
-            raise SimulationError(comp.name, self.time_ns,
-                                  f"its state for a checkpoint failed: {type(exc).__name__}: {exc}") from exc
-        if not isinstance(state, dict):
-            comp.status = "failed"
-            raise SimulationError(comp.name, self.time_ns, f"its state for a checkpoint is {type(state).__name__}, "
-                                  "not a mapping of names to plain data")
-        return state
 
     def restore(self, cp: dict[str, Any]) -> None:
         """Continue from a checkpoint; the base step may differ if the checkpoint time is on its grid."""
