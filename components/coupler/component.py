@@ -645,7 +645,10 @@ class WaterCoupler(Component):
             # yet known
             patch, assumed = self._assumed_still_water(pos, half, level), True
         if patch is None or patch.height.size == 0:
-            self.bound = min(self._motion_bound(body), self._approach_bound(body))
+            # off the water's grid (the water said so) no water can meet the body: its request reaches
+            # ahead of it, so columns come before it could meet any (see _dry_bound)
+            off = patch is not None and patch.off_grid
+            self.bound = math.inf if off else min(self._motion_bound(body), self._approach_bound(body))
             self._prev = {"force": [0.0, 0.0, 0.0], "torque": [0.0, 0.0, 0.0], "position": pos.tolist(),
                           "omega": omega.tolist()}
             return {"wrench": self._zero_wrench, "occupied": self._empty_occupied, "request": request,
@@ -681,7 +684,7 @@ class WaterCoupler(Component):
             self._add_hydrostatics(stats, ring, int(body.shape) == kernel.SHAPE_SPHERE)
         self.bound = self._stability_bound(body, stats)
         if stats[kernel.S_VOLUME] == 0.0 and stats[kernel.S_AREA] == 0.0:  # dry, as in _ring_advance
-            self.bound = min(self.bound, self._approach_bound(body))
+            self.bound = self._dry_bound(body, patch, dt)
         self.work = {"columns": int(stats[kernel.S_COLUMNS]), "elements": int(stats[kernel.S_ELEMENTS])}
         mean = stats[:kernel.S_TOTAL + 6]
         if n > 1:
@@ -832,7 +835,7 @@ class WaterCoupler(Component):
         z_low, half_x, half_y = numbers[step_kernel.NUM_POSE + 2:step_kernel.NUM_POSE + step_kernel.N_POSE].tolist()
         self._submerged = 1.0 - planing
         if volume == 0.0 and area == 0.0:  # dry: the step that wets it must be stable already
-            self.bound = min(self.bound, self._approach_bound(body))
+            self.bound = self._dry_bound(body, patch, dt)
         px, py = pos[:2].tolist()
         vx, vy = vel[:2].tolist()
         request = self._request((px + vx * dt, py + vy * dt), (half_x, half_y), (vx, vy), dt, float(body.radius),
@@ -1233,6 +1236,18 @@ class WaterCoupler(Component):
     def _assumed_level(self) -> float:
         """The rest level [m] taken until the water's first patch gives its own: ``water_level``, or 0."""
         return 0.0 if self.params.water_level is None else float(self.params.water_level)
+
+    def _dry_bound(self, body: BodyState, patch: HeightPatch, dt: float) -> float:
+        """The step bound [s] of a dry body over the columns of ``patch``: the bound of this step's
+        forces (:attr:`bound`) and :meth:`_approach_bound`, or none for a body beside the water, wholly
+        below every bed of the patch even after rising for two steps ``dt``: no water can meet it. A
+        body that left the pond over its edge falls on there (under the water's columns the bed's
+        check ends the run first); bounded as one near the water, a pine ball that drifted off an open
+        edge failed its run at 12 m/s, 8 m below the water, its step exceeding the stable one."""
+        top = float(body.position[2]) + _bounding_radius(body) + max(0.0, float(body.velocity[2])) * 2.0 * dt
+        if patch.bottom.size and top < float(patch.bottom.min()):
+            return math.inf
+        return min(self.bound, self._approach_bound(body))
 
     def _approach_bound(self, body: BodyState) -> float:
         """A bound [s] of :meth:`max_stable_step` for a dry body near the water: APPROACH_SAFETY over
