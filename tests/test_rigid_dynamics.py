@@ -79,7 +79,7 @@ def test_free_rotation_matches_eulers_equations_in_one_long_step(body):
 
 def test_free_rotation_precesses_the_disk_axis_at_l_over_i_diameter():
     """A torque-free symmetric disk's axis precesses about L at |L| / I_d (within 1e-9 relative), and
-    in the body frame omega turns at (I_d - I_a) omega_3 / I_d."""
+    in the body frame omega turns at (I_a - I_d) omega_3 / I_d."""
     q = quat.from_axis_angle((1.0, 0.0, 0.0), 0.3)
     w = quat.rotate(q, (2.0, 0.0, 40.0))
     momentum = dyn.angular_momentum(DISK.inertia, q, w)
