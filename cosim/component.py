@@ -27,6 +27,7 @@ simulation time and the reason. Physics code never sees the scheduler.
 
 from __future__ import annotations
 
+import decimal
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -46,6 +47,20 @@ MAX_SUBSTEPS = 10_000  # a component needing more substeps than this in one step
 def substep_count(substeps: int) -> str:
     """A number of substeps as a message gives it: whole, or in three digits when huge (not 150)."""
     return str(substeps) if substeps < 10**6 else f"{substeps:.3g}"
+
+
+def step_and_bound(dt: float, bound: float) -> tuple[str, str]:
+    """A step and the smaller stable step it exceeds [s], in text: in six significant digits, or as
+    many as tell them apart (both 0.00412183 said nothing), the bound rounded down, so that a step
+    of the value said is within it."""
+    for digits in range(6, 18):
+        said = f"{bound:.{digits}g}"
+        if float(said) > bound:  # rounded up: the same digits rounded down
+            floor = decimal.Context(prec=digits, rounding=decimal.ROUND_FLOOR).create_decimal(bound)
+            said = format(floor.normalize(), "f")
+        if f"{dt:.{digits}g}" != said:
+            return f"{dt:.{digits}g}", said
+    return repr(dt), repr(bound)
 
 
 @dataclass(frozen=True)
@@ -312,10 +327,11 @@ class Component:
             substeps = 1
             if dt > bound:
                 if on_unstable == "error" or not bound > 0:
+                    step_said, bound_said = step_and_bound(dt, bound)
                     raise SimulationError(
                         self.name, t_ns,
-                        f"step {dt:.6g} s exceeds the stable step {bound:.6g} s (on_unstable: error; "
-                        f"use a base step or 'every' giving at most {bound:.6g} s, or on_unstable: substep)")
+                        f"step {step_said} s exceeds the stable step {bound_said} s (on_unstable: error; "
+                        f"use a base step or 'every' giving at most {bound_said} s, or on_unstable: substep)")
                 substeps = math.ceil(dt / bound)
                 if substeps > MAX_SUBSTEPS:
                     raise SimulationError(

@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from cosim.codec.json_codec import CodecError, codec_for
-from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, substep_count
+from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound, substep_count
 from cosim.errors import ScenarioError
 from cosim.messages import Message
 from cosim.params import beyond_float, build, number_text, show_value
@@ -809,10 +809,11 @@ def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[s
     if not step > bound:
         return []
     if cfg.on_unstable == "error":
+        step_said, bound_said = step_and_bound(step, bound)
         if not later:
-            return [f"step {step:.6g} s exceeds its stable step {bound:.6g} s (on_unstable: error); lower dt or "
+            return [f"step {step_said} s exceeds its stable step {bound_said} s (on_unstable: error); lower dt or "
                     "every, or set on_unstable: substep"]
-        return [f"step {step:.6g} s exceeds the stable step {bound:.3g} s it will need once the run is under "
+        return [f"step {step_said} s exceeds the stable step {bound_said} s it will need once the run is under "
                 f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
     substeps = math.ceil(step / bound)
     if later and substeps > MAX_SUBSTEPS:

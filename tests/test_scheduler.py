@@ -252,6 +252,30 @@ components:
         sim.run()
 
 
+@pytest.mark.parametrize(("dt", "bound", "said"), [
+    # six digits gave "step 0.00412183 s exceeds the stable step 0.00412183 s"
+    ("0.004121831", 0.0041218305, "step 0.004121831 s exceeds the stable step 0.00412183 s"),
+    # six digits rounded the bound up to the step: "... giving at most 0.001 s", which still exceeds it
+    ("0.001", 0.00099999995, "step 0.001 s exceeds the stable step 0.000999999 s (on_unstable: error; use a "
+                             "base step or 'every' giving at most 0.000999999 s"),
+    ("0.001", 0.000999477, "step 0.001 s exceeds the stable step 0.000999477 s"),
+])
+def test_a_step_just_over_its_bound_is_said_in_digits_that_tell_them_apart(dt, bound, said):
+    """The step and the bound it exceeds in six digits, or as many as tell them apart, the bound
+    rounded down, so that a step of the value advised is within it."""
+    scene = loads(f"""
+dt: {dt}
+until: 0.01
+components:
+  acc: {{type: "tests.toys:Accumulator"}}
+""")
+    sim = Simulation(scene)
+    sim.components["acc"].max_stable_step = lambda: bound
+    with pytest.raises(SimulationError) as failure:
+        sim.run()
+    assert said in str(failure.value)
+
+
 def test_failure_becomes_simulation_error_with_component_and_time():
     """An exception inside a component becomes a SimulationError naming it and the time; observers
     are told the run failed."""
