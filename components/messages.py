@@ -258,9 +258,11 @@ class WaterField(Message):
     steps, never to physics).
 
     cell [m]; origin_x, origin_y: centre of cell (0, 0) [m]; height: (ny, nx) elevation z [m];
-    volume: total water volume above the bed [m^3]; energy: the wave model's lattice energy [J]
-    (within O(c dt / s) of the explicit step's exact invariant, so bounded when the model is stable),
-    which for short waves is far above the waves' physical energy (see components.water.diagnostics);
+    volume: total water volume above the bed [m^3]; energy: the wave model's energy [J] (the explicit
+    model's lattice energy, within O(c dt / s) of its step's exact invariant, so bounded when the model
+    is stable, and for short waves far above their physical energy, see components.water.diagnostics;
+    the implicit shallow_water model's lattice energy, which its numerical damping takes; the airy
+    model's modes' energy);
     active_fraction: share of the water stepped in the last step (tiles not at rest over all tiles; 1
     when every column is stepped). With a
     field window the height covers that window only (origin_x, origin_y its first cell), volume,

@@ -92,16 +92,23 @@ def smooth_open(h: np.ndarray, h_out: np.ndarray, f: float) -> None:
     np.add(h, (0.25 * f) * acc, out=h_out)
 
 
-def blur(d: np.ndarray, work: np.ndarray, passes: int, weight: float) -> None:
+def blur(d: np.ndarray, work: np.ndarray, passes: int, weight: float,
+         open_x: np.ndarray | None = None, open_y: np.ndarray | None = None) -> None:
     """``passes`` conservative 5-point blur passes of d (nj, ni), in place; closed edges, so the sum
     is kept to round-off. One pass: d' = d + weight * sum over the cell's faces of (d_nb - d).
 
-    ``work``: scratch of d's shape (the compiled twin's ping-pong buffer; unused here).
+    ``work``: scratch of d's shape (the compiled twin's ping-pong buffer; unused here). ``open_x``
+    (nj, ni - 1), ``open_y`` (nj - 1, ni): which faces pass anything (bool; None: every one), so
+    that nothing crosses a face onto dry land.
     """
     for _ in range(passes):
         acc = np.zeros_like(d)
         dx = d[:, 1:] - d[:, :-1]
         dy = d[1:, :] - d[:-1, :]
+        if open_x is not None:
+            dx *= open_x
+        if open_y is not None:
+            dy *= open_y
         acc[:, :-1] += dx
         acc[:, 1:] -= dx
         acc[:-1, :] += dy

@@ -19,7 +19,11 @@ the energy oscillates but never drifts.
 
 A_x = I - dt^2 D_x, D_x the row operator of the face coefficients (the e_i, f_i of physics.md). Each
 A has unit row and column sums, so the solve keeps the volume; its eigenvalues are >= 1, so the
-scheme is unconditionally stable (and numerically damped at large dt).
+scheme is unconditionally stable, and numerically damped at every step: a wave of frequency omega
+loses about a factor exp(-pi omega dt) of its amplitude a period, first order in the step. Undamped
+(damping 0), a 5 cm Gaussian hump on 1 cm cells keeps 35% of its energy after 1 s at c dt / s = 0.1
+and 5% at 0.5, where the explicit ``wave`` model keeps it (100% and 102%): for waves that must keep
+their energy, ``wave``.
 
 In a closed basin the total vertical velocity sum(v) is an invariant (zero for water started at
 rest): the volume changes at that rate. The Thomas factors are rounded, so each solve misses the
@@ -119,8 +123,9 @@ class Model:
         """Start from a new state (h, v) given from outside."""
 
     def energy(self, h: np.ndarray, v: np.ndarray) -> float:
-        """The energy [J] the undamped model keeps (the lattice energy of
-        :mod:`components.water.diagnostics` unless the model says otherwise)."""
+        """The model's energy [J]: the lattice energy of :mod:`components.water.diagnostics` unless
+        the model says otherwise, kept by the undamped explicit model to O(c dt / s) and taken by
+        the implicit one's own numerical damping (see the module's docstring)."""
         return lattice_energy(self.grid, h, v)
 
     def get_state(self) -> dict[str, Any]:
