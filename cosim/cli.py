@@ -27,7 +27,15 @@ try:
     from pathlib import Path
     from typing import Any
 
-    from cosim.errors import CosimError, RecordingError, ScenarioError, ending_signals, one_line, quiet_interrupts
+    from cosim.errors import (
+        CosimError,
+        RecordingError,
+        ScenarioError,
+        counted,
+        ending_signals,
+        one_line,
+        quiet_interrupts,
+    )
     from cosim.timebase import NS_PER_S
 except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the same one line as later
     sys.stderr.write("error: cosim: interrupted (Ctrl-C)\n")
@@ -288,8 +296,6 @@ def cmd_validate(args: argparse.Namespace) -> int:
         from cosim.runner import check_channel_patterns
 
         check_channel_patterns(scene)
-    from cosim.runner import counted
-
     print(f"{one_line(args.scene)}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
           f"{counted(len(scene.connections), 'connection')}, dt = {scene.dt:g} s, "
           f"until = {scene.until_ns / NS_PER_S:g} s")
@@ -348,8 +354,6 @@ def cmd_repair(args: argparse.Namespace) -> int:
         ending = f"the run's final status: {done.status.status} at t = {done.status.time:g} s"
     how = "was cut short" if done.cut_short else "is damaged"
     if done.damage and done.cut_short:  # damaged besides: each stretch left out was said in a warning above
-        from cosim.runner import counted
-
         how += f", with {counted(len(done.damage), 'damaged stretch', 'damaged stretches')} left out (above),"
     print(f"wrote {done.path}: {done.messages} messages, up to t = {done.end_ns / NS_PER_S:g} s, with {ending}; "
           f"{args.recording} {how} and is left as it was")
@@ -645,7 +649,7 @@ class _CtrlC:
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
             return self
-        for signum in ending_signals():
+        for signum in ():
             self._old_term[signum] = signal.signal(signum, self._handler)
         self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         _CtrlC.active = self

@@ -87,3 +87,10 @@ def ending_signals() -> tuple[int, ...]:
         if old in (signal.SIG_DFL, signal.default_int_handler) or callable(old):
             found.append(signum)
     return tuple(found)
+
+
+def counted(n: int, singular: str, plural: str | None = None) -> str:
+    """``n`` and the noun in its number, for what the commands and summaries print: counted(1,
+    "connection") is "1 connection", counted(0, "connection") "0 connections"; ``plural`` when it
+    is not the singular with an s."""
+    return f"{n} {singular if n == 1 else (plural or singular + 's')}"

@@ -16,7 +16,7 @@ from typing import Any
 
 from cosim.codec.json_codec import codec_for
 from cosim.component import Component
-from cosim.errors import CosimError, RecordingError, shortened
+from cosim.errors import CosimError, RecordingError, counted, shortened
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
 from cosim.record.recorder import topic_of
@@ -64,9 +64,9 @@ class ReplayReport:
             cost = self.per_step_us()
             took = ("" if cost is None else f"; {cost:.3g} us a step" if cost < 1000 else
                     f"; {cost / 1000:.3g} ms a step")
-            return (f"{self.component}: {self.steps} steps replayed, {self.messages_compared} outputs "
-                    f"identical bit for bit{took}{cut}")
-        return f"{self.component}: {self.divergence} (after {self.steps} steps){cut}"
+            return (f"{self.component}: {counted(self.steps, 'step')} replayed, "
+                    f"{counted(self.messages_compared, 'output')} identical bit for bit{took}{cut}")
+        return f"{self.component}: {self.divergence} (after {counted(self.steps, 'step')}){cut}"
 
 
 def _show(msg: Message | None, field: str) -> str:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.errors import ScenarioError, SimulationError, ending_signals, one_line
+from cosim.errors import ScenarioError, SimulationError, counted, ending_signals, one_line
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
 from cosim.record.recorder import Recorder, physics_topics
@@ -115,13 +115,6 @@ def check_channel_patterns(scene: Scene) -> None:
         problems.append(f"record.channels: {pattern!r} matches no channel of this scene (its channels: {shown})")
     if problems:
         raise ScenarioError(problems, scene.source)
-
-
-def counted(n: int, singular: str, plural: str | None = None) -> str:
-    """``n`` and the noun in its number, for what the commands print: counted(1, "connection") is
-    "1 connection", counted(0, "connection") "0 connections"; ``plural`` when it is not the
-    singular with an s."""
-    return f"{n} {singular if n == 1 else (plural or singular + 's')}"
 
 
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,

@@ -361,6 +361,15 @@ def test_summary_names_model_grid_and_volume_change():
     assert "each wave length at its own speed" in airy
 
 
+def test_summary_counts_one_tile_and_one_step_in_the_singular():
+    """A pond of one tile stepped once says "of 1 tile ..., over 1 step", not "1 tiles", "1 steps"."""
+    p = WaterSurface("pond", WaterParams(nx=20, ny=20, depth=0.5,
+                                         initial=GaussianBump(x=0.1, y=0.1, amplitude=0.001, width=0.03)))
+    p.step(0, 1_000_000, {})
+    (line,) = p.summary()
+    assert "(of 1 tile of 32 x 32 cells, over 1 step)" in line
+
+
 def test_components_with_compiled_kernels_start_numba_when_built(monkeypatch):
     """Building a water surface on the numba backend, or a water coupler, starts numba's compiler
     (components.compiled.start), so that its half-second start-up is not counted in a run's wall

@@ -70,6 +70,7 @@ from components.water.models import MODELS, WaveModel
 from components.water.tiles import DEFAULT_TILE, REST_BELOW, Tiles, tiling_applies
 from components.water.windows import apply_window, patch_arrays, window_top
 from cosim.component import Component, Port
+from cosim.errors import counted
 from cosim.messages import Message
 from cosim.params import param, require_valid
 from cosim.timebase import NS_PER_S
@@ -418,7 +419,8 @@ class WaterSurface(Component):
         if t is None:
             return "every column stepped every step (active fraction 1)"
         return (f"active water {100 * t.peak_fraction():.3g}% at most, {100 * t.mean_fraction():.3g}% on "
-                f"average (of {t.count} tiles of {t.tile} x {t.tile} cells, over {t.steps} steps)")
+                f"average (of {counted(t.count, 'tile')} of {t.tile} x {t.tile} cells, "
+                f"over {counted(t.steps, 'step')})")
 
     def active_fraction(self) -> float:
         """Fraction of the water stepped in the last step (1 on the dense path)."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 
-from cosim.errors import RecordingError, one_line
+from cosim.errors import RecordingError, counted, one_line
 from cosim.record.reader import Recording
 from cosim.record.recorder import STATUS_TOPIC
 from cosim.timebase import NS_PER_S
@@ -67,12 +67,12 @@ def describe_recording(rec: Recording) -> str:
     else:
         # a restart's tick counts its own steps from t = 0, which the run before it may have taken at
         # another dt: the steps said are the restart's own, from where it began
-        steps, counted = status.tick, ""
+        steps, since = status.tick, ""
         if rec.restart_ns:
             steps -= rec.restart_ns // rec.dt_ns
-            counted = f" from t = {rec.restart_ns / NS_PER_S:g} s"
-        lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s ({steps} steps{counted}) - "
-                     f"{one_line(status.reason)}")
+            since = f" from t = {rec.restart_ns / NS_PER_S:g} s"
+        lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s "
+                     f"({counted(steps, 'step')}{since}) - {one_line(status.reason)}")
     lines.append("  channels:")
     width = max((len(one_line(t)) for t in rec.channels), default=10)
     for topic in sorted(rec.channels):

@@ -27,8 +27,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from cosim.errors import ending_signals
-from cosim.runner import counted
+from cosim.errors import counted, ending_signals
 from cosim.sweep.backends import BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
 from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot
