@@ -295,7 +295,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if scene.record.channels is not None:
         from cosim.runner import check_channel_patterns
 
-        check_channel_patterns(scene)
+        check_channel_patterns(scene, perf=True)  # (a run may add /perf/tick with --perf)
     print(f"{one_line(args.scene)}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
           f"{counted(len(scene.connections), 'connection')}, dt = {scene.dt:g} s, "
           f"until = {scene.until_ns / NS_PER_S:g} s")
@@ -649,7 +649,7 @@ class _CtrlC:
         except ValueError:  # not the main thread: its Ctrl-C is not ours to see
             self._old = None
             return self
-        for signum in ():
+        for signum in ending_signals():
             self._old_term[signum] = signal.signal(signum, self._handler)
         self._old_hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
         _CtrlC.active = self

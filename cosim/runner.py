@@ -17,10 +17,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cosim.component import Component
 from cosim.errors import ScenarioError, SimulationError, counted, ending_signals, one_line
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
-from cosim.record.recorder import Recorder, physics_topics
+from cosim.record.recorder import PERF_TOPIC, Recorder, physics_topics
 from cosim.record.writer import SinkError
 from cosim.scenario import Scene
 from cosim.scheduler import RunResult, Simulation
@@ -96,17 +97,16 @@ def default_derivers(scene: Scene) -> list[Any]:
     return [RecordedVisuals(rate, physics_topics(scene))]
 
 
-def check_channel_patterns(scene: Scene) -> None:
+def check_channel_patterns(scene: Scene, perf: bool = False) -> None:
     """record.channels (``--record``): each pattern must match a channel the scene can record (a
-    component's output ``/<component>/<port>``, the framework's own, the viewer's), or the recording
-    silently leaves out what a misspelt pattern meant: a ScenarioError naming it and the scene's
-    channels. The viewer's per-item channels under ``/scene/`` depend on the components' looks, not
-    known before the run: a pattern there is taken as it is."""
+    component's output ``/<component>/<port>``, the framework's own, ``/perf/tick`` with ``perf``,
+    the viewer's ``/tf`` and ``/log`` when something in it has looks), or the recording silently
+    leaves out what a misspelt pattern meant: a ScenarioError naming it and the scene's channels.
+    The viewer's per-item channels under ``/scene/`` depend on the components' looks, not known
+    before the run: a pattern there is taken as it is."""
     if scene.record.channels is None:
         return
-    from cosim.view.items import LOG_TOPIC, TF_TOPIC
-
-    topics = sorted(physics_topics(scene) | {TF_TOPIC, LOG_TOPIC})
+    topics = sorted((physics_topics(scene) - (set() if perf else {PERF_TOPIC})) | _viewer_topics(scene))
     problems = []
     for pattern in scene.record.channels:
         if str(pattern).startswith("/scene/") or any(fnmatch.fnmatchcase(t, str(pattern)) for t in topics):
@@ -115,6 +115,22 @@ def check_channel_patterns(scene: Scene) -> None:
         problems.append(f"record.channels: {pattern!r} matches no channel of this scene (its channels: {shown})")
     if problems:
         raise ScenarioError(problems, scene.source)
+
+
+def _viewer_topics(scene: Scene) -> set[str]:
+    """The viewer's channels beside its per-item ones, ``/tf`` and ``/log``: written only at a
+    visual rate and when a component draws itself or one of its outputs has looks (a --record /tf on
+    the ping-pong scene, which has none, was taken and recorded nothing)."""
+    if scene.record.visual_rate <= 0:
+        return set()
+    from cosim.view.items import LOG_TOPIC, TF_TOPIC
+    from cosim.view.lookup import has_installed_visuals
+
+    for cfg in scene.components.values():
+        if cfg.cls.visuals is not Component.visuals or any(
+                has_installed_visuals(port.type) for port in cfg.cls.outputs.values()):
+            return {TF_TOPIC, LOG_TOPIC}
+    return set()
 
 
 def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None = None,
@@ -143,7 +159,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     a target that cannot be replaced the whole recording kept beside it.
     """
     if output is not None:
-        check_channel_patterns(scene)
+        check_channel_patterns(scene, perf)
     sim = simulation if simulation is not None else Simulation(scene)
     live_view = None
     if live is not None:

@@ -133,3 +133,21 @@ def test_inspect_says_why_messages_outlast_the_runs_last_tick(tmp_path, capsys):
         span = next(line for line in out.splitlines() if "time span:" in line)
         assert f"status: ok at t = {until} s" in out
         assert (said in span) if said else ("to t =" not in span), span
+
+
+@pytest.mark.parametrize(("extra", "pattern", "refused"), [
+    ([], "/tf", True),  # the ping-pong scene has no looks: no /tf is ever written
+    ([], "/log", True),
+    ([], "/perf/tick", True),  # written only with --perf
+    (["--perf"], "/perf/tick", False),
+])
+def test_a_record_pattern_for_a_channel_the_run_never_writes_is_refused(tmp_path, capsys, extra, pattern, refused):
+    """--record takes only channels this run writes: /tf and /log when something in the scene has
+    looks, /perf/tick with --perf. They were always taken, and recorded nothing."""
+    out = tmp_path / "r.mcap"
+    code = main(["run", str(ROOT / "scenarios" / "ping_pong.yaml"), "-o", str(out), "-q", "--record", pattern,
+                 *extra])
+    err = capsys.readouterr().err
+    assert code == (2 if refused else 0)
+    assert (f"record.channels: {pattern!r} matches no channel of this scene" in err) is refused
+    assert out.exists() is not refused
