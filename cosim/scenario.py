@@ -593,7 +593,7 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
                 problems: list[str], types: dict[str, str]) -> Connection | None:
     """One edge, checked against the component classes (``components``: name -> class; ``types``:
     name -> the type name as the scene spells it)."""
-    path = f"connections[{index}]"
+    path = f"connections.{index}"  # as --set spells it
     initial_data = None
     delay = 0
     if isinstance(item, str):

@@ -226,9 +226,9 @@ def test_values_that_can_only_fail_the_run_are_refused_naming_their_key(override
 
 
 @pytest.mark.parametrize(("initial", "expected"), [
-    ("{force: [.nan, 0, 0], torque: [0, 0, 0]}", "connections[2].initial.force: must be finite (got [nan, 0.0, 0.0])"),
+    ("{force: [.nan, 0, 0], torque: [0, 0, 0]}", "connections.2.initial.force: must be finite (got [nan, 0.0, 0.0])"),
     ("{force: [0, 0, 0], torque: [0, 1e308, 0]}",
-     "connections[2].initial.torque: 1e+308 is beyond 1e+15 (too large for any start of a run)"),
+     "connections.2.initial.torque: 1e+308 is beyond 1e+15 (too large for any start of a run)"),
 ])
 def test_an_edge_initial_that_is_not_finite_or_too_large_is_refused(initial, expected):
     """A NaN or huge initial value of a delayed edge: refused when the scene loads (validate passed it;

@@ -71,13 +71,13 @@ MALFORMED = {
         scene_with("a: {type: Rocket}"), r"components\.a\.type: unknown component type 'Rocket' \(known: "),
     "unknown port": (
         scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Gain"}', "[a.out -> b.y]"),
-        r"connections\[0\]\.to: b \(tests\.toys:Gain\) has no input port 'y' \(inputs: x\)"),
+        r"connections\.0\.to: b \(tests\.toys:Gain\) has no input port 'y' \(inputs: x\)"),
     "unknown component in edge": (
         scene_with('a: {type: "tests.toys:Source"}', "[a.out -> c.x]"),
-        r"connections\[0\]\.to: unknown component 'c' \(known: a\)"),
+        r"connections\.0\.to: unknown component 'c' \(known: a\)"),
     "port type mismatch": (
         scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Summer"}', "[a.out -> b.label]"),
-        r"connections\[0\]: type mismatch: a\.out sends Scalar but b\.label takes Text"),
+        r"connections\.0: type mismatch: a\.out sends Scalar but b\.label takes Text"),
     "duplicate name": (
         scene_with('a: {type: "tests.toys:Source"}\na: {type: "tests.toys:Gain"}'),
         r"line \d+: duplicate key 'a'"),
@@ -104,11 +104,11 @@ MALFORMED = {
     "delayed edge without initial": (
         scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
                    "[g.out -> acc.x, {from: acc.total, to: g.x, delay: 1}]"),
-        r"connections\[1\]\.initial: a delayed edge needs an initial value \(fields of Scalar: value\)"),
+        r"connections\.1\.initial: a delayed edge needs an initial value \(fields of Scalar: value\)"),
     "bad initial": (
         scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
                    "[g.out -> acc.x, {from: acc.total, to: g.x, delay: 1, initial: {valu: 1}}]"),
-        r"connections\[1\]\.initial: cosim\.Scalar: missing value; unknown valu"),
+        r"connections\.1\.initial: cosim\.Scalar: missing value; unknown valu"),
     "input connected twice where not additive": (
         scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Source"}\ng: {type: "tests.toys:Gain"}',
                    "[a.out -> g.x, b.out -> g.x]"),
@@ -141,7 +141,7 @@ MALFORMED = {
     "not a mapping": ("- 1\n- 2\n", r"the scene must be a mapping \(got list\)"),
     "malformed edge": (
         scene_with('a: {type: "tests.toys:Source"}', "[a.out => b.x]"),
-        r"connections\[0\]: expected 'source\.port -> target\.port' \(got 'a\.out => b\.x'\)"),
+        r"connections\.0: expected 'source\.port -> target\.port' \(got 'a\.out => b\.x'\)"),
 }
 
 
@@ -200,7 +200,7 @@ def test_a_value_that_is_no_finite_number_is_one_problem_not_also_out_of_bounds(
 
 @pytest.mark.parametrize(("change", "problem"), [
     (("ping.out -> pong.inp", "ping.outt -> pong.inp"),
-     "connections[0].from: ping (cosim.examples:Ping) has no output port 'outt' (outputs: out)"),
+     "connections.0.from: ping (cosim.examples:Ping) has no output port 'outt' (outputs: out)"),
     (('ping: {type: "cosim.examples:Ping"}', 'ping: {type: "NoSuchType"}'),
      "components.ping.type: unknown component type 'NoSuchType'"),
 ])

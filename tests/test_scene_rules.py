@@ -91,9 +91,9 @@ def test_a_huge_integer_in_a_delayed_edges_initial_value_names_its_field():
     text = ("dt: 0.001\nuntil: 0.01\ncomponents:\n  a: {type: 'cosim.examples:Ping'}\n"
             "  b: {type: 'cosim.examples:Pong'}\nconnections:\n  - a.out -> b.inp\n  - " + edge + "\n")
     assert problem(text.replace("VALUE", str(HUGE))) == (
-        "connections[1].initial.value: 1e+309 is beyond 1e+15 (too large for any start of a run)")
+        "connections.1.initial.value: 1e+309 is beyond 1e+15 (too large for any start of a run)")
     assert problem(text.replace("VALUE", "2e15")) == (
-        "connections[1].initial.value: 2e+15 is beyond 1e+15 (too large for any start of a run)")
+        "connections.1.initial.value: 2e+15 is beyond 1e+15 (too large for any start of a run)")
     assert loads(text.replace("VALUE", "2")).connections[1].initial.value == 2.0
 
 
@@ -235,7 +235,7 @@ def test_a_delay_that_is_not_a_whole_number_is_refused_as_every_is(delay):
     text = CHECKPOINTED_SCENE.replace("  - src.out -> g.x", f"  - {edge}")
     shown = {"true": "True", "'1'": "'1'"}.get(delay, delay)
     rounded = "; a non-integer delay is not rounded" if "." in delay else ""  # (said of a number only)
-    assert problem(text) == f"connections[0].delay: must be 0 or 1, a whole number of base steps (got {shown}){rounded}"
+    assert problem(text) == f"connections.0.delay: must be 0 or 1, a whole number of base steps (got {shown}){rounded}"
     assert loads(text.replace(f"delay: {delay}", "delay: 1")).connections[0].delay == 1
 
 

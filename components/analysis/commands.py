@@ -87,7 +87,7 @@ def register_render(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--to", dest="stop", type=seconds, metavar="T", help="end time [s]")
     p.add_argument("--at", type=seconds, metavar="T",
                    help="time of the frame for a PNG [s] (default: as the stone leaves the water after its "
-                        "first skip; without a skip, just after its first hit; water alone: mid-run)")
+                        "first skip; without a skip, just after its first hit; without a hit, or water alone: mid-run)")
     p.add_argument("--body", help="the body to show (default: the first, in the scene's order, that a stage "
                                   "monitor watches)")
     p.add_argument("--water", metavar="TOPIC",
