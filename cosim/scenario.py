@@ -40,6 +40,10 @@ from cosim.registry import UnknownComponentType, resolve
 from cosim.timebase import NS_PER_S, seconds_to_ns
 
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a component name: it becomes channel names
+# the first part of the framework's and the viewer's own channels (/cosim/status, /perf/tick,
+# /scene/<body>, /tf, /log): a component of that name would write its outputs onto them (one named
+# cosim with a port status made the recording unreadable; one named scene lost its body's looks)
+RESERVED_NAMES = ("cosim", "perf", "scene", "tf", "log")
 SCENE_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}")  # a scene name: it becomes a file name
 MIN_STEP_NS = 1  # the clock's tick: no step is shorter
 MAX_TIME_NS = 2**63 - 1  # MCAP's times are 64-bit nanoseconds: no time goes past this (about 292 years)
@@ -503,6 +507,10 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
         problems.append(f"{path}: component names must be identifiers of at most 64 characters (letters, "
                         "digits, _; not starting with a digit): they become channel names")
         return None
+    if name in RESERVED_NAMES:
+        problems.append(f"{path}: {name!r} is the name of the framework's or the viewer's own channels "
+                        f"(/{name}/...); a component of that name would write onto them: name it otherwise")
+        return None
     if not isinstance(spec, dict):
         problems.append(f"{path}: must be a mapping with a 'type' (got {spec!r})")
         return None
@@ -801,9 +809,9 @@ def _check_stability(scene: Scene, built: dict[str, Component], problems: list[s
 
 def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[str]:
     """The problem with component ``name``'s step against a stable step ``bound`` [s], as the run
-    would find it: over it under ``on_unstable: error``; and, for a bound the component will need once
-    the run is under way (``later``: :meth:`~cosim.component.Component.start_stable_step`), needing
-    more than MAX_SUBSTEPS substeps under ``on_unstable: substep``."""
+    would find it: over it under ``on_unstable: error``, or needing more than MAX_SUBSTEPS substeps
+    under ``on_unstable: substep``; ``later``: a bound the component will need once the run is under
+    way (:meth:`~cosim.component.Component.start_stable_step`), else the one it starts with."""
     cfg = scene.components[name]
     step = scene.dt * cfg.every
     if not step > bound:
@@ -816,9 +824,10 @@ def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[s
         return [f"step {step_said} s exceeds the stable step {bound_said} s it will need once the run is under "
                 f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
     substeps = math.ceil(step / bound)
-    if later and substeps > MAX_SUBSTEPS:
+    if substeps > MAX_SUBSTEPS:  # (the run would fail at its first step: 14557 substeps of a 60 s step)
+        when = "once the run is under way" if later else "from the start"
         return [f"will need {substep_count(substeps)} substeps of its step {step:.6g} s (stable step {bound:.3g} s "
-                f"once the run is under way), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
+                f"{when}), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
     return []
 
 

@@ -115,6 +115,34 @@ def test_component_names_that_are_not_safe_channel_names_are_refused(name):
     assert any("component names must be identifiers of at most 64 characters" in p for p in err.value.problems)
 
 
+@pytest.mark.parametrize("name", ["cosim", "perf", "scene", "tf", "log"])
+def test_a_component_named_as_the_frameworks_own_channels_is_refused(name):
+    """/cosim/status, /cosim/checkpoint, /perf/tick, /scene/<body>, /tf and /log are the framework's
+    and the viewer's: an FMU named cosim with a port status wrote onto the run's status and left a
+    recording no command could read; a body named scene lost its looks mid-run."""
+    text = SCENE.replace("  g: {type", f"  {name}: {{type").replace("g.x", f"{name}.x").replace("g.y", f"{name}.y")
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    assert f"components.{name}: {name!r} is the name of the framework's or the viewer's own channels" in str(err.value)
+
+
+def test_a_first_step_needing_more_substeps_than_the_limit_is_refused_at_load():
+    """A 60 s step of a 64 x 64 pond under on_unstable: substep needs 14,557 substeps at its first
+    step: validate said it was fine, and the run failed at t = 0."""
+    text = """
+dt: 60
+until: 600
+on_unstable: substep
+components:
+  pond: {type: WaterSurface, nx: 64, ny: 64, cell: 0.01, depth: 0.3}
+record: {checkpoint_every: 0}
+"""
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    assert ("components.pond: will need 14557 substeps of its step 60 s (stable step 0.00412 s from the start), "
+            "more than the limit 10000") in str(err.value)
+
+
 @pytest.mark.parametrize("char", ["\n", "\r", "\x00", "\x1c", "\x85", "\u2028", "\u2029"])
 def test_error_lines_stay_lines_whatever_a_name_holds(char):
     """A name holding a line break or a control character is shown escaped: one line per problem."""
