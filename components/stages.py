@@ -298,7 +298,8 @@ class StageMonitor(Component):
                 # monitor knows no edge): a throw flying past a 14 m pond "left the pond at x = 15.5 m"
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
                 self.request_stop(f"stone {what}: it came down beside the water at x = {x:.3g} m, y = {y:.3g} m "
-                                  f"(below the water's level with no water under it since t = {self.outside_since:.4g} s)")
+                                  "(below the water's level with no water under it since "
+                                  f"t = {self.outside_since:.4g} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
         track = self.track

@@ -39,7 +39,8 @@ def test_sweep_runs_reports_and_resumes(tmp_path, monkeypatch, capsys):
     # the sweep's wall over its runs, and each run's own time in its worker (two run at once)
     import re
 
-    per_run, own = map(float, re.search(r"\(([0-9.e-]+) s a run; on average ([0-9.e-]+) s in its worker\)", out).groups())
+    said = re.search(r"\(([0-9.e-]+) s a run; on average ([0-9.e-]+) s in its worker\)", out)
+    per_run, own = map(float, said.groups())
     assert per_run > 0 and own > 0
     assert (tmp_path / "results" / "balls.csv").exists()
     assert (tmp_path / "results" / "balls.meta.json").exists()

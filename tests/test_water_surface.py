@@ -93,6 +93,29 @@ def test_initial_trough_shallower_than_the_depth():
     assert problems_of({"depth": 0.2, "initial": {"x": 0.0, "y": 0.0, "amplitude": -0.2, "width": 0.02}}) == [
         "components.pond.initial: a trough must be shallower than the depth 0.2 m: one reaching the bed leaves "
         "no water (got amplitude -0.2 m)"]
+    # a width whose square underflows filled the water with NaN and the run said ok
+    assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 0.01, "width": 1e-300}}) == [
+        "components.pond.initial.width: must be >= 1e-06 m (got 1e-300)"]
+
+
+def test_a_trough_reaching_the_bed_up_a_slope_is_refused_at_load():
+    """On a sloped bed the trough is compared with the water where it reaches, not at the centre: 4 cm
+    deep 0.1 m up a 1:10 slope from the centre of a 5 cm pond, it started 0.5 mm below the bed."""
+    from cosim.errors import ScenarioError
+    from cosim.scenario import loads
+
+    scene = """
+dt: 0.001
+until: 0.01
+components:
+  pond: {type: WaterSurface, nx: 120, ny: 8, cell: 0.01, depth: 0.05, bottom_slope: [0.1, 0.0],
+         initial: {x: X, y: 0.04, amplitude: -0.04, width: 0.03}}
+"""
+    with pytest.raises(ScenarioError) as err:
+        loads(scene.replace("X", "0.7"))
+    assert ("components.pond: initial: the trough reaches the bed at x = 0.7 m, y = 0.04 m, where the water is "
+            "0.0395 m deep and the trough -0.04 m") in str(err.value)
+    assert loads(scene.replace("X", "0.5")).components["pond"]  # there the water is 4.05 cm deep
 
 
 def test_direct_construction_checks_the_parameters():

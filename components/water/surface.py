@@ -96,7 +96,8 @@ class GaussianBump:
     x: float = param(unit="m", doc="centre x")
     y: float = param(unit="m", doc="centre y")
     amplitude: float = param(unit="m", doc="peak height above the rest level")
-    width: float = param(unit="m", gt=0, doc="standard deviation of the bump")
+    # (at least a micrometre, as a cell is: at 1e-300 m its square underflowed and the water filled with NaN)
+    width: float = param(unit="m", ge=CELL_MIN, doc="standard deviation of the bump (at least 1 um)")
 
 
 @dataclass(frozen=True)
@@ -389,6 +390,22 @@ class WaterSurface(Component):
         """The bed's height z [m] under (x, y) (its cell's), or None off the grid."""
         cell = self.grid.cell_at(x, y)
         return None if cell is None else float(self.grid.bed[cell[1], cell[0]])
+
+    def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
+        """An initial trough that reaches the bed where the water is shallower than at the centre (a
+        sloped bed): the parameters compare it with the centre's depth only, and a trough of 4 cm on
+        a beach started 10.5 mm below the bed there."""
+        bump, g = self.params.initial, self.grid
+        if bump is None or bump.amplitude >= 0.0 or not g.wet.any():
+            return []
+        depth = np.where(g.wet, g.depth0 + self._h, np.inf)
+        j, i = np.unravel_index(int(np.argmin(depth)), depth.shape)
+        if depth[j, i] > 0.0:
+            return []
+        x, y = g.origin_x + i * g.cell, g.origin_y + j * g.cell
+        return [f"initial: the trough reaches the bed at x = {x:.4g} m, y = {y:.4g} m, where the water is "
+                f"{float(g.depth0[j, i]):.3g} m deep and the trough {float(self._h[j, i]):.3g} m: a trough "
+                "shallower than the water wherever it reaches"]
 
     def max_stable_step(self) -> float:
         return self.model.max_stable_step()

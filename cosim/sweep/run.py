@@ -86,8 +86,8 @@ class SweepOutcome:
         statuses = ", ".join(f"{n} {s}" for s, n in sorted(self.counts.items())) or "nothing"
         lines = [self.sweep.describe() + (f" on {self.backend}" if self.ran else "")]  # nothing ran on it else
         # the sweep's wall over its runs, and a run's own time in its worker (the workers run at once)
-        per_run = (f" ({self.wall_s / self.ran:.3g} s a run; on average {self.run_wall_s / self.ran:.3g} s in its worker)"
-                   if self.ran else "")
+        per_run = (f" ({self.wall_s / self.ran:.3g} s a run; on average {self.run_wall_s / self.ran:.3g} s "
+                   "in its worker)" if self.ran else "")
         lines.append(f"  ran {self.ran}, {self.already} already in the table; {statuses}; "
                      f"wall {self.wall_s:.3g} s{per_run}")
         if not self.complete:
