@@ -287,6 +287,10 @@ def test_scene_file_and_sweep_file_problems(tmp_path):
     assert missing.value.problems == [f"scene: no such file 'nowhere.yaml' (looked for {tmp_path / 'nowhere.yaml'})"]
     with pytest.raises(ScenarioError, match=r"missing\.yaml: no such file"):
         load_sweep(tmp_path / "missing.yaml")
+    # a device read whole filled the memory: refused unread, as a scene given to `cosim run` is
+    with pytest.raises(ScenarioError) as device:
+        load_sweep(write_sweep(tmp_path, "scene: /dev/zero\naxes: {dt: [0.001]}\n"))
+    assert device.value.problems == ["scene: '/dev/zero' is not a regular file (a device, pipe or socket)"]
     itself = write_sweep(tmp_path, "scene: sweep.yaml\naxes: {dt: [0.001]}\n")  # a sweep naming itself
     assert itself.name == "sweep.yaml"
     with pytest.raises(ScenarioError, match=r"scene: 'sweep\.yaml' is a sweep file \(it has axes and no "

@@ -461,13 +461,13 @@ def _base_scene(data: dict[str, Any], base_dir: Path, source: str,
         problems.append(f"scene: must be a file name or a mapping (got {spec!r})")
         return None
     path = base_dir / spec
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        problems.append(f"scene: no such file {spec!r} (looked for {path})")
-        return None
-    except (OSError, UnicodeDecodeError) as exc:
-        problems.append(f"scene: cannot read {spec!r}: {exc}")
+    try:  # as a scene is read: a folder, a device or pipe (/dev/zero filled the memory) or a huge file refused
+        text = read_input(path)
+    except ScenarioError as exc:
+        why = exc.problems[0]
+        problems.append(f"scene: no such file {spec!r} (looked for {path})" if why == "no such file" else
+                        f"scene: cannot read {spec!r}: {why[len('cannot read: '):]}" if why.startswith("cannot read")
+                        else f"scene: {spec!r} {why}")
         return None
     try:
         scene_data = read_yaml(text, spec)  # read as the scene is loaded (YAML 1.2's numbers)
