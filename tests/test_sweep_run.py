@@ -306,6 +306,28 @@ def test_a_row_with_a_status_no_run_gives_is_refused_and_a_rerun_point_keeps_its
     assert (again.already, again.ran) == (9, 0)  # the point's result kept: it is not run a second time
 
 
+def test_a_row_with_a_quote_never_closed_is_refused_and_a_row_cut_short_is_dropped(tmp_path, pool):
+    """A quote opened in a row's reason and never closed takes in every row after it: the table was
+    resumed with that one row, and the runs appended inside the quote (exit 0 twice, the table worse
+    each time). Now refused, naming the line. A last row cut short after a line break of its reason
+    (the rest of one row, no whole row in it) is dropped, and the runs it held run again."""
+    sweep = load_sweep(write_sweep(tmp_path, GRID))
+    out = tmp_path / "out.csv"
+    run_sweep(sweep, out, pool, progress=False, figure=False)
+    lines = out.read_text().splitlines(keepends=True)
+    broken = "".join([lines[0], lines[1].replace(",stopped,", ',stopped,"', 1), *lines[2:]])
+    out.write_text(broken)
+    with pytest.raises(ScenarioError, match=r"out\.csv: line 2: a row of \d+ fields where the table has \d+ "
+                                            r"\(a quote opened and never closed"):
+        run_sweep(sweep, out, pool, progress=False, figure=False)
+    assert out.read_text() == broken
+    cut = lines[-1].replace(",stopped,", ',stopped,"line one\nline', 1)
+    out.write_text("".join([*lines[:-1], cut.split("\n")[0] + "\n" + "line\n"]))
+    again = run_sweep(sweep, out, pool, progress=False, figure=False)
+    assert (again.already, again.ran) == (8, 1)
+    assert [r["index"] for r in rows_of(out)] == [str(i) for i in range(9)]
+
+
 def test_a_table_that_is_not_text_is_refused_and_left_as_it_is(tmp_path, pool):
     """A table made garbage (not UTF-8) beside its intact meta file: refused naming it, with --fresh
     offered, the file untouched (an internal UnicodeDecodeError, after its last "row" was cut off)."""

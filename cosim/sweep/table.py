@@ -19,6 +19,7 @@ import json
 import math
 import os
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -145,6 +146,21 @@ class ResultTable:
         return [(point, row["index"]) for point, row in rows.items()] == sorted(
             ((point, str(order[point])) for point in rows), key=lambda item: order[item[0]])
 
+    @staticmethod
+    def _rows_with_lines(reader: Any) -> Iterator[tuple[int, int, list[str]]]:
+        """(the lines a row starts and ends on, 1-based, its fields) for each row ``reader`` reads."""
+        first = reader.line_num + 1
+        for values in reader:
+            yield first, reader.line_num, values
+            first = reader.line_num + 1
+
+    @staticmethod
+    def _swallows_rows(raw: bytes, first_line: int, columns: int) -> bool:
+        """Whether the text from line ``first_line`` of ``raw`` on holds, after its first line, a line
+        that is a whole row by itself: the rows after a quote never closed, not the rest of one row."""
+        lines = raw[_offset_of_line(raw, first_line):].decode("utf-8").split("\n")[1:]
+        return any(len(next(csv.reader([line]), [])) == columns for line in lines if line)
+
     def _read_existing(self, known_ids: set[str]) -> tuple[dict[str, dict[str, str]], dict[str, Any]]:
         """(the table's whole rows by point id, its record) of a table this sweep wrote."""
         where = str(self.path)
@@ -179,13 +195,26 @@ class ResultTable:
                                 "for another file", where)
         rows: dict[str, dict[str, str]] = {}
         strangers = []
-        for values in reader:
+        parsed = list(self._rows_with_lines(reader))
+        for k, (first_line, last_line, values) in enumerate(parsed):
             if len(values) != len(header):
-                continue
+                if k == len(parsed) - 1 and not self._swallows_rows(raw, first_line, len(header)):
+                    # a row cut short after a line break inside its reason: dropped, so that the rows
+                    # written next start on a line of their own
+                    raw = raw[: _offset_of_line(raw, first_line)]
+                    with open(self.path, "r+b") as f:
+                        f.truncate(len(raw))
+                    break
+                # (a quote opened and never closed takes in every row after it: appended to, the
+                # table held one row whose reason was all the others)
+                raise ScenarioError(f"line {first_line}: a row of {len(values)} fields where the table has "
+                                    f"{len(header)} (a quote opened and never closed, or a field added or left "
+                                    "out): not a table this sweep wrote; use --fresh to start over or -o for "
+                                    "another file", where)
             row = dict(zip(header, values, strict=True))
             if row["status"] not in ROW_STATUSES:  # a hand-edited table: "6 weird" was summed as a status
                 # (the reader's line, where the row ends: a reason may run over several lines)
-                raise ScenarioError(f"line {reader.line_num}: status {row['status']!r} is not one a run gives "
+                raise ScenarioError(f"line {last_line}: status {row['status']!r} is not one a run gives "
                                     f"({', '.join(ROW_STATUSES)}); use --fresh to start over or -o for another "
                                     "file", where)
             if row["point_id"] not in known_ids:
@@ -295,3 +324,11 @@ def write_parquet(path: Path, rows: list[dict[str, str]], columns: list[str], me
     schema = pa.schema(fields, metadata={"cosim.sweep": json.dumps(meta, default=str)})
     with written_whole(path) as tmp:
         pq.write_table(pa.Table.from_arrays(arrays, schema=schema), tmp)
+
+
+def _offset_of_line(raw: bytes, line: int) -> int:
+    """The byte offset in ``raw`` where its 1-based ``line`` starts."""
+    offset = 0
+    for _ in range(line - 1):
+        offset = raw.index(b"\n", offset) + 1
+    return offset
