@@ -174,6 +174,15 @@ def test_a_missing_fmu_file_is_named_with_the_folder_it_was_looked_for_in(tmp_pa
         load(path)
 
 
+def test_an_fmu_path_that_is_a_folder_is_said_to_be_no_file(tmp_path):
+    """A folder (or a device, a pipe) at the FMU's path is there: "no such file" said otherwise."""
+    (tmp_path / "gust.fmu").mkdir()
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene(source="path: gust.fmu"))
+    with pytest.raises(ScenarioError, match=r"components\.gust\.path: not a file 'gust\.fmu' \(looked in "):
+        load(path)
+
+
 def test_a_scalar_output_is_a_number_port(tmp_path):
     text = gust_scene().replace(
         '      wrench: {type: Wrench, fields: {"force[0]": Fx, "force[1]": Fy, "force[2]": Fz}}',

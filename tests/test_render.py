@@ -515,6 +515,27 @@ def test_a_recording_that_left_the_water_out_says_no_water_is_drawn(tmp_path):
         render(recording, tmp_path / "stone.png", RenderOptions(width=WIDTH))
 
 
+def test_a_recording_whose_scene_cannot_be_read_is_not_said_to_have_water(tmp_path, monkeypatch):
+    """A ground bounce's recording with its scene attachment spoilt was rendered with the warning
+    that "the scene has water" but none was recorded: a scene that cannot be read says nothing."""
+    import warnings
+
+    from cosim.record.reader import Recording
+
+    recording = tmp_path / "bounce.mcap"
+    assert main(["run", str(Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml"), "-q",
+                 "-o", str(recording), "--set", "until=0.2"]) == 0
+
+    def unreadable(self):
+        raise ValueError("the scene's YAML is spoilt")
+
+    monkeypatch.setattr(Recording, "scene", unreadable)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        render(recording, tmp_path / "bounce.png", RenderOptions(width=WIDTH))
+    assert not [w for w in said if "the scene has water" in str(w.message)]
+
+
 def test_notes_that_would_run_past_the_frames_edge_go_to_its_foot():
     """A thinned recording's header with two notes ran past the frame's edge; the notes that do not
     fit go to the frame's foot, the header itself stays one line at the top."""

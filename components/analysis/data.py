@@ -228,13 +228,13 @@ def warn_ended_early(rec: Recording, drawn: str) -> None:
     warnings.warn(f"{rec.path}: {why}, and {drawn} end there", UserWarning, stacklevel=3)
 
 
-def scene_publishes(rec: Recording, kinds: tuple[type, ...]) -> bool:
+def scene_publishes(rec: Recording, kinds: tuple[type, ...], unknown: bool = True) -> bool:
     """Whether the recorded scene has a component with an output of one of the message types
-    ``kinds``; True when its scene cannot be read."""
+    ``kinds``; ``unknown`` when its scene cannot be read."""
     try:
         configs = rec.scene().components.values()
     except Exception:
-        return True
+        return unknown
     return any(port.type in kinds for cfg in configs for port in cfg.cls.outputs.values())
 
 

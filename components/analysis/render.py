@@ -813,7 +813,8 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         pairs = stage_changes(rec, stage_topics[0])
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
-    if not has_water and scene_publishes(rec, (WaterField, WaterContact)):
+    # (a scene that cannot be read is not said to have water: a ground bounce's was)
+    if not has_water and scene_publishes(rec, (WaterField, WaterContact), unknown=False):
         # left out by --record: the frames show no water at all, where the scene had some
         warnings.warn(f"{rec.path}: the scene has water, but the recording holds none of its channels (a "
                       "--record that left them out): no water is drawn", RenderWarning, stacklevel=2)

@@ -59,8 +59,9 @@ def _fmu_file(params: FMUParams, path: str, base_dir: Path, problems: list[str])
     """The FMU file the parameters name: ``path`` as it is, or ``model`` built (from the cache)."""
     key, given = ("path", params.path) if params.path is not None else ("model", params.model)
     file = base_dir / str(given)
-    if not file.is_file():
-        problems.append(f"{path}.{key}: no such file {given!r} (looked in {base_dir})")
+    if not file.is_file():  # (a folder, a device or a pipe is there, but is no file to read)
+        what = "not a file" if file.exists() else "no such file"
+        problems.append(f"{path}.{key}: {what} {given!r} (looked in {base_dir})")
         return None
     if key == "path":
         return file
