@@ -127,6 +127,12 @@ def test_an_fmu_error_stops_the_run_naming_the_fmu_the_time_and_its_log(tmp_path
     rec = Recording(outcome.recording)
     assert rec.status().status == "failed"
     assert rec.messages("/stone/state", BodyState)[0][0] == 0
+    # the failed doStep is counted ("0 doStep calls" said it was never called), and inspect says why
+    # the recording runs past the failing tick: its stone stepped before the FMU failed
+    assert any(line.endswith("1 doStep call (the last one failed)") for line in outcome.summary)
+    from cosim.record.describe import describe_recording
+
+    assert "the steps taken in the failing tick before its failure" in describe_recording(rec)
 
 
 BAD_MAPPINGS = [

@@ -31,7 +31,7 @@ import numpy as np
 from components.fmu.instance import FmuCallError, FmuInstance
 from components.fmu.mapping import PortMap, build_message, parse_ports, parse_start, read_message
 from cosim.component import Component, Port
-from cosim.errors import SimulationError
+from cosim.errors import SimulationError, counted
 from cosim.messages import Message
 from cosim.params import param
 from cosim.timebase import NS_PER_S
@@ -147,6 +147,7 @@ class FMU(Component):
         })
 
     def setup(self) -> None:
+        self._failed_do_step = False  # whether a doStep refused: the summary counts it
         if self.fmu_file is None:
             raise TypeError("an FMU component is built from a scene (its ports come from the scene's mapping)")
         try:
@@ -181,7 +182,11 @@ class FMU(Component):
                 for fmu_type, positions in _by_type(port).items():
                     self.fmu.set(fmu_type, [port.bindings[i].value_reference for i in positions],
                                  [values[i] for i in positions])
-            self.fmu.do_step(t, dt)
+            try:
+                self.fmu.do_step(t, dt)
+            except FmuCallError:
+                self._failed_do_step = True  # (the summary counts it: "0 doStep calls" said otherwise)
+                raise
             return self._outputs()
         except FmuCallError as exc:
             raise SimulationError(self.name, round(t * NS_PER_S),
@@ -211,7 +216,9 @@ class FMU(Component):
             raise ValueError(f"FMU {self.label}: cannot restore its state: {exc}") from None
 
     def summary(self) -> list[str]:
-        return [f"{self.name}: FMU {self.label} (FMI {self.description.fmiVersion}), {self.step_count} doStep calls"]
+        calls = counted(self.step_count + self._failed_do_step, "doStep call")
+        failed = " (the last one failed)" if self._failed_do_step else ""
+        return [f"{self.name}: FMU {self.label} (FMI {self.description.fmiVersion}), {calls}{failed}"]
 
 
 def _vars(port: PortMap) -> str:

@@ -56,8 +56,10 @@ def describe_recording(rec: Recording) -> str:
     status = rec.status()
     # a component stepping every few ticks stamps its outputs at its step's end, which can lie past the
     # tick the run stopped at: said, so that the two times do not read as a contradiction
-    past = (f" (to t = {(rec.end_ns or 0) / NS_PER_S:g} s: the last step of a component that steps every "
-            f"few ticks ends after the run's last tick)"
+    # (of a failed run, also the outputs of the steps its failing tick took before the failure)
+    why = ("the steps taken in the failing tick before its failure" if status is not None and status.status == "failed"
+           else "the last step of a component that steps every few ticks ends after the run's last tick")
+    past = (f" (to t = {(rec.end_ns or 0) / NS_PER_S:g} s: {why})"
             if status is not None and (rec.end_ns or 0) > round(status.time * NS_PER_S) else "")
     lines.append(f"  time span: {span:g} s{since}{past}, {sum(c.count for c in rec.channels.values())} messages")
     if status is None:
