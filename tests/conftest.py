@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import os
 
+from hypothesis import settings
+
 from cosim.registry import ALLOW_ENV
 
 # the demo scene fixture (``scene``) of the command-line tests; a module's own ``scene`` wins over it
@@ -14,3 +16,9 @@ pytest_plugins = ["tests.cli_toys"]
 _allowed = [p for p in os.environ.get(ALLOW_ENV, "").split(",") if p.strip()]
 if "tests" not in _allowed:
     os.environ[ALLOW_ENV] = ",".join([*_allowed, "tests"])
+
+# Hypothesis' default deadline (200 ms an example) is a wall-clock assertion: on a loaded machine a
+# correct example fails it. The tests assert behaviour, never time, so no example has a deadline;
+# a test's own @settings still sets its own numbers (max_examples and so on) on top of this profile.
+settings.register_profile("cosim", deadline=None)
+settings.load_profile("cosim")

@@ -7,6 +7,7 @@ import os
 import queue
 import re
 import signal
+import struct
 import subprocess
 import sys
 import threading
@@ -106,15 +107,30 @@ def test_the_finished_run_is_still_served_until_ctrl_c(tmp_path):
 
 
 def test_live_linger_stops_serving_after_the_given_time(tmp_path):
-    """`--live-linger 1` keeps serving one second after the run and then exits 0 by itself."""
+    """`--live-linger 1` keeps serving after the run and then exits 0 by itself: a viewer connecting
+    after the "still serving" line is welcomed and told where the run ended (the lingering server's
+    clock broadcast: the run's last time, 0.6 s), so the line is not all there is; once the command
+    has exited, the port is freed."""
     proc, lines = start_live(tmp_path, "--live-linger", "1")
     try:
         match, _ = wait_for(lines, STILL_SERVING)
+        port = int(match.group(1))
         assert match.group(2) == "for 1 s (Ctrl-C to stop sooner)"
+        client = WsClient("127.0.0.1", port)
+        try:
+            assert client.status.endswith("101 Switching Protocols")
+            # text frames (serverInfo, advertise) first; the linger's clock broadcast is the binary
+            # frame with op 2 and the log time in ns (a server gone would end the read with an error)
+            while (frame := client.recv())[0] != 2 or frame[1][0] != 2:
+                pass
+            assert struct.unpack_from("<Q", frame[1], 1)[0] == 600_000_000
+        finally:
+            client.close()
         assert proc.wait(timeout=30) == 0
     finally:
         stop(proc)
     rest_of(lines)
+    assert refused("127.0.0.1", port)
 
 
 def test_live_linger_zero_ends_with_the_run(tmp_path):

@@ -82,24 +82,50 @@ def test_a_plugin_that_cannot_load_leaves_the_other_commands_working(scene, tmp_
     assert "cosim wobble is unavailable: cannot load no_such_module_here:register (ModuleNotFoundError" in line
 
 
-@pytest.mark.parametrize(("signum", "delay"), [*((signal.SIGINT, d) for d in (0.1, 0.2, 0.35, 0.5)),
-                                               *((signal.SIGTERM, d) for d in (0.1, 0.35)),
-                                               *((signal.SIGHUP, d) for d in (0.1, 0.35))])
+def _caught(pid: int) -> int:
+    """The mask of the signals process ``pid`` has a handler for (its /proc status, SigCgt: bit n - 1
+    for signal n), 0 once it has ended."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except (FileNotFoundError, ProcessLookupError):
+        return 0
+    return next((int(line.split()[1], 16) for line in status.splitlines() if line.startswith("SigCgt:")), 0)
+
+
+def _wait_command_started(proc: subprocess.Popen, deadline: float) -> None:
+    """Until `cosim run` ``proc`` has started its recording's writer, a process of its own: the first
+    thing the command does (``_prestart_writer``), after ``main`` has put its signal handlers in and
+    well before the run's own ones; fails if it ends first or the deadline passes."""
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
+    while time.monotonic() < deadline and proc.poll() is None:
+        if children.read_text().split():
+            return
+        time.sleep(0.005)
+    proc.kill()
+    raise AssertionError(f"the command never started its writer: {proc.communicate()[1]}")
+
+
+@pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(),
+                    reason="watches the command through /proc")
+@pytest.mark.parametrize(("signum", "delay"), [*((signal.SIGINT, d) for d in (0, 0.1, 0.35, 0.5)),
+                                               *((signal.SIGTERM, d) for d in (0, 0.35)),
+                                               *((signal.SIGHUP, d) for d in (0, 0.35))])
 def test_ctrl_c_or_sigterm_in_the_first_half_second_is_one_line(tmp_path, signum, delay):
     """SIGINT, SIGTERM or SIGHUP while `cosim run` starts up (importing, building, starting the writer) or
     runs: exit 1 and one line naming the interruption, never a KeyboardInterrupt traceback (a SIGTERM
     before the run's own handler killed the process silently, exit 143). ``delay`` counts from when
-    the interpreter itself is up (a bare `python -c pass` timed just before, on the same machine): a
-    signal while Python is still starting is Python's to report, before any of cosim runs."""
+    the command has begun (it has started its writer process, seen in /proc), not from a guess at
+    the interpreter's start-up time, which a loaded machine outran: a signal while Python is still
+    starting is Python's to report, before any of cosim runs. The signal is caught from then on (its
+    bit in the command's /proc SigCgt), not only once the run's own handler is in."""
     long = tmp_path / "long.yaml"
     long.write_text(SCENE.replace("until: 0.05", "until: 100000"))
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    started = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "pass"], env=env, check=True)
-    interpreter = time.perf_counter() - started
     proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "run", str(long), "-o", str(tmp_path / "l.mcap"),
                              "-q"], cwd=tmp_path, env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    time.sleep(interpreter + delay)
+    _wait_command_started(proc, time.monotonic() + 60)
+    assert _caught(proc.pid) & 1 << (signum - 1), f"{signal.Signals(signum).name} is not caught at start-up"
+    time.sleep(delay)  # spreads where the signal lands in the start-up; the outcome is the same anywhere
     proc.send_signal(signum)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 1, err

@@ -7,7 +7,6 @@ import argparse
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -40,11 +39,10 @@ def test_a_bad_option_is_a_usage_error(args):
 
 
 def test_contact_push_help_runs_no_study():
-    start = time.perf_counter()
     done = _tool("tools/contact_push.py", "--help")
     assert done.returncode == 0, done.stderr
+    # had --help run the study, its table (headed "| throw |") would follow the usage text
     assert done.stdout.startswith("usage:") and "| throw |" not in done.stdout
-    assert time.perf_counter() - start < 10.0  # the study takes about 10 s on its own
 
 
 def test_validate_targets_figure_goes_beside_the_page(tmp_path):

@@ -21,13 +21,14 @@ C = math.sqrt(GRAVITY * DEPTH)
 
 
 def reflected_fraction(model: str, cfl: float, *, n: int = 96, width_cells: float = 4.0,
-                       sponge_cells: int = 0) -> float:
-    """Largest energy of (absorbing pond - wide reference) over the energy that reached the edges."""
+                       sponge_cells: int = 0, boundary: str = "absorbing") -> float:
+    """Largest energy of (small pond - wide reference) over the energy that reached the edges; the
+    small pond's edges are ``boundary`` (absorbing unless the reference check asks for reflecting)."""
     dt = cfl * CELL / C
     mid = (n - 1) * CELL / 2
     centre = GaussianBump(x=mid, y=mid, amplitude=1e-3, width=width_cells * CELL)
     small = WaterSurface("small", WaterParams(nx=n, ny=n, cell=CELL, depth=DEPTH, model=model, initial=centre,
-                                              boundary="absorbing", sponge_cells=sponge_cells))
+                                              boundary=boundary, sponge_cells=sponge_cells))
     wide = WaterSurface("wide", WaterParams(nx=3 * n, ny=3 * n, cell=CELL, depth=DEPTH, model=model,
                                             origin_x=-n * CELL, origin_y=-n * CELL, initial=centre))
     inner = (slice(n, 2 * n), slice(n, 2 * n))
@@ -68,8 +69,17 @@ def test_sponge_helps_the_implicit_model_at_long_steps():
     assert reflected_fraction("shallow_water", 2.0, sponge_cells=16) < 0.05
 
 
-def test_reflecting_walls_send_the_pulse_back():
-    """The reference check: with reflecting walls the same measure sees the whole pulse return."""
+@pytest.mark.parametrize(("model", "returned"), [("wave", 0.8), ("shallow_water", 0.3)])
+def test_reflecting_walls_send_the_pulse_back(model, returned):
+    """The reference check: with reflecting walls the same measure (the pulse of the first test) sees
+    the pulse return, so the absorbing edges' few per cent are theirs, not a measure blind to
+    reflections: measured 1.02 of the incident energy for the explicit model and 0.44 for the implicit
+    one, whose own numerical damping takes the rest over the round trip (absorbing: 0.005 and 0.006)."""
+    assert reflected_fraction(model, 0.5, boundary="reflecting") > returned
+
+
+def test_reflecting_walls_keep_the_pulse_energy():
+    """Closed, the explicit model's pond keeps the pulse's energy through its reflections."""
     n, dt = 64, 0.5 * CELL / C
     p = WaterSurface("p", WaterParams(nx=n, ny=n, cell=CELL, depth=DEPTH,
                                       initial=GaussianBump(x=0.315, y=0.315, amplitude=1e-3, width=0.04)))

@@ -34,7 +34,8 @@ class DropParams:
 
     x: float = param(0.0, unit="m", doc="centre x of the displacement")
     y: float = param(0.0, unit="m", doc="centre y")
-    radius: float = param(0.03, unit="m", ge=CELL_MIN, doc="radius of the occupied disk (at least 1 um)")
+    radius: float = param(0.03, unit="m", ge=CELL_MIN, le=1000,  # 1e308 overflowed its window's cell count
+                          doc="radius of the occupied disk (1 um to 1 km)")
     height: float = param(0.01, unit="m", ge=0, le=1000,  # 1e308 overflowed the water to inf mid-run
                           doc="peak occupied height at the centre")
     start: float = param(0.0, unit="s", ge=0, doc="time the body starts entering")
@@ -48,14 +49,16 @@ class DropParams:
     ny: int = param(128, ge=1, doc="cells of the water grid along y")
 
     def check(self) -> list[tuple[str, str]]:
-        """A drop whose disk misses the water grid would displace nothing: refused, with the grid's extent."""
+        """A drop whose disk misses the water grid would displace nothing: refused, with the grid's extent
+        and the parameters that set it (a grid moved away by origin_x is refused under x: both are named)."""
         half = 0.5 * self.cell
         x_lo, x_hi = self.origin_x - half, self.origin_x + (self.nx - 0.5) * self.cell
         y_lo, y_hi = self.origin_y - half, self.origin_y + (self.ny - 0.5) * self.cell
         if (self.x + self.radius <= x_lo or self.x - self.radius >= x_hi
                 or self.y + self.radius <= y_lo or self.y - self.radius >= y_hi):
             return [("x", f"the drop at ({self.x:g}, {self.y:g}) m, radius {self.radius:g} m, misses the water "
-                          f"grid, x {x_lo:g} to {x_hi:g} m and y {y_lo:g} to {y_hi:g} m")]
+                          f"grid, x {x_lo:g} to {x_hi:g} m and y {y_lo:g} to {y_hi:g} m (as its origin_x, origin_y, "
+                          "cell, nx and ny place it)")]
         return []
 
 
