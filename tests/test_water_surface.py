@@ -93,6 +93,10 @@ def test_initial_trough_shallower_than_the_depth():
     assert problems_of({"depth": 0.2, "initial": {"x": 0.0, "y": 0.0, "amplitude": -0.2, "width": 0.02}}) == [
         "components.pond.initial: a trough must be shallower than the depth 0.2 m: one reaching the bed leaves "
         "no water (got amplitude -0.2 m)"]
+    # a slope whose bed overflows was refused with numpy's "overflow encountered in multiply"
+    assert problems_of({"bottom_slope": [1e308, 0.0]}) == [
+        "components.pond.bottom_slope: each part at most 1000 m/m, a cliff, in size (got [1e+308, 0.0])"]
+    assert problems_of({"bottom_slope": [-1000.0, 1000.0]}) == []
     # a width whose square underflows filled the water with NaN and the run said ok
     assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 0.01, "width": 1e-300}}) == [
         "components.pond.initial.width: must be >= 1e-06 m (got 1e-300)"]

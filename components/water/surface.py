@@ -79,6 +79,7 @@ KERNELS: dict[str, Any] = {"numba": kernels_numba.SERIAL, "numpy": kernels_numpy
 """Kernel sets by name: the compiled one and the pure-numpy reference."""
 
 MAX_BUMP = 1000.0  # [m] the highest initial bump taken: far above any pond's, far below where squares overflow
+MAX_SLOPE = 1000.0  # [m/m] the steepest bed: a cliff, far below where the bed's heights overflow (1e308 did)
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
 FIELD_WINDOW_STEP = 32  # [cells] the field window's corner moves in steps of this many cells
 CREST_RESOLUTION = 1000.0  # [1/m] the crest a patch says is rounded up to 1 / this (a millimetre)
@@ -115,7 +116,8 @@ class WaterParams:
     rest_level: float = param(0.0, unit="m", ge=-LEVEL_MAX, le=LEVEL_MAX,
                               doc="z of the undisturbed surface (within 1000 km of z = 0)")
     bottom_slope: tuple[float, float] = param(
-        (0.0, 0.0), unit="m/m", doc="bed slope (dz/dx, dz/dy); cells with the bed above rest level are dry")
+        (0.0, 0.0), unit="m/m",
+        doc="bed slope (dz/dx, dz/dy), each at most 1000 in size; cells with the bed above rest level are dry")
     model: str = param("wave", doc="wave (explicit), shallow_water (implicit, Kass-Miller) or airy (water's "
                                    "dispersion, each basin mode stepped exactly; a flat bed only; slower)")
     wave_speed: float | None = param(None, unit="m/s", gt=0, le=WAVE_SPEED_MAX,
@@ -180,7 +182,10 @@ class WaterParams:
                                         f"(got amplitude {self.initial.amplitude:g} m)"))
         if self.field_window is not None and min(self.field_window) <= 0:
             problems.append(("field_window", f"must be two sizes > 0 [m] (got {list(self.field_window)})"))
-        if self.model == "airy" and tuple(self.bottom_slope) != (0.0, 0.0):
+        if not all(abs(float(c)) <= MAX_SLOPE for c in self.bottom_slope):  # (NaN too)
+            problems.append(("bottom_slope", f"each part at most {MAX_SLOPE:g} m/m, a cliff, in size (got "
+                                             f"{list(self.bottom_slope)})"))
+        elif self.model == "airy" and tuple(self.bottom_slope) != (0.0, 0.0):
             problems.append(("bottom_slope", f"must be [0, 0] with model airy, whose modes are those of a "
                                              f"flat bed (got {list(self.bottom_slope)})"))
         if self.model == "airy" and self.wave_speed is not None:
