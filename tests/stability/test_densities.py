@@ -81,6 +81,19 @@ CORK = {
 }
 
 
+# Over the last second of the cork runs: (bound on the mean's error, bound on any sample's error) [m]
+# against the Archimedes height. Measured: the flat disk's mean within 3.2 um (shallow water) and 1.5 um
+# (wave), every sample within 39 um and 185 um; the sphere, bobbing on in the closed basin, its mean
+# within 40 um and 136 um, every sample within 1.0 mm and 3.6 mm. A buoyancy 5% too strong raises the
+# float height by 69 um (disk) and 0.53 mm (sphere), one 25% too strong by 0.29 mm and 2.3 mm.
+CORK_BANDS = {
+    ("disk", "shallow_water"): (2e-5, 1e-4),
+    ("disk", "wave"): (2e-5, 3e-4),
+    ("sphere", "shallow_water"): (3e-4, 1.5e-3),
+    ("sphere", "wave"): (3e-4, 5e-3),
+}
+
+
 @pytest.mark.parametrize(("shape", "model"), [
     ("sphere", "shallow_water"),
     ("sphere", "wave"),
@@ -88,9 +101,13 @@ CORK = {
     ("disk", "wave"),
 ])
 def test_cork_floats_at_its_archimedes_height(shape, model):
-    """A cork sphere (R = 3 cm) or flat disk dropped from 1 cm floats: over its last second the centre
-    stays within 1 mm of the Archimedes height above still water, and the water's energy, once the
-    splash has spread (0.3 s), does not grow (at most 1.2 times its value then)."""
+    """A cork sphere (R = 3 cm) or flat disk (6 mm thick) dropped from 1 cm floats at its Archimedes
+    height above still water (the disk 1.56 mm, the sphere 10.88 mm): over its last second the
+    centre's mean is within 20 um of it (disk) or 0.3 mm (sphere), and every sample within 0.1 mm
+    (disk, shallow water), 0.3 mm (disk, wave), 1.5 mm (sphere, shallow water) or 5 mm (sphere,
+    wave: still bobbing in the closed basin), see ``CORK_BANDS``; a buoyancy 5% off moves the mean
+    out of its band. The water's energy, once the splash has spread (0.3 s), does not grow (at most
+    1.2 times its value then)."""
     radius, thickness = (0.03, 0.0) if shape == "sphere" else (0.05, 0.006)
     level = float_height(shape, 240.0, radius, thickness)
     start = level + (radius if shape == "sphere" else thickness) + 0.01
@@ -102,7 +119,9 @@ def test_cork_floats_at_its_archimedes_height(shape, model):
     assert_volume_kept(r)
     assert_stone_never_gains_energy(r)
     last = r.t >= r.t[-1] - 1.0
-    assert r.position[last, 2].mean() == pytest.approx(level, abs=1e-3)
+    mean_band, swing_band = CORK_BANDS[shape, model]
+    assert r.position[last, 2].mean() == pytest.approx(level, abs=mean_band)
+    assert np.abs(r.position[last, 2] - level).max() < swing_band
     assert np.abs(r.position[:, :2] - r.position[0, :2]).max() < 0.01
     assert_water_energy_not_growing(r, after=0.3, factor=1.2)
     assert math.isfinite(r.water_energy[-1])
