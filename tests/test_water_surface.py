@@ -397,6 +397,26 @@ def test_summary_counts_one_tile_and_one_step_in_the_singular():
     assert "(of 1 tile of 32 x 32 cells, over 1 step)" in line
 
 
+def test_a_wave_that_takes_the_surface_under_a_beachs_bed_is_said():
+    """A 1 cm wave running up a 1:10 beach takes the surface 7.2 mm under the bed by the shore: the
+    linear model keeps its shoreline where it is at rest. The summary says where and when (it said
+    nothing of it); a checkpoint keeps it, and a flat pond says nothing of a bed."""
+    params = WaterParams(nx=120, ny=8, cell=0.01, depth=0.05, bottom_slope=(0.1, 0.0),
+                         initial=GaussianBump(x=0.3, y=0.035, amplitude=0.01, width=0.05))
+    p = WaterSurface("pond", params)
+    dt_ns = 2_000_000
+    for k in range(1500):
+        p.step(k * dt_ns, dt_ns, {})
+    (line,) = p.summary()
+    assert line.endswith("; the surface went 7.17 mm under the bed at x = 1.09 m, y = 0 m (t = 1.996 s): a wave "
+                         "too large for the shallows of this bed, where the model, linear about the water at "
+                         "rest, keeps the shoreline fixed")
+    again = WaterSurface("pond", params)
+    again.set_state(p.checkpoint_state())
+    assert again.summary() == [line]
+    assert "under the bed" not in pond().summary()[0]
+
+
 def test_components_with_compiled_kernels_start_numba_when_built(monkeypatch):
     """Building a water surface on the numba backend, or a water coupler, starts numba's compiler
     (components.compiled.start), so that its half-second start-up is not counted in a run's wall

@@ -83,6 +83,8 @@ MAX_SLOPE = 1000.0  # [m/m] the steepest bed: a cliff, far below where the bed's
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
 FIELD_WINDOW_STEP = 32  # [cells] the field window's corner moves in steps of this many cells
 CREST_RESOLUTION = 1000.0  # [1/m] the crest a patch says is rounded up to 1 / this (a millimetre)
+SHORE_CHECK_EVERY = 2  # [steps] how often a sloped bed's shallows are looked at for a surface under the bed
+SHALLOWS = 0.25  # the shallows: water at rest less deep than this share of the depth at the grid's centre
 BLUR_WEIGHT = 0.125  # weight of each neighbour difference in one displacement blur pass (<= 1/8: monotone)
 
 
@@ -311,6 +313,14 @@ class WaterSurface(Component):
         self.tiles = Tiles(shape, p.tile, p.rest_below) if tiling_applies(
             tile=p.tile, model=p.model, uniform=g.c2_uniform is not None, smoothing=p.smoothing,
             backend=p.backend, parallel=p.parallel) else None
+        # a sloped bed's shallows, which the linear models cannot dry (the shoreline stays where it is
+        # at rest): where a wave takes the surface under the bed there is watched, and said (_check_shore)
+        self._shore = None
+        if not holds_one_value(int(p.nx), int(p.ny), p.bottom_slope):
+            cells = np.flatnonzero(g.wet & (g.depth0 < SHALLOWS * p.depth))
+            if cells.size:
+                self._shore = (cells, np.ascontiguousarray(g.depth0.ravel()[cells]))
+        self._under_bed: tuple[float, float, float, float] | None = None  # (depth < 0 [m], x, y, t) at its lowest
         # spare buffers: each step writes into them, then they swap. Tiled, a tile left at rest
         # must find zeros there; np.zeros maps its pages lazily, so a lake's far water costs no memory
         self._h2 = np.zeros(shape) if self.tiles is not None else np.empty(shape)
@@ -421,7 +431,16 @@ class WaterSurface(Component):
         return [f"{self.name}: {p.model} on {g.nx} x {g.ny} cells of {g.cell:g} m, {self._waves()}, "
                 f"{p.boundary} edges; volume change {change:+.3g} (relative); surface energy "
                 f"{surface_energy(self.grid, self._h):.3g} J (1/2 rho g sum eta^2 s^2; the model's "
-                f"{self.model.invariant} {self.energy():.3g} J); {self._activity()}"]
+                f"{self.model.invariant} {self.energy():.3g} J); {self._activity()}{self._shore_said()}"]
+
+    def _shore_said(self) -> str:
+        """What the summary says of a surface that went under the bed (:meth:`_check_shore`), if one did."""
+        if self._under_bed is None:
+            return ""
+        depth, x, y, t = self._under_bed
+        return (f"; the surface went {-depth * 1e3:.3g} mm under the bed at x = {x:.4g} m, y = {y:.4g} m "
+                f"(t = {t:.4g} s): a wave too large for the shallows of this bed, where the model, linear "
+                "about the water at rest, keeps the shoreline fixed")
 
     def _waves(self) -> str:
         """At what speed the water ran its waves, and why that speed."""
@@ -471,6 +490,7 @@ class WaterSurface(Component):
             "follow": list(self._follow) if self._follow is not None else None,
             "asked": [list(c) if c is not None else None for c in self._asked],
             "model": self.model.get_state(),
+            "under_bed": list(self._under_bed) if self._under_bed is not None else None,
         } | ({"tiles": self.tiles.get_state()} if self.tiles is not None else {}) | (
             {"bodies": [_window_state(o.b, o.window) for o in self._occupants]} if len(self._occupants) > 1 else {})
 
@@ -503,6 +523,8 @@ class WaterSurface(Component):
         self._next_frame = int(state["next_frame"])
         self._first_frame_waits = bool(state.get("first_frame_waits", False))
         self._displaced_before = float(state.get("displaced_before", 0.0))
+        under = state.get("under_bed")
+        self._under_bed = tuple(float(c) for c in under) if under is not None else None  # type: ignore[assignment]
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
         asked = state.get("asked") or [None] * len(self.body_ports)  # saved before it was kept: each new again
@@ -547,7 +569,24 @@ class WaterSurface(Component):
         for _ in range(n):
             self.advance(sub)
         self._steps += 1
+        if self._shore is not None and self._steps % SHORE_CHECK_EVERY == 0:
+            self._check_shore(t + dt)
         return self._outputs(t + dt, inputs)
+
+    def _check_shore(self, t: float) -> None:
+        """Keep where the surface of the shallows lies lowest under the bed, if anywhere (a wave running
+        up a beach: the linear models keep their shoreline at rest and let a column's water go below
+        nothing; 7 mm under the bed for a 1 cm wave on a 1:10 beach), said by :meth:`summary`. Every
+        SHORE_CHECK_EVERY steps, over the shallows only: a trough lasts several steps, and only where
+        the water is shallow beside the waves does it reach the bed."""
+        cells, depth0 = self._shore
+        depth = self._h.ravel()[cells] + depth0
+        k = int(np.argmin(depth))
+        lowest = float(depth[k])
+        if lowest < 0.0 and (self._under_bed is None or lowest < self._under_bed[0]):
+            j, i = divmod(int(cells[k]), self.grid.nx)
+            g = self.grid
+            self._under_bed = (lowest, g.origin_x + i * g.cell, g.origin_y + j * g.cell, t)
 
     def advance(self, dt: float) -> None:
         """Advance the field by dt [s] with no input (model, boundary, smoothing)."""
