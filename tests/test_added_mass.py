@@ -56,6 +56,48 @@ def test_the_energy_the_water_carries_along_is_in_the_books(shape):
     assert max(values) - min(values) < 1e-12
 
 
+def _body(**params) -> RigidBody:
+    problems: list[str] = []
+    built = build(RigidBody.Params, params, "stone", problems)
+    assert not problems, problems
+    return RigidBody("stone", built)
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "semi_implicit_euler", "rk4"])
+@pytest.mark.parametrize("shape", ["sphere", "disk"])
+def test_the_body_alone_takes_its_added_mass_exactly(shape, integrator):
+    """The body alone, the buoyancy rho V g held on it and its whole added mass given: it sinks at
+    g (M - rho V) / (M + M_a) exactly (to 1e-12; the scene's 0.5% above is the water's own forces
+    besides), by every integrator."""
+    body = _body(shape=shape, radius=0.05, thickness=0.006, density=2650.0, position=[0.0, 0.0, -1.0],
+                 integrator=integrator)
+    mass, volume = body.body.mass, body.body.volume
+    added = full_added_mass(Shape.DISK if shape == "disk" else Shape.SPHERE, 0.05, RHO)
+    buoyancy = Wrench(np.array([0.0, 0.0, RHO * volume * 9.81]), np.zeros(3))
+    for k in range(200):
+        state = body.step(k * 500_000, 500_000, {"wrench": buoyancy, "impulse": None, "added_mass": added})["state"]
+    exact = -9.81 * (mass - RHO * volume) / (mass + added.axial)
+    assert state.velocity[2] / 0.1 == pytest.approx(exact, rel=1e-12)
+
+
+def test_a_changing_added_mass_alone_neither_speeds_nor_slows_the_body():
+    """No force on it, the body's share of its added mass going 0, 1/4, 1/2, 1, 1/2, 0 (as it goes
+    under and comes out): its velocity and its own kinetic energy stay as they were (the water's
+    reaction is -M_a a, and a is zero), to round-off."""
+    body = _body(gravity=[0.0, 0.0, 0.0], radius=0.05, thickness=0.006, density=2650.0, velocity=[0.0, 0.0, 2.0],
+                 angular_velocity=[30.0, 0.0, 0.0], spin=200.0)
+    full = full_added_mass(Shape.DISK, 0.05, RHO)
+    start = body.initial_outputs()["state"]
+    k = 0
+    for share in (0.0, 0.25, 0.5, 1.0, 0.5, 0.0):
+        for _ in range(100):
+            state = body.step(k * 500_000, 500_000, {"wrench": None, "impulse": None,
+                                                     "added_mass": scaled(full, share)})["state"]
+            k += 1
+    assert state.velocity[2] == pytest.approx(2.0, rel=1e-12)
+    assert state.kinetic_energy == pytest.approx(start.kinetic_energy, rel=1e-12)
+
+
 def test_the_body_takes_the_water_along_its_axis_and_across_it_apart():
     """(M + M_a) a = F: along the axis with the axial added mass, across it with the radial one; the
     water's moments of inertia about a diameter and about the axis are added to the body's."""

@@ -51,6 +51,21 @@ def test_verlet_free_fall_from_rest_hits_the_exact_time_and_speed():
     assert s.velocity[2] == pytest.approx(-9.81 * 0.4, rel=1e-14)
 
 
+def test_semi_implicit_euler_falls_behind_the_exact_fall_by_exactly_g_t_dt_over_2():
+    """The semi-implicit (symplectic) Euler step moves with the velocity at the step's end: in free
+    fall its height is the exact one less g t dt / 2 (sum of k g dt^2 over the steps), its speed exact,
+    to round-off, at every step size: a first-order position error of known size, not merely of
+    first order."""
+    for dt in (1e-3, 5e-4, 2.5e-4):
+        s = dyn.RigidState((0.0, 0.0, 1.0), quat.IDENTITY, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        n = round(0.4 / dt)
+        for k in range(n):
+            s = INTEGRATORS["semi_implicit_euler"](DISK, s, weight(DISK), k * dt, dt)
+        t = n * dt
+        assert s.position[2] == pytest.approx(1.0 - 0.5 * 9.81 * t * t - 0.5 * 9.81 * t * dt, rel=1e-13)
+        assert s.velocity[2] == pytest.approx(-9.81 * t, rel=1e-13)
+
+
 # --- a smooth problem with position-, velocity- and orientation-dependent loads ----------------------
 
 SPRING, DAMPING = 40.0, 0.3   # [N/m], [N s/m]
