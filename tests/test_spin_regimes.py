@@ -19,6 +19,10 @@ def test_the_history_is_the_tables_throw():
     wet = h.time_s[h.wetted]
     assert abs((wet[-1] - wet[0]) - h.outcome.contact_s) < 2e-4
     assert h.time_s[0] == 0.0 and np.all(np.diff(h.time_s) > 0)
+    # and what the figure shows of it is Rosellini et al.'s fig. 7: the attack dips below 10 deg in
+    # the contact and is back above 12 deg when the disk leaves the water, which it does
+    assert h.attack_deg[h.wetted].min() < 10.0 < 12.0 < h.attack_deg[h.wetted][-1]
+    assert h.outcome.bounced
 
 
 def test_the_tool_draws_the_three_regimes(tmp_path, capsys):
