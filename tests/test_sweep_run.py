@@ -231,6 +231,24 @@ def semaphores() -> set[str]:
     return {p.name for p in shm.iterdir() if p.name.startswith("sem.mp-")} if shm.is_dir() else set()
 
 
+def semaphores_of_group(pgid: int) -> set[str]:
+    """The multiprocessing semaphores the processes of group ``pgid`` have mapped (from their
+    /proc maps): those a sweep's pool made, not another program's made meanwhile."""
+    names = set()
+    for proc in Path("/proc").iterdir():
+        if not proc.name.isdigit():
+            continue
+        try:
+            stat = (proc / "stat").read_text()
+            if int(stat.rsplit(")", 1)[1].split()[2]) != pgid:  # the fields after the name: state, ppid, pgrp
+                continue
+            maps = (proc / "maps").read_text()
+        except (OSError, ValueError, IndexError):  # gone meanwhile
+            continue
+        names |= {line.rsplit("/", 1)[1] for line in maps.splitlines() if "/dev/shm/sem.mp-" in line}
+    return names
+
+
 def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
     """`cosim sweep` killed with SIGKILL (workers and all) keeps the rows it wrote; running it again
     finishes the rest, and the table equals that of a sweep never interrupted. The pool's semaphores
@@ -240,7 +258,6 @@ def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
     path = write_sweep(tmp_path, body)
     out = tmp_path / "killed.csv"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    before = semaphores()
     proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-o", str(out), "-q",
                              "--workers", "1"], cwd=tmp_path, env=env, start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -249,15 +266,17 @@ def test_a_sweep_killed_halfway_resumes_to_the_same_table(tmp_path, pool):
         if out.exists() and len(out.read_text().splitlines()) >= 4:  # header + 3 rows
             break
         time.sleep(0.02)
+    made = semaphores_of_group(proc.pid)  # the pool's own (another program's may come and go meanwhile)
+    assert made, "the sweep's pool should hold its semaphores"
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait(10)
     proc.stderr.close()
     written = len(out.read_text().splitlines()) - 1
     assert 3 <= written < 12, "the sweep should have been killed halfway"
     deadline = time.monotonic() + 30
-    while semaphores() - before and time.monotonic() < deadline:  # removed once the tracker sees all gone
+    while semaphores() & made and time.monotonic() < deadline:  # removed once the tracker sees all gone
         time.sleep(0.05)
-    assert not semaphores() - before, "the killed sweep left its semaphores in /dev/shm"
+    assert not semaphores() & made, "the killed sweep left its semaphores in /dev/shm"
     sweep = load_sweep(path)
     outcome = run_sweep(sweep, out, pool, progress=False, figure=False)
     assert outcome.already == written and outcome.ran == 12 - written
