@@ -1040,8 +1040,9 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         cp = seconds_value(values.checkpoint_every, "record.checkpoint_every", problems,
                            zero="no checkpoints")
         if cp and dt_ns is not None and cp < dt_ns:
+            given = "" if "checkpoint_every" in raw_record else ", the default"  # a scene that set none
             problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
-                            f"(got {values.checkpoint_every:g})")
+                            f"(got {values.checkpoint_every:g}{given})")
         elif (cp and dt_ns is not None and "checkpoint_every" in raw_record
               and not _whole_multiple(values.checkpoint_every, cp, dt_ns)):
             # checkpoints are taken at base steps: one given between them was rounded to the nearest

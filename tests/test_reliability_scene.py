@@ -287,6 +287,15 @@ def test_every_record_problem_is_said_at_once():
                                   "record.checkpoint_every: must be finite (got nan)"]
 
 
+def test_a_default_checkpoint_interval_under_dt_is_said_to_be_the_default():
+    """A scene with no record section and dt = 2 s: the checkpoint interval it is refused for (1 s)
+    is the default, said so; it read as if the scene had set it."""
+    text = "dt: 0.001\nuntil: 4\ncomponents:\n  g: {type: \"tests.toys:Gain\"}\n"
+    with pytest.raises(ScenarioError) as err:
+        loads(text, "s.yaml", ["dt=2"])
+    assert "record.checkpoint_every: must be 0 (none) or at least dt = 2 s (got 1, the default)" in err.value.problems
+
+
 def test_an_end_before_the_first_step_is_refused():
     """until 0.2 s with dt 0.5 s: the run's one whole step would take it to 0.5 s, 2.5 times the end asked
     for (it ran there, "ok - reached t = 0.5 s"); refused naming both."""
