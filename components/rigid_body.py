@@ -56,6 +56,9 @@ Vec3Param = tuple[float, float, float]
 # [rad]: at the bound a disk spun at 1000 rad/s and kicked across its axis is 19 deg off after 1 s, at
 # half of it 0.7 deg; the exact-drift integrators have no such bound.
 RK4_MAX_ROTATION_PER_STEP = 0.5
+# a held disk's angular velocity may lean off its axis by this share of itself: a spin typed to a few
+# digits along a tilted axis ([-34.2, 0, 93.97] at 20 deg) is one
+HELD_TURN_ACROSS = 1e-3
 
 
 MAX_INERTIA_RATIO = 1e8
@@ -129,25 +132,26 @@ class RigidBodyParams:
     def _held_turn_problems(self) -> list[tuple[str, str]]:
         """A held disk (lock_attitude) given an angular velocity across its axis: the attitude never
         turns, yet the rim would move at that rate (the water's friction reading v + omega x r, the
-        published kinetic energy counting a turn that never happens). A spin about the axis is held;
-        a sphere looks the same turned any way, so any turn of it is a spin."""
+        published kinetic energy counting a turn that never happens). A spin about the axis is held,
+        also one typed to a few digits (its part across the axis under a thousandth of it); a sphere
+        looks the same turned any way, so any turn of it is a spin."""
         if not self.lock_attitude or self.shape != "disk" or not any(self.angular_velocity) or not any(self.tilt_axis):
             return []
         w = [float(c) for c in self.angular_velocity]
-        if not all(math.isfinite(c) for c in w):
-            return []  # (said by the value's own check)
+        size = math.hypot(*w)
+        if not math.isfinite(size * size):
+            return []  # (an energy that overflows, or not a number: said by the value's own checks)
         try:
             n = quat.body_axis(quat.from_axis_angle(as_vec(self.tilt_axis), math.radians(self.tilt_deg)))
         except ValueError:
             return []  # (a NaN axis: said by the axis's own check)
         along = sum(a * b for a, b in zip(w, n, strict=True))
-        across = math.sqrt(sum((a - along * b) ** 2 for a, b in zip(w, n, strict=True)))
-        if across <= 1e-9 * math.sqrt(sum(a * a for a in w)):
+        across = math.hypot(*(a - along * b for a, b in zip(w, n, strict=True)))
+        if across <= HELD_TURN_ACROSS * size:
             return []
-        axis = ", ".join(f"{along * c if abs(along * c) > 1e-12 * abs(along) else 0.0:.4g}" for c in n)
         return [("angular_velocity", f"turns the held disk across its axis at {across:.4g} rad/s, which "
-                                     "lock_attitude never does (the rim would move as if it did): keep only its "
-                                     f"part about the axis ([{axis}] here; or use spin), or leave the attitude free")]
+                                     "lock_attitude never does (the rim would move as if it did): give only its "
+                                     f"turn about the axis, as spin: {along:.6g}, or leave the attitude free")]
 
     def shape_id(self) -> Shape:
         """The shape as the messages name it."""

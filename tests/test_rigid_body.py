@@ -69,12 +69,12 @@ def test_unknown_integrator_is_reported_with_the_choices():
     # a held disk turned across its axis: the rim moved at 1 m/s, the attitude never turned
     ({"lock_attitude": True, "angular_velocity": [0, 20, 0]},
      "stone.angular_velocity: turns the held disk across its axis at 20 rad/s, which lock_attitude never does "
-     "(the rim would move as if it did): keep only its part about the axis ([0, 0, 0] here; or use spin), or leave "
-     "the attitude free"),
+     "(the rim would move as if it did): give only its turn about the axis, as spin: 0, or leave the attitude "
+     "free"),
     ({"lock_attitude": True, "tilt_deg": 90.0, "angular_velocity": [3, 0, 4]},
      "stone.angular_velocity: turns the held disk across its axis at 4 rad/s, which lock_attitude never does "
-     "(the rim would move as if it did): keep only its part about the axis ([3, 0, 0] here; or use spin), or leave "
-     "the attitude free"),
+     "(the rim would move as if it did): give only its turn about the axis, as spin: -3, or leave the attitude "
+     "free"),
 ])
 def test_inconsistent_parameters_are_reported_with_their_path(params, problem):
     """Each rule across fields is reported as 'path: rule (got value)'."""
@@ -86,6 +86,11 @@ def test_a_held_body_may_turn_about_its_axis_and_a_held_ball_any_way():
     +x), and any turn of a sphere, which looks the same turned any way."""
     assert problems_of(lock_attitude=True, tilt_deg=90.0, angular_velocity=[5, 0, 0]) == []
     assert problems_of(lock_attitude=True, shape="sphere", angular_velocity=[0, 20, 0]) == []
+    # a spin typed to four digits along the axis tilted 20 deg about y (its across part 2e-5 of it)
+    assert problems_of(lock_attitude=True, tilt_deg=20.0, angular_velocity=[-34.2, 0, 93.97]) == []
+    # too large to hold is the energy's problem, said as such (the check squared it and overflowed)
+    assert problems_of(lock_attitude=True, angular_velocity=[1e300, 0, 1e300]) == [
+        "stone.angular_velocity: makes the stone's kinetic energy overflow a float (got (1e+300, 0.0, 1e+300))"]
 
 
 def test_a_sphere_accepts_zero_thickness():
