@@ -347,6 +347,58 @@ def test_a_row_with_a_quote_never_closed_is_refused_and_a_row_cut_short_is_dropp
     assert [r["index"] for r in rows_of(out)] == [str(i) for i in range(9)]
 
 
+TABLE_COLUMNS = ["index", "point_id", "status", "reason", "wall_s"]
+
+
+def _table_text(reasons: list[str]) -> bytes:
+    """A table of failed rows with these reasons, as the sweep writes it."""
+    import io
+
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(TABLE_COLUMNS)
+    for i, reason in enumerate(reasons):
+        writer.writerow([i, f"p{i}", "failed", reason, 0.5])
+    return buf.getvalue().encode()
+
+
+def test_a_table_cut_anywhere_in_a_reason_with_commas_on_its_own_lines_resumes(tmp_path):
+    """A failure's reason over several lines, one of them with as many commas as the table has
+    columns: cut at any byte (a kill), the table resumes with its whole rows, the cut one dropped (it
+    was refused as a quote never closed, its other lines taken for rows)."""
+    from cosim.sweep.table import ResultTable, meta_path
+
+    reasons = ["ok", "ValueError: in a, b, c, d, e\n  got x, y, z, w, v\nend", "two\nlines"]
+    full = _table_text(reasons)
+    order = {f"p{i}": i for i in range(len(reasons))}
+    header = full.index(b"\n") + 1
+    for cut in range(header, len(full) + 1):
+        path = tmp_path / f"t{cut}.csv"
+        path.write_bytes(full[:cut])
+        meta_path(path).write_text(json.dumps({"fingerprint": "fp"}))
+        table = ResultTable(path, TABLE_COLUMNS, {"fingerprint": "fp"})
+        kept = table.open(order)
+        table.close()
+        whole = [i for i in range(len(reasons)) if len(_table_text(reasons[:i + 1])) <= cut]
+        assert sorted(kept) == [f"p{i}" for i in whole], cut
+        assert all(kept[f"p{i}"]["reason"] == reasons[i] for i in whole)
+
+
+def test_a_quote_never_closed_over_a_large_table_is_refused_in_words(tmp_path):
+    """Past the csv module's 128 KiB field limit, the quote never closed was an internal error."""
+    from cosim.sweep.table import ResultTable, meta_path
+
+    reasons = [f"failure {i}" for i in range(8000)]
+    lines = _table_text(reasons).decode().splitlines(keepends=True)
+    path = tmp_path / "big.csv"
+    path.write_text("".join([lines[0], lines[1].replace(",failure 0,", ',"failure 0,'), *lines[2:]]))
+    meta_path(path).write_text(json.dumps({"fingerprint": "fp"}))
+    table = ResultTable(path, TABLE_COLUMNS, {"fingerprint": "fp"})
+    with pytest.raises(ScenarioError, match=r"big\.csv: line \d+: not a table this sweep wrote \(field larger than "
+                                            r"field limit \(131072\)\); use --fresh"):
+        table.open({f"p{i}": i for i in range(8000)})
+
+
 def test_a_table_that_is_not_text_is_refused_and_left_as_it_is(tmp_path, pool):
     """A table made garbage (not UTF-8) beside its intact meta file: refused naming it, with --fresh
     offered, the file untouched (an internal UnicodeDecodeError, after its last "row" was cut off)."""

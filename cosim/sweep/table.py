@@ -154,12 +154,21 @@ class ResultTable:
             yield first, reader.line_num, values
             first = reader.line_num + 1
 
-    @staticmethod
-    def _swallows_rows(raw: bytes, first_line: int, columns: int) -> bool:
+    def _swallows_rows(self, raw: bytes, first_line: int, known_ids: set[str]) -> bool:
         """Whether the text from line ``first_line`` of ``raw`` on holds, after its first line, a line
-        that is a whole row by itself: the rows after a quote never closed, not the rest of one row."""
-        lines = raw[_offset_of_line(raw, first_line):].decode("utf-8").split("\n")[1:]
-        return any(len(next(csv.reader([line]), [])) == columns for line in lines if line)
+        that is a whole row of this sweep by itself (its fields as many as the columns, its index a
+        number, its point one of the sweep's and its status one a run gives): the rows after a quote
+        never closed, not the rest of one row (whose reason may hold commas on a line of its own)."""
+        index, point, status = (self.columns.index(c) for c in ("index", "point_id", "status"))
+        for line in raw[_offset_of_line(raw, first_line):].decode("utf-8").split("\n")[1:]:
+            try:
+                values = next(csv.reader([line]), [])
+            except csv.Error:  # (a field over the csv module's limit: no row of this sweep)
+                continue
+            if (len(values) == len(self.columns) and values[index].isdigit() and values[point] in known_ids
+                    and values[status] in ROW_STATUSES):
+                return True
+        return False
 
     def _read_existing(self, known_ids: set[str]) -> tuple[dict[str, dict[str, str]], dict[str, Any]]:
         """(the table's whole rows by point id, its record) of a table this sweep wrote."""
@@ -195,10 +204,14 @@ class ResultTable:
                                 "for another file", where)
         rows: dict[str, dict[str, str]] = {}
         strangers = []
-        parsed = list(self._rows_with_lines(reader))
+        try:
+            parsed = list(self._rows_with_lines(reader))
+        except csv.Error as exc:  # a quote never closed over more than 128 KiB: a field beyond the limit
+            raise ScenarioError(f"line {reader.line_num}: not a table this sweep wrote ({exc}); use --fresh to "
+                                "start over or -o for another file", where) from None
         for k, (first_line, last_line, values) in enumerate(parsed):
             if len(values) != len(header):
-                if k == len(parsed) - 1 and not self._swallows_rows(raw, first_line, len(header)):
+                if k == len(parsed) - 1 and not self._swallows_rows(raw, first_line, known_ids):
                     # a row cut short after a line break inside its reason: dropped, so that the rows
                     # written next start on a line of their own
                     raw = raw[: _offset_of_line(raw, first_line)]
