@@ -37,7 +37,8 @@ class BodyState(Message):
     velocity: (3,) [m/s]; angular_velocity: (3,) world frame [rad/s].
     Geometry and mass ride along so that contact components need no copy of the body's settings:
     shape; radius [m]; thickness [m] (disk; 0 for a sphere); mass [kg]; inertia: (3,) principal
-    moments about body x, y, z [kg m^2].
+    moments about body x, y, z [kg m^2], the first two equal (the bodies are axisymmetric about z,
+    which the contact components rely on: the ground refuses a body that is not).
     Derived for viewers and plots: attack_angle_deg, the angle between the disk face and the
     horizontal plane [deg] (0 for a sphere), unsigned and whichever way the face leans: the attack
     angle while the lean stays along the path (components.analysis.data.attack_along_motion gives

@@ -508,8 +508,8 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
                         "digits, _; not starting with a digit): they become channel names")
         return None
     if name in RESERVED_NAMES:
-        problems.append(f"{path}: {name!r} is the name of the framework's or the viewer's own channels "
-                        f"(/{name}/...); a component of that name would write onto them: name it otherwise")
+        problems.append(f"{path}: {name!r} names the framework's or the viewer's own channels (/{name}...); a "
+                        "component of that name would write its outputs among them: name it otherwise")
         return None
     if not isinstance(spec, dict):
         problems.append(f"{path}: must be a mapping with a 'type' (got {spec!r})")

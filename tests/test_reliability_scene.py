@@ -123,7 +123,8 @@ def test_a_component_named_as_the_frameworks_own_channels_is_refused(name):
     text = SCENE.replace("  g: {type", f"  {name}: {{type").replace("g.x", f"{name}.x").replace("g.y", f"{name}.y")
     with pytest.raises(ScenarioError) as err:
         loads(text)
-    assert f"components.{name}: {name!r} is the name of the framework's or the viewer's own channels" in str(err.value)
+    said = f"components.{name}: {name!r} names the framework's or the viewer's own channels (/{name}...)"
+    assert said in str(err.value)
 
 
 def test_a_first_step_needing_more_substeps_than_the_limit_is_refused_at_load():

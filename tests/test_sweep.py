@@ -281,16 +281,16 @@ def test_the_first_point_is_validated_before_anything_runs(tmp_path):
 
 def test_scene_file_and_sweep_file_problems(tmp_path):
     """A missing scene, a missing sweep file, an empty one and a YAML error are bad input too."""
-    with pytest.raises(ScenarioError, match=r"scene: no such file 'nowhere\.yaml'") as missing:
+    with pytest.raises(ScenarioError, match=r"scene: 'nowhere\.yaml': no such file") as missing:
         load_sweep(write_sweep(tmp_path, "scene: nowhere.yaml\naxes: {dt: [0.001]}\n"))
     # that alone: without the scene, an axis is not also said to be no key of it
-    assert missing.value.problems == [f"scene: no such file 'nowhere.yaml' (looked for {tmp_path / 'nowhere.yaml'})"]
+    assert missing.value.problems == [f"scene: 'nowhere.yaml': no such file (looked for {tmp_path / 'nowhere.yaml'})"]
     with pytest.raises(ScenarioError, match=r"missing\.yaml: no such file"):
         load_sweep(tmp_path / "missing.yaml")
     # a device read whole filled the memory: refused unread, as a scene given to `cosim run` is
     with pytest.raises(ScenarioError) as device:
         load_sweep(write_sweep(tmp_path, "scene: /dev/zero\naxes: {dt: [0.001]}\n"))
-    assert device.value.problems == ["scene: '/dev/zero' is not a regular file (a device, pipe or socket)"]
+    assert device.value.problems == ["scene: '/dev/zero': is not a regular file (a device, pipe or socket)"]
     itself = write_sweep(tmp_path, "scene: sweep.yaml\naxes: {dt: [0.001]}\n")  # a sweep naming itself
     assert itself.name == "sweep.yaml"
     with pytest.raises(ScenarioError, match=r"scene: 'sweep\.yaml' is a sweep file \(it has axes and no "

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cosim.cli import main
-from cosim.runner import counted
+from cosim.errors import counted
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -321,6 +321,8 @@ class WaterSurface(Component):
             if cells.size:
                 self._shore = (cells, np.ascontiguousarray(g.depth0.ravel()[cells]))
         self._under_bed: tuple[float, float, float, float] | None = None  # (depth < 0 [m], x, y, t) at its lowest
+        self._all_wet = bool(g.wet.all())  # (once: on a flat bed the mask is one value seen everywhere, and
+        # .all() over it read the whole grid, 2 ms on the lake, at every displacement blurred)
         # spare buffers: each step writes into them, then they swap. Tiled, a tile left at rest
         # must find zeros there; np.zeros maps its pages lazily, so a lake's far water costs no memory
         self._h2 = np.zeros(shape) if self.tiles is not None else np.empty(shape)
@@ -665,7 +667,7 @@ class WaterSurface(Component):
         delta = b_new - occupant.b[v0:v1, u0:u1]
         if occupant.b is not self._b:  # one of several bodies: the total takes its change
             self._b[v0:v1, u0:u1] += delta
-        if passes and self.grid.wet.all():
+        if passes and self._all_wet:
             self.kernels.blur(delta, np.empty_like(delta), passes, BLUR_WEIGHT)
         elif passes:  # only across faces between wet cells: blurred onto dry land, 7% of a body's
             # water pushed aside at a shore sat frozen on the beach, 0.4 mm over its bed

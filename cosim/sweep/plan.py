@@ -464,10 +464,8 @@ def _base_scene(data: dict[str, Any], base_dir: Path, source: str,
     try:  # as a scene is read: a folder, a device or pipe (/dev/zero filled the memory) or a huge file refused
         text = read_input(path)
     except ScenarioError as exc:
-        why = exc.problems[0]
-        problems.append(f"scene: no such file {spec!r} (looked for {path})" if why == "no such file" else
-                        f"scene: cannot read {spec!r}: {why[len('cannot read: '):]}" if why.startswith("cannot read")
-                        else f"scene: {spec!r} {why}")
+        looked = f" (looked for {path})" if str(path) != spec else ""
+        problems.append(f"scene: {spec!r}: {exc.problems[0]}{looked}")
         return None
     try:
         scene_data = read_yaml(text, spec)  # read as the scene is loaded (YAML 1.2's numbers)
