@@ -55,9 +55,9 @@ def step_and_bound(dt: float, bound: float) -> tuple[str, str]:
     of the value said is within it."""
     for digits in range(6, 18):
         said = f"{bound:.{digits}g}"
-        if float(said) > bound:  # rounded up: the same digits rounded down
+        if float(said) > bound:  # rounded up: the same digits rounded down, written alike
             floor = decimal.Context(prec=digits, rounding=decimal.ROUND_FLOOR).create_decimal(bound)
-            said = format(floor.normalize(), "f")
+            said = f"{float(floor):.{digits}g}"
         if f"{dt:.{digits}g}" != said:
             return f"{dt:.{digits}g}", said
     return repr(dt), repr(bound)
@@ -325,8 +325,10 @@ class Component:
         try:
             bound = self.max_stable_step() if self._bounded else math.inf
             substeps = 1
-            if dt > bound:
-                if on_unstable == "error" or not bound > 0:
+            if not bound >= dt:  # over it, or no bound a step can keep (0, negative, NaN)
+                if not bound > 0:
+                    raise SimulationError(self.name, t_ns, f"its stable step is {bound!r} s: no step can be stable")
+                if on_unstable == "error":
                     step_said, bound_said = step_and_bound(dt, bound)
                     raise SimulationError(
                         self.name, t_ns,

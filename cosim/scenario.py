@@ -814,8 +814,11 @@ def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[s
     way (:meth:`~cosim.component.Component.start_stable_step`), else the one it starts with."""
     cfg = scene.components[name]
     step = scene.dt * cfg.every
-    if not step > bound:
+    if bound >= step:
         return []
+    if not bound > 0:  # (0, negative or NaN: a substep count would divide by it)
+        when = "once the run is under way" if later else "from the start"
+        return [f"its stable step {when} is {bound!r} s: no step can be stable"]
     if cfg.on_unstable == "error":
         step_said, bound_said = step_and_bound(step, bound)
         if not later:

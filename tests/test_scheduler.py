@@ -276,6 +276,38 @@ components:
     assert said in str(failure.value)
 
 
+@pytest.mark.parametrize("on_unstable", ["error", "substep"])
+@pytest.mark.parametrize("bound", [0.0, -1.0, math.nan])
+def test_a_stable_step_no_step_can_keep_fails_the_run_saying_so(bound, on_unstable):
+    """A component whose stable step is 0, negative or NaN fails the run at that step, whatever
+    on_unstable: a NaN passed every check and the run went on unbounded, 0 said "(on_unstable:
+    error; ... at most 0 s)" under substep."""
+    scene = loads(f"""
+dt: 0.001
+until: 0.003
+on_unstable: {on_unstable}
+components:
+  acc: {{type: "tests.toys:Accumulator"}}
+""")
+    sim = Simulation(scene)
+    sim.components["acc"].max_stable_step = lambda: bound
+    with pytest.raises(SimulationError, match=rf"'acc' failed at t = 0 s: its stable step is {bound!r} s: no step "
+                                              "can be stable"):
+        sim.run()
+
+
+def test_a_stable_step_of_zero_at_load_is_refused_saying_so(monkeypatch):
+    """At load, under on_unstable: substep, a stable step of 0 divided the step into substeps by it:
+    an internal ZeroDivisionError."""
+    from cosim.errors import ScenarioError
+    from tests.toys import Accumulator
+
+    monkeypatch.setattr(Accumulator, "max_stable_step", lambda self: 0.0)
+    with pytest.raises(ScenarioError, match=r"components\.acc: its stable step from the start is 0\.0 s: no step "
+                                            "can be stable"):
+        loads('dt: 0.001\nuntil: 0.003\non_unstable: substep\ncomponents:\n  acc: {type: "tests.toys:Accumulator"}\n')
+
+
 def test_failure_becomes_simulation_error_with_component_and_time():
     """An exception inside a component becomes a SimulationError naming it and the time; observers
     are told the run failed."""
