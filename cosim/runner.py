@@ -112,7 +112,9 @@ def check_channel_patterns(scene: Scene, perf: bool = False) -> None:
         if str(pattern).startswith("/scene/") or any(fnmatch.fnmatchcase(t, str(pattern)) for t in topics):
             continue
         shown = ", ".join(topics[:12]) + (", ..." if len(topics) > 12 else "")
-        problems.append(f"record.channels: {pattern!r} matches no channel of this scene (its channels: {shown})")
+        problems.append(f"record.channels: {pattern!r} matches no channel of this scene (its channels: {shown}; "
+                        "/perf/tick is one with --perf, /tf and /log when something in it has looks and "
+                        "record.visual_rate is above 0)")
     if problems:
         raise ScenarioError(problems, scene.source)
 
@@ -123,12 +125,14 @@ def _viewer_topics(scene: Scene) -> set[str]:
     the ping-pong scene, which has none, was taken and recorded nothing)."""
     if scene.record.visual_rate <= 0:
         return set()
+    from cosim.view.channels import registered_here
     from cosim.view.items import LOG_TOPIC, TF_TOPIC
     from cosim.view.lookup import has_installed_visuals
 
+    registered = registered_here()  # looks given in this process (cosim.view.items.register)
     for cfg in scene.components.values():
         if cfg.cls.visuals is not Component.visuals or any(
-                has_installed_visuals(port.type) for port in cfg.cls.outputs.values()):
+                port.type in registered or has_installed_visuals(port.type) for port in cfg.cls.outputs.values()):
             return {TF_TOPIC, LOG_TOPIC}
     return set()
 

@@ -24,7 +24,7 @@ from cosim.view.lookup import draws_itself, has_installed_visuals
 RECIPE_MODULE = "cosim.view.foxglove"  # where the writer's deriver is made: visual_deriver(rate, reserved)
 
 
-def _registered_here() -> dict[type, Any]:
+def registered_here() -> dict[type, Any]:
     """The looks registered in this process (:func:`cosim.view.items.register`), by message type;
     none when the viewer items were never imported."""
     items = sys.modules.get("cosim.view.items")
@@ -60,7 +60,7 @@ class RecordedVisuals:
         so that a topic such as ``/tf`` is never made by both processes (decided at the first port
         asked about, for the run)."""
         if self._writer_makes is None:
-            self._writer_makes = not (any(map(draws_itself, self.components.values())) or _registered_here())
+            self._writer_makes = not (any(map(draws_itself, self.components.values())) or registered_here())
         return self._writer_makes and self._looks(component, message_type) == "installed"
 
     def _looks(self, component: str, message_type: type) -> str | None:
@@ -69,7 +69,7 @@ class RecordedVisuals:
         comp = self.components.get(component)
         if comp is not None and draws_itself(comp):
             return "component"
-        if message_type in _registered_here():
+        if message_type in registered_here():
             return "registered"
         return "installed" if has_installed_visuals(message_type) else None
 
