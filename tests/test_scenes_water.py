@@ -208,12 +208,14 @@ def test_ball_wake_slows_the_ball_and_leaves_a_wake_behind_it():
 
 @pytest.mark.parametrize(("scene", "overrides"), [
     ("ball_wake", ["until=0.6", "components.coupler.effects=[displacement, buoyancy, pressure]"]),
+    # the wave drag too: at the submerged centroid, below the centre, it rolled the pushed ball forward
+    ("ball_wake", ["until=0.6", "components.coupler.effects=[displacement, buoyancy, pressure, wave_drag]"]),
     ("float_sphere", ["until=0.6", "components.pine.position=[0.0037, 0.0021, 0.03]",
                       "components.pine_water.effects=[displacement, buoyancy, pressure]"]),
 ])
 def test_the_water_it_piles_up_lifts_a_ball_without_turning_it(scene, overrides):
-    """The water's pressure on a sphere acts through its centre: without skin friction nothing turns
-    a ball. The lift of the water a ball piles up (the mound) carried the torque of where the columns
+    """The water's pressure on a sphere acts through its centre, the waves' too: without skin friction
+    nothing turns a ball. The lift of the water a ball piles up (the mound) carried the torque of where the columns
     lie: the pushed ball of ball_wake spun backwards, 92% of its kinetic energy spin by the scene's end
     (-12.9 rad/s), and a pine ball let go a few millimetres off a column's centre turned."""
     sim = Simulation(load(SCENES / f"{scene}.yaml", ["record.visual_rate=0", *overrides]))

@@ -646,17 +646,20 @@ def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, hal
         tx = ty = r_tx = r_ty = 0.0
     if live:
         _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
-                      cx, cy, cz)
+                      cx, cy, cz, shape == SHAPE_SPHERE)
     if rest:
         _column_stats(rest_stats, rest_flags, r_vol, r_mx, r_my, r_mz, r_wl, r_ncol, r_fz, r_tx, r_ty,
-                      np.zeros(3), radius, rho, g, c_w, c_min, cx, cy, cz)
+                      np.zeros(3), radius, rho, g, c_w, c_min, cx, cy, cz, shape == SHAPE_SPHERE)
 
 
 @njit(cache=True)
 def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
-                  cx, cy, cz):
+                  cx, cy, cz, through_centre):
     """A column pass's sums into ``stats``: volume, centroid, waterline, columns; the buoyancy and
-    its stiffness and the wave drag when switched on."""
+    its stiffness and the wave drag when switched on, the wave drag at the submerged centroid, or
+    through the centre when ``through_centre`` (a sphere: the waves' pressure, as all pressure on
+    it, acts along its normals; at the centroid it rolled a pushed floating ball and, spun backwards,
+    gave it energy)."""
     stats[S_VOLUME] = vol
     stats[S_CENTROID] = mx
     stats[S_CENTROID + 1] = my
@@ -681,9 +684,10 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
             rz = mz / vol - cz
             stats[S_WAVE] = fx
             stats[S_WAVE + 1] = fy
-            stats[S_WAVE + 3] = -rz * fy
-            stats[S_WAVE + 4] = rz * fx
-            stats[S_WAVE + 5] = rx * fy - ry * fx
+            if not through_centre:
+                stats[S_WAVE + 3] = -rz * fy
+                stats[S_WAVE + 4] = rz * fx
+                stats[S_WAVE + 5] = rx * fy - ry * fx
 
 
 @njit(cache=True)
