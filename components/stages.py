@@ -78,11 +78,13 @@ class SkipTracker:
 
 def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
     """Whether a stone that was touching water and is dry this step is still in the same contact:
-    it still skims the surface (its lowest point within ``clearance`` of it), or it is still coming
-    down (vz < 0 [m/s]), so the surface dropped away from it rather than the stone bouncing off it.
+    it still skims the surface (its lowest point within ``clearance`` of it), or it is not rising
+    (vz <= 0 [m/s]), so the surface dropped away from it rather than the stone bouncing off it.
     Not when it is dry with its lowest point below the level: there is no water under it (it went
     over the grid's edge, or onto land; :func:`off_the_water`)."""
-    return water is not None and not off_the_water(water) and (water.depth > -clearance or vz < 0.0)
+    # (a stone clear of the water but not rising, vz = 0, has not flown away: counted, it made a skip
+    # with a take-off angle of 0)
+    return water is not None and not off_the_water(water) and (water.depth > -clearance or vz <= 0.0)
 
 
 def off_the_water(water: WaterContact | None) -> bool:
@@ -102,6 +104,13 @@ def floats(body: BodyState, water: WaterContact, water_density: float = 1000.0) 
     return float(water.buoyancy[2]) > 0.0 and body.mass < water_density * volume
 
 
+def _rim_speed(body: BodyState) -> float:
+    """The speed [m/s] its turning gives the body's farthest point from its centre."""
+    w = body.angular_velocity
+    return math.sqrt(float(w[0]) ** 2 + float(w[1]) ** 2 + float(w[2]) ** 2) * math.hypot(
+        float(body.radius), 0.5 * float(body.thickness))
+
+
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
              sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81,
              water_density: float = 1000.0, step: float = 0.0) -> StageId:
@@ -110,12 +119,18 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     (|g| step: the ground's answer reaches it at its next step), so at rest means slower than
     ``rest_speed`` or than that, whichever is more (at 2 ms a ball on the bed of a pond, 12 mm/s a
     step, never came to rest against 10 mm/s)."""
-    if ground is not None and ground.in_contact and body.speed < max(rest_speed, abs(gravity) * step):
+    if previous is StageId.LEFT_POND:  # final: what the stone does beside the pond is no stage of a throw
+        return previous
+    if (ground is not None and ground.in_contact and not ground.sliding
+            and body.speed + _rim_speed(body) < max(rest_speed, abs(gravity) * step)):
+        # held by static friction, neither moving nor turning: one step of a sliding disk's (at its
+        # start down a 35 deg ramp) or of a rocking one's (turning at 0.25 rad/s) was taken for rest,
+        # which is final, and ended the run
         return StageId.REST
     # sinking is final, but a sunk stone can come to rest on the bottom; rest is final too (a stone
     # settling on the bottom, or on a slope, rocks a little faster than rest_speed now and then: it
     # went from rest to approach some thirty times on a beach, and the run never ended)
-    if previous in (StageId.SINK, StageId.FLOAT, StageId.REST, StageId.LEFT_POND):
+    if previous in (StageId.SINK, StageId.FLOAT, StageId.REST):
         return previous
     vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
@@ -192,6 +207,7 @@ class StageMonitor(Component):
         self.final_x = math.nan
         self.final_y = math.nan
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
+        self.outside_at = (math.nan, math.nan)  # where the stone was then (x, y) [m]
         self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
@@ -270,7 +286,10 @@ class StageMonitor(Component):
             elif math.isnan(self.settled_since):
                 self.settled_since = now
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
-                and now - (self.settled_since if stage is StageId.FLOAT else self.since) >= self.params.stop_after):
+                # (a nanosecond's slack: differences of step times in floating point came out a hair
+                # under stop_after, and the run stopped a step late for some starts and not others)
+                and now - (self.settled_since if stage is StageId.FLOAT else self.since)
+                >= self.params.stop_after - 1e-9):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
         self._check_outside(now, body, water, outputs)
         return outputs
@@ -286,19 +305,27 @@ class StageMonitor(Component):
             return
         if math.isnan(self.outside_since):
             self.outside_since = now
+            self.outside_at = (float(body.position[0]), float(body.position[1]))
         if now - self.outside_since >= self.params.outside_after and "stage" not in outputs:
             # (a stage change this step is published first: left-pond follows at the next)
             self.left_at = now
             self.stage, self.since = StageId.LEFT_POND, now
             self.timeline.append((now, LEFT_POND))
-            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, float(body.position[0]))
-            if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
+            # where it came down beside the water (its lowest point went below the level with no water
+            # under it), not where it crossed the water's edge (the monitor knows no edge), nor where it
+            # was outside_after later: a throw flying past an 8 m pond "came down at x = 11.2 m", and its
+            # distance counted its fall, 10.95 m, where it came down at 10.74 m
+            x, y = self.outside_at
+            if math.isnan(x):  # (a restart from a state saved before it was kept: where the stone is now)
                 x, y = float(body.position[0]), float(body.position[1])
-                # where it came down beside the water, not where it crossed the water's edge (the
-                # monitor knows no edge): a throw flying past a 14 m pond "left the pond at x = 15.5 m"
+            self.final_x, self.final_y = x, y
+            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x)
+            if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
-                self.request_stop(f"stone {what}: it came down beside the water at x = {x:.3g} m, y = {y:.3g} m "
-                                  "(below the water's level with no water under it since "
+                # (to the millimetre: a throw along y = 0 printed "y = -7.93e-17 m")
+                x_said, y_said = round(x, 3) + 0.0, round(y, 3) + 0.0
+                self.request_stop(f"stone {what}: it came down beside the water at x = {x_said:.3g} m, "
+                                  f"y = {y_said:.3g} m (below the water's level with no water under it since "
                                   f"t = {self.outside_since:.4g} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
@@ -353,7 +380,8 @@ class StageMonitor(Component):
                 "track": vars(self.track).copy(),
                 "timeline": [list(e) for e in self.timeline], "final_x": self.final_x, "final_y": self.final_y,
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
-                "outside_since": self.outside_since, "left_at": self.left_at, "settled_since": self.settled_since}
+                "outside_since": self.outside_since, "outside_at": list(self.outside_at), "left_at": self.left_at,
+                "settled_since": self.settled_since}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.stage = None if state["stage"] is None else StageId(state["stage"])
@@ -367,6 +395,7 @@ class StageMonitor(Component):
             # saved before distances ran along the throw's line: the last touchdown's y from its drift
             self.track.last_touchdown_y = self._touchdown_y_of(self.records[-1])
         self.outside_since = float(state.get("outside_since", math.nan))
+        self.outside_at = tuple(float(c) for c in state.get("outside_at", (math.nan, math.nan)))  # type: ignore[assignment]
         self.settled_since = float(state.get("settled_since", math.nan))
         self.left_at = float(state.get("left_at", math.nan))
 

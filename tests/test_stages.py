@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -74,6 +75,72 @@ def test_rest_on_ground():
     assert out[0]["stage"].stage is StageId.REST
 
 
+def test_a_stone_sliding_or_turning_on_the_ground_is_not_at_rest():
+    """Rest is final and ends the run: a disk slow for one step at the start of its slide down a
+    35 deg ramp (the ground's friction kinetic) or rocking on the ground (turning at 0.25 rad/s) was
+    taken for at rest; it is at rest once the ground holds it by static friction, still and not
+    turning."""
+    sliding = GroundContact(True, 1.0, 0.5, True, 0.0)
+    holding = GroundContact(True, 1.0, 0.0, False, 0.0)
+    rocking = dataclasses.replace(body(0, 0.003, 0.0, 0.0), angular_velocity=np.array([0.0, 0.25, 0.0]))
+    for b, g in ((body(0, 0.003, 0.001, 0.0), sliding), (rocking, holding)):
+        out = drive(StageMonitor("stages"), [(b, None, g)])
+        assert out[0]["stage"].stage is not StageId.REST
+    out = drive(StageMonitor("stages"), [(body(0, 0.003, 0.001, 0.0), None, holding)])
+    assert out[0]["stage"].stage is StageId.REST
+
+
+def test_a_stone_that_left_the_pond_stays_left_whatever_it_does_beside_it():
+    """Left-pond is final: a monitor that ends no run (stop_after 0) saw its stone, which had left
+    the pond, come to rest on the ground beside it, and its stage channel ended on rest while its
+    outcome said left-pond."""
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003, stop_after=0.0))
+    still = GroundContact(True, 1.0, 0.0, False, 0.0)
+    script = [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
+        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
+        (body(0.6, 0.01, 5.0, 0.5), water(False, depth=-0.01), None),
+        *[(body(0.8 + 0.1 * k, -0.01 * (k + 1), 5.0, -0.5), water(False, depth=0.004 + 0.01 * k), None)
+          for k in range(6)],
+        *[(body(1.5, -0.1, 0.0, 0.0), water(False, depth=0.1), still) for _ in range(3)],
+    ]
+    drive(m, script)
+    assert m.timeline[-1][1] == "left-pond" and m.metrics()["outcome"] == "left-pond"
+
+
+def test_a_stone_clear_of_the_water_but_not_rising_has_not_flown_away():
+    """A contact ends in a fly-away, a skip, once the stone rises clear of the water: clear but level
+    (vz = 0) it made a skip with a take-off angle of 0."""
+    m = StageMonitor("stages")
+    out = drive(m, [(body(0.0, 0.10, 5.0, -1.0), water(False), None),
+                    (body(0.5, 0.0, 5.0, -0.5), water(True), None),
+                    (body(0.6, 0.01, 5.0, 0.0), water(False, depth=-0.01), None)])
+    assert not [o for o in out if "skip" in o]
+    out = drive(m, [(body(0.7, 0.012, 5.0, 0.3), water(False, depth=-0.012), None)])
+    rising = math.degrees(math.atan2(0.3, 5.0))
+    assert [o["skip"].takeoff_angle_deg for o in out if "skip" in o] == [pytest.approx(rising)]
+
+
+@pytest.mark.parametrize("start_step", [67, 68])
+def test_stop_after_ends_the_run_after_the_same_number_of_steps_wherever_the_stage_began(start_step):
+    """Sinking from step 67 or 68 of 0.1 ms, a monitor with stop_after 0.3 s stops 3000 steps later in
+    both: the time since, a difference of step times in floating point, came out a hair under 0.3 s
+    from step 68, and the run went on a step more."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.3))
+    step_ns = 100_000
+    approach = body(0.0, 0.10, 5.0, -1.0)
+    sinking = body(0.5, -0.01, 0.1, -0.5)
+    stopped_at = None
+    for k in range(start_step + 3100):
+        b, w = (approach, water(False)) if k < start_step else (sinking, water(True, 1.0))
+        m.step(k * step_ns, step_ns, {"body": b, "water": w, "ground": None})
+        if m.stop_reason is not None:
+            stopped_at = k
+            break
+    assert m.stop_reason is not None and "sink" in m.stop_reason
+    assert stopped_at - start_step == 3000
+
+
 def test_state_round_trip_continues_identically():
     """get_state/set_state reproduces the monitor's behaviour."""
     script = [(body(0.0, 0.1, 5.0, -1.0), water(False), None), (body(0.5, 0.0, 5.0, -1.0), water(True), None),
@@ -129,7 +196,9 @@ def test_grazing_flicker_is_one_contact():
 
 def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
     """Dry while the lowest point is below the water level for outside_after: the stone left the pond,
-    the run stops and the outcome says so (the skips so far are kept)."""
+    the run stops and the outcome says so (the skips so far are kept), naming where it came down
+    beside the water, where that spell began (x = 0.8 m), not where it had fallen to by the time the
+    spell was long enough (x = 1.1 m)."""
     m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003))
     script = [
         (body(0.0, 0.10, 5.0, -1.0), water(False), None),
@@ -142,7 +211,7 @@ def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
     ]
     drive(m, script)
     assert m.stop_reason is not None
-    assert "stone left the pond: it came down beside the water at x = 1.1 m" in m.stop_reason
+    assert "stone left the pond: it came down beside the water at x = 0.8 m" in m.stop_reason
     metrics = m.metrics()
     assert metrics["outcome"] == "left-pond" and metrics["skips"] == 1 and metrics["reached_edge"] == 1
     assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
@@ -172,7 +241,7 @@ def test_a_stone_that_never_touched_the_water_missed_it_rather_than_left_it():
     drive(m, [(body(0.1 * k, 0.05 - 0.02 * k, 5.0, -1.0), water(False, depth=0.02 * k - 0.05), None)
               for k in range(8)])
     assert m.stop_reason is not None
-    assert "stone missed the water: it came down beside the water at x = 0.5 m" in m.stop_reason
+    assert "stone missed the water: it came down beside the water at x = 0.3 m" in m.stop_reason  # (below at k = 3)
     assert m.metrics()["outcome"] == "left-pond"
 
 
@@ -505,7 +574,8 @@ def test_the_distance_of_a_stone_that_left_the_pond_ends_where_it_left():
     """A monitor that ends no run (stop_after 0, one of several bodies'): once its stone has left the
     pond, its distance travelled stays where it left (it went on counting the stone's fall beside the
     water: 10.17 m for a stone that left a 9 m pond at x = 2.94 m), and the summary says so; one that
-    never touched the water says that too."""
+    never touched the water says that too. It ends where the stone came down beside the water
+    (x = 1.0 m), not where it was when the spell below the level was long enough to tell."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0, outside_after=0.002))
     outside = water(False, depth=0.05)  # dry, its lowest point below the water level: off the grid
     script = [(body(0.0, 0.10, 5.0, -1.0), water(False), None),
@@ -513,11 +583,11 @@ def test_the_distance_of_a_stone_that_left_the_pond_ends_where_it_left():
               (body(0.7, 0.01, 4.6, 0.8), water(False), None),
               (body(1.0, -0.05, 4.6, -0.5), outside, None),
               (body(1.2, -0.10, 4.6, -1.0), outside, None),
-              (body(1.4, -0.20, 4.6, -1.5), outside, None)]  # left the pond here, at x = 1.4
+              (body(1.4, -0.20, 4.6, -1.5), outside, None)]  # found to have left here, at x = 1.4
     drive(m, script + [(body(x, -1.0 - x, 4.6, -5.0), outside, None) for x in (3.0, 6.0, 9.0)])
     assert m.timeline[-1][1] == "left-pond"
-    assert m.travelled() == pytest.approx(1.4)
-    assert "distance travelled: 1.40 m; final stage: left-pond" in "\n".join(m.summary())
+    assert m.travelled() == pytest.approx(1.0)
+    assert "distance travelled: 1.00 m; final stage: left-pond" in "\n".join(m.summary())
     missed = StageMonitor("stages", StageMonitor.Params(stop_after=0.0, outside_after=0.002))
     drive(missed, [(body(0.2 * k, 0.1 - 0.1 * k, 5.0, -1.0), outside if k else water(False), None) for k in range(6)])
     assert "final stage: left-pond (it never touched the water)" in "\n".join(missed.summary())
