@@ -104,13 +104,6 @@ def floats(body: BodyState, water: WaterContact, water_density: float = 1000.0) 
     return float(water.buoyancy[2]) > 0.0 and body.mass < water_density * volume
 
 
-def _rim_speed(body: BodyState) -> float:
-    """The speed [m/s] its turning gives the body's farthest point from its centre."""
-    w = body.angular_velocity
-    return math.sqrt(float(w[0]) ** 2 + float(w[1]) ** 2 + float(w[2]) ** 2) * math.hypot(
-        float(body.radius), 0.5 * float(body.thickness))
-
-
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
              sink_speed: float, rest_speed: float, clearance: float = 0.0, gravity: float = 9.81,
              water_density: float = 1000.0, step: float = 0.0) -> StageId:
@@ -122,10 +115,11 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     if previous is StageId.LEFT_POND:  # final: what the stone does beside the pond is no stage of a throw
         return previous
     if (ground is not None and ground.in_contact and not ground.sliding
-            and body.speed + _rim_speed(body) < max(rest_speed, abs(gravity) * step)):
-        # held by static friction, neither moving nor turning: one step of a sliding disk's (at its
-        # start down a 35 deg ramp) or of a rocking one's (turning at 0.25 rad/s) was taken for rest,
-        # which is final, and ended the run
+            and body.speed < max(rest_speed, abs(gravity) * step)):
+        # held by static friction: one slow step of a disk starting to slide down a 35 deg ramp was
+        # taken for rest, which is final, and ended the run. (Its turning is not asked about: a body
+        # the ground holds publishes a step of the water's torque as a turn, 0.86 rad/s for a lead
+        # disk lying flat on a pond's bed, which the ground takes back at its next step)
         return StageId.REST
     # sinking is final, but a sunk stone can come to rest on the bottom; rest is final too (a stone
     # settling on the bottom, or on a slope, rocks a little faster than rest_speed now and then: it
