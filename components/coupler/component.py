@@ -754,9 +754,10 @@ class WaterCoupler(Component):
         """The share of the body's volume under water [-] from its submerged ``volume`` [m^3] and
         how far its top is under the surface, ``top_under`` [m] (NaN off the patch).
 
-        The column sum samples the body, so a body wholly under water sums to a little less than its
-        volume (0.994 for a 5 cm disk on 1 cm cells): a body whose top (the point opposite its lowest
-        one) is under the surface there is wholly submerged."""
+        The column sum samples the body, so a body wholly under water sums to about its volume, not
+        exactly (0.992-1.013 of it for a level 5 cm disk on 1 cm cells, with where it lies on the
+        grid): a body whose top (the point opposite its lowest one) is under the surface there is
+        wholly submerged."""
         radius = float(body.radius)
         body_volume = (math.pi * radius * radius * float(body.thickness) if body.shape == Shape.DISK
                        else 4.0 / 3.0 * math.pi * radius**3)
