@@ -86,21 +86,24 @@ def test_a_stone_sliding_on_the_ground_is_not_at_rest():
     assert out[0]["stage"].stage is StageId.REST
 
 
+def leaving_the_pond() -> list:
+    """A skip, then 6 ms dry with the lowest point below the water level: off the water's grid."""
+    return [
+        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
+        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
+        (body(0.6, 0.01, 5.0, 0.5), water(False, depth=-0.01), None),
+        *[(body(0.8 + 0.1 * k, -0.01 * (k + 1), 5.0, -0.5), water(False, depth=0.004 + 0.01 * k), None)
+          for k in range(6)],
+    ]
+
+
 def test_a_stone_that_left_the_pond_stays_left_whatever_it_does_beside_it():
     """Left-pond is final: a monitor that ends no run (stop_after 0) saw its stone, which had left
     the pond, come to rest on the ground beside it, and its stage channel ended on rest while its
     outcome said left-pond."""
     m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003, stop_after=0.0))
     still = GroundContact(True, 1.0, 0.0, False, 0.0)
-    script = [
-        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
-        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
-        (body(0.6, 0.01, 5.0, 0.5), water(False, depth=-0.01), None),
-        *[(body(0.8 + 0.1 * k, -0.01 * (k + 1), 5.0, -0.5), water(False, depth=0.004 + 0.01 * k), None)
-          for k in range(6)],
-        *[(body(1.5, -0.1, 0.0, 0.0), water(False, depth=0.1), still) for _ in range(3)],
-    ]
-    drive(m, script)
+    drive(m, [*leaving_the_pond(), *[(body(1.5, -0.1, 0.0, 0.0), water(False, depth=0.1), still) for _ in range(3)]])
     assert m.timeline[-1][1] == "left-pond" and m.metrics()["outcome"] == "left-pond"
 
 
@@ -218,14 +221,7 @@ def test_a_monitor_that_ends_no_run_lets_the_others_go_on_when_its_stone_leaves(
     outcome, but it ends no run, so the other stones' contacts are not cut short (one stone off the
     edge stopped a two-stone run with the other mid-contact)."""
     m = StageMonitor("stages", StageMonitor.Params(outside_after=0.003, stop_after=0.0))
-    script = [
-        (body(0.0, 0.10, 5.0, -1.0), water(False), None),
-        (body(0.5, 0.0, 5.0, -0.5), water(True), None),
-        (body(0.6, 0.01, 5.0, 0.5), water(False, depth=-0.01), None),
-        *[(body(0.8 + 0.1 * k, -0.01 * (k + 1), 5.0, -0.5), water(False, depth=0.004 + 0.01 * k), None)
-          for k in range(6)],
-    ]
-    drive(m, script)
+    drive(m, leaving_the_pond())
     assert m.stop_reason is None
     assert m.metrics()["outcome"] == "left-pond" and m.timeline[-1][1] == "left-pond"
 
