@@ -129,6 +129,12 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if water is not None and water.wetted:
+        if previous is StageId.FLY_AWAY and vz >= 0:
+            # brushing the water (a crest under the climbing stone) before it has come back down is
+            # part of the flight, not a new contact: its end would be a skip with no bounce in it; and
+            # no sinking either, whatever its speed (a slow stone climbing out through a crest was
+            # said to have sunk, which is final)
+            return StageId.FLY_AWAY
         if horizontal < sink_speed:
             if water.submerged_fraction >= BUOYANCY_READABLE:
                 return StageId.FLOAT if floats(body, water, water_density) else StageId.SINK
@@ -144,10 +150,6 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             # pressure on it (tens of times its weight) throws it back out
             if _vertical_water_force(water) <= body.mass * gravity:
                 return StageId.SINK
-        if previous is StageId.FLY_AWAY and vz >= 0:
-            # brushing the water (a crest under the climbing stone) before it has come back down is
-            # part of the flight, not a new contact: its end would be a skip with no bounce in it
-            return StageId.FLY_AWAY
         return StageId.HIT if vz < 0 else StageId.SLIDE
     if previous in (StageId.HIT, StageId.SLIDE):
         if contact_goes_on(water, vz, clearance):

@@ -315,6 +315,18 @@ def test_a_brush_while_still_rising_is_no_touchdown_of_the_next_skip():
     assert second.speed_in == pytest.approx(math.hypot(4.5, 0.9))
 
 
+def test_a_slow_stone_climbing_out_through_a_crest_has_not_sunk():
+    """After a fly-away, a stone still rising at 0.5 m/s and moving on at 0.4 m/s (under sink_speed)
+    brushes a crest, 5% of it in the water: part of its flight, not a sinking, which is final (it
+    was said to have sunk as it climbed out)."""
+    m = StageMonitor("stages")
+    out = drive(m, [(body(0.0, 0.10, 2.0, -1.0), water(False), None),
+                    (body(0.2, 0.00, 2.0, -1.0), water(True), None),
+                    (body(0.3, 0.01, 0.4, 0.5), water(False, depth=-0.01), None),
+                    (body(0.31, 0.012, 0.4, 0.5), water(True, fraction=0.05), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "fly-away"]
+
+
 def test_a_dry_spell_while_still_coming_down_is_the_same_contact():
     """The surface can drop away under a stone faster than it falls (behind a crest): dry and clear
     of the water but still moving down, the stone has not bounced. Only rising clear is a skip."""
