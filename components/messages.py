@@ -316,7 +316,8 @@ class StageId(enum.IntEnum):
 
 @message
 class Stage(Message):
-    """A stage change: stage id with its label beside it, the skip count so far, and position x [m]."""
+    """A stage change: stage id with its label beside it, the skip count so far, and position x [m]
+    (of left-pond: where the stone came down beside the water, a little before the change)."""
 
     stage: StageId
     label: str

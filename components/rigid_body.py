@@ -74,6 +74,16 @@ POSITION_MAX = 1e6  # [m] a start coordinate at most: 1000 km, the water's own b
 DENSITY_RANGE = (1.0, 1e5)  # [kg/m^3] ordinary densities: a mass out of range with one is the size's doing
 
 
+def _about_the_axis(w: Vec, axis: Vec) -> Vec:
+    """The part of the angular velocity ``w`` [rad/s] about the unit ``axis``: all a held disk may
+    keep (a spin typed to a few digits along a tilted axis leaves a little across it, which would
+    move the rim for the whole run while the body never turned). ``w`` itself when nothing to round
+    off lies across it, so a spin given along the axis is kept bit for bit."""
+    along = w[0] * axis[0] + w[1] * axis[1] + w[2] * axis[2]
+    across = math.hypot(w[0] - along * axis[0], w[1] - along * axis[1], w[2] - along * axis[2])
+    return w if across <= 1e-12 * math.hypot(*w) else scale(axis, along)
+
+
 @dataclass(frozen=True)
 class RigidBodyParams:
     """Parameters of a RigidBody (SI units; angles in degrees in fields ending ``_deg``)."""
@@ -133,8 +143,9 @@ class RigidBodyParams:
         """A held disk (lock_attitude) given an angular velocity across its axis: the attitude never
         turns, yet the rim would move at that rate (the water's friction reading v + omega x r, the
         published kinetic energy counting a turn that never happens). A spin about the axis is held,
-        also one typed to a few digits (its part across the axis under a thousandth of it); a sphere
-        looks the same turned any way, so any turn of it is a spin."""
+        also one typed to a few digits (its part across the axis under a thousandth of it, which the
+        body leaves out: _about_the_axis); a sphere looks the same turned any way, so any turn of it
+        is a spin."""
         if not self.lock_attitude or self.shape != "disk" or not any(self.angular_velocity) or not any(self.tilt_axis):
             return []
         w = [float(c) for c in self.angular_velocity]
@@ -151,7 +162,8 @@ class RigidBodyParams:
             return []
         return [("angular_velocity", f"turns the held disk across its axis at {across:.4g} rad/s, which "
                                      "lock_attitude never does (the rim would move as if it did): give only its "
-                                     f"turn about the axis, as spin: {along:.6g}, or leave the attitude free")]
+                                     f"turn about the axis, as spin: {self.spin + along:.6g}, or leave the "
+                                     "attitude free")]
 
     def shape_id(self) -> Shape:
         """The shape as the messages name it."""
@@ -308,6 +320,8 @@ class RigidBody(Component):
         q = quat.from_axis_angle(self.tilt_axis, math.radians(tilt))
         if self.tilt_script is None:
             w = add(as_vec(p.angular_velocity), scale(quat.body_axis(q), p.spin))
+            if p.lock_attitude and p.shape == "disk":
+                w = _about_the_axis(w, quat.body_axis(q))
         else:
             w = self._scripted_omega(0.0, q)
         v = as_vec(p.velocity)

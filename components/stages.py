@@ -11,7 +11,7 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
 - fly-away: after a contact, the stone dry, rising and its lowest point clear of the local surface
   by more than ``takeoff_clearance`` [m]: one skip counted; ends when it comes down (approach).
   A contact goes on while the stone is wetted, and while it is dry but within the clearance of the
-  surface (a flicker) or still coming down (the water fell away under it, as behind a crest: the
+  surface (a flicker) or not rising (the water fell away under it, as behind a crest: the
   stone never bounced). Brushing the water while still rising after a fly-away is part of that
   flight, not a new contact;
 - sink: touching water slower than ``sink_speed`` [m/s] horizontally, at least a hundredth under
@@ -22,7 +22,8 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
 - float: what sink is for a stone the water can carry (lighter than water: its mass is less than
   ``water_density`` times its volume, and the water's buoyancy acts); final. Until a hundredth of
   the stone is under water the contact goes on as hit or slide;
-- rest: on the solid ground and slower than ``rest_speed`` [m/s]; final.
+- rest: on the solid ground, held by its static friction and slower than ``rest_speed`` [m/s] for
+  REST_HOLD on end (from the start of that spell); final.
 
 A skip is a contact that began moving down into the water and ended in a fly-away: the vertical
 speed changed sign and the stone rose clear; its :class:`SkipRecord` is published at the fly-away.
@@ -75,6 +76,10 @@ class SkipTracker:
     peak_g: float = 0.0  # the largest vertical water force over the weight in the current contact [g]
     descended: bool = True  # the current contact has moved down into the water (a skip needs it)
 
+
+REST_HOLD = 0.02  # [s] how long a body stays slow on the ground before it is at rest (final): a ball let
+# go on a 20 deg slope was at rest at its first slow step, rolling on its static friction, and the run
+# ended with it moving at 0.73 m/s
 
 def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
     """Whether a stone that was touching water and is dry this step is still in the same contact:
@@ -204,6 +209,7 @@ class StageMonitor(Component):
         self.final_y = math.nan
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.outside_at = (math.nan, math.nan)  # where the stone was then (x, y) [m]
+        self.rest_since = math.nan  # first time of the current slow spell on the ground [s]
         self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
@@ -250,6 +256,7 @@ class StageMonitor(Component):
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
                          self.params.takeoff_clearance, self.params.gravity, self.params.water_density, step=dt)
+        stage = self._held_at_rest(stage, previous, now)
         # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
         # a contact, the dry descent after it would have gone on as one, and the next skip would have
         # taken the brush's touchdown
@@ -271,8 +278,10 @@ class StageMonitor(Component):
         if not touching:
             track.in_contact = False
         if stage is not self.stage:
-            self.stage, self.since = stage, now
-            self.timeline.append((now, STAGE_NAMES[stage]))
+            # (rest is dated from the start of the slow spell that made it: _held_at_rest)
+            since = self.rest_since if stage is StageId.REST else now
+            self.stage, self.since = stage, since
+            self.timeline.append((since, STAGE_NAMES[stage]))
             outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x)
         if stage is StageId.FLOAT:
             # a floating body is decided as it first comes in slowly, a dropped one as it plunges: the
@@ -289,6 +298,17 @@ class StageMonitor(Component):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
         self._check_outside(now, body, water, outputs)
         return outputs
+
+    def _held_at_rest(self, stage: StageId, previous: StageId, now: float) -> StageId:
+        """``stage``, or while a body has been slow on the ground (classified at rest) for less than
+        REST_HOLD, ``previous``: rest is final, and a body starting to roll or slide from standing
+        still is slow for its first steps."""
+        if stage is not StageId.REST or previous is StageId.REST:
+            self.rest_since = math.nan
+            return stage
+        if math.isnan(self.rest_since):
+            self.rest_since = now
+        return stage if now - self.rest_since >= REST_HOLD - 1e-9 else previous
 
     def _check_outside(self, now: float, body: BodyState, water: WaterContact | None,
                        outputs: dict[str, Message]) -> None:
@@ -318,7 +338,7 @@ class StageMonitor(Component):
             outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x)
             if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
-                # (to the millimetre: a throw along y = 0 printed "y = -7.93e-17 m")
+                # (rounded to the millimetre first: a throw along y = 0 printed "y = -7.93e-17 m")
                 x_said, y_said = round(x, 3) + 0.0, round(y, 3) + 0.0
                 self.request_stop(f"stone {what}: it came down beside the water at x = {x_said:.3g} m, "
                                   f"y = {y_said:.3g} m (below the water's level with no water under it since "
@@ -377,7 +397,7 @@ class StageMonitor(Component):
                 "timeline": [list(e) for e in self.timeline], "final_x": self.final_x, "final_y": self.final_y,
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
                 "outside_since": self.outside_since, "outside_at": list(self.outside_at), "left_at": self.left_at,
-                "settled_since": self.settled_since}
+                "settled_since": self.settled_since, "rest_since": self.rest_since}
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.stage = None if state["stage"] is None else StageId(state["stage"])
@@ -393,6 +413,7 @@ class StageMonitor(Component):
         self.outside_since = float(state.get("outside_since", math.nan))
         self.outside_at = tuple(float(c) for c in state.get("outside_at", (math.nan, math.nan)))  # type: ignore[assignment]
         self.settled_since = float(state.get("settled_since", math.nan))
+        self.rest_since = float(state.get("rest_since", math.nan))
         self.left_at = float(state.get("left_at", math.nan))
 
     def metrics(self) -> dict[str, float | int | str]:

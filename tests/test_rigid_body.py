@@ -86,8 +86,16 @@ def test_a_held_body_may_turn_about_its_axis_and_a_held_ball_any_way():
     +x), and any turn of a sphere, which looks the same turned any way."""
     assert problems_of(lock_attitude=True, tilt_deg=90.0, angular_velocity=[5, 0, 0]) == []
     assert problems_of(lock_attitude=True, shape="sphere", angular_velocity=[0, 20, 0]) == []
-    # a spin typed to four digits along the axis tilted 20 deg about y (its across part 2e-5 of it)
+    # a spin typed to four digits along the axis tilted 20 deg about y (its across part 2e-5 of it):
+    # taken, and held about the axis alone (its part across would move the rim all run)
     assert problems_of(lock_attitude=True, tilt_deg=20.0, angular_velocity=[-34.2, 0, 93.97]) == []
+    state = make(lock_attitude=True, tilt_deg=20.0, angular_velocity=[-34.2, 0, 93.97]).initial_outputs()["state"]
+    axis = quat.body_axis(tuple(state.orientation))
+    w = np.asarray(state.angular_velocity)
+    assert np.linalg.norm(w - (w @ axis) * np.asarray(axis)) < 1e-12 and abs(w @ axis) == pytest.approx(100.0, rel=1e-4)
+    # the advice counts a spin given besides
+    assert problems_of(lock_attitude=True, spin=10.0, angular_velocity=[0, 20, 0])[0].endswith(
+        "give only its turn about the axis, as spin: 10, or leave the attitude free")
     # too large to hold is the energy's problem, said as such (the check squared it and overflowed)
     assert problems_of(lock_attitude=True, angular_velocity=[1e300, 0, 1e300]) == [
         "stone.angular_velocity: makes the stone's kinetic energy overflow a float (got (1e+300, 0.0, 1e+300))"]

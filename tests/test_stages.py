@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact
-from components.stages import StageMonitor
+from components.stages import REST_HOLD, StageMonitor
 
 MS = 1_000_000
 
@@ -66,12 +66,26 @@ def test_skip_sequence_and_figures():
     assert "skips: 1" in "\n".join(m.summary())
 
 
+HOLD = round(REST_HOLD / 0.001) + 1  # the 1 ms steps of drive() a body must stay slow to be at rest
+
+
 def test_rest_on_ground():
-    """A still stone on the ground is at rest."""
+    """A still stone on the ground is at rest once it has stayed so for REST_HOLD, dated from the
+    start of that spell."""
     m = StageMonitor("stages")
     ground = GroundContact(True, 1.0, 0.0, False, 0.0)
-    out = drive(m, [(body(0, 0.003, 0.0, 0.0), None, ground)])
-    assert out[0]["stage"].stage is StageId.REST
+    out = drive(m, [(body(0, 0.003, 0.0, 0.0), None, ground)] * HOLD)
+    assert [o["stage"].stage for o in out if "stage" in o] == [StageId.APPROACH, StageId.REST]
+    assert "stage" in out[-1] and m.timeline[-1] == (pytest.approx(0.001), "rest")
+
+
+def test_a_ball_starting_to_roll_down_a_slope_is_not_at_rest():
+    """Let go on a slope, a ball rolls on its static friction: slow for its first steps, it was at
+    rest (final) at the first, and the run ended with it rolling at 0.73 m/s."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0))
+    holding = GroundContact(True, 1.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0.0, 0.003, 0.0024 * k, -0.0009 * k), None, holding) for k in range(1, 40)])
+    assert not [o for o in out if "stage" in o and o["stage"].stage is StageId.REST]
 
 
 def test_a_stone_sliding_on_the_ground_is_not_at_rest():
@@ -80,10 +94,10 @@ def test_a_stone_sliding_on_the_ground_is_not_at_rest():
     holds it by static friction."""
     sliding = GroundContact(True, 1.0, 0.5, True, 0.0)
     holding = GroundContact(True, 1.0, 0.0, False, 0.0)
-    out = drive(StageMonitor("stages"), [(body(0, 0.003, 0.001, 0.0), None, sliding)])
-    assert out[0]["stage"].stage is not StageId.REST
-    out = drive(StageMonitor("stages"), [(body(0, 0.003, 0.001, 0.0), None, holding)])
-    assert out[0]["stage"].stage is StageId.REST
+    out = drive(StageMonitor("stages"), [(body(0, 0.003, 0.001, 0.0), None, sliding)] * HOLD)
+    assert not [o for o in out if "stage" in o and o["stage"].stage is StageId.REST]
+    out = drive(StageMonitor("stages"), [(body(0, 0.003, 0.001, 0.0), None, holding)] * HOLD)
+    assert out[-1]["stage"].stage is StageId.REST
 
 
 def leaving_the_pond() -> list:
@@ -124,7 +138,7 @@ def test_a_stone_clear_of_the_water_but_not_rising_has_not_flown_away():
 def test_stop_after_ends_the_run_after_the_same_number_of_steps_wherever_the_stage_began(start_step):
     """Sinking from step 67 or 68 of 0.1 ms, a monitor with stop_after 0.3 s stops 3000 steps later in
     both: the time since, a difference of step times in floating point, came out a hair under 0.3 s
-    from step 68, and the run went on a step more."""
+    from step 67, and the run went on a step more."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.3))
     step_ns = 100_000
     approach = body(0.0, 0.10, 5.0, -1.0)
@@ -255,7 +269,7 @@ def test_a_sunk_stone_comes_to_rest_on_the_bottom():
     script = [
         (body(0.0, 0.01, 0.0, -0.5), water(True, 0.5), None),
         (body(0.0, -0.2, 0.0, -0.4), water(True, 1.0), None),
-        (body(0.0, -0.497, 0.0, -0.001), water(True, 1.0), touching),
+        *[(body(0.0, -0.497, 0.0, -0.001), water(True, 1.0), touching)] * HOLD,
         (body(0.0, -0.497, 0.0, -0.02), water(True, 1.0), touching),  # a wobble while settling
         (body(0.0, -0.497, 0.0, -0.001), water(True, 1.0), touching),
     ]
@@ -552,10 +566,10 @@ def test_rest_is_final_though_the_body_rocks_faster_than_rest_speed_now_and_then
     ended), as docs/stages.md says of rest."""
     touching = GroundContact(True, 1.0, 0.0, False, 0.0)
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.004))
-    out = drive(m, [(body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.02, 0.0), None, touching),
-                    (body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.03, 0.0), None, touching),
-                    (body(1.0, 0.005, 0.0, 0.0), None, touching), (body(1.0, 0.005, 0.0, 0.0), None, touching)])
-    assert [o["stage"].label for o in out if "stage" in o] == ["rest"]
+    still = (body(1.0, 0.005, 0.0, 0.0), None, touching)
+    out = drive(m, [still] * HOLD + [(body(1.0, 0.005, 0.02, 0.0), None, touching), still,
+                                     (body(1.0, 0.005, 0.03, 0.0), None, touching), still, still])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "rest"]
     assert m.stop_reason is not None and "rest" in m.stop_reason
 
 
