@@ -74,13 +74,18 @@ POSITION_MAX = 1e6  # [m] a start coordinate at most: 1000 km, the water's own b
 DENSITY_RANGE = (1.0, 1e5)  # [kg/m^3] ordinary densities: a mass out of range with one is the size's doing
 
 
+def _along_and_across(w: Vec, axis: Vec) -> tuple[float, float]:
+    """The angular velocity ``w`` [rad/s] about the unit ``axis`` (signed) and across it (its size)."""
+    along = w[0] * axis[0] + w[1] * axis[1] + w[2] * axis[2]
+    return along, math.hypot(w[0] - along * axis[0], w[1] - along * axis[1], w[2] - along * axis[2])
+
+
 def _about_the_axis(w: Vec, axis: Vec) -> Vec:
     """The part of the angular velocity ``w`` [rad/s] about the unit ``axis``: all a held disk may
     keep (a spin typed to a few digits along a tilted axis leaves a little across it, which would
     move the rim for the whole run while the body never turned). ``w`` itself when nothing to round
     off lies across it, so a spin given along the axis is kept bit for bit."""
-    along = w[0] * axis[0] + w[1] * axis[1] + w[2] * axis[2]
-    across = math.hypot(w[0] - along * axis[0], w[1] - along * axis[1], w[2] - along * axis[2])
+    along, across = _along_and_across(w, axis)
     return w if across <= 1e-12 * math.hypot(*w) else scale(axis, along)
 
 
@@ -148,7 +153,7 @@ class RigidBodyParams:
         is a spin."""
         if not self.lock_attitude or self.shape != "disk" or not any(self.angular_velocity) or not any(self.tilt_axis):
             return []
-        w = [float(c) for c in self.angular_velocity]
+        w = as_vec(self.angular_velocity)
         size = math.hypot(*w)
         if not math.isfinite(size * size):
             return []  # (an energy that overflows, or not a number: said by the value's own checks)
@@ -156,8 +161,7 @@ class RigidBodyParams:
             n = quat.body_axis(quat.from_axis_angle(as_vec(self.tilt_axis), math.radians(self.tilt_deg)))
         except ValueError:
             return []  # (a NaN axis: said by the axis's own check)
-        along = sum(a * b for a, b in zip(w, n, strict=True))
-        across = math.hypot(*(a - along * b for a, b in zip(w, n, strict=True)))
+        along, across = _along_and_across(w, n)
         if across <= HELD_TURN_ACROSS * size:
             return []
         return [("angular_velocity", f"turns the held disk across its axis at {across:.4g} rad/s, which "

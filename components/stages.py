@@ -54,6 +54,9 @@ from cosim.params import param
 
 FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
 BUOYANCY_READABLE = 0.01  # submerged volume fraction from which the buoyancy tells whether a stone floats
+REST_HOLD = 0.02  # [s] how long a body stays slow on the ground before it is at rest (final): a ball let
+# go on a 20 deg slope was at rest at its first slow step, rolling on its static friction, and the run
+# ended with it moving at 0.73 m/s
 STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
 LEFT_POND = STAGE_NAMES[StageId.LEFT_POND]  # the outcome of a stone that left the water's grid
 
@@ -77,9 +80,12 @@ class SkipTracker:
     descended: bool = True  # the current contact has moved down into the water (a skip needs it)
 
 
-REST_HOLD = 0.02  # [s] how long a body stays slow on the ground before it is at rest (final): a ball let
-# go on a 20 deg slope was at rest at its first slow step, rolling on its static friction, and the run
-# ended with it moving at 0.73 m/s
+def _lasted(since: float, now: float, span: float) -> bool:
+    """Whether a spell begun at ``since`` has lasted ``span`` [s] at ``now``, with a nanosecond's
+    slack: differences of step times in floating point came out a hair under the span, and the run
+    stopped a step late for some starts and not others."""
+    return now - since >= span - 1e-9
+
 
 def contact_goes_on(water: WaterContact | None, vz: float, clearance: float) -> bool:
     """Whether a stone that was touching water and is dry this step is still in the same contact:
@@ -291,10 +297,8 @@ class StageMonitor(Component):
             elif math.isnan(self.settled_since):
                 self.settled_since = now
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
-                # (a nanosecond's slack: differences of step times in floating point came out a hair
-                # under stop_after, and the run stopped a step late for some starts and not others)
-                and now - (self.settled_since if stage is StageId.FLOAT else self.since)
-                >= self.params.stop_after - 1e-9):
+                and _lasted(self.settled_since if stage is StageId.FLOAT else self.since, now,
+                            self.params.stop_after)):
             self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
         self._check_outside(now, body, water, outputs)
         return outputs
@@ -308,7 +312,7 @@ class StageMonitor(Component):
             return stage
         if math.isnan(self.rest_since):
             self.rest_since = now
-        return stage if now - self.rest_since >= REST_HOLD - 1e-9 else previous
+        return stage if _lasted(self.rest_since, now, REST_HOLD) else previous
 
     def _check_outside(self, now: float, body: BodyState, water: WaterContact | None,
                        outputs: dict[str, Message]) -> None:

@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cosim.component import Component
 from cosim.errors import ScenarioError, SimulationError, counted, ending_signals, one_line
 from cosim.jit_time import compile_notice
 from cosim.progress import ProgressBar
@@ -127,11 +126,11 @@ def _viewer_topics(scene: Scene) -> set[str]:
         return set()
     from cosim.view.channels import registered_here
     from cosim.view.items import LOG_TOPIC, TF_TOPIC
-    from cosim.view.lookup import has_installed_visuals
+    from cosim.view.lookup import has_installed_visuals, type_draws_itself
 
     registered = registered_here()  # looks given in this process (cosim.view.items.register)
     for cfg in scene.components.values():
-        if cfg.cls.visuals is not Component.visuals or any(
+        if type_draws_itself(cfg.cls) or any(
                 port.type in registered or has_installed_visuals(port.type) for port in cfg.cls.outputs.values()):
             return {TF_TOPIC, LOG_TOPIC}
     return set()

@@ -816,8 +816,8 @@ def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[s
     step = scene.dt * cfg.every
     if bound >= step:
         return []
+    when = "once the run is under way" if later else "from the start"
     if not bound > 0:  # (0, negative or NaN: a substep count would divide by it)
-        when = "once the run is under way" if later else "from the start"
         return [f"its stable step {when} is {bound!r} s: no step can be stable"]
     if cfg.on_unstable == "error":
         step_said, bound_said = step_and_bound(step, bound)
@@ -828,7 +828,6 @@ def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[s
                 f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
     substeps = math.ceil(step / bound)
     if substeps > MAX_SUBSTEPS:  # (the run would fail at its first step: 14557 substeps of a 60 s step)
-        when = "once the run is under way" if later else "from the start"
         return [f"will need {substep_count(substeps)} substeps of its step {step:.6g} s (stable step {bound:.3g} s "
                 f"{when}), more than the limit {MAX_SUBSTEPS}; lower dt or every"]
     return []

@@ -586,8 +586,8 @@ class WaterSurface(Component):
         k = int(np.argmin(depth))
         lowest = float(depth[k])
         if lowest < 0.0 and (self._under_bed is None or lowest < self._under_bed[0]):
-            j, i = divmod(int(cells[k]), self.grid.nx)
             g = self.grid
+            j, i = divmod(int(cells[k]), g.nx)
             self._under_bed = (lowest, g.origin_x + i * g.cell, g.origin_y + j * g.cell, t)
 
     def advance(self, dt: float) -> None:

@@ -40,6 +40,11 @@ def has_installed_visuals(message_type: type) -> bool:
 def draws_itself(comp: Any) -> bool:
     """Whether a component overrides its own looks (``Component.visuals``): then they need the
     component itself, not only its messages."""
+    return type_draws_itself(type(comp))
+
+
+def type_draws_itself(cls: type) -> bool:
+    """:func:`draws_itself` of the components of class ``cls`` (known before any is built)."""
     from cosim.component import Component
 
-    return type(comp).visuals is not Component.visuals
+    return cls.visuals is not Component.visuals
