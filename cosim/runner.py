@@ -240,7 +240,7 @@ def collect_metrics(sim: Simulation) -> dict[str, float | int | str]:
 def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     """The closing summary printed by ``cosim run``."""
     r = outcome.result
-    lines = [f"{scene.name}: {r.status} - {r.reason}"]
+    lines = [f"{scene.name}: {r.status} - {one_line(r.reason)}"]  # (an FMU's reason can hold line breaks)
     # no real-time factor of a run that simulated nothing or took no time (beyond compiling)
     rate = (f"real-time factor {r.real_time_factor:.3g}" if r.simulated_ns > 0 and math.isfinite(r.real_time_factor)
             else "")

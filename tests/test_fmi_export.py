@@ -253,10 +253,12 @@ def test_the_throw_preset_offers_no_parameter_a_script_overrides():
 
 
 @pytest.mark.parametrize("name, identifier", [("class.fmu", "fmu_class"), ("None.fmu", "fmu_None"),
-                                              ("9lives.fmu", "fmu_9lives"), ("my skip.fmu", "my_skip")])
+                                              ("9lives.fmu", "fmu_9lives"), ("my skip.fmu", "my_skip"),
+                                              ("__class__.fmu", "fmu___class__"), ("__dict__.fmu", "fmu___dict__")])
 def test_a_file_name_that_is_no_python_class_name_gets_an_identifier_that_is(name, identifier):
     """The model identifier names the slave's Python class: a keyword (class.fmu) made the build fail
-    with a SyntaxError, reported as an internal error."""
+    with a SyntaxError, reported as an internal error; a dunder (__class__.fmu) was written, and the
+    binary then found the module's own __class__ in its place, and could not instantiate it."""
     from pathlib import Path
 
     from cosim.fmi.export import model_identifier
@@ -481,3 +483,20 @@ def test_the_exported_fmu_lets_its_binary_release_python_before_the_c_exit_handl
     finally:
         slave.freeInstance()
 
+
+
+@pytest.mark.parametrize(("parameter", "sets", "said"), [
+    ("re=record.every", ["--set", "record.every=3000000000"],
+     "--parameter 're=record.every': the scene's record.every is 3000000000, outside an FMI 2.0 Integer's range "
+     "-2147483648 to 2147483647 (a 32-bit int)"),
+    ("dëns=components.stone.density", [],
+     "--parameter 'dëns=components.stone.density': expected NAME=key.path (e.g. density=components.stone.density), "
+     "NAME of ASCII letters, digits and _, not starting with a digit, parts joined by '.' (FMI's names)"),
+])
+def test_a_parameter_no_fmi_2_fmu_can_hold_is_refused_before_the_build(tmp_path, capsys, parameter, sets, said):
+    """An Integer beyond 32 bits, a name beyond ASCII: refused naming the rule (each was exported with exit
+    0, and FMPy's validation then refused the model description)."""
+    out = tmp_path / "bad.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(out), *sets, "--parameter", parameter]) == 2
+    assert said in one_error_line(capsys.readouterr().err)
+    assert not out.exists()

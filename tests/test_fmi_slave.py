@@ -241,3 +241,59 @@ def test_do_step_after_terminate_is_refused_and_reset_makes_the_fmu_run_again(he
     err = capfd.readouterr().err
     assert err.count("error: FMU held (instance 'ended'): doStep from t = 0.01 s after terminate: a terminated "
                      "FMU takes only reset or freeInstance (FMI 2.0)") == 2
+
+
+def test_outputs_read_in_initialization_mode_are_the_scenes_at_the_start_time(held):
+    """FMI 2.0 lists every output as an initial unknown, which a master may read in Initialization
+    Mode: there they are the scene's values at the start time as the parameters stand (they read 0),
+    a parameter set meanwhile counts, and exitInitializationMode keeps the scene so started."""
+    resources = str(Path(fmpy.extract(str(held))) / "resources")
+    slave = SceneSlave(instance_name="early", resources=resources)
+    refs = {v.name: v.value_reference for v in slave.vars.values()}
+    slave.setup_experiment(0.05, None, None)
+    slave.enter_initialization_mode()
+    first = slave.get_real([refs[k] for k in MOTION])
+    slave.set_real([refs["speed"]], [9.0])
+    early = slave.get_real([refs[k] for k in MOTION])
+    started = slave._started[1]
+    slave.exit_initialization_mode()
+    assert slave.sim is started and slave.get_real([refs[k] for k in MOTION]) == early
+    late = SceneSlave(instance_name="late", resources=resources)
+    late.set_real([refs["speed"]], [9.0])
+    late.setup_experiment(0.05, None, None)
+    late.exit_initialization_mode()
+    assert early == late.get_real([refs[k] for k in MOTION])
+    assert early[0] > 0.3 and early[3] > 0.0 and first != early  # moved on from x = 0.3 m, at its own speed
+
+
+@pytest.fixture(scope="module")
+def stepped(tmp_path_factory) -> Path:
+    """The held skip exported with its base step dt as a parameter (step)."""
+    fmu = tmp_path_factory.mktemp("stepped") / "stepped.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(fmu), "--step", str(STEP), "--parameter",
+                 "step=dt"]) == 0
+    return fmu
+
+
+def test_a_start_time_is_checked_against_the_base_step_the_parameters_give(stepped):
+    """A start of 0.5 ms with the step parameter made 1 ms: refused at setupExperiment when set before
+    it, and as the scene starts when set in Initialization Mode (it was checked against the scene's
+    0.5 ms, then rounded down to 0 without a word, and every doStep refused)."""
+    resources = str(Path(fmpy.extract(str(stepped))) / "resources")
+    said = r"a start time of 0\.0005 s is not a whole multiple of the scene's base step dt = 0\.001 s"
+    before = SceneSlave(instance_name="before", resources=resources)
+    step = next(v.value_reference for v in before.vars.values() if v.name == "step")
+    before.set_real([step], [0.001])
+    with pytest.raises(RuntimeError, match=said):
+        before.setup_experiment(0.0005, None, None)
+    during = SceneSlave(instance_name="during", resources=resources)
+    during.setup_experiment(0.0005, None, None)  # on the scene's own 0.5 ms grid: taken
+    during.enter_initialization_mode()
+    during.set_real([step], [0.001])
+    with pytest.raises(RuntimeError, match=said):
+        during.exit_initialization_mode()
+    on_grid = SceneSlave(instance_name="on_grid", resources=resources)
+    on_grid.set_real([step], [0.001])
+    on_grid.setup_experiment(0.002, None, None)
+    on_grid.exit_initialization_mode()
+    assert on_grid.sim.time_ns == 2_000_000

@@ -385,3 +385,116 @@ def test_an_fmu_cache_that_cannot_be_used_is_named_with_its_setting_and_the_reas
     assert one_error_line(capsys.readouterr().err) == (
         f"error: {path}: components.gust.model: {GUST_MODEL}: cannot keep its FMU in the FMU cache {not_a_folder} "
         "($COSIM_FMU_CACHE): Not a directory")
+
+
+def _with_model_description(src: Path, dst: Path, edit) -> Path:
+    """A copy of the FMU ``src`` at ``dst`` whose modelDescription.xml is ``edit(text)``."""
+    import zipfile
+
+    with zipfile.ZipFile(src) as old, zipfile.ZipFile(dst, "w") as new:
+        for item in old.infolist():
+            data = old.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = edit(data.decode()).encode()
+            new.writestr(item, data)
+    return dst
+
+
+ONCE_SCENE = """
+name: once
+dt: 0.001
+until: 0.005
+components:
+<COMPONENTS>
+record: {visual_rate: 0}
+"""
+
+
+def test_an_fmu_instantiated_only_once_per_process_is_refused_a_second_instance(bounded_fmu, tmp_path, capsys):
+    """canBeInstantiatedOnlyOncePerProcess: two components of one such FMU are refused naming the one
+    that holds it (both were made: an FMU enforcing it failed without saying why, one keeping its
+    state in globals ran both on one state); one component runs, and runs again once it is let go."""
+    _with_model_description(bounded_fmu / "plain.fmu", tmp_path / "once.fmu", lambda text: text.replace(
+        'canBeInstantiatedOnlyOncePerProcess="false"', 'canBeInstantiatedOnlyOncePerProcess="true"'))
+    one = "  a: {type: FMU, path: once.fmu, outputs: {y: y}}"
+    scene = tmp_path / "two.yaml"
+    scene.write_text(ONCE_SCENE.replace("<COMPONENTS>", one + "\n" + one.replace("a:", "b:")))
+    assert main(["run", str(scene), "-o", str(tmp_path / "two.mcap")]) == 2
+    said = one_error_line(capsys.readouterr().err)
+    assert ("components.b: cannot be built from these values: ValueError: once.fmu: the FMU can be instantiated "
+            "only once per process (canBeInstantiatedOnlyOncePerProcess), and 'a' already holds its instance") in said
+    assert not (tmp_path / "two.mcap").exists()
+    single = tmp_path / "one.yaml"
+    single.write_text(ONCE_SCENE.replace("<COMPONENTS>", one))
+    for _ in range(2):
+        assert run_scene(load(single), None, progress=False).result.status == "ok"
+
+
+def test_an_fmu_that_cannot_be_instantiated_says_why_in_its_own_words(tmp_path, capsys, monkeypatch):
+    """A model whose constructor raises (here when the process has BROKEN set: its build instantiates
+    it too): the error quotes what the FMU logged (it said only FMPy's 'Failed to instantiate model')."""
+    model = tmp_path / "broken.py"
+    model.write_text(BOUNDED_MODEL.replace("super().__init__(**kwargs)", (
+        "super().__init__(**kwargs)\n        import os\n"
+        "        if os.environ.get('BROKEN'):\n            raise RuntimeError('no calibration table')")))
+    build_fmu(model, tmp_path / "broken.fmu")
+    monkeypatch.setenv("BROKEN", "1")
+    scene = tmp_path / "broken.yaml"
+    scene.write_text(ONCE_SCENE.replace("<COMPONENTS>", "  a: {type: FMU, path: broken.fmu, outputs: {y: y}}"))
+    assert main(["run", str(scene), "-o", str(tmp_path / "broken.mcap")]) == 2
+    said = one_error_line(capsys.readouterr().err)
+    assert "FMU 'broken.fmu': instantiate returned no instance (Failed to instantiate model): [Fatal]" in said
+    assert "RuntimeError('no calibration table')" in said
+
+
+def test_an_fmu_with_neither_path_nor_model_is_told_that_alone(tmp_path):
+    """Neither given: the one problem (a second said "no such file None")."""
+    scene = tmp_path / "none.yaml"
+    scene.write_text(ONCE_SCENE.replace("<COMPONENTS>", "  a: {type: FMU, outputs: {y: y}}"))
+    with pytest.raises(ScenarioError) as info:
+        load(scene)
+    assert info.value.problems == [
+        "components.a.path: give either path (an .fmu file) or model (a pythonfmu .py file), one of them"]
+
+
+ODD_MODEL = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+
+globals().setdefault("_held_namespaces", []).append(globals())  # see scenarios/models/wind_gust.py
+
+
+class Odd(Fmi2Slave):
+    """At its first step: n = 99 (mode 1) or r = nan (mode 2); else n = 1, r = 1."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.mode, self.n, self.r = 0, 0, 0.0
+        for variable in (Integer("mode", causality=Fmi2Causality.parameter, variability=Fmi2Variability.tunable),
+                         Integer("n", causality=Fmi2Causality.output, variability=Fmi2Variability.discrete),
+                         Real("r", causality=Fmi2Causality.output)):
+            self.register_variable(variable)
+
+    def do_step(self, current_time, step_size):
+        self.n = 99 if self.mode == 1 else 1
+        self.r = float("nan") if self.mode == 2 else 1.0
+        return True
+'''
+
+
+@pytest.mark.parametrize(("mode", "said"), [
+    (1, "component 'odd' failed at t = 0 s: ValueError: FMU 'odd.py': variable 'n' = 99 is no StageId (port st, "
+        "field stage; its values: 0 approach, 1 hit, 2 slide, 3 fly_away, 4 sink, 5 rest, 6 float, 7 left_pond)"),
+    (2, "component 'odd' failed at t = 0 s: non-finite value in output 'r' field 'value'"),
+])
+def test_an_fmu_output_its_port_cannot_take_names_the_variable_and_counts_the_call(tmp_path, mode, said):
+    """An enum's number out of its range named with the FMU, variable, port and the enum's values (it
+    said "99 is not a valid StageId"); the doStep that gave it, or a NaN, is counted (it said "0
+    doStep calls")."""
+    (tmp_path / "odd.py").write_text(ODD_MODEL)
+    scene = tmp_path / "odd.yaml"
+    scene.write_text(ONCE_SCENE.replace("<COMPONENTS>", f"  odd: {{type: FMU, model: odd.py, start: {{mode: {mode}}}, "
+                                        "outputs: {r: r, st: {type: Stage, fields: {stage: n}}}}"))
+    outcome = run_scene(load(scene), None, progress=False)
+    assert outcome.result.status == "failed"
+    assert outcome.result.reason.startswith(said), outcome.result.reason
+    assert "odd: FMU 'odd.py' (FMI 2.0), 1 doStep call" in outcome.summary

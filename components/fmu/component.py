@@ -117,8 +117,8 @@ class FMU(Component):
 
     @classmethod
     def configure(cls, params: Any, path: str, base_dir: Path, problems: list[str]) -> type[Component] | None:
-        if params is None:
-            return None
+        if params is None or (params.path is None) == (params.model is None):
+            return None  # (neither or both given: FMUParams.check says so)
         try:
             import fmpy  # noqa: F401
         except ImportError:
@@ -147,7 +147,10 @@ class FMU(Component):
         })
 
     def setup(self) -> None:
-        self._failed_do_step = False  # whether a doStep refused: the summary counts it
+        self._failed_do_step = False  # whether the last doStep failed
+        # the doStep calls made, as step_count counts them (one whose outputs the run then refused, a
+        # NaN, counts: the summary said "0 doStep calls" of an FMU that had made one)
+        self._calls_made = 0
         if self.fmu_file is None:
             raise TypeError("an FMU component is built from a scene (its ports come from the scene's mapping)")
         try:
@@ -166,7 +169,10 @@ class FMU(Component):
                 got = self.fmu.get(fmu_type, [port.bindings[i].value_reference for i in positions])
                 for i, value in zip(positions, got, strict=True):
                     values[i] = value
-            out[port.port] = build_message(port, values)
+            try:
+                out[port.port] = build_message(port, values)
+            except ValueError as exc:  # a value its field cannot hold (an enum's number out of its range)
+                raise ValueError(f"FMU {self.label}: {exc}") from None
         return out
 
     def initial_outputs(self) -> dict[str, Message]:
@@ -182,10 +188,11 @@ class FMU(Component):
                 for fmu_type, positions in _by_type(port).items():
                     self.fmu.set(fmu_type, [port.bindings[i].value_reference for i in positions],
                                  [values[i] for i in positions])
+            self._calls_made = self.step_count + 1
             try:
                 self.fmu.do_step(t, dt)
             except FmuCallError:
-                self._failed_do_step = True  # (the summary counts it: "0 doStep calls" said otherwise)
+                self._failed_do_step = True
                 raise
             return self._outputs()
         except FmuCallError as exc:
@@ -216,7 +223,7 @@ class FMU(Component):
             raise ValueError(f"FMU {self.label}: cannot restore its state: {exc}") from None
 
     def summary(self) -> list[str]:
-        calls = counted(self.step_count + self._failed_do_step, "doStep call")
+        calls = counted(max(self.step_count, self._calls_made), "doStep call")
         failed = " (the last one failed)" if self._failed_do_step else ""
         return [f"{self.name}: FMU {self.label} (FMI {self.description.fmiVersion}), {calls}{failed}"]
 

@@ -9,6 +9,7 @@ FMI allows) and the folder is removed when the process ends.
 from __future__ import annotations
 
 import atexit
+import gc
 import shutil
 from collections.abc import Callable
 from ctypes import byref
@@ -27,6 +28,10 @@ _unpacked: dict[tuple[str, int, int], str] = {}
 # FMI 2 instances by the componentEnvironment their callbacks carry (1, 2, ...), for the one logger
 # callback they all share (_fmi2_logger)
 _by_environment: dict[int, FmuInstance] = {}
+# an FMU file that can be instantiated only once per process (canBeInstantiatedOnlyOncePerProcess)
+# -> the name of its live instance: a second one is refused, not made (an FMU keeping global state
+# would run two instances on one state without a word, and one that enforces it fails saying nothing)
+_only_once: dict[str, str] = {}
 _fmi2_dispatch: Any = None
 
 
@@ -124,22 +129,50 @@ class FmuInstance:
         self.can_save = bool(md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate)
         folder = _unpack(fmu_file)
         check_pythonfmu_resources(md, folder, fmu_file)
+        self._once = self._claim_only_instance(fmu_file, md, name)
         common = {"guid": md.guid, "unzipDirectory": folder,
                   "modelIdentifier": md.coSimulation.modelIdentifier, "instanceName": name}
+        def inside_the_file(text: str) -> str:  # named inside the FMU file, not the folder it was unpacked to
+            return text.replace(folder.rstrip("/") + "/", f"{fmu_file}:").replace(folder, str(fmu_file))
+
         try:
             self._load(md, common)
-        except Exception as exc:  # named inside the FMU file, not the temporary folder it was unpacked to
+        except Exception as exc:
+            # an instance that failed logs no more (it stayed registered for the FMU's callbacks)
+            _by_environment.pop(getattr(self, "_environment", 0), None)
+            _only_once.pop(self._once, None)
+            if isinstance(exc, FmuCallError):
+                raise FmuCallError(exc.function, exc.status, [inside_the_file(m) for m in exc.log]) from None
             if type(exc) not in (ValueError, OSError, RuntimeError, Exception):  # one that says more than a text
                 raise
-            said = str(exc).replace(folder.rstrip("/") + "/", f"{fmu_file}:").replace(folder, str(fmu_file))
-            raise type(exc)(said) from None
+            raise type(exc)(inside_the_file(str(exc))) from None
         self.live = True
-        _hold_pythonfmu_namespace(md, folder)
-        for name_, value in start.items():
-            var = variables[name_]
-            self.set(var.type, [var.valueReference], [value])
-        self._call("enterInitializationMode", self.fmu.enterInitializationMode)
-        self._call("exitInitializationMode", self.fmu.exitInitializationMode)
+        try:
+            _hold_pythonfmu_namespace(md, folder)
+            for name_, value in start.items():
+                var = variables[name_]
+                self.set(var.type, [var.valueReference], [value])
+            self._call("enterInitializationMode", self.fmu.enterInitializationMode)
+            self._call("exitInitializationMode", self.fmu.exitInitializationMode)
+        except BaseException:
+            self.close()  # freed, and its claim let go: nothing else holds this half-made instance
+            raise
+
+    @staticmethod
+    def _claim_only_instance(fmu_file: Path, md: Any, name: str) -> str | None:
+        """For an FMU that can be instantiated only once per process, its key in ``_only_once``,
+        claimed for instance ``name``; refused while another instance of it lives."""
+        if not getattr(md.coSimulation, "canBeInstantiatedOnlyOncePerProcess", False):
+            return None
+        key = str(fmu_file.resolve())
+        if key in _only_once:
+            gc.collect()  # an earlier run's instance not let go yet (held in a reference cycle)
+        if key in _only_once:
+            raise ValueError(f"{fmu_file.name}: the FMU can be instantiated only once per process "
+                             f"(canBeInstantiatedOnlyOncePerProcess), and {_only_once[key]!r} already holds "
+                             "its instance")
+        _only_once[key] = name
+        return key
 
     def _load(self, md: Any, common: dict[str, Any]) -> None:
         """Load the FMU's binary (``common``: FMPy's slave arguments) and instantiate it."""
@@ -201,6 +234,13 @@ class FmuInstance:
             said = ([m for m in self.log if m.startswith("[Error]")] or
                     [m for m in self.log if m.startswith("[Fatal]")] or self.log)
             raise FmuCallError(function, status, said) from None
+        except Exception as exc:
+            if function != "instantiate" or type(exc) is not Exception:
+                raise
+            # FMPy's answer to an instantiate that returned no instance: a bare "Failed to instantiate
+            # model"; what the FMU logged meanwhile says why (a pythonfmu model's exception, a missing file)
+            said = [m for m in self.log if m.startswith(("[Error]", "[Fatal]"))] or self.log
+            raise FmuCallError(function, f"no instance ({exc})", said) from None
         finally:
             cosim.fmi.host_calls -= 1
 
@@ -258,6 +298,7 @@ class FmuInstance:
             self._end()
         finally:
             _by_environment.pop(getattr(self, "_environment", 0), None)  # it logs no more
+            _only_once.pop(getattr(self, "_once", None), None)
 
     def _end(self) -> None:
         """Terminate and free the instance, as far as the worst status it answered lets them be called."""

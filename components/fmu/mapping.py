@@ -285,7 +285,12 @@ def build_message(port: PortMap, values: list[Any]) -> Message:
         if binding.index is not None:
             fields[binding.field][binding.index] = value
         elif spec.kind is FieldKind.ENUM and spec.enum_type is not None:
-            fields[binding.field] = spec.enum_type(int(value))
+            try:
+                fields[binding.field] = spec.enum_type(int(value))
+            except ValueError:  # (the enum's own words named neither the variable nor the port)
+                members = ", ".join(f"{m.value} {m.name.lower()}" for m in spec.enum_type)
+                raise ValueError(f"variable {binding.variable!r} = {int(value)} is no {spec.enum_type.__name__} "
+                                 f"(port {port.port}, field {binding.field}; its values: {members})") from None
         elif spec.kind is FieldKind.FLOAT:
             fields[binding.field] = float(value)
         else:

@@ -37,8 +37,12 @@ def model_identifier(output: Path) -> str:
     FMI asks, since it names the FMU's binaries and functions."""
     # ASCII only: a C identifier has no other letters (\w kept skïp's ï: a Python name, no C one)
     name = re.sub(r"[^A-Za-z0-9_]", "_", output.stem)
-    # a C identifier, and a Python class name for the slave (class.fmu made a class named class)
-    return name if name and not name[0].isdigit() and not keyword.iskeyword(name) else f"fmu_{name}"
+    # a C identifier, and a Python class name for the slave (class.fmu made a class named class); and
+    # not a dunder: the binary fetches the class as the module's attribute of that name, and a module's
+    # own __class__ or __dict__ comes first (__builtins__ replaced the module's builtins), so that
+    # __class__.fmu was written, and then could not be instantiated
+    plain = name and not name[0].isdigit() and not keyword.iskeyword(name) and not name.startswith("__")
+    return name if plain else f"fmu_{name}"
 
 
 SLAVE_MODULE = '''"""The scene {scene!r} as an FMI 2.0 co-simulation FMU (cosim fmu export)."""

@@ -98,7 +98,11 @@ class SceneSlave(Fmi2Slave):
         self.values: dict[str, Any] = {}
         self.sim: Simulation | None = None
         self.latest = _Latest({(o.component, o.port) for o in self.spec.outputs})
-        self.start_ns = 0  # setupExperiment's start time [ns]: initialization runs the scene up to it
+        self.start_time = 0.0  # setupExperiment's start time [s]: initialization runs the scene up to it
+        self.initializing = False  # in Initialization Mode: the outputs are the scene's at the start time
+        # the scene started for the outputs read during Initialization Mode, and the parameters (and
+        # start time) it was built from: exitInitializationMode keeps it if they are unchanged
+        self._started: tuple[tuple[Any, ...], Simulation] | None = None
         self.terminated = False  # set by terminate: FMI 2.0 then allows only reset (a new instance) and freeInstance
         for p in self.spec.parameters:
             self.values[p.name] = p.start
@@ -112,7 +116,7 @@ class SceneSlave(Fmi2Slave):
             # an Integer or a Boolean changes only at communication points: discrete, as FMI asks of it
             variability = Fmi2Variability.continuous if o.kind == "real" else Fmi2Variability.discrete
             self.register_variable(kind(o.name, causality=Fmi2Causality.output, variability=variability,
-                                        description=o.description, getter=self._getter(o.name)))
+                                        description=o.description, getter=self._output_getter(o.name)))
         # the scene's own end and step (or --step's): a master's defaults (FMPy's 1 s, its own interval)
         # stopped a throw before the stone sank, or stepped off the scene's grid
         step_ns = self.spec.step_ns or self.spec.dt_ns
@@ -123,6 +127,16 @@ class SceneSlave(Fmi2Slave):
 
     def _getter(self, name: str) -> Any:
         return lambda: self.values[name]
+
+    def _output_getter(self, name: str) -> Any:
+        def get() -> Any:
+            if self.initializing and self.sim is None:
+                # the model description lists every output as an initial unknown (calculated), which a
+                # master may read in Initialization Mode: the scene's value at the start time, as the
+                # parameters now stand (it read 0 until exitInitializationMode)
+                self._start()
+            return self.values[name]
+        return get
 
     def _setter(self, name: str) -> Any:
         def put(value: Any) -> None:
@@ -164,19 +178,32 @@ class SceneSlave(Fmi2Slave):
         initialization, and every output is the scene's value at its time as from a start at 0.
         Refusing t0 > 0 would leave such a master no way to use the FMU; shifting the scene to start
         at t0 would make the outputs at t the scene's at t - t0, unlike every other communication
-        point. Refused here, not later: a master learns it before it sets anything."""
-        self.start_ns = 0
+        point. Refused here, not later, against the base step the parameters give so far: a master
+        learns it before it sets anything. (A parameter on the base step set later in
+        Initialization Mode is checked again as the scene starts.)"""
+        self.start_time = 0.0
         if start_time == 0:
             return
         if not start_time >= 0:  # a negative or NaN start: the scene has no time before its t = 0
             self._fail(f"a start time of {start_time:.9g} s: must be at least 0 s (the scene begins at t = 0)")
-        # an FMU exported before its spec held dt has it only in its scene
-        dt_ns = self.spec.dt_ns or loads(self.scene_text, source=SCENE_FILE, base_dir=self.spec.base_dir).dt_ns
+        try:
+            dt_ns = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(),
+                          base_dir=self.spec.base_dir).dt_ns
+        except Exception:  # parameters that make no scene: said as the scene starts
+            dt_ns = self.spec.dt_ns or loads(self.scene_text, source=SCENE_FILE, base_dir=self.spec.base_dir).dt_ns
+        self._start_tick(start_time, dt_ns)
+        self.start_time = start_time
+
+    def _start_tick(self, start_time: float, dt_ns: int) -> int:
+        """The base step the start time [s] is, with the base step ``dt_ns`` [ns]; refused off its grid."""
         ticks = start_time * NS_PER_S / dt_ns
         if abs(ticks - round(ticks)) > TIME_SLACK:
             self._fail(f"a start time of {start_time:.9g} s is not a whole multiple of the scene's base step "
                        f"dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
-        self.start_ns = round(ticks) * dt_ns
+        return round(ticks)
+
+    def enter_initialization_mode(self) -> None:
+        self.initializing = True
 
     def overrides(self, values: dict[str, Any] | None = None) -> list[str]:
         """The ``--set`` overrides the parameters ask for (``values``: the variables', default the
@@ -206,17 +233,34 @@ class SceneSlave(Fmi2Slave):
         return Simulation(scene, observers=[self.latest])
 
     def exit_initialization_mode(self) -> None:
+        self.sim = self._start()
+        self.initializing = False
+        self._started = None
+
+    def _start(self) -> Simulation:
+        """The scene as the parameters now stand, initialized and run up to the start time, its
+        outputs published; built once for the same parameters and start time."""
+        key = (*(self.values[p.name] for p in self.spec.parameters), self.start_time)
+        if self._started is not None and self._started[0] == key:
+            return self._started[1]
+        self._started = None
+        self.latest.messages = {}
         try:
-            sim = self.sim = self._simulation()
+            sim = self._simulation()
             sim.initialize()
         except Exception as exc:  # a parameter that makes the scene invalid, a component that fails at t = 0
             self._fail(f"the scene cannot start: {exc}")
-        if self.start_ns:
+        if self.start_time:
+            # (its base step is the one the parameters give: a step parameter set in Initialization
+            # Mode may have put the start time off its grid, which was rounded down without a word)
+            tick = self._start_tick(self.start_time, sim.dt_ns)
             try:
-                _run_to(sim, self.start_ns // sim.dt_ns)
+                _run_to(sim, tick)
             except Exception as exc:  # a SimulationError: the scene failed before the start time
-                self._fail(f"the scene cannot run up to the start time {self.start_ns / NS_PER_S:.9g} s: {exc}")
+                self._fail(f"the scene cannot run up to the start time {self.start_time:.9g} s: {exc}")
         self._publish()
+        self._started = (key, sim)
+        return sim
 
     def _publish(self) -> None:
         for o in self.spec.outputs:
@@ -290,6 +334,7 @@ class SceneSlave(Fmi2Slave):
             # a state saved before initialization: back to then, with no scene (its outputs of 0 with the
             # scene left at its later time made a doStep from 0 refused and one from that time accepted)
             self.sim = None
+            self._started = None
             self.latest.messages = {}
         self.values.update(values)
 

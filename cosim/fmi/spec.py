@@ -35,8 +35,12 @@ from cosim.messages import FieldKind, fields_of
 from cosim.scenario import COMPONENT_KEYS, RecordConfig, Scene, find_parent
 
 PRESETS_GROUP = "cosim.fmi.presets"
-NAME_RE = re.compile(r"[A-Za-z_]\w{0,63}(\.[A-Za-z_]\w{0,63})*")  # an FMU variable name (structured naming)
+# an FMU variable name (structured naming): ASCII letters, digits and _ only (FMI's naming convention;
+# \w took "dëns", which FMPy's validation of the model description then refused)
+NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}(\.[A-Za-z_][A-Za-z0-9_]{0,63})*")
+FMI_INTEGER = (-2**31, 2**31 - 1)  # an FMI 2.0 Integer is a 32-bit int (xs:int)
 OUTPUT_RE = re.compile(r"^(\w+)\.(\w+)\.(\w+)(?:\[(\d+)\])?$")  # component.port.field[i]
+_NAME_RULE = "of ASCII letters, digits and _, not starting with a digit, parts joined by '.' (FMI's names)"
 KINDS = {FieldKind.FLOAT: "real", FieldKind.INT: "integer", FieldKind.ENUM: "integer", FieldKind.BOOL: "boolean"}
 SCENE_NUMBERS = {"dt": (float, "s"), "until": (float, "s")}  # the scene's own top-level numbers: type, unit
 COMPONENT_NUMBERS = {"every": (int, ""), "step": (float, "s")}  # a component's own keys beside its parameters
@@ -189,8 +193,8 @@ def parse_parameter(text: str, scene: Scene) -> Parameter:
     key = key.strip()
     value = scene_value(scene, key) if sep else None
     if not sep or not NAME_RE.fullmatch(name.strip()):
-        raise ScenarioError(f"--parameter {text!r}: expected NAME=key.path (e.g. density=components.stone.density)",
-                            scene.source)
+        raise ScenarioError(f"--parameter {text!r}: expected NAME=key.path (e.g. density=components.stone.density), "
+                            f"NAME {_NAME_RULE}", scene.source)
     if value is None:
         raise ScenarioError(f"--parameter {text!r}: the scene has no value at {key!r}{_near(scene, key)}; "
                             "a parameter sets one number of the scene", scene.source)
@@ -201,6 +205,9 @@ def parse_parameter(text: str, scene: Scene) -> Parameter:
     # a float parameter the scene writes as 2650 is still a Real; an integer one (a grid's nx)
     # takes only whole numbers, and an override of 900.0 was refused when the scene loaded
     if kind is int:
+        if not FMI_INTEGER[0] <= value <= FMI_INTEGER[1]:
+            raise ScenarioError(f"--parameter {text!r}: the scene's {key} is {int(value)}, outside an FMI 2.0 "
+                                f"Integer's range {FMI_INTEGER[0]} to {FMI_INTEGER[1]} (a 32-bit int)", scene.source)
         return Parameter(name.strip(), int(value), key=key, description=f"the scene's {key}", kind="integer")
     return Parameter(name.strip(), float(value), unit, description=f"the scene's {key}", key=key)
 
@@ -248,7 +255,8 @@ def parse_output(text: str, scene: Scene) -> Output:
     match = OUTPUT_RE.match(where.strip()) if sep else None
     if not match or not NAME_RE.fullmatch(name.strip()):
         raise ScenarioError(f"--output-var {text!r}: expected NAME=component.port.field or "
-                            "NAME=component.port.field[i] (e.g. z=stone.state.position[2])", scene.source)
+                            f"NAME=component.port.field[i] (e.g. z=stone.state.position[2]), NAME {_NAME_RULE}",
+                            scene.source)
     component, port, field_name, index = match.groups()
     return check_output(Output(name.strip(), component, port, field_name, int(index) if index else None), scene)
 
