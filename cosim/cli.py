@@ -361,6 +361,7 @@ def cmd_repair(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
+    from cosim.record.output import beside
     from cosim.record.reader import Recording
     from cosim.replay import replay_component, restart_simulation
 
@@ -408,7 +409,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     # a restart with --set or --until is a variant: named by its overrides as `cosim run` names one,
     # so that one variant never silently replaces another (or the plain restart)
     variant = f"-set-{_overrides_digest(overrides)}" if overrides else ""
-    default = rec.path.with_name(rec.path.stem + f"-from{stamp / NS_PER_S:g}s{variant}.mcap")
+    default = beside(rec.path, f"-from{stamp / NS_PER_S:g}s{variant}.mcap")
     output = Path(args.output) if args.output else default
     def restarting() -> None:  # said once the output is accepted and the run about to begin
         print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s", flush=True)

@@ -137,15 +137,17 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             if conn.target != name or conn.target_port != port:
                 continue
             topic = topic_of(conn.source, conn.source_port)
-            if spec.required and topic not in rec.channels:
+            recorded = channel(conn.source, conn.source_port, spec.type)
+            # (a channel declared but holding no message, as well as none: the component was fed None,
+            # and failed on it as if it had a fault of its own)
+            if spec.required and not recorded and restart is None:
                 held = sorted(rec.channels)
                 shown = ", ".join(held[:6]) + (", ..." if len(held) > 6 else "")
                 raise RecordingError(f"{rec.path}: cannot replay {name!r}: its input {port!r} comes from {topic}, "
                                      "which the recording holds no message of (the run ended before its first, "
                                      f"or the attached scene is not the one that made the channels: {shown})")
             source_cfg = scene.components[conn.source]
-            src = _RecordedSource(channel(conn.source, conn.source_port, spec.type), source_cfg.every, dt_ns,
-                                  position[conn.source] < position[name])
+            src = _RecordedSource(recorded, source_cfg.every, dt_ns, position[conn.source] < position[name])
             sources.append(src)
             edge = _Edge(conn, src.slot, spec.event)
             if restart is not None:  # the port's last messages and the edge's deliveries, as the restart had them

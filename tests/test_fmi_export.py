@@ -12,8 +12,6 @@ import errno
 import math
 import os
 import re
-import shutil
-import subprocess
 import zipfile
 from pathlib import Path
 
@@ -32,7 +30,7 @@ from cosim.record.reader import Recording  # noqa: E402
 from cosim.replay import restart_simulation  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
-from tests.cli_toys import one_error_line  # noqa: E402
+from tests.cli_toys import fill_leaving, one_error_line, small_disk  # noqa: E402
 from tests.fmu_toys import SKIP_SCENE, fmu_cache  # noqa: E402, F401
 
 pytestmark = pytest.mark.usefixtures("fmu_cache")
@@ -389,18 +387,9 @@ def test_an_fmu_the_disk_has_no_room_for_names_the_output_and_leaves_what_was_th
 @pytest.fixture
 def full_disk(tmp_path):
     """A folder on a 2 MiB file system with 64 KiB free (a tmpfs: skipped where mounting is not allowed)."""
-    folder = tmp_path / "full"
-    folder.mkdir()
-    mounted = shutil.which("mount") is not None and subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(folder)], capture_output=True).returncode == 0
-    if not mounted:
-        pytest.skip("mounting a tmpfs is not allowed here")
-    try:
-        room = os.statvfs(folder)
-        (folder / "fill").write_bytes(bytes(room.f_bavail * room.f_frsize - (64 << 10)))
+    with small_disk(tmp_path / "full") as folder:
+        fill_leaving(folder, 64 << 10)
         yield folder
-    finally:
-        subprocess.run(["umount", str(folder)], check=False)
 
 
 def test_an_fmu_exported_onto_a_full_disk_leaves_nothing_half_written(full_disk, capsys):

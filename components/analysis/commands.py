@@ -36,10 +36,9 @@ def register_plot(subparsers: argparse._SubParsersAction) -> None:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     from components.analysis.plot import FIGURES, WATER_FIGURE, plot_run
-    from cosim.record.output import same_file
+    from cosim.record.output import beside, same_file
 
-    out_dir = Path(args.output) if args.output else Path(args.recording).with_name(
-        Path(args.recording).stem + "-plots")
+    out_dir = Path(args.output) if args.output else beside(Path(args.recording), "-plots")
     if out_dir.exists() and not out_dir.is_dir():
         print(f"error: {out_dir}: not a folder; cosim plot writes its PNG figures into a folder (-o DIR)",
               file=sys.stderr)

@@ -43,6 +43,15 @@ def same_file(a: Path, b: Path) -> bool:
         return False
 
 
+def _is_file(path: Path) -> bool:
+    """Whether ``path`` is a file; False for a name no file can have (too long: a restart's scene is
+    named ``RECORDING:scene.yaml``, past the limit for a recording named in 247 bytes)."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
+
+
 def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     """``path`` if a recording may be written there; otherwise a RecordingError (bad input) saying why.
 
@@ -56,7 +65,7 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
         path = Path(os.path.realpath(path))
     for source in inputs:
         source = Path(source)
-        if source.is_file() and same_file(path, source):
+        if _is_file(source) and same_file(path, source):
             raise RecordingError(f"{path}: is the run's own input {str(source)!r}; choose another output (-o)")
     if path.name in ("", ".", "..") or path.name.endswith(PART_SUFFIX):
         raise RecordingError(f"{path}: not a file name for a recording (give e.g. runs/skip.mcap)")
@@ -163,19 +172,29 @@ class Claim:
 
     def __init__(self, target: Path, part: Path, fd: int):
         self.target, self.part, self.fd = target, part, fd
+        self.handed_over = False  # the file was moved onto the target or kept for the user: never removed
 
     def __repr__(self) -> str:
         return f"Claim(target={self.target!r}, part={self.part!r}, fd={self.fd})"
 
     def release(self, remove: bool) -> None:
-        """Close the lock (and remove the private file when ``remove``; a finished one was moved)."""
-        if remove:
+        """Close the lock (and remove the private file when ``remove``, unless it was handed over: a
+        finished one was moved, a kept one is the user's)."""
+        if remove and not self.handed_over:
             with contextlib.suppress(OSError):
                 self.part.unlink()
         if self.fd >= 0:
             with contextlib.suppress(OSError):
                 os.close(self.fd)
             self.fd = -1
+
+
+    def hand_over(self) -> None:
+        """Close the lock, the file handed over (moved onto the target, or kept under its name and
+        said so): a later release, even one asked to remove it (a run discarding its recording
+        after a failure), leaves it."""
+        self.release(remove=False)
+        self.handed_over = True
 
 
 def being_written(part: str) -> bool:
@@ -211,6 +230,14 @@ def sibling_stem(name: str, suffix_bytes: int) -> str:
     digest = hashlib.sha256(raw).hexdigest()[:8]
     start = raw[:NAME_MAX - suffix_bytes - len(digest) - 1].decode("utf-8", "ignore")  # not cut inside a character
     return f"{start}~{digest}"
+
+
+def beside(path: Path, ending: str) -> Path:
+    """``path``'s sibling named its stem and ``ending`` (``-repaired.mcap``), the stem shortened
+    (:func:`sibling_stem`) when the whole would not fit in a file name: a name a command picks for
+    itself is one the file system takes (``cosim repair`` of a 247-byte name failed: "File name too
+    long")."""
+    return path.with_name(sibling_stem(path.stem, len(os.fsencode(ending))) + ending)
 
 
 def _private_file(path: Path) -> tuple[int, str]:
@@ -249,7 +276,10 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     mine = Claim(path, Path(name), fd)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(_part_stem(path)) + ".*" + PART_SUFFIX)
+        # NAME.<8 hex digits>.part, as _private_file names them: NAME.* took another target's (a.mcap.x.mcap's
+        # private file was "another run writing a.mcap")
+        pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(_part_stem(path)) + "." + "[0-9a-f]" * 8
+                               + PART_SUFFIX)
         mine_too = {os.path.abspath(name)} | ({os.path.abspath(replacing.part)} if replacing is not None else set())
         left = []
         for other in glob.glob(pattern):

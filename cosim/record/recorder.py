@@ -164,10 +164,10 @@ class Recorder(BaseObserver):
         self._mark = self.sink.mark
         self._perf_wall = time.perf_counter()
         self._perf_tick = 0
-        meta = {"version": version or __version__, "scene": scene.name, "source": scene.source,
-                "overrides": json.dumps(scene.overrides), "command_line": command_line,
+        meta = {"version": version or __version__, "scene": scene.name, "source": _utf8(scene.source),
+                "overrides": json.dumps(scene.overrides), "command_line": _utf8(command_line),
                 "dt_ns": str(scene.dt_ns), "until_ns": str(scene.until_ns),
-                "base_dir": scene.base_dir}  # where the scene's relative file names (an FMU) start
+                "base_dir": _utf8(scene.base_dir)}  # where the scene's relative file names (an FMU) start
         if start_ns:  # a restart: replay and inspect begin where it began
             meta["start_ns"] = str(start_ns)
         self.sink.add_metadata(METADATA_NAME, meta)
@@ -370,6 +370,17 @@ class Recorder(BaseObserver):
         if not self._closed:
             self._closed = True
             self.sink.discard()
+
+
+def _utf8(text: str) -> str:
+    """``text`` as MCAP's metadata can hold it, UTF-8: a file name that is not (a byte the file system
+    took, which Python carries as a lone surrogate) has that byte written as its escape (\\xff). It
+    failed every recording of a scene in such a folder, blamed on the writer."""
+    try:
+        raw = text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:  # a surrogate no file system byte stands for
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return raw.decode("utf-8", "backslashreplace")
 
 
 def physics_topics(scene: Scene) -> frozenset[str]:

@@ -38,9 +38,11 @@ from cosim.record.output import (
     MCAP_MAGIC,
     PART_SUFFIX,
     being_written,
+    beside,
     check_output,
     copy_file,
     output_folder,
+    sibling_stem,
     written_whole,
 )
 
@@ -66,6 +68,9 @@ class Repaired:
     damage: tuple[Damage, ...] = ()
 
 
+REPAIRED = "-repaired.mcap"  # the ending of a repaired recording's default name
+
+
 def default_output(cut: Path) -> Path:
     """Where the repaired recording of ``cut`` goes: the recording a private file was meant to become
     (``NAME`` of ``NAME.<random>.part``) when there is none there yet, else ``STEM-repaired.mcap`` (also
@@ -74,11 +79,11 @@ def default_output(cut: Path) -> Path:
     if name.endswith(PART_SUFFIX) and name.count(".") >= 2:
         meant = cut.with_name(name[:-len(PART_SUFFIX)].rsplit(".", 1)[0])
         if meant.suffix != ".mcap":  # a name too long to keep whole (output.sibling_stem): not recoverable
-            return meant.with_name(f"{meant.name}-repaired.mcap")
+            return meant.with_name(sibling_stem(meant.name, len(REPAIRED)) + REPAIRED)
         if not meant.exists():
             return meant
-        return meant.with_name(f"{meant.stem}-repaired.mcap")
-    return cut.with_name(f"{cut.stem}-repaired.mcap")
+        return beside(meant, REPAIRED)
+    return beside(cut, REPAIRED)
 
 
 def _reason(exc: RecordingError, path: Path) -> str:

@@ -910,7 +910,8 @@ class ProcessSink(_Sink):
         self.path = path
         self._failed: str | None = None  # the line saying how the writer failed, once it has
         self._abandoned = False  # the writer was given up on (_abandon): it keeps the private file
-        self._whole = False  # the writer failed, but its file holds the whole run (_seal): the run stands
+        self._whole = False  # the writer failed, but its file holds the whole run (_seal, _salvage): the run stands
+        self._closing = False  # close() has begun: the run has sent everything it records
         # a path that cannot be written fails at once, in this process (the private file is created
         # here, empty, and locked; the writer opens it by name and holds the lock too)
         self.claim = claim(path)
@@ -1015,14 +1016,20 @@ class ProcessSink(_Sink):
         # the salvage derives the viewer channels again here, so a deriver's warning comes again; it
         # is held until the file is safe (an "error" filter would have it end the salvage, losing
         # the recording) and given once with those the writer relayed
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            if code < 0:
-                self._failed = self._salvage(self._killed(code, unresponsive))
-            elif refused is None and not _OS_ERROR.search(text):  # not the file system refusing its writes: a crash
-                self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
-            else:
-                self._failed = self._seal(reason)
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                if code < 0:
+                    self._failed = self._salvage(self._killed(code, unresponsive))
+                elif refused is None and not _OS_ERROR.search(text):  # not the file system refusing its writes
+                    self._failed = self._salvage(f"the recording writer failed ({reason or f'exit code {code}'})")
+                else:
+                    self._failed = self._seal(reason)
+        except BaseException:
+            if self._failed is not None:  # (a Ctrl-C in the salvage) where the writer's file is kept: said now,
+                with contextlib.suppress(Warning):  # as the interrupt is what the run reports
+                    warnings.warn(self._failed, RuntimeWarning, stacklevel=2)
+            raise
         given = relayed_warnings(text) + [(w.category, str(w.message)) for w in caught]
         _give(list(dict.fromkeys(given)), failing=True)
         return self._failed
@@ -1061,15 +1068,21 @@ class ProcessSink(_Sink):
         except Exception:  # not even the file's start whole, or no room at all: nothing to keep
             self.claim.release(remove=True)
             return f"{self.path}: the recording could not be written: {reason}; no file was left"
-        except BaseException:  # (Ctrl-C) no half-sealed file is left behind
-            self.claim.release(remove=True)
+        except BaseException:  # (a second Ctrl-C) the writer's file is the only copy: kept, and said
+            self._interrupted(fate, "closing it where it stopped")
             raise
+        if cut and not kept.messages and self.path.is_file():
+            # nothing of the run fitted: a file holding its failed status alone would replace the
+            # recording there before, which is worth more (a full disk lost a whole earlier recording)
+            self.claim.release(remove=True)
+            return (f"{self.path}: {fate}; none of the run's messages could be written, so the recording there "
+                    "before is left as it was")
         try:
             finish(self.claim.part, self.path)
             where = ""
         except OSError as exc:  # the target cannot be replaced (a folder made there): the recording is kept
             where = f"; it could not be moved there ({exc.strerror or exc}) and is kept as {self._keep()}"
-        self.claim.release(remove=False)
+        self.claim.hand_over()  # (a run that then discards its recording leaves it: it is the user's now)
         if not cut:  # the data section was whole: only its summary, or the move onto the target, failed
             whole = f"the recording is whole ({kept.messages} messages, to t = {kept.end_ns / 1e9:g} s)"
             if where:
@@ -1087,6 +1100,14 @@ class ProcessSink(_Sink):
         # the run's own messages: the file holds its status record (and viewer items) beside them
         return (f"{self.path}: {fate}; the recording was closed where it stopped, at t = {end_ns / 1e9:g} s "
                 f"({first}{dropped}), and what the run recorded after that was lost{where}")
+
+    def _interrupted(self, fate: str, doing: str) -> None:
+        """A Ctrl-C while the dead writer's file was being ``doing`` (salvaged, closed): the file is the
+        only copy of what it recorded, so it is kept, not removed, and the line saying where is the
+        recording's failure (:meth:`_failure` gives it as a warning too)."""
+        self.claim.hand_over()
+        self._failed = (f"{self.path}: {fate}; {doing} was interrupted, and what the writer had written is kept as "
+                        f"{self.claim.part} (cosim repair {self.claim.part} makes it a valid recording)")
 
     def _keep(self) -> Path:
         """Give the private file that could not be moved onto the target a recording's name beside it
@@ -1129,18 +1150,22 @@ class ProcessSink(_Sink):
                 reason = os.strerror(exc.errno)
                 self._failed = self._seal(reason, f"{fate}, and there was no room to salvage the rest ({reason})")
                 return self._failed
+            if not isinstance(exc, Exception):  # (a second Ctrl-C) the writer's file is kept, not removed
+                self._interrupted(fate, "salvaging what it had recorded")
+                raise
             old.release(remove=True)
-            why = f"{type(exc).__name__}: {_one_line(str(exc))}" if isinstance(exc, Exception) else "interrupted"
+            why = f"{type(exc).__name__}: {_one_line(str(exc))}"
             self._failed = (f"{path}: the recording could not be written: {fate}, and salvaging what it "
                             f"had recorded failed too ({why}); no file was left")
-            if not isinstance(exc, Exception):  # (Ctrl-C) the run is told the same line when it next records
-                raise
             return self._failed
         new.release(remove=False)
         old.release(remove=True)
         end = f"t = {kept.end_ns / 1e9:g} s"
         # the run's own messages: the file holds its status record and the viewer items made from them too
         if kept.complete:
+            # as the run's recording was being finished (the writer stopped answering as it closed the
+            # file): everything the run sent, its status with it, is in the file: the run stands
+            self._whole = self._closing
             return (f"{path}: {fate}; the recording was salvaged up to {end}, all the run had recorded "
                     f"(its {kept.messages} messages), into {path}")
         return (f"{path}: {fate}; the recording was salvaged up to {end} (the run's first {kept.messages} "
@@ -1169,6 +1194,7 @@ class ProcessSink(_Sink):
         writer is kept for this process's next recording (:func:`_keep`)."""
         if self._abandoned:
             raise SinkError(self._failed or "")
+        self._closing = True  # everything the run records has been sent (a salvage that keeps it all: _whole)
         finished = cut_short = False
         relayed: list[tuple[type[Warning], str]] = []
         rescued: tuple[str, str] | None = None
@@ -1183,7 +1209,9 @@ class ProcessSink(_Sink):
                 except RingStalled:
                     raise SinkError(self._abandon()) from None
                 except RingStuck as exc:
-                    raise SinkError(self._failure(unresponsive=str(exc))) from None
+                    line = self._failure(unresponsive=str(exc))
+                    if not self._whole:  # (else said below, as a warning: nothing was lost)
+                        raise SinkError(line) from None
             if self._failed is not None or (not finished and not self._finished_unsaid()):
                 line = self._failure()  # the ring is still open here: the salvage reads it
                 if not self._whole:

@@ -28,6 +28,7 @@ from typing import Any
 from tqdm import tqdm
 
 from cosim.errors import counted, ending_signals
+from cosim.record.output import beside
 from cosim.sweep.backends import BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
 from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot
@@ -153,7 +154,7 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
     outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done))
     outcome.counts.update(row["status"] for row in done.values())
     todo = deque(p for p in sweep.points if p.point_id not in done)
-    runs_dir = output.with_name(output.stem + "_runs")
+    runs_dir = beside(output, "_runs")
     if sweep.record and todo:  # said once here, rather than by every run failing to record
         try:
             runs_dir.mkdir(parents=True, exist_ok=True)

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import ScenarioError
-from cosim.record.output import remove_quietly, written_whole
+from cosim.record.output import beside, remove_quietly, written_whole
 from cosim.sweep.plan import yaml_value
 
 NOT_RESULTS = ("interrupted", "unfinished")  # statuses of runs that a resumed sweep runs again
@@ -45,7 +45,7 @@ def cell(value: Any) -> str:
 
 
 def meta_path(output: Path) -> Path:
-    return output.with_name(output.stem + ".meta.json")
+    return beside(output, ".meta.json")
 
 
 def journal_path(output: Path) -> Path:
