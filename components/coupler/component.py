@@ -159,7 +159,8 @@ class WaterCouplerParams:
     c_d_disk: float = param(C_DRAG_DISK, ge=0, le=COEFFICIENT_MAX,
                             doc="pressure drag coefficient of a submerged disk (face on)")
     c_d_sphere: float = param(C_DRAG_SPHERE, ge=0, le=COEFFICIENT_MAX,
-                              doc="pressure drag coefficient of a submerged sphere")
+                              doc="pressure drag coefficient of a submerged sphere: its measured total, 0.47, "
+                                  "less the skin friction the friction effect adds over it (8/3 C_f)")
     closure_depth: float = param(CLOSURE_DEPTH, unit="m", gt=0, le=LENGTH_MAX,
                                  doc="the planing law fades out as the body's top goes this far under the "
                                      "surface (the water closes over it); below, the body is submerged")

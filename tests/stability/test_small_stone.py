@@ -37,8 +37,9 @@ def test_a_small_disk_skips_and_its_columns_are_subsampled():
 
 def test_a_small_sphere_sinks_at_its_terminal_speed():
     """A 4 mm slate sphere dropped at 2 m/s sinks straight down (drift under 0.5 mm) and settles at
-    the closed-form terminal speed of the coupler's submerged drag and friction (C_D = 0.47 and
-    C_f = 0.005 over the sphere: 0.4833) within 1.5%: 0.5977 m/s (measured 0.5997 at 0.4 s), which
+    the closed-form terminal speed of the coupler's submerged drag and friction (its pressure drag
+    0.457 and C_f = 0.005 over the sphere: the measured 0.47) within 1.5%: 0.6061 m/s (measured
+    0.6082 at 0.4 s), which
     the 16 x 16 sub-columns' buoyancy and the elements' drag of this sub-cell sphere must resolve."""
     r = run(scene("components.stone.shape=sphere", f"components.stone.radius={SMALL}",
                   "components.stone.velocity=[0, 0, -2]", "components.stone.position=[1.0, 0.5, 0.05]",

@@ -91,8 +91,9 @@ def test_a_vertical_drop_sinks_straight_down(shape):
     """Dropped flat at 3 m/s straight into 1 m of water, a slate disk or a 2 cm slate sphere sinks
     without drifting sideways (under 1 mm) and settles to the closed-form terminal speed of the
     coupler's submerged drag and friction (:func:`terminal_speed`) within 1.5%: the disk 0.4072 m/s
-    (C_D = 1.17; measured 0.4086), the sphere 1.3364 m/s (C_D = 0.47 and C_f = 0.005 over the
-    sphere: 0.4833; measured 1.3423 at 0.6 s, still closing in). A drag 5% off misses it."""
+    (C_D = 1.17; measured 0.4086), the sphere 1.3553 m/s (its pressure drag 0.457 and C_f = 0.005
+    over the sphere, 8/3 C_f: the measured 0.47; measured 1.3615 at 0.6 s, still closing in). A drag
+    5% off misses it."""
     sets = ["components.stone.tilt_deg=0", "components.stone.position=[1.5, 0.5, 0.1]",
             "components.stone.velocity=[0, 0, -3]", "components.stages.stop_after=0", "until=0.6",
             "components.pond.depth=1.0"]  # deep enough to reach the terminal speed
