@@ -216,6 +216,7 @@ class StageMonitor(Component):
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.outside_at = (math.nan, math.nan)  # where the stone was then (x, y) [m]
         self.rest_since = math.nan  # first time of the current slow spell on the ground [s]
+        self._step = 0.0  # the last step [s]: the summary gives its times to its last digit
         self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
@@ -250,6 +251,7 @@ class StageMonitor(Component):
         water: WaterContact | None = inputs["water"]  # type: ignore[assignment]
         ground: GroundContact | None = inputs["ground"]  # type: ignore[assignment]
         now = t + dt
+        self._step = dt  # [s] (the summary gives its times to this step's last digit)
         x = float(body.position[0])
         track = self.track
         if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
@@ -299,7 +301,7 @@ class StageMonitor(Component):
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
                 and _lasted(self.settled_since if stage is StageId.FLOAT else self.since, now,
                             self.params.stop_after)):
-            self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.since:.4g} s")
+            self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self._seconds(self.since)} s")
         self._check_outside(now, body, water, outputs)
         return outputs
 
@@ -434,6 +436,16 @@ class StageMonitor(Component):
             "skip_peaks": " ".join(f"{r.peak_g:.2f}" for r in self.records),  # [g] SkipRecord.peak_g
         }
 
+    def _seconds(self, t: float) -> str:
+        """``t`` [s] to the last digit of the monitor's step, at least to the millisecond, with no
+        trailing zeros past it: on a 0.5 ms step 0.0525 s, not 0.052 s (the stop line said "sink
+        since t = 0.0525 s" beside a timeline saying 0.052 s)."""
+        decimals = max(3, math.ceil(-math.log10(self._step) - 1e-9)) if self._step > 0 else 3
+        text = f"{t:.{decimals}f}"
+        while decimals > 3 and text.endswith("0"):
+            text, decimals = text[:-1], decimals - 1
+        return text
+
     def _outcome(self) -> str:
         if not math.isnan(self.left_at):
             return LEFT_POND
@@ -441,7 +453,7 @@ class StageMonitor(Component):
 
     def summary(self) -> list[str]:
         # named after the monitor ("stages" in most scenes), so that several monitors tell theirs apart
-        timeline = ' -> '.join(f'{label} ({t:.3f} s)' for t, label in self.timeline)
+        timeline = ' -> '.join(f'{label} ({self._seconds(t)} s)' for t, label in self.timeline)
         lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the monitor first stepped)'}"]
         distance = self.travelled()
         # rounded first: a stone that moved back by less than 5 mm travelled 0.00 m, not -0.00 m
@@ -456,7 +468,8 @@ class StageMonitor(Component):
             # rounded first: a drift or turn smaller than the last digit is +0, not -0
             drift, heading = round(r.drift, 2) + 0.0, round(r.heading_deg, 1) + 0.0
             curve = f"; drift {drift:+.2f} m, heading {heading:+.1f} deg" if curved else ""
-            lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {r.touchdown_time:.3f} s; "
+            touchdown = self._seconds(r.touchdown_time)
+            lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {touchdown} s; "
                          f"contact {r.contact_time * 1e3:.1f} ms, peak {r.peak_g:.1f} g; "
                          f"take-off {r.takeoff_angle_deg:.1f} deg; "
                          f"speed {r.speed_in:.2f} -> {r.speed_out:.2f} m/s{curve}")

@@ -19,6 +19,7 @@ from components.analysis.plot import (
     contact_intervals,
     energy_terms,
     figure_contacts,
+    figure_energy,
     figure_motion,
     figure_trajectory,
     plot_run,
@@ -85,7 +86,66 @@ def test_one_force_panel_per_contact(run):
     visible = [ax for ax in fig.axes if ax.get_visible()]
     assert len(visible) == 3
     labels = {line.get_label() for line in visible[0].lines}
-    assert {"pressure z", "friction x", "/coupler/wrench z"} <= labels
+    assert {"pressure z", "friction along the motion", "/coupler/wrench z"} <= labels
+
+
+def test_the_horizontal_forces_of_a_contact_are_drawn_along_the_motion(tmp_path):
+    """The held skip thrown along +y: its contact panel draws the water's force along the motion as
+    the same throw along +x does, a drag of about 13 N (drawn along x, it was flat at 0)."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    along_x = ["until=0.3", "record.visual_rate=0"]
+    along_y = [*along_x, "components.pond.nx=100", "components.pond.ny=800",
+               "components.stone.position=[0.5, 0.3, 0.15]", "components.stone.velocity=[0, 7.88, -1.39]",
+               "components.stone.tilt_axis=[1, 0, 0]"]
+    drawn = []
+    for sets, name in ((along_x, "x"), (along_y, "y")):
+        path = run_scene(load(scene, sets), tmp_path / f"{name}.mcap", progress=False).recording
+        panel = figure_contacts(load_run(path)).axes[0]
+        (line,) = [ln for ln in panel.lines if ln.get_label() == "/coupler/wrench along the motion"]
+        drawn.append(np.asarray(line.get_ydata()))
+    assert drawn[1] == pytest.approx(drawn[0], rel=1e-9, abs=1e-9)
+    assert drawn[1].min() < -10.0
+
+
+def test_a_restart_begun_in_a_contact_numbers_and_dates_it_as_the_run_did(tmp_path):
+    """The held skip restarted at 1.0 s, in its glide after its fourth skip: the panel is that run's
+    contact 5, from the touchdown the restored monitor holds, before the restart (it was "contact 1:
+    t = 1.000 s", dated from the restart, the time axis said since touchdown)."""
+    from cosim.cli import main
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    whole, restart = tmp_path / "held.mcap", tmp_path / "restart.mcap"
+    assert main(["run", str(scene), "--until", "1.2", "-q", "-o", str(whole)]) == 0
+    assert main(["replay", str(whole), "--from", "1.0", "--until", "1.1", "-q", "-o", str(restart)]) == 0
+    full = load_run(whole)
+    skips = len(full.skips)
+    (touchdown,) = [start for start, end in contact_intervals(full) if start < 1.0 < end]
+    panel = figure_contacts(load_run(restart)).axes[0]
+    assert panel.get_title().startswith(f"contact {skips + 1}: touchdown t = {touchdown:.4f} s, before the restart "
+                                        "at t = 1.000 s; ")
+    assert panel.get_xlabel() == "time since the restart [ms]"
+
+
+def test_the_energy_figure_says_what_its_total_leaves_out(tmp_path):
+    """A recording without the coupler's reports (its dissipation), a body moved by a script (its
+    work): the energy figure's title says its total leaves them out (it drew a "total" falling or
+    rising with no word); a whole recording of a free body says nothing."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    root = Path(__file__).resolve().parents[1] / "scenarios"
+    cases = ((root / "held_skip.yaml", ["record.channels=['/stone/*', '/stages/*']"],
+              "the total leaves out coupler's dissipation (not recorded)"),
+             (root / "scripted_skim.yaml", [], "the total leaves out the work of its script"),
+             (root / "held_skip.yaml", [], None))
+    for k, (scene, sets, said) in enumerate(cases):
+        path = run_scene(load(scene, ["until=0.1", "record.visual_rate=0", *sets]), tmp_path / f"{k}.mcap",
+                         progress=False).recording
+        title = figure_energy(load_run(path)).axes[0].get_title()
+        assert title.endswith(said) if said else "leaves out" not in title
 
 
 def test_plot_writes_non_empty_pngs_showing_the_stages(skip_path, tmp_path, capsys):
@@ -177,6 +237,14 @@ def test_the_attack_angle_panel_says_when_the_attitude_is_held(tmp_path):
     assert "attitude held" in title and "keeps its tilt" in title
     assert np.ptp(held_run.body.attack_deg) < 1e-9  # what the title says: the curve is flat
     assert "attitude held" not in figure_motion(load_run(free)).axes[1].get_title()
+    # a scripted attitude turns the face (scripted_skim: 15 deg, then flat from 1.6 s): said so, not
+    # "held ... keeps its tilt" beside a curve going from 15 to 0 deg
+    skim = run_scene(load(scene.with_name("scripted_skim.yaml"), ["record.visual_rate=0"]), tmp_path / "skim.mcap",
+                     progress=False).recording
+    skim_run = load_run(skim)
+    title = figure_motion(skim_run).axes[1].get_title()
+    assert title.startswith("attitude scripted (scripted_tilt_deg)") and "keeps its tilt" not in title
+    assert np.ptp(skim_run.body.attack_deg) > 10.0
 
 
 def test_a_bounce_in_place_without_water_is_drawn_as_height_over_time(tmp_path):
@@ -410,6 +478,28 @@ def test_the_water_line_is_the_level_of_the_bodys_own_water(tmp_path):
     assert (pine.rest_level, granite.rest_level) == (0.5, 0.0)
     (water_line,) = [line for line in figure_trajectory(pine).axes[0].lines if line.get_label() == "water level"]
     assert list(water_line.get_ydata()) == [0.5, 0.5]
+
+
+def test_the_water_level_is_the_scenes_when_the_patches_were_not_recorded(tmp_path):
+    """A --record leaving out the ponds' patches: each level is what the recorded scene gives that
+    water (the pine's pond at 0.5 m; a water alone at 0.5 m), not 0 (the water line was drawn half a
+    metre under the pine's water, and a water-alone frame said "crest +501.46 mm")."""
+    from components.analysis.data import rest_level, water_rest_level
+    from cosim.record.reader import Recording
+    from cosim.runner import run_scene
+    from cosim.scenario import load, loads
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml"
+    path = run_scene(load(scene, [*RAISED_PINE, "until=0.05", "record.channels=['/pine/*', '/granite/*', "
+                                  "'/pine_pond/field']"]), tmp_path / "raised.mcap", progress=False).recording
+    rec = Recording(path)
+    assert not any(topic.endswith("/patch") for topic in rec.channels)
+    assert (rest_level(rec, "pine"), rest_level(rec, "granite"), water_rest_level(rec, "/pine_pond/field")) == \
+        (0.5, 0.0, 0.5)
+    alone = loads("dt: 0.001\nuntil: 0.01\ncomponents:\n  pond: {type: WaterSurface, nx: 8, ny: 8, rest_level: 0.5, "
+                  "field_rate: 1000}\nrecord: {channels: ['/pond/field']}\n")
+    rec = Recording(run_scene(alone, tmp_path / "alone.mcap", progress=False).recording)
+    assert (rest_level(rec), water_rest_level(rec, "/pond/field")) == (0.5, 0.5)
 
 
 def test_contacts_after_the_last_skip_are_the_monitors_not_each_wetted_span(run):

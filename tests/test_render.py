@@ -434,6 +434,31 @@ def test_an_output_under_a_file_names_that_file(skip_path, capsys):
     assert skip_path.read_bytes() == before
 
 
+def test_a_stone_beside_the_pond_is_said_to_be_beside_it_not_in_the_water(skip_path):
+    """A frame whose stone has come down beside the pond (its lowest point outside the water's grid)
+    gives the gap to the water's level beside the pond: "4.1 cm into the water" was said of a stone
+    that had left a 3 m pond at x = 3.65 m, over no water."""
+    from components.analysis.data import load_body, rest_level
+    from components.analysis.render import FrameRenderer, beside_the_pond, height_caption
+    from cosim.record.reader import Recording
+
+    assert height_caption(-0.041, beside=True) == "4.1 cm below the water's level, beside the pond"
+    rec = Recording(skip_path)
+    body = load_body(rec)
+    renderer = FrameRenderer(body, RenderOptions(width=WIDTH), rest_level(rec), "skip")
+    i = body.index_at(0.2)
+    x = float(body.position[i, 0])
+    renderer.extent = (x + 1.0, x + 5.0, -1.0, 1.0)  # the pond begins a metre past the stone
+    renderer.draw(0.2, None)
+    assert renderer.caption.endswith("cm above the water's level, beside the pond")
+    renderer.extent = (x - 5.0, x + 5.0, -10.0, 10.0)  # the stone over the pond
+    renderer.draw(0.2, None)
+    assert renderer.caption.endswith("cm above the water")
+    polys = np.array([[[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.01]]])
+    assert beside_the_pond(polys, (0.5, 1.0, -1.0, 1.0)) and not beside_the_pond(polys, (-1.0, 1.0, -1.0, 1.0))
+    assert not beside_the_pond(polys, None)
+
+
 def test_the_gap_is_the_one_reported_at_the_frames_time_not_the_drawn_fields(skip_path):
     """The surface drawn is the last field recorded (a few times a second): its gap to the stone
     could be up to a field's interval old (6.2 cm said where the stone was 5.4 cm in). The caption

@@ -39,6 +39,23 @@ def drive(monitor, script):
     return published
 
 
+def test_the_summary_dates_stages_to_the_digit_of_the_monitors_step():
+    """Stepped every 0.5 ms, the summary gives each stage and touchdown to that step's digit, as the
+    stop line does: approach at 0.0005 s and a touchdown at 0.0015 s (it said 0.001 s and 0.002 s, and
+    "sink since t = 0.0525 s" beside a timeline saying 0.052 s); whole milliseconds keep three digits."""
+    half = MS // 2
+    m = StageMonitor("stages")
+    script = [(body(0.0, 0.05, 5.0, -1.0), water(False)), (body(0.005, 0.04, 5.0, -1.0), water(False)),
+              (body(0.01, 0.0, 5.0, -1.0), water(True)), (body(0.015, 0.0, 5.0, -1.0), water(True))]
+    for k, (b, w) in enumerate(script):
+        m.step(k * half, half, {"body": b, "water": w, "ground": None})
+    assert m.summary()[0] == "stages: approach (0.0005 s) -> hit (0.0015 s)"
+    whole = StageMonitor("stages")
+    for k, (b, w) in enumerate(script):
+        whole.step(k * MS, MS, {"body": b, "water": w, "ground": None})
+    assert whole.summary()[0] == "stages: approach (0.001 s) -> hit (0.003 s)"
+
+
 def test_skip_sequence_and_figures():
     """approach -> hit -> slide -> fly-away -> approach -> hit -> sink, one skip with its figures."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))

@@ -63,6 +63,17 @@ def stage_changes(rec: Recording, topic: str) -> list[tuple[int, Stage]]:
     return pairs
 
 
+def _restored_touchdown(rec: Recording, monitor: str) -> float | None:
+    """When the contact a restart began in had touched down [s], from its stage monitor's state in the
+    checkpoint it restarted from; None when it began in none (or is no restart)."""
+    if not rec.restart_ns:
+        return None
+    checkpoint = rec.checkpoint_at(rec.restart_ns)
+    track = (((checkpoint or {}).get("components", {}).get(monitor) or {}).get("state") or {}).get("track") or {}
+    touchdown = track.get("touchdown_time")
+    return float(touchdown) if track.get("in_contact") and isinstance(touchdown, (int, float)) else None
+
+
 def _restored_stage(rec: Recording, monitor: str) -> Stage | None:
     """The stage monitor's stage in the checkpoint a restart began at, or None (not there, or not
     one yet)."""
@@ -210,6 +221,11 @@ class RunData:
     end: float = 0.0
     step: float = 0.0  # the body's step [s] (the scene's dt times its every; 0 when not known)
     cut_off: bool = False  # the recording has no final status: its run was cut off (killed) at ``end``
+    # a restart that began in a contact: when that contact's touchdown was [s] (before the recording)
+    touchdown_before: float | None = None
+    # what the energy budget's total leaves out, in words (a contact's dissipation not recorded, a
+    # script's work), for the energy figure to say
+    unbooked: list[str] = field(default_factory=list)
 
 
 def warn_ended_early(rec: Recording, drawn: str) -> None:
@@ -322,8 +338,10 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     track = load_body(rec, body)
     linked = linked_components(rec, component_of(track.topic))
     stages = None
+    touchdown_before = None
     stage_topics = own(topics_of(rec, Stage), linked)
     if stage_topics:
+        touchdown_before = _restored_touchdown(rec, component_of(stage_topics[0]))
         pairs = stage_changes(rec, stage_topics[0])
         t, msgs = np.array([t for t, _ in pairs], dtype=np.int64) / NS_PER_S, [m for _, m in pairs]
         stages = StageTrack(stage_topics[0], t, np.array([int(m.stage) for m in msgs], dtype=int),
@@ -351,7 +369,31 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     end = (rec.end_ns or 0) / NS_PER_S
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
                    wrenches, skips, topics_of(rec, WaterField), rest_level(rec, track.name),
-                   max(end, float(track.t[-1])), body_step(rec, track.name), rec.status() is None)
+                   max(end, float(track.t[-1])), body_step(rec, track.name), rec.status() is None, touchdown_before,
+                   unbooked(rec, track.name))
+
+
+def unbooked(rec: Recording, body: str) -> list[str]:
+    """What the energy budget of ``body`` cannot count, from the recorded scene: the dissipation of a
+    component reporting contacts with it (a water coupler, a ground) whose reports were not recorded
+    (a --record that left them out), and the work of a script moving it (scripted_tilt_deg,
+    scripted_velocity), which nothing books. Empty when the scene cannot be read."""
+    try:
+        scene = rec.scene()
+    except Exception:  # an old or damaged scene: nothing known to be missing
+        return []
+    out = []
+    readers = {c.target for c in scene.connections if c.source == body}
+    for name in sorted(readers):
+        cfg = scene.components.get(name)
+        ports = [] if cfg is None else [p for p, spec in cfg.cls.outputs.items()
+                                       if spec.type in (WaterContact, GroundContact)]
+        if any(f"/{name}/{port}" not in rec.channels for port in ports):
+            out.append(f"{name}'s dissipation (not recorded)")
+    params = getattr(scene.components.get(body), "params", None)
+    if getattr(params, "scripted_tilt_deg", None) or getattr(params, "scripted_velocity", None):
+        out.append("the work of its script")
+    return out
 
 
 def body_step(rec: Recording, body: str) -> float:
@@ -367,19 +409,42 @@ def body_step(rec: Recording, body: str) -> float:
 def rest_level(rec: Recording, body: str | None = None) -> float:
     """The undisturbed level [m] of the water body ``body`` meets: the ``rest_level`` of its water's
     patches (the water feeding the coupler that body's state feeds, as :func:`body_water_topic`
-    finds it), else of the first water's by name (also without ``body``); 0 without any patch."""
+    finds it), else of the first water's by name (also without ``body``); without any patch (a
+    --record that left them out), what the recorded scene gives that water (:func:`scene_rest_level`)."""
     patches = topics_of(rec, HeightPatch)
     if not patches:
-        return 0.0
+        return scene_rest_level(rec, body=body)
     return _first_rest_level(rec, patches[0] if body is None else body_water_topic(rec, body, patches) or patches[0])
 
 
 def water_rest_level(rec: Recording, water_topic: str) -> float:
     """The undisturbed level [m] of the water publishing ``water_topic`` (a WaterField channel,
-    ``/<water>/field``): the ``rest_level`` of that water's own patches, else :func:`rest_level`'s."""
+    ``/<water>/field``): the ``rest_level`` of that water's own patches, else the recorded scene's
+    (:func:`scene_rest_level`)."""
     water = component_of(water_topic)
     own_patches = [t for t in topics_of(rec, HeightPatch) if component_of(t) == water]
-    return _first_rest_level(rec, own_patches[0]) if own_patches else rest_level(rec)
+    return _first_rest_level(rec, own_patches[0]) if own_patches else scene_rest_level(rec, water=water)
+
+
+def scene_rest_level(rec: Recording, water: str | None = None, body: str | None = None) -> float:
+    """The ``rest_level`` [m] the recorded scene gives the water component ``water``, or the water
+    whose patches reach the coupler ``body``'s state feeds, else the first water in the scene; 0
+    when the scene tells none (no water, or a scene that cannot be read). (Without its patches
+    recorded the level was taken as 0: a pond resting at 0.5 m was drawn and plotted half a metre low.)"""
+    try:
+        scene = rec.scene()
+    except Exception:  # an old or damaged recording: the level it cannot tell
+        return 0.0
+    levels = {name: float(cfg.params.rest_level) for name, cfg in scene.components.items()
+              if any(port.type is HeightPatch for port in cfg.cls.outputs.values())
+              and isinstance(getattr(cfg.params, "rest_level", None), (int, float))}
+    if water is None and body is not None:
+        couplers = {c.target for c in scene.connections if c.source == body and c.source_port == "state"}
+        fed = [c.source for c in scene.connections if c.target in couplers and c.source in levels]
+        water = fed[0] if fed else None
+    if water in levels:
+        return levels[water]
+    return next(iter(levels.values()), 0.0)
 
 
 def _first_rest_level(rec: Recording, topic: str) -> float:

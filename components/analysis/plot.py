@@ -208,8 +208,11 @@ def figure_motion(run: RunData) -> Figure:
     ax_angle.plot(body.t, body.attack_deg, color="k", linewidth=1.2)
     ax_angle.set_ylabel("attack angle [deg]\n(along the motion, nose up +)")
     if body.attitude_locked:
-        ax_angle.set_title("attitude held (lock_attitude, the high-spin limit): the face keeps its tilt "
-                           "to the horizontal", fontsize="small")
+        # held or scripted: a script turns the face (scripted_skim's 15 deg to 0), which "held" denied
+        title = ("attitude held (lock_attitude, the high-spin limit): the face keeps its tilt to the horizontal"
+                 if _axis_kept(body.orientation) else
+                 "attitude scripted (scripted_tilt_deg): the face turns as its keyframes say, not as the water would")
+        ax_angle.set_title(title, fontsize="small")
     ax_angle.set_xlabel("time [s]")
     if run.stages is not None:
         _stage_legend(ax_speed, run.stages.stage.tolist())
@@ -278,7 +281,10 @@ def figure_energy(run: RunData) -> Figure:
         ax.plot(run.body.t, values, color=color, linestyle=style, linewidth=1.3, label=name)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("energy [J]")
-    ax.set_title(f"{run.scene}: energy budget of {run.body.name}")
+    title = f"{run.scene}: energy budget of {run.body.name}"
+    if run.unbooked:  # (its total then falls or rises by what is not counted: said, not left to guess)
+        title += f"\nthe total leaves out {' and '.join(run.unbooked)}"
+    ax.set_title(title)
     ax.legend(loc="best", fontsize="small")
     ax.grid(True, alpha=0.3)
     return fig
@@ -349,6 +355,23 @@ def _spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[float, float]]:
     return [(float(t[a]), float(t[min(b + 1, len(t) - 1)])) for a, b in contact_spans(flags, t)]
 
 
+def _axis_kept(orientation: np.ndarray) -> bool:
+    """Whether the body's axis stays where it began over ``orientation`` (n, 4) (w, x, y, z): a held
+    attitude's does (its spin turns it about that axis only), a script's turns."""
+    w, x, y, z = orientation.T
+    axis = np.stack([2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)], axis=1)
+    return bool(len(axis) == 0 or np.abs(axis - axis[0]).max() <= 1e-9)
+
+
+def _motion_direction(run: RunData, t: float) -> np.ndarray:
+    """The body's horizontal direction of motion (2,) at ``t`` [s] (its last state before), +x when
+    it moves straight up or down."""
+    i = max(0, int(np.searchsorted(run.body.t, t, side="right")) - 1)
+    v = run.body.velocity[i, :2] if len(run.body.t) else np.zeros(2)
+    speed = float(np.hypot(*v))
+    return v / speed if speed > 0.0 else np.array([1.0, 0.0])
+
+
 def figure_contacts(run: RunData) -> Figure | None:
     """Forces during each contact (the first :data:`MAX_CONTACTS`), each titled with its peak (the
     water's largest vertical force over the body's weight, in g, as the stage monitor reports it) and
@@ -358,8 +381,13 @@ def figure_contacts(run: RunData) -> Figure | None:
     intervals = every[:MAX_CONTACTS]
     if not intervals or not (run.contacts or run.grounds or run.wrenches):
         return None
-    # a restart's first skip record is not skip 1: contacts are numbered as the run's skips are
-    first = min((r.index for r in run.skips), default=1)
+    # a restart's first skip record is not skip 1: contacts are numbered as the run's skips are, and
+    # without a skip record in it, after the skips its monitor had counted (a glide after the fourth
+    # skip, restarted, was "contact 1")
+    first = min((r.index for r in run.skips), default=None)
+    if first is None:
+        first = 1 + (int(run.stages.skips[max(0, np.searchsorted(run.stages.t, intervals[0][0], "right") - 1)])
+                     if run.stages is not None and len(run.stages.t) else 0)
     cols = min(2, len(intervals))
     rows = -(-len(intervals) // cols)
     fig = Figure(figsize=(FIGSIZE[0], 2.8 * rows + 0.6), layout="constrained")
@@ -375,6 +403,7 @@ def figure_contacts(run: RunData) -> Figure | None:
             return (t >= lo) & (t <= hi)
 
         weight = run.body.mass * GRAVITY
+        along = _motion_direction(run, start)  # the horizontal forces are drawn along the motion
         peak = 0.0  # the water's largest vertical force over the weight during the contact [g]
         for c in run.contacts:
             m = window(c.t)
@@ -383,16 +412,19 @@ def figure_contacts(run: RunData) -> Figure | None:
             if during.any():
                 vertical = (c.buoyancy + c.pressure + c.friction + c.wave_drag)[during, 2]
                 peak = max(peak, float(vertical.max()) / weight)
-            effects = (("pressure z", c.pressure, 2, "-"), ("buoyancy z", c.buoyancy, 2, "-"),
-                       ("friction x", c.friction, 0, "--"), ("wave drag x", c.wave_drag, 0, "--"))
-            for name, values, axis, style in effects:
-                if np.any(values[m, axis]):
-                    ax.plot(ms, values[m, axis], style, linewidth=1.2, label=name)
+            # (along x alone, a throw along +y lost its drag: flat at 0)
+            effects = (("pressure z", c.pressure[m, 2], "-"), ("buoyancy z", c.buoyancy[m, 2], "-"),
+                       ("friction along the motion", c.friction[m, :2] @ along, "--"),
+                       ("wave drag along the motion", c.wave_drag[m, :2] @ along, "--"))
+            for name, values, style in effects:
+                if np.any(values):
+                    ax.plot(ms, values, style, linewidth=1.2, label=name)
         for w, color in zip(run.wrenches, WRENCH_COLORS * len(run.wrenches), strict=False):
             m = window(w.t)
             ms = (w.t[m] - start) * 1e3
             ax.plot(ms, w.force[m, 2], color=color, linewidth=1.0, label=f"{w.topic} z")
-            ax.plot(ms, w.force[m, 0], color=color, linewidth=1.0, linestyle=":", label=f"{w.topic} x")
+            ax.plot(ms, w.force[m, :2] @ along, color=color, linewidth=1.0, linestyle=":",
+                    label=f"{w.topic} along the motion")
         # a skip's own record has the monitor's peak over every step: a thinned recording's samples miss it
         record = next((r for r in run.skips if start - 1e-9 <= r.touchdown_time <= end + 1e-9), None)
         if record is not None:
@@ -415,9 +447,17 @@ def figure_contacts(run: RunData) -> Figure | None:
         # a contact still going on when the recording ends lasted at least this long, not this long
         going_on = end >= run.body.t[-1] - 1e-9
         ends = ("+ (cut off)" if run.cut_off else "+ (to the run's end)") if going_on else ""
-        ax.set_title(f"contact {first + k}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{ends}{peak_text}",
-                     fontsize="small")
-        ax.set_xlabel("time since touchdown [ms]")
+        touchdown = run.touchdown_before if k == 0 and run.touchdown_before is not None and \
+            start <= run.body.t[0] + run.step + 1e-9 else None
+        if touchdown is None:
+            ax.set_title(f"contact {first + k}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{ends}{peak_text}",
+                         fontsize="small")
+            ax.set_xlabel("time since touchdown [ms]")
+        else:  # a restart that began in this contact: its touchdown, and its peak, before the recording
+            ax.set_title(f"contact {first + k}: touchdown t = {touchdown:.4f} s, before the restart at "
+                         f"t = {start:.3f} s; {1e3 * (end - touchdown):.1f} ms{ends}{peak_text} (after the restart)",
+                         fontsize="small")
+            ax.set_xlabel("time since the restart [ms]")
         ax.set_ylabel("force [N]")
         ax.grid(True, alpha=0.3)
     # one legend below the panels: inside the first it hid its force peak (the reference skip's 79 N)

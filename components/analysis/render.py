@@ -265,10 +265,24 @@ def height_above_water(polygons: np.ndarray, surface: Surface | None, rest: floa
     return float(lowest[2] - water)
 
 
-def height_caption(gap: float) -> str:
-    """``3.2 cm above the water`` / ``1.1 cm into the water`` for a gap [m]."""
+def height_caption(gap: float, beside: bool = False) -> str:
+    """``3.2 cm above the water`` / ``1.1 cm into the water`` for a gap [m]; ``beside`` the pond
+    (no water under the point): ``4.1 cm below the water's level, beside the pond``."""
+    if beside:
+        where = "above" if gap >= 0 else "below"
+        return f"{abs(gap) * 100:.1f} cm {where} the water's level, beside the pond"
     where = "above" if gap >= 0 else "into"
     return f"{abs(gap) * 100:.1f} cm {where} the water"  # abs: never "-0.0"
+
+
+def beside_the_pond(polygons: np.ndarray, extent: tuple[float, float, float, float] | None) -> bool:
+    """Whether the body's lowest point (``polygons`` (N, k, 3) [m]) lies outside the water's grid
+    ``extent`` (x0, x1, y0, y1) [m], over no water (False when the extent is not known)."""
+    if extent is None:
+        return False
+    points = polygons.reshape(-1, 3)
+    x, y = points[int(np.argmin(points[:, 2])), :2]
+    return not (extent[0] <= x <= extent[1] and extent[2] <= y <= extent[3])
 
 
 class _Frames:
@@ -486,7 +500,9 @@ class FrameRenderer(_Frames):
             draw.ellipse((cx - rad, cy - rad, cx + rad, cy + rad), fill=tuple(to_uint8(MARKER_COLOR).tolist()),
                          outline=(50, 50, 50))
         if self.has_water:
-            self.caption = height_caption(gap)
+            # beside the pond the gap is to the water's level (the surface drawn ends at the pond's
+            # edge): "into the water" was said of a stone that had come down beside it
+            self.caption = height_caption(gap, beside_the_pond(polys, self.extent))
             self._draw_drop_line(draw, cam, polys, gap)
         else:
             self.caption = f"at z = {round((gap + self.rest) * 100, 1) + 0.0:.1f} cm"  # (+ 0.0: no "-0.0")
