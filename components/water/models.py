@@ -41,7 +41,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from components.water.diagnostics import energy as lattice_energy
-from components.water.grid import GRAVITY, WATER_DENSITY, Grid, is_broadcast, uniform_view
+from components.water.grid import GRAVITY, SURFACE_TENSION, WATER_DENSITY, Grid, is_broadcast, uniform_view
 
 
 def damping_factor(rate: float, dt: float) -> float:
@@ -244,7 +244,8 @@ class ShallowWaterModel(Model):
 
 
 class AiryModel(Model):
-    """Linear water waves with water's dispersion, omega^2 = g k tanh(k d) (Airy), stepped exactly.
+    """Linear water waves with water's dispersion, omega^2 = (g k + gamma k^3 / rho) tanh(k d) (Airy,
+    with capillarity), stepped exactly.
 
     The ``wave`` and ``shallow_water`` models carry waves of every length at one speed, sqrt(g d):
     on a pond 0.5 m deep a 5 cm wave runs at 2.2 m/s instead of the 0.28 m/s of real water, and a
@@ -255,7 +256,9 @@ class AiryModel(Model):
 
         H' = H cos(w dt) + V sin(w dt) / w,   V' = (-H w sin(w dt) + V cos(w dt)) damp
 
-    with w = sqrt(g k tanh(k d)) (capillarity left out: it matters below about 2 cm). The mean
+    with w = sqrt((g k + gamma k^3 / rho_w) tanh(k d)), gravity and capillarity together, as
+    grid.wave_speed_of gives every speed elsewhere (without capillarity a 2 cm ripple ran 24% slow,
+    0.18 m/s against 0.23; at the stones' 10 cm, 2%). The mean
     (k = 0) only takes H' = H + V dt, so the volume is kept; the lattice energy is not this model's
     invariant, the modes' own energy is. Any step is stable. The transforms are scipy's (type-II
     cosine transforms of h and v each way, O(n log n)): about 40 ms a step for the reference skip's
@@ -282,7 +285,8 @@ class AiryModel(Model):
         kx = np.pi * np.arange(nx) / (nx * grid.cell)
         ky = np.pi * np.arange(ny) / (ny * grid.cell)
         k = np.hypot(ky[:, None], kx[None, :])
-        self.omega = np.sqrt(GRAVITY * k * np.tanh(k * grid.depth))  # (ny, nx) [rad/s]
+        # (ny, nx) [rad/s]: Airy's dispersion with the surface tension's restoring force
+        self.omega = np.sqrt((GRAVITY * k + SURFACE_TENSION * k**3 / WATER_DENSITY) * np.tanh(k * grid.depth))
         self._dt: float | None = None
 
     def _rotation(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
