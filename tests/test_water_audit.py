@@ -59,3 +59,19 @@ def test_a_small_field_window_holds_the_body_it_follows(x):
     nj, ni = field.height.shape
     centre = np.array([field.origin_x, field.origin_y]) + 0.5 * (np.array([ni, nj]) - 1) * field.cell
     assert np.all(np.abs(centre - x) <= 0.25 * ni * field.cell)
+
+
+def test_a_damping_rate_bounds_the_waters_step_instead_of_freezing_it():
+    """v *= 1 - k dt is 0 at k dt = 1 and below 0 past it (clipped to 0): a damping of 500 /s on a
+    2 ms water step stopped the water dead at every step, the bump standing where it was. The step
+    is bounded by 0.5 / k (a stable step: refused with on_unstable error, substepped with substep),
+    and a bump so damped sinks back (overdamped), losing energy."""
+    bump = GaussianBump(x=0.0, y=0.0, amplitude=0.01, width=0.05)
+    pond = WaterSurface("pond", WaterParams(nx=40, ny=40, cell=0.01, depth=0.1, origin_x=-0.195, origin_y=-0.195,
+                                            damping=500.0, initial=bump))
+    assert pond.max_stable_step() == pytest.approx(0.001)
+    start, peak = pond.energy(), pond.get_state()["h"].max()
+    for k in range(20):
+        pond.step(k * 2_000_000, 2_000_000, {}, "substep")
+    assert pond.energy() < start and pond.get_state()["h"].max() < 0.99 * peak  # sinking back, slowly
+    assert np.abs(pond.get_state()["v"]).max() > 0.0  # not stopped dead

@@ -82,6 +82,7 @@ MAX_BUMP = 1000.0  # [m] the highest initial bump taken: far above any pond's, f
 MAX_SLOPE = 1000.0  # [m/m] the steepest bed: a cliff, far below where the bed's heights overflow (1e308 did)
 SMOOTHING_MAX = 0.5  # cap of k_p dt per step: keeps the smoothing a contraction on every mode
 FIELD_WINDOW_STEP = 32  # [cells] the field window's corner moves in steps of this many cells
+DAMPING_STEP = 0.5  # the largest damping rate times step, k_v dt, the water steps with (max_stable_step)
 CREST_RESOLUTION = 1000.0  # [1/m] the crest a patch says is rounded up to 1 / this (a millimetre)
 SHORE_CHECK_EVERY = 2  # [steps] how often a sloped bed's shallows are looked at for a surface under the bed
 SHALLOWS = 0.25  # the shallows: water at rest less deep than this share of the depth at the grid's centre
@@ -132,7 +133,8 @@ class WaterParams:
             "every length at its own speed, has no use for it")
     boundary: str = param("reflecting", doc="reflecting (closed basin) or absorbing (open water)")
     sponge_cells: int = param(0, ge=0, doc="absorbing boundary: width of an extra sponge layer [cells]")
-    damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= max(0, 1 - k_v dt)")
+    damping: float = param(0.0, unit="1/s", ge=0, doc="velocity damping rate k_v: v *= 1 - k_v dt, the water's step "
+                                                      "at most 0.5 / k_v (a stability bound: substeps, or refused)")
     smoothing: float = param(0.0, unit="1/s", ge=0, doc="positional smoothing rate k_p")
     displacement_smoothing: int = param(0, ge=0, le=1000, doc="blur passes spreading each displacement change")
     initial: GaussianBump | None = param(None, doc="initial bump {x, y, amplitude, width}")
@@ -436,7 +438,13 @@ class WaterSurface(Component):
                 "shallower than the water wherever it reaches"]
 
     def max_stable_step(self) -> float:
-        return self.model.max_stable_step()
+        """The model's stable step [s], and with damping at most DAMPING_STEP / k_v: the step's factor
+        1 - k_v dt stays at least a half, within a fifth of the exact decay exp(-k_v dt). (At k_v dt = 1
+        and above it is 0: every step stopped the water dead, and a bump stood frozen where it was.)"""
+        bound = self.model.max_stable_step()
+        if self.params.damping > 0.0:
+            bound = min(bound, DAMPING_STEP / self.params.damping)
+        return bound
 
     def summary(self) -> list[str]:
         g, p = self.grid, self.params
