@@ -379,7 +379,8 @@ def test_a_table_cut_anywhere_in_a_reason_with_commas_on_its_own_lines_resumes(t
         table = ResultTable(path, TABLE_COLUMNS, {"fingerprint": "fp"})
         kept = table.open(order)
         table.close()
-        whole = [i for i in range(len(reasons)) if len(_table_text(reasons[:i + 1])) <= cut]
+        # a row whole but for its line break is kept (tests/test_sweep_audit.py): its end is the byte before
+        whole = [i for i in range(len(reasons)) if len(_table_text(reasons[:i + 1])) - 1 <= cut]
         assert sorted(kept) == [f"p{i}" for i in whole], cut
         assert all(kept[f"p{i}"]["reason"] == reasons[i] for i in whole)
 

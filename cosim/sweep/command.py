@@ -2,9 +2,10 @@
 
 Registered through the ``cosim.commands`` entry point. Exit codes as for every command: 0 the sweep
 is complete (failed runs are rows of the table, not a failure of the sweep, unless ``--strict``),
-1 interrupted or stopped by a full disk (run the command again to resume), every point failed, or
-failed points with ``--strict``, 2 bad input (the sweep file, its first point's scene, an existing
-table of another sweep, an unusable backend, or, with ``--dry-run``, any point whose scene is invalid).
+1 interrupted or stopped by a full disk, when running or writing the table (run the command again to
+resume), every point failed, or failed points with ``--strict``, 2 bad input (the sweep file, its
+first point's scene, an existing table of another sweep, a table another sweep is writing now, an
+unusable backend, or, with ``--dry-run``, any point whose scene is invalid).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int, say_no
 SHOWN_POINTS = 10  # --dry-run lists this many points
 DRY_RUN_CHECKED = 2000  # --dry-run loads this many points' scenes at most (about 10 ms each)
 CORES = os.cpu_count() or 1
-MAX_WORKERS_PER_CORE = 4  # --workers at most this many times the cores (a process pool)
+MAX_WORKERS_PER_CORE = 4  # --workers at most this many times the cores (a process pool, or a local Dask cluster)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -29,12 +30,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from cosim.sweep.backends import BackendError, DaskBackend, make_backend
     from cosim.sweep.plan import TABLE_SUFFIXES, load_sweep
     from cosim.sweep.run import run_sweep
-    from cosim.sweep.table import journal_path
+    from cosim.sweep.table import MachineLimit, journal_path
 
     if args.output is not None and args.output.suffix not in TABLE_SUFFIXES:
         print(f"error: cosim sweep: -o {args.output}: must name a .csv or .parquet file", file=sys.stderr)
         return EXIT_BAD_INPUT
-    if args.dask is None and args.workers is not None and args.workers > MAX_WORKERS_PER_CORE * CORES:
+    # (the workers of a remote cluster are its own: --workers does not start them on this machine)
+    if args.dask in (None, "local") and args.workers is not None and args.workers > MAX_WORKERS_PER_CORE * CORES:
         print(f"error: cosim sweep: --workers {args.workers}: at most {MAX_WORKERS_PER_CORE * CORES} on this "
               f"machine's {CORES} cores ({MAX_WORKERS_PER_CORE} a core: each worker is a process with its own copy "
               "of the simulation)", file=sys.stderr)
@@ -97,6 +99,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except MachineLimit as exc:  # the disk full: not the input's fault, and the same command resumes
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
     finally:
         backend.close()
     print(outcome.summary())

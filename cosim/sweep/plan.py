@@ -54,7 +54,7 @@ import yaml
 
 from cosim.errors import ScenarioError
 from cosim.params import FLOAT_LIMIT, beyond_float, fits_float, number_text, show_value
-from cosim.scenario import find_parent, loads, read_input, read_yaml
+from cosim.scenario import SCENE_NAME_RE, find_parent, loads, read_input, read_yaml
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
             "metrics", "record", "output", "figure")
@@ -63,6 +63,7 @@ GRID_SPECS = ("linspace", "logspace", "range")
 RANDOM_SPECS = ("uniform", "loguniform")
 TABLE_SUFFIXES = (".csv", ".parquet")  # the results tables a sweep writes
 FIGURE_KEYS = ("metric", "x", "y", "threshold", "reference")
+REFERENCE_KEYS = ("label", "points")  # of figure.reference
 MAX_POINTS = 1_000_000  # a sweep larger than this is almost surely a typo in an axis
 ID_LENGTH = 12  # hex digits of a point id (48 bits: collisions are negligible below billions of points)
 
@@ -478,6 +479,16 @@ def _base_scene(data: dict[str, Any], base_dir: Path, source: str,
     return text, str(path), scene_data if isinstance(scene_data, dict) else {}
 
 
+def _same_value(value: Any) -> Any:
+    """What two equal values of an axis have in common: a number its value (10 and 10.0 are one point's
+    value twice, though their ids differ), a list its items', anything else its YAML text."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return ("nan",) if value != value else value  # (nan differs from itself, and is repeated all the same)
+    if isinstance(value, (list, tuple)):
+        return tuple(_same_value(v) for v in value)
+    return yaml_value(value)
+
+
 def _points(mode: str, axes: list[Axis], samples: int | None, seed: int, fixed: list[str],
             derived: dict[str, Expression]) -> list[Point]:
     if mode == "grid":
@@ -529,6 +540,9 @@ def _figure(spec: Any, problems: list[str]) -> dict[str, Any] | None:
     if "threshold" in spec and not _is_number(spec["threshold"]):
         problems.append(f"figure.threshold: must be a number (got {_shown(spec['threshold'])})")
     ref = spec.get("reference")
+    for key in ref if isinstance(ref, dict) else ():
+        if key not in REFERENCE_KEYS:
+            problems.append(f"figure.reference.{key}: unknown key (known: {', '.join(REFERENCE_KEYS)})")
     if ref is not None:
         points = ref.get("points") if isinstance(ref, dict) else None
         if (not isinstance(points, list) or not points or not all(
@@ -560,6 +574,11 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         name = "sweep"
     elif "\0" in name:  # no file name can hold it (the table's default is runs/NAME.csv)
         problems.append(f"name: must not hold a NUL character (got {name!r})")
+        name = "sweep"
+    elif "name" in data and (not SCENE_NAME_RE.fullmatch(name) or ".." in name):
+        # as a scene's name: it names the default table, runs/NAME.csv ("../x" wrote outside runs/)
+        problems.append(f"name: must be letters, digits, _, - and . (not first), at most 100 characters, "
+                        f"no '..': it names the table's file (got {name!r})")
         name = "sweep"
     description = data.get("description", "")
     base = _base_scene(data, Path(base_dir), source, problems)
@@ -616,7 +635,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
                         "check the axis counts")
     for axis_name, kind, _, build in grid:
         values = build() if total <= MAX_POINTS else ()
-        if len(set(map(yaml_value, values))) < len(values):
+        if len(set(map(_same_value, values))) < len(values):
             problems.append(f"axes.{axis_name}: repeats a value ({list(values)!r}); each point must differ")
         axes.append(Axis(axis_name, kind, values=values))
 

@@ -29,9 +29,9 @@ from tqdm import tqdm
 
 from cosim.errors import counted, ending_signals
 from cosim.record.output import beside
-from cosim.sweep.backends import BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
+from cosim.sweep.backends import MACHINE_LIMITS, BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
-from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot
+from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot, column_kinds
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 RECORDING_FAILURES = ("SinkError", "RecordingError")  # error types of a run whose recording failed
@@ -54,6 +54,8 @@ class SweepOutcome:
     interrupted: bool = False
     unfinished: int = 0
     limit: str | None = None  # the machine limit that stopped the sweep (the disk full), in the system's words
+    limit_on: str = "the recordings"  # what the machine had no room for: the runs' recordings, or the table
+    dropped: int = 0  # rows of interrupted runs found in the table: no results, their points ran again
     lost: str | None = None  # why the backend could run no more (the Dask scheduler lost), if it stopped so
     wall_s: float = 0.0
     run_wall_s: float = 0.0  # the runs' own wall times summed [s] (each in its worker)
@@ -75,7 +77,7 @@ class SweepOutcome:
         command's error line on standard error."""
         left = f"{self.points_left()} of {self.total} points left"
         if self.limit is not None:
-            return (f"stopped, the machine has no room for the recordings ({self.limit}): {left}; they run "
+            return (f"stopped, the machine has no room for {self.limit_on} ({self.limit}): {left}; they run "
                     "when the same command is run again once there is room")
         why = (self.lost if self.lost is not None else "interrupted" if self.interrupted
                else f"{counted(self.unfinished, 'run was', 'runs were')} interrupted")
@@ -89,7 +91,9 @@ class SweepOutcome:
         # the sweep's wall over its runs, and a run's own time in its worker (the workers run at once)
         per_run = (f" ({self.wall_s / self.ran:.3g} s a run; on average {self.run_wall_s / self.ran:.3g} s "
                    "in its worker)" if self.ran else "")
-        lines.append(f"  ran {self.ran}, {self.already} already in the table; {statuses}; "
+        dropped = (f" ({counted(self.dropped, 'interrupted run')} found in it, no result: run again)"
+                   if self.dropped else "")
+        lines.append(f"  ran {self.ran}, {self.already} already in the table{dropped}; {statuses}; "
                      f"wall {self.wall_s:.3g} s{per_run}")
         if not self.complete:
             lines.append(f"  {self.stopped_line()}")
@@ -135,7 +139,8 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
 
     ``backend``: a process pool of all cores unless given; a backend passed in is started if needed
     and left open (a caller may run several sweeps on it). ``fresh``: discard an existing table
-    instead of resuming it. Raises ScenarioError if the existing table belongs to another sweep.
+    instead of resuming it. Raises ScenarioError if the existing table belongs to another sweep, or
+    another sweep is writing it now.
     ``on_resume(rows)``: called once the existing table is open as this sweep's, with its rows.
     """
     output = Path(output) if output is not None else sweep.output
@@ -147,11 +152,24 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
         "command": command_line, "points": len(sweep.points), "columns": sweep.columns,
         "sweep_file": sweep.text, "scene_source": sweep.scene_source, "scene": sweep.scene_text,
         "fixed_overrides": sweep.fixed, "versions": versions()}
-    table = ResultTable(output, sweep.columns, meta)
+    table = ResultTable(output, sweep.columns, meta, column_kinds(sweep), {p.point_id: p.values for p in sweep.points})
     done = table.open(order, fresh=fresh)
-    if on_resume is not None:
-        on_resume(len(done))
-    outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done))
+    try:  # the table stays locked until the sweep is done with it: no other sweep writes it meanwhile
+        if on_resume is not None:
+            on_resume(len(done))
+        return _run_points(sweep, output, backend, own, table, done, order, progress=progress, figure=figure,
+                           command_line=command_line)
+    finally:
+        table.release()
+
+
+def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBackend, own: bool, table: ResultTable,
+                done: dict[str, dict[str, str]], order: dict[str, int], *, progress: bool, figure: bool,
+                command_line: str) -> SweepOutcome:
+    """Run the points of ``sweep`` that have no row in the open ``table`` (``done``: those that have),
+    and finish the table if every point has one (:func:`run_sweep`)."""
+    outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done),
+                           dropped=table.dropped)
     outcome.counts.update(row["status"] for row in done.values())
     todo = deque(p for p in sweep.points if p.point_id not in done)
     runs_dir = beside(output, "_runs")
@@ -162,6 +180,7 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
             table.discard()
             raise cannot(output, exc, "write the sweep's recordings") from None
     label = {p.point_id: p for p in sweep.points}
+    table_full = False  # the machine refused a row of the table (the disk full)
 
     def task(point: Point) -> Task:
         recording = str(runs_dir / f"{point.point_id}.mcap") if sweep.record else None
@@ -179,9 +198,22 @@ def run_sweep(sweep: Sweep, output: str | Path | None = None,
             if row.get("limit") and outcome.limit is None:  # no more are submitted
                 outcome.limit = str(row["limit"])
             return
+        nonlocal table_full
+        if table_full:  # the table refused a row: those after it are not written either
+            outcome.unfinished += 1
+            return
         row.update({a.name: point.values[a.name] for a in sweep.axes})
         row["index"] = point.index
-        table.append(row)
+        try:
+            table.append(row)
+        except OSError as exc:
+            if exc.errno not in MACHINE_LIMITS:
+                raise
+            # the machine's limit, as for a recording: the point runs again on resume, no more are submitted
+            outcome.unfinished += 1
+            outcome.limit, outcome.limit_on = exc.strerror or str(exc), f"the table {output}"
+            table_full = True
+            return
         for notice in row.get("notices") or ():
             outcome.notices.setdefault(notice, point.label())
         outcome.ran += 1
