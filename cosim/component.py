@@ -149,6 +149,11 @@ class Component:
         """Largest step [s] this component can take stably from its current state (inf if unbounded)."""
         return math.inf
 
+    def stable_step_cause(self) -> str:
+        """What sets :meth:`max_stable_step` when a parameter does, naming it, for the scene's refusal
+        of a step over it ("" when the component's own dynamics do). Default: ""."""
+        return ""
+
     def input_max_age(self, port: str) -> tuple[float, str] | None:
         """How long [s] a message on input ``port`` may stay the latest before it misleads this
         component, and the parameter that sets it; None when any age will do. The scene is refused

@@ -804,26 +804,30 @@ def _check_memory(components: dict[str, ComponentConfig], problems: list[str]) -
 def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     for name, comp in built.items():
         problems.extend(f"components.{name}: {problem}"
-                        for problem in _step_problems(scene, name, comp.max_stable_step(), later=False))
+                        for problem in _step_problems(scene, name, comp.max_stable_step(), later=False,
+                                                      cause=comp.stable_step_cause()))
 
 
-def _step_problems(scene: Scene, name: str, bound: float, later: bool) -> list[str]:
+def _step_problems(scene: Scene, name: str, bound: float, later: bool, cause: str = "") -> list[str]:
     """The problem with component ``name``'s step against a stable step ``bound`` [s], as the run
     would find it: over it under ``on_unstable: error``, or needing more than MAX_SUBSTEPS substeps
     under ``on_unstable: substep``; ``later``: a bound the component will need once the run is under
-    way (:meth:`~cosim.component.Component.start_stable_step`), else the one it starts with."""
+    way (:meth:`~cosim.component.Component.start_stable_step`), else the one it starts with. ``cause``:
+    what sets the bound, if a parameter does (:meth:`~cosim.component.Component.stable_step_cause`)."""
     cfg = scene.components[name]
     step = scene.dt * cfg.every
     if bound >= step:
         return []
     when = "once the run is under way" if later else "from the start"
+    when += f", {cause}" if cause else ""
     if not bound > 0:  # (0, negative or NaN: a substep count would divide by it)
         return [f"its stable step {when} is {bound!r} s: no step can be stable"]
     if cfg.on_unstable == "error":
         step_said, bound_said = step_and_bound(step, bound)
         if not later:
-            return [f"step {step_said} s exceeds its stable step {bound_said} s (on_unstable: error); lower dt or "
-                    "every, or set on_unstable: substep"]
+            set_by = f" ({cause})" if cause else ""
+            return [f"step {step_said} s exceeds its stable step {bound_said} s{set_by} (on_unstable: error); lower "
+                    "dt or every, or set on_unstable: substep"]
         return [f"step {step_said} s exceeds the stable step {bound_said} s it will need once the run is under "
                 f"way (on_unstable: error); lower dt or every, or set on_unstable: substep"]
     substeps = math.ceil(step / bound)

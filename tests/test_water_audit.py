@@ -75,3 +75,19 @@ def test_a_damping_rate_bounds_the_waters_step_instead_of_freezing_it():
         pond.step(k * 2_000_000, 2_000_000, {}, "substep")
     assert pond.energy() < start and pond.get_state()["h"].max() < 0.99 * peak  # sinking back, slowly
     assert np.abs(pond.get_state()["v"]).max() > 0.0  # not stopped dead
+
+
+def test_a_step_over_the_dampings_bound_is_refused_naming_the_damping():
+    """Refused at load, the step's bound is said to be the damping's (the line said only "exceeds its
+    stable step 0.001 s", with no word of what set it)."""
+    from pathlib import Path
+
+    from cosim.errors import ScenarioError
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "wave_pulse.yaml"
+    with pytest.raises(ScenarioError) as info:
+        load(scene, ["components.pond.damping=500"])
+    assert info.value.problems == [
+        "components.pond: step 0.002 s exceeds its stable step 0.001 s (set by its damping 500 1/s: a step of at most "
+        "0.5 / damping) (on_unstable: error); lower dt or every, or set on_unstable: substep"]

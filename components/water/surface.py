@@ -446,6 +446,12 @@ class WaterSurface(Component):
             bound = min(bound, DAMPING_STEP / self.params.damping)
         return bound
 
+    def stable_step_cause(self) -> str:
+        damping = self.params.damping
+        if damping > 0.0 and DAMPING_STEP / damping < self.model.max_stable_step():
+            return f"set by its damping {damping:g} 1/s: a step of at most {DAMPING_STEP:g} / damping"
+        return ""
+
     def summary(self) -> list[str]:
         g, p = self.grid, self.params
         change = (self.volume() - self.initial_volume) / self.initial_volume
