@@ -371,3 +371,26 @@ def test_the_lock_is_held_for_the_whole_sweep_and_let_go_after(tmp_path, pool):
     assert len(seen) == 1 and "another sweep is writing it now" in seen[0]
     assert not (tmp_path / "t.lock").exists()
     assert run(sweep, out, pool).complete
+
+
+def test_a_figure_drawing_several_runs_a_cell_says_it_draws_their_mean(tmp_path, monkeypatch):
+    """A heat map of attack x speed over a sweep with a third axis holds two runs a cell: its colour bar
+    says it draws their mean (it was labelled with the metric alone, every cell 0.5 looking like a
+    run's value); a cell of one run each keeps the metric's name."""
+    plt = pytest.importorskip("matplotlib.pyplot")
+    from types import SimpleNamespace
+
+    from cosim.sweep.figure import draw
+
+    labels = []
+    colorbar = plt.Figure.colorbar
+    monkeypatch.setattr(plt.Figure, "colorbar", lambda self, *a, **kw: (labels.append(kw.get("label")),
+                                                                        colorbar(self, *a, **kw))[1])
+    spec = SimpleNamespace(x="attack", y="speed", metric="stages.skips", threshold=None, reference_points=None,
+                           reference_label=None)
+    sweep = SimpleNamespace(figure=spec, mode="grid", name="three")
+    rows = [{"status": "stopped", "attack": a, "speed": s, "until": u, "stages.skips": str(int(u == "1"))}
+            for a in ("10", "20") for s in ("4", "8") for u in ("0.5", "1")]
+    draw(sweep, rows, tmp_path / "three.png")
+    draw(sweep, [r for r in rows if r["until"] == "1"], tmp_path / "two.png")
+    assert labels == ["mean of stages.skips over up to 2 runs a cell (the other axes)", "stages.skips"]

@@ -135,7 +135,7 @@ def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> None:
         grid[ys.index(y), xs.index(x)] = sum(values) / len(values)
     cmap = __import__("matplotlib").colormaps["viridis"].with_extremes(bad="0.85")
     mesh = ax.pcolormesh(_edges(xpos), _edges(ypos), np.ma.masked_invalid(grid), cmap=cmap, shading="flat")
-    fig.colorbar(mesh, ax=ax, label=spec.metric)
+    fig.colorbar(mesh, ax=ax, label=_averaged(spec.metric, cells.values()))
     if grid.size <= MAX_LABELLED_CELLS:
         finite = grid[np.isfinite(grid)]
         middle = (finite.min() + finite.max()) / 2 if finite.size else 0.0
@@ -163,6 +163,14 @@ def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> None:
         ax.set_yticks(ypos, ys)
 
 
+def _averaged(metric: str, groups: Any) -> str:
+    """The label of ``metric`` drawn one value a cell (or a point of a line), ``groups`` each cell's
+    values: "mean of METRIC over N runs a cell" where a cell holds several runs (the sweep's other
+    axes), which the figure otherwise drew as if one run's, the metric's name alone."""
+    most = max((len(values) for values in groups), default=1)
+    return f"mean of {metric} over up to {most} runs a cell (the other axes)" if most > 1 else metric
+
+
 def _line(ax: Any, rows: list[dict[str, str]], spec: Any) -> None:
     xs, xpos, xnum = _positions([r[spec.x] for r in rows])
     sums: dict[str, list[float]] = defaultdict(list)
@@ -180,7 +188,7 @@ def _line(ax: Any, rows: list[dict[str, str]], spec: Any) -> None:
         ax.plot(failed, [0.03] * len(failed), "x", color="tab:red", markersize=9, label="failed",
                 transform=blended_transform_factory(ax.transData, ax.transAxes))
     ax.set_xlabel(spec.x)
-    ax.set_ylabel(spec.metric)
+    ax.set_ylabel(_averaged(spec.metric, sums.values()))
     if not xnum:
         ax.set_xticks(xpos, xs, rotation=30)
     ax.grid(alpha=0.3)
