@@ -63,13 +63,18 @@ def stage_changes(rec: Recording, topic: str) -> list[tuple[int, Stage]]:
     return pairs
 
 
+def _restored_monitor(rec: Recording, monitor: str) -> dict:
+    """The stage monitor's state in the checkpoint a restart began at ({} when it is not there, or the
+    recording is no restart)."""
+    checkpoint = rec.checkpoint_at(rec.restart_ns) if rec.restart_ns else None
+    state = ((checkpoint or {}).get("components", {}).get(monitor) or {}).get("state")
+    return state if isinstance(state, dict) else {}
+
+
 def _restored_touchdown(rec: Recording, monitor: str) -> float | None:
-    """When the contact a restart began in had touched down [s], from its stage monitor's state in the
-    checkpoint it restarted from; None when it began in none (or is no restart)."""
-    if not rec.restart_ns:
-        return None
-    checkpoint = rec.checkpoint_at(rec.restart_ns)
-    track = (((checkpoint or {}).get("components", {}).get(monitor) or {}).get("state") or {}).get("track") or {}
+    """When the contact a restart began in had touched down [s], from its stage monitor's restored
+    state; None when it began in none (or is no restart)."""
+    track = _restored_monitor(rec, monitor).get("track") or {}
     touchdown = track.get("touchdown_time")
     return float(touchdown) if track.get("in_contact") and isinstance(touchdown, (int, float)) else None
 
@@ -77,9 +82,8 @@ def _restored_touchdown(rec: Recording, monitor: str) -> float | None:
 def _restored_stage(rec: Recording, monitor: str) -> Stage | None:
     """The stage monitor's stage in the checkpoint a restart began at, or None (not there, or not
     one yet)."""
-    checkpoint = rec.checkpoint_at(rec.restart_ns)
-    state = ((checkpoint or {}).get("components", {}).get(monitor) or {}).get("state")
-    if not isinstance(state, dict) or state.get("stage") is None:
+    state = _restored_monitor(rec, monitor)
+    if state.get("stage") is None:
         return None
     stage = StageId(int(state["stage"]))
     return Stage(stage, STAGE_NAMES[stage], int(state.get("track", {}).get("skips", 0)),
