@@ -464,12 +464,18 @@ class StageMonitor(Component):
         lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {outcome}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
+        # a throw along x is told by its touchdowns' x; one along another line by how far along it they
+        # are (a throw along +y said "x = 1.75 m" at every skip: true, and nothing of where they were)
+        along_x = abs(math.sin(self.track.start_heading)) < 1e-9
+        along = 0.0
         for r in self.records:
+            along += r.distance
+            where = f"at x = {r.touchdown_x:.2f} m" if along_x else f"{along:.2f} m along the throw"
             # rounded first: a drift or turn smaller than the last digit is +0, not -0
             drift, heading = round(r.drift, 2) + 0.0, round(r.heading_deg, 1) + 0.0
             curve = f"; drift {drift:+.2f} m, heading {heading:+.1f} deg" if curved else ""
             touchdown = self._seconds(r.touchdown_time)
-            lines.append(f"  skip {r.index}: touchdown at x = {r.touchdown_x:.2f} m, t = {touchdown} s; "
+            lines.append(f"  skip {r.index}: touchdown {where}, t = {touchdown} s; "
                          f"contact {r.contact_time * 1e3:.1f} ms, peak {r.peak_g:.1f} g; "
                          f"take-off {r.takeoff_angle_deg:.1f} deg; "
                          f"speed {r.speed_in:.2f} -> {r.speed_out:.2f} m/s{curve}")
