@@ -10,6 +10,8 @@ from __future__ import annotations
 import errno
 import math
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from cosim.component import Component, Port
@@ -82,6 +84,20 @@ until: 3.0
 components:
   ball: {type: "tests.sweep_toys:Ball"}
 """
+
+
+@contextmanager
+def running_pool(workers: int) -> Iterator:
+    """A process pool of ``workers`` worker processes, started, closed on leaving (a module's tests share
+    one: spawning costs about a second)."""
+    from cosim.sweep.backends import ProcessBackend
+
+    backend = ProcessBackend(workers)
+    backend.start()
+    try:
+        yield backend
+    finally:
+        backend.close()
 
 
 def write_sweep(folder, body: str, scene: str = BALL_SCENE, name: str = "sweep.yaml"):

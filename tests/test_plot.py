@@ -94,15 +94,12 @@ def test_the_horizontal_forces_of_a_contact_are_drawn_along_the_motion(tmp_path)
     the same throw along +x does, a drag of about 13 N (drawn along x, it was flat at 0)."""
     from cosim.runner import run_scene
     from cosim.scenario import load
+    from tests.turned_throw import ALONG_Y, HELD_SKIP
 
-    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
     along_x = ["until=0.3", "record.visual_rate=0"]
-    along_y = [*along_x, "components.pond.nx=100", "components.pond.ny=800",
-               "components.stone.position=[0.5, 0.3, 0.15]", "components.stone.velocity=[0, 7.88, -1.39]",
-               "components.stone.tilt_axis=[1, 0, 0]"]
     drawn = []
-    for sets, name in ((along_x, "x"), (along_y, "y")):
-        path = run_scene(load(scene, sets), tmp_path / f"{name}.mcap", progress=False).recording
+    for sets, name in ((along_x, "x"), ([*along_x, *ALONG_Y], "y")):
+        path = run_scene(load(HELD_SKIP, sets), tmp_path / f"{name}.mcap", progress=False).recording
         panel = figure_contacts(load_run(path)).axes[0]
         (line,) = [ln for ln in panel.lines if ln.get_label() == "/coupler/wrench along the motion"]
         drawn.append(np.asarray(line.get_ydata()))

@@ -647,19 +647,14 @@ def test_the_summary_places_the_skips_of_a_throw_along_y_along_the_throw():
     """The held skip thrown along +y: each touchdown is said by how far along the throw it is, the
     same as the throw along +x's x less its start (it said "x = 0.50 m" at every skip: true, and
     nothing of where they were); the throw along x keeps its x."""
-    from pathlib import Path
-
     from cosim.runner import run_scene
     from cosim.scenario import load
+    from tests.turned_throw import ALONG_Y, HELD_SKIP
 
-    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
     along_x = ["until=0.4", "record.visual_rate=0"]
-    along_y = [*along_x, "components.pond.nx=100", "components.pond.ny=800",
-               "components.stone.position=[0.5, 0.3, 0.15]", "components.stone.velocity=[0, 7.88, -1.39]",
-               "components.stone.tilt_axis=[1, 0, 0]"]
     said = []
-    for sets in (along_x, along_y):
-        summary = run_scene(load(scene, sets), None, progress=False).summary
+    for sets in (along_x, [*along_x, *ALONG_Y]):
+        summary = run_scene(load(HELD_SKIP, sets), None, progress=False).summary
         said.append([line.split(", t = ")[0].strip() for line in summary if line.strip().startswith("skip ")])
     xs = [float(line.split("x = ")[1].removesuffix(" m")) for line in said[0]]
     assert len(xs) == 2 and said[1] == [f"skip {k + 1}: touchdown {x - 0.3:.2f} m along the throw"

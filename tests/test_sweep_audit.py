@@ -16,10 +16,9 @@ import pytest
 
 from cosim.cli import main
 from cosim.errors import ScenarioError
-from cosim.sweep.backends import ProcessBackend
 from cosim.sweep.plan import load_sweep, point_id
 from cosim.sweep.run import run_sweep
-from tests.sweep_toys import read_table, write_sweep
+from tests.sweep_toys import read_table, running_pool, write_sweep
 
 THREE = """
 scene: ball.yaml
@@ -31,10 +30,8 @@ axes:
 @pytest.fixture(scope="module")
 def pool():
     """One worker process, shared by the tests of this file."""
-    backend = ProcessBackend(1)
-    backend.start()
-    yield backend
-    backend.close()
+    with running_pool(1) as backend:
+        yield backend
 
 
 def run(sweep, out: Path, pool, **options):

@@ -22,7 +22,7 @@ from cosim.scenario import loads
 from cosim.sweep.backends import ProcessBackend
 from cosim.sweep.plan import load_sweep
 from cosim.sweep.run import run_sweep
-from tests.sweep_toys import BALL_SCENE, read_table, write_sweep
+from tests.sweep_toys import BALL_SCENE, read_table, running_pool, write_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,11 +36,9 @@ axes:
 
 @pytest.fixture(scope="module")
 def pool():
-    """Two worker processes, shared by the tests of this file (spawning costs about a second)."""
-    backend = ProcessBackend(2)
-    backend.start()
-    yield backend
-    backend.close()
+    """Two worker processes, shared by the tests of this file."""
+    with running_pool(2) as backend:
+        yield backend
 
 
 def run_and_close(sweep, path: Path, backend):

@@ -41,6 +41,7 @@ from components.analysis.data import (
 )
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
+from components.rigid.quaternion import body_axis
 from cosim.record.output import move_together, named_for, output_folder, remove_quietly, sibling_stem, written_whole
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
@@ -358,8 +359,7 @@ def _spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[float, float]]:
 def _axis_kept(orientation: np.ndarray) -> bool:
     """Whether the body's axis stays where it began over ``orientation`` (n, 4) (w, x, y, z): a held
     attitude's does (its spin turns it about that axis only), a script's turns."""
-    w, x, y, z = orientation.T
-    axis = np.stack([2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)], axis=1)
+    axis = np.stack(body_axis(orientation.T), axis=1)  # (each of w, x, y, z a column of states)
     return bool(len(axis) == 0 or np.abs(axis - axis[0]).max() <= 1e-9)
 
 

@@ -139,8 +139,7 @@ class FmuInstance:
             self._load(md, common)
         except Exception as exc:
             # an instance that failed logs no more (it stayed registered for the FMU's callbacks)
-            _by_environment.pop(getattr(self, "_environment", 0), None)
-            _only_once.pop(self._once, None)
+            self._unregister()
             if isinstance(exc, FmuCallError):
                 raise FmuCallError(exc.function, exc.status, [inside_the_file(m) for m in exc.log]) from None
             if type(exc) not in (ValueError, OSError, RuntimeError, Exception):  # one that says more than a text
@@ -297,8 +296,13 @@ class FmuInstance:
         try:
             self._end()
         finally:
-            _by_environment.pop(getattr(self, "_environment", 0), None)  # it logs no more
-            _only_once.pop(getattr(self, "_once", None), None)
+            self._unregister()
+
+    def _unregister(self) -> None:
+        """Let go of what the process holds for this instance: its entry for the FMU's log callbacks (it
+        logs no more) and its claim on an FMU that can be instantiated only once per process."""
+        _by_environment.pop(getattr(self, "_environment", 0), None)
+        _only_once.pop(getattr(self, "_once", None), None)
 
     def _end(self) -> None:
         """Terminate and free the instance, as far as the worst status it answered lets them be called."""

@@ -447,9 +447,8 @@ class WaterSurface(Component):
         return bound
 
     def stable_step_cause(self) -> str:
-        damping = self.params.damping
-        if damping > 0.0 and DAMPING_STEP / damping < self.model.max_stable_step():
-            return f"set by its damping {damping:g} 1/s: a step of at most {DAMPING_STEP:g} / damping"
+        if self.max_stable_step() < self.model.max_stable_step():  # (the damping's bound is the lower)
+            return f"set by its damping {self.params.damping:g} 1/s: a step of at most {DAMPING_STEP:g} / damping"
         return ""
 
     def summary(self) -> list[str]:
