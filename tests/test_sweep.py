@@ -5,12 +5,13 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
 import pytest
 import yaml
 
 from cosim.errors import ScenarioError
 from cosim.sweep import plan
-from cosim.sweep.plan import Expression, load_sweep, loads_sweep, point_id, yaml_value
+from cosim.sweep.plan import Expression, load_sweep, loads_sweep, plain, point_id, yaml_value
 from tests.sweep_toys import BALL_SCENE, write_sweep
 
 GRID = """
@@ -333,6 +334,16 @@ def test_override_values_round_trip(value):
     text = yaml_value(value)
     assert "\n" not in text and yaml.safe_load(text) == value
     assert yaml.safe_load(yaml_value(math.nan)) != yaml.safe_load(yaml_value(math.nan))  # still a NaN
+
+
+@pytest.mark.parametrize("value", [0.1, 1e-05, 1e22, 1e16, -2.5e-07, 5e-324, 1.5e300, -0.0, 10 ** 30, True, None,
+                                   math.inf, -math.inf, [1.0, 0, [3e-20, False]], [], np.float64(2.5),
+                                   np.arange(3.0)])
+def test_numbers_are_written_as_the_yaml_dumper_writes_them(value):
+    """Numbers and lists of them are written without the YAML dumper (a plan writes one per axis and
+    derived key at every point), as the very text it gives: scenes and tables read them alike."""
+    dumped = yaml.safe_dump(plain(value), default_flow_style=True, width=math.inf).removesuffix("\n...\n").strip()
+    assert yaml_value(value) == dumped
 
 
 def test_a_scene_given_as_a_sweep_says_so_in_one_line(tmp_path):
