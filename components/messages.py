@@ -312,24 +312,28 @@ class StageId(enum.IntEnum):
     REST = 5
     FLOAT = 6  # a stone lighter than water, too slow to skip: it floats instead of sinking
     LEFT_POND = 7  # off the water's grid (over its edge, or thrown past it): the run ends there
+    GROUND = 8  # on the solid ground and dry, not at rest: sliding, rolling or bouncing on it
 
 
 @message
 class Stage(Message):
-    """A stage change: stage id with its label beside it, the skip count so far, and position x [m]
-    (of left-pond: where the stone came down beside the water, a little before the change)."""
+    """A stage change: stage id with its label beside it, the skip count so far, and the position x, y
+    [m] (of left-pond: where the stone came down beside the water, a little before the change; y NaN
+    in recordings made before it was kept)."""
 
     stage: StageId
     label: str
     skips: int
     x: float
+    y: float = math.nan
 
 
 @message
 class SkipRecord(Message):
     """Figures of one finished skip (published at fly-away).
 
-    index: 1 for the first skip; touchdown_time [s] and touchdown_x [m] where the contact began;
+    index: 1 for the first skip; touchdown_time [s] and touchdown_x, touchdown_y [m] where the contact
+    began;
     contact_time [s]; takeoff_angle_deg: angle of the velocity above the horizontal at fly-away;
     distance [m]: from the previous touchdown (or the throw's start, for the first) to this one,
     along the line the stone was thrown along (its horizontal heading at t = 0);
@@ -354,3 +358,4 @@ class SkipRecord(Message):
     drift: float = 0.0
     heading_deg: float = 0.0
     peak_g: float = 0.0
+    touchdown_y: float = math.nan  # [m] where the contact began (NaN in recordings made before it was kept)

@@ -23,12 +23,15 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
   ``water_density`` times its volume, and the water's buoyancy acts); final. Until a hundredth of
   the stone is under water the contact goes on as hit or slide;
 - rest: on the solid ground, held by its static friction and slower than ``rest_speed`` [m/s] for
-  REST_HOLD on end (from the start of that spell); final.
+  REST_HOLD on end (from the start of that spell); final;
+- ground: on the solid ground and dry, not at rest (sliding, rolling, bouncing on a beach); ends
+  in the water (hit, slide), at rest, or in the air (fly-away rising, approach coming down).
 
 A skip is a contact that began moving down into the water and ended in a fly-away: the vertical
 speed changed sign and the stone rose clear; its :class:`SkipRecord` is published at the fly-away.
 A stone that leaves the water without having moved down in it (one started in the water, rising)
-flies away without a skip.
+flies away without a skip, and so does one that touched the solid ground in the contact (thrown
+back up by the bed of a shallow pond: a bounce off the ground, counted apart).
 
 Leaving the pond is an outcome, not a stage: the coupler exerts nothing where the water's grid has
 no columns and then reports the depth of the lowest point below the rest level, so a stone that is
@@ -51,6 +54,7 @@ from components.rigid_body import HEADING_SPEED, gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
+from cosim.timebase import NS_PER_S, step_decimals
 
 FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
 BUOYANCY_READABLE = 0.01  # submerged volume fraction from which the buoyancy tells whether a stone floats
@@ -78,6 +82,8 @@ class SkipTracker:
     in_contact: bool = False
     peak_g: float = 0.0  # the largest vertical water force over the weight in the current contact [g]
     descended: bool = True  # the current contact has moved down into the water (a skip needs it)
+    grounded: bool = False  # the current contact has touched the solid ground (then it is no skip)
+    ground_bounces: int = 0  # contacts that ended in a fly-away after touching the ground
 
 
 def _lasted(since: float, now: float, span: float) -> bool:
@@ -146,7 +152,9 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             # no sinking either, whatever its speed (a slow stone climbing out through a crest was
             # said to have sunk, which is final)
             return StageId.FLY_AWAY
-        if horizontal < sink_speed:
+        if horizontal < sink_speed and vz < sink_speed:
+            # (not while it rises faster than that: a stone thrown back up by the bed of a shallow pond
+            # was said to have sunk, which is final, as it flew 17 cm up out of the water)
             if water.submerged_fraction >= BUOYANCY_READABLE:
                 return StageId.FLOAT if floats(body, water, water_density) else StageId.SINK
             if water.submerged_fraction > 0.0 and not water.buoyancy[2] > 0.0:
@@ -162,12 +170,16 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             if _vertical_water_force(water) <= body.mass * gravity:
                 return StageId.SINK
         return StageId.HIT if vz < 0 else StageId.SLIDE
+    if ground is not None and ground.in_contact:
+        # dry on the solid ground (a beach, the bed of a pond run dry): neither airborne nor in the
+        # water (a stone sliding up a beach was in its fly-away, then in an approach, lying on it)
+        return StageId.GROUND
     if previous in (StageId.HIT, StageId.SLIDE):
         if contact_goes_on(water, vz, clearance):
             return StageId.HIT if vz < 0 else StageId.SLIDE
         # over the edge of the water the contact ends with no bounce: airborne, until it left the pond
         return StageId.APPROACH if off_the_water(water) else StageId.FLY_AWAY
-    if previous is StageId.FLY_AWAY:
+    if previous in (StageId.FLY_AWAY, StageId.GROUND):  # airborne, off the water or the ground
         return StageId.FLY_AWAY if vz >= 0 else StageId.APPROACH
     return StageId.APPROACH
 
@@ -256,8 +268,11 @@ class StageMonitor(Component):
         track = self.track
         if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
             self._start_at(body)
-        if math.isnan(self.left_at):  # where it left the pond, its distance ends: a stone of a monitor that
-            # ends no run (stop_after 0) falls on beside the water, and its fall is no distance travelled
+        if math.isnan(self.left_at) and self.stage not in FINAL_STAGES:
+            # where it left the pond, sank, floated or came to rest, its distance ends: a stone of a
+            # monitor that ends no run (stop_after 0) falls on beside the water, and its fall is no
+            # distance travelled; a sunk stone drifting on under water for stop_after made the
+            # distance depend on that setting (held_skip: 7.43 m with 0.05 s, 7.45 m with 0.3 s)
             self.final_x, self.final_y = x, float(body.position[1])
         outputs: dict[str, Message] = {}
 
@@ -277,20 +292,27 @@ class StageMonitor(Component):
             track.touchdown_y = float(body.position[1])
             track.peak_g = 0.0
             track.descended = False
+            track.grounded = False
         if track.in_contact and float(body.velocity[2]) < 0.0:
             track.descended = True
+        if track.in_contact and ground is not None and ground.in_contact:
+            track.grounded = True
         if track.in_contact and water is not None:
             track.peak_g = max(track.peak_g, _vertical_water_force(water) / (float(body.mass) * self.params.gravity))
-        if stage is StageId.FLY_AWAY and self.stage is not StageId.FLY_AWAY and track.descended:
-            outputs["skip"] = self._finish_skip(now, body)
+        if stage is StageId.FLY_AWAY and self.stage in (StageId.HIT, StageId.SLIDE) and track.descended:
+            if track.grounded:  # the ground turned it, not the water (a shallow pond's bed)
+                track.ground_bounces += 1
+            else:
+                outputs["skip"] = self._finish_skip(now, body)
         if not touching:
             track.in_contact = False
         if stage is not self.stage:
-            # (rest is dated from the start of the slow spell that made it: _held_at_rest)
-            since = self.rest_since if stage is StageId.REST else now
+            # (rest is dated from the start of the slow spell that made it: _held_at_rest; the first
+            # stage from the run's start, which it describes: it said "approach (0.005 s)" on a 5 ms step)
+            since = self.rest_since if stage is StageId.REST else t if self.stage is None else now
             self.stage, self.since = stage, since
             self.timeline.append((since, STAGE_NAMES[stage]))
-            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x)
+            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x, float(body.position[1]))
         if stage is StageId.FLOAT:
             # a floating body is decided as it first comes in slowly, a dropped one as it plunges: the
             # run ends once it has settled, not while it bobs (it ended mid-plunge, 9.5 cm under)
@@ -307,14 +329,17 @@ class StageMonitor(Component):
 
     def _held_at_rest(self, stage: StageId, previous: StageId, now: float) -> StageId:
         """``stage``, or while a body has been slow on the ground (classified at rest) for less than
-        REST_HOLD, ``previous``: rest is final, and a body starting to roll or slide from standing
-        still is slow for its first steps."""
+        REST_HOLD, on the ground (``previous`` if that was a stage in the water): rest is final, and
+        a body starting to roll or slide from standing still is slow for its first steps."""
         if stage is not StageId.REST or previous is StageId.REST:
             self.rest_since = math.nan
             return stage
         if math.isnan(self.rest_since):
             self.rest_since = now
-        return stage if _lasted(self.rest_since, now, REST_HOLD) else previous
+        if _lasted(self.rest_since, now, REST_HOLD):
+            return stage
+        # not yet: on the ground, unless it was in the water (sunk, or in a contact on a shallow bed)
+        return StageId.GROUND if previous in (StageId.APPROACH, StageId.FLY_AWAY) else previous
 
     def _check_outside(self, now: float, body: BodyState, water: WaterContact | None,
                        outputs: dict[str, Message]) -> None:
@@ -341,7 +366,7 @@ class StageMonitor(Component):
             if math.isnan(x):  # (a restart from a state saved before it was kept: where the stone is now)
                 x, y = float(body.position[0]), float(body.position[1])
             self.final_x, self.final_y = x, y
-            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x)
+            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x, y)
             if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
                 # (rounded to the millimetre first: a throw along y = 0 printed "y = -7.93e-17 m")
@@ -364,7 +389,8 @@ class StageMonitor(Component):
             distance=self._along_throw_line(track.touchdown_x - previous_x, track.touchdown_y - previous_y),
             speed_in=track.speed_in, speed_out=body.speed,
             drift=self._beside_throw_line(track.touchdown_x, track.touchdown_y),
-            heading_deg=_turned_deg(math.atan2(vy, vx) - track.start_heading), peak_g=track.peak_g)
+            heading_deg=_turned_deg(math.atan2(vy, vx) - track.start_heading), peak_g=track.peak_g,
+            touchdown_y=track.touchdown_y)
         track.last_touchdown_x, track.last_touchdown_y = track.touchdown_x, track.touchdown_y
         self.records.append(record)
         return record
@@ -426,6 +452,7 @@ class StageMonitor(Component):
         contact = [r.contact_time for r in self.records]
         return {
             "skips": self.track.skips,
+            "ground_bounces": self.track.ground_bounces,  # fly-aways off the solid ground, no skips
             "distance": self.travelled(),
             "outcome": self._outcome(),
             # the throw was cut short by the water's edge: its distance and skips are lower bounds
@@ -440,7 +467,10 @@ class StageMonitor(Component):
         """``t`` [s] to the last digit of the monitor's step, at least to the millisecond, with no
         trailing zeros past it: on a 0.5 ms step 0.0525 s, not 0.052 s (the stop line said "sink
         since t = 0.0525 s" beside a timeline saying 0.052 s)."""
-        decimals = max(3, math.ceil(-math.log10(self._step) - 1e-9)) if self._step > 0 else 3
+        # the step's own decimals (a 0.25 ms step has five: "0.00025 s", not "0.0003 s")
+        decimals = max(3, step_decimals(round(self._step * NS_PER_S))) if self._step > 0 else 3
+        if t == 0.0:
+            return "0"  # the run's start (its first stage's): "0.000 s" would claim a rounding
         text = f"{t:.{decimals}f}"
         while decimals > 3 and text.endswith("0"):
             text, decimals = text[:-1], decimals - 1
@@ -461,7 +491,10 @@ class StageMonitor(Component):
         outcome = self._outcome()
         if outcome == LEFT_POND and math.isnan(self.track.touchdown_time):
             outcome += " (it never touched the water)"
-        lines.append(f"skips: {self.track.skips}; distance travelled: {travelled}; final stage: {outcome}")
+        bounces = self.track.ground_bounces
+        off_ground = (f" ({bounces} bounce{'s' if bounces != 1 else ''} off the ground, not counted)"
+                      if bounces else "")
+        lines.append(f"skips: {self.track.skips}{off_ground}; distance travelled: {travelled}; final stage: {outcome}")
         # a throw that curves (a spinning stone) says how far, per skip; a straight one stays quiet
         curved = any(abs(r.drift) >= CURVE_DRIFT or abs(r.heading_deg) >= CURVE_HEADING_DEG for r in self.records)
         # a throw along x is told by its touchdowns' x; one along another line by how far along it they
@@ -482,6 +515,7 @@ class StageMonitor(Component):
         return lines
 
 
+FINAL_STAGES = (StageId.SINK, StageId.FLOAT, StageId.REST)  # (and left-pond, which ends the distance too)
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
 SETTLED_SPEED = 0.01  # [m/s] a floating body slower than this has settled: the run may end

@@ -122,14 +122,20 @@ def stage(component: str, port: str, msg: Stage) -> list:
     """One log line per stage change."""
     level = "warning" if msg.stage is StageId.SINK else "info"
     return [LogLine(LOG_TOPIC, level, component,
-                    f"{msg.label} (stage {int(msg.stage)}): skips {msg.skips}, x = {msg.x:.3f} m")]
+                    f"{msg.label} (stage {int(msg.stage)}): skips {msg.skips}, {_where(msg.x, msg.y)}")]
+
+
+def _where(x: float, y: float) -> str:
+    """Where on the pond [m]: (x, y), or x alone when y is not known (a recording from before it was
+    kept). x alone said nothing of a throw along y (every stage "x = 0.500 m")."""
+    return f"x = {x:.3f} m" if math.isnan(y) else f"at ({x:.3f}, {y:.3f}) m"
 
 
 @every_message
 def skip_record(component: str, port: str, msg: SkipRecord) -> list:
     """One log line per finished skip."""
     return [LogLine(LOG_TOPIC, "info", component,
-                    f"skip {msg.index}: touchdown at x = {msg.touchdown_x:.3f} m, "
+                    f"skip {msg.index}: touchdown {_where(msg.touchdown_x, msg.touchdown_y).replace('x =', 'at x =')}, "
                     f"t = {msg.touchdown_time:.4f} s; "
                     f"contact {msg.contact_time * 1e3:.1f} ms, peak {msg.peak_g:.1f} g; "
                     f"take-off {msg.takeoff_angle_deg:.1f} deg; "

@@ -35,3 +35,15 @@ def tick_time_ns(tick: int, dt_ns: int) -> int:
 def format_time(ns: int) -> str:
     """Human-readable simulation time, e.g. ``1.2345 s``."""
     return f"{ns / NS_PER_S:.6g} s"
+
+
+def step_decimals(step_ns: int) -> int:
+    """The decimals [of a second] a time on a grid of ``step_ns`` needs to be written exactly: 4 for
+    0.5 ms, 5 for 0.25 ms, 3 for 1 ms, 0 for whole seconds."""
+    if step_ns <= 0:
+        return 9
+    decimals = 9
+    while decimals > 0 and step_ns % 10 == 0:
+        step_ns //= 10
+        decimals -= 1
+    return decimals

@@ -80,6 +80,24 @@ def test_a_restart_counts_its_simulated_time_and_steps_from_the_checkpoint(tmp_p
     out = capsys.readouterr().out
     line = next(x for x in out.splitlines() if x.strip().startswith("simulated"))
     assert "simulated 0.3 s from t = 0.5 s in 1200 steps of 0.25 ms" in line
+    # its timeline says where what was in force at the restart is (a restart publishes changes only)
+    assert main(["inspect", str(tmp_path / "from.mcap")]) == 0
+    assert "    (a restart from t = 0.5 s: what was in force then, and what came before, is in the recording it " \
+           "restarted from)" in capsys.readouterr().out.splitlines()
+
+
+def test_inspect_dates_the_timeline_to_the_digit_of_the_runs_step(tmp_path, capsys):
+    """At a 50 us step the held skip's touchdown is at 0.07415 s, as the run's summary says: inspect
+    said 0.0741 s (four decimals whatever the step)."""
+    recording = tmp_path / "fine.mcap"
+    assert main(["run", str(ROOT / "scenarios" / "held_skip.yaml"), "--set", "dt=0.00005", "--set",
+                 "components.pond.every=20", "--until", "0.08", "-o", str(recording)]) == 0
+    summary = capsys.readouterr().out
+    said = re.search(r"-> hit \((\S+) s\)", summary).group(1)
+    assert len(said.split(".")[1]) == 5  # (a touchdown the coarser digits would round)
+    assert main(["inspect", str(recording)]) == 0
+    (row,) = [line for line in capsys.readouterr().out.splitlines() if "/stages/stage: hit" in line]
+    assert row.split()[0] == said
 
 
 def test_validate_on_a_sweep_file_says_it_is_one_and_how_to_check_it(capsys):

@@ -121,9 +121,30 @@ def test_a_restart_begun_in_a_contact_numbers_and_dates_it_as_the_run_did(tmp_pa
     skips = len(full.skips)
     (touchdown,) = [start for start, end in contact_intervals(full) if start < 1.0 < end]
     panel = figure_contacts(load_run(restart)).axes[0]
-    assert panel.get_title().startswith(f"contact {skips + 1}: touchdown t = {touchdown:.4f} s, before the restart "
-                                        "at t = 1.000 s; ")
+    assert panel.get_title().startswith(
+        f"contact {skips + 1}: touchdown t = {touchdown:.4f} s, restart t = 1.0000 s;\n")
+    assert panel.get_title().endswith(" g after the restart")  # its samples' peak: the glide has no skip record
     assert panel.get_xlabel() == "time since the restart [ms]"
+
+
+def test_a_restart_begun_in_a_skips_contact_is_dated_from_its_touchdown(tmp_path):
+    """The held skip restarted at 0.36 s, 24 ms into the contact of its second skip: the panel says
+    the restart's time (it gave the touchdown's, "before the restart at t = 0.336 s"), its time axis
+    runs from the touchdown the skip record dates (it said "since the restart"), and the peak is the
+    whole contact's, from that record (it said "after the restart" of a peak reached before it)."""
+    from cosim.cli import main
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    whole, restart = tmp_path / "held.mcap", tmp_path / "restart.mcap"
+    assert main(["run", str(scene), "--until", "0.5", "--set", "record.checkpoint_every=0.09", "-q",
+                 "-o", str(whole)]) == 0
+    assert main(["replay", str(whole), "--from", "0.36", "--until", "0.5", "-q", "-o", str(restart)]) == 0
+    second = load_run(whole).skips[1]
+    assert second.touchdown_time < 0.36 < second.touchdown_time + second.contact_time
+    panel = figure_contacts(load_run(restart)).axes[0]
+    assert panel.get_title() == (f"contact 2: touchdown t = {second.touchdown_time:.4f} s, restart t = 0.3600 s;\n"
+                                 f"{second.contact_time * 1e3:.1f} ms, peak {second.peak_g:.1f} g")
+    assert panel.get_xlabel() == "time since the touchdown [ms]"
 
 
 def test_the_energy_figure_says_what_its_total_leaves_out(tmp_path):

@@ -72,14 +72,16 @@ def test_it_skips_three_times_curving_left_and_sinks_on_the_pond(reference):
 def test_the_distances_are_measured_from_where_the_stone_was_thrown(reference_run):
     """The monitor's start is the stone's state at t = 0 (it was the state after the first step,
     5.5 mm on, and the summary said 11.92 m for 11.93): the first skip's distance is its touchdown
-    less the scene's start, and the distance travelled the last position less it."""
+    less the scene's start, and the distance travelled where the stone sank less it, not where it
+    had drifted to under water when the run ended 0.3 s later (11.93 m)."""
     reference = reference_run.components["stages"]
     start = load(SKIP).components["stone"].params.position
     assert (reference.track.start_x, reference.track.start_y) == (start[0], start[1])
     assert reference.records[0].distance == reference.records[0].touchdown_x - start[0]
-    final_x = float(reference_run.components["stone"].body_state().position[0])
-    assert f"distance travelled: {final_x - start[0]:.2f} m" in "\n".join(reference.summary())
-    assert f"{final_x - start[0]:.2f}" == "11.93"
+    sank_x = reference.final_x
+    assert f"distance travelled: {sank_x - start[0]:.2f} m" in "\n".join(reference.summary())
+    assert f"{sank_x - start[0]:.2f}" == "11.82"
+    assert float(reference_run.components["stone"].body_state().position[0]) - sank_x > 0.1  # drifted on
 
 
 @pytest.mark.parametrize("rev_s", [10.0, 14.0])

@@ -41,19 +41,25 @@ def drive(monitor, script):
 
 def test_the_summary_dates_stages_to_the_digit_of_the_monitors_step():
     """Stepped every 0.5 ms, the summary gives each stage and touchdown to that step's digit, as the
-    stop line does: approach at 0.0005 s and a touchdown at 0.0015 s (it said 0.001 s and 0.002 s, and
-    "sink since t = 0.0525 s" beside a timeline saying 0.052 s); whole milliseconds keep three digits."""
+    stop line does: a touchdown at 0.0015 s (it said 0.002 s, and "sink since t = 0.0525 s" beside a
+    timeline saying 0.052 s); whole milliseconds keep three digits; the first stage is the run's from
+    its start, at 0 s (it was dated a step late)."""
     half = MS // 2
     m = StageMonitor("stages")
     script = [(body(0.0, 0.05, 5.0, -1.0), water(False)), (body(0.005, 0.04, 5.0, -1.0), water(False)),
               (body(0.01, 0.0, 5.0, -1.0), water(True)), (body(0.015, 0.0, 5.0, -1.0), water(True))]
     for k, (b, w) in enumerate(script):
         m.step(k * half, half, {"body": b, "water": w, "ground": None})
-    assert m.summary()[0] == "stages: approach (0.0005 s) -> hit (0.0015 s)"
+    assert m.summary()[0] == "stages: approach (0 s) -> hit (0.0015 s)"
     whole = StageMonitor("stages")
     for k, (b, w) in enumerate(script):
         whole.step(k * MS, MS, {"body": b, "water": w, "ground": None})
-    assert whole.summary()[0] == "stages: approach (0.001 s) -> hit (0.003 s)"
+    assert whole.summary()[0] == "stages: approach (0 s) -> hit (0.003 s)"
+    # a step that is no power of ten keeps all its digits (0.25 ms: "0.0008 s" rounded the touchdown)
+    quarter = StageMonitor("stages")
+    for k, (b, w) in enumerate(script):
+        quarter.step(k * MS // 4, MS // 4, {"body": b, "water": w, "ground": None})
+    assert quarter.summary()[0] == "stages: approach (0 s) -> hit (0.00075 s)"
 
 
 def test_skip_sequence_and_figures():
@@ -92,7 +98,7 @@ def test_rest_on_ground():
     m = StageMonitor("stages")
     ground = GroundContact(True, 1.0, 0.0, False, 0.0)
     out = drive(m, [(body(0, 0.003, 0.0, 0.0), None, ground)] * HOLD)
-    assert [o["stage"].stage for o in out if "stage" in o] == [StageId.APPROACH, StageId.REST]
+    assert [o["stage"].stage for o in out if "stage" in o] == [StageId.GROUND, StageId.REST]
     assert "stage" in out[-1] and m.timeline[-1] == (pytest.approx(0.001), "rest")
 
 
@@ -505,6 +511,64 @@ def test_a_contact_that_never_moved_down_is_no_skip():
     assert [o["skip"].index for o in out if "skip" in o] == [1]
 
 
+def test_a_bounce_off_a_shallow_ponds_bed_is_no_skip_and_no_sinking():
+    """A stone thrown steeply into a 3 cm pond is turned back up by the bed (a SolidGround under the
+    water): the water did not bounce it, so its fly-away counts no skip but a bounce off the ground
+    (it was "skips: 1, take-off 60.4 deg"); and while it rises out of the water faster than
+    sink_speed, slowed along the water by the bed as it is, it has not sunk (it was "sink", which is
+    final, as it flew 17 cm up)."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0))
+    bed = GroundContact(True, 1359.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0.0, 0.05, 2.0, -3.0), water(False), None),
+                    (body(0.001, 0.0, 2.0, -3.0), water(True, 0.5), None),
+                    (body(0.002, -0.025, 0.3, 2.6), water(True, 1.0), bed),
+                    (body(0.003, -0.02, 0.3, 2.5), water(True, 0.8), None),
+                    (body(0.004, 0.02, 0.3, 2.4), water(False, depth=-0.02), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "slide", "fly-away"]
+    assert not any("skip" in o for o in out) and m.track.skips == 0
+    assert m.metrics()["ground_bounces"] == 1
+    assert "skips: 0 (1 bounce off the ground, not counted)" in "\n".join(m.summary())
+    # the next contact, off the water alone, is a skip again
+    out = drive(m, [(body(0.1, 0.0, 3.0, -0.5), water(True), None),
+                    (body(0.1, 0.0, 3.0, 0.5), water(True), None),
+                    (body(0.1, 0.004, 3.0, 0.5), water(False, depth=-0.004), None)])
+    assert [o["skip"].index for o in out if "skip" in o] == [1]
+
+
+def test_a_stone_on_dry_ground_is_on_the_ground_not_in_the_air():
+    """A stone that glides out of the water up a beach and slides on it is on the ground (it was in
+    its fly-away, then in an approach, lying on the beach); a hop off the ground flies; it rests once
+    static friction holds it, and a stone let go lying on the ground is on it from the start."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0))
+    sliding = GroundContact(True, 1.0, 0.5, True, 0.0)
+    holding = GroundContact(True, 1.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0.0, 0.05, 3.0, -1.0), water(False), None),
+                    (body(0.01, 0.0, 3.0, -0.5), water(True), None),
+                    (body(0.02, 0.001, 3.0, 0.2), water(True), None),
+                    (body(0.03, 0.004, 2.5, 0.1), water(False, depth=-0.004), sliding),
+                    (body(0.04, 0.006, 2.0, 0.3), water(False, depth=-0.02), None),
+                    (body(0.05, 0.005, 1.5, -0.3), water(False, depth=-0.02), None),
+                    *[(body(0.06, 0.004, 0.0, 0.0), water(False, depth=-0.02), holding)] * HOLD])
+    assert [o["stage"].label for o in out if "stage" in o] == [
+        "approach", "hit", "slide", "ground", "fly-away", "approach", "ground", "rest"]
+    assert m.track.skips == 0
+    lying = StageMonitor("stages")
+    out = drive(lying, [(body(0, 0.003, 0.0, 0.0), None, holding)] * HOLD)
+    assert [o["stage"].label for o in out if "stage" in o] == ["ground", "rest"]
+
+
+def test_the_distance_ends_where_the_stone_sank():
+    """A sunk stone drifts on under water until the run ends stop_after later: its distance is where
+    it sank (it went on with the drift, so that the figure depended on stop_after: held_skip 7.43 m
+    with 0.05 s, 7.45 m with 0.3 s)."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.0))
+    drive(m, [(body(0.0, 0.05, 3.0, -1.0), water(False), None),
+              (body(1.0, 0.0, 0.3, -0.5), water(True, 0.5), None),
+              *[(body(1.0 + 0.01 * k, -0.01 * k, 0.3, -0.5), water(True, 1.0), None) for k in range(1, 30)]])
+    assert m.timeline[-1][1] == "sink"
+    assert m.travelled() == pytest.approx(1.0)
+
+
 def test_a_contact_that_runs_off_the_waters_edge_ends_without_a_skip_or_a_hit():
     """Off the grid's edge (or over land) a dry stone's lowest point is below the rest level: the
     contact is over, without a bounce, and the stone is airborne (scenarios/ricochet.yaml's last
@@ -586,7 +650,7 @@ def test_rest_is_final_though_the_body_rocks_faster_than_rest_speed_now_and_then
     still = (body(1.0, 0.005, 0.0, 0.0), None, touching)
     out = drive(m, [still] * HOLD + [(body(1.0, 0.005, 0.02, 0.0), None, touching), still,
                                      (body(1.0, 0.005, 0.03, 0.0), None, touching), still, still])
-    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "rest"]
+    assert [o["stage"].label for o in out if "stage" in o] == ["ground", "rest"]
     assert m.stop_reason is not None and "rest" in m.stop_reason
 
 

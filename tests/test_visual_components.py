@@ -115,6 +115,9 @@ def test_every_stage_change_is_a_log_line():
     (line,) = stage("monitor", "stage", Stage(StageId.HIT, "hit", 2, 3.25))
     assert isinstance(line, LogLine) and line.topic == "/log" and line.level == "info"
     assert line.name == "monitor" and line.text.startswith("hit (stage 1): skips 2, x = 3.250 m")
+    # where, both ways: a throw along y said "x = 0.500 m" at every stage
+    (line,) = stage("monitor", "stage", Stage(StageId.HIT, "hit", 2, 0.5, 3.25))
+    assert line.text == "hit (stage 1): skips 2, at (0.500, 3.250) m"
     (sink,) = stage("monitor", "stage", Stage(StageId.SINK, "sink", 4, 9.0))
     assert sink.level == "warning"
     assert getattr(stage, "every_message", False) and getattr(skip_record, "every_message", False)
@@ -124,3 +127,6 @@ def test_every_skip_is_a_log_line():
     """A finished skip becomes one /log line with its figures."""
     (line,) = skip_record("monitor", "skip", SkipRecord(2, 0.31, 1.25, 0.038, 13.8, 0.88, 4.19, 4.12, peak_g=7.25))
     assert line.text.startswith("skip 2: touchdown at x = 1.250 m") and "contact 38.0 ms, peak 7.2 g" in line.text
+    (line,) = skip_record("monitor", "skip", SkipRecord(2, 0.31, 0.5, 0.038, 13.8, 0.88, 4.19, 4.12, peak_g=7.25,
+                                                        touchdown_y=1.25))
+    assert line.text.startswith("skip 2: touchdown at (0.500, 1.250) m, t = 0.3100 s")

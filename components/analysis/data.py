@@ -87,7 +87,7 @@ def _restored_stage(rec: Recording, monitor: str) -> Stage | None:
         return None
     stage = StageId(int(state["stage"]))
     return Stage(stage, STAGE_NAMES[stage], int(state.get("track", {}).get("skips", 0)),
-                 float(state.get("final_x", np.nan)))
+                 float(state.get("final_x", np.nan)), float(state.get("final_y", np.nan)))
 
 
 def _stack(msgs: list, name: str, width: int | None = None) -> np.ndarray:
@@ -230,6 +230,7 @@ class RunData:
     # what the energy budget's total leaves out, in words (a contact's dissipation not recorded, a
     # script's work), for the energy figure to say
     unbooked: list[str] = field(default_factory=list)
+    restart: float | None = None  # [s] when a restart's run began (None: not a restart)
 
 
 def warn_ended_early(rec: Recording, drawn: str) -> None:
@@ -374,7 +375,7 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
                    wrenches, skips, topics_of(rec, WaterField), rest_level(rec, track.name),
                    max(end, float(track.t[-1])), body_step(rec, track.name), rec.status() is None, touchdown_before,
-                   unbooked(rec, track.name))
+                   unbooked(rec, track.name), rec.restart_ns / NS_PER_S if rec.restart_ns else None)
 
 
 def unbooked(rec: Recording, body: str) -> list[str]:

@@ -152,7 +152,7 @@ def figure_trajectory(run: RunData) -> Figure:
     view = "height over time" if by_time else "side view"
     # the monitor's own count (a restart's recording holds the skips after its checkpoint only)
     skips = max(len(run.skips), int(run.stages.skips[-1]) if run.stages is not None and len(run.stages.skips) else 0)
-    by_stage = f" by stage ({skips} skips)" if run.stages is not None else ""
+    by_stage = f" by stage ({skips} skip{'' if skips == 1 else 's'})" if run.stages is not None else ""
     ax.set_title(f"{run.scene}: {view} of {body.name}{by_stage}")
     if run.stages is not None:
         _stage_legend(ax, stages.tolist(), also=True)
@@ -291,7 +291,8 @@ def figure_energy(run: RunData) -> Figure:
     return fig
 
 
-AIRBORNE = (StageId.APPROACH, StageId.FLY_AWAY, StageId.LEFT_POND)  # stages that end a contact
+# stages that end a contact: in the air, or on the solid ground out of the water
+OUT_OF_THE_WATER = (StageId.APPROACH, StageId.FLY_AWAY, StageId.LEFT_POND, StageId.GROUND)
 
 
 def contact_intervals(run: RunData) -> list[tuple[float, float]]:
@@ -327,27 +328,28 @@ def contact_intervals(run: RunData) -> list[tuple[float, float]]:
 
 def _as_the_monitor_counts(run: RunData, spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Wetted ``spans`` joined into the contacts the stage monitor counts, when it was recorded: two
-    spans are one contact unless the stone was airborne (approach, fly-away, left the pond) at some
-    time in the dry gap between them. The monitor keeps a contact going while the stone is dry but
+    spans are one contact unless the stone was out of the water (approach, fly-away, left the pond, on
+    the ground) at some time in the dry gap between them. The monitor keeps a contact going while the stone is dry but
     still skimming or coming down (docs/stages.md): the glide at the end of a throw, one contact to
     the monitor, was drawn as several (held_skip: 78 ms from 0.758 s, then 1392 ms from 0.847 s)."""
     if run.stages is None or len(spans) < 2:
         return spans
     joined = [spans[0]]
     for start, end in spans[1:]:
-        if _airborne_between(run.stages, joined[-1][1], start):
+        if _out_of_the_water_between(run.stages, joined[-1][1], start):
             joined.append((start, end))
         else:
             joined[-1] = (joined[-1][0], end)
     return joined
 
 
-def _airborne_between(stages: StageTrack, t0: float, t1: float) -> bool:
-    """Whether the stage monitor had the stone airborne at some time from ``t0`` up to (not at) ``t1``
+def _out_of_the_water_between(stages: StageTrack, t0: float, t1: float) -> bool:
+    """Whether the stage monitor had the stone out of the water (airborne, or on the solid ground) at
+    some time from ``t0`` up to (not at) ``t1``
     [s]: the stage in force at ``t0`` or any it changed to before ``t1``."""
     first = max(0, int(np.searchsorted(stages.t, t0, side="right")) - 1)
     last = int(np.searchsorted(stages.t, t1, side="left"))
-    return any(int(stage) in AIRBORNE for stage in stages.stage[first:last])
+    return any(int(stage) in OUT_OF_THE_WATER for stage in stages.stage[first:last])
 
 
 def _spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[float, float]]:
@@ -426,6 +428,7 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.plot(ms, w.force[m, :2] @ along, color=color, linewidth=1.0, linestyle=":",
                     label=f"{w.topic} along the motion")
         # a skip's own record has the monitor's peak over every step: a thinned recording's samples miss it
+        # (and, of a restart begun in the contact, the steps before the restart too)
         record = next((r for r in run.skips if start - 1e-9 <= r.touchdown_time <= end + 1e-9), None)
         if record is not None:
             peak = float(record.peak_g)
@@ -453,11 +456,16 @@ def figure_contacts(run: RunData) -> Figure | None:
             ax.set_title(f"contact {first + k}: t = {start:.3f} s, {1e3 * (end - start):.1f} ms{ends}{peak_text}",
                          fontsize="small")
             ax.set_xlabel("time since touchdown [ms]")
-        else:  # a restart that began in this contact: its touchdown, and its peak, before the recording
-            ax.set_title(f"contact {first + k}: touchdown t = {touchdown:.4f} s, before the restart at "
-                         f"t = {start:.3f} s; {1e3 * (end - touchdown):.1f} ms{ends}{peak_text} (after the restart)",
-                         fontsize="small")
-            ax.set_xlabel("time since the restart [ms]")
+        else:  # a restart that began in this contact: its touchdown before the recording's first state
+            restart = run.restart if run.restart is not None else float(run.body.t[0])
+            # the whole contact's peak when a skip record gives it, else the samples' after the restart
+            peak_when = "" if record is not None or not run.contacts else " after the restart"
+            ax.set_title(f"contact {first + k}: touchdown t = {touchdown:.4f} s, restart t = {restart:.4f} s;\n"
+                         f"{1e3 * (end - touchdown):.1f} ms{ends}{peak_text}{peak_when}", fontsize="small")
+            # (the panel's time runs from its interval's start: the touchdown when a skip record dates
+            # it, else the restart; it said "since the restart" from the touchdown, 24 ms before it)
+            since_touchdown = abs(start - touchdown) <= run.step + 1e-9
+            ax.set_xlabel(f"time since the {'touchdown' if since_touchdown else 'restart'} [ms]")
         ax.set_ylabel("force [N]")
         ax.grid(True, alpha=0.3)
     # one legend below the panels: inside the first it hid its force peak (the reference skip's 79 N)

@@ -14,6 +14,7 @@ STAGE_COLORS = {  # one colour per stage, the same in every figure and in the an
     StageId.REST: "#937860",
     StageId.FLOAT: "#64b5cd",
     StageId.LEFT_POND: "#b0b0b0",
+    StageId.GROUND: "#c7a46b",
 }
 UNKNOWN_STAGE_COLOR = "#7f7f7f"  # before the first stage message
 STAGE_LABELS = {s: s.name.lower().replace("_", "-") for s in StageId}
