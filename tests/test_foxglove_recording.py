@@ -100,14 +100,17 @@ def test_the_stone_entity_is_a_frame_locked_disk_of_the_recorded_size(skip_run):
 
 
 def test_trail_and_velocity_follow_the_recorded_states(skip_run):
-    """The trail's points are the recorded positions at the frames so far; the velocity arrow starts
-    at the position of its frame."""
+    """The trail's points, its history's and then its tip's, are the recorded positions at the
+    frames so far; the velocity arrow starts at the position of its frame."""
     states = dict(skip_run.messages("/stone/state", BodyState))
     frames = [t for t, _ in viewer(skip_run, "/tf", FrameTransforms)]
+    history: list = []
     for i, (stamp, msg) in enumerate(viewer(skip_run, "/scene/stone/trail", SceneUpdate)):
-        (entity,) = msg.entities
-        assert entity.id == "trail" and entity.frame_id == "world"
-        points = [[p.x, p.y, p.z] for p in entity.lines[0].points]
+        strips = {e.id: [[p.x, p.y, p.z] for p in e.lines[0].points] for e in msg.entities}
+        assert set(strips) in ({"trail-tip"}, {"trail", "trail-tip"})
+        assert all(e.frame_id == "world" for e in msg.entities)
+        history = strips.get("trail", history)
+        points = history[:-1] + strips["trail-tip"] if history else strips["trail-tip"]
         assert points == [states[t].position.tolist() for t in frames[: i + 1]]
         assert stamp == frames[i]
     for stamp, msg in viewer(skip_run, "/scene/stone/velocity", SceneUpdate):

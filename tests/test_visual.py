@@ -9,6 +9,7 @@ from cosim.component import Component, Port
 from cosim.messages import Message, message
 from cosim.view.items import (
     KEEPALIVE_NS,
+    TRAIL_TIP_POINTS,
     Entity,
     LineStrip,
     LogLine,
@@ -157,18 +158,44 @@ def test_a_component_override_wins_over_the_registry(registry):
     assert own.id == "own" and registered.id == "dot"
 
 
-def test_trails_accumulate_one_point_per_frame(registry):
-    """A Trail item becomes a line strip entity holding the points of every frame so far."""
+def _trail_frames(d, values, start_ms=0, step_ms=1):
+    """Feed a trail one point a frame; return each frame's {entity id: x of its points}."""
+    frames = []
+    for k, value in enumerate(values):
+        frames.append({e.id: e.primitives[0].points[:, 0].tolist()
+                       for e in d((start_ms + k * step_ms) * MS, "c", "p", Other(float(value)))})
+    return frames
+
+
+def test_a_trail_holds_the_whole_path_in_its_history_and_its_tip(registry):
+    """A Trail item becomes two line strips: the tip, the points since the last TRAIL_TIP_POINTS
+    settled, sent each frame, and the history before them, sent when it grows (about once a
+    second): together every point so far (the one strip re-sent whole every frame was 2.7 GB of a
+    700 s run's 2.8); up to max_points in all, the latest (the strip stopped growing at half of
+    them: 3 of 6)."""
     register(Other, lambda c, p, m: [Trail("/scene/t", "trail", "world", (m.value, 0.0, 0.0), (1, 1, 1, 1),
-                                           max_points=3)])
+                                           max_points=100)])
     d = VisualDeriver(1000.0)
-    strips = []
-    for k in range(5):
-        (entity,) = d(k * MS, "c", "p", Other(float(k)))
-        (strip,) = entity.primitives
-        assert isinstance(strip, LineStrip)
-        strips.append(strip.points[:, 0].tolist())
-    assert strips == [[0.0], [0.0, 1.0], [0.0, 1.0, 2.0], [1.0, 2.0, 3.0], [2.0, 3.0, 4.0]]
+    frames = _trail_frames(d, range(250))
+    for k, frame in enumerate(frames):
+        history, tip = frame.get("trail"), frame["trail-tip"]
+        if history is not None:
+            last_history = history
+        path = last_history[:-1] + tip if last_history else tip
+        assert path == [float(v) for v in range(max(0, k + 1 - len(path)), k + 1)]  # the latest, in order
+        assert len(tip) <= TRAIL_TIP_POINTS + 1 and len(last_history) <= 99
+    assert len(last_history) == 99  # capped at max_points (and the tip beyond)
+    sent_history = [k for k, frame in enumerate(frames) if "trail" in frame]
+    assert len(sent_history) <= 250 // TRAIL_TIP_POINTS + 2
+
+
+def test_a_body_at_rest_sends_no_trail(registry):
+    """A point within TRAIL_STEP of the last adds nothing: a still body's trail is unchanged, so it
+    is only kept alive (a disk that never moved sent 61 trail messages against 3 of its body)."""
+    register(Other, lambda c, p, m: [Trail("/scene/t", "trail", "world", (m.value, 0.0, 0.0), (1, 1, 1, 1))])
+    d = VisualDeriver(10.0)
+    frames = _trail_frames(d, [0.0] * 21 + [0.0004] * 10, step_ms=100)
+    assert [k for k, frame in enumerate(frames) if frame] == [0, 10, 20, 30]  # its first frame, then keepalives
 
 
 def test_an_unchanged_entity_is_resent_only_as_a_keepalive(registry):

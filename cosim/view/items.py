@@ -52,6 +52,8 @@ WORLD = "world"  # the fixed frame every viewer item is ultimately placed in
 TF_TOPIC = "/tf"
 LOG_TOPIC = "/log"
 KEEPALIVE_NS = NS_PER_S  # an unchanged entity is re-sent this often [ns] (late-joining live viewers)
+TRAIL_TIP_POINTS = 30  # a trail's points sent each frame before they settle into its history (a second at 30/s)
+TRAIL_STEP = 1e-3  # [m] a trail's point closer than this to the last one (along every axis) is left out
 MAX_SIDE = 64  # default vertices per side of a decimated height-field surface
 
 RGBA = tuple[float, float, float, float]
@@ -338,7 +340,8 @@ class VisualDeriver:
         fraction = Fraction(self.rate)
         self._num, self._den = fraction.numerator, fraction.denominator
         self._slots: dict[tuple[str, str], Any] = {}
-        self._trails: dict[tuple[str, str], np.ndarray] = {}  # each trail's points so far, (n, 3)
+        # each trail's points so far, (n, 3): its settled history and its tip (TRAIL_TIP_POINTS at most)
+        self._trails: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
         self._sent: dict[tuple[str, str], _Sent] = {}
 
     def bind(self, components: dict[str, Any]) -> None:
@@ -425,11 +428,10 @@ class VisualDeriver:
             return [LogLine(LOG_TOPIC, "error", component, text)]
         out: list[Item] = []
         for item in raw:
-            if isinstance(item, Trail):
-                item = self._trail_entity(item)
-            if isinstance(item, Entity) and not self._changed(item, time_ns):
-                continue
-            out.append(item)
+            for made in self._trail_entities(item) if isinstance(item, Trail) else (item,):
+                if isinstance(made, Entity) and not self._changed(made, time_ns):
+                    continue
+                out.append(made)
         return out
 
     def _check(self, item: Any) -> None:
@@ -440,19 +442,29 @@ class VisualDeriver:
         if isinstance(item, LogLine) and item.level not in LOG_LEVELS:
             raise ValueError(f"log level {item.level!r} is not one of {', '.join(LOG_LEVELS)}")
 
-    def _trail_entity(self, trail: Trail) -> Entity:
-        # the points so far are kept as one array, a new one each frame (the last frame's entity
-        # still holds the old one): a copy of the rows, not an array built from a list of points
+    def _trail_entities(self, trail: Trail) -> tuple[Entity, Entity]:
+        """The trail's two line strips: its history (entity ``trail.id``), which changes only when the
+        tip has grown TRAIL_TIP_POINTS long and is moved into it, so it is sent about once a second
+        (an unchanged entity is only kept alive), and its tip (``trail.id``-tip), the points since,
+        sent each frame. Sent whole every frame, one strip of up to 10,000 points was 2.7 GB of a
+        700 s run's 2.8; either strip alone is whole, so a viewer seeking back has the path. A point
+        within TRAIL_STEP of the last adds nothing: a body at rest sends no new trail."""
         point = np.array(trail.point, dtype=np.float64).reshape(1, -1)
-        points = self._trails.get((trail.topic, trail.id))
-        if points is None or points.shape[1] != point.shape[1]:
-            points = point
-        else:
-            keep = max(trail.max_points - 1, 0)
-            points = np.concatenate((points[len(points) - keep:] if keep else points[:0], point))
-        self._trails[(trail.topic, trail.id)] = points
-        strip = LineStrip(points, trail.color, trail.thickness)
-        return Entity(trail.topic, trail.id, trail.frame_id, (strip,))
+        key = (trail.topic, trail.id)
+        history, tip = self._trails.get(key, (None, None))
+        if history is None or tip is None or tip.shape[1] != point.shape[1]:
+            history, tip = point[:0], point
+        elif float(np.max(np.abs(tip[-1] - point[0]))) >= TRAIL_STEP:
+            tip = np.concatenate((tip, point))
+            if len(tip) > TRAIL_TIP_POINTS:  # the tip settles into the history; the new tip starts at its end
+                keep = max(trail.max_points - 1, 0)
+                # (the tip begins at the history's last point, which the history holds already)
+                history = np.concatenate((history, tip[1:-1] if len(history) else tip[:-1]))
+                history = history[len(history) - keep:] if 0 < keep < len(history) else history[:keep]
+                tip = tip[-2:]
+        self._trails[key] = (history, tip)
+        return (Entity(trail.topic, trail.id, trail.frame_id, (LineStrip(history, trail.color, trail.thickness),)),
+                Entity(trail.topic, f"{trail.id}-tip", trail.frame_id, (LineStrip(tip, trail.color, trail.thickness),)))
 
     def _changed(self, entity: Entity, time_ns: int) -> bool:
         key = (entity.topic, entity.id)
