@@ -44,6 +44,9 @@ NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a component name: it bec
 # /scene/<body>, /tf, /log): a component of that name would write its outputs onto them (one named
 # cosim with a port status made the recording unreadable; one named scene lost its body's looks)
 RESERVED_NAMES = ("cosim", "perf", "scene", "tf", "log")
+# the viewer's fixed frame: a body's frame is named after it, and one named world moved the world
+# (/tf world -> world: the trail, the arrows and the water drawn in a moving frame)
+RESERVED_FRAMES = ("world",)
 SCENE_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}")  # a scene name: it becomes a file name
 MIN_STEP_NS = 1  # the clock's tick: no step is shorter
 MAX_TIME_NS = 2**63 - 1  # MCAP's times are 64-bit nanoseconds: no time goes past this (about 292 years)
@@ -510,6 +513,10 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
     if name in RESERVED_NAMES:
         problems.append(f"{path}: {name!r} names the framework's or the viewer's own channels (/{name}...); a "
                         "component of that name would write its outputs among them: name it otherwise")
+        return None
+    if name in RESERVED_FRAMES:
+        problems.append(f"{path}: {name!r} names the viewer's fixed frame, in which a body named so would move "
+                        "everything drawn: name it otherwise")
         return None
     if not isinstance(spec, dict):
         problems.append(f"{path}: must be a mapping with a 'type' (got {spec!r})")

@@ -483,7 +483,8 @@ class Odd(Fmi2Slave):
 
 @pytest.mark.parametrize(("mode", "said"), [
     (1, "component 'odd' failed at t = 0 s: ValueError: FMU 'odd.py': variable 'n' = 99 is no StageId (port st, "
-        "field stage; its values: 0 approach, 1 hit, 2 slide, 3 fly_away, 4 sink, 5 rest, 6 float, 7 left_pond, 8 ground)"),
+        "field stage; its values: 0 approach, 1 hit, 2 slide, 3 fly_away, 4 sink, 5 rest, 6 float, 7 left_pond, "
+        "8 ground)"),
     (2, "component 'odd' failed at t = 0 s: non-finite value in output 'r' field 'value'"),
 ])
 def test_an_fmu_output_its_port_cannot_take_names_the_variable_and_counts_the_call(tmp_path, mode, said):

@@ -345,3 +345,27 @@ def test_a_viewer_that_drops_is_said_once_not_logged_per_message(capsys, caplog)
     err += capsys.readouterr().err
     assert err.splitlines() == [f"live view: viewer {address} disconnected"]
     assert [r for r in caplog.records if r.name.startswith("foxglove")] == []
+
+
+def test_a_viewer_speaking_only_the_older_protocol_is_told_refused_not_disconnected(capsys):
+    """The SDK's server speaks foxglove.sdk.v1 only: a viewer offering only foxglove.websocket.v1 (older
+    Foxglove Studio and Lichtblick releases) gets a 400 at its handshake, which the run said as
+    'viewer ADDR disconnected'; it is said to be refused, and why, in one line."""
+    view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
+    try:
+        sock = socket.create_connection(("127.0.0.1", view.port), timeout=5)
+        host, port = sock.getsockname()[:2]
+        sock.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                      b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                      b"Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n")
+        assert sock.recv(4096).startswith(b"HTTP/1.1 400")
+        sock.close()
+        err, deadline = "", time.monotonic() + 5
+        while "refused" not in err and time.monotonic() < deadline:
+            time.sleep(0.02)
+            err += capsys.readouterr().err
+    finally:
+        view.close()
+    (line,) = err.splitlines()
+    assert line.startswith(f"live view: viewer {host}:{port} refused: its WebSocket handshake failed; this server "
+                           "speaks the foxglove.sdk.v1 subprotocol only")

@@ -237,7 +237,7 @@ def test_a_writer_started_ahead_is_the_one_the_recording_uses_and_is_kept(tmp_pa
     assert second.sink.writer_pid == started.proc.pid and writer._spare is started
     rec = Recording(tmp_path / "b.mcap")
     assert rec.status().status == "ok" and rec.channels["/ball/state"].count == 21
-    assert rec.channels["/scene/ball/trail"].count == 2  # frames at 0 and 1/60 s
+    assert rec.channels["/scene/ball/trail"].count == 3  # frames at 0 and 1/60 s, and the run's end
     code = "from cosim.record import writer\nwriter.prestart(('cosim.view.foxglove',))\nprint(writer._spare.proc.pid)\n"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=WAIT_S, cwd=tmp_path)
     assert done.returncode == 0, done.stderr

@@ -127,6 +127,15 @@ def test_a_component_named_as_the_frameworks_own_channels_is_refused(name):
     assert said in str(err.value)
 
 
+def test_a_component_named_as_the_viewers_fixed_frame_is_refused():
+    """A body's frame in /tf is named after it: one named world made /tf world -> world, and the trail,
+    the arrows and the water, drawn in world, moved with it."""
+    text = SCENE.replace("  g: {type", "  world: {type").replace("g.x", "world.x").replace("g.y", "world.y")
+    with pytest.raises(ScenarioError) as err:
+        loads(text)
+    assert "components.world: 'world' names the viewer's fixed frame" in str(err.value)
+
+
 def test_a_first_step_needing_more_substeps_than_the_limit_is_refused_at_load():
     """A 60 s step of a 64 x 64 pond under on_unstable: substep needs 14,557 substeps at its first
     step: validate said it was fine, and the run failed at t = 0."""

@@ -11,7 +11,6 @@ from cosim.view.items import (
     KEEPALIVE_NS,
     TRAIL_TIP_POINTS,
     Entity,
-    LineStrip,
     LogLine,
     Sphere,
     Trail,

@@ -70,6 +70,11 @@ class _Port:
     decode: Callable[[bytes], Any]
     deriver: Any
     due_ns: int = 0  # the deriver's next frame for this port [ns]: messages before it are not decoded
+    # the last message passed over since the last frame (time [ns], its bytes), for the final frame
+    pending: tuple[int, bytes] | None = None
+
+
+FINAL_FRAME_BYTES = 1 << 18  # a message passed over is kept for the final frame up to this size [bytes]
 
 
 def make_deriver(recipe: Recipe) -> Any:
@@ -131,19 +136,40 @@ class Derivation:
         the log channel); the recording goes on."""
         for p in tuple(self.ports.get(channel, ())):
             if time_ns < p.due_ns:
+                # kept (copied: the batch's memory is reused) for the final frame; a large one (a
+                # water field published faster than the frames) is not: the surface moves slowly
+                p.pending = (time_ns, bytes(data)) if len(data) <= FINAL_FRAME_BYTES else None
                 continue
-            try:
-                made = list(p.deriver(time_ns, p.component, p.port, p.decode(data)))
-                p.due_ns = p.deriver.due_ns(p.component, p.port) if hasattr(p.deriver, "due_ns") else time_ns
-            except Exception as exc:
-                ports = self.ports[channel]
-                ports.remove(p)
-                if not ports:
-                    del self.ports[channel]
-                _warn_unmade(f"/{p.component}/{p.port}", exc, time_ns)
-                continue
-            for extra in made:  # (a write the file system refuses is the recording's failure, not the port's)
-                self.target.logs[self._channel(extra)](extra.data, time_ns)
+            p.pending = None
+            self._derive(p, channel, time_ns, data)
+
+    def finish(self) -> None:
+        """The final frame: what the derivers make of each port's last message, where it came after
+        the port's last frame (the viewer left the stone up to a frame's time short of its end: 18 cm
+        above the water, where it had gone under)."""
+        for channel, ports in tuple(self.ports.items()):
+            for p in tuple(ports):
+                if p.pending is not None and getattr(p.deriver, "draws_final", False):
+                    (time_ns, data), p.pending = p.pending, None
+                    self._derive(p, channel, time_ns, data, final=True)
+
+    def _derive(self, p: _Port, channel: int, time_ns: int, data: bytes, final: bool = False) -> None:
+        """Write what ``p``'s deriver makes of its message ``data`` at ``time_ns`` (``final``: the
+        run's last, drawn whatever the deriver's frame rate)."""
+        try:
+            msg = p.decode(data)
+            made = list(p.deriver(time_ns, p.component, p.port, msg, final=True) if final
+                        else p.deriver(time_ns, p.component, p.port, msg))
+            p.due_ns = p.deriver.due_ns(p.component, p.port) if hasattr(p.deriver, "due_ns") else time_ns
+        except Exception as exc:
+            ports = self.ports[channel]
+            ports.remove(p)
+            if not ports:
+                del self.ports[channel]
+            _warn_unmade(f"/{p.component}/{p.port}", exc, time_ns)
+            return
+        for extra in made:  # (a write the file system refuses is the recording's failure, not the port's)
+            self.target.logs[self._channel(extra)](extra.data, time_ns)
 
     def _channel(self, extra: Any) -> int:
         """The writer's key of a derived message's channel, registered on first use."""

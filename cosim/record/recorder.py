@@ -233,7 +233,8 @@ class Recorder(BaseObserver):
         spec = cfg.cls.outputs.get(port) if cfg is not None else None
         # an event output (a stage change, a skip) is kept whole: thinned, it would tell a false history
         every = 1 if spec is not None and spec.event else self.every
-        return [channel, codec.write, 0, codec.encode, tuple(watching), 0, every]
+        # (the last: the port's last message passed over since its last frame, for the final frame)
+        return [channel, codec.write, 0, codec.encode, tuple(watching), 0, every, None]
 
     def _derive_in_writer(self, deriver: Any, channel: int, component: str, port: str, msg_type: type) -> None:
         """Have the writer derive from ``channel``'s messages (those of ``/component/port``) as
@@ -257,13 +258,21 @@ class Recorder(BaseObserver):
             if n % route[6] == 0 and not self.sink.add_message_record(route[1], route[0], time_ns, msg):
                 # an odd field (a list for an array, another dtype): the exact slow path, here
                 self.sink.add_message(route[0], time_ns, route[3](msg))
-        if route[4] and time_ns >= route[5]:  # the viewer channels only at their frames
-            self._derive(route, time_ns, component, port, msg)
+        if route[4]:  # the viewer channels only at their frames
+            if time_ns >= route[5]:
+                route[7] = None
+                self._derive(route, time_ns, component, port, msg)
+            else:
+                route[7] = (time_ns, msg)
 
-    def _derive(self, route: list, time_ns: int, component: str, port: str, msg: Message) -> None:
+    def _derive(self, route: list, time_ns: int, component: str, port: str, msg: Message,
+                final: bool = False) -> None:
         due = None
         for deriver in route[4]:
-            for extra in deriver(time_ns, component, port, msg):
+            if final and not getattr(deriver, "draws_final", False):
+                continue
+            for extra in (deriver(time_ns, component, port, msg, final=True) if final
+                          else deriver(time_ns, component, port, msg)):
                 if not self.wanted(extra.topic):
                     continue
                 channel = self._channel(extra.topic, extra.schema_name, extra.schema_encoding,
@@ -319,6 +328,12 @@ class Recorder(BaseObserver):
             self._perf_sample(sim)
         self.write_message(STATUS_TOPIC, sim.time_ns, RunStatus(
             result.status, result.reason, result.tick, sim.time_ns / 1e9, result.component_steps))
+        # the viewer's final frame, of each port's last message after its last frame (derived here,
+        # after the status, where the writer draws its own: cosim.record.derive.Derivation.finish)
+        for (component, port), route in self._routes.items():
+            if route[7] is not None:
+                (time_ns, msg), route[7] = route[7], None
+                self._derive(route, time_ns, component, port, msg, final=True)
         self._finished = True
 
     def epitaph(self, fate: str, end_ns: int, complete: bool, kept: str = "salvaged up to"

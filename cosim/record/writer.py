@@ -334,6 +334,8 @@ class _Apply:
         on through this process's descriptor: it is copied into the folder, made again, or, where
         that cannot be, elsewhere (:meth:`_rescue`; :attr:`rescued` then says where and why)."""
         try:
+            if self.derivation is not None:
+                self.derivation.finish()  # the viewer channels' final frame
             self.writer.close()
             self.file.truncate()  # the recording ends where the writer stopped (nothing stale after it)
             if not os.path.exists(self.part):

@@ -91,5 +91,7 @@ class RecordedVisuals:
     def due_ns(self, component: str, port: str) -> int:
         return self._deriver().due_ns(component, port)
 
-    def __call__(self, time_ns: int, component: str, port: str, msg: Any) -> Any:
-        return self._deriver()(time_ns, component, port, msg)
+    draws_final = True  # (cosim.view.items.VisualDeriver's final frame)
+
+    def __call__(self, time_ns: int, component: str, port: str, msg: Any, final: bool = False) -> Any:
+        return self._deriver()(time_ns, component, port, msg, final=final)

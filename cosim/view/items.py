@@ -384,11 +384,16 @@ class VisualDeriver:
         slot = self._slots.get((component, port))
         return 0 if slot is None or slot is _UNRESOLVED or slot.every_message else slot.due_ns
 
-    def __call__(self, time_ns: int, component: str, port: str, msg: Message) -> list[Any] | tuple:
+    draws_final = True  # it takes final=True: the run's last message of a port, drawn whatever the frame
+
+    def __call__(self, time_ns: int, component: str, port: str, msg: Message,
+                 final: bool = False) -> list[Any] | tuple:
+        """The viewer items of ``msg`` (encoded, with an encoder) when a frame is due for its port,
+        or ``final`` (the run's last message of the port: the end is drawn); else ()."""
         slot = self._slots.get((component, port), _UNRESOLVED)
         if slot is _UNRESOLVED:
             slot = self._slots[(component, port)] = self._resolve(component, type(msg))
-        if slot is None or time_ns < slot.due_ns:
+        if slot is None or (time_ns < slot.due_ns and not final):
             return ()
         if not slot.every_message:
             slot.due_ns = self.next_frame_ns(time_ns)

@@ -7,11 +7,13 @@ also writes every recording). It publishes the same channels as a recording: eve
 :data:`DEFAULT_RATE`) as Foxglove protobufs, each with log time = simulation time. The server
 announces the simulation clock (the ``time`` capability), and the run is paced at ``speed`` times
 real time so it can be watched (``speed`` 0: as fast as it goes). Like the recorder, it only reads
-messages: the physics is the same with or without it. Messages are encoded only for channels a
-client subscribes to. The channels are made as the server starts, before the run (every output port
-and the viewer topics its looks give), so a viewer is told of all of them at once; a topic not
-foreseen is made at its first message. The SDK's own warnings and errors are not passed to the
-application's logging: a viewer that drops is one line on stderr, not one per message it missed.
+messages: the physics is the same with or without it. The exchanges are encoded only for channels a
+client subscribes to; the viewer channels (the transforms, the stone's looks and trail, the water's
+mesh) are made at every frame, subscribed to or not. The channels are made as the server starts,
+before the run (every output port and the viewer topics its looks give), so a viewer is told of all
+of them at once; a topic not foreseen is made at its first message. The SDK's own warnings and
+errors are not passed to the application's logging: a viewer that drops is one line on stderr, not
+one per message it missed.
 
 Every channel is latched: it keeps its latest message from each port that publishes on it (``/tf``
 carries every body's transform, each from its own body's state), and a client that subscribes is
@@ -72,6 +74,7 @@ def parse_address(address: str) -> tuple[str, int]:
 
 SDK_LOGGER = "foxglove"  # the logger whose children carry the SDK's records into Python's logging
 # a client's address in the SDK's records ("Error sending message to client 127.0.0.1:5170: ...")
+SUBPROTOCOL = "foxglove.sdk.v1"  # the WebSocket subprotocol the SDK's server (0.30) accepts
 CLIENT_ADDRESS = re.compile(r"\bclient (\[[^\]]*\]:\d+|[^\s:]+:\d+)", re.IGNORECASE)
 
 
@@ -97,7 +100,16 @@ class _ViewerNotes(logging.Handler):
         if key in self._said:
             return
         self._said.add(key)
-        line = f"live view: viewer {key} disconnected" if gone else f"live view: foxglove-sdk: {text}"
+        if gone and "handshake failed" in text:
+            # it never connected: the SDK's server speaks foxglove.sdk.v1 only, and answered a viewer
+            # offering the older foxglove.websocket.v1 with a 400, said as "disconnected"
+            line = (f"live view: viewer {key} refused: its WebSocket handshake failed; this server speaks the "
+                    f"{SUBPROTOCOL} subprotocol only (a viewer offering only foxglove.websocket.v1, as older "
+                    "Foxglove Studio and Lichtblick releases do, cannot connect; open the recording instead)")
+        elif gone:
+            line = f"live view: viewer {key} disconnected"
+        else:
+            line = f"live view: foxglove-sdk: {text}"
         try:
             # sys.stderr looked up now, not when made: it may have been replaced since (tests, a caller)
             print(line, file=sys.stderr, flush=True)
