@@ -442,13 +442,14 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a scene and record it")
     scene_args(p)
     p.add_argument("-o", "--output", type=_output_path,
-                   help="MCAP file to write (default runs/<scene>.mcap; with --set, --until, --record, --record-every "
-                        "or --perf, runs/<scene>-set-<hash>.mcap)")
+                   help="MCAP file to write (default runs/<scene>.mcap, <scene> the scene's name:, else its file's "
+                        "name; with --set, --until, --record, --record-every or --perf, runs/<scene>-set-<hash>.mcap)")
     p.add_argument("--until", type=run_until_ns, metavar="T", help="end time [s] (default: the scene's)")
     p.add_argument("--no-record", action="store_true", help="do not write a recording")
     p.add_argument("--record", metavar="PATTERNS", help="record only these channels (comma-separated globs)")
     p.add_argument("--record-every", type=positive_int, metavar="N",
-                   help="record every N-th message of each channel (all stage changes and skips)")
+                   help="keep every N-th message of each component output channel (every stage change and skip "
+                        "is kept; the viewer channels and checkpoints are not thinned)")
     p.add_argument("--perf", action="store_true",
                    help="add a wall-clock channel, /perf/tick: the wall time and real-time factor of every 100 "
                         "ticks and of the run's last ones (not deterministic)")
@@ -470,11 +471,11 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
                                           "ports and messages")
     p.add_argument("types", nargs="*", metavar="TYPE", help="the types to describe (default: list them all)")
     p.add_argument("--markdown", type=_markdown_path, metavar="FILE.md",
-                   help="write the reference page of the types (default: this project's) to FILE.md")
+                   help="write the reference page of the types (default: every registered type) to FILE.md")
     p.set_defaults(func=cmd_components)
 
     p = sub.add_parser("inspect", help="channels, status and stage timeline of a recording")
-    p.add_argument("recording")
+    p.add_argument("recording", help="MCAP recording of a run")
     p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("repair", help="make a recording left cut short (a killed run's NAME.<random>.part) "
@@ -486,14 +487,15 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_repair)
 
     p = sub.add_parser("replay", help="re-run components from a recording, or restart from a checkpoint")
-    p.add_argument("recording")
+    p.add_argument("recording", help="MCAP recording of a run")
     p.add_argument("--component", help="replay this component alone (default: each in turn)")
     p.add_argument("--from", dest="from_time", type=_seconds_arg, metavar="T",
                    help="restart the whole scene from the last checkpoint at or before T [s]")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="with --from: changed settings")
     p.add_argument("-o", "--output", type=_output_path,
-                   help="with --from: MCAP file for the restarted run (default RECORDING-fromTs.mcap beside the "
-                        "recording; with --set or --until, RECORDING-fromTs-set-<hash>.mcap)")
+                   help="with --from: MCAP file for the restarted run (default RECORDING-fromCs.mcap beside the "
+                        "recording, C the time of the checkpoint it restarts from; with --set or --until, "
+                        "RECORDING-fromCs-set-<hash>.mcap)")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="with --from: end time [s]")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_replay)

@@ -110,7 +110,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("scene", help="scene YAML file")
     p.add_argument("-o", "--output", required=True, type=fmu_path, metavar="NAME.fmu", help="the FMU file to write")
     p.add_argument("--step", type=positive_seconds, metavar="S",
-                   help="default communication step [s] (a whole multiple of the scene's dt)")
+                   help="default communication step [s] (a whole multiple of the scene's dt; default: the dt)")
     p.add_argument("--preset", default=DEFAULT_PRESET,
                    help=f"default parameters and outputs (default {DEFAULT_PRESET}; none: only those named)")
     p.add_argument("--parameter", action="append", metavar="NAME=KEY.PATH",
