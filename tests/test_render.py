@@ -606,3 +606,17 @@ def test_the_water_at_rest_drawn_before_any_field_stops_at_the_ponds_edge(skip_p
     assert plane.gx.min() == pytest.approx(-0.005) and plane.gy.min() == pytest.approx(-0.005)
     assert plane.gx.max() == pytest.approx(0.8) and plane.gy.max() == pytest.approx(0.5)
     assert _Frames._surface(frames, None, 0.0, _View((-3.0, -1.0), (-0.5, 0.5), (-0.1, 0.1))) is None
+
+
+def test_the_header_says_where_a_throw_not_along_x_is():
+    """A throw along x is told by its x, as the summary tells its touchdowns; one along y by x and y
+    (the header said "x = 0.50 m" at every frame of a throw along y)."""
+    from types import SimpleNamespace
+
+    from components.analysis.render import FrameRenderer
+
+    along_x = SimpleNamespace(body=SimpleNamespace(velocity=np.array([[7.88, 0.0, -1.39]])))
+    along_y = SimpleNamespace(body=SimpleNamespace(velocity=np.array([[0.0, 7.88, -1.39]])))
+    pos = np.array([0.5, 3.56, 0.01])
+    assert FrameRenderer._where(along_x, pos) == "x = 0.50 m"
+    assert FrameRenderer._where(along_y, pos) == "at (0.50, 3.56) m"

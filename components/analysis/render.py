@@ -509,12 +509,19 @@ class FrameRenderer(_Frames):
 
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
-        header = (f"{self.title}   t = {t:.3f} s   {label}   x = {pos[0]:.2f} m, "
+        header = (f"{self.title}   t = {t:.3f} s   {label}   {self._where(pos)}, "
                   f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{self._state_age(t, float(body.t[i]))}"
                   f"{self._field_age(t, field_time)}")
         color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
         self._header(draw, header, color)
         return np.asarray(image)
+
+    def _where(self, pos: np.ndarray) -> str:
+        """Where the body is: its x for a throw along x (as the summary gives its touchdowns), else
+        x and y (a throw along y said "x = 0.50 m" at every frame)."""
+        v0 = self.body.velocity[0]
+        along_x = abs(float(v0[1])) <= 1e-9 * max(abs(float(v0[0])), 1e-300)
+        return f"x = {pos[0]:.2f} m" if along_x else f"at ({pos[0]:.2f}, {pos[1]:.2f}) m"
 
     def _reported_gap(self, t: float) -> float | None:
         """The gap [m] between the lowest point and the water at ``t`` [s] as the body's coupler
