@@ -21,6 +21,7 @@ the YAML data first, so they are validated like the file itself.
 
 from __future__ import annotations
 
+import fnmatch
 import math
 import os
 import re
@@ -1092,9 +1093,23 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)
-    scene.notices = [f"components.{name}: {notice}" for name, comp in built_components.items()
-                     for notice in comp.notices()] + _idle_connections(scene, built_components)
+    scene.notices = ([f"components.{name}: {notice}" for name, comp in built_components.items()
+                      for notice in comp.notices()] + _idle_connections(scene, built_components)
+                     + _unplaced_looks(scene))
     return scene
+
+
+def _unplaced_looks(scene: Scene) -> list[str]:
+    """A notice when ``record.channels`` keeps a body's looks (``/scene/NAME``, drawn in the body's own
+    frame) but not the transforms (``/tf``) that place that frame: the viewer cannot draw the body
+    (the recording held /scene/stone and no /tf, without a word)."""
+    patterns = scene.record.channels
+    if patterns is None or scene.record.visual_rate == 0 or any(fnmatch.fnmatchcase("/tf", p) for p in patterns):
+        return []
+    if not any(fnmatch.fnmatchcase(f"/scene/{name}", p) for name in scene.components for p in patterns):
+        return []
+    return ["record.channels: keeps viewer looks (/scene/...) but not /tf, whose transforms place each body's "
+            "looks in its frame: the viewer cannot draw the bodies; add '/tf'"]
 
 
 def _idle_connections(scene: Scene, built: dict[str, Component]) -> list[str]:

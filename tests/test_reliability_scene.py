@@ -366,3 +366,15 @@ def test_a_character_yaml_does_not_allow_is_placed_by_line_and_column():
 def test_connections_given_as_an_empty_mapping_are_no_list():
     assert problem(SCENE.replace("connections:\n  - src.out -> g.x", "connections: {}")) == (
         "connections: must be a list (got {})")
+
+
+def test_recording_a_bodys_looks_without_the_transforms_that_place_them_is_said():
+    """A body's looks (/scene/NAME) are drawn in its own frame, which /tf places: recorded without
+    /tf, the body could not be drawn, and nothing said so. A notice says so (the run goes on); with
+    /tf, or with every channel, there is none."""
+    held = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    alone = load(held, ["record.channels=['/scene/*']"])
+    assert alone.notices == ["record.channels: keeps viewer looks (/scene/...) but not /tf, whose transforms place "
+                             "each body's looks in its frame: the viewer cannot draw the bodies; add '/tf'"]
+    assert load(held, ["record.channels=['/scene/*', '/tf']"]).notices == []
+    assert load(held).notices == []
