@@ -323,7 +323,7 @@ class StageMonitor(Component):
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
                 and _lasted(self.settled_since if stage is StageId.FLOAT else self.since, now,
                             self.params.stop_after)):
-            self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self._seconds(self.since)} s")
+            self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.time_text(self.since)} s")
         self._check_outside(now, body, water, outputs)
         return outputs
 
@@ -463,7 +463,7 @@ class StageMonitor(Component):
             "skip_peaks": " ".join(f"{r.peak_g:.2f}" for r in self.records),  # [g] SkipRecord.peak_g
         }
 
-    def _seconds(self, t: float) -> str:
+    def time_text(self, t: float) -> str:
         """``t`` [s] to the last digit of the monitor's step, at least to the millisecond, with no
         trailing zeros past it: on a 0.5 ms step 0.0525 s, not 0.052 s (the stop line said "sink
         since t = 0.0525 s" beside a timeline saying 0.052 s)."""
@@ -483,7 +483,7 @@ class StageMonitor(Component):
 
     def summary(self) -> list[str]:
         # named after the monitor ("stages" in most scenes), so that several monitors tell theirs apart
-        timeline = ' -> '.join(f'{label} ({self._seconds(t)} s)' for t, label in self.timeline)
+        timeline = ' -> '.join(f'{label} ({self.time_text(t)} s)' for t, label in self.timeline)
         lines = [f"{self.name}: {timeline or 'no stage yet (the run ended before the monitor first stepped)'}"]
         distance = self.travelled()
         # rounded first: a stone that moved back by less than 5 mm travelled 0.00 m, not -0.00 m
@@ -507,7 +507,7 @@ class StageMonitor(Component):
             # rounded first: a drift or turn smaller than the last digit is +0, not -0
             drift, heading = round(r.drift, 2) + 0.0, round(r.heading_deg, 1) + 0.0
             curve = f"; drift {drift:+.2f} m, heading {heading:+.1f} deg" if curved else ""
-            touchdown = self._seconds(r.touchdown_time)
+            touchdown = self.time_text(r.touchdown_time)
             lines.append(f"  skip {r.index}: touchdown {where}, t = {touchdown} s; "
                          f"contact {r.contact_time * 1e3:.1f} ms, peak {r.peak_g:.1f} g; "
                          f"take-off {r.takeoff_angle_deg:.1f} deg; "

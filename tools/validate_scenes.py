@@ -80,7 +80,8 @@ def archimedes() -> str:
     granite = w.seen["granite.state"][-1][1]
     # each stage as the monitor dates it (rest: from the start of its slow spell, not when the stage,
     # confirmed REST_HOLD later, was published)
-    stages = " -> ".join(f"{label} ({t:.3f} s)" for t, label in sim.components["granite_stages"].timeline)
+    monitor = sim.components["granite_stages"]
+    stages = " -> ".join(f"{label} ({monitor.time_text(t)} s)" for t, label in monitor.timeline)  # as its summary
     return "\n".join([
         "| quantity | model | expected |", "|---|---:|---:|",
         f"| pine ball, submerged fraction summed by the coupler (mean over 5-6 s) | {reported:.4f} | 0.6 |",
