@@ -1104,20 +1104,12 @@ class WaterCoupler(Component):
         ring, so it heaved for ever and the water's energy grew without bound (the coupled energy
         fivefold in 3 s; tests/stability/test_floating_energy.py).
         """
-        f = self.params.rho * self.params.g
-        b = kernel.S_BUOYANCY
-        rest = ring.rest
-        stats[b:b + 6] = rest[b:b + 6]
-        if self.flags & BUOYANCY:
-            # planing, the mound is the pile-up ahead of the face, whose push is inside C_L (see
-            # met_surface): its level lifts a floating body only
-            mound = f * (1.0 - self._planing_share)
-            stats[b + 2] += mound * ring.lifted[0]
-            if not sphere:  # a sphere's pressure acts through its centre: the mound lifts it, turns it not
-                stats[b + 3] += mound * ring.lifted[1]
-                stats[b + 4] += mound * ring.lifted[2]
-            stats[kernel.S_STIFF] += f * rest[kernel.S_WATERLINE]
-        stats[kernel.S_TOTAL:kernel.S_TOTAL + 6] += stats[b:b + 6]
+        # planing, the mound is the pile-up ahead of the face, whose push is inside C_L (see
+        # met_surface): its level lifts a floating body only (by 1 - the planing share); a sphere's
+        # pressure acts through its centre: the mound lifts it, turns it not. The compiled step's own
+        # arithmetic, so that both paths give the same forces bit for bit
+        step_kernel.add_hydrostatics(stats, ring.rest, ring.lifted, self.flags, self.params.rho * self.params.g,
+                                     self._planing_share, sphere)
 
     def _smoothed(self, b_out: np.ndarray, i_lo: int, i_hi: int, j_lo: int, j_hi: int, sigma: float = 0.0):
         """The nonzero window of b_out, spread over a submerged body's depth (a Gaussian of ``sigma``

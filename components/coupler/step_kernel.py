@@ -293,7 +293,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
                     _ring_lift_live(waterline, height, held, has_held, b_out, rest_level,
                                     band_j, band_i, col_j, col_i, columns, band, lifted)
     results[R_DISPLACED] = rest_stats[kernel.S_VOLUME]
-    _add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share, shape == kernel.SHAPE_SPHERE)
+    add_hydrostatics(stats, rest_stats, lifted, flags, rho * g, share, shape == kernel.SHAPE_SPHERE)
     results[R_BOUND] = stability_bound(body, stats, prm)
 
 
@@ -373,10 +373,11 @@ def _field(height, held, has_held, b_out, rest_level, j, i):
 
 
 @njit(cache=True)
-def _add_hydrostatics(stats, rest, lifted, flags, f, share, sphere):
-    """WaterCoupler._add_hydrostatics: the rest pass's buoyancy, the mound's lift (a floating body
-    only; a sphere's without a torque, its pressure acting through its centre) and the waterline
-    stiffness into stats, and the total."""
+def add_hydrostatics(stats, rest, lifted, flags, f, share, sphere):
+    """The hydrostatics of the ring displacement (WaterCoupler._add_hydrostatics says why): the rest
+    pass's buoyancy ``rest`` (kernel.S_* layout), the mound's lift ``f`` [N/m^3] times ``lifted``
+    [m^3] (a floating body only: times 1 - ``share``; a sphere's without a torque, its pressure
+    acting through its centre) and the waterline stiffness into ``stats``, and the total."""
     b = kernel.S_BUOYANCY
     for q in range(6):
         stats[b + q] = rest[b + q]
