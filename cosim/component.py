@@ -366,13 +366,21 @@ class Component:
         return outputs
 
     def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
-        """n equal substeps with held inputs; event inputs (impulses) go to the first substep only."""
+        """n equal substeps with held inputs; event inputs (impulses) go to the first substep only.
+        The step's outputs are what its substeps published: each port's latest, an event output of an
+        additive type their sum (only the last substep's were kept: a port published earlier in the
+        step, an event above all, was lost)."""
         h = dt / n
         events = [name for name, port in self.inputs.items() if port.event]
         later = {k: (None if k in events else v) for k, v in inputs.items()} if events else inputs
         outputs: dict[str, Message] = {}
         for i in range(n):
-            outputs = self._step_impl(t + i * h, h, inputs if i == 0 else later)
+            for port, msg in self._step_impl(t + i * h, h, inputs if i == 0 else later).items():
+                spec = self.outputs.get(port)
+                earlier = outputs.get(port)
+                if earlier is not None and spec is not None and spec.event and type(msg).additive:
+                    msg = earlier + msg
+                outputs[port] = msg
         return outputs
 
     def _check_outputs(self, t_ns: int, outputs: dict[str, Message]) -> None:

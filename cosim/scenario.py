@@ -721,7 +721,14 @@ def _check_inputs(components: dict[str, type[Component]], edges: list[Connection
     """Inputs fed several times that do not add up, and required inputs left unconnected (those in
     ``written``, fed by a connection the scene writes but that was refused, are not said again)."""
     fed: dict[tuple[str, str], list[Connection]] = {}
-    for edge in edges:
+    seen: dict[tuple[str, str, str, str, int], int] = {}
+    for index, edge in enumerate(edges):
+        key = (edge.source, edge.source_port, edge.target, edge.target_port, edge.delay)
+        if key in seen:  # (an additive input summed it twice: a kick of 1 arrived as 2)
+            problems.append(f"connections.{index}: repeats connections.{seen[key]} ({edge}): each connection "
+                            "delivers its own copy; give it once")
+            continue
+        seen[key] = index
         fed.setdefault((edge.target, edge.target_port), []).append(edge)
     for (target, port), feeding in fed.items():
         port_type = components[target].inputs[port].type
@@ -862,6 +869,21 @@ def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[s
                 f"components.{edge.target}: its input {edge.target_port!r} comes from {edge.source} every "
                 f"{held:.6g} s, longer than the {max_age:.6g} s it can bridge ({param_name}); use {faster}, "
                 f"or components.{edge.target}.{param_name} of at least {held:.6g} s")
+
+
+def _check_event_rates(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    """An event input receives every message once: one stepping less often than its source receives
+    several in a step, which it can take only as their sum (an additive type, such as contact
+    impulses); a type that cannot be summed would lose all but the last."""
+    for edge in scene.connections:
+        spec = built[edge.target].inputs[edge.target_port]
+        source_every, target_every = scene.components[edge.source].every, scene.components[edge.target].every
+        if spec.event and not spec.type.additive and source_every < target_every:
+            problems.append(
+                f"components.{edge.target}: its event input {edge.target_port!r} ({spec.type.__name__}) comes from "
+                f"{edge.source}, which steps every {source_every} base steps against its {target_every}: up to "
+                f"{-(-target_every // source_every)} messages would arrive in one of its steps, and a "
+                f"{spec.type.__name__} cannot be summed; step {edge.target} at least as often as {edge.source}")
 
 
 def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
@@ -1088,6 +1110,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         raise ScenarioError(problems, source)
     _check_stability(scene, built_components, problems)
     _check_freshness(scene, built_components, problems)
+    _check_event_rates(scene, built_components, problems)
     _check_needed_outputs(scene, built_components, problems)
     _check_answers(scene, built_components, problems)
     _check_start(scene, built_components, problems)

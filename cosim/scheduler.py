@@ -9,7 +9,11 @@ Within a tick, components run in topological order of the direct edges. What an 
   that early yet (a slower source at start-up), its oldest output is held (events wait instead).
 - a delayed edge (``delay: 1``): the newest output stamped at or before the START of the receiver's
   step, ignoring the t = 0 initial outputs; before the first one, the edge's ``initial`` value.
-- an ``event`` input receives each message at most once; otherwise the value is held.
+- an ``event`` input receives each message exactly once, by the same rule (stamped by the end of
+  its step, or by its start on a delayed edge, where the t = 0 output gives way to ``initial``): a
+  receiver stepping less often than its source receives the sum of the messages since its last step
+  (an additive type: contact impulses; the scene refuses a type that is not), where it received only
+  the last and the others were lost; otherwise the value is held.
 - an additive port fed by several edges receives the sum of their values.
 
 The rule depends only on stamps, so replaying a component from a recording reconstructs exactly the
@@ -102,22 +106,26 @@ _KEPT = 2  # messages a port keeps: the newest, and the one before for a delayed
 
 
 class _Slot:
-    """The last two messages published on one output port, as (stamp_ns, message) pairs."""
+    """The last two messages published on one output port, as (stamp_ns, message) pairs, and the
+    event edges it feeds (each keeps what it has not delivered yet)."""
 
-    __slots__ = ("entries",)
+    __slots__ = ("entries", "listeners")
 
     def __init__(self) -> None:
         self.entries: list[tuple[int, Message]] = []
+        self.listeners: list[_Edge] = []
 
     def publish(self, stamp: int, msg: Message) -> None:
         entries = self.entries
         entries.append((stamp, msg))
         if len(entries) > _KEPT:
             del entries[0]
+        for edge in self.listeners:
+            edge.queue.append((stamp, msg))
 
 
 class _Edge:
-    __slots__ = ("delayed", "event", "initial", "last_delivered", "slot", "spec")
+    __slots__ = ("delayed", "event", "initial", "last_delivered", "queue", "slot", "spec")
 
     def __init__(self, spec: Connection, slot: _Slot, event: bool):
         self.spec = spec
@@ -126,8 +134,28 @@ class _Edge:
         self.event = event
         self.initial = spec.initial
         self.last_delivered = -1
+        # an event edge's messages published and not delivered yet (stamp_ns, message), oldest first
+        self.queue: list[tuple[int, Message]] = []
+        if event:
+            slot.listeners.append(self)
+
+    def undelivered(self, cp: dict[str, Any], index: int, msg_type: type[Message]) -> None:
+        """After a restore from ``cp``, where this is edge ``index``: what it last delivered and, of an
+        event edge, what it has not delivered yet: the queue the checkpoint saved, or in one saved
+        before queues were (its port's last two messages then), what the slot holds past the last
+        delivery."""
+        self.last_delivered = cp["edges"][index]
+        if not self.event:
+            return
+        queues = cp.get("queues")
+        if queues is not None and len(queues) == len(cp["edges"]):
+            self.queue = [(stamp, codec_for(msg_type).decode(payload.encode())) for stamp, payload in queues[index]]
+        else:
+            self.queue = [entry for entry in self.slot.entries if entry[0] > self.last_delivered]
 
     def pick(self, start: int, end: int) -> Message | None:
+        if self.event:
+            return self._pick_event(start, end)
         chosen: tuple[int, Message] | None = None
         entries = self.slot.entries
         if self.delayed:
@@ -150,16 +178,40 @@ class _Edge:
                     if entry[0] <= end:
                         chosen = entry
                         break
-            # start-up of a slower source: hold its first value (but never deliver an event early)
-            if chosen is None and entries and not self.event:
+            # start-up of a slower source: hold its first value
+            if chosen is None and entries:
                 chosen = entries[0]
-        if chosen is None:
+        return None if chosen is None else chosen[1]
+
+    def _pick_event(self, start: int, end: int) -> Message | None:
+        """Every message not delivered yet that the rule reaches, summed (one, usually): those
+        stamped by ``end`` (direct) or in (0, ``start``] (delayed, whose t = 0 output gives way to
+        ``initial``, delivered once before the first). A receiver stepping every k ticks of its
+        source's one takes the k impulses of its step at once, as the momentum they carry."""
+        queue = self.queue
+        if self.delayed:
+            limit = start
+            while queue and queue[0][0] <= 0:  # (the source's initial output: ``initial`` stands for it)
+                del queue[0]
+        else:
+            limit = end
+        n = 0
+        while n < len(queue) and queue[n][0] <= limit:
+            n += 1
+        if n == 0:
+            if self.delayed and self.initial is not None and self.last_delivered < 0:
+                self.last_delivered = 0
+                return self.initial
             return None
-        if self.event:
-            if chosen[0] <= self.last_delivered:
-                return None
-            self.last_delivered = chosen[0]
-        return chosen[1]
+        due = queue[:n]
+        del queue[:n]
+        self.last_delivered = due[-1][0]
+        if not due[-1][1].additive:  # (the scene refuses a slower receiver of such a type: at most the
+            return due[-1][1]       # source's t = 0 output and its first step's come together)
+        total = due[0][1]
+        for _, msg in due[1:]:
+            total = total + msg
+        return total
 
     def at_start(self) -> Message | None:
         """The value this edge holds at t = 0, before the first step, without delivering it: the
@@ -321,10 +373,13 @@ class Simulation:
             slots = runner.slots
             for port, msg in outputs.items():
                 # _Slot.publish inline (a call less for every output of every step)
-                entries = slots[port].entries
+                slot = slots[port]
+                entries = slot.entries
                 entries.append((end, msg))
                 if len(entries) > _KEPT:
                     del entries[0]
+                for edge in slot.listeners:
+                    edge.queue.append((end, msg))
             if observers:
                 for port, msg in outputs.items():
                     for obs in observers:
@@ -400,6 +455,9 @@ class Simulation:
                                            for stamp, msg in slot.entries]
                       for r in self.runners for port, slot in r.slots.items() if (r.name, port) in self._read_ports},
             "edges": [e.last_delivered for e in self.edges],
+            # what each event edge has not delivered yet (a receiver stepping less often than its source)
+            "queues": [[[stamp, codec_for(type(msg)).encode(msg).decode()] for stamp, msg in e.queue]
+                       for e in self.edges],
             # the outputs of the steps that span this time (a component stepping every few ticks
             # publishes at its step's start, stamped at its end), of every port: a run restarted here
             # records them again, so that its recording holds what the original did from here on
@@ -423,8 +481,9 @@ class Simulation:
             for port, slot in runner.slots.items():
                 slot.entries = saved_messages(cp, runner.name, port, runner.comp.outputs[port].type)
         if len(cp["edges"]) == len(self.edges):
-            for edge, last in zip(self.edges, cp["edges"], strict=False):
-                edge.last_delivered = last
+            outputs = {r.name: r.comp.outputs for r in self.runners}
+            for index, edge in enumerate(self.edges):
+                edge.undelivered(cp, index, outputs[edge.spec.source][edge.spec.source_port].type)
         by_name = {r.name: r for r in self.runners}
         self._ahead = []
         for stamp, channel, payload in cp.get("ahead", []):  # (not in checkpoints of older recordings)

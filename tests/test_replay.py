@@ -20,6 +20,7 @@ dt: 0.001
 until: 0.1
 components:
   src: {type: "tests.toys:Source", rate: 3}
+  src2: {type: "tests.toys:Source", rate: 5}
   g: {type: "tests.toys:Gain", gain: 0.7}
   acc: {type: "tests.toys:Accumulator", every: 3}
   sum: {type: "tests.toys:Summer"}
@@ -27,7 +28,7 @@ connections:
   - g.out -> acc.x
   - {from: acc.total, to: g.x, delay: 1, initial: {value: 0.5}}
   - src.force -> sum.f
-  - src.force -> sum.f
+  - src2.force -> sum.f
   - acc.total -> sum.kick
 record: {checkpoint_every: 0.02}
 """

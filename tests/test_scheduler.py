@@ -202,6 +202,85 @@ connections:
     assert values(sim.components["sum"], "f") == [(0.0, 2.0), (1.0, 2.0), (2.0, 2.0), (3.0, 4.0)]
 
 
+KICKS = """
+dt: 0.001
+until: 0.012
+components:
+  k: {type: "tests.toys:Kicker", at: [1, 2, 3, 5, 9]}
+  every_step: {type: "tests.toys:Catcher"}
+  every_4: {type: "tests.toys:Catcher", every: 4}
+  delayed_4: {type: "tests.toys:Catcher", every: 4}
+connections:
+  - k.kick -> every_step.kick
+  - k.kick -> every_4.kick
+  - {from: k.kick, to: delayed_4.kick, delay: 1, initial: {value: 0.5}}
+"""
+
+
+def test_a_receiver_stepping_less_often_than_its_source_gets_every_event_summed():
+    """Kicks at the kicker's steps 1, 2, 3, 5 and 9 (stamped 1, 2, 3, 5, 9 ms). A receiver stepping every
+    4 ms takes those published since its last step at once, their sum, the momentum they carry: it
+    received only the newest, and the others were lost without a word (1, 5 and 9 of 20; the delayed
+    one 3 and 5). Direct: 1 at 0 ms (the kick of its own tick), 2 + 3 + 5 at 4 ms, 9 at 8 ms; delayed:
+    the initial 0.5, then 1 + 2 + 3 stamped by 4 ms, 5 by 8 ms (9 comes after its last step)."""
+    sim, _ = run(KICKS)
+    assert values(sim.components["every_step"], "kick") == [
+        (0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, None), (4.0, 5.0), (5.0, None), (6.0, None), (7.0, None),
+        (8.0, 9.0), (9.0, None), (10.0, None), (11.0, None)]
+    assert values(sim.components["every_4"], "kick") == [(0.0, 1.0), (4.0, 10.0), (8.0, 9.0)]
+    assert values(sim.components["delayed_4"], "kick") == [(0.0, 0.5), (4.0, 6.0), (8.0, 5.0)]
+    assert sim.components["every_4"].total == sim.components["every_step"].total == 20.0
+
+
+def test_an_event_that_cannot_be_summed_is_refused_a_receiver_stepping_less_often():
+    """A receiver stepping less often than its source would get several of its events in one step;
+    one that cannot be summed is refused as the scene loads, naming the input, the rates and the
+    remedy (it would have lost all but the last)."""
+    from cosim.errors import ScenarioError
+
+    with pytest.raises(ScenarioError) as err:
+        loads("""
+dt: 0.001
+until: 0.004
+components:
+  src: {type: "tests.toys:Source"}
+  sum: {type: "tests.toys:Summer", every: 3}
+connections:
+  - src.out -> sum.kick
+""")
+    assert ("components.sum: its event input 'kick' (Scalar) comes from src, which steps every 1 base steps against "
+            "its 3: up to 3 messages would arrive in one of its steps, and a Scalar cannot be summed; step sum at "
+            "least as often as src") in err.value.problems
+
+
+def test_a_connection_given_twice_is_refused():
+    """An additive input fed twice by the same connection received its value twice (a kick of 1 arrived
+    as 2); the repeat is refused, naming both."""
+    from cosim.errors import ScenarioError
+
+    with pytest.raises(ScenarioError) as err:
+        loads(KICKS + "  - k.kick -> every_step.kick\n")
+    assert err.value.problems == ["connections.3: repeats connections.0 (k.kick -> every_step.kick): each "
+                                  "connection delivers its own copy; give it once"]
+
+
+def test_a_substepping_component_publishes_what_each_of_its_substeps_published():
+    """A kicker substepping 3 times a step kicks at its 2nd, 4th and 9th substeps: its steps publish
+    what their substeps did (2 in the first step, 4 in the second, 9 in the third); only the last
+    substep's outputs were kept, and the receiver got 9 alone."""
+    sim, _ = run("""
+dt: 0.001
+until: 0.003
+on_unstable: substep
+components:
+  k: {type: "tests.toys:Kicker", at: [2, 4, 9], stable_step: 0.0004}
+  c: {type: "tests.toys:Catcher"}
+connections:
+  - k.kick -> c.kick
+""")
+    assert values(sim.components["c"], "kick") == [(0.0, 2.0), (1.0, 4.0), (2.0, 9.0)]
+
+
 def test_component_stop_request_ends_the_run():
     """A component's request_stop ends the run after the tick, with status 'stopped' and the reason."""
     _, result = run("""
@@ -373,6 +452,33 @@ connections:
     resumed.restore(cp)
     resumed.run()
     assert resumed.components["acc"].total == full.components["acc"].total
+
+
+def test_a_restart_delivers_every_event_a_slower_receiver_had_waiting():
+    """A receiver stepping every 8 ms of its source's 1 has 5 kicks waiting at a checkpoint taken at
+    6 ms, more than the two messages a checkpoint keeps of a port: the checkpoint keeps the edge's
+    queue, and the restarted run receives the same (3 of the 5 were lost, and a restart from a
+    checkpoint of a recording made before queues were kept still takes what the port holds)."""
+    text = """
+dt: 0.001
+until: 0.016
+components:
+  k: {type: "tests.toys:Kicker"}
+  c: {type: "tests.toys:Catcher", every: 8}
+connections:
+  - k.kick -> c.kick
+"""
+    full = Simulation(loads(text))
+    full.run()
+    half = Simulation(loads(text))
+    half.run(until_ns=6_000_000)
+    cp = half.checkpoint()
+    assert [stamp for stamp, _ in cp["queues"][0]] == [2_000_000, 3_000_000, 4_000_000, 5_000_000, 6_000_000]
+    resumed = Simulation(loads(text))
+    resumed.restore(cp)
+    resumed.run()
+    assert values(resumed.components["c"], "kick") == values(full.components["c"], "kick")[1:] == [(8.0, 44.0)]
+    assert resumed.components["c"].total == full.components["c"].total == 1.0 + 44.0
 
 
 def test_a_run_whose_end_is_not_on_a_step_says_where_it_ended():

@@ -148,6 +148,58 @@ class Summer(Component):
         return {"sum": Force(f.value if f is not None else 0.0)}
 
 
+class Kicker(Component):
+    """Publishes the additive event Force(n) at its n-th step, for n in ``at`` (every step when
+    empty), on ``kick`` (an event output); with ``stable_step`` it substeps, and kicks at its n-th
+    substep instead."""
+
+    @dataclass(frozen=True)
+    class Params:
+        at: list[int] = param([])
+        stable_step: float = param(math.inf, unit="s", gt=0)
+
+    outputs = {"kick": Port(Force, event=True)}
+
+    def setup(self) -> None:
+        self.n = 0
+
+    def _step_impl(self, t, dt, inputs):
+        self.n += 1
+        return {"kick": Force(float(self.n))} if not self.params.at or self.n in self.params.at else {}
+
+    def max_stable_step(self):
+        return self.params.stable_step
+
+    def get_state(self):
+        return {"n": self.n}
+
+    def set_state(self, state):
+        self.n = state["n"]
+
+
+class Catcher(Component):
+    """Takes the additive event input ``kick``; publishes the total of what it received."""
+
+    inputs = {"kick": Port(Force, event=True)}
+    outputs = {"total": Port(Force)}
+
+    def setup(self) -> None:
+        self.total = 0.0
+        self.seen: list[tuple[float, dict]] = []
+
+    def _step_impl(self, t, dt, inputs):
+        self.seen.append((t, dict(inputs)))
+        kick = inputs["kick"]
+        self.total += kick.value if kick is not None else 0.0
+        return {"total": Force(self.total)}
+
+    def get_state(self):
+        return {"total": self.total}
+
+    def set_state(self, state):
+        self.total = state["total"]
+
+
 class Faulty(Component):
     """Raises (or returns NaN) once t reaches ``fail_at`` seconds; with ``mode: start``, raises on
     reading its inputs at t = 0 (``start_exit``, ``start_base``: sys.exit(3), a bare BaseException;
