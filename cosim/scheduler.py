@@ -139,6 +139,10 @@ class _Edge:
         if event:
             slot.listeners.append(self)
 
+    def key(self) -> str:
+        """The connection as written (source, target, delay): what a checkpoint files the edge under."""
+        return str(self.spec)
+
     def undelivered(self, cp: dict[str, Any], index: int, msg_type: type[Message]) -> None:
         """After a restore from ``cp``, where this is edge ``index``: what it last delivered and, of an
         event edge, what it has not delivered yet: the queue the checkpoint saved, or in one saved
@@ -455,6 +459,7 @@ class Simulation:
                                            for stamp, msg in slot.entries]
                       for r in self.runners for port, slot in r.slots.items() if (r.name, port) in self._read_ports},
             "edges": [e.last_delivered for e in self.edges],
+            "edge_keys": [e.key() for e in self.edges],  # (a restart may list its connections otherwise)
             # what each event edge has not delivered yet (a receiver stepping less often than its source)
             "queues": [[[stamp, codec_for(type(msg)).encode(msg).decode()] for stamp, msg in e.queue]
                        for e in self.edges],
@@ -465,6 +470,34 @@ class Simulation:
                       for r in self.runners for port, slot in r.slots.items()
                       for stamp, msg in slot.entries if stamp > self.time_ns],
         }
+
+    def _restore_edges(self, cp: dict[str, Any], time_ns: int) -> None:
+        """What each connection had delivered, found by the connection (a restart that lists its
+        connections in another order, or changes some, keeps each one's: by position, two swapped
+        lines traded theirs, and an event was lost). A connection the saved run did not have delivers
+        what is published from the checkpoint on; one reading a port no connection of the saved run
+        read is refused: that port's last messages were not kept."""
+        outputs = {r.name: r.comp.outputs for r in self.runners}
+        keys = cp.get("edge_keys")
+        if keys is None:  # (a checkpoint saved before edges were keyed: by position, when they match)
+            if len(cp["edges"]) == len(self.edges):
+                for index, edge in enumerate(self.edges):
+                    edge.undelivered(cp, index, outputs[edge.spec.source][edge.spec.source_port].type)
+            return
+        saved = {key: index for index, key in enumerate(keys)}
+        kept = set(cp["slots"])  # (the ports some connection of the saved run read)
+        for edge in self.edges:
+            source = f"{edge.spec.source}.{edge.spec.source_port}"
+            index = saved.get(edge.key())
+            if index is not None:
+                edge.undelivered(cp, index, outputs[edge.spec.source][edge.spec.source_port].type)
+                continue
+            if source not in kept:
+                raise ValueError(f"connection {edge.key()} reads {source}, which no connection of the saved run "
+                                 "read: its last messages were not kept; restart from the run's start, or keep "
+                                 "that port connected in the run you restart")
+            edge.last_delivered = time_ns  # (new: it delivers what is published from here on)
+            edge.queue = []
 
     def restore(self, cp: dict[str, Any]) -> None:
         """Continue from a checkpoint; the base step may differ if the checkpoint time is on its grid."""
@@ -480,10 +513,7 @@ class Simulation:
             restore_component(runner.comp, saved)
             for port, slot in runner.slots.items():
                 slot.entries = saved_messages(cp, runner.name, port, runner.comp.outputs[port].type)
-        if len(cp["edges"]) == len(self.edges):
-            outputs = {r.name: r.comp.outputs for r in self.runners}
-            for index, edge in enumerate(self.edges):
-                edge.undelivered(cp, index, outputs[edge.spec.source][edge.spec.source_port].type)
+        self._restore_edges(cp, time_ns)
         by_name = {r.name: r for r in self.runners}
         self._ahead = []
         for stamp, channel, payload in cp.get("ahead", []):  # (not in checkpoints of older recordings)
