@@ -13,8 +13,10 @@ Newman, *Marine Hydrodynamics*, section 4.13):
   direction, and nothing for turning.
 
 These hold for a body wholly under water. A body at the surface is a planing or a floating one: the
-water piled up ahead of a planing face already carries its added mass (it is in the lift
-coefficient, docs/validation.md section 1), and a floating one radiates waves. So the added mass
+water piled up ahead of a planing face carries the steady part of its added mass's force, v_n dm_a/dt
+(it is in the lift coefficient, docs/validation.md section 1; not the inertia m_a dv_n/dt of the
+wetted face's water, which the measured law leaves out: docs/validation.md, "How long a contact
+lasts"), and a floating one radiates waves. So the added mass
 comes in with the submerged share, 1 minus the planing share (the body's top going under the
 surface over the closure depth, :meth:`WaterCoupler._planing`), as the planing lift goes out.
 
