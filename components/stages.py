@@ -232,6 +232,11 @@ class StageMonitor(Component):
         self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
 
+    def fed_through(self) -> dict[str, str]:
+        """Its contact reports come from the coupler and the ground of the body it watches (fed
+        another body's contact, it told that body's skips at this one's times)."""
+        return {"water": "body", "ground": "body"}
+
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
         """Its gravity must be its body's: it decides sinking against the weight and reports the
         water's push in g; its water density its coupler's: it decides floating against it."""

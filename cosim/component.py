@@ -176,6 +176,18 @@ class Component:
         Default: none."""
         return {}
 
+    def same_senders(self) -> dict[str, str]:
+        """Inputs that must come from the components sending on another input: each input port with
+        the one whose senders it must have (a pond's occupied height of a body comes from the coupler
+        asking for that body's patch). The scene is refused otherwise. Default: none."""
+        return {}
+
+    def fed_through(self) -> dict[str, str]:
+        """Inputs whose sender must itself be fed by the sender of another input: each input port with
+        that other one (a stage monitor's contact report comes from the coupler of the body it
+        watches, not another body's). The scene is refused otherwise. Default: none."""
+        return {}
+
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """Problems with what this component will receive at t = 0, as plain sentences; the scene is
         refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then

@@ -906,8 +906,11 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
             for sender in senders:
                 if sender in receivers:
                     continue
+                # (another answer to the same input reaching it is right: a coupler's wrench and added mass
+                # both answer its body)
                 wrong = sorted((e.source_port, e.target_port) for e in scene.connections
-                               if e.source == name and e.target == sender and e.source_port in answers)
+                               if e.source == name and e.target == sender and e.source_port in answers
+                               and answers[e.source_port] != in_port)
                 if wrong:
                     got, port = wrong[0]
                     problems.append(f"components.{name}: {sender} sends {in_port!r} but is sent {got!r}, the answer "
@@ -916,6 +919,31 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
                     fed = ", ".join(sorted(receivers)) or "nothing"
                     problems.append(f"components.{name}: {sender} sends {in_port!r}, but {out_port!r}, the answer "
                                     f"to it, feeds {fed}: connect {name}.{out_port} -> {sender}")
+
+
+def _check_wiring(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+    """Each component's :meth:`~cosim.component.Component.same_senders` and
+    :meth:`~cosim.component.Component.fed_through`: inputs wired to another body's ports (a monitor
+    fed one body's state and another's contact, a pond told one body's displacement as another's)
+    ran to the end with wrong physics and no word."""
+    def senders(name: str, port: str) -> set[str]:
+        return {e.source for e in scene.connections if e.target == name and e.target_port == port}
+
+    for name, comp in built.items():
+        for port, other in comp.same_senders().items():
+            have, want = senders(name, port), senders(name, other)
+            if have and want and have != want:
+                problems.append(f"components.{name}: its input {port!r} comes from {', '.join(sorted(have))}, but "
+                                f"{other!r} from {', '.join(sorted(want))}: both must come from the same component "
+                                "(another body's?)")
+        for port, other in comp.fed_through().items():
+            upstream = senders(name, other)
+            for sender in sorted(senders(name, port)):
+                fed_by = {e.source for e in scene.connections if e.target == sender}
+                if upstream and not upstream & fed_by:
+                    problems.append(f"components.{name}: its input {port!r} comes from {sender}, which is not fed by "
+                                    f"{', '.join(sorted(upstream))}, the sender of its {other!r}: {sender} serves "
+                                    "another body")
 
 
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
@@ -1113,6 +1141,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     _check_event_rates(scene, built_components, problems)
     _check_needed_outputs(scene, built_components, problems)
     _check_answers(scene, built_components, problems)
+    _check_wiring(scene, built_components, problems)
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)

@@ -185,6 +185,35 @@ def test_a_coupler_sent_another_bodys_water_is_refused(swap, messages):
         assert f"components.pond: {message}" in str(refused.value)
 
 
+@pytest.mark.parametrize("swap, message", [
+    ({"{from: right_water.wrench, to: right.wrench,": "{from: right_water.wrench, to: left.wrench,"},
+     "components.right_water: right sends 'body', but 'wrench', the answer to it, feeds left: connect "
+     "right_water.wrench -> right"),
+    ({"right_water.contact -> right_stages.water": "left_water.contact -> right_stages.water"},
+     "components.right_stages: its input 'water' comes from left_water, which is not fed by right, the sender of "
+     "its 'body': left_water serves another body"),
+    ({"{from: left_water.occupied, to: pond.occupied_left,": "{from: left_water.occupied, to: pond.occupied_right,",
+      "{from: right_water.occupied, to: pond.occupied_right,": "{from: right_water.occupied, to: pond.occupied_left,"},
+     "components.pond: its input 'occupied_left' comes from right_water, but 'request_left' from left_water: both "
+     "must come from the same component (another body's?)"),
+    ({"bodies: [left, right]": "bodies: [left, right, ghost]"},
+     "components.pond: required input 'request_ghost' (PatchRequest) is not connected"),
+], ids=["wrench-to-another-body", "monitor-of-another-body", "occupied-swapped", "body-without-coupler"])
+def test_a_scene_wiring_one_bodys_ports_to_anothers_is_refused(swap, message):
+    """A coupler pushing another body than the one it reads (that stone flew off at 305 m/s), a
+    monitor told one body's state and another's contact (it dated one stone's skips by the other's
+    times), a pond told each body's displacement as the other's, a body named on the pond with no
+    coupler (it fell 2 m through the bed, its monitor saying 'approach'): each ran to exit 0; each is
+    refused in one line naming the ports."""
+    text = (SCENES / "two_stones.yaml").read_text()
+    for old, new in swap.items():
+        assert old in text
+        text = text.replace(old, new)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "two_stones.yaml")
+    assert message in refused.value.problems
+
+
 def test_plots_of_one_body_show_only_its_own_monitor_coupler_and_skips(tmp_path):
     """In a recording of two stones, the figures' data for one stone come from its own monitor,
     coupler and wrench channels (the scene's edges say which), not from the other stone's."""

@@ -496,6 +496,16 @@ class WaterCoupler(Component):
                                     "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
         return needed
 
+    def answers(self) -> dict[str, str]:
+        """The wrench and the added mass go back to the body whose state it reads (wired to another
+        body, one stone was pushed by the water another met: 305 m/s)."""
+        answers = {}
+        if self.flags & ~(DISPLACEMENT | ADDED_MASS):
+            answers["wrench"] = "body"
+        if self.added_mass_on:
+            answers["added_mass"] = "body"
+        return answers
+
     def idle_outputs(self) -> dict[str, str]:
         if self.added_mass_on:
             return {}

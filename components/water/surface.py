@@ -253,7 +253,9 @@ class WaterSurface(Component):
         outputs: dict[str, Port] = {}
         for n, (occupied, request, patch) in zip(names, ports, strict=True):
             inputs[occupied] = Port(OccupiedHeight, doc=f"absolute occupied height b of body {n} over a window")
-            inputs[request] = Port(PatchRequest, doc=f"world rectangle whose columns body {n}'s coupler needs next")
+            # (a body named and left unconnected fell through the pond, its monitor saying "approach")
+            inputs[request] = Port(PatchRequest, doc=f"world rectangle whose columns body {n}'s coupler needs next",
+                                   required=True)
             outputs[patch] = Port(HeightPatch, doc=f"columns over body {n}'s requested window (+ margin), "
                                                    f"with its own occupied height")
         outputs["field"] = cls.outputs["field"]
@@ -566,6 +568,11 @@ class WaterSurface(Component):
     def answers(self) -> dict[str, str]:
         """Each body's patch goes back to the coupler that asks on the request port beside it."""
         return {patch: request for _, request, patch in self.body_ports}
+
+    def same_senders(self) -> dict[str, str]:
+        """Each body's occupied height comes from the coupler asking for its patch (swapped, each
+        patch echoed the other body's displacement as its own)."""
+        return {occupied: request for occupied, request, _ in self.body_ports}
 
     def initial_outputs(self) -> dict[str, Message]:
         # at t = 0, nothing asked yet, the whole water's crest: a body let go inside a wave meets it at once
