@@ -290,6 +290,41 @@ def test_the_field_window_follows_the_body_whose_water_moved():
     assert step(4, 3.0, restored) == step(4, 3.0)  # nobody asked anew: both stay with the stone
 
 
+def test_the_field_window_stays_with_one_of_two_bodies_in_flight():
+    """Two stones in flight ask for new water in turns (a request is held while it still covers its
+    body): the field's window stays with the one it follows while that one keeps asking, and goes to
+    the other once it has asked for nothing new for FOLLOW_HOLD (it jumped between them at every
+    frame, so that each stone was over water in one frame of two)."""
+    from components.messages import PatchRequest
+    from components.water.surface import FOLLOW_HOLD
+
+    params = WaterParams(nx=800, ny=100, cell=0.01, depth=0.5, boundary="absorbing", tile=16, rest_below=0.0,
+                         field_every=1, field_window=(0.64, 0.32), bodies=["a", "b"])
+    surface = WaterSurface.configure(params, "pond", None, [])("pond", params)
+
+    def step(k: int, a_x: float, b_x: float) -> tuple[int, int]:
+        asks = {f"request_{n}": PatchRequest(x_min=x, x_max=x + 0.1, y_min=0.4, y_max=0.5)
+                for n, x in (("a", a_x), ("b", b_x))}
+        surface.step(k * DT_NS, DT_NS, {"occupied_a": None, "occupied_b": None, **asks})
+        i0, i1, _, _ = surface.field_window()
+        return i0, i1
+
+    x = {"a": 0.5, "b": 0.5}
+    shown = []
+    for k in range(1, 40):
+        x["a"] += 0.2 if k % 2 else 0.0  # a asks anew at odd steps, b at even ones, a faster
+        x["b"] += 0.05 if k % 2 == 0 else 0.0
+        i0, i1 = step(k, x["a"], x["b"])
+        shown.append({n for n in x if i0 <= round(100 * x[n]) + 5 <= i1})
+    (followed,) = shown[-1]  # the two far apart by then: one of them in the window
+    assert all(followed in seen for seen in shown[2:])  # that one throughout, once both had asked anew
+    other = "b" if followed == "a" else "a"
+    for k in range(40, 40 + int(FOLLOW_HOLD * 1e9 / DT_NS) + 2):  # it stops: the other, once the one
+        x[other] += 0.005                                          # followed has asked nothing new for the hold
+        i0, i1 = step(k, x["a"], x["b"])
+    assert i0 <= round(100 * x[other]) + 5 <= i1
+
+
 def test_volume_and_energy_by_tiles_are_the_whole_waters_to_round_off():
     """Volume and energy, summed over the moving water only, match the dense sums over the grid."""
     surface = run(pond(16, field_every=1, boundary="reflecting"), 60, stone_input)

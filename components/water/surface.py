@@ -215,6 +215,9 @@ class WaterParams:
         return problems
 
 
+FOLLOW_HOLD = 0.5  # [s] the field's window leaves the body it follows once that has asked for nothing new this long
+
+
 class WaterSurface(Component):
     """Height-field water: columns of height and vertical velocity, waves, displacement by bodies."""
 
@@ -359,6 +362,8 @@ class WaterSurface(Component):
         self._next_frame = 1
         self._first_frame_waits = False  # the frame of t = 0 withheld until a body asks (initial_outputs)
         self._follow: tuple[float, float] | None = None  # centre of the last water a body asked for [m]
+        self._following = 0  # the body whose water the field's window follows (its index in the bodies)
+        self._asked_at = [-math.inf] * len(self.body_ports)  # when each body's request last moved [s]
         # the centre of each body's request when last seen [m]: the one that changes is the one followed
         self._asked: list[tuple[float, float] | None] = [None] * len(self.body_ports)
         # each body's last request and its index window (patch): requests are immutable
@@ -516,6 +521,8 @@ class WaterSurface(Component):
             "first_frame_waits": self._first_frame_waits,
             "displaced_before": self._displaced_before,
             "follow": list(self._follow) if self._follow is not None else None,
+            "following": self._following,
+            "asked_at": [t if math.isfinite(t) else None for t in self._asked_at],
             "asked": [list(c) if c is not None else None for c in self._asked],
             "model": self.model.get_state(),
             "under_bed": list(self._under_bed) if self._under_bed is not None else None,
@@ -555,6 +562,10 @@ class WaterSurface(Component):
         self._under_bed = tuple(float(c) for c in under) if under is not None else None  # type: ignore[assignment]
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
+        self._following = int(state.get("following", 0))  # (saved before it was kept: the first body)
+        asked_at = state.get("asked_at") or []
+        self._asked_at = [float(t) if t is not None else -math.inf for t in asked_at][:len(self.body_ports)]
+        self._asked_at += [-math.inf] * (len(self.body_ports) - len(self._asked_at))
         asked = state.get("asked") or [None] * len(self.body_ports)  # saved before it was kept: each new again
         self._asked = [(float(c[0]), float(c[1])) if c is not None else None for c in asked][:len(self.body_ports)]
         self._asked += [None] * (len(self.body_ports) - len(self._asked))
@@ -727,17 +738,27 @@ class WaterSurface(Component):
 
     def _outputs(self, t_end: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
         # the field's window follows the water a body last asked for anew, its columns or the crest where
-        # it goes (a stone in flight is followed): with several bodies, the one whose window moved, not
-        # the first of them (a floating ball, whose window stays, held it for the whole run)
-        followed = False
+        # it goes (a stone in flight is followed): with several bodies, one whose window moved, not the
+        # first of them (a floating ball, whose window stays, held it for the whole run), and the same
+        # one while its window moves (two stones in flight took it in turns: the viewer's water
+        # jumped between them at every frame)
+        moved = []
         for k, (_, request_port, _) in enumerate(self.body_ports):
             request = inputs.get(request_port)
             if isinstance(request, PatchRequest) and request.x_min <= request.x_max and request.y_min <= request.y_max:
                 centre = (0.5 * (request.x_min + request.x_max), 0.5 * (request.y_min + request.y_max))
                 if centre != self._asked[k]:
+                    if self._asked[k] is not None:  # (its first request is no motion: a ball floating still)
+                        self._asked_at[k] = t_end
                     self._asked[k] = centre
-                    if not followed:
-                        self._follow, followed = centre, True
+                    moved.append(k)
+        followed = False
+        if self._following in moved:
+            self._follow, followed = self._asked[self._following], True
+        elif moved and not t_end - self._asked_at[self._following] < FOLLOW_HOLD:
+            # (a request is held while it still covers its body: a stone in flight asks anew every few steps)
+            self._following = moved[0]
+            self._follow, followed = self._asked[self._following], True
         out: dict[str, Message] = {
             patch_port: self.patch(inputs.get(request_port), k)  # type: ignore[arg-type]
             for k, (_, request_port, patch_port) in enumerate(self.body_ports)}
