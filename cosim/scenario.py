@@ -900,6 +900,7 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
     component sending on that input."""
     for name, comp in built.items():
         answers = comp.answers()
+        needed = comp.needed_outputs()
         for out_port, in_port in answers.items():
             senders = sorted({e.source for e in scene.connections if e.target == name and e.target_port == in_port})
             receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
@@ -911,6 +912,8 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
                 wrong = sorted((e.source_port, e.target_port) for e in scene.connections
                                if e.source == name and e.target == sender and e.source_port in answers
                                and answers[e.source_port] != in_port)
+                if not wrong and not receivers and out_port in needed:
+                    continue  # (said by _check_needed_outputs, with the connection to add)
                 if wrong:
                     got, port = wrong[0]
                     problems.append(f"components.{name}: {sender} sends {in_port!r} but is sent {got!r}, the answer "

@@ -197,7 +197,9 @@ def test_a_coupler_sent_another_bodys_water_is_refused(swap, messages):
      "components.pond: its input 'occupied_left' comes from right_water, but 'request_left' from left_water: both "
      "must come from the same component (another body's?)"),
     ({"bodies: [left, right]": "bodies: [left, right, ghost]"},
-     "components.pond: required input 'request_ghost' (PatchRequest) is not connected"),
+     "components.pond: its output 'patch_ghost' feeds nothing, but body 'ghost' is named in bodies: its coupler "
+     "reads the water only through it: connect pond.patch_ghost -> <its coupler>.water, or leave the body out of "
+     "bodies"),
 ], ids=["wrench-to-another-body", "monitor-of-another-body", "occupied-swapped", "body-without-coupler"])
 def test_a_scene_wiring_one_bodys_ports_to_anothers_is_refused(swap, message):
     """A coupler pushing another body than the one it reads (that stone flew off at 305 m/s), a

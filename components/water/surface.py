@@ -256,9 +256,7 @@ class WaterSurface(Component):
         outputs: dict[str, Port] = {}
         for n, (occupied, request, patch) in zip(names, ports, strict=True):
             inputs[occupied] = Port(OccupiedHeight, doc=f"absolute occupied height b of body {n} over a window")
-            # (a body named and left unconnected fell through the pond, its monitor saying "approach")
-            inputs[request] = Port(PatchRequest, doc=f"world rectangle whose columns body {n}'s coupler needs next",
-                                   required=True)
+            inputs[request] = Port(PatchRequest, doc=f"world rectangle whose columns body {n}'s coupler needs next")
             outputs[patch] = Port(HeightPatch, doc=f"columns over body {n}'s requested window (+ margin), "
                                                    f"with its own occupied height")
         outputs["field"] = cls.outputs["field"]
@@ -579,6 +577,16 @@ class WaterSurface(Component):
     def answers(self) -> dict[str, str]:
         """Each body's patch goes back to the coupler that asks on the request port beside it."""
         return {patch: request for _, request, patch in self.body_ports}
+
+    def needed_outputs(self) -> dict[str, str]:
+        """Each named body's patch: its coupler reads the water only through it (a body named and left
+        without a coupler fell 2 m through the pond, its monitor saying "approach")."""
+        if len(self.body_ports) < 2 and self.body_ports[0][2] == "patch":
+            return {}  # (the one unnamed body's: a pond without bodies is a scene of its own)
+        return {patch: (f"body {patch.removeprefix('patch_')!r} is named in bodies: its coupler reads the water "
+                        f"only through it: connect {self.name}.{patch} -> <its coupler>.water, or leave the body "
+                        "out of bodies")
+                for _, _, patch in self.body_ports}
 
     def same_senders(self) -> dict[str, str]:
         """Each body's occupied height comes from the coupler asking for its patch (swapped, each
