@@ -443,15 +443,22 @@ connections:
   - g.out -> acc.x
   - {from: acc.total, to: g.x, delay: 1, initial: {value: 1.0}}
 """
+    full, resumed, _ = full_and_restarted(text, 5_000_000)
+    assert resumed.components["acc"].total == full.components["acc"].total
+
+
+def full_and_restarted(text: str, checkpoint_ns: int, restarted_text: str | None = None):
+    """(the run of ``text`` whole, the same run checkpointed at ``checkpoint_ns`` and restarted there
+    with the scene ``restarted_text`` (default: the same), the checkpoint)."""
     full = Simulation(loads(text))
     full.run()
     half = Simulation(loads(text))
-    half.run(until_ns=5_000_000)
+    half.run(until_ns=checkpoint_ns)
     cp = half.checkpoint()
-    resumed = Simulation(loads(text))
+    resumed = Simulation(loads(restarted_text or text))
     resumed.restore(cp)
     resumed.run()
-    assert resumed.components["acc"].total == full.components["acc"].total
+    return full, resumed, cp
 
 
 def test_a_restart_delivers_every_event_a_slower_receiver_had_waiting():
@@ -468,15 +475,8 @@ components:
 connections:
   - k.kick -> c.kick
 """
-    full = Simulation(loads(text))
-    full.run()
-    half = Simulation(loads(text))
-    half.run(until_ns=6_000_000)
-    cp = half.checkpoint()
+    full, resumed, cp = full_and_restarted(text, 6_000_000)
     assert [stamp for stamp, _ in cp["queues"][0]] == [2_000_000, 3_000_000, 4_000_000, 5_000_000, 6_000_000]
-    resumed = Simulation(loads(text))
-    resumed.restore(cp)
-    resumed.run()
     assert values(resumed.components["c"], "kick") == values(full.components["c"], "kick")[1:] == [(8.0, 44.0)]
     assert resumed.components["c"].total == full.components["c"].total == 1.0 + 44.0
 
@@ -501,14 +501,7 @@ connections:
 """
     swapped = text.replace("  - k.kick -> c.kick\n  - k3.kick -> c3.kick\n",
                            "  - k3.kick -> c3.kick\n  - k.kick -> c.kick\n")
-    full = Simulation(loads(text))
-    full.run()
-    half = Simulation(loads(text))
-    half.run(until_ns=5_000_000)
-    cp = half.checkpoint()
-    resumed = Simulation(loads(swapped))
-    resumed.restore(cp)
-    resumed.run()
+    full, resumed, cp = full_and_restarted(text, 5_000_000, swapped)
     for name in ("c", "c3"):
         assert resumed.components[name].total == full.components[name].total
     rewired = Simulation(loads(text.replace("  - k3.kick -> c3.kick\n",

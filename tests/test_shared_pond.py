@@ -162,6 +162,17 @@ def test_a_shared_pond_has_no_unnamed_ports():
         loads(text, SCENES / "skip.yaml")
 
 
+def two_stones_rewired(swap: dict[str, str]) -> ScenarioError:
+    """The error refusing scenarios/two_stones.yaml with each text of ``swap`` replaced by its value."""
+    text = (SCENES / "two_stones.yaml").read_text()
+    for old, new in swap.items():
+        assert old in text
+        text = text.replace(old, new)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "two_stones.yaml")
+    return refused.value
+
+
 @pytest.mark.parametrize("swap, messages", [
     ({"pond.patch_right -> right_water.water": "pond.patch_left -> right_water.water"},
      ["right_water sends 'request_right' but is sent 'patch_left', the answer to another: connect "
@@ -175,14 +186,9 @@ def test_a_coupler_sent_another_bodys_water_is_refused(swap, messages):
     """Each body's patch must go back to the coupler that asks on the request beside it. Wired to
     another body's (a copied line), the coupler met water that was not where it asked: the stone fell
     through the pond, 6 m under a 0.5 m bed, and the run ended ok."""
-    text = (SCENES / "two_stones.yaml").read_text()
-    for old, new in swap.items():
-        assert old in text
-        text = text.replace(old, new)
-    with pytest.raises(ScenarioError) as refused:
-        loads(text, SCENES / "two_stones.yaml")
+    refused = two_stones_rewired(swap)
     for message in messages:
-        assert f"components.pond: {message}" in str(refused.value)
+        assert f"components.pond: {message}" in str(refused)
 
 
 @pytest.mark.parametrize("swap, message", [
@@ -207,13 +213,7 @@ def test_a_scene_wiring_one_bodys_ports_to_anothers_is_refused(swap, message):
     times), a pond told each body's displacement as the other's, a body named on the pond with no
     coupler (it fell 2 m through the bed, its monitor saying 'approach'): each ran to exit 0; each is
     refused in one line naming the ports."""
-    text = (SCENES / "two_stones.yaml").read_text()
-    for old, new in swap.items():
-        assert old in text
-        text = text.replace(old, new)
-    with pytest.raises(ScenarioError) as refused:
-        loads(text, SCENES / "two_stones.yaml")
-    assert message in refused.value.problems
+    assert message in two_stones_rewired(swap).problems
 
 
 def test_plots_of_one_body_show_only_its_own_monitor_coupler_and_skips(tmp_path):
