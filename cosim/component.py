@@ -182,6 +182,12 @@ class Component:
         asking for that body's patch). The scene is refused otherwise. Default: none."""
         return {}
 
+    def exclusive_inputs(self) -> tuple[str, ...]:
+        """Inputs whose senders, taken together, no other component of this type may share: two
+        couplers of one body to one water each add the water's forces (a pine ball floated 2 cm high
+        on double buoyancy). The scene is refused otherwise. Default: none."""
+        return ()
+
     def fed_through(self) -> dict[str, str]:
         """Inputs whose sender must itself be fed by the sender of another input: each input port with
         that other one (a stage monitor's contact report comes from the coupler of the body it

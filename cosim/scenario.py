@@ -932,6 +932,19 @@ def _check_wiring(scene: Scene, built: dict[str, Component], problems: list[str]
     def senders(name: str, port: str) -> set[str]:
         return {e.source for e in scene.connections if e.target == name and e.target_port == port}
 
+    shared: dict[tuple, list[str]] = {}
+    for name, comp in built.items():
+        ports = comp.exclusive_inputs()
+        if ports:
+            key = (type(comp).__name__, tuple(tuple(sorted(senders(name, p))) for p in ports))
+            if all(key[1]):
+                shared.setdefault(key, []).append(name)
+    for (kind, fed), names in shared.items():
+        if len(names) > 1:
+            what = ", ".join(f"{p} from {', '.join(s)}" for p, s in zip(built[names[0]].exclusive_inputs(), fed,
+                                                                        strict=True))
+            problems.append(f"components: {' and '.join(names)} are {kind}s fed alike ({what}): each would act on "
+                            "its own, the effect counted twice; keep one")
     for name, comp in built.items():
         for port, other in comp.same_senders().items():
             have, want = senders(name, port), senders(name, other)

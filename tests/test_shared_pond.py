@@ -206,13 +206,18 @@ def test_a_coupler_sent_another_bodys_water_is_refused(swap, messages):
      "components.pond: its output 'patch_ghost' feeds nothing, but body 'ghost' is named in bodies: its coupler "
      "reads the water only through it: connect pond.patch_ghost -> <its coupler>.water, or leave the body out of "
      "bodies"),
-], ids=["wrench-to-another-body", "monitor-of-another-body", "occupied-swapped", "body-without-coupler"])
+    ({"right.state -> right_water.body": "left.state -> right_water.body"},
+     "components: left_water and right_water are WaterCouplers fed alike (body from left, water from pond): each "
+     "would act on its own, the effect counted twice; keep one"),
+], ids=["wrench-to-another-body", "monitor-of-another-body", "occupied-swapped", "body-without-coupler",
+        "two-couplers-of-one-body"])
 def test_a_scene_wiring_one_bodys_ports_to_anothers_is_refused(swap, message):
     """A coupler pushing another body than the one it reads (that stone flew off at 305 m/s), a
     monitor told one body's state and another's contact (it dated one stone's skips by the other's
     times), a pond told each body's displacement as the other's, a body named on the pond with no
-    coupler (it fell 2 m through the bed, its monitor saying 'approach'): each ran to exit 0; each is
-    refused in one line naming the ports."""
+    coupler (it fell 2 m through the bed, its monitor saying 'approach'), two couplers of one body to one
+    water (a pine ball floated 2 cm high on double buoyancy): each ran to exit 0; each is refused in one
+    line naming the ports."""
     assert message in two_stones_rewired(swap).problems
 
 

@@ -496,6 +496,10 @@ class WaterCoupler(Component):
                                     "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
         return needed
 
+    def exclusive_inputs(self) -> tuple[str, ...]:
+        """One coupler of a body to a water: a second adds the water's forces again."""
+        return ("body", "water")
+
     def answers(self) -> dict[str, str]:
         """The wrench and the added mass go back to the body whose state it reads (wired to another
         body, one stone was pushed by the water another met: 305 m/s)."""
