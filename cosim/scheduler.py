@@ -18,7 +18,8 @@ Within a tick, components run in topological order of the direct edges. What an 
 
 The rule depends only on stamps, so replaying a component from a recording reconstructs exactly the
 inputs it received. Each output port keeps its last two messages, which is all the rule ever needs
-(one source publishes at most once per tick).
+for a held value (one source publishes at most once per tick); each event edge keeps, besides, the
+messages it has not delivered yet, and a checkpoint keeps them too.
 """
 
 from __future__ import annotations
