@@ -328,9 +328,15 @@ class StageMonitor(Component):
         if (self.params.stop_after > 0 and stage in (StageId.SINK, StageId.FLOAT, StageId.REST)
                 and _lasted(self.settled_since if stage is StageId.FLOAT else self.since, now,
                             self.params.stop_after)):
-            self.request_stop(f"stone {STAGE_NAMES[stage]} since t = {self.time_text(self.since)} s")
+            self.request_stop(f"{self._body_name()} {STAGE_NAMES[stage]} since t = {self.time_text(self.since)} s")
         self._check_outside(now, body, water, outputs)
         return outputs
+
+    def _body_name(self) -> str:
+        """The body it watches, by its name in the scene (a floating ball's monitor said "stone float");
+        "stone" when driven by hand."""
+        sources = self.input_sources.get("body") or ["stone"]
+        return sources[0]
 
     def _held_at_rest(self, stage: StageId, previous: StageId, now: float) -> StageId:
         """``stage``, or while a body has been slow on the ground (classified at rest) for less than
@@ -376,7 +382,7 @@ class StageMonitor(Component):
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
                 # (rounded to the millimetre first: a throw along y = 0 printed "y = -7.93e-17 m")
                 x_said, y_said = round(x, 3) + 0.0, round(y, 3) + 0.0
-                self.request_stop(f"stone {what}: it came down beside the water at x = {x_said:.3g} m, "
+                self.request_stop(f"{self._body_name()} {what}: it came down beside the water at x = {x_said:.3g} m, "
                                   f"y = {y_said:.3g} m (below the water's level with no water under it since "
                                   f"t = {self.outside_since:.4g} s)")
 

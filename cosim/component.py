@@ -101,6 +101,9 @@ class Component:
         self.step_count = 0
         self.last_substeps = 1
         self.stop_reason: str | None = None
+        # the components feeding each input port, as the scene connects them (set by the simulation;
+        # a component driven by hand has none): for its words, never for its physics
+        self.input_sources: dict[str, list[str]] = {}
         # a component without a stability bound of its own is not asked for it at every step
         self._bounded = type(self).max_stable_step is not Component.max_stable_step
         self.setup()

@@ -316,6 +316,7 @@ class Simulation:
                 edges = [_Edge(c, by_name[c.source].slots[c.source_port], spec.event) for c in feeding]
                 self.edges.extend(edges)
                 runner.plan.append((port, edges))
+                runner.comp.input_sources[port] = [c.source for c in feeding]
         # edges were appended runner by runner; keep a canonical order for checkpoints
         self.edges.sort(key=lambda e: scene.connections.index(e.spec))
         self._read_ports = {(e.spec.source, e.spec.source_port) for e in self.edges}

@@ -723,3 +723,20 @@ def test_the_summary_places_the_skips_of_a_throw_along_y_along_the_throw():
     xs = [float(line.split("x = ")[1].removesuffix(" m")) for line in said[0]]
     assert len(xs) == 2 and said[1] == [f"skip {k + 1}: touchdown {x - 0.3:.2f} m along the throw"
                                          for k, x in enumerate(xs)]
+
+
+def test_the_stop_line_names_the_body_the_monitor_watches():
+    """A monitor's stop line names its body as the scene does (a floating ball's monitor said "stone
+    float", the granite ball's "stone sink"); one driven by hand says "stone"."""
+    from pathlib import Path
+
+    from cosim.scenario import load
+    from cosim.scheduler import Simulation
+
+    scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "float_sphere.yaml",
+                 ["components.granite_stages.stop_after=0.3", "until=1"])
+    result = Simulation(scene).run()
+    assert result.status == "stopped" and "granite_stages: granite sink since t = 0 s" in result.reason
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.001))
+    drive(m, [(body(0.0, 0.01, 0.0, -0.5), water(True, 0.5), None)] * 3)
+    assert m.stop_reason.startswith("stone sink since t = ")
