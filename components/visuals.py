@@ -135,7 +135,8 @@ def _where(x: float, y: float) -> str:
 def skip_record(component: str, port: str, msg: SkipRecord) -> list:
     """One log line per finished skip."""
     return [LogLine(LOG_TOPIC, "info", component,
-                    f"skip {msg.index}: touchdown {_where(msg.touchdown_x, msg.touchdown_y).replace('x =', 'at x =')}, "
+                    f"skip {msg.index}: touchdown {'at ' if math.isnan(msg.touchdown_y) else ''}"
+                    f"{_where(msg.touchdown_x, msg.touchdown_y)}, "
                     f"t = {msg.touchdown_time:.4f} s; "
                     f"contact {msg.contact_time * 1e3:.1f} ms, peak {msg.peak_g:.1f} g; "
                     f"take-off {msg.takeoff_angle_deg:.1f} deg; "

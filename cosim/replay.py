@@ -153,9 +153,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             if restart is not None:  # the port's last messages and the edge's deliveries, as the restart had them
                 cp = restart[1]
                 src.slot.entries = saved_messages(cp, conn.source, conn.source_port, spec.type)
-                keys = cp.get("edge_keys")
-                edge.undelivered(cp, keys.index(edge.key()) if keys is not None and edge.key() in keys
-                                 else scene.connections.index(conn), spec.type)
+                edge.undelivered(cp, edge.saved_index(cp, scene.connections.index(conn)), spec.type)
                 # what the source published before the checkpoint (a step spanning it, recorded again
                 # as the restart began) is in those entries already
                 src.drop_published_before(restart[0] // dt_ns)

@@ -895,6 +895,11 @@ def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: l
                 problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
 
 
+def _senders(scene: Scene, name: str, port: str) -> set[str]:
+    """The components whose connections feed input ``port`` of component ``name``."""
+    return {e.source for e in scene.connections if e.target == name and e.target_port == port}
+
+
 def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
     component sending on that input."""
@@ -902,7 +907,7 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
         answers = comp.answers()
         needed = comp.needed_outputs()
         for out_port, in_port in answers.items():
-            senders = sorted({e.source for e in scene.connections if e.target == name and e.target_port == in_port})
+            senders = sorted(_senders(scene, name, in_port))
             receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
             for sender in senders:
                 if sender in receivers:
@@ -929,14 +934,11 @@ def _check_wiring(scene: Scene, built: dict[str, Component], problems: list[str]
     :meth:`~cosim.component.Component.fed_through`: inputs wired to another body's ports (a monitor
     fed one body's state and another's contact, a pond told one body's displacement as another's)
     ran to the end with wrong physics and no word."""
-    def senders(name: str, port: str) -> set[str]:
-        return {e.source for e in scene.connections if e.target == name and e.target_port == port}
-
     shared: dict[tuple, list[str]] = {}
     for name, comp in built.items():
         ports = comp.exclusive_inputs()
         if ports:
-            key = (type(comp).__name__, tuple(tuple(sorted(senders(name, p))) for p in ports))
+            key = (type(comp).__name__, tuple(tuple(sorted(_senders(scene, name, p))) for p in ports))
             if all(key[1]):
                 shared.setdefault(key, []).append(name)
     for (kind, fed), names in shared.items():
@@ -947,14 +949,14 @@ def _check_wiring(scene: Scene, built: dict[str, Component], problems: list[str]
                             "its own, the effect counted twice; keep one")
     for name, comp in built.items():
         for port, other in comp.same_senders().items():
-            have, want = senders(name, port), senders(name, other)
+            have, want = _senders(scene, name, port), _senders(scene, name, other)
             if have and want and have != want:
                 problems.append(f"components.{name}: its input {port!r} comes from {', '.join(sorted(have))}, but "
                                 f"{other!r} from {', '.join(sorted(want))}: both must come from the same component "
                                 "(another body's?)")
         for port, other in comp.fed_through().items():
-            upstream = senders(name, other)
-            for sender in sorted(senders(name, port)):
+            upstream = _senders(scene, name, other)
+            for sender in sorted(_senders(scene, name, port)):
                 fed_by = {e.source for e in scene.connections if e.target == sender}
                 if upstream and not upstream & fed_by:
                     problems.append(f"components.{name}: its input {port!r} comes from {sender}, which is not fed by "

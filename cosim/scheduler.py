@@ -144,6 +144,15 @@ class _Edge:
         """The connection as written (source, target, delay): what a checkpoint files the edge under."""
         return str(self.spec)
 
+    def saved_index(self, cp: dict[str, Any], position: int) -> int | None:
+        """Where a checkpoint holds this edge's deliveries: under its connection, or, in one saved
+        before edges were keyed, at its ``position`` among the scene's connections when they number
+        the same; None: it holds none (a connection the saved run did not have)."""
+        keys = cp.get("edge_keys")
+        if keys is not None:
+            return keys.index(self.key()) if self.key() in keys else None
+        return position if len(cp["edges"]) > position else None
+
     def undelivered(self, cp: dict[str, Any], index: int, msg_type: type[Message]) -> None:
         """After a restore from ``cp``, where this is edge ``index``: what it last delivered and, of an
         event edge, what it has not delivered yet: the queue the checkpoint saved, or in one saved
@@ -480,17 +489,13 @@ class Simulation:
         what is published from the checkpoint on; one reading a port no connection of the saved run
         read is refused: that port's last messages were not kept."""
         outputs = {r.name: r.comp.outputs for r in self.runners}
-        keys = cp.get("edge_keys")
-        if keys is None:  # (a checkpoint saved before edges were keyed: by position, when they match)
-            if len(cp["edges"]) == len(self.edges):
-                for index, edge in enumerate(self.edges):
-                    edge.undelivered(cp, index, outputs[edge.spec.source][edge.spec.source_port].type)
-            return
-        saved = {key: index for index, key in enumerate(keys)}
+        keyed = cp.get("edge_keys") is not None
+        if not keyed and len(cp["edges"]) != len(self.edges):
+            return  # (saved before edges were keyed, by another scene's connections: nothing to match)
         kept = set(cp["slots"])  # (the ports some connection of the saved run read)
-        for edge in self.edges:
+        for position, edge in enumerate(self.edges):  # (in the scene's order of connections)
             source = f"{edge.spec.source}.{edge.spec.source_port}"
-            index = saved.get(edge.key())
+            index = edge.saved_index(cp, position)
             if index is not None:
                 edge.undelivered(cp, index, outputs[edge.spec.source][edge.spec.source_port].type)
                 continue

@@ -329,9 +329,10 @@ def contact_intervals(run: RunData) -> list[tuple[float, float]]:
 def _as_the_monitor_counts(run: RunData, spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Wetted ``spans`` joined into the contacts the stage monitor counts, when it was recorded: two
     spans are one contact unless the stone was out of the water (approach, fly-away, left the pond, on
-    the ground) at some time in the dry gap between them. The monitor keeps a contact going while the stone is dry but
-    still skimming or coming down (docs/stages.md): the glide at the end of a throw, one contact to
-    the monitor, was drawn as several (held_skip: 78 ms from 0.758 s, then 1392 ms from 0.847 s)."""
+    the ground) at some time in the dry gap between them. The monitor keeps a contact going while the
+    stone is dry but still skimming or coming down (docs/stages.md): the glide at the end of a throw,
+    one contact to the monitor, was drawn as several (held_skip: 78 ms from 0.758 s, then 1392 ms from
+    0.847 s)."""
     if run.stages is None or len(spans) < 2:
         return spans
     joined = [spans[0]]
@@ -345,8 +346,8 @@ def _as_the_monitor_counts(run: RunData, spans: list[tuple[float, float]]) -> li
 
 def _out_of_the_water_between(stages: StageTrack, t0: float, t1: float) -> bool:
     """Whether the stage monitor had the stone out of the water (airborne, or on the solid ground) at
-    some time from ``t0`` up to (not at) ``t1``
-    [s]: the stage in force at ``t0`` or any it changed to before ``t1``."""
+    some time from ``t0`` up to (not at) ``t1`` [s]: the stage in force at ``t0`` or any it changed to
+    before ``t1``."""
     first = max(0, int(np.searchsorted(stages.t, t0, side="right")) - 1)
     last = int(np.searchsorted(stages.t, t1, side="left"))
     return any(int(stage) in OUT_OF_THE_WATER for stage in stages.stage[first:last])

@@ -561,18 +561,23 @@ class WaterSurface(Component):
         follow = state.get("follow")
         self._follow = (float(follow[0]), float(follow[1])) if follow is not None else None
         self._following = int(state.get("following", 0))  # (saved before it was kept: the first body)
-        asked_at = state.get("asked_at") or []
-        self._asked_at = [float(t) if t is not None else -math.inf for t in asked_at][:len(self.body_ports)]
-        self._asked_at += [-math.inf] * (len(self.body_ports) - len(self._asked_at))
-        asked = state.get("asked") or [None] * len(self.body_ports)  # saved before it was kept: each new again
-        self._asked = [(float(c[0]), float(c[1])) if c is not None else None for c in asked][:len(self.body_ports)]
-        self._asked += [None] * (len(self.body_ports) - len(self._asked))
+        # (per body; saved before they were kept: each body new again)
+        self._asked_at = self._per_body([float(t) if t is not None else -math.inf
+                                         for t in state.get("asked_at") or []], -math.inf)
+        self._asked = self._per_body([(float(c[0]), float(c[1])) if c is not None else None
+                                      for c in state.get("asked") or []], None)
         if state.get("model"):
             self.model.set_state(state["model"])
         else:  # a state built by hand, or saved by a model that keeps none (a restart with another model):
             self.model.reset(self._h, self._v)  # the model starts from the columns
 
     # --- the step -------------------------------------------------------------------------------
+
+    def _per_body(self, values: list, missing: Any) -> list:
+        """``values`` saved one per body, fitted to this water's bodies (``missing`` for those past
+        the saved ones)."""
+        n = len(self.body_ports)
+        return values[:n] + [missing] * (n - len(values))
 
     def answers(self) -> dict[str, str]:
         """Each body's patch goes back to the coupler that asks on the request port beside it."""
@@ -581,7 +586,7 @@ class WaterSurface(Component):
     def needed_outputs(self) -> dict[str, str]:
         """Each named body's patch: its coupler reads the water only through it (a body named and left
         without a coupler fell 2 m through the pond, its monitor saying "approach")."""
-        if len(self.body_ports) < 2 and self.body_ports[0][2] == "patch":
+        if not self.params.bodies:
             return {}  # (the one unnamed body's: a pond without bodies is a scene of its own)
         return {patch: (f"body {patch.removeprefix('patch_')!r} is named in bodies: its coupler reads the water "
                         f"only through it: connect {self.name}.{patch} -> <its coupler>.water, or leave the body "

@@ -452,8 +452,9 @@ class VisualDeriver:
         tip has grown TRAIL_TIP_POINTS long and is moved into it, so it is sent about once a second
         (an unchanged entity is only kept alive), and its tip (``trail.id``-tip), the points since,
         sent each frame. Sent whole every frame, one strip of up to 10,000 points was 2.7 GB of a
-        700 s run's 2.8; either strip alone is whole, so a viewer seeking back has the path. A point
-        within TRAIL_STEP of the last adds nothing: a body at rest sends no new trail."""
+        700 s run's 2.8. Each message holds its strip whole (not the points since the last), so a
+        viewer seeking back draws the path from the latest of each. A point within TRAIL_STEP of the
+        last adds nothing: a body at rest sends no new trail."""
         point = np.array(trail.point, dtype=np.float64).reshape(1, -1)
         key = (trail.topic, trail.id)
         history, tip = self._trails.get(key, (None, None))
