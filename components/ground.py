@@ -128,6 +128,9 @@ class SolidGround(Component):
         # the velocity [m/s] the body begins its next step with: that of the last state answered (a
         # (3,) array, read only when needed) plus this ground's impulse / M (0 when none was sent)
         self._begins: tuple[np.ndarray, Vec3Param] | None = None
+        # and the position [m] it begins it from: the last state's plus this ground's correction
+        self._begins_from: tuple[np.ndarray, Vec3Param] | None = None
+        self._slip: Vec3Param = _NO_CHANGE  # the slip the last sliding response acted against (unit)
 
     def _mass_properties(self, msg: BodyState) -> MassProperties:
         key = (int(msg.shape), msg.radius, msg.thickness, msg.mass, tuple(msg.inertia.tolist()))
@@ -155,7 +158,9 @@ class SolidGround(Component):
     def _apart(self, msg: BodyState | None = None) -> dict[str, Message]:
         self.in_contact = False
         self.sliding = False
+        self._slip = _NO_CHANGE
         self._begins = None if msg is None else (msg.velocity, _NO_CHANGE)
+        self._begins_from = None if msg is None else (msg.position, _NO_CHANGE)
         return {"contact": GroundContact(False, 0.0, 0.0, False, self.dissipated)}
 
     def _begun_with(self) -> Vec3Param | None:
@@ -165,6 +170,27 @@ class SolidGround(Component):
         v, dv = self._begins
         v0, v1, v2 = v.tolist()
         return (v0 + dv[0], v1 + dv[1], v2 + dv[2])
+
+    def _position_share(self, position: Vec3Param, velocity: Vec3Param, dt: float) -> float:
+        """The share of the step's velocity change that the body's integrator put into its move
+        (components.contact.solver, point 3): (dx - v_begun dt) . dv / (|dv|^2 dt), 1/2 for velocity
+        Verlet and RK4, 1 for semi-implicit Euler under a force held over the step; 1/2 when the
+        step's start is not known or the velocity did not change. Read to within 1e-6 of 1/2 or 1 it
+        is taken as that (round-off), and it is kept within [1/2, 1]."""
+        begun = self._begun_with()
+        if begun is None or self._begins_from is None or not dt > 0.0:
+            return 0.5
+        start = self._begun_from()
+        dv = [velocity[i] - begun[i] for i in range(3)]
+        held = [position[i] - start[i] - begun[i] * dt for i in range(3)]
+        change = sum(d * d for d in dv)
+        if not change > 0.0:
+            return 0.5
+        share = sum(h * d for h, d in zip(held, dv, strict=True)) / (change * dt)
+        for exact in (0.5, 1.0):
+            if abs(share - exact) <= 1e-6:
+                return exact
+        return min(1.0, max(0.5, share))
 
     def _other_force(self, mass: float, velocity: Vec3Param, dt: float) -> Vec3Param:
         """The force [N] on the body besides gravity and this ground over the step that led to a state
@@ -192,11 +218,14 @@ class SolidGround(Component):
                            tuple(msg.angular_velocity.tolist()))
         body = self._mass_properties(msg)
         res = resolve_contact(body, state, self.plane, self.material, self.gravity, dt, self.sliding,
-                              not msg.attitude_locked, other_force=self._other_force(body.mass, v, dt))  # type: ignore[arg-type]
+                              not msg.attitude_locked, other_force=self._other_force(body.mass, v, dt),  # type: ignore[arg-type]
+                              slip_before=self._slip, position_share=self._position_share(x, v, dt))  # type: ignore[arg-type]
         if res is None:
             return self._apart(msg)
         inv_m = 1.0 / body.mass
         self._begins = (msg.velocity, (res.linear[0] * inv_m, res.linear[1] * inv_m, res.linear[2] * inv_m))
+        self._begins_from = (msg.position, res.correction)
+        self._slip = res.slip
         if not self.in_contact and self.contacts is not None:
             self.contacts += 1
         self.in_contact = True
@@ -266,7 +295,16 @@ class SolidGround(Component):
         begun = self._begun_with()
         return {"dissipated_energy": self.dissipated, "sliding": self.sliding, "in_contact": self.in_contact,
                 "impacts": self.impacts, "contacts": self.contacts, "painleve": self.painleve,
-                "next_step_begins_at": None if begun is None else list(begun)}
+                "next_step_begins_at": None if begun is None else list(begun),
+                "next_step_begins_from": None if self._begins_from is None else self._begun_from(),
+                "slip": list(self._slip)}
+
+    def _begun_from(self) -> list[float]:
+        """The position [m] the body began the step that just ended from (the last state's plus this
+        ground's correction)."""
+        assert self._begins_from is not None
+        x, c = self._begins_from
+        return [a + b for a, b in zip(x.tolist(), c, strict=True)]
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.dissipated = float(state["dissipated_energy"])
@@ -278,6 +316,11 @@ class SolidGround(Component):
         self.painleve = int(state["painleve"])
         begun = state.get("next_step_begins_at")  # (absent from older checkpoints: gravity alone then)
         self._begins = None if begun is None else (np.array(begun, dtype=np.float64), _NO_CHANGE)
+        # (absent from older checkpoints: the step's share of a velocity change taken as Verlet's, and
+        # a slip not known)
+        begun_from = state.get("next_step_begins_from")
+        self._begins_from = None if begun_from is None else (np.array(begun_from, dtype=np.float64), _NO_CHANGE)
+        self._slip = tuple(float(c) for c in state.get("slip", _NO_CHANGE))
 
     def summary(self) -> list[str]:
         bounces = "1 bounce" if self.impacts == 1 else f"{self.impacts} bounces"
