@@ -84,6 +84,27 @@ def test_implicit_model_is_stable_at_any_step(boundary, cfl):
     assert p.energy() < 1e-12 * e0
 
 
+def test_the_airy_model_with_absorbing_edges_is_stable_up_to_its_bound_and_refused_above():
+    """Airy water between absorbing edges steps its modes exactly, but the edge's one-way condition
+    cannot follow a mode that turns by about half a turn a step: its bound is 0.9 pi / w_max (29.7 ms
+    on 1 cm cells here); noise in every mode at the bound drains away, at 1.2 times it grows without
+    bound (a 40 ms step took a pulse's 3.85 mJ to 1e31 J and the run said ok); such a step is
+    refused, the cause named. Between walls every step is stable."""
+    assert math.isinf(pond(model="airy").max_stable_step())
+    bound = pond(model="airy", boundary="absorbing").max_stable_step()
+    assert bound == pytest.approx(0.9 * math.pi / pond(model="airy").model.omega.max(), rel=1e-12)
+    for factor, drains in ((1.0, True), (1.2, False)):
+        p = noisy(pond(model="airy", boundary="absorbing"))
+        e0 = p.energy()
+        for _ in range(5000):
+            p.advance(factor * bound)
+        assert (p.energy() < 1e-3 * e0) if drains else (p.energy() > 1e6 * e0)
+    p = pond(model="airy", boundary="absorbing")
+    with pytest.raises(SimulationError, match=r"exceeds the stable step"):
+        p.step(0, math.ceil(1.01 * bound * NS), {}, on_unstable="error")
+    assert "absorbing edges" in p.stable_step_cause() and not pond(model="airy").stable_step_cause()
+
+
 def test_absorbing_edges_keep_the_explicit_model_stable():
     """One-way edges (and a sponge) add no step limit: noise at c dt / s = 0.7 drains away."""
     dt = 0.7 * CELL / C

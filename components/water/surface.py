@@ -26,8 +26,9 @@ A lake: the ``wave`` model on a flat bed is stepped by tiles of ``tile`` x ``til
 pages never written) takes no memory. A stepped tile moving by no more than ``rest_below`` (1e-30 m,
 far below any wave's round-off) is set to rest, so the explicit step's vanishing precursor ahead of
 each wave costs nothing; the result is the dense step's to round-off (bit for bit with
-``rest_below: 0``). ``tile: 0``, ``shallow_water``, smoothing, a sloped bed and the numpy or parallel kernels step every
-column. The summary and the field's ``active_fraction`` say how much of the water moved.
+``rest_below: 0``). ``tile: 0``, ``shallow_water``, ``airy``, smoothing, a sloped bed whose waves run at
+its depth's speed or that dries, and the numpy or parallel kernels step every column (a sloped bed
+under one set ``wave_speed`` or ``wave_length`` is uniform, and tiled). The summary and the field's ``active_fraction`` say how much of the water moved.
 
 Several bodies on one pond: ``bodies: [stone, ball]`` gives each body its own three ports,
 ``occupied_<name>``, ``request_<name>`` and ``patch_<name>`` (in place of ``occupied``, ``request`` and
@@ -454,6 +455,9 @@ class WaterSurface(Component):
     def stable_step_cause(self) -> str:
         if self.max_stable_step() < self.model.max_stable_step():  # (the damping's bound is the lower)
             return f"set by its damping {self.params.damping:g} 1/s: a step of at most {DAMPING_STEP:g} / damping"
+        if self.params.model == "airy" and math.isfinite(self.model.max_stable_step()):
+            return ("set by its absorbing edges: the edge cannot follow a wave mode that turns more than half "
+                    "a turn a step (pi / its fastest mode's frequency)")
         return ""
 
     def summary(self) -> list[str]:

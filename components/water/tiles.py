@@ -31,10 +31,11 @@ afterwards (absorbing) visits only the tiles that may hold moving water, those s
 eight around each (:meth:`moving`), and has those along the edges scanned again
 (:meth:`rescan_edges`).
 
-Only the explicit ``wave`` model on a uniform grid (all wet, one wave speed) is stepped this way:
-the implicit ``shallow_water`` model couples whole rows and columns in each solve (a disturbance
-reaches every cell of its row in one step), positional smoothing and a sloped bed keep the dense
-path (:func:`tiling_applies` says which).
+Only the explicit ``wave`` model on a uniform grid (all wet, one wave speed: a flat bed, or a sloped
+one under a set ``wave_speed`` or ``wave_length``) is stepped this way: the implicit ``shallow_water``
+model couples whole rows and columns in each solve (a disturbance reaches every cell of its row in one
+step), ``airy`` transforms the whole grid, and positional smoothing and a bed whose waves run at its
+depth's speed, or that dries, keep the dense path (:func:`tiling_applies` says which).
 """
 
 from __future__ import annotations
