@@ -28,7 +28,8 @@ far below any wave's round-off) is set to rest, so the explicit step's vanishing
 each wave costs nothing; the result is the dense step's to round-off (bit for bit with
 ``rest_below: 0``). ``tile: 0``, ``shallow_water``, ``airy``, smoothing, a sloped bed whose waves run at
 its depth's speed or that dries, and the numpy or parallel kernels step every column (a sloped bed
-under one set ``wave_speed`` or ``wave_length`` is uniform, and tiled). The summary and the field's ``active_fraction`` say how much of the water moved.
+under one set ``wave_speed`` or ``wave_length`` is uniform, and tiled). The summary and the field's
+``active_fraction`` say how much of the water moved.
 
 Several bodies on one pond: ``bodies: [stone, ball]`` gives each body its own three ports,
 ``occupied_<name>``, ``request_<name>`` and ``patch_<name>`` (in place of ``occupied``, ``request`` and
