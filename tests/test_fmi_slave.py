@@ -97,8 +97,10 @@ def _slave(fmu: Path, name: str) -> SceneSlave:
 
 def test_a_state_of_another_scene_is_refused_changing_nothing(held, tmp_path, capfd):
     """setFMUstate with the state of another scene's FMU (same variables, another pond): refused, and
-    the instance's variables and scene are as before (the variables were taken, and the stone restored,
-    before the pond refused)."""
+    the instance's variables and scene are as before. Refused by the scene it was saved with, not by
+    what of it fails to fit: a stone alone took the state of a stone with a gust model (the
+    variables alike, the extra component and its connections let through); here the variables were
+    taken, and the stone restored, before the pond refused."""
     free = tmp_path / "free.fmu"
     assert main(["fmu", "export", str(ROOT / "scenarios" / "skip.yaml"), "-o", str(free), "--step", str(STEP)]) == 0
     other = _slave(free, "other")
@@ -106,7 +108,7 @@ def test_a_state_of_another_scene_is_refused_changing_nothing(held, tmp_path, ca
     mine = _slave(held, "mine")
     assert sorted(other.values) == sorted(mine.values) and other.values != mine.values
     before = mine._get_fmu_state()
-    with pytest.raises(RuntimeError, match=r"cannot restore this state: the checkpoint's water surface has shape"):
+    with pytest.raises(RuntimeError, match=r"cannot restore this state: it is the state of another exported scene"):
         mine._set_fmu_state(other._get_fmu_state())
     assert mine._get_fmu_state() == before
     assert mine.do_step(0.0, STEP)  # and it steps on from where it was
@@ -115,6 +117,22 @@ def test_a_state_of_another_scene_is_refused_changing_nothing(held, tmp_path, ca
         fresh._set_fmu_state(other._get_fmu_state())
     assert fresh.sim is None and fresh.values == SceneSlave(instance_name="x", resources=mine.resources).values
     assert "error: FMU SceneSlave (instance 'mine'): cannot restore this state" in capfd.readouterr().err
+
+
+def test_a_master_that_adds_up_its_time_is_followed_on_the_scenes_grid(held, capfd):
+    """A doStep time off the scene's time by round-off (a master's t += h drifts by ulps of t that grow
+    with the run: 1.1 ns by t = 2304 s in steps of 0.1 s, two millionths of a 0.5 ms base step, was
+    refused, said as "doStep from t = 2304.3 s, but the scene is at t = 2304.3 s") is the scene's
+    time; a quarter of a base step off is not, and is said in digits that tell the two apart."""
+    slave = _slave(held, "summing")
+    assert slave.do_step(0.0, STEP)
+    assert slave.do_step(STEP + 1.1e-9, STEP)
+    assert slave.sim.time_ns == 2 * round(STEP * 1e9)
+    off = 2 * STEP + 0.3 * 0.0005
+    capfd.readouterr()
+    assert not slave.do_step(off, STEP)
+    said = capfd.readouterr().err
+    assert f"doStep from t = {off!r} s, but the scene is at t = {2 * STEP!r} s" in said
 
 
 def test_a_refused_do_step_is_said_on_standard_error_without_debug_logging(held, capfd):

@@ -59,8 +59,12 @@ def build_fmu(model: str | Path, dest: str | Path, *, extra_files: Iterable[str 
             said = (done.stderr.strip() or done.stdout.strip()).splitlines()
             raise FmuBuildError(f"{model}: pythonfmu build failed ({said[-1] if said else f'exit {done.returncode}'})")
         part = dest.with_name(f".{sibling_stem(dest.name, 30)}.{os.getpid()}.part")
-        shutil.copyfile(built[0], part)
-        os.replace(part, dest)  # whole or not at all, also when two processes build the same model
+        try:
+            shutil.copyfile(built[0], part)
+            os.replace(part, dest)  # whole or not at all, also when two processes build the same model
+        except BaseException:  # a full disk, an interrupt: no part left behind in the cache for ever
+            part.unlink(missing_ok=True)
+            raise
     return dest
 
 
