@@ -499,3 +499,21 @@ def test_an_fmu_output_its_port_cannot_take_names_the_variable_and_counts_the_ca
     assert outcome.result.status == "failed"
     assert outcome.result.reason.startswith(said), outcome.result.reason
     assert "odd: FMU 'odd.py' (FMI 2.0), 1 doStep call" in outcome.summary
+
+
+def test_a_build_whose_copy_into_place_fails_leaves_no_part_file(tmp_path, monkeypatch):
+    """A full disk while the built FMU is copied into place: the error goes on to the caller, and no
+    hidden part file is left beside the destination (each failed attempt left one, under its own
+    process id, that nothing ever removed)."""
+    import errno
+    import shutil
+
+    def full_disk(src, dst):
+        with open(dst, "wb") as out:
+            out.write(b"half an fmu")
+        raise OSError(errno.ENOSPC, "No space left on device", str(dst))
+
+    monkeypatch.setattr(shutil, "copyfile", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        build_fmu(GUST_MODEL, tmp_path / "gust.fmu")
+    assert list(tmp_path.iterdir()) == []
