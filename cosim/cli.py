@@ -389,9 +389,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
                   "is replayed up to it")
         worst = EXIT_OK
         for name in names:
-            report = replay_component(rec, name)
-            print(report)
-            if not report.ok:
+            try:
+                report = replay_component(rec, name)
+            except RecordingError as gap:  # this component's inputs have a gap: said, and the others replayed
+                print(f"error: {_one_line(str(gap))}", file=sys.stderr, flush=True)
+                worst = EXIT_BAD_INPUT
+                continue
+            print(report, flush=True)
+            if not report.ok and worst == EXIT_OK:
                 worst = EXIT_FAILED
         return worst
     from cosim.runner import format_summary, run_scene

@@ -131,12 +131,14 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
 
     sources: list[_RecordedSource] = []
     plan: list[tuple[str, list[_Edge]]] = []
+    topics: dict[str, str] = {}  # input port -> the channel feeding it (the first, for words)
     for port, spec in comp.inputs.items():
         edges = []
         for conn in scene.connections:
             if conn.target != name or conn.target_port != port:
                 continue
             topic = topic_of(conn.source, conn.source_port)
+            topics.setdefault(port, topic)
             recorded = channel(conn.source, conn.source_port, spec.type)
             # (a channel declared but holding no message, as well as none: the component was fed None,
             # and failed on it as if it had a fault of its own)
@@ -202,7 +204,9 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             return bad
         for src in sources:
             src.advance(0)  # the initial outputs (and what steps before this component at tick 0 published)
-        comp.begin(gather_start(plan))
+        start_inputs = gather_start(plan)
+        _check_recorded(rec, name, comp, start_inputs, 0, topics)
+        comp.begin(start_inputs)
     else:  # the component as the restart's checkpoint holds it, from its first step after it
         stamp, cp = restart
         restore_component(comp, cp["components"][name])
@@ -215,6 +219,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         for src in sources:
             src.advance(tick)
         inputs = gather(plan, start, end)
+        _check_recorded(rec, name, comp, inputs, start, topics)
         began = clock()
         outputs = comp.step(start, end - start, inputs, cfg.on_unstable)
         if steps:
@@ -271,6 +276,19 @@ def _why_no_checkpoint(rec: Recording) -> str | None:
         return f"its run failed: {shortened(status.reason, 200)}"
     every = f", though its scene records one every {scene.record.checkpoint_every:g} s" if scene is not None else ""
     return f"its run ended {status.status}{every}: it was taken out of the file"
+
+
+def _check_recorded(rec: Recording, name: str, comp: Component, inputs: dict[str, Message | None], start_ns: int,
+                    topics: dict[str, str]) -> None:
+    """Refuse a step whose required input the recording holds nothing of at or before its start: a gap
+    (a chunk that ``repair`` left out, the first among them) that the component would be fed None
+    through, and fail on as if it had a fault of its own (an internal error, exit 1)."""
+    for port, spec in comp.inputs.items():
+        if spec.required and inputs.get(port) is None and port in topics:
+            raise RecordingError(
+                f"{rec.path}: cannot replay {name!r} at t = {start_ns / NS_PER_S:g} s: its input {port!r} "
+                f"({topics[port]}) has no message recorded at or before then: the recording has a gap there "
+                "(a damaged chunk left out by repair); replay from a checkpoint after it (--from)")
 
 
 def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:

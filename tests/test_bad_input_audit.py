@@ -35,6 +35,8 @@ from tests.recording_copies import copy_recording
 from tests.test_reliability_output import PAINT
 from tests.viewer_toys import record_skip
 
+ROOT = Path(__file__).resolve().parent.parent
+
 # --- render ---------------------------------------------------------------------------------------
 
 
@@ -201,6 +203,28 @@ def test_a_whole_recording_with_a_damaged_chunk_keeps_the_rest_and_its_status(pa
         done = repair(bad, tmp_path / "fixed.mcap")
     assert not done.cut_short and done.messages == _messages(paint) - 10
     assert done.status is not None and done.status.status == Recording(paint).status().status
+
+
+def test_a_repaired_recording_whose_gap_leaves_an_input_without_a_message_is_replayed_as_far_as_it_can(
+        tmp_path, capsys):
+    """ping_pong with its first chunk left out by repair: pong's input has no message at t = 0. The
+    replay says so in one line naming the component, the input, its channel and the remedy (exit 2),
+    and still reports the other component (ping: recorded nothing in the gap); pong was fed None and
+    failed with an internal error (AttributeError), exit 1."""
+    whole = tmp_path / "pp.mcap"
+    run_scene(loads((ROOT / "scenarios" / "ping_pong.yaml").read_text(), source="ping_pong"), whole, progress=False)
+    first = _chunks(whole)[0]
+    bad = _damaged(whole, tmp_path / "bad.mcap", first.chunk_start_offset + _CRC_AT)
+    with pytest.warns(UserWarning, match=f"the chunk at byte {first.chunk_start_offset} fails its CRC: left out"):
+        repair(bad, tmp_path / "fixed.mcap")
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path / "fixed.mcap")]) == 2
+    said = capsys.readouterr()
+    assert "ping: first divergence at t = 0.001 s on port 'out', field '<message>': recorded nothing" in said.out
+    assert one_error_line(said.err) == (
+        f"error: {tmp_path / 'fixed.mcap'}: cannot replay 'pong' at t = 0 s: its input 'inp' (/ping/out) has no "
+        "message recorded at or before then: the recording has a gap there (a damaged chunk left out by repair); "
+        "replay from a checkpoint after it (--from)")
 
 
 def test_a_file_cut_short_without_damage_says_nothing_more(paint, tmp_path, recwarn):
