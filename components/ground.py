@@ -131,6 +131,11 @@ class SolidGround(Component):
         # and the position [m] it begins it from: the last state's plus this ground's correction
         self._begins_from: tuple[np.ndarray, Vec3Param] | None = None
         self._slip: Vec3Param = _NO_CHANGE  # the slip the last sliding response acted against (unit)
+        # for the viewer (visuals) only: where the body last was [m], its size [m], and the rectangle of
+        # the plane's own axes its path has covered, ((a_min, b_min), (a_max, b_max)) [m]
+        self._body_at: Vec3Param | None = None
+        self._body_reach = 0.0
+        self._drawn_over: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def _mass_properties(self, msg: BodyState) -> MassProperties:
         key = (int(msg.shape), msg.radius, msg.thickness, msg.mass, tuple(msg.inertia.tolist()))
@@ -209,6 +214,7 @@ class SolidGround(Component):
         assert isinstance(msg, BodyState)
         x = tuple(msg.position.tolist())
         reach = self._mass_properties(msg).bounding_radius
+        self._body_at, self._body_reach = x, reach  # (for the viewer only: visuals)
         if self.plane.height(x) > reach:  # the bounding sphere is clear: no contact possible
             return self._apart(msg)
         if not self._gravity_checked:
@@ -237,6 +243,26 @@ class SolidGround(Component):
             "impulse": Impulse(np.array(res.linear), np.array(res.angular), np.array(res.correction)),
             "contact": GroundContact(True, res.normal / dt, res.friction / dt, res.sliding, self.dissipated),
         }
+
+    def visuals(self, port: str, msg: Message) -> list[Any]:
+        """The plane, drawn as a slab under it (:func:`components.visuals.ground_slab`) over the path
+        its body has taken so far, GROUND_MARGIN and the body's radius beyond it on every side: a plane
+        has no edge of its own, and two grounds side by side (a floor and a ramp) stay apart where
+        their bodies are. Viewer items only: the physics never reads it."""
+        if port != "contact" or self._body_at is None:
+            return []
+        from components.visuals import GROUND_MARGIN, ground_slab, plane_axes
+
+        normal, point = self.plane.normal, self.plane.point
+        _, u, w = plane_axes(normal)
+        offset = np.asarray(self._body_at, dtype=float) - np.asarray(point, dtype=float)
+        a, b = float(offset @ u), float(offset @ w)
+        box = self._drawn_over
+        self._drawn_over = box = ((a, b), (a, b)) if box is None else (
+            (min(box[0][0], a), min(box[0][1], b)), (max(box[1][0], a), max(box[1][1], b)))
+        reach = GROUND_MARGIN + self._body_reach
+        (a0, b0), (a1, b1) = box
+        return ground_slab(self.name, normal, point, (a0 - reach, b0 - reach), (a1 + reach, b1 + reach))
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """A body that starts inside the ground by more than its own size is a mistake in the scene

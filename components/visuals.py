@@ -13,6 +13,8 @@ recorder's visual deriver finds them for any component publishing these types, a
   the height above the mean level (crests lighter, troughs darker), on ``/scene/<water>``.
 - :class:`Stage` and :class:`SkipRecord`: a line on ``/log`` for every stage change and every skip
   (the integer stage itself is the physics channel ``/<monitor>/stage``, for State Transitions).
+- A SolidGround draws itself (:meth:`components.ground.SolidGround.visuals`, with
+  :func:`ground_slab`): its plane as a slab on ``/scene/<ground>`` under the path its body has taken.
 """
 
 from __future__ import annotations
@@ -46,6 +48,9 @@ STRIPE_COLOR = (0.30, 0.24, 0.20, 1.0)
 TRAIL_COLOR = (0.95, 0.55, 0.10, 0.9)
 TRAIL_THICKNESS = 0.004  # [m]
 VELOCITY_COLOR = (0.85, 0.15, 0.15, 1.0)
+GROUND_COLOR = (0.56, 0.50, 0.42, 1.0)  # packed earth
+GROUND_SLAB = 0.002  # [m] the thickness of the slab a ground plane is drawn as, under the plane
+GROUND_MARGIN = 0.05  # [m] a ground is drawn this far (and its body's radius) beyond the path its body took
 VELOCITY_SCALE = 0.05  # [s]: the velocity arrow is the distance covered in this time
 SURFACE_SIDE = 64  # vertices per side of the drawn water surface (at most)
 WAVE_SCALE = 0.004  # [m]: heights this far from the mean level take the end colours
@@ -83,6 +88,37 @@ def body_state(component: str, port: str, msg: BodyState) -> list:
                       shaft_diameter=0.2 * r, head_diameter=0.5 * r)]),
     ]
     return items
+
+
+def plane_axes(normal: tuple[float, float, float]) -> tuple[tuple, np.ndarray, np.ndarray]:
+    """(q, u, w) of a plane of unit ``normal`` (3,): the quaternion (w, x, y, z) turning z onto the
+    normal by the least rotation, and the plane's own axes u, w (3,) [-], the images of x and y
+    (for a slope, u runs downhill)."""
+    n = np.asarray(normal, dtype=float)
+    axis = np.array([-n[1], n[0], 0.0])  # z x n
+    size = float(np.linalg.norm(axis))
+    if size < 1e-12:
+        return (1.0, 0.0, 0.0, 0.0), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    half = 0.5 * math.atan2(size, float(n[2]))
+    a = axis / size * math.sin(half)
+    q = (math.cos(half), float(a[0]), float(a[1]), float(a[2]))
+    w0, x, y, z = q
+    u = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w0 * z), 2 * (x * z - w0 * y)])
+    w = np.array([2 * (x * y - w0 * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w0 * x)])
+    return q, u, w
+
+
+def ground_slab(component: str, normal: tuple[float, float, float], point: tuple[float, float, float],
+                lo: tuple[float, float], hi: tuple[float, float]) -> list:
+    """A ground plane through ``point`` [m] of unit ``normal``, drawn over the rectangle ``lo`` .. ``hi``
+    [m] of its own axes (:func:`plane_axes`, measured from ``point``) as a slab GROUND_SLAB thick whose
+    top is the plane."""
+    q, u, w = plane_axes(normal)
+    (a0, b0), (a1, b1) = lo, hi
+    centre = (np.asarray(point, dtype=float) + 0.5 * (a0 + a1) * u + 0.5 * (b0 + b1) * w
+              - 0.5 * GROUND_SLAB * np.asarray(normal, dtype=float))
+    slab = Cube((a1 - a0, b1 - b0, GROUND_SLAB), GROUND_COLOR, Pose(tuple(centre.tolist()), q))
+    return [Entity(f"/scene/{component}", "ground", WORLD, (slab,))]
 
 
 def water_colors(height_above_mean: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ physics message recorded on the same log time.
 
 from __future__ import annotations
 
+import math
 import shutil
 import subprocess
 from pathlib import Path
@@ -250,3 +251,41 @@ def test_the_runs_last_state_is_drawn(tmp_path, thinned):
             state.position.tolist()
     else:  # (its last state thinned away: the viewer's is a step later)
         assert recorded_ns < stamp and tf.translation.z < state.position[2] < 0.0
+
+
+def test_each_ground_is_drawn_as_a_slab_under_its_plane_where_its_body_went(tmp_path):
+    """scenarios/ramp_slide.yaml: each ramp's last frame is a 2 mm slab whose top face lies in the ramp's
+    plane, along the slope over the whole path its disk slid (4.8 m on 35 deg) with 5 cm and the disk's
+    radius beyond it, and the two ramps, 0.3 m apart across the slope, are drawn side by side without
+    overlapping (grounds were not drawn at all: a disk slid down nothing)."""
+    from components.contact.geometry import slope_plane
+    from components.visuals import GROUND_SLAB, plane_axes
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    path = tmp_path / "ramp.mcap"
+    run_scene(load(Path(__file__).resolve().parent.parent / "scenarios" / "ramp_slide.yaml"), path, progress=False)
+    rec = Recording(path)
+    spans = {}
+    for ramp, disk, slope, point in (("ramp_20", "disk_holds", 20.0, (0.0, 0.0, 0.0)),
+                                     ("ramp_35", "disk_slides", 35.0, (0.0, 0.3, 0.0))):
+        (_, last), = viewer(rec, f"/scene/{ramp}", SceneUpdate)[-1:]
+        (cube,) = last.entities[0].cubes
+        plane = slope_plane(point, slope, 0.0)
+        q, u, w = plane_axes(plane.normal)
+        pose = cube.pose
+        assert (pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z) == pytest.approx(q)
+        centre = np.array([pose.position.x, pose.position.y, pose.position.z])
+        top = centre + 0.5 * GROUND_SLAB * np.array(plane.normal)
+        assert plane.height(tuple(top)) == pytest.approx(0.0, abs=1e-12)
+        assert cube.size.z == GROUND_SLAB
+        path_points = np.array([m.position for _, m in rec.messages(f"/{disk}/state", BodyState)]) - np.array(point)
+        a = path_points @ u
+        reach = 0.05 + math.hypot(0.05, 0.003)  # the margin and the disk's radius (its bounding sphere's)
+        along = float((centre - np.array(point)) @ u)
+        assert along - cube.size.x / 2 == pytest.approx(a.min() - reach, abs=0.02)  # (frames, not every step)
+        assert along + cube.size.x / 2 == pytest.approx(a.max() + reach, abs=0.02)
+        across = float((centre - np.array(point)) @ w)
+        spans[ramp] = (point[1] + across - cube.size.y / 2, point[1] + across + cube.size.y / 2)
+    assert a.max() - a.min() > 4.5  # the sliding disk's path, all of it under its slab
+    assert spans["ramp_20"][1] <= spans["ramp_35"][0] + 1e-9

@@ -309,6 +309,35 @@ def test_a_scene_without_water_draws_no_water(tmp_path):
     assert "water" not in renderer.caption and renderer.caption.startswith("at z = ")
 
 
+def test_the_solid_ground_a_body_meets_is_drawn_and_no_other(tmp_path):
+    """scenarios/ramp_slide.yaml: the frame of the sliding disk shows its ramp, sand under and around
+    the disk (it was drawn sliding over nothing); a skip's frames, with no ground, show no sand. Only
+    the ramp its body meets: the other ramp's plane would cut through the frame."""
+    from components.analysis.data import ground_planes
+    from components.analysis.render import GROUND_FILL
+    from cosim.record.reader import Recording
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ramp_slide.yaml"
+    path = tmp_path / "ramp.mcap"
+    run_scene(load(scene, ["until=1.5", "record.visual_rate=0"]), path, progress=False)
+    rec = Recording(path)
+    (normal, point), = ground_planes(rec, "disk_slides")
+    assert point == (0.0, 0.3, 0.0) and normal[0] == pytest.approx(np.sin(np.radians(35.0)))
+    out = tmp_path / "ramp.png"
+    render(path, out, RenderOptions(width=WIDTH, at=1.0, body="disk_slides", progress=False))
+    sand = np.all(np.asarray(Image.open(out).convert("RGB")) == GROUND_FILL, axis=-1)
+    assert sand.mean() > 0.2
+    rows, cols = np.nonzero(sand)
+    middle = sand.shape[0] // 2, sand.shape[1] // 2  # the follow view keeps the disk near the middle
+    assert rows.min() < middle[0] < rows.max() and cols.min() < middle[1] < cols.max()
+    out = tmp_path / "skip.png"
+    record_skip(tmp_path / "skip.mcap")
+    render(tmp_path / "skip.mcap", out, RenderOptions(width=WIDTH, at=0.2, progress=False))
+    assert not np.all(np.asarray(Image.open(out).convert("RGB")) == GROUND_FILL, axis=-1).any()
+
+
 def test_water_alone_is_drawn_whole_with_its_waves_moving(tmp_path, capsys):
     """A recording without a body (the wave pulse) is drawn as the whole surface: water covers a good
     part of the frame, and the spreading ring moves between frames. Before, render refused it

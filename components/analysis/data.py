@@ -452,6 +452,28 @@ def scene_rest_level(rec: Recording, water: str | None = None, body: str | None 
     return next(iter(levels.values()), 0.0)
 
 
+def ground_planes(rec: Recording, body: str) -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """(normal, point) of every solid ground plane (a component answering a body with a
+    GroundContact) the recorded scene feeds ``body``'s state to; none when the scene cannot be read."""
+    from components.contact.geometry import slope_plane
+
+    try:
+        scene = rec.scene()
+    except Exception:  # an old or damaged recording: no ground it can tell
+        return []
+    planes = []
+    for c in scene.connections:
+        cfg = scene.components.get(c.target)
+        if c.source != body or c.source_port != "state" or cfg is None:
+            continue
+        if not any(port.type is GroundContact for port in cfg.cls.outputs.values()):
+            continue
+        p = cfg.params
+        plane = slope_plane(tuple(float(v) for v in p.point), float(p.slope_deg), float(p.downhill_deg))
+        planes.append((plane.normal, plane.point))
+    return planes
+
+
 def _first_rest_level(rec: Recording, topic: str) -> float:
     """The ``rest_level`` [m] of the first HeightPatch on ``topic`` (a water's level never changes)."""
     decode = rec.decoder(topic, HeightPatch)

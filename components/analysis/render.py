@@ -41,6 +41,7 @@ from components.analysis.data import (
     BodyTrack,
     body_step,
     body_water_topic,
+    ground_planes,
     iter_fields,
     linked_components,
     load_body,
@@ -86,6 +87,8 @@ SHADOW_RGBA = (0, 0, 0, 70)  # the stone's shadow straight under it on the water
 BACKGROUND = (255, 255, 255)
 REST_COLOR = tuple(water_colors(np.zeros(1))[0])
 MARKER_COLOR = (0.95, 0.45, 0.05)  # fixed view: the dot marking the stone, which is small there
+GROUND_FILL = (222, 208, 182)  # a solid ground's plane: sand
+GROUND_EDGE = (170, 150, 120)
 WATER_MIN_SWING = 1e-3  # [m] water alone: the box reaches at least this far above and below rest
 
 
@@ -405,9 +408,10 @@ class FrameRenderer(_Frames):
     def __init__(self, body: BodyTrack, options: RenderOptions, rest: float, title: str,
                  stages: tuple[np.ndarray, np.ndarray] | None = None, has_water: bool = True,
                  depths: tuple[np.ndarray, np.ndarray] | None = None, step: float = 0.0,
-                 body_step: float = 0.0):
+                 body_step: float = 0.0, grounds: list | None = None):
         super().__init__(options, rest, title)
         self.body = body
+        self.grounds = grounds or []  # (normal, point) of the solid grounds the body meets
         self.body_step = max(body_step, step)  # [s] between the body's states in a whole recording
         # the body's coupler's reports, (times [s], depth of the lowest point under the surface [m]):
         # the gap at a frame's time, where the drawn surface (a field recorded a few times a second)
@@ -480,6 +484,7 @@ class FrameRenderer(_Frames):
         trail_inside = box.contains(trail)
 
         draw = ImageDraw.Draw(image)
+        self._draw_grounds(draw, cam, box)
         self._draw_stone(draw, cam, polys, under, pos)
         self._draw_trail(draw, cam, trail, trail_inside & trail_under)
         gap = self._reported_gap(t)
@@ -515,6 +520,18 @@ class FrameRenderer(_Frames):
         color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
         self._header(draw, header, color)
         return np.asarray(image)
+
+    def _draw_grounds(self, draw: ImageDraw.ImageDraw, cam: Camera, box: Box) -> None:
+        """Each solid ground the body meets, its plane over the box's floor (a plane has no edge), in
+        sand: drawn before the stone, which therefore shows in front of it."""
+        (x0, x1), (y0, y1) = box.x, box.y
+        for (nx, ny, nz), (px, py, pz) in self.grounds:
+            if abs(nz) < 1e-6:  # a wall: seen edge on from above
+                continue
+            corners = np.array([[x, y, pz - (nx * (x - px) + ny * (y - py)) / nz]
+                                for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))])
+            outline = cam.project(corners)[0]
+            draw.polygon(outline.ravel().tolist(), fill=GROUND_FILL, outline=GROUND_EDGE)
 
     def _where(self, pos: np.ndarray) -> str:
         """Where the body is: its x for a throw along x (as the summary gives its touchdowns), else
@@ -850,7 +867,8 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         depths = (np.array([stamp for stamp, _ in pairs], dtype=np.int64) / NS_PER_S,
                   np.array([m.depth if m.wetted else np.nan for _, m in pairs], dtype=float))
     renderer = FrameRenderer(body, options, rest_level(rec, body.name), f"{rec.metadata.get('scene', '')}: {body.name}",
-                             stages, has_water, depths, rec.dt_ns / NS_PER_S, body_step(rec, body.name))
+                             stages, has_water, depths, rec.dt_ns / NS_PER_S, body_step(rec, body.name),
+                             ground_planes(rec, body.name))
     renderer.extent = _water_extent(rec, water)
     if options.water is not None and has_water:
         _warn_if_never_in_view(rec, options.water, renderer, times, body_water_topic(rec, body.name, fields))
