@@ -63,7 +63,7 @@ def _inputs(coupler: WaterCoupler, b, patch: HeightPatch) -> _Inputs:
     held = patch.occupied if patch.occupied.shape == patch.height.shape else None
     water = (x0, y0, patch.cell, patch.height, patch.velocity, patch.bottom, held)
     return _Inputs(bv, axes, (x_low, y_low, z_low), (hx, hy), water, coupler._elements_for(b),
-                   coupler._subsamples(float(b.radius), patch.cell))
+                   coupler._subsamples(b, patch.cell))
 
 
 def _separate(coupler: WaterCoupler, b, patch: HeightPatch):

@@ -55,9 +55,10 @@ from the face.)
   A face receding from the water (u.n < 0) stays wetted only if the water can follow it: its
   hydrostatic head accelerates the water at most like g, so a face leaving faster than about
   sqrt(2 g d) at depth d opens an air cavity (ventilates). The friction of a receding element is
-  scaled by the smooth factor ``2 g d / (2 g d + (u.n)^2)`` (:func:`ventilation`): 1 for a face
-  sliding along itself or receding slowly deep down (a sinking stone's upper face), about 0 for
-  the upper face and trailing rim of a skipping stone, which are in its air cavity.
+  scaled by the smooth factor ``2 g d / (2 g d + (u.n)^2)`` (:func:`ventilation`), d the mean depth
+  of the element's wetted part (its centre's depth once it is wholly under): 1 for a face sliding
+  along itself or receding slowly deep down (a sinking stone's upper face), about 0 for the upper
+  face and trailing rim of a skipping stone, which are in its air cavity.
 * Buoyancy: ``rho_w g b s^2`` upward per column (or sub-column) at its wet interval's centroid.
 * Capillary-gravity wave drag (Raphael & de Gennes 1996: no waves, hence no wave resistance, below
   c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section

@@ -908,7 +908,11 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 speed = math.sqrt(ux * ux + uy * uy + uz * uz)
                 kf = 0.5 * rho * c_f * speed * fa
                 if un < 0.0:
-                    kf *= ventilation(un, max(t, 0.0), g)
+                    # at the mean depth of its wetted part: a partly wet element whose centre is above
+                    # the surface still has water on it (its depth taken as 0, the factor fell from 1
+                    # to 0 as u.n went from 0 to -1e-17, and a spinning disk's rim strips, sliding
+                    # along themselves, lost their friction by the sign of a rounding)
+                    kf *= ventilation(un, t if t >= half else 0.5 * (t + half), g)
                 dfx = -kf * utx
                 dfy = -kf * uty
                 dfz = -kf * utz
