@@ -64,7 +64,7 @@ from components.messages import BodyState, GroundContact, Impulse, Shape
 from components.rigid.dynamics import RigidState
 from components.rigid.shapes import MassProperties
 from components.rigid.vec import as_vec
-from components.rigid_body import RigidBody
+from components.rigid_body import POSITION_MAX, RigidBody
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param
@@ -95,9 +95,13 @@ class SolidGroundParams:
     gravity: Vec3Param = param((0.0, 0.0, -9.81), unit="m/s^2", doc="must match the body's gravity")
 
     def check(self) -> list[tuple[str, str]]:
+        problems = []
         if self.mu_kinetic > self.mu_static:
-            return [("mu_kinetic", f"must be <= mu_static ({self.mu_static:g}) (got {self.mu_kinetic:g})")]
-        return []
+            problems.append(("mu_kinetic", f"must be <= mu_static ({self.mu_static:g}) (got {self.mu_kinetic:g})"))
+        if not all(abs(x) <= POSITION_MAX for x in self.point):  # (1e308 overflowed the plane's arithmetic)
+            problems.append(("point", f"must lie within {POSITION_MAX / 1e3:g} km of the origin in each coordinate, "
+                                      f"as a body may (got {list(self.point)!r})"))
+        return problems
 
 
 class SolidGround(Component):

@@ -517,3 +517,15 @@ def test_a_build_whose_copy_into_place_fails_leaves_no_part_file(tmp_path, monke
     with pytest.raises(OSError, match="No space left"):
         build_fmu(GUST_MODEL, tmp_path / "gust.fmu")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("key", ["model", "path"])
+def test_an_fmu_file_name_too_long_for_the_file_system_is_said_on_its_key(tmp_path, key):
+    """A model or path of 300 characters: the file system refuses to look it up; said on the scene's
+    key, the name shortened (it was the raw OSError, naming neither the key nor the scene, the whole
+    name on the line)."""
+    path = tmp_path / "gust.yaml"
+    path.write_text(gust_scene(source=f"{key}: {'x' * 300}"))
+    with pytest.raises(ScenarioError, match=rf"components\.gust\.{key}: cannot be looked up: File name too long "
+                                            r"\(300 characters: 'x{57}\.\.\.'\)"):
+        load(path)

@@ -227,3 +227,34 @@ def test_a_run_restarted_inside_the_crest_continues_the_same(at_ms):
     again.run()
     a, b = first.components["stone"].body_state(), again.components["stone"].body_state()
     assert np.array_equal(a.position, b.position) and np.array_equal(a.velocity, b.velocity)
+
+
+def test_a_body_far_too_light_for_the_step_that_starts_in_the_water_is_refused_as_the_scene_loads():
+    """The pine ball of scenarios/float_sphere.yaml made 1e-300 kg/m^3: its buoyancy would carry it
+    further than its radius within a step. Refused at load naming its coupler and the step it needs
+    (it failed at its first step with 'ValueError: math domain error', exit 1, its speed overflowed);
+    the scene as written loads, the ball's bound 39 ms against its 1 ms step."""
+    with pytest.raises(ScenarioError, match=r"components\.pine_water: step 0\.001 s exceeds the stable step "
+                                            r"[0-9.e+-]+ s it will need once the run is under way"):
+        load(ROOT / "scenarios" / "float_sphere.yaml", ["components.pine.density=1e-300"])
+    sim = Simulation(load(ROOT / "scenarios" / "float_sphere.yaml"))
+    sim.initialize()
+    ball = sim.components["pine"].body_state()
+    assert sim.components["pine_water"]._buoyant_bound(ball) == pytest.approx(
+        math.sqrt(2 * 0.25 * ball.radius * ball.mass / (1000 * 9.81 * 4 / 3 * math.pi * ball.radius**3)))
+
+
+def test_a_ground_plane_through_a_point_beyond_1000_km_is_refused_naming_it():
+    """A SolidGround through [-1e308, 0, 0]: refused at load as a body's position is (it ran, the
+    viewer's arithmetic of the plane overflowing into a numpy warning)."""
+    with pytest.raises(ScenarioError, match=r"components\.floor_flat\.point: must lie within 1000 km of the origin"):
+        load(SCENES / "ground_bounce.yaml", ["components.floor_flat.point=[-1e308, 0, 0]"])
+    load(SCENES / "ground_bounce.yaml", ["components.floor_flat.point=[-1e6, 0, 0]"])
+
+
+def test_a_scripted_velocity_whose_kinetic_energy_overflows_is_refused_naming_it():
+    """scripted_velocity [[0, 1e308, 0]]: refused at load as a velocity of that size is (the run failed at
+    its first step, its summary saying speed inf m/s, exit 1)."""
+    with pytest.raises(ScenarioError, match=r"components\.disk_tilted\.scripted_velocity: makes the stone's kinetic "
+                                            r"energy overflow a float"):
+        load(SCENES / "ground_bounce.yaml", ["components.disk_tilted.scripted_velocity=[[0, 1e308, 0]]"])

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import pytest
 import yaml
 
@@ -214,3 +217,14 @@ def test_a_refused_connection_is_not_also_said_to_leave_its_input_unconnected(ch
     with pytest.raises(ScenarioError) as info:
         loads(text.replace(*change))
     assert len(info.value.problems) == 1 and info.value.problems[0].startswith(problem)
+
+
+@pytest.mark.parametrize(("override", "said"), [
+    ("connections.5.initial.x_max=abc", "connections.5.initial.x_max: expected a number, got string 'abc'"),
+    ("connections.3.initial.radial=null", "connections.3.initial.radial: expected a number, got NoneType"),
+])
+def test_a_wrong_scalar_in_a_connections_initial_value_is_named_by_its_field(override, said):
+    """A delayed edge's initial message with a scalar field of the wrong type: the error names the field
+    (it said 'connections.5.initial: expected a number, got string' of any of a request's four)."""
+    with pytest.raises(ScenarioError, match=re.escape(said)):
+        load(Path(__file__).resolve().parent.parent / "scenarios" / "ball_wake.yaml", [override])

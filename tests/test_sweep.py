@@ -403,3 +403,13 @@ def test_the_point_limit_is_exact_and_counts_ranges_like_python(tmp_path, monkey
         load_sweep(write_sweep(tmp_path, random % 7))
     for args in itertools.product(range(-4, 5), range(-4, 5), (-3, -1, 1, 2)):
         assert plan._range_count(*args) == len(range(*args)), args
+
+
+@pytest.mark.parametrize("ends", ["[1e308, -1e308, 3]", "[-1e308, 1e308, 2]"])
+def test_a_linspace_whose_span_overflows_a_float_is_refused_naming_it(tmp_path, ends):
+    """Two finite ends whose difference is beyond a float: said on the axis (numpy warned of an overflow,
+    and the sweep then blamed a point of nan it had made itself)."""
+    with pytest.raises(ScenarioError, match=r"axes\.components\.ball\.speed\.linspace: the span from .* is beyond "
+                                            r"what a float holds") as info:
+        load_sweep(write_sweep(tmp_path, f"scene: ball.yaml\naxes: {{components.ball.speed: {{linspace: {ends}}}}}\n"))
+    assert len(info.value.problems) == 1

@@ -95,6 +95,7 @@ from components.messages import (
     Wrench,
 )
 from components.rigid import quaternion as quat
+from components.rigid.shapes import shape_volume
 from components.rigid_body import gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
@@ -1239,7 +1240,9 @@ class WaterCoupler(Component):
         :meth:`_approach_bound` at its start, as the run applies them): a body far too light for the
         scene's step, or too fast for it, is refused when the scene loads, not at its first contact. A
         body that starts in the water (at the coupler's water level) has its own forces' bound from
-        the first step: none is given for it here."""
+        the first step; here only the most its buoyancy can do (:meth:`_buoyant_bound`), so that a body
+        far too light for the step is refused as it loads (one of 1e-300 kg/m^3 failed at its first
+        step with a math domain error, its speed overflowed)."""
         body = inputs.get("body")
         if not isinstance(body, BodyState):
             return math.inf
@@ -1248,7 +1251,7 @@ class WaterCoupler(Component):
         known = isinstance(water, HeightPatch) and water.cell > 0.0
         level = float(water.rest_level) if known else self._assumed_level()
         if float(body.position[2]) - _bounding_radius(body) < level:
-            return math.inf
+            return self._buoyant_bound(body) if self.flags & BUOYANCY else math.inf
         # near the water a step may also carry the body only so far (the motion bound), as the step
         # before the water's first patch bounds it: without it here a run the load check passed
         # failed at its first step (the reference skip at dt = 1 ms: 0.85 ms, the stone 9 cm up)
@@ -1256,6 +1259,20 @@ class WaterCoupler(Component):
         if self.flags & (PRESSURE | FRICTION):
             bound = min(bound, self._approach_bound(body))
         return bound
+
+    def _buoyant_bound(self, body: BodyState) -> float:
+        """The step [s] in which the water's buoyancy, wholly under, carries a body from rest
+        MOTION_FRACTION of its radius: sqrt(2 MOTION_FRACTION R / a), a = rho g V / M (a floating
+        pine ball's 39 ms; the bound of its own forces, once it steps, is the one the run applies)."""
+        p = self.params
+        lift = p.rho * abs(p.g) * shape_volume(Shape(body.shape), float(body.radius), float(body.thickness))
+        mass = float(body.mass)
+        if not lift > 0.0 or not mass > 0.0:
+            return math.inf
+        acceleration = lift / mass
+        if not math.isfinite(acceleration):
+            return 0.0
+        return math.sqrt(2.0 * MOTION_FRACTION * float(body.radius) / acceleration)
 
     def _assumed_level(self) -> float:
         """The rest level [m] taken until the water's first patch gives its own: ``water_level``, or 0."""

@@ -31,7 +31,7 @@ import numpy as np
 from components.fmu.instance import FmuCallError, FmuInstance
 from components.fmu.mapping import PortMap, build_message, parse_ports, parse_start, read_message
 from cosim.component import Component, Port
-from cosim.errors import SimulationError, counted
+from cosim.errors import SimulationError, counted, shortened
 from cosim.messages import Message
 from cosim.params import param
 from cosim.timebase import NS_PER_S
@@ -59,8 +59,15 @@ def _fmu_file(params: FMUParams, path: str, base_dir: Path, problems: list[str])
     """The FMU file the parameters name: ``path`` as it is, or ``model`` built (from the cache)."""
     key, given = ("path", params.path) if params.path is not None else ("model", params.model)
     file = base_dir / str(given)
-    if not file.is_file():  # (a folder, a device or a pipe is there, but is no file to read)
-        what = "not a file" if file.exists() else "no such file"
+    try:
+        is_file, exists = file.is_file(), file.exists()
+    except OSError as exc:  # a name too long for the file system: said on its key, shortened
+        shown = shortened(str(given), 60)
+        problems.append(f"{path}.{key}: cannot be looked up: {exc.strerror or exc} ({len(str(given))} characters: "
+                        f"{shown!r})")
+        return None
+    if not is_file:  # (a folder, a device or a pipe is there, but is no file to read)
+        what = "not a file" if exists else "no such file"
         problems.append(f"{path}.{key}: {what} {given!r} (looked in {base_dir})")
         return None
     if key == "path":

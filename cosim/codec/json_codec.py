@@ -371,7 +371,24 @@ class MessageCodec:
             if unknown:
                 parts.append("unknown " + ", ".join(unknown))
             raise CodecError(f"{self.schema_name}: " + "; ".join(parts))
-        return self.message_type(**{name: dec(data[name]) for name, dec in self._decoders if name in data})
+        try:
+            values = {name: dec(data[name]) for name, dec in self._decoders if name in data}
+        except CodecError as exc:  # said with the field it is about (array fields name themselves)
+            raise CodecError(self._failing_field(data, exc)) from None
+        return self.message_type(**values)
+
+    def _failing_field(self, data: dict, exc: CodecError) -> str:
+        """``exc``'s text led by the field of ``data`` that fails to decode ('x_max: expected a number,
+        got string 'abc''; it said which value was wrong, not where)."""
+        for name, dec in self._decoders:
+            if name not in data:
+                continue
+            try:
+                dec(data[name])
+            except CodecError as failed:
+                said = str(failed)
+                return said if said.startswith("field ") else f"{name}: {said}"
+        return str(exc)
 
     def decode(self, payload: bytes) -> Message:
         """Message from JSON bytes, or from the protobuf payload a recording holds for a type that has

@@ -411,6 +411,10 @@ def _grid_axis(name: str, spec: Any, problems: list[str]) -> tuple[int, Callable
                 problems.append(f"{path}.logspace: both ends must be > 0 (got {a:g} and {b:g})")
                 return nothing
             return n, lambda: tuple(plain(np.geomspace(a, b, n)))
+        if not math.isfinite(b - a):  # (numpy warned of an overflow, and the points were nan)
+            problems.append(f"{path}.linspace: the span from {a:g} to {b:g} is beyond what a float holds; "
+                            "give ends whose difference is finite")
+            return nothing
         return n, lambda: tuple(plain(np.linspace(a, b, n)))
     if kind == "range":
         if not (isinstance(args, list) and 2 <= len(args) <= 3
