@@ -61,7 +61,7 @@ def test_the_scene_throws_the_stone_free_with_a_persons_spin():
 
 def test_it_skips_three_times_curving_left_and_sinks_on_the_pond(reference):
     """Three skips; after the first, the heading each skip reports has turned to the left (+y, the
-    sense of the spin: +1.6 and +1.1 deg) and the stone lies left of its line by the last; the stone
+    sense of the spin: +1.6 and +1.0 deg) and the stone lies left of its line by the last; the stone
     sinks on the pond, not off its edge."""
     assert reference.track.skips == 3
     assert [label for _, label in reference.timeline][-1] == "sink"
