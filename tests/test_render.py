@@ -338,6 +338,21 @@ def test_the_solid_ground_a_body_meets_is_drawn_and_no_other(tmp_path):
     assert not np.all(np.asarray(Image.open(out).convert("RGB")) == GROUND_FILL, axis=-1).any()
 
 
+def test_a_recording_without_the_waters_surface_is_drawn_flat_and_said_so(tmp_path):
+    """The held skip recorded with its pond's field_rate 0 (as the sweeps' scenes record): the frame
+    draws flat water at the rest level, and a warning says why (it drew calm water after a skip
+    without a word)."""
+    from components.analysis.render import RenderWarning
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    run_scene(load(scene, ["components.pond.field_rate=0", "until=0.3", "record.visual_rate=0"]),
+              tmp_path / "skip.mcap", progress=False)
+    with pytest.warns(RenderWarning, match=r"holds no water surface .*: the water is drawn flat at its rest level"):
+        render(tmp_path / "skip.mcap", tmp_path / "flat.png", RenderOptions(width=WIDTH, at=0.2, progress=False))
+
+
 def test_water_alone_is_drawn_whole_with_its_waves_moving(tmp_path, capsys):
     """A recording without a body (the wave pulse) is drawn as the whole surface: water covers a good
     part of the frame, and the spreading ring moves between frames. Before, render refused it

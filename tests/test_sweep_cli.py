@@ -53,6 +53,37 @@ def test_sweep_runs_reports_and_resumes(tmp_path, monkeypatch, capsys):
     assert "ran 6, 0 already" in capsys.readouterr().out
 
 
+def test_fresh_takes_the_old_tables_figure_and_recordings_with_it(tmp_path, monkeypatch):
+    """--fresh discards the table it replaces together with the figure it drew and the recordings its
+    rows name in the runs folder: a new sweep written there with --no-figure (or cut short) left the
+    old sweep's figure beside its table, and its recordings with them. A file of the user's in that
+    folder stays."""
+    monkeypatch.chdir(tmp_path)
+    path = write_sweep(tmp_path, SWEEP)
+    assert main(["sweep", str(path), "-q", "--workers", "2", "--record"]) == 0
+    figure, runs = tmp_path / "results" / "balls.png", tmp_path / "results" / "balls_runs"
+    recorded = sorted(runs.glob("*.mcap"))
+    assert figure.exists() and len(recorded) == 6
+    (runs / "notes.txt").write_text("mine")
+    assert main(["sweep", str(path), "-q", "--workers", "2", "--fresh", "--no-figure"]) == 0
+    assert not figure.exists() and sorted(runs.glob("*.mcap")) == [] and (runs / "notes.txt").exists()
+
+
+@pytest.mark.parametrize(("first", "then", "said"), [
+    ([], ["--record"], "was started without --record (its rows have no recordings): resume it without --record"),
+    (["--record"], [], "was started with --record (its rows name their recordings): resume it with --record"),
+])
+def test_resuming_with_or_without_record_the_other_way_says_so(tmp_path, capsys, first, then, said):
+    """The same sweep resumed with --record when it was started without (or the other way round): the
+    table's columns differ by its recording column, and the error says that (it said the table held a
+    different sweep, its scene or set differing)."""
+    path, out = write_sweep(tmp_path, SWEEP), tmp_path / "r.csv"
+    assert main(["sweep", str(path), "-q", "--workers", "1", "--no-figure", "-o", str(out), *first]) == 0
+    capsys.readouterr()
+    assert main(["sweep", str(path), "-q", "--workers", "1", "--no-figure", "-o", str(out), *then]) == 2
+    assert f"error: {out}: {said}, or use --fresh to start over or -o for another file" in capsys.readouterr().err
+
+
 def test_dry_run_lists_points_and_runs_nothing(tmp_path, capsys):
     """--dry-run validates the sweep and lists each point's overrides without running or writing."""
     path = write_sweep(tmp_path, SWEEP)
@@ -185,6 +216,18 @@ def test_ctrl_c_keeps_finished_rows_and_exits_1(tmp_path):
     assert "Traceback" not in stderr
     rows = len(out.read_text().splitlines()) - 1
     assert 2 <= rows < 12
+
+
+def test_a_fresh_sweep_interrupted_says_to_resume_without_fresh(tmp_path):
+    """A sweep started with --fresh and interrupted keeps its rows; the advice to go on leaves --fresh
+    out (it said to run the same command again, which, --fresh and all, discarded them)."""
+    path = write_sweep(tmp_path, SWEEP.replace("[2, 3, 5]", "[2, 3, 4, 5, 6, 7]") +
+                       "set: {components.ball.burn: 3000}\n")
+    out = tmp_path / "f.csv"
+    code, stdout, stderr = interrupt_sweep(path, out, ["--workers", "1", "--fresh"], rows=3, timeout=60)
+    assert code == 1, stderr
+    assert "points left; run the command again without --fresh to resume" in stdout
+    assert "run the same command again" not in stdout + stderr
 
 
 @pytest.mark.parametrize("how", ["ctrl_c", "sigterm", "hangup"])

@@ -486,6 +486,20 @@ def test_parquet_output_is_typed(tmp_path, pool):
     assert b"cosim.sweep" in table.schema.metadata
 
 
+def test_a_parquet_tables_journal_leaves_a_csv_of_the_same_name_alone(tmp_path, pool):
+    """A Parquet table's rows are journalled in ``<stem>.journal.csv``: a table ``out.csv`` of the user's
+    (another sweep's) beside ``out.parquet`` is neither read nor replaced (it was taken for the journal:
+    refused as another sweep's, and with --fresh overwritten)."""
+    pq = pytest.importorskip("pyarrow.parquet")
+    theirs = tmp_path / "out.csv"
+    theirs.write_text("mine,not,a,sweep\n1,2,3,4\n")
+    sweep = load_sweep(write_sweep(tmp_path, GRID), output=tmp_path / "out.parquet")
+    run_sweep(sweep, None, pool, progress=False, figure=False)
+    run_sweep(sweep, None, pool, progress=False, figure=False, fresh=True)
+    assert pq.read_table(tmp_path / "out.parquet").num_rows == 9
+    assert theirs.read_text() == "mine,not,a,sweep\n1,2,3,4\n" and (tmp_path / "out.journal.csv").exists()
+
+
 def test_a_full_disk_leaves_its_points_unfinished_and_stops_the_sweep(tmp_path):
     """A run whose write the disk refuses (ENOSPC) is no result of its point: it was a `failed` row,
     so that after space was freed the sweep said it held every point and only --fresh ran them. It

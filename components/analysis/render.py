@@ -853,6 +853,10 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
         pairs = stage_changes(rec, stage_topics[0])
         stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
+    if has_water and not fields:  # the scene's water recorded no surface (field_rate 0, as the sweeps' scenes)
+        warnings.warn(f"{rec.path}: the recording holds no water surface (its water's field_rate was 0, or "
+                      "--record left its field out): the water is drawn flat at its rest level, without the "
+                      "waves the run made", RenderWarning, stacklevel=2)
     # (a scene that cannot be read is not said to have water: a ground bounce's was)
     if not has_water and scene_publishes(rec, (WaterField, WaterContact), unknown=False):
         # left out by --record: the frames show no water at all, where the scene had some

@@ -28,10 +28,9 @@ from typing import Any
 from tqdm import tqdm
 
 from cosim.errors import counted, ending_signals
-from cosim.record.output import beside
 from cosim.sweep.backends import MACHINE_LIMITS, BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
-from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot, column_kinds
+from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot, column_kinds, figure_path, runs_folder
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 RECORDING_FAILURES = ("SinkError", "RecordingError")  # error types of a run whose recording failed
@@ -63,6 +62,7 @@ class SweepOutcome:
     figure: Path | None = None
     failures: list[tuple[int, str, str]] = field(default_factory=list)
     notices: dict[str, str] = field(default_factory=dict)  # each point scene's notice, and the first point's label
+    fresh: bool = False  # started with --fresh: the same command again would discard what this one kept
 
     @property
     def complete(self) -> bool:
@@ -76,12 +76,15 @@ class SweepOutcome:
         """Why an incomplete sweep stopped and what is left, in one line: the summary's, and the
         command's error line on standard error."""
         left = f"{self.points_left()} of {self.total} points left"
+        # (after --fresh, the same command again would discard the rows this one kept)
+        again = "the command is run again without --fresh" if self.fresh else "the same command is run again"
         if self.limit is not None:
             return (f"stopped, the machine has no room for {self.limit_on} ({self.limit}): {left}; they run "
-                    "when the same command is run again once there is room")
+                    f"when {again} once there is room")
         why = (self.lost if self.lost is not None else "interrupted" if self.interrupted
                else f"{counted(self.unfinished, 'run was', 'runs were')} interrupted")
-        return f"{why}: {left}; run the same command again to resume"
+        resume = "run the command again without --fresh" if self.fresh else "run the same command again"
+        return f"{why}: {left}; {resume} to resume"
 
 
     def summary(self) -> str:
@@ -169,10 +172,10 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
     """Run the points of ``sweep`` that have no row in the open ``table`` (``done``: those that have),
     and finish the table if every point has one (:func:`run_sweep`)."""
     outcome = SweepOutcome(sweep, output, backend.describe(), len(sweep.points), already=len(done),
-                           dropped=table.dropped)
+                           dropped=table.dropped, fresh=table.fresh)
     outcome.counts.update(row["status"] for row in done.values())
     todo = deque(p for p in sweep.points if p.point_id not in done)
-    runs_dir = beside(output, "_runs")
+    runs_dir = runs_folder(output)
     if sweep.record and todo:  # said once here, rather than by every run failing to record
         try:
             runs_dir.mkdir(parents=True, exist_ok=True)
@@ -302,7 +305,7 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
             from cosim.sweep.figure import draw
 
             try:
-                outcome.figure = draw(sweep, outcome.rows, output.with_suffix(".png"))
+                outcome.figure = draw(sweep, outcome.rows, figure_path(output))
             except OSError as exc:
                 raise cannot(output, exc, "draw the sweep's figure",
                              "; the table is complete (--no-figure leaves the figure out)") from None

@@ -10,7 +10,7 @@ the sweep file, the base scene, the fingerprint of the runs' settings, the versi
 as the sweep was first started, and under ``resumes`` each later command that ran more of it or
 finished it (one that finds the table finished, in the order of the sweep's points, changes nothing;
 one whose sweep file lists an axis's values in another order sorts it again).
-A ``.parquet`` output is written from the finished CSV (``<stem>.csv`` beside it) with pyarrow, each
+A ``.parquet`` output is written from the finished CSV (``<stem>.journal.csv`` beside it) with pyarrow, each
 column typed by what the sweep declares it to hold (never guessed from its values: a point id such as
 ``11e755065873`` read as a number was the double ``inf``).
 
@@ -70,7 +70,20 @@ def meta_path(output: Path) -> Path:
 
 
 def journal_path(output: Path) -> Path:
-    return output if output.suffix == ".csv" else output.with_suffix(".csv")
+    """The CSV the rows are appended to: the table itself, or beside a Parquet table ``<stem>.journal.csv``
+    (it was ``<stem>.csv``: a user's table of that name, another sweep's, was taken for the journal,
+    refused as another sweep's, and replaced by ``--fresh``)."""
+    return output if output.suffix == ".csv" else beside(output, ".journal.csv")
+
+
+def figure_path(output: Path) -> Path:
+    """Where a sweep's figure is drawn: beside its table, as a PNG."""
+    return output.with_suffix(".png")
+
+
+def runs_folder(output: Path) -> Path:
+    """Where a sweep's recordings go (``--record``): a folder beside its table."""
+    return beside(output, "_runs")
 
 
 def lock_path(output: Path) -> Path:
@@ -125,6 +138,7 @@ class ResultTable:
         self._journal_rows = 0  # the rows the journal held when opened (a point run again is in it twice)
         self.dropped = 0  # rows of runs that were interrupted, found on resume: not results, their points run again
         self.already_finished = False  # resumed a table that was finished: open() and finish() write nothing
+        self.fresh = False  # opened with --fresh: what is said of running it again leaves that out
 
     def open(self, order: dict[str, int], fresh: bool = False) -> dict[str, dict[str, str]]:
         """Start the table, or resume it; returns the rows already there, by point id.
@@ -134,6 +148,7 @@ class ResultTable:
         sweep wrote them). Rows of runs that were interrupted are no results: left out (``dropped``
         counts them), their points run again. Raises ScenarioError while another sweep writes the table.
         """
+        self.fresh = fresh
         made = self._make_folders()  # what this call creates: removed again if it fails halfway
         try:
             self._take_lock()
@@ -143,6 +158,18 @@ class ResultTable:
             for path in made:
                 remove_quietly(path)
             raise
+
+    def _recordings_listed(self) -> list[Path]:
+        """The recordings the journal's rows name that lie in this table's runs folder (none when the
+        journal cannot be read, or has no recording column)."""
+        folder = runs_folder(self.output)
+        try:
+            with open(self.path, newline="", encoding="utf-8") as f:
+                named = [row.get("recording") or "" for row in csv.DictReader(f)]
+        except (OSError, ValueError, csv.Error):
+            return []
+        # by file name in the folder (a row gives the path as the command that ran it saw it)
+        return [folder / Path(name).name for name in named if name and Path(name).parent.name == folder.name]
 
     def _open(self, order: dict[str, int], fresh: bool, made: list[Path]) -> dict[str, dict[str, str]]:
         rows: dict[str, dict[str, str]] = {}
@@ -168,7 +195,10 @@ class ResultTable:
             self.meta = {**kept, "resumes": resumes}
         try:
             if not resume:
-                for path in (self.path, self.output):
+                # what the table before drew and recorded goes with it: its figure, and the recordings its
+                # rows name in the runs' folder (a figure of another sweep stood beside the new table)
+                stale = [self.path, self.output, figure_path(self.output), *self._recordings_listed()]
+                for path in stale:
                     path.unlink(missing_ok=True)
             self.path.parent.mkdir(parents=True, exist_ok=True)
             if not resume:
@@ -300,6 +330,13 @@ class ResultTable:
                                 "it cannot be resumed; use --fresh to start over or -o for another file",
                                 where) from None
         if meta.get("fingerprint") != self.meta["fingerprint"]:
+            theirs, mine = list(meta.get("columns") or ()), list(self.meta["columns"])
+            if [c for c in theirs if c != "recording"] == [c for c in mine if c != "recording"] and theirs != mine:
+                # the same sweep, started with --record and resumed without it, or the other way round
+                started, rows = ("with", "name their") if "recording" in theirs else ("without", "have no")
+                raise ScenarioError(f"was started {started} --record (its rows {rows} recordings): resume it "
+                                    f"{started} --record, or use --fresh to start over or -o for another file",
+                                    where)
             raise ScenarioError("holds the results of a different sweep (its scene, set, derived, metrics or "
                                 "columns differ); use --fresh to start over or -o for another file", where)
         raw = self.path.read_bytes()
@@ -432,7 +469,8 @@ class ResultTable:
             return self._finish(order, summary)
         except OSError as exc:
             raise cannot(self.output, exc, "write the sweep's finished table",
-                         "; its rows are kept: run the same command again to finish it") from None
+                         "; its rows are kept: run the " + ("command again without --fresh" if self.fresh else
+                                                             "same command again") + " to finish it") from None
 
     def _sorted_rows(self, order: dict[str, int]) -> list[dict[str, str]]:
         """The journal's results of this sweep's points, one a point, by point index. A row of a point
