@@ -58,3 +58,34 @@ def test_the_skip_grid_keeps_its_longest_throw_on_the_water():
     metrics = sim.components["stages"].metrics()
     assert metrics["reached_edge"] == 0 and metrics["outcome"] == "sink"
     assert metrics["distance"] > 20.0
+
+
+def test_a_heat_map_lays_out_an_unevenly_spaced_axis_one_cell_a_value(tmp_path):
+    """A logspace axis (1e-4 .. 1) makes a heat map of equal cells, labelled with their values, and a
+    reference point given in the axis's values lands between the cells of the values about it; at
+    their values three of five cells were a sliver at 0, their labels over each other. An evenly
+    spaced axis stays at its values."""
+    plt = pytest.importorskip("matplotlib.pyplot")
+    c_f = ["0.0001", "0.001", "0.01", "0.1", "1.0"]
+    grid = [{"status": "stopped", "c_f": c, "speed": s, "stages.skips": "2"} for c in c_f for s in ("4", "6", "8")]
+    spec = SimpleNamespace(x="c_f", y="speed", metric="stages.skips", threshold=None,
+                           reference_points=[(0.0055, 6.0)], reference_label="published")
+    plots, xticks = {}, []
+    real_plot = plt.Axes.plot
+
+    def watch(self, *args, **kw):
+        plots[kw.get("label")] = args
+        return real_plot(self, *args, **kw)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(plt.Axes, "plot", watch)
+        patch.setattr(plt.Axes, "set_xticks", lambda self, ticks, labels=None, **kw: xticks.append((ticks, labels)))
+        draw(SimpleNamespace(figure=spec, mode="grid", name="grid"), grid, tmp_path / "f.png")
+    ((ticks, labels),) = xticks
+    assert list(ticks) == [0.0, 1.0, 2.0, 3.0, 4.0] and list(labels) == c_f
+    xs, ys = plots["published"][:2]
+    assert xs[0] == pytest.approx(1.0 + (0.0055 - 0.001) / (0.01 - 0.001)) and ys == [6.0]  # between 0.001 and 0.01
+    from cosim.sweep.figure import _positions
+
+    assert _positions(["2", "4", "6"], even_only=True) == (["2", "4", "6"], [2.0, 4.0, 6.0], True)
+    assert _positions(["0.03", "-1", "0.05"], even_only=True)[1:] == ([0.0, 1.0, 2.0], False)

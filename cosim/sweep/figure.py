@@ -22,6 +22,7 @@ from cosim.record.output import written_whole
 from cosim.sweep.plan import Sweep
 
 MAX_LABELLED_CELLS = 400  # above this many cells, the heat map's values are not written in them
+UNEVEN = 3.0  # a numeric axis whose gaps differ by more than this factor is laid out one cell a value
 
 
 def _number(text: str) -> float:
@@ -31,14 +32,32 @@ def _number(text: str) -> float:
         return math.nan
 
 
-def _positions(values: list[str]) -> tuple[list[str], list[float], bool]:
-    """Distinct axis values in order, their plot positions, and whether the axis is numeric."""
+def _positions(values: list[str], even_only: bool = False) -> tuple[list[str], list[float], bool]:
+    """Distinct axis values in order, their plot positions, and whether those positions are the values
+    themselves (a numeric axis). ``even_only``: a numeric axis whose values are unevenly spaced (gaps
+    more than UNEVEN apart: a logspace) is laid out one position a value instead, as a heat map needs
+    (at their values, 1e-4 .. 1 put three of five cells in a sliver at 0, their labels over each other)."""
     distinct = list(dict.fromkeys(values))
     numbers = [_number(v) for v in distinct]
     if all(math.isfinite(n) for n in numbers):
         pairs = sorted(zip(numbers, distinct, strict=True))
-        return [d for _, d in pairs], [n for n, _ in pairs], True
+        ordered, at = [d for _, d in pairs], [n for n, _ in pairs]
+        gaps = [b - a for a, b in itertools.pairwise(at)]
+        if not (even_only and gaps and max(gaps) > UNEVEN * min(gaps)):
+            return ordered, at, True
+        return ordered, [float(i) for i in range(len(ordered))], False
     return distinct, [float(i) for i in range(len(distinct))], False
+
+
+def _placed(value: float, labels: list[str], positions: list[float]) -> float:
+    """Where a value [the axis's unit] falls on an axis laid out one position a value: between the
+    positions of the values about it, in proportion (nan off a non-numeric axis)."""
+    import numpy as np
+
+    numbers = [_number(v) for v in labels]
+    if not all(math.isfinite(n) for n in numbers):
+        return math.nan
+    return float(np.interp(value, numbers, positions))
 
 
 def _edges(centres: list[float]) -> list[float]:
@@ -67,9 +86,11 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
         elif spec.y is None:
             _line(ax, rows, spec)
         else:
-            _heat_map(ax, fig, rows, spec)
+            place = _heat_map(ax, fig, rows, spec)
         if spec.reference_points:
             xs, ys = zip(*spec.reference_points, strict=True)
+            if sweep.mode != "random" and spec.y is not None:  # onto the heat map's cells
+                xs, ys = place(xs, ys)
             ax.plot(xs, ys, "*", color="tab:red", markersize=13, markeredgecolor="k",
                     label=spec.reference_label, zorder=5)
         if ax.get_legend_handles_labels()[0]:  # below the axes, so no cell is hidden
@@ -109,8 +130,8 @@ def _mark_cut_short(ax: Any, rows: list[dict[str, str]], spec: Any, scattered: b
     elif scattered:
         points = [(_number(r[spec.x]), _number(r[spec.y])) for r in cut]
     else:
-        xs, xpos, _ = _positions([r[spec.x] for r in rows])
-        ys, ypos, _ = _positions([r[spec.y] for r in rows])
+        xs, xpos, _ = _positions([r[spec.x] for r in rows], even_only=True)
+        ys, ypos, _ = _positions([r[spec.y] for r in rows], even_only=True)
         points = [(xpos[xs.index(r[spec.x])], ypos[ys.index(r[spec.y])]) for r in cut]
     ax.plot(*zip(*points, strict=True), "o", markersize=15, markerfacecolor="none", markeredgecolor="tab:red",
             markeredgewidth=1.6, label="reached the edge of the water: a lower bound", zorder=4)
@@ -120,11 +141,12 @@ def _value(row: dict[str, str], metric: str) -> float:
     return _number(row[metric]) if row["status"] != "failed" else math.nan
 
 
-def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> None:
+def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> Any:
+    """Draw the heat map; returns how to place points given in the axes' values onto it."""
     import numpy as np
 
-    xs, xpos, xnum = _positions([r[spec.x] for r in rows])
-    ys, ypos, ynum = _positions([r[spec.y] for r in rows])
+    xs, xpos, xnum = _positions([r[spec.x] for r in rows], even_only=True)
+    ys, ypos, ynum = _positions([r[spec.y] for r in rows], even_only=True)
     cells: dict[tuple[str, str], list[float]] = defaultdict(list)
     for r in rows:
         value = _value(r, spec.metric)
@@ -161,6 +183,11 @@ def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> None:
         ax.set_xticks(xpos, xs, rotation=30)
     if not ynum:
         ax.set_yticks(ypos, ys)
+
+    def place(x_values: Any, y_values: Any) -> tuple[list[float], list[float]]:
+        return ([float(v) if xnum else _placed(float(v), xs, xpos) for v in x_values],
+                [float(v) if ynum else _placed(float(v), ys, ypos) for v in y_values])
+    return place
 
 
 def _averaged(metric: str, groups: Any) -> str:

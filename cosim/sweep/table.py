@@ -197,8 +197,8 @@ class ResultTable:
             if not resume:
                 # what the table before drew and recorded goes with it: its figure, and the recordings its
                 # rows name in the runs' folder (a figure of another sweep stood beside the new table)
-                stale = [self.path, self.output, figure_path(self.output), *self._recordings_listed()]
-                for path in stale:
+                drawn = [figure_path(self.output), *self._recordings_listed()] if self.path.exists() else []
+                for path in (self.path, self.output, *(p for p in drawn if p.is_file())):
                     path.unlink(missing_ok=True)
             self.path.parent.mkdir(parents=True, exist_ok=True)
             if not resume:
