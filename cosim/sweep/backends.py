@@ -503,6 +503,7 @@ class DaskBackend:
                                "(or pip install dask distributed)") from None
         if self.quiet:
             self._settings.enter_context(_quiet_loggers(DASK_LOG_LEVEL))
+        began = time.monotonic()
         try:
             if self.address == "local":
                 options: dict[str, Any] = {}
@@ -538,7 +539,9 @@ class DaskBackend:
             raise
         except (OSError, TimeoutError, ValueError) as exc:  # unreachable, or not an address
             self.close()
-            raise BackendError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
+            # (a scheduler still starting refuses at first: it was tried again for as long as that takes)
+            waited = f" (tried for {time.monotonic() - began:.0f} s)" if self.address != "local" else ""
+            raise BackendError(f"cannot reach the Dask scheduler at {self.address}: {exc}{waited}") from None
         except MemoryError:  # its answer read as a Dask message announced an absurd size
             self.close()
             raise BackendError(f"{self.address} is not a Dask scheduler: its answer is not Dask's protocol") from None

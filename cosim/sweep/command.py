@@ -47,7 +47,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if args.record:
             sweep.record = True
         if args.dry_run:
-            checked, bad = _check_points(sweep)
+            checked, bad = _check_points(sweep, progress=not args.quiet)
             # a point that makes no scene would be a failed row: the sweep is not ready to run as it is
             verdict = f"{len(bad)} of {checked} points checked are invalid" if bad else "ok"
             print(f"{args.sweep}: {verdict} - {sweep.describe()}")
@@ -125,15 +125,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _check_points(sweep: Any) -> tuple[int, list[tuple[Any, str]]]:
+def _check_points(sweep: Any, progress: bool = True) -> tuple[int, list[tuple[Any, str]]]:
     """--dry-run: load each point's scene (the first DRY_RUN_CHECKED; about 10 ms each), as a run would
-    find them one by one (failed rows); (how many were checked, each invalid point with why)."""
+    find them one by one (failed rows); (how many were checked, each invalid point with why). With
+    ``progress``, a bar on standard error while they are checked (2,000 took 19 s without a word)."""
+    from tqdm import tqdm
+
     from cosim.errors import ScenarioError
     from cosim.scenario import loads
 
     checked = sweep.points[:DRY_RUN_CHECKED]
     bad = []
-    for point in checked:
+    shown = tqdm(checked, desc="checking the points' scenes", unit="point", leave=False,
+                 disable=not progress or len(checked) < PROGRESS_FROM, file=sys.stderr)
+    for point in shown:
         why = point.problem
         if why is None:
             try:
@@ -143,6 +148,9 @@ def _check_points(sweep: Any) -> tuple[int, list[tuple[Any, str]]]:
         if why:
             bad.append((point, why))
     return len(checked), bad
+
+
+PROGRESS_FROM = 100  # points: fewer are checked within a second or so, without a bar
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
