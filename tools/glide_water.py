@@ -140,15 +140,17 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     check_output(parser, args.figure, "--figure")
     traces = []
-    print("| water | skips | end | largest surface speed after the skips [m/s] | the stone's speed then [m/s] |")
-    print("|---|---:|---|---:|---:|")
+    print("| water | skips | end | largest surface speed after the skips [m/s] | when [s] | "
+          "the stone's speed then [m/s] |")
+    print("|---|---:|---|---:|---:|---:|")
     for label, overrides, _ in RUNS:
         trace = run(overrides)
         traces.append(trace)
         after = [k for k, t in enumerate(trace.t) if t > AFTER_SKIPS]
         k = max(after, key=lambda i: trace.surface[i]) if after else None
-        peak, speed = (trace.surface[k], trace.stone[k]) if k is not None else (math.nan, math.nan)
-        print(f"| {label} | {trace.skips} | {trace.end} | {peak:.1f} | {speed:.2f} |", flush=True)
+        peak, when, speed = ((trace.surface[k], trace.t[k], trace.stone[k]) if k is not None
+                             else (math.nan, math.nan, math.nan))
+        print(f"| {label} | {trace.skips} | {trace.end} | {peak:.1f} | {when:.3f} | {speed:.2f} |", flush=True)
     if args.figure:
         params = load(ROOT / "scenarios" / "skip.yaml").components["pond"].params
         figure(args.figure, traces, math.sqrt(GRAVITY * params.depth), WaterSurface.wave_speed(params))
