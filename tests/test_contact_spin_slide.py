@@ -29,6 +29,7 @@ from components.messages import Shape
 from components.rigid.shapes import mass_properties
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
+from tests.ground_toys import disk_on_plane
 from tests.toys import Channels
 
 G = 9.81
@@ -158,40 +159,12 @@ def test_face_sticks_inside_the_elliptic_limit_surface(share, sticks):
 
 # --- thrown through the scene machinery ------------------------------------------------------------------
 
-SCENE = """\
-name: spin_slide
-description: >
-  A slate disk lying flat on a level floor, thrown along x at {v} m/s spinning at {w} rad/s.
-dt: {dt}
-until: {until}
-on_unstable: error
-components:
-  disk:
-    type: RigidBody
-    shape: disk
-    radius: {radius}
-    thickness: {thickness}
-    density: 2700.0
-    position: [0.0, 0.0, {half}]       # the lower face on the floor
-    velocity: [{v}, 0.0, 0.0]
-    spin: {w}
-  floor:
-    type: SolidGround
-    mu_static: {mu}
-    mu_kinetic: {mu}
-    restitution: 0.3
-connections:
-  - disk.state -> floor.body
-  - {{from: floor.impulse, to: disk.impulse, delay: 1,
-     initial: {{linear: [0, 0, 0], angular: [0, 0, 0], correction: [0, 0, 0]}}}}
-"""
-
-
 def throw(v: float, w: float, until: float):
     """(t [s], x-velocity [m/s], spin [rad/s], y-velocity [m/s], dissipated energy [J]) at every step of
-    a flat disk thrown on the floor (scene SCENE)."""
-    text = SCENE.format(v=v, w=w, dt=DT, until=until, radius=R, thickness=E, half=0.5 * E, mu=MU)
-    watch = Channels("disk.state", "floor.contact")
+    a flat disk thrown on a level floor (tests.ground_toys.disk_on_plane)."""
+    text = disk_on_plane(dt=DT, until=until, radius=R, thickness=E, mu_static=MU, mu_kinetic=MU, restitution=0.3,
+                         velocity=(v, 0.0, 0.0), spin=w)
+    watch = Channels("disk.state", "ground.contact")
     result = Simulation(loads(text), observers=[watch]).run(round(until * 1e9))
     assert result.status == "ok", result.reason
     states = watch.seen["disk.state"]
@@ -199,7 +172,7 @@ def throw(v: float, w: float, until: float):
     vx = np.array([s.velocity[0] for _, s in states])
     vy = np.array([s.velocity[1] for _, s in states])
     spin = np.array([s.angular_velocity[2] for _, s in states])
-    booked = dict((t, c.dissipated_energy) for t, c in watch.seen["floor.contact"])
+    booked = dict((t, c.dissipated_energy) for t, c in watch.seen["ground.contact"])
     dissipated = np.array([booked.get(tt, 0.0) for tt in t])
     return t, vx, spin, vy, dissipated
 

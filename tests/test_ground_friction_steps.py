@@ -17,6 +17,7 @@ from components.rigid.dynamics import RigidState
 from components.rigid.shapes import MassProperties
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
+from tests.ground_toys import disk_on_plane
 from tests.toys import Channels
 
 G = 9.81
@@ -29,39 +30,13 @@ def disk_on_ramp(slope_deg: float, uphill_speed: float = 0.0, integrator: str = 
     """The disk's states [(t [s], BodyState)] and the ground's reports, lying flat on a ramp descending
     towards +x, pushed up it at ``uphill_speed`` [m/s]."""
     p = math.radians(slope_deg)
-    up = (-math.cos(p), 0.0, math.sin(p))
-    centre = (0.5 * THICKNESS * math.sin(p), 0.0, 0.5 * THICKNESS * math.cos(p))
-    text = f"""
-name: ramp
-dt: {DT}
-until: {until}
-on_unstable: error
-components:
-  disk:
-    type: RigidBody
-    shape: disk
-    radius: {RADIUS}
-    thickness: {THICKNESS}
-    density: {DENSITY}
-    tilt_deg: {slope_deg}
-    tilt_axis: [0.0, 1.0, 0.0]
-    position: {list(centre)}
-    velocity: {[uphill_speed * c for c in up]}
-    integrator: {integrator}
-  ramp:
-    type: SolidGround
-    slope_deg: {slope_deg}
-    mu_static: 0.5
-    mu_kinetic: 0.4
-connections:
-  - disk.state -> ramp.body
-  - {{from: ramp.impulse, to: disk.impulse, delay: 1,
-     initial: {{linear: [0, 0, 0], angular: [0, 0, 0], correction: [0, 0, 0]}}}}
-"""
-    watch = Channels("disk.state", "ramp.contact")
+    text = disk_on_plane(dt=DT, until=until, radius=RADIUS, thickness=THICKNESS, density=DENSITY,
+                         mu_static=0.5, mu_kinetic=0.4, slope_deg=slope_deg, integrator=integrator,
+                         velocity=(-uphill_speed * math.cos(p), 0.0, uphill_speed * math.sin(p)))
+    watch = Channels("disk.state", "ground.contact")
     result = Simulation(loads(text, source="ramp"), observers=[watch]).run(round(until * 1e9))
     assert result.status == "ok", result.reason
-    return watch.seen["disk.state"], watch.seen["ramp.contact"]
+    return watch.seen["disk.state"], watch.seen["ground.contact"]
 
 
 @pytest.mark.parametrize("integrator", ["semi_implicit_euler", "verlet", "rk4"])
