@@ -14,6 +14,7 @@ import pytest
 from PIL import Image
 
 from components.analysis.render import (
+    RenderError,
     RenderOptions,
     _ffmpeg,
     body_polygons,
@@ -174,6 +175,20 @@ def test_a_gif_plays_at_the_speed_asked(skip_path, tmp_path, fps, speed, start, 
     assert all(d % 10 == 0 and d >= 20 for d in delays), delays
     assert abs(sum(delays) - 1000 * result.frames / fps) <= 10
     assert abs(sum(delays[:-1]) - 1000 * (result.stop - result.start) / speed) <= 10
+
+
+def test_a_speed_that_leaves_one_frame_is_bad_input(skip_path, tmp_path, capsys):
+    """--speed 100 at 30 frames a second puts 3.3 s of the run between frames: the video would be the
+    run's first frame alone (it was written, a GIF of t = 0). Exit 2 saying the speed that gives three
+    frames, nothing written; frame_times itself never gives one frame for a span."""
+    out = tmp_path / "fast.gif"
+    assert main(["render", str(skip_path), "-o", str(out), "--speed", "100"]) == 2
+    said = capsys.readouterr().err
+    assert "error: --speed 100 at --fps 30 puts 3.33333 s of the run between frames" in said
+    assert "for three frames" in said
+    assert not out.exists()
+    with pytest.raises(RenderError):
+        frame_times(0.0, 0.5, 10, 10.0)
 
 
 def test_a_gif_faster_than_50_frames_a_second_is_bad_input(skip_path, tmp_path, capsys):

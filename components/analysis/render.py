@@ -789,6 +789,10 @@ def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
     :class:`RenderError` when they would be more than :data:`MAX_FRAMES`."""
     step = speed / fps
     n = math.floor((t1 - t0) / step + 1e-9) + 1
+    if n == 1 and t1 - t0 > 1e-9:  # a span shorter than a frame: the video would be its first frame alone
+        raise RenderError(f"--speed {speed:g} at --fps {fps:g} puts {step:g} s of the run between frames, more than "
+                          f"the {t1 - t0:g} s to draw: one frame; lower --speed (at most {(t1 - t0) * fps / 2:.3g} "
+                          "for three frames) or make a PNG")
     if n > MAX_FRAMES:
         raise RenderError(f"{n:.3g} frames ({t1 - t0:g} s of the run at --speed {speed:g} and --fps {fps:g}), more "
                           f"than {MAX_FRAMES}: raise --speed, lower --fps or shorten --from/--to")
