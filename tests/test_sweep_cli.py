@@ -94,6 +94,24 @@ def test_a_long_dry_run_shows_its_progress_unless_quiet(tmp_path, capsys):
     assert "checking" not in capsys.readouterr().err
 
 
+def test_a_dry_run_says_what_the_run_would_refuse_of_its_output(tmp_path, capsys):
+    """--dry-run checks the output as the run would: a file where its folder goes, or a table of another
+    sweep to resume, exit 2 with the run's words (it said ok, exit 0, and the run then exited 2);
+    with --fresh the other sweep's table is no obstacle."""
+    path = write_sweep(tmp_path, SWEEP)
+    (tmp_path / "afile").write_text("")
+    assert main(["sweep", str(path), "--dry-run", "-q", "-o", str(tmp_path / "afile" / "x.csv")]) == 2
+    assert "afile is a file, not a folder" in capsys.readouterr().err
+    other = write_sweep(tmp_path, SWEEP.replace("[2, 3, 5]", "[2, 3, 5]\nset: {components.ball.restitution: 0.5}"),
+                        name="other.yaml")
+    out = tmp_path / "t.csv"
+    assert main(["sweep", str(other), "-q", "--workers", "1", "--no-figure", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["sweep", str(path), "--dry-run", "-q", "-o", str(out)]) == 2
+    assert f"error: {out}: holds the results of a different sweep" in capsys.readouterr().err
+    assert main(["sweep", str(path), "--dry-run", "-q", "--fresh", "-o", str(out)]) == 0
+
+
 def test_dry_run_lists_points_and_runs_nothing(tmp_path, capsys):
     """--dry-run validates the sweep and lists each point's overrides without running or writing."""
     path = write_sweep(tmp_path, SWEEP)

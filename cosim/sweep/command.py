@@ -69,6 +69,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 print(f"error: {args.sweep}: {len(bad)} of {checked} points checked make no valid scene (listed "
                       "above); each would be a failed row", file=sys.stderr)
                 return EXIT_BAD_INPUT
+            refused = _output_refused(sweep, fresh=args.fresh)
+            if refused:  # what the run would refuse at once: said now, not as "ok"
+                print(f"error: {sweep.output}: {refused}", file=sys.stderr)
+                return EXIT_BAD_INPUT
             return EXIT_OK
         # Dask's own log lines (tracebacks of what the sweep says in one line) only with --debug, which
         # the command line's parser takes out before the command sees its arguments
@@ -151,6 +155,31 @@ def _check_points(sweep: Any, progress: bool = True) -> tuple[int, list[tuple[An
 
 
 PROGRESS_FROM = 100  # points: fewer are checked within a second or so, without a bar
+
+
+def _output_refused(sweep: Any, fresh: bool) -> str:
+    """--dry-run: why the run would refuse its output at once ('' if it would not): a folder where the
+    table goes, a file where its folder goes, or a table of another sweep to resume (the dry run said
+    ok, and the run then exited 2)."""
+    import json
+
+    from cosim.sweep.table import journal_path, meta_path, not_this_sweeps
+
+    output = Path(sweep.output)
+    for parent in (output.parent, *output.parent.parents):
+        if parent.exists():
+            if not parent.is_dir():
+                return f"cannot be written: {parent} is a file, not a folder"
+            break
+    if output.is_dir():
+        return "is a folder, not a results table: give -o a .csv or .parquet file name"
+    if fresh or not journal_path(output).exists():
+        return ""
+    try:
+        record = json.loads(meta_path(output).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ""  # (the run says what is wrong with it in its own words)
+    return not_this_sweeps(record, sweep.fingerprint(), sweep.columns) if isinstance(record, dict) else ""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

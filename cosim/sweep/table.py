@@ -76,6 +76,21 @@ def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else beside(output, ".journal.csv")
 
 
+def not_this_sweeps(record: dict[str, Any], fingerprint: str, columns: list[str]) -> str:
+    """Why a table whose record (its meta file) is ``record`` cannot be resumed by a sweep of this
+    ``fingerprint`` and ``columns`` ('' if it can)."""
+    if record.get("fingerprint") == fingerprint:
+        return ""
+    theirs, mine = list(record.get("columns") or ()), list(columns)
+    if [c for c in theirs if c != "recording"] == [c for c in mine if c != "recording"] and theirs != mine:
+        # the same sweep, started with --record and resumed without it, or the other way round
+        started, rows = ("with", "name their") if "recording" in theirs else ("without", "have no")
+        return (f"was started {started} --record (its rows {rows} recordings): resume it {started} --record, or "
+                "use --fresh to start over or -o for another file")
+    return ("holds the results of a different sweep (its scene, set, derived, metrics or columns differ); use "
+            "--fresh to start over or -o for another file")
+
+
 def figure_path(output: Path) -> Path:
     """Where a sweep's figure is drawn: beside its table, as a PNG."""
     return output.with_suffix(".png")
@@ -329,16 +344,9 @@ class ResultTable:
             raise ScenarioError(f"exists but {self.meta_path.name} beside it is missing or unreadable, so "
                                 "it cannot be resumed; use --fresh to start over or -o for another file",
                                 where) from None
-        if meta.get("fingerprint") != self.meta["fingerprint"]:
-            theirs, mine = list(meta.get("columns") or ()), list(self.meta["columns"])
-            if [c for c in theirs if c != "recording"] == [c for c in mine if c != "recording"] and theirs != mine:
-                # the same sweep, started with --record and resumed without it, or the other way round
-                started, rows = ("with", "name their") if "recording" in theirs else ("without", "have no")
-                raise ScenarioError(f"was started {started} --record (its rows {rows} recordings): resume it "
-                                    f"{started} --record, or use --fresh to start over or -o for another file",
-                                    where)
-            raise ScenarioError("holds the results of a different sweep (its scene, set, derived, metrics or "
-                                "columns differ); use --fresh to start over or -o for another file", where)
+        foreign = not_this_sweeps(meta, self.meta["fingerprint"], self.columns)
+        if foreign:
+            raise ScenarioError(foreign, where)
         raw = self.path.read_bytes()
         try:  # the whole rows (a row cut short may end inside a character), before anything is cut off below
             raw[: raw.rfind(b"\n") + 1].decode("utf-8")
