@@ -32,7 +32,9 @@ def test_a_small_disk_skips_and_its_columns_are_subsampled():
     assert_volume_kept(r)
     assert_stone_never_gains_energy(r)
     assert r.metrics["skips"] >= 1 and r.metrics["outcome"] == "left-pond"
-    assert r.coupler._subsamples(SMALL, 0.01) == 16
+    from components.coupler.fixtures import body
+
+    assert r.coupler._subsamples(body(radius=SMALL, thickness=0.001), 0.01) == 16
 
 
 def test_a_small_sphere_sinks_at_its_terminal_speed():
