@@ -103,7 +103,9 @@ def test_a_gif_frame_longer_than_a_gif_holds_is_refused(skip_path, tmp_path, cap
     assert line == (f"error: {out}: --fps must be at least 0.00153 for a GIF (a frame's delay is at most 65535 "
                     "hundredths of a second, 655.35 s), got 0.001")
     assert not out.exists()
-    assert main(["render", str(skip_path), "-o", str(out), "-q", "--width", "160", "--fps", "0.00153"]) == 0
+    # (at a speed that leaves the run more than one frame: 0.3 s of it a frame)
+    assert main(["render", str(skip_path), "-o", str(out), "-q", "--width", "160", "--fps", "0.00153",
+                 "--speed", "0.000459"]) == 0
     with Image.open(out) as im:
         assert im.info["duration"] <= 655_350
 
