@@ -228,9 +228,8 @@ class RigidBodyParams:
             both = 0.5 * mass * (spin_rim + turn_rim) * (spin_rim + turn_rim)  # together, at most this
             if not math.isfinite(both):
                 terms["spin" if spin_rim >= turn_rim else "angular_velocity"] = both
-        # a scripted horizontal velocity: its fastest keyframe, with the vertical velocity it keeps
-        scripted = max((vx * vx + vy * vy for _, vx, vy in self.scripted_velocity), default=0.0)
-        terms["scripted_velocity"] = 0.5 * mass * (scripted + self.velocity[2] * self.velocity[2])
+        if self.scripted_velocity:  # a scripted horizontal velocity: its fastest keyframe
+            terms["scripted_velocity"] = 0.5 * mass * max(vx * vx + vy * vy for _, vx, vy in self.scripted_velocity)
         kinetic = [(name, f"makes the stone's kinetic energy overflow a float (got {getattr(self, name)!r})")
                    for name, energy in terms.items() if not math.isfinite(energy)]
         height = mass * sum(abs(g * x) for g, x in zip(self.gravity, self.position, strict=True))

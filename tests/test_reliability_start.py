@@ -258,3 +258,6 @@ def test_a_scripted_velocity_whose_kinetic_energy_overflows_is_refused_naming_it
     with pytest.raises(ScenarioError, match=r"components\.disk_tilted\.scripted_velocity: makes the stone's kinetic "
                                             r"energy overflow a float"):
         load(SCENES / "ground_bounce.yaml", ["components.disk_tilted.scripted_velocity=[[0, 1e308, 0]]"])
+    with pytest.raises(ScenarioError) as unscripted:  # a vertical speed alone is the velocity's, not the script's
+        load(SCENES / "ground_bounce.yaml", ["components.disk_tilted.velocity=[0, 0, 1e160]"])
+    assert "velocity" in str(unscripted.value) and "scripted_velocity" not in str(unscripted.value)

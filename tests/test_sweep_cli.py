@@ -110,6 +110,10 @@ def test_a_dry_run_says_what_the_run_would_refuse_of_its_output(tmp_path, capsys
     assert main(["sweep", str(path), "--dry-run", "-q", "-o", str(out)]) == 2
     assert f"error: {out}: holds the results of a different sweep" in capsys.readouterr().err
     assert main(["sweep", str(path), "--dry-run", "-q", "--fresh", "-o", str(out)]) == 0
+    mine = tmp_path / "mine.csv"  # a table of the user's, no record beside it
+    mine.write_text("a,b\n1,2\n")
+    assert main(["sweep", str(path), "--dry-run", "-q", "-o", str(mine)]) == 2
+    assert "mine.meta.json beside it is missing or unreadable, so it cannot be resumed" in capsys.readouterr().err
 
 
 def test_dry_run_lists_points_and_runs_nothing(tmp_path, capsys):

@@ -457,8 +457,8 @@ class WaterSurface(Component):
         if self.max_stable_step() < self.model.max_stable_step():  # (the damping's bound is the lower)
             return f"set by its damping {self.params.damping:g} 1/s: a step of at most {DAMPING_STEP:g} / damping"
         if self.params.model == "airy" and math.isfinite(self.model.max_stable_step()):
-            return ("set by its absorbing edges: the edge cannot follow a wave mode that turns more than half "
-                    "a turn a step (pi / its fastest mode's frequency)")
+            return ("set by its absorbing edges: the edge cannot follow a wave mode that turns about half a turn "
+                    "a step (0.9 pi / its fastest mode's frequency)")
         return ""
 
     def summary(self) -> list[str]:

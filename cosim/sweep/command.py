@@ -163,7 +163,7 @@ def _output_refused(sweep: Any, fresh: bool) -> str:
     ok, and the run then exited 2)."""
     import json
 
-    from cosim.sweep.table import journal_path, meta_path, not_this_sweeps
+    from cosim.sweep.table import journal_path, meta_path, no_record, not_this_sweeps
 
     output = Path(sweep.output)
     for parent in (output.parent, *output.parent.parents):
@@ -178,7 +178,7 @@ def _output_refused(sweep: Any, fresh: bool) -> str:
     try:
         record = json.loads(meta_path(output).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return ""  # (the run says what is wrong with it in its own words)
+        return no_record(meta_path(output))
     return not_this_sweeps(record, sweep.fingerprint(), sweep.columns) if isinstance(record, dict) else ""
 
 

@@ -76,6 +76,12 @@ def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else beside(output, ".journal.csv")
 
 
+def no_record(meta: Path) -> str:
+    """Why a table whose record ``meta`` cannot be read cannot be resumed."""
+    return (f"exists but {meta.name} beside it is missing or unreadable, so it cannot be resumed; use --fresh "
+            "to start over or -o for another file")
+
+
 def not_this_sweeps(record: dict[str, Any], fingerprint: str, columns: list[str]) -> str:
     """Why a table whose record (its meta file) is ``record`` cannot be resumed by a sweep of this
     ``fingerprint`` and ``columns`` ('' if it can)."""
@@ -341,9 +347,7 @@ class ResultTable:
         try:
             meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
         except (OSError, ValueError):
-            raise ScenarioError(f"exists but {self.meta_path.name} beside it is missing or unreadable, so "
-                                "it cannot be resumed; use --fresh to start over or -o for another file",
-                                where) from None
+            raise ScenarioError(no_record(self.meta_path), where) from None
         foreign = not_this_sweeps(meta, self.meta["fingerprint"], self.columns)
         if foreign:
             raise ScenarioError(foreign, where)
