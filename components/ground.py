@@ -135,10 +135,8 @@ class SolidGround(Component):
         # and the position [m] it begins it from: the last state's plus this ground's correction
         self._begins_from: tuple[np.ndarray, Vec3Param] | None = None
         self._slip: Vec3Param = _NO_CHANGE  # the slip the last sliding response acted against (unit)
-        # for the viewer (visuals) only: where the body last was [m], its size [m], and the rectangle of
-        # the plane's own axes its path has covered, ((a_min, b_min), (a_max, b_max)) [m]
-        self._body_at: Vec3Param | None = None
-        self._body_reach = 0.0
+        # for the viewer (visuals) only: the rectangle of the plane's own axes its body's path has
+        # covered, ((a_min, b_min), (a_max, b_max)) [m]
         self._drawn_over: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def _mass_properties(self, msg: BodyState) -> MassProperties:
@@ -218,7 +216,6 @@ class SolidGround(Component):
         assert isinstance(msg, BodyState)
         x = tuple(msg.position.tolist())
         reach = self._mass_properties(msg).bounding_radius
-        self._body_at, self._body_reach = x, reach  # (for the viewer only: visuals)
         if self.plane.height(x) > reach:  # the bounding sphere is clear: no contact possible
             return self._apart(msg)
         if not self._gravity_checked:
@@ -253,20 +250,22 @@ class SolidGround(Component):
         its body has taken so far, GROUND_MARGIN and the body's radius beyond it on every side: a plane
         has no edge of its own, and two grounds side by side (a floor and a ramp) stay apart where
         their bodies are. Viewer items only: the physics never reads it."""
-        if port != "contact" or self._body_at is None:
+        if port != "contact" or self._begins_from is None or self._body is None:
             return []
         from components.visuals import GROUND_MARGIN, ground_slab, plane_axes
 
         normal, point = self.plane.normal, self.plane.point
-        _, u, w = plane_axes(normal)
-        offset = np.asarray(self._body_at, dtype=float) - np.asarray(point, dtype=float)
+        axes = plane_axes(normal)
+        _, u, w = axes
+        # (the body's last state: where its next step begins, less this ground's correction)
+        offset = np.asarray(self._begins_from[0], dtype=float) - np.asarray(point, dtype=float)
         a, b = float(offset @ u), float(offset @ w)
         box = self._drawn_over
         self._drawn_over = box = ((a, b), (a, b)) if box is None else (
             (min(box[0][0], a), min(box[0][1], b)), (max(box[1][0], a), max(box[1][1], b)))
-        reach = GROUND_MARGIN + self._body_reach
+        reach = GROUND_MARGIN + self._body.bounding_radius
         (a0, b0), (a1, b1) = box
-        return ground_slab(self.name, normal, point, (a0 - reach, b0 - reach), (a1 + reach, b1 + reach))
+        return ground_slab(self.name, normal, point, axes, (a0 - reach, b0 - reach), (a1 + reach, b1 + reach))
 
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """A body that starts inside the ground by more than its own size is a mistake in the scene

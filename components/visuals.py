@@ -25,6 +25,7 @@ from functools import lru_cache
 import numpy as np
 
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterField
+from components.rigid import quaternion as quat
 from components.stages import CURVE_DRIFT, CURVE_HEADING_DEG
 from cosim.view.items import (
     LOG_TOPIC,
@@ -94,26 +95,18 @@ def plane_axes(normal: tuple[float, float, float]) -> tuple[tuple, np.ndarray, n
     """(q, u, w) of a plane of unit ``normal`` (3,): the quaternion (w, x, y, z) turning z onto the
     normal by the least rotation, and the plane's own axes u, w (3,) [-], the images of x and y
     (for a slope, u runs downhill)."""
-    n = np.asarray(normal, dtype=float)
-    axis = np.array([-n[1], n[0], 0.0])  # z x n
-    size = float(np.linalg.norm(axis))
-    if size < 1e-12:
-        return (1.0, 0.0, 0.0, 0.0), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    half = 0.5 * math.atan2(size, float(n[2]))
-    a = axis / size * math.sin(half)
-    q = (math.cos(half), float(a[0]), float(a[1]), float(a[2]))
-    w0, x, y, z = q
-    u = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w0 * z), 2 * (x * z - w0 * y)])
-    w = np.array([2 * (x * y - w0 * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w0 * x)])
-    return q, u, w
+    nx, ny, nz = (float(c) for c in normal)
+    size = math.hypot(nx, ny)  # of z x n, the axis turning z onto n
+    q = (1.0, 0.0, 0.0, 0.0) if size < 1e-12 else quat.from_axis_angle((-ny, nx, 0.0), math.atan2(size, nz))
+    return q, np.array(quat.rotate(q, (1.0, 0.0, 0.0))), np.array(quat.rotate(q, (0.0, 1.0, 0.0)))
 
 
 def ground_slab(component: str, normal: tuple[float, float, float], point: tuple[float, float, float],
-                lo: tuple[float, float], hi: tuple[float, float]) -> list:
+                axes: tuple, lo: tuple[float, float], hi: tuple[float, float]) -> list:
     """A ground plane through ``point`` [m] of unit ``normal``, drawn over the rectangle ``lo`` .. ``hi``
-    [m] of its own axes (:func:`plane_axes`, measured from ``point``) as a slab GROUND_SLAB thick whose
-    top is the plane."""
-    q, u, w = plane_axes(normal)
+    [m] of its own ``axes`` (:func:`plane_axes` of the normal, measured from ``point``) as a slab
+    GROUND_SLAB thick whose top is the plane."""
+    q, u, w = axes
     (a0, b0), (a1, b1) = lo, hi
     centre = (np.asarray(point, dtype=float) + 0.5 * (a0 + a1) * u + 0.5 * (b0 + b1) * w
               - 0.5 * GROUND_SLAB * np.asarray(normal, dtype=float))

@@ -682,11 +682,8 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
             return None
         try:
             initial = codec_for(out_type).from_dict(initial_data)
-        except CodecError as exc:  # (a field it names: path.initial.x_max: ...)
-            said = str(exc)
-            field, sep, rest = said.partition(": ")
-            named = sep and field.isidentifier()
-            problems.append(f"{path}.initial.{field}: {rest}" if named else f"{path}.initial: {said}")
+        except CodecError as exc:  # (about one field: said on it, path.initial.x_max: ...)
+            problems.append(f"{path}.initial.{exc}" if exc.field else f"{path}.initial: {exc}")
             return None
         wrong = _out_of_range_field(initial)
         if wrong is not None:

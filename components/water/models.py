@@ -115,6 +115,10 @@ class Model:
         """Largest stable step [s] (inf for an unconditionally stable model)."""
         return math.inf
 
+    def stable_step_cause(self) -> str:
+        """What sets :meth:`max_stable_step`, when it is more than the model's own stencil ('' else)."""
+        return ""
+
     def advance(self, h: np.ndarray, v: np.ndarray, h_out: np.ndarray, v_out: np.ndarray, dt: float) -> None:
         """Write the state after a step of ``dt`` [s] into ``h_out``, ``v_out`` (inputs unchanged)."""
         raise NotImplementedError
@@ -304,6 +308,12 @@ class AiryModel(Model):
         if self.closed:
             return math.inf
         return AIRY_EDGE_TURN * math.pi / float(self.omega.max())
+
+    def stable_step_cause(self) -> str:
+        if self.closed:
+            return ""
+        return ("set by its absorbing edges: the edge cannot follow a wave mode that turns about half a turn "
+                f"a step ({AIRY_EDGE_TURN:g} pi / its fastest mode's frequency)")
 
     def _rotation(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self._dt != dt:

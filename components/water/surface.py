@@ -456,10 +456,7 @@ class WaterSurface(Component):
     def stable_step_cause(self) -> str:
         if self.max_stable_step() < self.model.max_stable_step():  # (the damping's bound is the lower)
             return f"set by its damping {self.params.damping:g} 1/s: a step of at most {DAMPING_STEP:g} / damping"
-        if self.params.model == "airy" and math.isfinite(self.model.max_stable_step()):
-            return ("set by its absorbing edges: the edge cannot follow a wave mode that turns about half a turn "
-                    "a step (0.9 pi / its fastest mode's frequency)")
-        return ""
+        return self.model.stable_step_cause()
 
     def summary(self) -> list[str]:
         g, p = self.grid, self.params

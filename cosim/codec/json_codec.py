@@ -43,7 +43,12 @@ _NONFINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
 
 
 class CodecError(ValueError):
-    """A payload that does not decode to its message type."""
+    """A payload that does not decode to its message type; ``field``: the scalar field it is about, when
+    one is (its text then begins with that field's name)."""
+
+    def __init__(self, message: str, field: str | None = None):
+        super().__init__(message)
+        self.field = field
 
 
 def _float_out(x: float) -> float | str:
@@ -374,12 +379,12 @@ class MessageCodec:
         try:
             values = {name: dec(data[name]) for name, dec in self._decoders if name in data}
         except CodecError as exc:  # said with the field it is about (array fields name themselves)
-            raise CodecError(self._failing_field(data, exc)) from None
+            raise self._failing_field(data, exc) from None
         return self.message_type(**values)
 
-    def _failing_field(self, data: dict, exc: CodecError) -> str:
-        """``exc``'s text led by the field of ``data`` that fails to decode ('x_max: expected a number,
-        got string 'abc''; it said which value was wrong, not where)."""
+    def _failing_field(self, data: dict, exc: CodecError) -> CodecError:
+        """``exc`` led by the field of ``data`` that fails to decode ('x_max: expected a number, got
+        string 'abc''; it said which value was wrong, not where), that field its ``field``."""
         for name, dec in self._decoders:
             if name not in data:
                 continue
@@ -387,8 +392,8 @@ class MessageCodec:
                 dec(data[name])
             except CodecError as failed:
                 said = str(failed)
-                return said if said.startswith("field ") else f"{name}: {said}"
-        return str(exc)
+                return failed if said.startswith("field ") else CodecError(f"{name}: {said}", field=name)
+        return exc
 
     def decode(self, payload: bytes) -> Message:
         """Message from JSON bytes, or from the protobuf payload a recording holds for a type that has

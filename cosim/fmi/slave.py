@@ -98,9 +98,12 @@ class SceneSlave(Fmi2Slave):
         folder = Path(self.resources)
         release_binaries_at_exit(folder)  # the binary's double release at exit (cosim.fmi.pythonfmu_exit)
         self.scene_text = (folder / SCENE_FILE).read_text(encoding="utf-8")
-        self.spec_text = (folder / SPEC_FILE).read_text(encoding="utf-8")
-        self.spec = ExportSpec.from_json(self.spec_text)
-        self._scene_digest: str | None = None
+        spec_text = (folder / SPEC_FILE).read_text(encoding="utf-8")
+        self.spec = ExportSpec.from_json(spec_text)
+        # what a state of this FMU is saved with: a digest of the scene text and the export settings
+        # (every FMU exported with the throw preset has the same variables, and a stone alone took the
+        # state of a stone with a gust model, extra component and all)
+        self.scene_digest = hashlib.sha256(self.scene_text.encode() + b"\0" + spec_text.encode()).hexdigest()
         self.description = "A cosim scene as a co-simulation FMU (cosim fmu export)"
         self.values: dict[str, Any] = {}
         self.sim: Simulation | None = None
@@ -315,7 +318,7 @@ class SceneSlave(Fmi2Slave):
     def _get_fmu_state(self) -> dict[str, Any]:
         """The variables' values and, once initialized, the scene's checkpoint (every component's
         state and port history, bit-exact) with the ports' latest messages the outputs read."""
-        state: dict[str, Any] = {"scene": self._fingerprint(), "values": dict(self.values)}
+        state: dict[str, Any] = {"scene": self.scene_digest, "values": dict(self.values)}
         if self.sim is not None:
             state["checkpoint"] = encode_state(self.sim.checkpoint()).decode()
             state["stop_reason"] = self.sim.stop_reason
@@ -330,7 +333,7 @@ class SceneSlave(Fmi2Slave):
         initialization takes the instance back to before it: no scene, initialization to come."""
         try:
             values = state["values"]
-            if state.get("scene") != self._fingerprint():
+            if state.get("scene") != self.scene_digest:
                 raise ValueError("it is the state of another exported scene, or of another version of cosim "
                                  "(the scene and export settings it was saved with differ from this FMU's)")
             if set(values) != set(self.values):
@@ -347,17 +350,6 @@ class SceneSlave(Fmi2Slave):
             self._started = None
             self.latest.messages = {}
         self.values.update(values)
-
-    def _fingerprint(self) -> str:
-        """A digest of the scene text and the export settings this FMU runs: a state is this FMU's only
-        if it was saved by one with the same (every FMU exported with the throw preset has the same
-        variables, and a stone alone took the state of a stone with a gust model, extra component and
-        all)."""
-        if self._scene_digest is None:
-            digest = hashlib.sha256(self.scene_text.encode())
-            digest.update(b"\0" + self.spec_text.encode())
-            self._scene_digest = digest.hexdigest()
-        return self._scene_digest
 
     def _restore_scene(self, state: dict[str, Any], values: dict[str, Any]) -> None:
         """Put the scene back as ``state`` saved it; on failure, back as it was."""

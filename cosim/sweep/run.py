@@ -30,7 +30,7 @@ from tqdm import tqdm
 from cosim.errors import counted, ending_signals
 from cosim.sweep.backends import MACHINE_LIMITS, BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
-from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot, column_kinds, figure_path, runs_folder
+from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot, column_kinds, figure_path, run_again, runs_folder
 
 IN_FLIGHT_PER_SLOT = 2  # tasks queued per worker: keeps workers busy, bounds what an interruption drops
 RECORDING_FAILURES = ("SinkError", "RecordingError")  # error types of a run whose recording failed
@@ -83,8 +83,7 @@ class SweepOutcome:
                     f"when {again} once there is room")
         why = (self.lost if self.lost is not None else "interrupted" if self.interrupted
                else f"{counted(self.unfinished, 'run was', 'runs were')} interrupted")
-        resume = "run the command again without --fresh" if self.fresh else "run the same command again"
-        return f"{why}: {left}; {resume} to resume"
+        return f"{why}: {left}; {run_again(self.fresh)} to resume"
 
 
     def summary(self) -> str:

@@ -76,6 +76,12 @@ def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else beside(output, ".journal.csv")
 
 
+def run_again(fresh: bool) -> str:
+    """How to go on with a table a sweep has begun: after --fresh the same command again would discard
+    the rows it kept."""
+    return "run the command again without --fresh" if fresh else "run the same command again"
+
+
 def no_record(meta: Path) -> str:
     """Why a table whose record ``meta`` cannot be read cannot be resumed."""
     return (f"exists but {meta.name} beside it is missing or unreadable, so it cannot be resumed; use --fresh "
@@ -481,8 +487,7 @@ class ResultTable:
             return self._finish(order, summary)
         except OSError as exc:
             raise cannot(self.output, exc, "write the sweep's finished table",
-                         "; its rows are kept: run the " + ("command again without --fresh" if self.fresh else
-                                                             "same command again") + " to finish it") from None
+                         f"; its rows are kept: {run_again(self.fresh)} to finish it") from None
 
     def _sorted_rows(self, order: dict[str, int]) -> list[dict[str, str]]:
         """The journal's results of this sweep's points, one a point, by point index. A row of a point
