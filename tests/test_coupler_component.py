@@ -716,3 +716,21 @@ def test_a_disk_standing_nearly_on_edge_is_buoyed_by_its_volume_wherever_it_stan
         c = WaterCoupler("c", WaterCouplerParams(effects=["buoyancy"]))
         force = c.step(0, DT_NS, {"body": b, "water": water})["wrench"].force[2]
         assert force == pytest.approx(archimedes, rel=0.07), x
+
+
+@pytest.mark.parametrize("direction", [(1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.6, 0.0, 0.8)])
+def test_a_body_wholly_under_water_has_its_whole_skin_friction(direction):
+    """A 5 cm ball 0.3 m down moving at 2.1 m/s: no air reaches its back, so its skin friction is the
+    whole of 1/2 rho C_f U^2 (8/3) pi R^2 (0.231 N; the integral of sin^2 over the sphere), in any
+    direction. Its receding half was ventilated as a skipping stone's upper face is (a factor of its
+    depth): 0.217 N, and the measured drag (its pressure drag C_D = 0.47 less this friction) was
+    short by the difference."""
+    r, speed = 0.05, 2.1
+    u = speed * np.asarray(direction)
+    ball = body(Shape.SPHERE, position=(0.0, 0.0, -0.3), velocity=u, radius=r, density=2700.0)
+    c = WaterCoupler("c", WaterCouplerParams(effects=["friction"]))
+    contact = c.step(0, DT_NS, {"body": ball, "water": still_water(cell=0.005, half_width=0.1)})["contact"]
+    whole = 0.5 * 1000.0 * 0.005 * speed**2 * 8.0 / 3.0 * math.pi * r * r
+    friction = np.asarray(contact.friction)
+    assert float(np.linalg.norm(friction)) == pytest.approx(whole, rel=0.02)
+    assert float(friction @ u) / (float(np.linalg.norm(friction)) * speed) == pytest.approx(-1.0, abs=1e-3)

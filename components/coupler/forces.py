@@ -57,8 +57,11 @@ from the face.)
   sqrt(2 g d) at depth d opens an air cavity (ventilates). The friction of a receding element is
   scaled by the smooth factor ``2 g d / (2 g d + (u.n)^2)`` (:func:`ventilation`), d the mean depth
   of the element's wetted part (its centre's depth once it is wholly under): 1 for a face sliding
-  along itself or receding slowly deep down (a sinking stone's upper face), about 0 for the upper
-  face and trailing rim of a skipping stone, which are in its air cavity.
+  along itself or receding slowly deep down, about 0 for the upper face and trailing rim of a
+  skipping stone, which are in its air cavity. Air reaches that cavity only from the surface the
+  body pierces, so the factor acts in the body's planing share alone (the share the pressure law
+  gives the planing law): a body wholly under water is not ventilated, and its whole skin friction
+  adds to the submerged pressure drag (a sphere's C_D below is the measured one less that friction).
 * Buoyancy: ``rho_w g b s^2`` upward per column (or sub-column) at its wet interval's centroid.
 * Capillary-gravity wave drag (Raphael & de Gennes 1996: no waves, hence no wave resistance, below
   c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section

@@ -907,12 +907,17 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
                 utz = uz - un * nz
                 speed = math.sqrt(ux * ux + uy * uy + uz * uz)
                 kf = 0.5 * rho * c_f * speed * fa
-                if un < 0.0:
+                if un < 0.0 and planing > 0.0:
                     # at the mean depth of its wetted part: a partly wet element whose centre is above
                     # the surface still has water on it (its depth taken as 0, the factor fell from 1
                     # to 0 as u.n went from 0 to -1e-17, and a spinning disk's rim strips, sliding
-                    # along themselves, lost their friction by the sign of a rounding)
-                    kf *= ventilation(un, t if t >= half else 0.5 * (t + half), g)
+                    # along themselves, lost their friction by the sign of a rounding). Only while the
+                    # body pierces the surface (its planing share): air reaches a cavity behind it
+                    # from there; a body wholly under water drags water behind it, not air, and the
+                    # measured submerged drag the pressure effect takes over (c_d) leaves its whole
+                    # skin friction to this effect
+                    vent = ventilation(un, t if t >= half else 0.5 * (t + half), g)
+                    kf *= 1.0 - planing * (1.0 - vent)
                 dfx = -kf * utx
                 dfy = -kf * uty
                 dfz = -kf * utz
