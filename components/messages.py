@@ -317,15 +317,19 @@ class StageId(enum.IntEnum):
 
 @message
 class Stage(Message):
-    """A stage change: stage id with its label beside it, the skip count so far, and the position x, y
+    """A stage change: stage id with its label beside it, the skip count so far, the position x, y
     [m] (of left-pond: where the stone came down beside the water, a little before the change; y NaN
-    in recordings made before it was kept)."""
+    in recordings made before it was kept), and since [s], when the stage began: the message is
+    published when the stage is known, which for rest is the end of the slow spell that makes it
+    (REST_HOLD on), and for the run's first stage the end of its first step (NaN in recordings made
+    before it was kept: the message's time)."""
 
     stage: StageId
     label: str
     skips: int
     x: float
     y: float = math.nan
+    since: float = math.nan
 
 
 @message

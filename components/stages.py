@@ -117,8 +117,13 @@ def floats(body: BodyState, water: WaterContact, water_density: float = 1000.0) 
     reported buoyancy: that includes the level of the water the body raises around itself, which
     makes a stone plunging in, or started in the water, seem up to twice as buoyant as it is (a disk
     of 1500 kg/m^3 was said to float as it sank to the bed)."""
+    return float(water.buoyancy[2]) > 0.0 and lighter_than_water(body, water_density)
+
+
+def lighter_than_water(body: BodyState, water_density: float = 1000.0) -> bool:
+    """Whether the stone weighs less than ``water_density`` [kg/m^3] times its volume."""
     volume = shape_volume(Shape(body.shape), float(body.radius), float(body.thickness))
-    return float(water.buoyancy[2]) > 0.0 and body.mass < water_density * volume
+    return body.mass < water_density * volume
 
 
 def classify(previous: StageId, body: BodyState, water: WaterContact | None, ground: GroundContact | None,
@@ -157,10 +162,14 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             # was said to have sunk, which is final, as it flew 17 cm up out of the water)
             if water.submerged_fraction >= BUOYANCY_READABLE:
                 return StageId.FLOAT if floats(body, water, water_density) else StageId.SINK
-            if water.submerged_fraction > 0.0 and not water.buoyancy[2] > 0.0:
-                # part of the stone under water and no buoyancy on it: this scene's water has none,
-                # nothing holds the stone up. (A stone whose lowest point has only reached the
-                # surface has nothing under water yet, and no buoyancy for that reason: it goes on.)
+            if (water.submerged_fraction > 0.0 and not water.buoyancy[2] > 0.0
+                    and not lighter_than_water(body, water_density)):
+                # part of a heavy stone under water and no buoyancy on it: this scene's water has
+                # none, nothing holds the stone up. (A stone whose lowest point has only reached the
+                # surface has nothing under water yet, and no buoyancy for that reason: it goes on.
+                # So does a light one: the sliver of one landing on the water it stirred was reported
+                # with no buoyancy (its own raised water counted), and a ball that would float was
+                # called sunk, which is final; once a hundredth of it is under, the buoyancy tells)
                 return StageId.SINK
             return StageId.HIT if vz < 0 else StageId.SLIDE
         if water.submerged_fraction >= FULLY_SUBMERGED and vz <= 0.0:
@@ -298,7 +307,10 @@ class StageMonitor(Component):
             track.peak_g = 0.0
             track.descended = False
             track.grounded = False
-        if track.in_contact and float(body.velocity[2]) < 0.0:
+        if track.in_contact and float(body.velocity[2]) < -abs(self.params.gravity) * dt:
+            # moving down faster than a step of gravity's speed: a body's first step in a scene is
+            # under gravity alone (the water's answer reaches it a step later), so a ball started at
+            # rest under water reported -g dt, and its rise out of the water was counted a skip
             track.descended = True
         if track.in_contact and ground is not None and ground.in_contact:
             track.grounded = True
@@ -317,7 +329,7 @@ class StageMonitor(Component):
             since = self.rest_since if stage is StageId.REST else t if self.stage is None else now
             self.stage, self.since = stage, since
             self.timeline.append((since, STAGE_NAMES[stage]))
-            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x, float(body.position[1]))
+            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x, float(body.position[1]), since)
         if stage is StageId.FLOAT:
             # a floating body is decided as it first comes in slowly, a dropped one as it plunges: the
             # run ends once it has settled, not while it bobs (it ended mid-plunge, 9.5 cm under)
@@ -377,7 +389,7 @@ class StageMonitor(Component):
             if math.isnan(x):  # (a restart from a state saved before it was kept: where the stone is now)
                 x, y = float(body.position[0]), float(body.position[1])
             self.final_x, self.final_y = x, y
-            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x, y)
+            outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x, y, now)
             if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
                 # (rounded to the millimetre first: a throw along y = 0 printed "y = -7.93e-17 m")

@@ -169,3 +169,37 @@ def test_a_record_pattern_for_a_channel_the_run_never_writes_is_refused(tmp_path
     assert code == (2 if refused else 0)
     assert (f"record.channels: {pattern!r} matches no channel of this scene" in err) is refused
     assert out.exists() is not refused
+
+
+GROUND_ONLY = """\
+name: ground_only
+dt: 0.0005
+until: 3.0
+components:
+  stone: {type: RigidBody, shape: disk, radius: 0.05, thickness: 0.015, density: 2650,
+          position: [0.0, 0.0, 0.3], velocity: [3.0, 0.0, -1.0]}
+  floor: {type: SolidGround, restitution: 0.5, mu_static: 0.5, mu_kinetic: 0.4}
+  stages: {type: StageMonitor}
+connections:
+  - stone.state -> floor.body
+  - {from: floor.impulse, to: stone.impulse, delay: 1,
+     initial: {linear: [0, 0, 0], angular: [0, 0, 0], correction: [0, 0, 0]}}
+  - stone.state -> stages.body
+  - floor.contact -> stages.ground
+"""
+
+
+def test_inspect_dates_each_stage_as_the_runs_summary_does(tmp_path, capsys):
+    """A disk thrown onto a floor slides to rest: the summary says rest from the start of its slow
+    spell and the first stage from t = 0; inspect dated them by their messages' times, REST_HOLD and a
+    step later (rest at 0.7105 s beside the summary's 0.6905 s)."""
+    scene, recording = tmp_path / "ground_only.yaml", tmp_path / "ground_only.mcap"
+    scene.write_text(GROUND_ONLY)
+    assert main(["run", str(scene), "-o", str(recording)]) == 0
+    summary = re.search(r"^  stages: (.*)", capsys.readouterr().out, re.M).group(1)
+    said = re.findall(r"(\S+) \((\S+) s\)", summary)
+    assert said[0] == ("approach", "0") and said[-1][0] == "rest"
+    assert main(["inspect", str(recording)]) == 0
+    rows = [line.split() for line in capsys.readouterr().out.splitlines() if "/stages/stage: " in line]
+    shown = [(row[3].rstrip(","), row[0]) for row in rows]
+    assert [(label, float(t)) for label, t in shown] == [(label, float(t)) for label, t in said]

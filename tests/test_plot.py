@@ -292,11 +292,12 @@ def test_a_bounce_in_place_without_water_is_drawn_as_height_over_time(tmp_path):
 
 
 def test_the_initial_state_is_in_the_first_stage_not_an_unknown_one(run):
-    """The stone's first recorded state, before the monitor's first message, is drawn in the first
-    stage: the legend names only real stages."""
+    """The stone's first recorded state, before the monitor's first message (published at the end of
+    its first step), is drawn in the first stage, which the message dates from the run's start: the
+    legend names only real stages."""
     from components.analysis.plot import stage_per_sample
 
-    assert run.body.t[0] < run.stages.t[0]
+    assert run.body.t[0] == run.stages.t[0] == 0.0
     assert stage_per_sample(run)[0] == run.stages.stage[0]
     labels = [t.get_text() for t in figure_trajectory(run).axes[0].get_legend().get_texts()]
     assert labels and "before the first stage" not in labels and "unknown" not in labels

@@ -740,3 +740,49 @@ def test_the_stop_line_names_the_body_the_monitor_watches():
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.001))
     drive(m, [(body(0.0, 0.01, 0.0, -0.5), water(True, 0.5), None)] * 3)
     assert m.stop_reason.startswith("stone sink since t = ")
+
+
+def test_a_light_stone_whose_sliver_under_water_reads_no_buoyancy_is_not_sunk():
+    """A light ball landing slowly on water it stirred: at its first wetted step the coupler reported a
+    sliver under water (5.6e-5 of it) and no buoyancy (its own raised water counted), and the monitor
+    took that for water without buoyancy: 'sink', final, for a ball that floats. A light stone goes
+    on until a hundredth of it is under and the buoyancy tells; a heavy one still sinks at once."""
+    light = 0.2 * DISK_WATER
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, 0.02, 0.0, -2.3, light), water(False), None),
+                    (body(0.0, 0.01, 0.0, -2.3, light), buoyant_water(6e-5, 0.0), None),
+                    (body(0.0, 0.005, 0.0, -2.2, light), buoyant_water(0.02, 0.02 * DISK_WATER * 9.81), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "float"]
+
+
+def test_a_stone_started_at_rest_in_the_water_and_rising_out_is_no_skip():
+    """A light ball started under water at 2 m/s: its first step in a scene is under gravity alone (the
+    water's answer reaches it a step later), so it reports -g dt, and the monitor took that for the
+    contact's descent: its rise out of the water was 'skip 1', touchdown at the start.
+    A descent is faster than a step of gravity's speed; a stone that comes down into the water skips."""
+    light = 0.2 * DISK_WATER
+    under = buoyant_water(1.0, DISK_WATER * 9.81)
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, -0.02, 2.0, -9.81e-3, light), under, None),
+                    *[(body(0.002 * k, -0.02 + 0.002 * k, 2.0, 0.5 * k, light), under, None) for k in range(1, 5)],
+                    (body(0.01, 0.02, 2.0, 2.5, light), water(False, depth=-0.005), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["hit", "slide", "fly-away"]
+    assert m.track.skips == 0 and m.records == []
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    drive(m, [(body(0.0, 0.01, 3.0, -0.5), water(False), None), (body(0.003, 0.0, 3.0, -0.2), water(True), None),
+              (body(0.006, 0.0, 3.0, 0.3), water(True), None), (body(0.009, 0.01, 3.0, 0.4), water(False), None)])
+    assert m.track.skips == 1
+
+
+def test_each_stage_message_says_when_its_stage_began_as_the_summary_does():
+    """Rest is known REST_HOLD after its slow spell began and the run's first stage at the end of the
+    first step, and the Stage messages were published then: `cosim inspect`, the plots and Foxglove,
+    which had only the message's time, said rest at 0.7105 s where the summary said 0.6905 s. Each
+    message carries since [s], the time the summary gives."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    holding = GroundContact(True, 1.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0.0, 0.05, 0.0, -1.0), None, None)] + [(body(0.0, 0.003, 0.0, 0.0), None, holding)] * 30)
+    published = [(o["stage"].label, o["stage"].since) for o in out if "stage" in o]
+    assert [label for label, _ in published] == ["approach", "ground", "rest"]
+    assert published == [(label, t) for t, label in m.timeline]
+    assert published[0][1] == 0.0 and published[2][1] == pytest.approx(0.002)  # rest from its spell's start

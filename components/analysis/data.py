@@ -7,6 +7,7 @@ streamed (:func:`iter_fields`), never all held at once.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -348,7 +349,10 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     if stage_topics:
         touchdown_before = _restored_touchdown(rec, component_of(stage_topics[0]))
         pairs = stage_changes(rec, stage_topics[0])
-        t, msgs = np.array([t for t, _ in pairs], dtype=np.int64) / NS_PER_S, [m for _, m in pairs]
+        msgs = [m for _, m in pairs]
+        # each stage from when it began (rest: the start of its slow spell), not from when it was known
+        # and published; a recording made before the monitor said so, from its message's time
+        t = np.array([m.since if math.isfinite(m.since) else stamp / NS_PER_S for stamp, m in pairs], dtype=float)
         stages = StageTrack(stage_topics[0], t, np.array([int(m.stage) for m in msgs], dtype=int),
                             [m.label for m in msgs], np.array([m.skips for m in msgs], dtype=int))
     contacts = []

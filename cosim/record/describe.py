@@ -1,7 +1,8 @@
 """``cosim inspect``: what a recording holds, how the run ended, and its timeline of labelled events.
 
 Any channel whose messages carry a ``label`` field (a stage monitor's, for instance) is shown as a
-timeline; the framework needs to know nothing about what the labels mean.
+timeline, each event at its message's ``since`` [s] where it has one (an event known a while after it
+began), else at the message's time; the framework needs to know nothing about what the labels mean.
 
 Every text taken from the file (its scene's name, version, command line, overrides, channels,
 schemas, status and labels) is shown with its control characters and line breaks escaped
@@ -11,6 +12,7 @@ schemas, status and labels) is shown with its control characters and line breaks
 from __future__ import annotations
 
 import json
+import math
 
 from cosim.errors import RecordingError, counted, one_line
 from cosim.record.reader import Recording
@@ -41,6 +43,15 @@ def timeline(rec: Recording) -> list[tuple[int, str, dict]]:
         if "label" in msg:  # (a message may leave its label out: no event)
             events.append((stamp, topic, msg))
     return events
+
+
+def _began(stamp: int, msg: dict) -> int:
+    """When an event began [ns]: its message's ``since`` [s] where it says (a state known some time after
+    it began, as a stage monitor's rest), else the message's time ``stamp`` [ns]."""
+    since = msg.get("since")
+    if isinstance(since, (int, float)) and not isinstance(since, bool) and math.isfinite(since):
+        return round(since * NS_PER_S)
+    return stamp
 
 
 def describe_recording(rec: Recording) -> str:
@@ -88,8 +99,9 @@ def describe_recording(rec: Recording) -> str:
                          "what came before, is in the recording it restarted from)")
         # to the step's last digit (at 50 us a hit at 0.07415 s read 0.0741 s, the run's summary 0.07415)
         decimals = max(4, step_decimals(rec.dt_ns))
-        rows = [f"    {stamp / NS_PER_S:{decimals + 5}.{decimals}f} s  {one_line(topic)}: {one_line(msg['label'])}" +
-                "".join(f", {one_line(k)} {_number(v)}" for k, v in msg.items() if k not in ("label", "stage")
+        rows = [f"    {_began(stamp, msg) / NS_PER_S:{decimals + 5}.{decimals}f} s  {one_line(topic)}: "
+                f"{one_line(msg['label'])}" +
+                "".join(f", {one_line(k)} {_number(v)}" for k, v in msg.items() if k not in ("label", "stage", "since")
                         and isinstance(v, (int, float)) and not isinstance(v, bool))
                 for stamp, topic, msg in events]
         if len(rows) > TIMELINE_MAX:
