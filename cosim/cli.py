@@ -105,9 +105,10 @@ def _seconds_arg(text: str) -> int:
 
 
 def run_until_ns(text: str) -> int:
-    """``cosim run --until`` (and every other end time a command takes): as :func:`_seconds_arg`, and
-    later than t = 0 (a run of no time would do nothing; a time shorter than a step runs one step, as a
-    scene's ``until`` does)."""
+    """``cosim run --until``: as :func:`_seconds_arg`, and later than t = 0 (a run of no time would do
+    nothing). It becomes the scene's ``until`` (an override), whose rules then hold: a time shorter than
+    one base step is refused (exit 2, "until: must be at least one base step"), and one between two steps
+    runs to the next whole step."""
     ns = _seconds_arg(text)
     if ns <= 0:
         raise argparse.ArgumentTypeError(f"must be later than 0 s (a run of no time), got {text}")
@@ -476,7 +477,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
                                           "ports and messages")
     p.add_argument("types", nargs="*", metavar="TYPE", help="the types to describe (default: list them all)")
     p.add_argument("--markdown", type=_markdown_path, metavar="FILE.md",
-                   help="write the reference page of the types (default: every registered type) to FILE.md")
+                   help="write the reference page of the types (default: this project's own types, of "
+                        "cosim and components, not another installed package's) to FILE.md")
     p.set_defaults(func=cmd_components)
 
     p = sub.add_parser("inspect", help="channels, status and stage timeline of a recording")

@@ -238,6 +238,28 @@ def test_dask_problems_exit_2(tmp_path, monkeypatch, capsys):
     assert not (tmp_path / "x.csv").exists()
 
 
+@pytest.mark.parametrize("dry", [[], ["--dry-run"]])
+def test_workers_with_a_remote_dask_cluster_is_refused_before_anything(tmp_path, monkeypatch, capsys, dry):
+    """--workers N with --dask tcp://...: the remote cluster runs on its own workers, so the count was
+    ignored without a word; now one line naming both options, exit 2, before the sweep file is read,
+    a scheduler reached or a table written."""
+    path = str(write_sweep(tmp_path, SWEEP))
+
+    def no_backend(*args, **kwargs):
+        raise AssertionError("a backend was made (a scheduler reached) for a refused command line")
+
+    monkeypatch.setattr(cosim.sweep.backends, "make_backend", no_backend)
+    monkeypatch.setattr(cosim.sweep.backends, "DASK_CONNECT_TIMEOUT_S", 1)
+    out = tmp_path / "x.csv"
+    assert main(["sweep", path, "-q", "--workers", "3", "--dask", "tcp://127.0.0.1:9", "-o", str(out), *dry]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith("error: cosim sweep: --workers 3 with --dask tcp://127.0.0.1:9: ")
+    assert "its own workers" in lines[0] and "leave out --workers" in lines[0]
+    assert captured.out == "" and not out.exists() and not (tmp_path / "results").exists()
+
+
 def test_ctrl_c_keeps_finished_rows_and_exits_1(tmp_path):
     """Ctrl-C (SIGINT to the process group) ends the sweep with exit 1, keeps the rows written, and
     says how to resume."""

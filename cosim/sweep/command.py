@@ -5,7 +5,8 @@ is complete (failed runs are rows of the table, not a failure of the sweep, unle
 1 interrupted or stopped by a full disk, when running or writing the table (run the command again to
 resume), every point failed, or failed points with ``--strict``, 2 bad input (the sweep file, its
 first point's scene, an existing table of another sweep, a table another sweep is writing now, an
-unusable backend, or, with ``--dry-run``, any point whose scene is invalid).
+unusable backend, ``--workers`` with a remote ``--dask`` (its cluster has its own workers), or, with
+``--dry-run``, any point whose scene is invalid).
 """
 
 from __future__ import annotations
@@ -35,7 +36,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.output is not None and args.output.suffix not in TABLE_SUFFIXES:
         print(f"error: cosim sweep: -o {args.output}: must name a .csv or .parquet file", file=sys.stderr)
         return EXIT_BAD_INPUT
-    # (the workers of a remote cluster are its own: --workers does not start them on this machine)
+    # the workers of a remote cluster are its own: --workers starts none there (it was ignored without a
+    # word), so it is refused before the sweep file is read or the scheduler reached
+    if args.dask not in (None, "local") and args.workers is not None:
+        print(f"error: cosim sweep: --workers {args.workers} with --dask {args.dask}: the Dask cluster there runs "
+              "the sweep on its own workers, which --workers does not set (it counts the workers of a process "
+              "pool or of --dask local); leave out --workers", file=sys.stderr)
+        return EXIT_BAD_INPUT
     if args.dask in (None, "local") and args.workers is not None and args.workers > MAX_WORKERS_PER_CORE * CORES:
         print(f"error: cosim sweep: --workers {args.workers}: at most {MAX_WORKERS_PER_CORE * CORES} on this "
               f"machine's {CORES} cores ({MAX_WORKERS_PER_CORE} a core: each worker is a process with its own copy "
@@ -192,7 +199,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, help="results table, .csv or .parquet (default: the file's "
                    "output:, else runs/<name>.csv)")
     p.add_argument("--workers", type=positive_int, metavar="N",
-                   help="worker processes (default: all cores; with --dask local: the cluster's workers)")
+                   help="worker processes (default: all cores; with --dask local: the cluster's workers; "
+                        "refused with a remote --dask, whose cluster has its own)")
     p.add_argument("--dask", metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://HOST:PORT of its scheduler, or 'local' for a "
                         "LocalCluster on this machine (needs the dask extra)")
