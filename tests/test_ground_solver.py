@@ -69,6 +69,31 @@ def test_a_semi_implicit_euler_step_resting_on_the_plane_books_no_energy_either(
     assert abs(res.dissipated) < 1e-15 * mechanical_energy(DISK, s, G) + 1e-18
 
 
+def test_a_rim_point_lifts_a_semi_implicit_euler_steps_overshoot_uncharged():
+    """A disk tilted 30 deg resting on its rim, one step from rest: under velocity Verlet it fell
+    g dt^2 / 2 and its lift is capped at the energy its impulse took (solver, point 2); under
+    semi-implicit Euler it fell g dt^2 with the same speed, the extra g dt^2 / 2 (the ground reads it
+    off the body's states as the overshoot, dv dt / 2) being that integrator's own error. Lifted
+    beyond the Verlet lift by exactly that, nothing booked under either (the cap alone left the
+    Euler overshoot in the plane: a disk rolling on its rim sank g dt^2 / 2 a step and lost that
+    step's M (g dt)^2 / 2 for ever)."""
+    g, th = 9.81, math.radians(30.0)
+    q = quat.from_axis_angle((1.0, 0.0, 0.0), th)
+    touching = DISK.radius * math.sin(th) + H * math.cos(th)  # [m] the centre's height, rim on the floor
+    v = (0.0, 0.0, -g * DT)
+    verlet = resolve_contact(DISK, RigidState((0.0, 0.0, touching - 0.5 * g * DT * DT), q, v, (0.0, 0.0, 0.0)),
+                             FLOOR, Material(restitution=0.0), G, DT)
+    euler_state = RigidState((0.0, 0.0, touching - g * DT * DT), q, v, (0.0, 0.0, 0.0))
+    euler = resolve_contact(DISK, euler_state, FLOOR, Material(restitution=0.0), G, DT, position_share=1.0,
+                            overshoot=(0.0, 0.0, -0.5 * g * DT * DT))
+    assert verlet is not None and euler is not None and not verlet.face and not euler.face
+    assert 0.0 < verlet.correction[2] < 0.5 * g * DT * DT  # capped: the impulse turns the disk, taking a share
+    assert euler.linear == verlet.linear
+    assert euler.correction[2] - verlet.correction[2] == pytest.approx(0.5 * g * DT * DT, rel=1e-9)
+    for res in (verlet, euler):
+        assert abs(res.dissipated) < 1e-15 * mechanical_energy(DISK, euler_state, G)
+
+
 def test_bounce_mid_step_lands_on_the_exact_rebound_trajectory():
     """A flat disk that hit the floor at 2 m/s 0.3 ms before the end of the step is put where the exact
     bounce (outgoing e 2 m/s) would be, with that velocity, and the loss 1/2 M v^2 (1 - e^2) is booked."""
