@@ -522,14 +522,19 @@ class FrameRenderer(_Frames):
         return np.asarray(image)
 
     def _draw_grounds(self, draw: ImageDraw.ImageDraw, cam: Camera, box: Box) -> None:
-        """Each solid ground the body meets, its plane over the box's floor (a plane has no edge), in
-        sand: drawn before the stone, which therefore shows in front of it."""
+        """Each solid ground the body meets, its plane within the box (a plane has no edge), in sand:
+        drawn before the stone, which therefore shows in front of it."""
         (x0, x1), (y0, y1) = box.x, box.y
         for (nx, ny, nz), (px, py, pz) in self.grounds:
             if abs(nz) < 1e-6:  # a wall: seen edge on from above
                 continue
             corners = np.array([[x, y, pz - (nx * (x - px) + ny * (y - py)) / nz]
                                 for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))])
+            # cut to the box's height too: a steep ramp over the box's floor reaches far above and
+            # below it, and was drawn across the header and past the frame
+            corners = _clip_z(corners, *box.z)
+            if len(corners) < 3:
+                continue
             outline = cam.project(corners)[0]
             draw.polygon(outline.ravel().tolist(), fill=GROUND_FILL, outline=GROUND_EDGE)
 
@@ -1070,3 +1075,23 @@ def _write_frames(renderer: _Frames, cursor: _FieldCursor, times: np.ndarray, ou
 def stone_color() -> tuple[float, float, float]:
     """The stone's RGB colour in [0, 1] (for tests finding the drawn stone)."""
     return tuple(to_rgb(STONE_RGB))  # type: ignore[return-value]
+
+
+def _clip_z(polygon: np.ndarray, z_lo: float, z_hi: float) -> np.ndarray:
+    """The part of the convex ``polygon`` (N, 3) [m] between the heights ``z_lo`` and ``z_hi``: its
+    corners in order, (M, 3), M < 3 when nothing of it is left (Sutherland-Hodgman, one plane at a
+    time)."""
+    for level, keep_below in ((z_lo, False), (z_hi, True)):
+        kept = []
+        for k in range(len(polygon)):
+            a, b = polygon[k], polygon[(k + 1) % len(polygon)]
+            a_in = a[2] <= level if keep_below else a[2] >= level
+            b_in = b[2] <= level if keep_below else b[2] >= level
+            if a_in:
+                kept.append(a)
+            if a_in != b_in:  # the edge crosses the level: where
+                kept.append(a + (b - a) * ((level - a[2]) / (b[2] - a[2])))
+        polygon = np.array(kept).reshape(-1, 3)
+        if len(polygon) < 3:
+            break
+    return polygon
