@@ -696,4 +696,4 @@ def test_a_grounds_plane_is_drawn_within_the_boxs_height():
     # the band's width along x, 0.5 m of height over the slope, times its 1 m along y
     xs = sorted(set(np.round(cut[:, 0], 12)))
     assert xs[-1] - xs[0] == pytest.approx(0.5 / slope) and len(cut) == 4
-    assert len(_clip_z(plane + [0.0, 0.0, 10.0], -0.2, 0.3)) < 3
+    assert len(_clip_z(plane + np.array([0.0, 0.0, 10.0]), -0.2, 0.3)) < 3
