@@ -204,9 +204,10 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
             return bad
         for src in sources:
             src.advance(0)  # the initial outputs (and what steps before this component at tick 0 published)
-        start_inputs = gather_start(plan)
-        _check_recorded(rec, name, comp, start_inputs, 0, topics)
-        comp.begin(start_inputs)
+        # (not checked for gaps: a required input fed by a direct edge has nothing before its source's
+        # first step, in the run as here: ping_pong's pong begins without ping's output, and every
+        # recording of it was refused as having a gap)
+        comp.begin(gather_start(plan))
     else:  # the component as the restart's checkpoint holds it, from its first step after it
         stamp, cp = restart
         restore_component(comp, cp["components"][name])

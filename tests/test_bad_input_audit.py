@@ -341,3 +341,17 @@ def test_resynchronising_past_damage_reads_a_bounded_share_of_the_file(tmp_path,
     size = 256 * 1024
     seal.find_damage(_nested_candidates(tmp_path / "crafted.mcap", size))
     assert sum(read) <= seal.RESYNC_BUDGET * size  # (before: 2600 candidates, 340 times the file)
+
+
+def test_a_whole_recording_whose_component_begins_without_a_direct_inputs_message_is_replayed(tmp_path, capsys):
+    """ping_pong, whole: pong's required input, fed by a direct edge, has nothing before ping's first
+    step, in the run as in the recording. The gap check refused every such recording (exit 2, "the
+    recording has a gap there"); both components replay bit for bit."""
+    whole = tmp_path / "pp.mcap"
+    run_scene(loads((ROOT / "scenarios" / "ping_pong.yaml").read_text(), source="ping_pong"),
+              whole, progress=False, until_ns=500_000_000)
+    capsys.readouterr()
+    assert main(["replay", str(whole)]) == 0
+    said = capsys.readouterr().out
+    assert "ping: 500 steps replayed, 500 outputs identical bit for bit" in said
+    assert "pong: 500 steps replayed, 500 outputs identical bit for bit" in said
