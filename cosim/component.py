@@ -100,6 +100,7 @@ class Component:
         self.status = "created"
         self.step_count = 0
         self.last_substeps = 1
+        self.last_stable_step = math.inf  # [s] the stable step that set last_substeps (inf: no bound)
         self.stop_reason: str | None = None
         # the components feeding each input port, as the scene connects them (set by the simulation;
         # a component driven by hand has none): for its words, never for its physics
@@ -370,7 +371,7 @@ class Component:
                 outputs = self._step_impl(t, dt, inputs)
             else:
                 outputs = self._substep(t, dt, substeps, inputs)
-            self.last_substeps = substeps
+            self.last_substeps, self.last_stable_step = substeps, bound
         except SimulationError:
             self.status = "failed"
             raise

@@ -569,6 +569,8 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
             return None
         return step_ns // dt_ns
     every = spec.get("every", 1)
+    if isinstance(every, float) and every.is_integer() and abs(every) < 2**63:
+        every = int(every)  # a whole number written as a float (2.0, 1e3): it was refused as "non-integer"
     if isinstance(every, bool) or not isinstance(every, int):
         rounded = "; a non-integer rate ratio is not rounded" if isinstance(every, float) else ""
         problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}){rounded}")

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from cosim.codec.json_codec import codec_for, decode_state
-from cosim.component import Component
+from cosim.component import Component, substep_count
 from cosim.errors import SimulationError
 from cosim.jit_time import compile_timer
 from cosim.messages import Message
@@ -270,11 +270,22 @@ def gather(plan: list[tuple[str, list[_Edge]]], start: int, end: int) -> dict[st
     return inputs
 
 
+def _substeps_said(n: int) -> str:
+    """``n`` substeps in words ("1 substep", "3 substeps")."""
+    return f"{substep_count(n)} substep{'' if n == 1 else 's'}"
+
+
 def restore_component(comp: Component, saved: dict[str, Any]) -> None:
-    """Put ``comp`` back as a checkpoint saved it (``saved``: its entry under ``components``)."""
+    """Put ``comp`` back as a checkpoint saved it (``saved``: its entry under ``components``): its
+    state, its steps so far, the substeps its last step took (a restart said again that a component
+    substepping all along took 2 substeps) and a stop it asked for in the tick the checkpoint closes
+    (a restart from a stopped run's last checkpoint ran on past the stop)."""
     state = saved["state"]
     comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
     comp.step_count = saved["step_count"]
+    comp.last_substeps = int(saved.get("substeps", 1))  # (not in checkpoints of older recordings)
+    comp.last_stable_step = float(saved.get("stable_step", math.inf))
+    comp.stop_reason = saved.get("stop_reason")
     comp.status = "initialized"
 
 
@@ -402,10 +413,13 @@ class Simulation:
             if comp.last_substeps != runner.substeps_seen:
                 runner.substeps_seen = comp.last_substeps
                 runner.most_substeps = max(runner.most_substeps, comp.last_substeps)
+                # (the bound that set the count, as the step began: asked after it, the coupler of a
+                # stone that had left the water said "2 substeps ... (stable step inf s)")
+                said = ("its stable step covers the step again" if comp.last_substeps == 1 else
+                        f"stable step {comp.last_stable_step:.6g} s")
                 for obs in observers:
                     obs.on_event(start, runner.name, "substep",
-                                 f"{comp.last_substeps} substeps of {comp.name} per step "
-                                 f"(stable step {comp.max_stable_step():.6g} s)")
+                                 f"{_substeps_said(comp.last_substeps)} of {comp.name} per step ({said})")
             if comp.stop_reason is not None and self.stop_reason is None:
                 self.stop_reason = f"{runner.name}: {comp.stop_reason}"
         self.tick = k + 1
@@ -428,7 +442,9 @@ class Simulation:
         with compile_timer() as compiling:
             try:
                 self.initialize()
-                while self.tick < end_tick:
+                if self.stop_reason is not None:  # restored from the tick a stop was asked for: ends there
+                    status, reason = "stopped", self.stop_reason
+                while status == "ok" and self.tick < end_tick:
                     self.step()
                     if self.interrupt_reason is not None:
                         status, reason = "interrupted", self.interrupt_reason
@@ -463,8 +479,11 @@ class Simulation:
         return {
             "tick": self.tick,
             "dt_ns": self.dt_ns,
-            "components": {r.name: {"state": r.comp.state_for_checkpoint(self.time_ns), "step_count": r.comp.step_count}
+            "components": {r.name: {"state": r.comp.state_for_checkpoint(self.time_ns), "step_count": r.comp.step_count,
+                                    "substeps": r.comp.last_substeps, "stable_step": r.comp.last_stable_step,
+                                    "most_substeps": r.most_substeps, "stop_reason": r.comp.stop_reason}
                            for r in self.runners},
+            "stop_reason": self.stop_reason,  # a stop asked for in the tick this checkpoint closes
             # only the ports some edge reads: the others' past messages cannot change what follows
             "slots": {f"{r.name}.{port}": [[stamp, codec_for(type(msg)).encode(msg).decode()]
                                            for stamp, msg in slot.entries]
@@ -518,6 +537,8 @@ class Simulation:
             if saved is None:
                 raise ValueError(f"checkpoint has no state for component {runner.name!r}")
             restore_component(runner.comp, saved)
+            runner.substeps_seen = runner.comp.last_substeps
+            runner.most_substeps = int(saved.get("most_substeps", runner.comp.last_substeps))
             for port, slot in runner.slots.items():
                 slot.entries = saved_messages(cp, runner.name, port, runner.comp.outputs[port].type)
         self._restore_edges(cp, time_ns)
@@ -528,4 +549,5 @@ class Simulation:
             if name in by_name and port in by_name[name].comp.outputs:
                 kind = by_name[name].comp.outputs[port].type
                 self._ahead.append((stamp, name, port, codec_for(kind).decode(payload.encode())))
+        self.stop_reason = cp.get("stop_reason")
         self._initialized = False

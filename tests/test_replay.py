@@ -469,3 +469,64 @@ def test_a_restart_whose_checkpoint_does_not_fit_its_scene_is_refused_in_one_lin
                                                        f"{said}")):
         replay_component(Recording(bad), "g")
     assert main(["replay", str(bad)]) == 2
+
+
+STOPPING = """
+name: stopping
+dt: 0.001
+until: 1.0
+components:
+  src: {type: "tests.toys:Source", rate: 100}
+  acc: {type: "tests.toys:Accumulator", stop_at: 0.5}
+connections:
+  - src.out -> acc.x
+record: {checkpoint_every: 0.001}
+"""
+
+
+def test_a_restart_from_a_stopped_runs_last_checkpoint_stops_there(tmp_path):
+    """The checkpoint of the tick in which a component asked to stop was written before the stop
+    ended the run, and did not keep the request: a restart from it ran on past the stop (a held skip
+    restarted at 2.239 s recorded its stone at 2.2395 s, which the original never reached). The
+    restart ends where the original did, for the same reason, without a step more."""
+    path = tmp_path / "stop.mcap"
+    run_scene(loads(STOPPING), path, progress=False)
+    status = Recording(path).status()
+    assert status.status == "stopped"
+    sim, stamp = restart_simulation(Recording(path), round(status.time * 1e9))
+    assert stamp == round(status.time * 1e9)
+    result = sim.run()
+    assert (result.status, result.reason) == ("stopped", status.reason)
+    assert sim.time_ns == stamp and result.component_steps == 0
+
+
+SUBSTEPPING = """
+name: substepping
+dt: 0.001
+until: 0.01
+on_unstable: substep
+components:
+  src: {type: "tests.toys:Source"}
+  acc: {type: "tests.toys:Accumulator", stable_step: 0.0004}
+connections:
+  - src.out -> acc.x
+record: {checkpoint_every: 0.005}
+"""
+
+
+def test_a_restart_says_no_substep_change_that_the_original_did_not_make(tmp_path):
+    """A component substepping all along (3 substeps a step, from the first): the restart's recording
+    said again "3 substeps of acc per step" at the checkpoint (the count it compares with was not kept),
+    and its summary's "up to" counted from the restart. The event names the stable step that set the
+    count (it was asked after the step)."""
+    from cosim.cli import main
+    from cosim.record.recorder import Event
+
+    def events(recording):
+        return [(stamp, event.detail) for stamp, event in Recording(recording).messages("/cosim/events", Event)]
+
+    path, again = tmp_path / "sub.mcap", tmp_path / "again.mcap"
+    run_scene(loads(SUBSTEPPING), path, progress=False)
+    assert events(path) == [(0, "3 substeps of acc per step (stable step 0.0004 s)")]
+    assert main(["replay", str(path), "--from", "0.005", "-q", "-o", str(again)]) == 0
+    assert events(again) == []

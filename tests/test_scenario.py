@@ -228,3 +228,10 @@ def test_a_wrong_scalar_in_a_connections_initial_value_is_named_by_its_field(ove
     (it said 'connections.5.initial: expected a number, got string' of any of a request's four)."""
     with pytest.raises(ScenarioError, match=re.escape(said)):
         load(Path(__file__).resolve().parent.parent / "scenarios" / "ball_wake.yaml", [override])
+
+
+@pytest.mark.parametrize("written", ["2.0", "2e0"])
+def test_a_whole_every_written_as_a_float_is_that_whole_number(written):
+    """`every: 2.0` was refused as "a non-integer rate ratio": a whole number, however YAML reads it."""
+    scene = loads(scene_with(f'a: {{type: "tests.toys:Gain", every: {written}}}'))
+    assert scene.components["a"].every == 2 and isinstance(scene.components["a"].every, int)
