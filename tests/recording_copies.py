@@ -14,10 +14,11 @@ from mcap.writer import Writer
 def copy_recording(src: Path, dst: Path, *,
                    metadata: Callable[[str, dict], dict] = lambda name, fields: fields,
                    attachment: Callable[[Any], bytes] = lambda att: att.data,
-                   message: Callable[[Any, Any], bytes] = lambda channel, msg: msg.data) -> Path:
+                   message: Callable[[Any, Any], bytes] = lambda channel, msg: msg.data,
+                   log_time: Callable[[Any, Any], int] = lambda channel, msg: msg.log_time) -> Path:
     """Write ``dst``, a copy of the MCAP recording ``src`` record by record, each metadata record's
     fields as ``metadata(name, fields)`` gives them, each attachment's data as ``attachment(att)``,
-    each message's as ``message(channel, msg)``; ``dst``."""
+    each message's as ``message(channel, msg)`` at the log time ``log_time(channel, msg)``; ``dst``."""
     with open(src, "rb") as f, open(dst, "wb") as out:
         reader = make_reader(f)
         summary = reader.get_summary()
@@ -31,6 +32,6 @@ def copy_recording(src: Path, dst: Path, *,
         for att in reader.iter_attachments():
             writer.add_attachment(att.log_time, att.create_time, att.name, att.media_type, attachment(att))
         for _, channel, msg in reader.iter_messages(log_time_order=False):
-            writer.add_message(ids[channel.id], msg.log_time, message(channel, msg), msg.publish_time)
+            writer.add_message(ids[channel.id], log_time(channel, msg), message(channel, msg), msg.publish_time)
         writer.finish()
     return dst

@@ -480,17 +480,17 @@ def ground_planes(rec: Recording, body: str) -> list[tuple[tuple[float, float, f
 
 def _first_rest_level(rec: Recording, topic: str) -> float:
     """The ``rest_level`` [m] of the first HeightPatch on ``topic`` (a water's level never changes)."""
-    decode = rec.decoder(topic, HeightPatch)
-    for _, _, data in rec.raw([topic]):
-        return float(decode(data).rest_level)  # type: ignore[attr-defined]
+    # (decoded through the reader, whose errors name the channel and time: a payload cut short was an
+    # internal ProtoError when decoded here)
+    for _, patch in rec.iter_messages(topic, HeightPatch):
+        return float(patch.rest_level)  # type: ignore[attr-defined]
     return 0.0
 
 
 def iter_fields(rec: Recording, topic: str) -> Iterator[tuple[float, WaterField]]:
     """(time [s], WaterField) of one channel in time order, decoded one at a time."""
-    decode = rec.decoder(topic, WaterField)
-    for _, stamp, data in rec.raw([topic]):
-        yield stamp / NS_PER_S, decode(data)  # type: ignore[misc]
+    for stamp, msg in rec.iter_messages(topic, WaterField):  # (a damaged payload: the reader's one line)
+        yield stamp / NS_PER_S, msg  # type: ignore[misc]
 
 
 def contact_spans(flags: np.ndarray, t: np.ndarray) -> list[tuple[int, int]]:

@@ -42,7 +42,7 @@ from components.analysis.data import (
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
 from components.rigid.quaternion import body_axis
-from cosim.record.output import move_together, named_for, output_folder, remove_quietly, sibling_stem, written_whole
+from cosim.record.output import move_together, named_for, new_temporary, output_folder, remove_quietly, written_whole
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 
@@ -558,7 +558,12 @@ def _save_together(figures: dict[Path, Figure], dpi: int) -> None:
     staged: list[tuple[Path, Path]] = []  # (temporary file, figure)
     try:
         for path, fig in figures.items():
-            tmp = path.with_name(sibling_stem(path.name, 4) + ".tmp")
+            try:
+                # a new file of a unique name: a fixed one (energy.png.tmp) was written over and removed,
+                # whatever it held (a recording so named, the one plotted, was lost)
+                tmp = new_temporary(path)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
             staged.append((tmp, path))
             try:
                 fig.savefig(tmp, dpi=dpi, format="png")

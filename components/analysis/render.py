@@ -58,7 +58,7 @@ from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stag
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
-from cosim.record.output import output_folder, sibling_stem
+from cosim.record.output import new_temporary, output_folder
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 from cosim.timebase import NS_PER_S
@@ -699,7 +699,9 @@ def _ffmpeg() -> str | None:
 class _Writer:
     def __init__(self, path: Path, fps: float, size: tuple[int, int]):
         self.path = path
-        self.part = path.with_name(sibling_stem(path.name, 5) + ".part")
+        # a new file of a unique name (NAME.<8 hex digits>.tmp): a fixed one (anim.gif.part) was written
+        # over and removed, whatever it held (a recording so named, the one rendered, was lost)
+        self.part = new_temporary(path)
         self.fps = fps
         self.size = size
 
@@ -747,10 +749,14 @@ class _Mp4Writer(_Writer):
     def __init__(self, path: Path, fps: float, size: tuple[int, int], exe: str):
         super().__init__(path, fps, size)
         w, h = size
-        self.proc = subprocess.Popen(
-            [exe, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}",
-             "-r", f"{fps:g}", "-i", "-", "-an", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-f", "mp4",
-             str(self.part)], stdin=subprocess.PIPE, stderr=subprocess.PIPE)
+        try:
+            self.proc = subprocess.Popen(
+                [exe, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}",
+                 "-r", f"{fps:g}", "-i", "-", "-an", "-c:v", "libx264", "-pix_fmt", "yuv420p", "-f", "mp4",
+                 str(self.part)], stdin=subprocess.PIPE, stderr=subprocess.PIPE)
+        except BaseException:  # (no writer to abort yet: its temporary file goes here)
+            self.part.unlink(missing_ok=True)
+            raise
 
     def add(self, rgb: np.ndarray) -> None:
         assert self.proc.stdin is not None

@@ -12,8 +12,9 @@ writing is refused. The writer moves the finished file onto the target with one 
 the target is always either the previous file or a complete recording, never half of one.
 
 The other files the commands write (a sweep's table, record and figure, the figures of ``cosim
-plot``) are written whole too (:func:`written_whole`): to a temporary name beside the target, moved
-onto it once complete, removed if the writing fails or is interrupted.
+plot``) are written whole too (:func:`written_whole`): to a new temporary file of a unique name
+beside the target (:func:`new_temporary`, never a file that was there, so never the command's input),
+moved onto it once complete, removed if the writing fails or is interrupted.
 
 This module imports only the standard library (and :mod:`cosim.errors`): the writer process loads it.
 """
@@ -301,6 +302,24 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     return mine
 
 
+def rename_new(source: str | Path, target: str | Path) -> None:
+    """Give the file ``source`` the name ``target``, which no file may have: a FileExistsError when one
+    does, left as it is (os.rename would replace it, a file of the user's that happened to have it).
+    A hard link then the old name removed; where links are not supported, a check then a rename."""
+    try:
+        os.link(source, target)
+    except FileExistsError:
+        raise
+    except OSError as exc:
+        if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.EMLINK, errno.ENOSYS):
+            raise
+        if os.path.lexists(target):
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(target)) from None
+        os.rename(source, target)
+        return
+    os.unlink(source)
+
+
 def finish(part: str | Path, target: str | Path) -> None:
     """Move a complete recording onto its target in one step."""
     os.replace(part, target)
@@ -317,13 +336,43 @@ def remove_quietly(path: Path) -> None:
         pass  # already failing: the error being reported matters more than this leftover
 
 
+TMP_SUFFIX = ".tmp"  # the ending of a command's temporary files (NAME.<8 hex digits>.tmp beside NAME)
+
+
+def new_temporary(path: Path, suffix: str = TMP_SUFFIX) -> Path:
+    """Create a new, empty file beside ``path`` to write ``path``'s content to before it is moved onto
+    it: ``NAME.<8 hex digits>.tmp`` (the stem shortened as :func:`sibling_stem` does near the name
+    limit), made with ``O_EXCL``, so it is never a file that was there. A fixed name (``NAME.tmp``)
+    was written over and then removed whatever it held: ``cosim repair victim.mcap.tmp -o
+    victim.mcap`` lost the only copy of the recording it was asked to mend, as did ``plot`` and
+    ``render`` of a recording so named; two commands writing one target shared it (one repair
+    truncated the file the other had memory-mapped: SIGBUS). Its mode is any new file's (0666 less
+    the umask), as the file it becomes is the user's. An OSError names the temporary."""
+    import secrets
+
+    for _ in range(100):
+        tmp = path.with_name(f"{sibling_stem(path.name, 1 + 8 + len(suffix))}.{secrets.token_hex(4)}{suffix}")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
+        except FileExistsError:
+            continue  # someone's file: another name
+        os.close(fd)
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary file name beside it", str(path))
+
+
 @contextmanager
 def written_whole(path: Path) -> Iterator[Path]:
-    """A temporary name beside ``path`` to write to, moved onto ``path`` once written and removed if
-    the writing fails or is interrupted: ``path`` holds the whole new file or what it held before,
-    never half of one. A failed write is an OSError naming ``path``, not the temporary (a writer that
-    names no file, such as an image library on a full disk, is taken to have failed on it too)."""
-    tmp = path.with_name(sibling_stem(path.name, 4) + ".tmp")
+    """A new temporary file beside ``path`` to write to (:func:`new_temporary`), moved onto ``path``
+    once written and removed if the writing fails or is interrupted: ``path`` holds the whole new file
+    or what it held before, never half of one. A failed write is an OSError naming ``path``, not the
+    temporary (a writer that names no file, such as an image library on a full disk, is taken to have
+    failed on it too)."""
+    path = Path(path)
+    try:
+        tmp = new_temporary(path)
+    except OSError as exc:  # (its folder missing, no inode left): said of the file meant
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
     try:
         yield tmp
         os.replace(tmp, path)

@@ -190,7 +190,12 @@ class Recording:
         self.scene_text = self._scene_text(attachments[SCENE_ATTACHMENT])
         self._scene: Scene | None = None  # the recorded scene once loaded (scene() without overrides)
         try:
-            self.overrides: list[str] = json.loads(self.metadata.get("overrides", "[]"))
+            # the recorder has written it in every recording since the first ("[]" for none): one
+            # without it was read as a run without overrides, and replay of a run made with --set
+            # reported false divergences against its own scene
+            if "overrides" not in self.metadata:
+                raise ValueError("overrides, the run's changes to its scene (--set; [] for none), is missing")
+            self.overrides: list[str] = json.loads(self.metadata["overrides"])
             if not isinstance(self.overrides, list) or not all(isinstance(o, str) for o in self.overrides):
                 raise ValueError("overrides are not a list of strings")
             # the run's step (every recording has one: inspect shows it) and end: whole nanoseconds > 0
@@ -212,11 +217,26 @@ class Recording:
                 schema.encoding if schema else "", schema.data if schema else b"")
         self.start_ns = summary.statistics.message_start_time
         self.end_ns = summary.statistics.message_end_time
+        if max(self.start_ns, self.end_ns) > MAX_TIME_NS:
+            self._refuse_beyond_time()
         # the checkpoint a restart began at [ns]; 0 for a run from t = 0 (and recordings before the mark)
         try:
             self.restart_ns = _nanoseconds("start_ns", self.metadata.get("start_ns", "0"), zero=True)
         except ValueError as exc:  # a crafted value was read as 0: a restart taken for a run from t = 0
             raise RecordingError(f"{self.path}: not a cosim recording (its metadata cannot be read: {exc})") from None
+
+    def _refuse_beyond_time(self) -> None:
+        """A RecordingError naming the channel and time of the first message logged later than a cosim
+        recording's times hold (MCAP's log times go to 2^64 - 1 ns; the recorder's, int64 nanoseconds, to
+        2^63 - 1): read as they were, such a time overflowed the int64 arrays of plot and render (an
+        internal OverflowError) and inspect showed a span of 1.8e10 s. Found by reading the messages, as
+        the statistics name no channel; statistics saying so of no message are refused all the same."""
+        for _ in self.raw():  # raises at the first such message
+            pass
+        latest = max(self.start_ns, self.end_ns)
+        raise RecordingError(f"{self.path}: its statistics say its messages reach {latest} ns, later than a cosim "
+                             "recording's times reach (at most 2^63 - 1 ns, what int64 nanoseconds hold), though no "
+                             "message is logged so late: the recording was edited")
 
     def _scene_text(self, attachment: bytes) -> str:
         """The scene attachment's text; a RecordingError naming it when it is not UTF-8 (it was taken
@@ -256,6 +276,8 @@ class Recording:
             with open(self.path, "rb") as f:
                 reader = make_reader(f, validate_crcs=True)
                 for _, channel, msg in reader.iter_messages(topics=topics, log_time_order=True):
+                    if msg.log_time > MAX_TIME_NS:
+                        raise RecordingError(_beyond_time(self.path, channel.topic, msg.log_time))
                     yield channel.topic, msg.log_time, msg.data
         except (RecordingError, GeneratorExit):
             raise
@@ -264,14 +286,21 @@ class Recording:
 
     def messages(self, topic: str, msg_type: type[Message]) -> list[tuple[int, Message]]:
         """Every message of one channel decoded as ``msg_type``, in time order."""
+        return list(self.iter_messages(topic, msg_type))
+
+    def iter_messages(self, topic: str, msg_type: type[Message]) -> Iterator[tuple[int, Message]]:
+        """(log time [ns], message) of one channel decoded as ``msg_type``, in time order, one at a
+        time (a water's fields need not all be held at once); a payload that cannot be decoded is a
+        RecordingError naming the channel and its time. Read a recording's messages through this (or
+        :meth:`messages`), not :meth:`decoder`: a decoder's own errors (a cut protobuf payload's
+        ProtoError) escaped plot and render as internal errors."""
         decode = self.decoder(topic, msg_type)
-        out = []
         for _, stamp, data in self.raw([topic]):
             try:
-                out.append((stamp, decode(data)))
+                msg = decode(data)
             except Exception as exc:  # CodecError, or anything a damaged payload makes the decoder raise
                 raise RecordingError(f"{self.path}: {topic} at {stamp} ns: {_short(exc)}") from None
-        return out
+            yield stamp, msg
 
     def decoder(self, topic: str, msg_type: type[Message]) -> Callable[[bytes], Message]:
         """The function decoding one channel's payloads as ``msg_type``: its JSON codec, or for a
@@ -442,6 +471,14 @@ def _nanoseconds(key: str, value: str, zero: bool = False) -> int:
         raise ValueError(f"{key} is {_shown(value)}, more nanoseconds than a recording's times hold (at most "
                          "2^63 - 1, about 292 years)")
     return int(digits)
+
+
+def _beyond_time(path: Path, topic: str, log_time: int) -> str:
+    """The error line of a message on ``topic`` logged at ``log_time`` [ns], later than a recording's
+    times reach."""
+    return (f"{path}: {topic}: a message logged at {log_time} ns ({log_time / 1e9:.6g} s), later than a cosim "
+            f"recording's times reach (at most 2^63 - 1 = {MAX_TIME_NS} ns, about 292 years: what int64 "
+            "nanoseconds hold)")
 
 
 def _shown(value: str) -> str:

@@ -130,9 +130,13 @@ class Recorder(BaseObserver):
         self.every = scene.record.every
         self.checkpoint_ticks = (round(scene.record.checkpoint_every * 1e9 / scene.dt_ns)
                                  if scene.record.checkpoint_every > 0 else 0)
+        # the folders this run makes for the recording, the deepest first: removed again (when empty)
+        # should it leave no file (a full disk said "no file was left" and left them, empty)
+        self._made_folders = [f for f in (self.path.parent, *self.path.parent.parents) if not f.exists()]
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
+            self._remove_made_folders()  # (those made before the one that failed)
             # a file where a folder of the path should be is named (it said "File exists", naming neither)
             blocking = nearest_existing(self.path.parent)
             if blocking is not None and not blocking.is_dir():
@@ -145,6 +149,7 @@ class Recorder(BaseObserver):
         try:
             self.sink = open_sink(self.path, background, preloads)
         except OSError as exc:  # an output path that cannot be written is bad input, said plainly...
+            self._remove_made_folders()
             reason = exc.strerror or str(exc)
             if exc.errno in NO_ROOM:  # ...but no room for even an empty file (its inodes used up) is a full disk
                 raise SinkError(f"{self.path}: the recording could not be written: {reason}; no file was left") \
@@ -377,14 +382,35 @@ class Recorder(BaseObserver):
         """Finish the file (summary, indexes) under its final name. Safe to call twice."""
         if not self._closed:
             self._closed = True
-            self.sink.close()
+            try:
+                self.sink.close()
+            except BaseException:  # a recording that could not be kept: no empty folder left for it either
+                self._remove_made_folders()
+                raise
         return self.path
 
     def discard(self) -> None:
-        """Drop the file entirely (used when nothing was run)."""
+        """Drop the file entirely (used when nothing was run), and the folders made for it."""
         if not self._closed:
             self._closed = True
-            self.sink.discard()
+            try:
+                self.sink.discard()
+            finally:
+                self._remove_made_folders()
+
+    def _remove_made_folders(self) -> None:
+        """Remove the folders this run made for its recording, the deepest first, each only while it is
+        empty: one holding anything (the recording, a file kept beside it, a writer's private file, a
+        file someone put there meanwhile) stays, and so do those above it. Never raises: the error
+        being reported matters more than a folder left."""
+        for folder in self._made_folders:
+            try:
+                folder.rmdir()
+            except FileNotFoundError:
+                continue  # never made (a mkdir failing below its parent), or gone already
+            except OSError:
+                break  # not empty, or not ours to remove: nor are the folders above it
+        self._made_folders = []
 
 
 def _utf8(text: str) -> str:

@@ -61,7 +61,7 @@ from cosim.record.derive import (
     relayed_warnings,
     use_site_dirs,
 )
-from cosim.record.output import Claim, claim, finish, sibling_stem
+from cosim.record.output import Claim, claim, finish, rename_new, sibling_stem
 from cosim.record.ring import STALL_S, RingConsumer, RingError, RingProducer, RingStalled, RingStuck
 
 BATCH = 4096  # a batch is sent at this many records...
@@ -356,20 +356,34 @@ class _Apply:
         above it was), the recording is copied into the working folder, else the system's temporary
         folder, as ``NAME.rescued.mcap`` (:meth:`_rescue_elsewhere`), and :attr:`rescued` says
         where and why."""
+        import secrets
+
         folder = os.path.dirname(self.final)
-        tmp = os.path.join(folder, "." + sibling_stem(os.path.basename(self.final), 12) + ".rescue.tmp")
+        tmp = None
         try:
             os.makedirs(folder or ".", exist_ok=True)
-            self._copy_to(tmp, os.O_TRUNC)
+            for _ in range(100):  # a new file of its own name: a fixed one was written over, whatever it held
+                name = os.path.join(folder, f".{sibling_stem(os.path.basename(self.final), 21)}."
+                                            f"{secrets.token_hex(4)}.rescue.tmp")
+                try:
+                    self._copy_to(name, os.O_EXCL)
+                except FileExistsError:
+                    continue
+                tmp = name
+                break
+            else:
+                raise FileExistsError(errno.EEXIST, "no free temporary file name beside it", self.final)
             os.replace(tmp, self.final)
         except OSError as exc:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
+            if tmp is not None:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
             self.rescued = (self._rescue_elsewhere(exc), exc.strerror or str(exc))
             return
         except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
+            if tmp is not None:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
             raise
         warnings.warn(f"{self.final}: its private file was removed while the run was recorded (with its folder?); "
                       "the whole recording was written there all the same", RuntimeWarning, stacklevel=2)
@@ -1117,7 +1131,7 @@ class ProcessSink(_Sink):
         part = self.claim.part
         kept = part.with_suffix(".mcap")
         try:
-            os.rename(part, kept)  # its own random name: no other file has it
+            rename_new(part, kept)  # (never over a file of the user's that has that name)
         except OSError:
             return part
         self.claim.part = kept
