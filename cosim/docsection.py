@@ -5,6 +5,7 @@ the file is kept). Benchmarks and studies write their tables into the docs this 
 from __future__ import annotations
 
 import os
+import secrets
 from pathlib import Path
 
 
@@ -40,9 +41,11 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
     else:
         text = (text.rstrip() + "\n\n" if text.strip() else "") + block + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
-    # (as cosim.record.output.written_whole does, which this contract-layer module may not import; the
-    # pages it writes have short names of the project's own)
-    tmp = path.with_name(path.name + ".tmp")
+    # (as cosim.record.output.written_whole does, which this contract-layer module may not import): a
+    # new file of a unique name, never one that was there (a fixed PAGE.tmp was overwritten, then removed)
+    # (made as any new file is, 0666 less the umask: mkstemp's 0600 would have become the page's)
+    tmp = path.with_name(f"{path.name}.{secrets.token_hex(4)}.tmp")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666))
     try:
         tmp.write_text(text, encoding="utf-8")
         os.replace(tmp, path)

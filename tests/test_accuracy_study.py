@@ -257,3 +257,13 @@ def test_an_until_out_of_range_is_bad_input_before_any_run(tmp_path, capsys, mon
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--until" in err[0] and said in err[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_pages_section_is_written_through_a_new_file_and_leaves_a_same_named_one_alone(tmp_path):
+    """A page's section is written to a new temporary beside it, never to a file that was there: a
+    fixed PAGE.tmp was written over, then removed, whatever it held."""
+    page, theirs = tmp_path / "page.md", tmp_path / "page.md.tmp"
+    theirs.write_text("a file of the user's\n")
+    replace_section(page, "table", "new table")
+    assert "new table" in page.read_text() and theirs.read_text() == "a file of the user's\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["page.md", "page.md.tmp"]
