@@ -45,12 +45,15 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
     # new file of a unique name, never one that was there (a fixed PAGE.tmp was overwritten, then removed)
     # (made as any new file is, 0666 less the umask: mkstemp's 0600 would have become the page's)
     tmp = path.with_name(f"{path.name}.{secrets.token_hex(4)}.tmp")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666))
+    made = False
     try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666))
+        made = True
         tmp.write_text(text, encoding="utf-8")
         os.replace(tmp, path)
     except BaseException as exc:
-        tmp.unlink(missing_ok=True)
+        if made:  # (never a file of that name that was there)
+            tmp.unlink(missing_ok=True)
         if isinstance(exc, OSError):
             raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
         raise

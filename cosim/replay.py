@@ -466,4 +466,11 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
         raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s: "
                              f"{why}") from None
     _check_step_grids(rec, sim, recorded, cp, stamp)
+    if overrides:
+        # another run from here: a stop the original asked for in the checkpoint's tick was asked under
+        # its settings (a restart with the stop's own setting changed ended at once, 0 steps), and is
+        # asked again on the next step if the new settings still call for it
+        sim.stop_reason = None
+        for runner in sim.runners:
+            runner.comp.stop_reason = None
     return sim, stamp

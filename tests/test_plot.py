@@ -676,3 +676,21 @@ def test_the_contacts_legend_is_below_the_panels_not_over_a_force_peak(run):
     fig = figure_contacts(run)
     assert fig.axes[0].get_legend() is None
     assert len(fig.legends) == 1 and "pressure z" in [t.get_text() for t in fig.legends[0].get_texts()]
+
+
+def test_stages_are_dated_when_they_began_and_never_run_backwards():
+    """Each stage from its message's since (rest 20 ms before its publication), else the message's
+    time; a restart's restored stage, dated at its checkpoint (40 ms), is followed by a rest whose spell
+    began at 33 ms: dated 40 ms, not before the change ahead of it (plot's spans came out negative)."""
+    import math
+
+    from components.analysis.data import stage_times
+    from components.messages import Stage, StageId
+
+    pairs = [(40_000_000, Stage(StageId.GROUND, "ground", 0, 0.0, 0.0)),
+             (53_000_000, Stage(StageId.REST, "rest", 0, 0.0, 0.0, 0.033))]
+    assert stage_times(pairs).tolist() == [0.04, 0.04]
+    pairs = [(500_000, Stage(StageId.APPROACH, "approach", 0, 0.0, 0.0, 0.0)),
+             (700_000_000, Stage(StageId.REST, "rest", 0, 0.0, 0.0, 0.68)),
+             (800_000_000, Stage(StageId.SINK, "sink", 0, 0.0))]
+    assert stage_times(pairs).tolist() == [0.0, 0.68, 0.8] and math.isnan(pairs[2][1].since)

@@ -158,6 +158,10 @@ def test_a_run_with_no_room_for_its_file_leaves_no_folder_it_made(scene, tmp_pat
             f"error: {out}: the recording could not be written: {os.strerror(errno.ENOSPC)}; no file was left")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.yaml", "was"]
     assert not any((tmp_path / "was").iterdir())
+    # through a '..': the user's empty folder 'was' is not taken for one the run made (it was removed)
+    out = tmp_path / "nothere" / ".." / "was" / "x.mcap"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 1
+    assert (tmp_path / "was").is_dir()
 
 
 def test_a_run_that_discards_or_cannot_keep_its_recording_leaves_no_folder_it_made(scene, tmp_path, monkeypatch):

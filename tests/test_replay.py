@@ -530,3 +530,14 @@ def test_a_restart_says_no_substep_change_that_the_original_did_not_make(tmp_pat
     assert events(path) == [(0, "3 substeps of acc per step (stable step 0.0004 s)")]
     assert main(["replay", str(path), "--from", "0.005", "-q", "-o", str(again)]) == 0
     assert events(again) == []
+
+
+def test_a_restart_with_new_settings_from_a_stopped_runs_last_checkpoint_runs_under_them(tmp_path):
+    """The same restart with --set (the stop's own setting raised) is another run from there: the
+    stop the original asked for under its settings is not carried over (it ended at once, 0 steps)."""
+    path = tmp_path / "stop.mcap"
+    run_scene(loads(STOPPING), path, progress=False)
+    stop_ns = round(Recording(path).status().time * 1e9)
+    sim, _ = restart_simulation(Recording(path), stop_ns, overrides=["components.acc.stop_at=0.6"])
+    result = sim.run()
+    assert result.status == "stopped" and sim.time_ns > stop_ns and result.reason.startswith("acc: total reached 0.6")

@@ -64,6 +64,16 @@ def stage_changes(rec: Recording, topic: str) -> list[tuple[int, Stage]]:
     return pairs
 
 
+def stage_times(pairs: list[tuple[int, Stage]]) -> np.ndarray:
+    """When each stage of :func:`stage_changes`' (time [ns], Stage) pairs began [s]: its message's
+    ``since`` (rest: the start of its slow spell, published 20 ms on; the first stage: 0), not when it
+    was known and published; a recording made before the monitor said so, the message's time. Never
+    before the change listed ahead of it (a restart's restored stage, dated at the checkpoint, came
+    after a rest whose spell began before the checkpoint: the times ran backwards)."""
+    times = np.array([m.since if math.isfinite(m.since) else stamp / NS_PER_S for stamp, m in pairs], dtype=float)
+    return np.maximum.accumulate(times) if len(times) else times
+
+
 def _restored_monitor(rec: Recording, monitor: str) -> dict:
     """The stage monitor's state in the checkpoint a restart began at ({} when it is not there, or the
     recording is no restart)."""
@@ -350,10 +360,7 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
         touchdown_before = _restored_touchdown(rec, component_of(stage_topics[0]))
         pairs = stage_changes(rec, stage_topics[0])
         msgs = [m for _, m in pairs]
-        # each stage from when it began (rest: the start of its slow spell), not from when it was known
-        # and published; a recording made before the monitor said so, from its message's time
-        t = np.array([m.since if math.isfinite(m.since) else stamp / NS_PER_S for stamp, m in pairs], dtype=float)
-        stages = StageTrack(stage_topics[0], t, np.array([int(m.stage) for m in msgs], dtype=int),
+        stages = StageTrack(stage_topics[0], stage_times(pairs), np.array([int(m.stage) for m in msgs], dtype=int),
                             [m.label for m in msgs], np.array([m.skips for m in msgs], dtype=int))
     contacts = []
     for topic in own(topics_of(rec, WaterContact), linked):

@@ -49,6 +49,7 @@ from components.analysis.data import (
     rest_level,
     scene_publishes,
     stage_changes,
+    stage_times,
     topics_of,
     warn_ended_early,
     water_rest_level,
@@ -866,7 +867,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
     stages = None
     if stage_topics:
         pairs = stage_changes(rec, stage_topics[0])
-        stages = (np.array([s for s, _ in pairs]) / 1e9, np.array([int(m.stage) for _, m in pairs]))
+        stages = (stage_times(pairs), np.array([int(m.stage) for _, m in pairs]))
     has_water = bool(fields or topics_of(rec, WaterContact))
     if has_water and not fields:  # the scene's water recorded no surface (field_rate 0, as the sweeps' scenes)
         warnings.warn(f"{rec.path}: the recording holds no water surface (its water's field_rate was 0, or "

@@ -132,7 +132,10 @@ class Recorder(BaseObserver):
                                  if scene.record.checkpoint_every > 0 else 0)
         # the folders this run makes for the recording, the deepest first: removed again (when empty)
         # should it leave no file (a full disk said "no file was left" and left them, empty)
-        self._made_folders = [f for f in (self.path.parent, *self.path.parent.parents) if not f.exists()]
+        # (none through a '..': 'new/../keep' is no path until 'new' exists, so the user's 'keep' was
+        # listed as made here, and removed)
+        self._made_folders = ([] if ".." in self.path.parent.parts else
+                              [f for f in (self.path.parent, *self.path.parent.parents) if not f.exists()])
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
