@@ -189,17 +189,17 @@ class SolidGround(Component):
         v0, v1, v2 = v.tolist()
         return (v0 + dv[0], v1 + dv[1], v2 + dv[2])
 
-    def _position_share(self, position: Vec3Param, velocity: Vec3Param, dt: float) -> float:
-        """The share of the step's velocity change that the body's integrator put into its move
+    def _position_share(self, position: Vec3Param, begun: Vec3Param | None, dv: Vec3Param | None,
+                        dt: float) -> float:
+        """The share of the step's velocity change ``dv`` [m/s] (from ``begun``, the velocity the step
+        began with; None when not known) that the body's integrator put into its move
         (components.contact.solver, point 3): (dx - v_begun dt) . dv / (|dv|^2 dt), 1/2 for velocity
         Verlet and RK4, 1 for semi-implicit Euler under a force held over the step; 1/2 when the
         step's start is not known or the velocity did not change. Read to within 1e-6 of 1/2 or 1 it
         is taken as that (round-off), and it is kept within [1/2, 1]."""
-        begun = self._begun_with()
-        if begun is None or self._begins_from is None or not dt > 0.0:
+        if begun is None or dv is None or self._begins_from is None or not dt > 0.0:
             return 0.5
         start = self._begun_from()
-        dv = [velocity[i] - begun[i] for i in range(3)]
         held = [position[i] - start[i] - begun[i] * dt for i in range(3)]
         change = sum(d * d for d in dv)
         if not change > 0.0:
@@ -210,26 +210,24 @@ class SolidGround(Component):
                 return exact
         return min(1.0, max(0.5, share))
 
-    def _overshoot(self, share: float, velocity: Vec3Param, dt: float) -> Vec3Param:
-        """How far [m] the body's integrator moved it over the step that led to a state moving at
-        ``velocity`` beyond a velocity Verlet step with the same velocity change dv: (share - 1/2) dv dt
-        (dv dt / 2 for semi-implicit Euler, nothing for Verlet and RK4, whose share is read as exactly
-        1/2; zero when the step's start is not known)."""
-        begun = self._begun_with()
-        if begun is None or share == 0.5:
+    @staticmethod
+    def _overshoot(share: float, dv: Vec3Param | None, dt: float) -> Vec3Param:
+        """How far [m] the body's integrator moved it over the step whose velocity change was ``dv``
+        [m/s] beyond a velocity Verlet step with the same change: (share - 1/2) dv dt (dv dt / 2 for
+        semi-implicit Euler, nothing for Verlet and RK4, whose share is read as exactly 1/2; zero when
+        the step's start is not known)."""
+        if dv is None or share == 0.5:
             return (0.0, 0.0, 0.0)
         k = (share - 0.5) * dt
-        return (k * (velocity[0] - begun[0]), k * (velocity[1] - begun[1]), k * (velocity[2] - begun[2]))
+        return (k * dv[0], k * dv[1], k * dv[2])
 
-    def _other_force(self, mass: float, velocity: Vec3Param, dt: float) -> Vec3Param:
-        """The force [N] on the body besides gravity and this ground over the step that led to a state
-        moving at ``velocity``: M (v - v_begun) / dt - M g (zero when the step's start is not known)."""
-        begun = self._begun_with()
-        if begun is None or not dt > 0.0:
+    def _other_force(self, mass: float, dv: Vec3Param | None, dt: float) -> Vec3Param:
+        """The force [N] on the body besides gravity and this ground over the step whose velocity change
+        was ``dv`` [m/s]: M dv / dt - M g (zero when the step's start is not known)."""
+        if dv is None or not dt > 0.0:
             return (0.0, 0.0, 0.0)
         k, g = mass / dt, self.gravity
-        return (k * (velocity[0] - begun[0]) - mass * g[0], k * (velocity[1] - begun[1]) - mass * g[1],
-                k * (velocity[2] - begun[2]) - mass * g[2])
+        return (k * dv[0] - mass * g[0], k * dv[1] - mass * g[1], k * dv[2] - mass * g[2])
 
     def _step_impl(self, t: float, dt: float, inputs: dict[str, Message | None]) -> dict[str, Message]:
         msg = inputs.get("body")
@@ -246,11 +244,14 @@ class SolidGround(Component):
         state = RigidState(x, tuple(msg.orientation.tolist()), v,  # type: ignore[arg-type]
                            tuple(msg.angular_velocity.tolist()))
         body = self._mass_properties(msg)
-        share = self._position_share(x, v, dt)  # type: ignore[arg-type]
+        # the step that led here: the velocity it began with and its change (None when not known)
+        begun = self._begun_with()
+        dv = None if begun is None else (v[0] - begun[0], v[1] - begun[1], v[2] - begun[2])
+        share = self._position_share(x, begun, dv, dt)  # type: ignore[arg-type]
         res = resolve_contact(body, state, self.plane, self.material, self.gravity, dt, self.sliding,
-                              not msg.attitude_locked, other_force=self._other_force(body.mass, v, dt),  # type: ignore[arg-type]
+                              not msg.attitude_locked, other_force=self._other_force(body.mass, dv, dt),
                               slip_before=self._slip, position_share=share,
-                              overshoot=self._overshoot(share, v, dt))  # type: ignore[arg-type]
+                              overshoot=self._overshoot(share, dv, dt))  # type: ignore[arg-type]
         if res is None:
             return self._apart(msg)
         inv_m = 1.0 / body.mass
