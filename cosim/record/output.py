@@ -339,10 +339,10 @@ def remove_quietly(path: Path) -> None:
 TMP_SUFFIX = ".tmp"  # the ending of a command's temporary files (NAME.<8 hex digits>.tmp beside NAME)
 
 
-def new_temporary(path: Path, suffix: str = TMP_SUFFIX) -> Path:
+def new_temporary(path: Path, suffix: str = TMP_SUFFIX, prefix: str = "") -> Path:
     """Create a new, empty file beside ``path`` to write ``path``'s content to before it is moved onto
-    it: ``NAME.<8 hex digits>.tmp`` (the stem shortened as :func:`sibling_stem` does near the name
-    limit), made with ``O_EXCL``, so it is never a file that was there. A fixed name (``NAME.tmp``)
+    it: ``<prefix>NAME.<8 hex digits><suffix>`` (the stem shortened as :func:`sibling_stem` does near
+    the name limit), made with ``O_EXCL``, so it is never a file that was there. A fixed name (``NAME.tmp``)
     was written over and then removed whatever it held: ``cosim repair victim.mcap.tmp -o
     victim.mcap`` lost the only copy of the recording it was asked to mend, as did ``plot`` and
     ``render`` of a recording so named; two commands writing one target shared it (one repair
@@ -351,7 +351,8 @@ def new_temporary(path: Path, suffix: str = TMP_SUFFIX) -> Path:
     import secrets
 
     for _ in range(100):
-        tmp = path.with_name(f"{sibling_stem(path.name, 1 + 8 + len(suffix))}.{secrets.token_hex(4)}{suffix}")
+        stem = sibling_stem(path.name, len(prefix) + 1 + 8 + len(suffix))
+        tmp = path.with_name(f"{prefix}{stem}.{secrets.token_hex(4)}{suffix}")
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
         except FileExistsError:

@@ -61,7 +61,7 @@ from cosim.record.derive import (
     relayed_warnings,
     use_site_dirs,
 )
-from cosim.record.output import Claim, claim, finish, rename_new, sibling_stem
+from cosim.record.output import Claim, claim, finish, new_temporary, rename_new, sibling_stem
 from cosim.record.ring import STALL_S, RingConsumer, RingError, RingProducer, RingStalled, RingStuck
 
 BATCH = 4096  # a batch is sent at this many records...
@@ -356,23 +356,14 @@ class _Apply:
         above it was), the recording is copied into the working folder, else the system's temporary
         folder, as ``NAME.rescued.mcap`` (:meth:`_rescue_elsewhere`), and :attr:`rescued` says
         where and why."""
-        import secrets
-
         folder = os.path.dirname(self.final)
         tmp = None
         try:
             os.makedirs(folder or ".", exist_ok=True)
-            for _ in range(100):  # a new file of its own name: a fixed one was written over, whatever it held
-                name = os.path.join(folder, f".{sibling_stem(os.path.basename(self.final), 21)}."
-                                            f"{secrets.token_hex(4)}.rescue.tmp")
-                try:
-                    self._copy_to(name, os.O_EXCL)
-                except FileExistsError:
-                    continue
-                tmp = name
-                break
-            else:
-                raise FileExistsError(errno.EEXIST, "no free temporary file name beside it", self.final)
+            # a new file of its own name (a fixed one was written over, whatever it held), made empty
+            # here, so the copy may truncate it
+            tmp = str(new_temporary(Path(self.final), ".rescue.tmp", prefix="."))
+            self._copy_to(tmp, os.O_TRUNC)
             os.replace(tmp, self.final)
         except OSError as exc:
             if tmp is not None:
