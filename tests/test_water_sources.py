@@ -84,3 +84,17 @@ def test_a_height_beyond_a_kilometre_is_refused_naming_it():
     with pytest.raises(ScenarioError) as err:
         load(Path(__file__).resolve().parents[1] / "scenarios" / "drop_ripple.yaml", ["components.drop.height=1e308"])
     assert err.value.problems == ["components.drop.height: must be <= 1000 m (got 1e+308)"]
+
+
+@pytest.mark.parametrize(("override", "said"), [
+    ("components.pond.cell=0.02", "cell 0.01 (the water's 0.02)"),
+    ("components.pond.origin_x=-1.0", "origin_x -1.275 (the water's -1)"),
+    ("components.pond.ny=200", "ny 256 (the water's 200)"),
+])
+def test_a_drop_on_another_grid_than_its_waters_is_refused(override, said):
+    """The drop's window is in the indices of the grid it assumes: with the pond's cell doubled, a
+    drop meant at (0, 0) landed at (1.27, 1.27) m with four times its volume, the run "ok"."""
+    with pytest.raises(ScenarioError) as err:
+        load(Path(__file__).resolve().parents[1] / "scenarios" / "drop_ripple.yaml", [override])
+    assert err.value.problems == [f"components.pond: occupied: its source drop places its window on another "
+                                  f"grid: {said}; set them as the water's"]

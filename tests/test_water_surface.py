@@ -73,6 +73,14 @@ def test_parameter_rules_are_all_reported():
     assert any("sponge_cells: must be < min(nx, ny) / 2 = 5" in p for p in problems)
 
 
+def test_a_sponge_is_refused_on_a_closed_basin():
+    """The sponge is a layer of the absorbing edges: asked of reflecting ones it was taken and ignored."""
+    assert problems_of({"nx": 10, "ny": 10, "sponge_cells": 4}) == [
+        "components.pond.sponge_cells: must be 0 with boundary reflecting: the sponge is a layer of absorbing "
+        "edges (got 4)"]
+    assert problems_of({"nx": 10, "ny": 10, "sponge_cells": 0}) == []
+
+
 def test_initial_bump_is_a_nested_mapping():
     """initial: {x, y, amplitude, width} builds a Gaussian bump; a missing width is reported."""
     assert problems_of({"initial": {"x": 0.0, "y": 0.0, "amplitude": 0.01, "width": 0.02}}) == []

@@ -11,7 +11,7 @@ exactly what it would see from a real body::
 The occupied height is a smooth cap over a disk, b(r) = height * (1 + cos(pi r / radius)) / 2 for
 r < radius, scaled in time by a smoothstep from 0 (at ``start``) to 1 (at ``start + rise``); with
 ``hold`` set, the body leaves again over another ``rise`` after holding for ``hold`` seconds. The
-grid settings (cell, origin, nx, ny) must be those of the water it feeds.
+grid settings (cell, origin, nx, ny) must be those of the water it feeds, which refuses others.
 """
 
 from __future__ import annotations
@@ -97,6 +97,11 @@ class DropSource(Component):
 
     def _message(self, t: float) -> OccupiedHeight:
         return OccupiedHeight(i0=self._i0, j0=self._j0, b=self.level(t) * self._shape)
+
+    def assumed_grid(self) -> dict[str, float]:
+        """The water grid its window's indices are of (the water it feeds refuses another at load)."""
+        p = self.params
+        return {"cell": p.cell, "origin_x": p.origin_x, "origin_y": p.origin_y, "nx": p.nx, "ny": p.ny}
 
     def initial_outputs(self) -> dict[str, Message]:
         return {"occupied": self._message(0.0)}

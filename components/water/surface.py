@@ -214,6 +214,11 @@ class WaterParams:
         elif self.boundary == "absorbing" and 2 * self.sponge_cells >= min(self.nx, self.ny):
             problems.append(("sponge_cells", f"must be < min(nx, ny) / 2 = {min(self.nx, self.ny) / 2:g} "
                                              f"for an absorbing boundary (got {self.sponge_cells})"))
+        elif self.boundary != "absorbing" and self.sponge_cells:
+            # the sponge is the absorbing edges' layer: a closed basin has none, and took the value
+            # without a word (a run with sponge_cells 40 was the same as with 0)
+            problems.append(("sponge_cells", f"must be 0 with boundary {self.boundary}: the sponge is a layer "
+                                             f"of absorbing edges (got {self.sponge_cells})"))
         return problems
 
 
@@ -443,6 +448,27 @@ class WaterSurface(Component):
         return [f"initial: the trough reaches the bed at x = {x:.4g} m, y = {y:.4g} m, where the water is "
                 f"{float(g.depth0[j, i]):.3g} m deep and the trough {float(self._h[j, i]):.3g} m: a trough "
                 "shallower than the water wherever it reaches"]
+
+    def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
+        """A source of occupied height that places its window by a grid of its own (a DropSource's
+        ``cell``, ``origin_x``, ``origin_y``, ``nx``, ``ny``: :meth:`assumed_grid`) must assume this
+        water's grid: with the pond's cell doubled, a drop meant at (0, 0) landed at (1.27, 1.27) m
+        with four times its volume, and the run said nothing."""
+        g = self.grid
+        mine = {"cell": g.cell, "origin_x": g.origin_x, "origin_y": g.origin_y, "nx": g.nx, "ny": g.ny}
+        problems = []
+        for occupied, _, _ in self.body_ports:
+            source = sources.get(occupied)
+            assumed = getattr(source, "assumed_grid", None)
+            if not callable(assumed):
+                continue
+            theirs = assumed()
+            wrong = [f"{key} {theirs[key]:g} (the water's {mine[key]:g})" for key in mine
+                     if not math.isclose(theirs[key], mine[key], rel_tol=1e-12, abs_tol=1e-12)]
+            if wrong:
+                problems.append(f"{occupied}: its source {source.name} places its window on another grid: "
+                                f"{', '.join(wrong)}; set them as the water's")
+        return problems
 
     def max_stable_step(self) -> float:
         """The model's stable step [s], and with damping at most DAMPING_STEP / k_v: the step's factor
