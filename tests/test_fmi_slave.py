@@ -7,6 +7,7 @@ Integer parameter, a state of another scene, and the reason of a failure where a
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -54,6 +55,8 @@ def test_a_start_time_after_0_gives_the_scenes_values_at_that_time(held):
 @pytest.mark.parametrize(("start", "said"), [
     ("0.0003", "a start time of 0.0003 s is not a whole multiple of the scene's base step dt = 0.0005 s"),
     ("-1.0", "a start time of -1 s: must be at least 0 s (the scene begins at t = 0)"),
+    # (an infinite one was Fatal with no reason said: its base step, round(inf), raised)
+    ("float('inf')", "a start time of inf s: must be at most 9.22e+09 s (the scene's clock counts 64-bit nanoseconds)"),
 ])
 def test_a_start_time_off_the_scenes_grid_is_refused_at_setup_with_the_reason(held, start, said):
     """A start time the scene cannot be at fails setupExperiment (pythonfmu answers Fatal), the reason
@@ -133,6 +136,33 @@ def test_a_master_that_adds_up_its_time_is_followed_on_the_scenes_grid(held, cap
     assert not slave.do_step(off, STEP)
     said = capfd.readouterr().err
     assert f"doStep from t = {off!r} s, but the scene is at t = {2 * STEP!r} s" in said
+
+
+FINITE_STEP = ("must be a finite number of seconds, ending by t = 9.22e+09 s (the scene's clock counts 64-bit "
+               "nanoseconds)")
+
+
+def test_a_do_step_at_a_time_or_by_a_step_that_is_not_finite_is_refused_changing_nothing(held, capfd):
+    """A time or a step of NaN or infinity answers Discard with the reason on standard error, and the
+    scene stays where it was, stepping on as it should after: doStep from t = NaN was taken (NaN passed
+    the check against the scene's time, which compares false) and a NaN or infinite step was Fatal, the
+    instance dead and nothing said (the step's count of base steps, round(inf), raised)."""
+    slave = _slave(held, "odd")
+    values = dict(slave.values)
+    for t, h, said in [
+        (math.nan, STEP, "doStep from t = nan s: the communication point must be a finite time"),
+        (math.inf, STEP, "doStep from t = inf s: the communication point must be a finite time"),
+        (0.0, math.nan, f"a communication step of nan s: {FINITE_STEP}"),
+        (0.0, math.inf, f"a communication step of inf s: {FINITE_STEP}"),
+        (0.0, -math.inf, f"a communication step of -inf s: {FINITE_STEP}"),
+        (0.0, 1e300, f"a communication step of 1e+300 s: {FINITE_STEP}"),  # finite, but inf base steps
+    ]:
+        capfd.readouterr()
+        assert not slave.do_step(t, h), (t, h)
+        assert f"error: FMU SceneSlave (instance 'odd'): {said}" in capfd.readouterr().err
+        assert slave.sim.tick == 0 and slave.values == values
+    assert slave.do_step(0.0, STEP)
+    assert slave.sim.time_ns == round(STEP * 1e9)
 
 
 def test_a_refused_do_step_is_said_on_standard_error_without_debug_logging(held, capfd):

@@ -22,6 +22,7 @@ from cosim.fmi.pythonfmu_exit import release_at_exit
 LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
 STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
 ERROR, FATAL = 3, 4
+FREEING = frozenset({"freeFMUstate"})  # the calls (through _call) an FMU that returned Error still takes
 
 _unpacked: dict[tuple[str, int, int], str] = {}
 
@@ -62,6 +63,16 @@ class FmuCallError(RuntimeError):
         self.function, self.status, self.log = function, status, log
         said = "; ".join(log) if log else "the FMU logged nothing"
         super().__init__(f"{function} returned {status}: {said}")
+
+
+class FmuNotCalled(FmuCallError):
+    """A call refused without reaching the FMU: it returned Error or Fatal earlier, after which FMI 2.0
+    and 3.0 allow no further call (after Error only freeing it)."""
+
+    def __init__(self, function: str, worst: str):
+        self.function, self.status, self.log = function, "not called", []
+        RuntimeError.__init__(self, f"{function} not called: the FMU returned {worst} earlier (FMI: an FMU that "
+                                    "returned Error is only freed, one that returned Fatal is not called again)")
 
 
 def _unpack(fmu_file: Path) -> str:
@@ -111,6 +122,11 @@ def check_pythonfmu_resources(md: Any, folder: str, fmu_file: Path) -> None:
     if not ((resources / f"{top}.py").is_file() or (resources / top / "__init__.py").is_file()):
         raise ValueError(f"{fmu_file}: its model module {module!r} is missing from its resources (no "
                          f"resources/{top}.py): the FMU is damaged (export it again)")
+
+
+def _status_name(status: int) -> str:
+    """An FMI status's name (Fatal), or its number if it has none."""
+    return STATUS[status] if 0 <= status < len(STATUS) else f"status {status}"
 
 
 def _text(value: Any) -> str:
@@ -220,6 +236,11 @@ class FmuInstance:
         what the FMU logged meanwhile (its errors first, else everything)."""
         from fmpy.fmi1 import FMICallException
 
+        # FMI's rule for every caller: a scene that failed in this FMU is still asked for its state and
+        # told to restore one (setFMUstate of an exported scene), and pythonfmu's FMUs took a doStep after
+        # their Fatal and ran on
+        if self.worst >= FATAL or (self.worst >= ERROR and function not in FREEING):
+            raise FmuNotCalled(function, _status_name(self.worst))
         self.log = []
         # its log reaches this process (loggingOn), which reports a failure in its words: an FMU cosim
         # exported says nothing of its own on standard error meanwhile (cosim.fmi.host_calls)
@@ -227,7 +248,7 @@ class FmuInstance:
         try:
             return call(*args, **kwargs)
         except FMICallException as exc:
-            status = STATUS[exc.status] if 0 <= exc.status < len(STATUS) else f"status {exc.status}"
+            status = _status_name(exc.status)
             self.worst = max(self.worst, exc.status)
             # the FMU's own words first: an Error it logged says more than the Fatal its wrapper adds
             said = ([m for m in self.log if m.startswith("[Error]")] or
@@ -276,7 +297,7 @@ class FmuInstance:
         try:
             return bytes(self._call("serializeFMUstate", self.fmu.serializeFMUState, state))
         finally:
-            self._call("freeFMUstate", free, state)
+            self._free_state(free, state)
 
     def restore(self, data: bytes) -> None:
         """Put the FMU back into a state :meth:`save` returned."""
@@ -286,6 +307,12 @@ class FmuInstance:
         try:
             self._call("setFMUstate", put, state)
         finally:
+            self._free_state(free, state)
+
+    def _free_state(self, free: Callable[..., Any], state: Any) -> None:
+        """Free a state the FMU made, unless it answered Fatal meanwhile: then nothing may be called, and
+        the refusal would hide the failure being raised."""
+        if self.worst < FATAL:
             self._call("freeFMUstate", free, state)
 
     def close(self) -> None:

@@ -104,9 +104,14 @@ def cmd_export(args: argparse.Namespace) -> int:
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``cosim fmu export`` to the CLI."""
     fmu = subparsers.add_parser("fmu", help="FMI: export a scene as a co-simulation FMU")
-    actions = fmu.add_subparsers(dest="fmu_command", required=True, parser_class=type(fmu))
+    # named as cosim's own choice of command is: "the following arguments are required: command" (it
+    # said fmu_command, a variable's name); it replaces the top-level value, which nothing reads (each
+    # command runs its parser's func)
+    actions = fmu.add_subparsers(dest="command", required=True, parser_class=type(fmu))
+    # the module's reST made plain for the terminal (its ``--step`` printed with the backticks)
+    description = __doc__.split("\n\n", 1)[1].replace("``", "") if __doc__ else None
     p = actions.add_parser("export", help="build an FMI 2.0 co-simulation FMU that runs the scene",
-                           description=__doc__.split("\n\n", 1)[1] if __doc__ else None)
+                           description=description)
     p.add_argument("scene", help="scene YAML file")
     p.add_argument("-o", "--output", required=True, type=fmu_path, metavar="NAME.fmu", help="the FMU file to write")
     p.add_argument("--step", type=positive_seconds, metavar="S",

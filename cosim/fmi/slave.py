@@ -20,6 +20,7 @@ Python needs cosim and its components installed, the same version for the same r
 from __future__ import annotations
 
 import hashlib
+import math
 import sys
 from pathlib import Path
 from typing import Any, NoReturn
@@ -34,7 +35,7 @@ from cosim.errors import one_line
 from cosim.fmi.pythonfmu_exit import release_binaries_at_exit
 from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
-from cosim.scenario import loads
+from cosim.scenario import MAX_TIME_NS, loads
 from cosim.scheduler import BaseObserver, Simulation
 from cosim.timebase import NS_PER_S
 
@@ -114,6 +115,9 @@ class SceneSlave(Fmi2Slave):
         # start time) it was built from: exitInitializationMode keeps it if they are unchanged
         self._started: tuple[tuple[Any, ...], Simulation] | None = None
         self.terminated = False  # set by terminate: FMI 2.0 then allows only reset (a new instance) and freeInstance
+        # set when the scene failed in a doStep: an FMU inside it may have answered Fatal, and may not be
+        # called again, so a state is restored into the scene built anew (see _restore_scene)
+        self.failed = False
         for p in self.spec.parameters:
             self.values[p.name] = p.start
             kind = Integer if p.kind == "integer" else Real
@@ -196,6 +200,9 @@ class SceneSlave(Fmi2Slave):
             return
         if not start_time >= 0:  # a negative or NaN start: the scene has no time before its t = 0
             self._fail(f"a start time of {start_time:.9g} s: must be at least 0 s (the scene begins at t = 0)")
+        if start_time * NS_PER_S > MAX_TIME_NS:  # (an infinite one's base step, round(inf), raised unsaid)
+            self._fail(f"a start time of {start_time:.9g} s: must be at most {MAX_TIME_NS / NS_PER_S:.3g} s (the "
+                       "scene's clock counts 64-bit nanoseconds)")
         try:
             dt_ns = loads(self.scene_text, source=SCENE_FILE, overrides=self.overrides(),
                           base_dir=self.spec.base_dir).dt_ns
@@ -289,9 +296,17 @@ class SceneSlave(Fmi2Slave):
         if self.terminated:
             return self._refuse(f"doStep from t = {current_time:.9g} s after terminate: a terminated FMU takes "
                                 "only reset or freeInstance (FMI 2.0)")
+        # (NaN compares false: a NaN time passed the check against the scene's time below, and the
+        # scene stepped on; round() of a NaN or infinite step raised, which pythonfmu answers with Fatal)
+        if not math.isfinite(current_time):
+            return self._refuse(f"doStep from t = {current_time!r} s: the communication point must be a finite time")
         sim = self.sim
         if sim is None:
             return self._refuse("doStep before initialization")
+        if not math.isfinite(step_size) or sim.time_ns + step_size * NS_PER_S > MAX_TIME_NS:
+            return self._refuse(f"a communication step of {step_size!r} s: must be a finite number of seconds, "
+                                f"ending by t = {MAX_TIME_NS / NS_PER_S:.3g} s (the scene's clock counts 64-bit "
+                                "nanoseconds)")
         dt_ns = sim.dt_ns
         steps = step_size * NS_PER_S / dt_ns
         if round(steps) < 1 or abs(steps - round(steps)) > STEP_SLACK:
@@ -303,6 +318,7 @@ class SceneSlave(Fmi2Slave):
         try:
             _run_to(sim, sim.tick + round(steps))
         except Exception as exc:  # a SimulationError: the scene failed at a time it names
+            self.failed = True
             return self._refuse(str(exc))
         self._publish()
         return True
@@ -320,7 +336,11 @@ class SceneSlave(Fmi2Slave):
         state and port history, bit-exact) with the ports' latest messages the outputs read."""
         state: dict[str, Any] = {"scene": self.scene_digest, "values": dict(self.values)}
         if self.sim is not None:
-            state["checkpoint"] = encode_state(self.sim.checkpoint()).decode()
+            try:
+                checkpoint = self.sim.checkpoint()
+            except Exception as exc:  # a failed scene's FMU that answered Fatal: it is not asked for its state
+                self._fail(f"cannot save this state: {exc}")
+            state["checkpoint"] = encode_state(checkpoint).decode()
             state["stop_reason"] = self.sim.stop_reason
             state["latest"] = [[c, p, codec_for(type(m)).encode(m).decode()]
                                for (c, p), m in self.latest.messages.items()]
@@ -347,18 +367,23 @@ class SceneSlave(Fmi2Slave):
             # a state saved before initialization: back to then, with no scene (its outputs of 0 with the
             # scene left at its later time made a doStep from 0 refused and one from that time accepted)
             self.sim = None
+            self.failed = False
             self._started = None
             self.latest.messages = {}
         self.values.update(values)
 
     def _restore_scene(self, state: dict[str, Any], values: dict[str, Any]) -> None:
-        """Put the scene back as ``state`` saved it; on failure, back as it was."""
+        """Put the scene back as ``state`` saved it; on failure, back as it was. A scene that failed is
+        replaced, not restored into: an FMU inside it that answered Fatal may not be called again (its
+        setFMUstate ran the dead model on), and one that answered Error may only be freed."""
         checkpoint, stop_reason = decode_state(state["checkpoint"].encode()), state["stop_reason"]
-        if self.sim is None:  # a fresh instance: the scene of the state's parameters, kept only if restored
+        if self.sim is None or self.failed:
+            # a fresh instance or a failed scene: the scene of the state's parameters, built anew and kept
+            # only if restored (the failed one stays, refusing every doStep, if not)
             sim = self._simulation(values)
             latest = self._decode_latest(sim, state["latest"])
             sim.restore(checkpoint)
-            self.sim = sim
+            self.sim, self.failed = sim, False
         else:
             sim = self.sim
             latest = self._decode_latest(sim, state["latest"])
@@ -366,7 +391,10 @@ class SceneSlave(Fmi2Slave):
             try:
                 sim.restore(checkpoint)
             except Exception:
-                sim.restore(decode_state(before["checkpoint"].encode()))
+                try:
+                    sim.restore(decode_state(before["checkpoint"].encode()))
+                except Exception:  # an FMU inside that failed restoring takes no state back: the scene is lost
+                    self.failed = True  # (the reason raised is the first failure's, not this refusal's)
                 raise
         sim.stop_reason = stop_reason
         self.latest.messages = latest
