@@ -104,8 +104,8 @@ def test_get_fmu_state_of_a_scene_an_inner_fatal_failed_is_refused_naming_why(gu
     failed_gust = slave.sim.components["gust"].fmu
     watched = failed_gust.fmu = _Watched(failed_gust.fmu)
     capfd.readouterr()
-    with pytest.raises(RuntimeError, match=r"cannot save this state: .*getFMUstate not called: the FMU "
-                                           r"returned Fatal earlier"):
+    with pytest.raises(RuntimeError, match=r"cannot save this state: component 'gust' failed at t = 0\.062 s: "
+                                           r".*getFMUstate not called: the FMU returned Fatal earlier"):
         slave._get_fmu_state()
     assert watched.called == []
     assert "error: FMU SceneSlave (instance 'saving'): cannot save this state: " in capfd.readouterr().err

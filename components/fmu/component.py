@@ -158,6 +158,7 @@ class FMU(Component):
         # the doStep calls made, as step_count counts them (one whose outputs the run then refused, a
         # NaN, counts: the summary said "0 doStep calls" of an FMU that had made one)
         self._calls_made = 0
+        self._at_ns = 0  # the time the FMU was last stepped to or from [ns]: where a failure to save its state is said
         if self.fmu_file is None:
             raise TypeError("an FMU component is built from a scene (its ports come from the scene's mapping)")
         try:
@@ -196,11 +197,13 @@ class FMU(Component):
                     self.fmu.set(fmu_type, [port.bindings[i].value_reference for i in positions],
                                  [values[i] for i in positions])
             self._calls_made = self.step_count + 1
+            self._at_ns = round(t * NS_PER_S)
             try:
                 self.fmu.do_step(t, dt)
             except FmuCallError:
                 self._failed_do_step = True
                 raise
+            self._at_ns = round((t + dt) * NS_PER_S)
             return self._outputs()
         except FmuCallError as exc:
             raise SimulationError(self.name, round(t * NS_PER_S),
@@ -214,7 +217,8 @@ class FMU(Component):
         try:
             data = self.fmu.save()
         except FmuCallError as exc:
-            raise SimulationError(self.name, 0, f"FMU {self.label}: cannot save its state: {exc}") from None
+            # (at the time it was stepped to: one whose doStep failed at 0.062 s was said to fail at 0)
+            raise SimulationError(self.name, self._at_ns, f"FMU {self.label}: cannot save its state: {exc}") from None
         return {"fmu_state": np.frombuffer(data, dtype=np.uint8).copy()}
 
     def set_state(self, state: dict[str, Any]) -> None:
