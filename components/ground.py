@@ -51,9 +51,9 @@ impulse included). Under semi-implicit Euler each step of the body loses M |dv|^
 velocity change) that no component books: the integrator's own error, whose share along the normal
 a plastic correction gives back unbooked (components.contact.solver, point 4).
 
-Assumptions: the ground steps at the body's rate (same ``every``), since dt is read as the body's
-step; one plane per SolidGround (a floor and a ramp are two grounds feeding the same impulse port,
-which sums them; while both hold the body, each reads the other's impulse as part of the held
+Assumptions: the ground steps at the body's rate (same ``every``, checked as the scene loads), since
+dt is read as the body's step; one plane per SolidGround (a floor and a ramp are two grounds feeding
+the same impulse port, which sums them; while both hold the body, each reads the other's impulse as part of the held
 force, and neither's books are exact then); ``gravity`` must match the body's (it is the
 acceleration the ground reconstructs the step with and books the potential energy of its
 corrections against; a RigidBody's is checked when the scene loads, any other body's at the first
@@ -317,6 +317,11 @@ class SolidGround(Component):
                     f"{[round(c, 6) for c in x]} m, {self.plane.height(x):.4g} m from the plane through "
                     f"{list(self.plane.point)} m); start it above the ground"]
         return []
+
+    def answers(self) -> dict[str, str]:
+        """The impulse goes back to the body whose state it reads, once for each state (the scene is
+        refused unless the two step at one rate)."""
+        return {"impulse": "body"}
 
     def check_start_sources(self, inputs: dict[str, Message | None], sources: dict[str, Component]) -> list[str]:
         """Its gravity must be its body's (it reconstructs the body's step with it, and books the

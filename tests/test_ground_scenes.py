@@ -35,6 +35,22 @@ def test_scene_loads_with_the_body_ground_loop_wired(name):
     assert len(delayed) == len(grounds)
 
 
+@pytest.mark.parametrize("setting", ["components.sphere.every=4", "components.floor_sphere.every=2"])
+def test_a_ground_stepping_at_another_rate_than_its_body_is_refused(setting):
+    """The ground answers each body state with one impulse, which the body applies once: stepping four
+    times a body step it answered one state four times, and the summed impulses threw the ball dropped
+    from 0.5 m up to 49 m, 0.107 J become 101 J, the run "ok"."""
+    from cosim.errors import ScenarioError
+
+    with pytest.raises(ScenarioError) as err:
+        load(SCENES / "ground_bounce.yaml", [setting])
+    ground, body = (2, 1) if "floor" in setting else (1, 4)
+    assert err.value.problems == [
+        f"components.floor_sphere: it steps every {ground} base steps and sphere every {body}, but its 'impulse' "
+        f"answers each 'body' sphere sends, which takes it as an event (each one applied once): set "
+        f"components.floor_sphere.every to {body}"]
+
+
 def test_ground_bounce_scene():
     """ground_bounce: the flat disk's first rebound reaches e^2 of the drop, the tilted disk is spun up
     by its rim impact, and every body ends at rest on the floor."""
