@@ -150,13 +150,18 @@ def water_field(component: str, port: str, msg: WaterField) -> list:
 def stage(component: str, port: str, msg: Stage) -> list:
     """One log line per stage change."""
     level = "warning" if msg.stage is StageId.SINK else "info"
+    # rest is known only once the slow spell that makes it has lasted (REST_HOLD): its line, at that
+    # time, says when it began, as the summary, the plots and `inspect` date it
+    began = f", since t = {msg.since:.3f} s" if msg.stage is StageId.REST and not math.isnan(msg.since) else ""
     return [LogLine(LOG_TOPIC, level, component,
-                    f"{msg.label} (stage {int(msg.stage)}): skips {msg.skips}, {_where(msg.x, msg.y)}")]
+                    f"{msg.label} (stage {int(msg.stage)}): skips {msg.skips}, {_where(msg.x, msg.y)}{began}")]
 
 
 def _where(x: float, y: float) -> str:
     """Where on the pond [m]: (x, y), or x alone when y is not known (a recording from before it was
-    kept). x alone said nothing of a throw along y (every stage "x = 0.500 m")."""
+    kept). x alone said nothing of a throw along y (every stage "x = 0.500 m"). Rounded first, so that
+    a y of -1e-18 reads 0.000, not -0.000."""
+    x, y = round(x, 3) + 0.0, round(y, 3) + 0.0
     return f"x = {x:.3f} m" if math.isnan(y) else f"at ({x:.3f}, {y:.3f}) m"
 
 

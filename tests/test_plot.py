@@ -477,7 +477,7 @@ def test_a_restarts_contacts_are_numbered_as_its_skips(tmp_path):
     restart = load_run(tmp_path / "restart.mcap")
     assert [r.index for r in restart.skips] == [2, 3]
     titles = [a.get_title() for a in figure_contacts(restart).axes if a.get_visible()]
-    assert titles[0].startswith("contact 2: t = 0.312 s") and titles[1].startswith("contact 3: t = 0.490 s")
+    assert titles[0].startswith("contact 2: t = 0.3120 s") and titles[1].startswith("contact 3: t = 0.4900 s")
 
 
 RAISED_PINE = ["until=0.05", "record.visual_rate=0", "components.pine_pond.rest_level=0.5",

@@ -46,8 +46,9 @@ def gif_frames(path) -> list[np.ndarray]:
 
 
 def stone_column(frame: np.ndarray) -> float:
-    """Mean column of the stone's warm pixels (red well above blue), below the title line."""
-    body = frame[int(0.12 * frame.shape[0]):]
+    """Mean column of the stone's warm pixels (red well above blue), between the title line and the
+    notes at the foot (in the stage's colour, as the title)."""
+    body = frame[int(0.12 * frame.shape[0]):int(0.88 * frame.shape[0])]
     warm = (body[..., 0] - body[..., 2]) > 0.1
     assert warm.sum() >= 3, "no stone drawn"
     return float(np.nonzero(warm)[1].mean())
@@ -667,6 +668,46 @@ def test_the_water_at_rest_drawn_before_any_field_stops_at_the_ponds_edge(skip_p
     assert plane.gx.min() == pytest.approx(-0.005) and plane.gy.min() == pytest.approx(-0.005)
     assert plane.gx.max() == pytest.approx(0.8) and plane.gy.max() == pytest.approx(0.5)
     assert _Frames._surface(frames, None, 0.0, _View((-3.0, -1.0), (-0.5, 0.5), (-0.1, 0.1))) is None
+
+
+def test_the_pond_beyond_a_recorded_fields_window_is_drawn_at_rest_and_said_so(skip_path):
+    """A field recorded over a window of the pond (``field_window``) was drawn alone: the fixed view of
+    the reference skip showed its first two skips over nothing. The pond around it, within the view,
+    is now a plane at the rest level, the field's cells as recorded inside it, and the frame says so."""
+    import types
+
+    from components.analysis.render import FIXED_MIN_ZRATIO, FrameRenderer, _Frames, _View
+    from components.messages import WaterField
+
+    frames = types.SimpleNamespace(rest=0.0, extent=(-0.005, 8.0, -0.005, 1.0))
+    frames._at_rest_around = types.MethodType(_Frames._at_rest_around, frames)
+    height = np.linspace(-0.002, 0.002, 21 * 6).reshape(6, 21)  # x 4 to 6 m, y 0.3 to 0.8 m
+    field = WaterField(cell=0.1, origin_x=4.0, origin_y=0.3, height=height, volume=1.0, energy=0.0)
+    surface = _Frames._surface(frames, field, 0.0, _View((-0.2, 8.5), (-0.5, 1.5), (-0.1, 0.1)))
+    assert surface.at_rest_beyond
+    assert surface.gx[0, :].tolist() == pytest.approx([-0.005, *(4.0 + 0.1 * np.arange(21)), 8.0])
+    assert surface.gy[:, 0].tolist() == pytest.approx([-0.005, *(0.3 + 0.1 * np.arange(6)), 1.0])
+    assert np.array_equal(surface.gz[1:-1, 1:-1], height)
+    assert (surface.gz[0] == 0.0).all() and (surface.gz[:, 0] == 0.0).all() and (surface.gz[:, -1] == 0.0).all()
+    # a field that covers the view is drawn as it was
+    whole = _Frames._surface(frames, field, 0.0, _View((4.5, 5.5), (0.45, 0.65), (-0.1, 0.1)))
+    assert not whole.at_rest_beyond and whole.gz.shape == (4, 13)
+
+    from components.analysis.data import load_body, rest_level
+    from cosim.record.reader import Recording
+
+    rec = Recording(skip_path)
+    renderer = FrameRenderer(load_body(rec), RenderOptions(width=WIDTH, view="fixed"), rest_level(rec), "skip")
+    view = renderer.view_at(0.2)
+    renderer.extent = (*view.x, *view.y)
+    mid = 0.5 * (view.x[0] + view.x[1])  # a field over the view's far half
+    renderer.draw(0.2, WaterField(cell=0.05, origin_x=mid, origin_y=view.y[0], height=np.zeros((40, 40)),
+                                  volume=1.0, energy=0.0))
+    stretch = FIXED_MIN_ZRATIO * view.box[0] / view.box[2]  # the fixed view's heights, stretched
+    assert stretch > 1.5
+    assert renderer.header.endswith(f"(water beyond the recorded window drawn at rest)  (heights x {stretch:.1f})")
+    renderer.draw(0.2, None)  # no field: the plane at rest is all there is, not said
+    assert renderer.header.endswith(f"above the water  (heights x {stretch:.1f})")
 
 
 def test_the_header_says_where_a_throw_not_along_x_is():

@@ -120,6 +120,9 @@ def test_every_stage_change_is_a_log_line():
     assert line.text == "hit (stage 1): skips 2, at (0.500, 3.250) m"
     (sink,) = stage("monitor", "stage", Stage(StageId.SINK, "sink", 4, 9.0))
     assert sink.level == "warning"
+    # a y a hair below 0 is 0.000 (it read -0.000); rest, known REST_HOLD after it began, says when
+    (line,) = stage("monitor", "stage", Stage(StageId.REST, "rest", 0, 2.0, -9.436e-19, since=0.43))
+    assert line.text == "rest (stage 5): skips 0, at (2.000, 0.000) m, since t = 0.430 s"
     assert getattr(stage, "every_message", False) and getattr(skip_record, "every_message", False)
 
 

@@ -248,6 +248,7 @@ class Surface:
     gy: np.ndarray
     gz: np.ndarray
     rgb: np.ndarray
+    at_rest_beyond: bool = False  # the pond outside the recorded field's window drawn as a plane at rest
 
     def height_at(self, points: np.ndarray) -> np.ndarray:
         """The surface height [m] at the nearest vertex under each point (N, >=2) [m]: (N,)."""
@@ -358,7 +359,34 @@ class _Frames:
         if gz.max() < view.z[0] or gz.min() > view.z[1]:
             return None
         colors = water_colors(gz.ravel() - field_mean).reshape(*gz.shape, 4)[..., :3]
-        return Surface(gx, gy, gz, np.clip(colors * hill_shade(gx, gy, gz)[..., None], 0.0, 1.0))
+        return self._at_rest_around(Surface(gx, gy, gz, np.clip(colors * hill_shade(gx, gy, gz)[..., None], 0.0, 1.0)),
+                                    view)
+
+    def _at_rest_around(self, surface: Surface, view: _View) -> Surface:
+        """``surface`` with the pond beyond it, within the view, as a plane at the rest level: a
+        recorded field that covers part of the pond (``field_window``) was drawn alone, and the
+        fixed view of the reference skip showed its first two skips over nothing. One row or column
+        of vertices at rest is added at each side the pond reaches past the field."""
+        if self.extent is None:
+            return surface
+        x = (max(view.x[0], self.extent[0]), min(view.x[1], self.extent[1]))
+        y = (max(view.y[0], self.extent[2]), min(view.y[1], self.extent[3]))
+        xs, ys = surface.gx[0, :], surface.gy[:, 0]
+        step = min(abs(xs[1] - xs[0]), abs(ys[1] - ys[0]))  # (past it, the field's own edge is the pond's)
+        before_x, after_x = x[0] < xs[0] - step, x[1] > xs[-1] + step
+        before_y, after_y = y[0] < ys[0] - step, y[1] > ys[-1] + step
+        if not (before_x or after_x or before_y or after_y):
+            return surface
+        xs = np.concatenate([[x[0]] if before_x else [], xs, [x[1]] if after_x else []])
+        ys = np.concatenate([[y[0]] if before_y else [], ys, [y[1]] if after_y else []])
+        inner = (slice(int(before_y), len(ys) - int(after_y)), slice(int(before_x), len(xs) - int(after_x)))
+        gz = np.full((len(ys), len(xs)), self.rest)
+        gz[inner] = surface.gz
+        rgb = np.empty((len(ys), len(xs), 3))
+        rgb[...] = REST_COLOR[:3]
+        rgb[inner] = surface.rgb
+        gx, gy = np.meshgrid(xs, ys)
+        return Surface(gx, gy, gz, rgb, at_rest_beyond=True)
 
     def _paint_water(self, image: Image.Image, cam: Camera, surface: Surface) -> Image.Image:
         """The surface's cells as quads, back to front, laid over ``image`` at :data:`WATER_OPACITY`
@@ -518,7 +546,14 @@ class FrameRenderer(_Frames):
         header = (f"{self.title}   t = {t:.3f} s   {label}   {self._where(pos)}, "
                   f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{self._state_age(t, float(body.t[i]))}"
                   f"{self._field_age(t, field_time)}")
+        if surface is not None and surface.at_rest_beyond:
+            header += "  (water beyond the recorded window drawn at rest)"
+        if aspect[2] > view.box[2] * (1.0 + 1e-9):
+            # the fixed view stretches heights so that the flight shows over a long run: said, as the
+            # water's own frames say it (a 20 deg tilt stretched 3.5x is drawn at about 52 deg)
+            header += f"  (heights x {aspect[2] / view.box[2]:.1f})"
         color = tuple(to_uint8(to_rgb(stage_color(stage) if stage >= 0 else "0.2")).tolist())
+        self.header = header  # (the last frame's, as its caption)
         self._header(draw, header, color)
         return np.asarray(image)
 
