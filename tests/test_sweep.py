@@ -280,6 +280,60 @@ def test_the_first_point_is_validated_before_anything_runs(tmp_path):
         load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes: {components.ball.restitution: [1.5, 1]}\n"))
 
 
+def test_an_invalid_value_of_an_override_axis_is_refused_wherever_it_is(tmp_path):
+    """Each value of an override axis is loaded with the other axes at their first values: one that
+    makes no scene is a problem of the sweep file naming the axis, wherever it stands (only the first
+    point's was: `[0.5, 1.5]` ran, its second point a failed row, and the sweep exited 0); every such
+    value is named at once."""
+    body = ("scene: ball.yaml\naxes:\n  components.ball.speed: [2, -1]\n"
+            "  components.ball.restitution: [0.5, 1.5, 0.6, 2]\n  components.ball.angle_deg: [30, 60]\n")
+    with pytest.raises(ScenarioError) as refused:
+        load_sweep(write_sweep(tmp_path, body))
+    assert refused.value.problems == [
+        "axes.components.ball.speed: -1 makes an invalid scene (the other axes at their first values): "
+        "components.ball.speed: must be >= 0 m/s (got -1)",
+        "axes.components.ball.restitution: 1.5 makes an invalid scene (the other axes at their first values): "
+        "components.ball.restitution: must be <= 1 (got 1.5)",
+        "axes.components.ball.restitution: 2 makes an invalid scene (the other axes at their first values): "
+        "components.ball.restitution: must be <= 1 (got 2)"]
+    # in random mode, the values its points drew
+    random = "mode: random\nsamples: 6\nscene: ball.yaml\naxes:\n  components.ball.restitution: {uniform: [0.5, 1.2]}\n"
+    with pytest.raises(ScenarioError, match=r"axes\.components\.ball\.restitution: [0-9.]+ makes an invalid scene: "
+                                            r"components\.ball\.restitution: must be <= 1"):
+        load_sweep(write_sweep(tmp_path, random))
+
+
+def test_the_values_checked_are_bounded_and_take_each_axis_ends(tmp_path, monkeypatch):
+    """The check loads one scene a value, not one a point, and at most VALUES_CHECKED in all (about 10
+    ms each): an axis of more values than its share is checked at values spread over it, its ends
+    among them, and the values of a short axis are all checked."""
+    loaded = []
+    loads = plan.loads
+    monkeypatch.setattr(plan, "loads", lambda *args: loaded.append(args) or loads(*args))
+    monkeypatch.setattr(plan, "VALUES_CHECKED", 10)
+    body = ("scene: ball.yaml\naxes:\n  components.ball.speed: {linspace: [2, 3, 50]}\n"
+            "  components.ball.angle_deg: {linspace: [30, 60, 40]}\n  components.ball.restitution: [0.5, 0.6, 1.5]\n")
+    with pytest.raises(ScenarioError) as refused:
+        load_sweep(write_sweep(tmp_path, body))
+    assert len(loaded) == 1 + 10  # the first point's scene, then the values
+    assert any(p.startswith("axes.components.ball.restitution: 1.5 makes") for p in refused.value.problems)
+    speeds = {o for *_, overrides in loaded[1:] for o in overrides if o.startswith("components.ball.speed=")}
+    assert {"components.ball.speed=3.0", "components.ball.speed=2.0"} <= speeds  # (2.0: the others' first value)
+    assert plan._shares([2, 50, 39], 10) == [2, 4, 4]
+    assert plan._spread([1, 2, 3, 4, 5, 6, 7], 3) == [1, 4, 7]
+
+
+def test_an_axis_over_a_top_level_key_the_scene_leaves_out_is_an_override(tmp_path):
+    """An axis over a top-level key of a scene that the base scene does not give (on_unstable, at its
+    default) varies that key, as `set:` and `--set` do (it was refused as no key of the scene)."""
+    sweep = load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  on_unstable: [error, substep]\n"))
+    assert [a.kind for a in sweep.axes] == ["override"]
+    assert [p.overrides for p in sweep.points] == [("on_unstable=error",), ("on_unstable=substep",)]
+    with pytest.raises(ScenarioError, match=r"axes\.on_unstable: 'sometimes' makes an invalid scene: "
+                                            r"on_unstable: must be one of"):
+        load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  on_unstable: [error, sometimes]\n"))
+
+
 def test_scene_file_and_sweep_file_problems(tmp_path):
     """A missing scene, a missing sweep file, an empty one and a YAML error are bad input too."""
     with pytest.raises(ScenarioError, match=r"scene: 'nowhere\.yaml': no such file") as missing:

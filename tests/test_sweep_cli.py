@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -206,6 +207,65 @@ def test_table_of_another_sweep_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "t.csv: holds the results of a different sweep" in err
     assert "resuming" not in err  # it is not resumed: said only of a table found to be this sweep's
+
+
+@pytest.mark.parametrize(("first", "then"), [("res.csv", "res.parquet"), ("res.parquet", "res.csv")])
+@pytest.mark.parametrize("legacy", [False, True], ids=["named", "record-of-before"])
+def test_a_table_of_the_same_stem_in_the_other_format_keeps_its_side_files(tmp_path, capsys, first, then, legacy):
+    """`-o res.csv` and `-o res.parquet` in one folder share their record, figure, lock and runs folder
+    (named by the stem): the second sweep, with --fresh too and in a dry run, is refused in one line
+    naming the other table, exit 2, and the first's files stay as they were, so that it still resumes
+    (the second overwrote res.meta.json and res.png, and the first was then refused as "a different
+    sweep"). A record written before it named its table is known by the other table's header; a
+    table copied with its record under another stem resumes."""
+    pytest.importorskip("pyarrow")
+    folder = tmp_path / "col"
+    mine = str(folder / first)
+    assert main(["sweep", str(write_sweep(tmp_path, SWEEP)), "-q", "-o", mine, "--workers", "1"]) == 0
+    record = folder / "res.meta.json"
+    if legacy:
+        data = json.loads(record.read_text())
+        data.pop("table", None)  # (written since)
+        record.write_text(json.dumps(data))
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    assert {"res.meta.json", "res.png"} <= set(before)
+    other = write_sweep(tmp_path, SWEEP.replace("[2, 3, 5]", "[2, 3]"), name="other.yaml")
+    capsys.readouterr()
+    for options in ([], ["--fresh"], ["--dry-run"]):
+        assert main(["sweep", str(other), "-q", "-o", str(folder / then), "--workers", "1", *options]) == 2
+        err = capsys.readouterr().err
+        assert err == (f"error: {folder / then}: res.meta.json beside it is the record of {first}, another sweep's "
+                       "table of the same stem (the two would share their record, figure res.png, lock and runs "
+                       "folder); give -o another name\n"), options
+        assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert main(["sweep", str(write_sweep(tmp_path, SWEEP)), "-q", "-o", mine, "--workers", "1"]) == 0
+    assert "holds every point of this sweep: nothing to run" in capsys.readouterr().err
+    # a copy of the table with its record, under another stem, is its own (its record names the original)
+    for name, data in before.items():
+        (folder / name.replace("res.", "copy.")).write_bytes(data)
+    assert main(["sweep", str(write_sweep(tmp_path, SWEEP)), "-q", "-o", str(folder / first.replace("res", "copy")),
+                 "--workers", "1"]) == 0
+    assert "holds every point of this sweep: nothing to run" in capsys.readouterr().err
+
+
+def test_a_parquet_table_whose_journal_is_gone_is_refused_not_deleted(tmp_path, capsys):
+    """A finished Parquet table whose journal (`<stem>.journal.csv`) was removed cannot be resumed: run
+    again, or in a dry run, it is refused in one line saying to use --fresh, exit 2, and kept (it was
+    deleted and run again as if --fresh had been given), as a CSV table without its record is;
+    --fresh starts it over."""
+    pq = pytest.importorskip("pyarrow.parquet")
+    path, out = write_sweep(tmp_path, SWEEP), tmp_path / "t.parquet"
+    assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "1", "--no-figure"]) == 0
+    (tmp_path / "t.journal.csv").unlink()
+    table = out.read_bytes()
+    for options in ([], ["--dry-run"]):
+        assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "1", "--no-figure", *options]) == 2
+        assert capsys.readouterr().err == (f"error: {out}: exists but its journal t.journal.csv beside it is missing, "
+                                           "so it cannot be resumed; use --fresh to start over or -o for another "
+                                           "file\n")
+        assert out.read_bytes() == table
+    assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "1", "--no-figure", "--fresh"]) == 0
+    assert pq.read_table(out).num_rows == 6 and (tmp_path / "t.journal.csv").exists()
 
 
 @pytest.mark.parametrize(("output", "said"), [
@@ -445,14 +505,31 @@ def test_a_later_points_notice_is_said_once_after_the_sweep(tmp_path, capsys):
 
 def test_a_dry_run_loads_every_points_scene_and_names_the_invalid_ones(tmp_path, capsys):
     """--dry-run said 'ok' for a sweep whose third point makes no scene, found only as a failed row
-    when it ran; it now loads each point's scene and names the ones that are invalid."""
+    when it ran; it now loads each point's scene and names the ones that are invalid (here a derived
+    value's: an override axis's own values are checked as the sweep loads)."""
     scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
     path = tmp_path / "radii.yaml"
-    path.write_text(f"scene: {scene}\naxes:\n  components.stone.radius: [0.05, 0.04, -0.01]\noutput: r.csv\n")
+    path.write_text(f"scene: {scene}\naxes:\n  r: [0.05, 0.04, -0.01]\nderived: {{components.stone.radius: r}}\n"
+                    "output: r.csv\n")
     assert main(["sweep", str(path), "--dry-run"]) == 2
     out = capsys.readouterr().out
     assert "  2 of 3 points checked make valid scenes" in out
     assert "invalid #2 " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out
+
+
+@pytest.mark.parametrize("dry_run", [[], ["--dry-run"]], ids=["run", "dry-run"])
+def test_an_invalid_value_of_an_override_axis_is_bad_input_and_nothing_is_written(tmp_path, capsys, dry_run):
+    """A value of an override axis that makes no scene, whichever point holds it: exit 2 naming the axis
+    and the value, nothing written (`[0.05, -1]` ran, wrote a table and a figure with a failed row, and
+    exited 0)."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    path = tmp_path / "radii.yaml"
+    path.write_text(f"scene: {scene}\naxes:\n  components.stone.radius: [0.05, -1]\nuntil: 0.01\n")
+    assert main(["sweep", str(path), "-q", "--workers", "1", "-o", str(tmp_path / "out" / "r.csv"), *dry_run]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == (f"error: {path}: axes.components.stone.radius: -1 makes an invalid scene: "
+                            "components.stone.radius: must be > 0 m (got -1)\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["radii.yaml"]
 
 
 @pytest.mark.parametrize("strict", [[], ["--strict"]], ids=["plain", "strict"])

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import os
 import re
+import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 
+from cosim.cli import main
 from cosim.sweep.backends import BackendError, DaskBackend, ProcessBackend
 from cosim.sweep.plan import load_sweep
 from cosim.sweep.run import run_sweep
@@ -80,6 +86,23 @@ def test_an_unreachable_scheduler_is_reported(tmp_path):
         DaskBackend("tcp://127.0.0.1:9", timeout_s=1).start()
     with pytest.raises(BackendError, match=r"cannot reach the Dask scheduler at nowhere: .*port"):
         DaskBackend("nowhere", timeout_s=1).start()
+
+
+def test_an_address_dask_cannot_take_leaves_no_client_behind():
+    """A Client whose making failed (an address with no port) is closed at once: left in a reference
+    cycle, it closed itself whenever the collector found it, taking the lock Dask's loop runners share,
+    and found in the loop thread of the next local cluster as that started, it hung it for 10 s and
+    failed it (an AssertionError in distributed)."""
+    import gc
+
+    def clients() -> int:
+        return sum(isinstance(o, distributed.Client) for o in gc.get_objects())
+
+    gc.collect()  # (what earlier tests left)
+    before = clients()
+    with pytest.raises(BackendError, match="missing port number"):
+        DaskBackend("nowhere", timeout_s=1).start()
+    assert clients() == before
 
 
 def test_dask_local_with_worker_processes(tmp_path):
@@ -342,3 +365,52 @@ def test_ctrl_c_on_a_local_dask_cluster_says_one_line(tmp_path):
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
     assert stderr.strip().splitlines() == [f"error: cosim sweep: {stdout.splitlines()[2].strip()}"], (stdout, stderr)
     assert "interrupted: " in stdout and "run the same command again to resume" in stdout
+
+
+def _spawned_worker(parent: int) -> bool:
+    """Whether a child of ``parent`` is a process multiprocessing spawned (a worker, still starting)."""
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            ppid = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (stat.parent / "cmdline").read_bytes()
+        except (OSError, ValueError, IndexError):
+            continue  # (a process gone meanwhile)
+        if ppid == parent and b"spawn_main" in cmdline:
+            return True
+    return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes in /proc")
+def test_ctrl_c_while_a_local_dask_cluster_starts_says_one_line(tmp_path):
+    """Ctrl-C to the process group the moment the first worker process of `--dask local` is spawned,
+    the cluster and that worker still starting: exit 1 and one line, no traceback. The worker printed
+    a KeyboardInterrupt traceback from its imports (it ignored the signal only once started), and the
+    cluster cut off as it was made was left to Dask's exit hook, which printed another."""
+    path = write_sweep(tmp_path, SLOW)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "sweep", str(path), "-q", "-o", str(tmp_path / "c.csv"),
+                             "--dask", "local", "--workers", "1"], cwd=tmp_path, env=env, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while proc.poll() is None and not _spawned_worker(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert (proc.returncode, stderr) == (1, "error: cosim sweep: interrupted (Ctrl-C)\n"), stdout
+    assert not (tmp_path / "c.csv").exists()
+
+
+def test_a_local_dask_cluster_has_no_more_workers_than_points(tmp_path, capsys):
+    """`--dask local --workers 2` for a sweep of one point starts one worker, as a process pool does (it
+    started two, and said so); so does a local cluster given to run_sweep, for the points left to run."""
+    path = write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  components.ball.speed: [2]\n")
+    assert main(["sweep", str(path), "-q", "--dask", "local", "--workers", "2", "-o", str(tmp_path / "one.csv"),
+                 "--no-figure"]) == 0
+    assert "on a local Dask cluster of 1 worker (1 threads)" in capsys.readouterr().out
+    sweep = load_sweep(write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  components.ball.speed: [2, 3]\n"))
+    dask = DaskBackend("local", 3, processes=False)
+    try:
+        run_sweep(sweep, tmp_path / "two.csv", dask, progress=False, figure=False)
+        assert (dask.workers, dask.slots) == (2, 2)
+    finally:
+        dask.close()

@@ -19,7 +19,7 @@ from cosim.record.reader import Recording
 from cosim.record.writer import SinkError
 from cosim.runner import collect_metrics, run_scene
 from cosim.scenario import loads
-from cosim.sweep.backends import ProcessBackend
+from cosim.sweep.backends import ProcessBackend, Task
 from cosim.sweep.plan import load_sweep
 from cosim.sweep.run import run_sweep
 from tests.sweep_toys import BALL_SCENE, read_table, running_pool, write_sweep
@@ -82,15 +82,16 @@ def test_results_do_not_depend_on_the_worker_count(tmp_path, pool):
 
 
 def test_a_failing_point_does_not_stop_the_others(tmp_path, pool):
-    """A run that raises, and a point whose scene is invalid, become failed rows saying why; every
-    other point still runs."""
-    body = GRID + "  components.ball.fail_at_bounce: [0, 2]\n  components.ball.restitution: [0.6, 1.5]\n"
+    """A run that raises, and a point whose scene is invalid (its derived value: an axis's own values
+    are checked as the sweep loads), become failed rows saying why; every other point still runs."""
+    body = (GRID + "  components.ball.fail_at_bounce: [0, 2]\n  restitution: [0.6, 1.5]\n"
+            "derived: {components.ball.restitution: restitution}\n")
     sweep = load_sweep(write_sweep(tmp_path, body))
     outcome = run_sweep(sweep, tmp_path / "out.csv", pool, progress=False, figure=False)
     rows = rows_of(tmp_path / "out.csv")
     assert len(rows) == 36 and outcome.complete
     for row in rows:
-        if row["components.ball.restitution"] == "1.5":
+        if row["restitution"] == "1.5":
             assert (row["status"], row["error_type"]) == ("failed", "ScenarioError")
             assert row["reason"] == "invalid scene: components.ball.restitution: must be <= 1 (got 1.5)"
             assert row["ball.bounces"] == ""
@@ -484,6 +485,31 @@ def test_parquet_output_is_typed(tmp_path, pool):
     assert table.num_rows == 9 and str(table.schema.field("ball.bounces").type) == "int64"
     assert str(table.schema.field("ball.distance").type) == "double"
     assert b"cosim.sweep" in table.schema.metadata
+
+
+def signal_state() -> tuple[bool, bool]:
+    """In a pool worker: whether SIGINT is ignored, and whether it is blocked."""
+    return (signal.getsignal(signal.SIGINT) == signal.SIG_IGN,
+            signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+
+def test_a_ctrl_c_as_a_pool_worker_starts_waits_until_it_ignores_it():
+    """A SIGINT that reaches a pool worker as it starts (a Ctrl-C to the process group in the second the
+    worker takes to import, before it sets the signal ignored) is held back from its spawn and dropped
+    once it ignores it: the worker runs its point (it printed a KeyboardInterrupt traceback and died,
+    the pool broken). The worker then ignores SIGINT without blocking it, and the sweep's own thread
+    blocks it no more."""
+    backend = ProcessBackend(1)
+    backend.start()
+    try:
+        future = backend.submit(Task(0, "p", BALL_SCENE, "<ball>", ("until=0.5",), ()))
+        for process in backend.pool._processes.values():  # spawned by the submit, and starting now
+            os.kill(process.pid, signal.SIGINT)
+        assert backend.outcome(future)["status"] == "ok"
+        assert backend.pool.submit(signal_state).result() == (True, False)
+        assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    finally:
+        backend.close()
 
 
 def test_a_parquet_tables_journal_leaves_a_csv_of_the_same_name_alone(tmp_path, pool):

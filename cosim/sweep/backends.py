@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import errno
+import gc
 import logging
 import math
 import multiprocessing
@@ -32,8 +33,8 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterable
-from contextlib import ExitStack
+from collections.abc import Iterable, Iterator
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +59,9 @@ STOP_WAIT_S = 2.0
 # writes the machine refused for want of room (a full disk, a quota, a file-size limit): a run they
 # end is no result of its point
 MACHINE_LIMITS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+# the terminal's signals, which reach the whole process group: a worker ignores them (the sweep decides
+# what to do), and they are held back from it from its spawn until it does (:func:`_spawning_workers`)
+WORKER_IGNORED = tuple(getattr(signal, name) for name in ("SIGINT", "SIGHUP") if hasattr(signal, name))
 
 
 @dataclass(frozen=True)
@@ -240,15 +244,42 @@ def _watch_parent(parent: int) -> None:
     os._exit(1)
 
 
+@contextmanager
+def _spawning_workers() -> Iterator[None]:
+    """Hold back the signals a worker ignores (:data:`WORKER_IGNORED`) from the calling thread while it
+    spawns workers, and so from each worker it spawns: a child keeps its parent's signal mask across
+    fork and exec, and a Ctrl-C that reaches it before it has set them ignored (about a second of
+    start-up: the interpreter, the imports, the unpickling) waits, and is dropped when it does
+    (:func:`_ignore_terminal_signals`); such a worker printed a KeyboardInterrupt traceback and died.
+    A thread started meanwhile keeps the mask for good (Dask's loop, which spawns the workers of a
+    local cluster, and starts them again when they die). This process still gets the signal: another
+    of its threads takes it at once, or this one once the block ends."""
+    if not WORKER_IGNORED or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, WORKER_IGNORED)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def _ignore_terminal_signals() -> None:
+    """In a worker as it starts: ignore :data:`WORKER_IGNORED`, then let them in (they were held back
+    since its spawn, :func:`_spawning_workers`; one that came meanwhile is dropped, being ignored)."""
+    for signum in WORKER_IGNORED:
+        signal.signal(signum, signal.SIG_IGN)
+    if WORKER_IGNORED and hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, WORKER_IGNORED)
+
+
 def _worker_init(parent: int | None = None, stop: Any = None) -> None:
     # Ctrl-C, and SIGHUP when the terminal closes, reach the whole process group: the parent decides
     # what to do, and its stop event ends the runs in flight (a worker that died of the SIGHUP never
     # answered that event, and the sweep waited on it for good). A run in progress still ends
     # cleanly (run_scene installs its own handler for the run's duration).
     global _stop
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if hasattr(signal, "SIGHUP"):
-        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    _ignore_terminal_signals()
     # a second Ctrl-C raised inside a callback the interpreter runs itself (numba's compiler notifying
     # its cache through ctypes) cannot be passed on: it is dropped, and printed with a traceback by the
     # default hook; the run ends at its next tick all the same (the first one stopped it)
@@ -338,13 +369,17 @@ class ProcessBackend:
         """Start every worker now (benchmarks time the runs, not the start-up)."""
         self.start()
         assert self.pool is not None
-        list(self.pool.map(_warm, [0.2] * self.workers))
+        with _spawning_workers():
+            futures = [self.pool.submit(_warm, 0.2) for _ in range(self.workers)]
+        for future in futures:
+            future.result()
 
     def submit(self, task: Task) -> cf.Future:
         """Queue ``task``; raises :class:`WorkerLost` if a worker died since the last restart."""
         assert self.pool is not None, "start() the backend first"
         try:
-            return self.pool.submit(run_task, task)
+            with _spawning_workers():  # (the pool spawns its workers as tasks are submitted)
+                return self.pool.submit(run_task, task)
         except cf.process.BrokenProcessPool as exc:
             raise _worker_died(exc) from None
 
@@ -419,9 +454,7 @@ def dask_setup(worker: Any) -> None:
     worker the nanny starts again after one died runs this again."""
     if threading.current_thread() is not threading.main_thread():
         return  # a worker thread of this very process (processes=False): signals are not its to set
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if hasattr(signal, "SIGHUP"):
-        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    _ignore_terminal_signals()  # (held back since its spawn: DaskBackend.start)
 
 
 def _quiet_loggers(level: int) -> ExitStack:
@@ -477,6 +510,13 @@ class DaskBackend:
     def slots(self) -> int:
         return self._slots
 
+    def limit(self, points: int) -> None:
+        """A local cluster of no more workers than the ``points`` there are to run, as a process pool
+        (:meth:`ProcessBackend.limit`: ``--dask local --workers 8`` for 2 points started 8). Only before
+        it starts; a remote cluster's workers are its own."""
+        if self.address == "local" and self.client is None:
+            self.workers = max(1, min(self.workers, points))
+
     def _where(self, part: str = "") -> str:
         """The cluster (or ``part`` of it: "scheduler"), as the sweep's lines name it."""
         if self.address == "local":
@@ -484,7 +524,7 @@ class DaskBackend:
         return f"the Dask {part} at {self.address}" if part else f"the Dask cluster at {self.address}"
 
     def describe(self) -> str:
-        where = (f"a local Dask cluster of {self.workers} workers" if self.address == "local"
+        where = (f"a local Dask cluster of {self.workers} worker{'s' * (self.workers != 1)}" if self.address == "local"
                  else f"the Dask cluster at {self.address}")
         return f"{where} ({self._slots} threads)" if self._slots else where
 
@@ -522,8 +562,13 @@ class DaskBackend:
                 self._settings.enter_context(dask.config.set({"distributed.deploy.lost-worker-timeout": "1000d"}))
                 # a task whose worker died fails at once (KilledWorker) rather than being retried on
                 # three more workers with whatever runs there: the sweep retries each such point alone
-                # itself, and Dask's retries only multiplied the deaths, and the innocent points blamed
-                with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                # itself, and Dask's retries only multiplied the deaths, and the innocent points blamed.
+                # Its workers are spawned by the loop thread the cluster starts here, which keeps the
+                # terminal's signals held back for good (_spawning_workers): a Ctrl-C meanwhile is said
+                # once the cluster is made, and closes it (a cluster cut off halfway was left to
+                # Dask's exit hook, which printed a KeyboardInterrupt traceback)
+                with (dask.config.set({"distributed.scheduler.allowed-failures": 0}),
+                      _spawning_workers() if self.processes else ExitStack()):
                     self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                                 processes=self.processes, host="127.0.0.1",
                                                 protocol="tcp://",
@@ -538,13 +583,21 @@ class DaskBackend:
             self.close()
             raise
         except (OSError, TimeoutError, ValueError) as exc:  # unreachable, or not an address
-            self.close()
             # (a scheduler still starting refuses at first: it was tried again for as long as that takes)
             waited = f" (tried for {time.monotonic() - began:.0f} s)" if self.address != "local" else ""
-            raise BackendError(f"cannot reach the Dask scheduler at {self.address}: {exc}{waited}") from None
+            failed = f"cannot reach the Dask scheduler at {self.address}: {exc}{waited}"
         except MemoryError:  # its answer read as a Dask message announced an absurd size
+            failed = f"{self.address} is not a Dask scheduler: its answer is not Dask's protocol"
+        else:
+            failed = ""
+        if failed:
             self.close()
-            raise BackendError(f"{self.address} is not a Dask scheduler: its answer is not Dask's protocol") from None
+            # a Client whose making failed is left in a reference cycle and closes itself once the
+            # collector finds it, taking the lock of Dask's loop runners: found in the loop thread of the
+            # next local cluster as that started (holding the lock), it hung it for 10 s, then failed.
+            # Collected here, out of the except clause (whose traceback held it), with no lock held
+            gc.collect()
+            raise BackendError(failed)
         try:
             self.worker_versions = self.client.run(versions)
         except Exception as exc:  # e.g. a worker that cannot import cosim cannot even unpickle the call

@@ -84,13 +84,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         # Dask's own log lines (tracebacks of what the sweep says in one line) only with --debug, which
         # the command line's parser takes out before the command sees its arguments
         backend = make_backend(args.dask, args.workers, quiet="--debug" not in sys.argv[1:])
-        if isinstance(backend, DaskBackend):  # a process pool starts with the sweep's points, no more workers
-            backend.start()
-    except (ScenarioError, BackendError) as exc:
-        print(f"error: {exc if isinstance(exc, ScenarioError) else one_line(str(exc))}", file=sys.stderr)
+    except ScenarioError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    try:
+    try:  # the backend is closed whatever ends this, a Ctrl-C while a Dask cluster starts included
         if isinstance(backend, DaskBackend):
+            # started here, so that a cluster out of reach is said before the table is touched; a local
+            # one of no more workers than the sweep has points (the pool limits itself to those left)
+            backend.limit(len(sweep.points))
+            try:
+                backend.start()
+            except BackendError as exc:
+                print(f"error: {one_line(str(exc))}", file=sys.stderr)
+                return EXIT_BAD_INPUT
             for line in backend.mismatched_versions():
                 print(f"warning: Dask worker {line}; results may differ from a local run", file=sys.stderr)
         command = shlex.join(["cosim", *sys.argv[1:]]) if sys.argv[1:] else f"cosim sweep {args.sweep}"
@@ -166,11 +172,11 @@ PROGRESS_FROM = 100  # points: fewer are checked within a second or so, without 
 
 def _output_refused(sweep: Any, fresh: bool) -> str:
     """--dry-run: why the run would refuse its output at once ('' if it would not): a folder where the
-    table goes, a file where its folder goes, or a table of another sweep to resume (the dry run said
-    ok, and the run then exited 2)."""
+    table goes, a file where its folder goes, side files of another table, a Parquet table without its
+    journal, or a table of another sweep to resume (the dry run said ok, and the run then exited 2)."""
     import json
 
-    from cosim.sweep.table import journal_path, meta_path, no_record, not_this_sweeps
+    from cosim.sweep.table import journal_path, meta_path, no_record, not_this_sweeps, refused_output
 
     output = Path(sweep.output)
     for parent in (output.parent, *output.parent.parents):
@@ -180,8 +186,9 @@ def _output_refused(sweep: Any, fresh: bool) -> str:
             break
     if output.is_dir():
         return "is a folder, not a results table: give -o a .csv or .parquet file name"
-    if fresh or not journal_path(output).exists():
-        return ""
+    refused = refused_output(output, fresh)
+    if refused or fresh or not journal_path(output).exists():
+        return refused
     try:
         record = json.loads(meta_path(output).read_text(encoding="utf-8"))
     except (OSError, ValueError):

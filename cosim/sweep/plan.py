@@ -23,15 +23,19 @@ geometrically from a to b: the values themselves, not exponents); ``{range: [sta
 (integers, stop excluded). In random mode: ``{uniform: [a, b]}``, ``{loguniform: [a, b]}``, or a list
 (each sample picks one value).
 
-An axis named by a key path of the scene (it has a dot, or is a top-level key such as ``dt``) is an
-override; any other name is a variable for ``derived`` (and a column of the table). Every point gets
-a stable id (a hash of its axis values), so a resumed sweep skips finished points and tables from
-different backends or worker counts can be compared row by row.
+An axis named by a key path of the scene (it has a dot, or is a top-level key of a scene such as ``dt``
+or ``on_unstable``, given in the base scene or not) is an override; any other name is a variable for
+``derived`` (and a column of the table). Every point gets a stable id (a hash of its axis values), so
+a resumed sweep skips finished points and tables from different backends or worker counts can be
+compared row by row.
 
 :func:`load_sweep` validates the whole file before anything runs and reports every problem with its
 path as one :class:`ScenarioError`, including those of the first point's scene (a misspelt key path
-shows up there); a later point whose scene is invalid becomes an error row of the table. A sweep of
-more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``) before any value is built.
+shows up there) and of each value of an override axis, loaded with the other axes at their first
+values (``VALUES_CHECKED`` values at most, spread over each axis); a later point whose scene is
+invalid only for its combination of values (or for a derived value) becomes an error row of the
+table. A sweep of more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``)
+before any value is built.
 """
 
 from __future__ import annotations
@@ -55,6 +59,7 @@ import yaml
 from cosim.errors import ScenarioError
 from cosim.params import FLOAT_LIMIT, beyond_float, fits_float, number_text, show_value
 from cosim.scenario import SCENE_NAME_RE, find_parent, loads, read_input, read_yaml
+from cosim.scenario import TOP_KEYS as SCENE_KEYS
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
             "metrics", "record", "output", "figure")
@@ -65,6 +70,9 @@ TABLE_SUFFIXES = (".csv", ".parquet")  # the results tables a sweep writes
 FIGURE_KEYS = ("metric", "x", "y", "threshold", "reference")
 REFERENCE_KEYS = ("label", "points")  # of figure.reference
 MAX_POINTS = 1_000_000  # a sweep larger than this is almost surely a typo in an axis
+# values of override axes whose scenes are loaded as a sweep is (about 10 ms each: 1 s at most, on
+# every start and resume); past that, those checked of each axis are spread over it, its ends among them
+VALUES_CHECKED = 100
 ID_LENGTH = 12  # hex digits of a point id (48 bits: collisions are negligible below billions of points)
 
 # the fixed columns of the results table, around the axes and the metrics
@@ -647,7 +655,8 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         raw_axes = {}
     for axis_name, spec in raw_axes.items():
         axis_name = str(axis_name)
-        if "." in axis_name or axis_name in scene_data:
+        # (a top-level key the scene leaves at its default, such as on_unstable, as set: and --set take it)
+        if "." in axis_name or axis_name in scene_data or axis_name in SCENE_KEYS:
             kind = "override"
             _check_key_path(scene_data, axis_name, f"axes.{axis_name}", problems)
         elif axis_name.isidentifier() and axis_name not in _CONSTANTS and axis_name not in _FUNCTIONS:
@@ -780,6 +789,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
 
     points = _points(mode, axes, samples, seed, fixed, derived)  # at most MAX_POINTS: checked above
     metric_keys, kinds, notices = _first_point(points[0], base[0], base[1], source)
+    problems += _invalid_axis_values(points, axes, len(fixed), base[0], base[1])
     metrics = _select_metrics(metric_keys, metric_patterns, problems)
     sweep = Sweep(name=name, description=str(description), source=source, text=text, scene_text=base[0],
                   scene_source=base[1], mode=mode, axes=axes, derived=derived, fixed=fixed, metrics=metrics,
@@ -812,6 +822,64 @@ def _first_point(point: Point, scene_text: str, scene_source: str,
     metrics = collect_metrics(Simulation(scene))
     kinds = {k: "text" if isinstance(v, str) else "number" for k, v in metrics.items()}
     return list(metrics), kinds, scene.notices
+
+
+def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scene_text: str,
+                         scene_source: str) -> list[str]:
+    """A problem for each value of an override axis whose scene is invalid, the other axes at the first
+    point's values: a value no point can run with (a radius of -1) is the sweep file's mistake, said
+    before anything runs, where only the first point's was (the others became failed rows, and the
+    sweep exited 0). One scene a value, not one a point; at most ``VALUES_CHECKED`` in all
+    (:func:`_shares`). Points invalid only as a combination of values are still failed rows.
+    ``fixed``: how many of a point's overrides come before its axes' (``set``, ``--set``)."""
+    first = points[0]
+    checked: list[tuple[Axis, int, list[Any]]] = []  # an axis, its place in the overrides, its other values
+    place = fixed
+    for axis in axes:
+        if axis.kind != "override":
+            continue
+        held = axis.values if axis.sampler is None else [p.values[axis.name] for p in points]
+        others = {_same_value(v): v for v in held}
+        others.pop(_same_value(first.values[axis.name]), None)
+        values = list(others.values())
+        if values and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+            values.sort()  # the ends (a bound the scene's rules set) among those checked
+        checked.append((axis, place, values))
+        place += 1
+    problems = []
+    with_others = " (the other axes at their first values)" if len(axes) > 1 else ""
+    shares = _shares([len(values) for _, _, values in checked], VALUES_CHECKED)
+    for (axis, place, values), share in zip(checked, shares, strict=True):
+        for value in _spread(values, share):
+            overrides = list(first.overrides)
+            overrides[place] = f"{axis.name}={yaml_value(value)}"
+            try:
+                loads(scene_text, scene_source, overrides)
+            except ScenarioError as exc:
+                problems.append(f"axes.{axis.name}: {_shown(value)} makes an invalid scene{with_others}: "
+                                + "; ".join(exc.problems))
+    return problems
+
+
+def _shares(counts: list[int], budget: int) -> list[int]:
+    """How many of each axis's ``counts`` values to check within ``budget`` in all: every value of an
+    axis that has fewer than an even share, the rest shared evenly among the others."""
+    shares = [0] * len(counts)
+    left = budget
+    by_count = sorted(range(len(counts)), key=lambda i: counts[i])
+    for k, i in enumerate(by_count):
+        shares[i] = min(counts[i], left // (len(counts) - k))
+        left -= shares[i]
+    return shares
+
+
+def _spread(values: list[Any], share: int) -> list[Any]:
+    """``share`` of ``values`` spread evenly over them, the first and the last among them."""
+    if share >= len(values):
+        return values
+    if share <= 1:
+        return values[-1:] if share else []
+    return [values[i] for i in sorted({round(k * (len(values) - 1) / (share - 1)) for k in range(share)})]
 
 
 def _select_metrics(keys: list[str], patterns: list[str] | None, problems: list[str]) -> list[str]:

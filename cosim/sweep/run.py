@@ -235,8 +235,7 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
     try:
         with _sigterm_interrupts():
             if todo:
-                if isinstance(backend, ProcessBackend):
-                    backend.limit(len(todo))
+                backend.limit(len(todo))  # (a Dask cluster started already keeps its workers)
                 backend.start()
                 outcome.backend = backend.describe()
             limit = max(1, IN_FLIGHT_PER_SLOT * backend.slots)

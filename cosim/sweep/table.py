@@ -43,6 +43,7 @@ ROW_STATUSES = ("ok", "stopped", "failed", *NOT_RESULTS)  # what a run's row may
 FIXED_KINDS = {"index": "int64", "point_id": "string", "status": "string", "reason": "string",
                "error_type": "string", "sim_time_s": "float64", "ticks": "int64", "recording": "string",
                "wall_s": "float64"}
+HEADER_MAX = 1 << 20  # [characters] read of a table's first line, to know whose it is (a header is far shorter)
 
 
 class MachineLimit(CosimError):
@@ -117,6 +118,59 @@ def lock_path(output: Path) -> Path:
     return beside(output, ".lock")
 
 
+def _header(path: Path) -> list[str] | None:
+    """The first row of the CSV at ``path`` (None if it cannot be read as one)."""
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            return next(csv.reader([f.readline(HEADER_MAX)]), None)
+    except (OSError, ValueError, csv.Error):
+        return None
+
+
+def _record_owner(output: Path, record: dict[str, Any]) -> str | None:
+    """The name of the table whose record ``record`` (the meta file beside ``output``) is: the one it
+    names, or, for a record written before it named its table, ``output`` if its journal is there, else
+    the table of the other format beside it if that one's header is the record's columns; None if
+    neither (a record left by a table since removed)."""
+    named = record.get("table")
+    if isinstance(named, str):
+        return named
+    if journal_path(output).exists():
+        return output.name
+    other = output.with_suffix(".parquet" if output.suffix == ".csv" else ".csv")
+    return other.name if _header(journal_path(other)) == record.get("columns") else None
+
+
+def refused_output(output: Path, fresh: bool) -> str:
+    """Why a sweep cannot start or resume its table at ``output`` at all ('' if nothing refuses it here):
+
+    - the files beside it are another table's: ``res.csv`` and ``res.parquet`` in one folder share their
+      record, lock, figure and runs folder (all named by the stem), and a sweep of one overwrote the
+      other's record and figure, which could then no longer be resumed; ``--fresh`` does not take them
+      (it discards this table, not the other). Refused rather than named apart, so that every table
+      already written keeps its side files' names and resumes;
+    - a Parquet table whose journal is gone: it cannot be resumed, and was deleted as if ``--fresh``
+      had been given (a CSV table without its record is refused so already).
+    """
+    meta = meta_path(output)
+    try:
+        record = json.loads(meta.read_text(encoding="utf-8")) if meta.is_file() else None
+    except (OSError, ValueError):
+        record = None  # said by the resume that needs it (no_record); a fresh start replaces it
+    owner = _record_owner(output, record) if isinstance(record, dict) else None
+    if owner is not None and owner != output.name:
+        # (a record copied or renamed with its table names the table it was made for, of another stem)
+        theirs = output.with_name(owner)
+        if meta_path(theirs) == meta and (journal_path(theirs).exists() or theirs.exists()):
+            return (f"{meta.name} beside it is the record of {owner}, another sweep's table of the same stem (the "
+                    f"two would share their record, figure {figure_path(output).name}, lock and runs folder); give "
+                    "-o another name")
+    if not fresh and not journal_path(output).exists() and output.exists() and not output.is_dir():
+        return (f"exists but its journal {journal_path(output).name} beside it is missing, so it cannot be "
+                "resumed; use --fresh to start over or -o for another file")
+    return ""
+
+
 def cannot(output: Path, exc: OSError | ValueError, action: str, then: str = "") -> ScenarioError | MachineLimit:
     """The error for ``exc``, raised while trying to ``action`` (the table at ``output``, or the files
     beside it): bad input (a ScenarioError), or a MachineLimit when the machine had no room, which says
@@ -155,7 +209,8 @@ class ResultTable:
         self.path = journal_path(output)
         self.meta_path = meta_path(output)
         self.columns = columns
-        self.meta = meta
+        # the record names its table: a table of the same stem and the other format shares its name
+        self.meta = {**meta, "table": output.name}
         self.kinds = kinds or {}
         self.axis_values = axis_values or {}
         self._file: io.TextIOWrapper | None = None
@@ -199,6 +254,9 @@ class ResultTable:
         return [folder / Path(name).name for name in named if name and Path(name).parent.name == folder.name]
 
     def _open(self, order: dict[str, int], fresh: bool, made: list[Path]) -> dict[str, dict[str, str]]:
+        refused = refused_output(self.output, fresh)
+        if refused:
+            raise ScenarioError(refused, str(self.output))
         rows: dict[str, dict[str, str]] = {}
         resume = self.path.exists() and not fresh
         started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
@@ -219,6 +277,7 @@ class ResultTable:
                 "command": self.meta.get("command", ""), "started": started, "rows_found": len(rows),
                 "points": len(order), "versions": self.meta.get("versions")}]
             kept = {key: value for key, value in first.items() if key not in ("finished", "counts")}
+            kept.setdefault("table", self.output.name)  # (a record from before tables were named in it)
             self.meta = {**kept, "resumes": resumes}
         try:
             if not resume:
