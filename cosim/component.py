@@ -20,7 +20,8 @@ A component declares typed ports and parameters and implements one pure step::
             return {"total": Scalar(self.total)}
 
 The public :meth:`Component.step` owns the bookkeeping: status and step count, the stability guard
-against :meth:`max_stable_step` (error, or substepping), checking outputs (known ports, right types,
+against :meth:`max_stable_step` (error, or substepping; :meth:`Component.restep` applies it to a
+bound a component learns inside its step), checking outputs (known ports, right types,
 finite values) and turning any exception into a :class:`SimulationError` naming the component, the
 simulation time and the reason. Physics code never sees the scheduler.
 """
@@ -101,6 +102,8 @@ class Component:
         self.step_count = 0
         self.last_substeps = 1
         self.last_stable_step = math.inf  # [s] the stable step that set last_substeps (inf: no bound)
+        # inside a step: (t_ns, dt [s], on_unstable, substeps, bound [s]) as the step takes it (restep)
+        self._stepping: tuple[int, float, OnUnstable, int, float] | None = None
         self.stop_reason: str | None = None
         # the components feeding each input port, as the scene connects them (set by the simulation;
         # a component driven by hand has none): for its words, never for its physics
@@ -351,27 +354,15 @@ class Component:
         dt = dt_ns / NS_PER_S
         try:
             bound = self.max_stable_step() if self._bounded else math.inf
-            substeps = 1
-            if not bound >= dt:  # over it, or no bound a step can keep (0, negative, NaN)
-                if not bound > 0:
-                    raise SimulationError(self.name, t_ns, f"its stable step is {bound!r} s: no step can be stable")
-                if on_unstable == "error":
-                    step_said, bound_said = step_and_bound(dt, bound)
-                    raise SimulationError(
-                        self.name, t_ns,
-                        f"step {step_said} s exceeds the stable step {bound_said} s (on_unstable: error; "
-                        f"use a base step or 'every' giving at most {bound_said} s, or on_unstable: substep)")
-                substeps = math.ceil(dt / bound)
-                if substeps > MAX_SUBSTEPS:
-                    raise SimulationError(
-                        self.name, t_ns, f"needs {substep_count(substeps)} substeps (stable step {bound:.3g} s), "
-                        f"more than the limit {MAX_SUBSTEPS}")
+            substeps = 1 if bound >= dt else self._substeps_for(t_ns, dt, bound, on_unstable)
             self.status = "running"
+            self._stepping = (t_ns, dt, on_unstable, substeps, bound)
             if substeps == 1:
                 outputs = self._step_impl(t, dt, inputs)
             else:
                 outputs = self._substep(t, dt, substeps, inputs)
-            self.last_substeps, self.last_stable_step = substeps, bound
+            # (the count a component's restep raised it to, said as the scheduler's own)
+            self.last_substeps, self.last_stable_step = self._stepping[3:]
         except SimulationError:
             self.status = "failed"
             raise
@@ -382,10 +373,50 @@ class Component:
             # and said nothing, its recording without a status
             self.status = "failed"
             raise SimulationError(self.name, t_ns, f"{type(exc).__name__}: {exc}") from exc
+        finally:
+            self._stepping = None
         self._mapping(outputs, t_ns, "its step returned", "output port to message")
         self._check_outputs(t_ns, outputs)
         self.step_count += 1
         return outputs
+
+    def _substeps_for(self, t_ns: int, dt: float, bound: float, on_unstable: OnUnstable) -> int:
+        """The substeps a step of ``dt`` [s] from ``t_ns`` needs under a stable step ``bound`` [s] below
+        it; a :class:`SimulationError` under ``on_unstable: error``, over MAX_SUBSTEPS, or for a bound
+        no step can keep (0, negative, NaN)."""
+        if not bound > 0:
+            raise SimulationError(self.name, t_ns, f"its stable step is {bound!r} s: no step can be stable")
+        if on_unstable == "error":
+            step_said, bound_said = step_and_bound(dt, bound)
+            raise SimulationError(
+                self.name, t_ns,
+                f"step {step_said} s exceeds the stable step {bound_said} s (on_unstable: error; "
+                f"use a base step or 'every' giving at most {bound_said} s, or on_unstable: substep)")
+        substeps = math.ceil(dt / bound)
+        if substeps > MAX_SUBSTEPS:
+            raise SimulationError(
+                self.name, t_ns, f"needs {substep_count(substeps)} substeps (stable step {bound:.3g} s), "
+                f"more than the limit {MAX_SUBSTEPS}")
+        return substeps
+
+    def restep(self, bound: float) -> int | None:
+        """For a component that learns, inside its step, that the state it has just received needs a
+        shorter stable step than the one the scheduler asked for before the step (:meth:`max_stable_step`
+        tells the state at hand then: a coupler's, its body's previous one): the substeps this step
+        needs under ``bound`` [s], judged as the scheduler judges a step before it (a
+        :class:`SimulationError` naming the step and the bound under ``on_unstable: error``, or past
+        MAX_SUBSTEPS) and, when more than it takes, said as taken (:attr:`last_substeps`,
+        :attr:`last_stable_step`); the component then takes them itself. The count the step already
+        takes when ``bound`` covers its substeps; None outside :meth:`step` (a component driven by hand
+        through :meth:`_step_impl` takes the step it is given)."""
+        if self._stepping is None:
+            return None
+        t_ns, dt, on_unstable, substeps, _ = self._stepping
+        if bound >= dt / substeps:
+            return substeps
+        substeps = self._substeps_for(t_ns, dt, bound, on_unstable)
+        self._stepping = (t_ns, dt, on_unstable, substeps, bound)
+        return substeps
 
     def _substep(self, t: float, dt: float, n: int, inputs: dict[str, Message | None]) -> dict[str, Message]:
         """n equal substeps with held inputs; event inputs (impulses) go to the first substep only.

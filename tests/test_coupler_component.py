@@ -218,7 +218,9 @@ def test_max_stable_step_near_and_far():
 
     def bound(speed: float, **kw) -> float:
         c = WaterCoupler("c")
-        step(c, skipping_disk(speed=speed, depth=0.01, **kw), patch)
+        # (substepped: the thin slate's own bound at 30 m/s is under the step, which on_unstable: error
+        # refuses in the step that meets it)
+        step(c, skipping_disk(speed=speed, depth=0.01, **kw), patch, on_unstable="substep")
         return c.max_stable_step()
 
     for speed in (3.0, 30.0):
@@ -270,13 +272,17 @@ def _entry(dt, on_unstable="substep", duration=0.02, speed=30.0):
 
 
 def test_substepping_keeps_a_30_m_s_entry_stable_at_a_coarse_step():
-    """At a 1 ms step a 30 m/s entry substeps and leaves the water close to a 0.01 ms reference."""
+    """At a 1 ms step a 30 m/s entry substeps and leaves the water close to a 0.01 ms reference: its
+    speed within 1%, its rebound within 25% (the wrench is held a step behind the body over a contact
+    of five steps; the rebound was within 15% while the first wet step, whose own bound is a quarter
+    of the radius over the speed, 0.42 ms, was taken whole: a run's first step is bound by it from
+    the start, and gives this one)."""
     fine, fine_subs = _entry(1e-5)
     coarse, coarse_subs = _entry(1e-3)
     assert fine_subs == 1 and coarse_subs > 1
     assert coarse[2] > 0  # it bounced
     assert coarse[0] == pytest.approx(fine[0], rel=0.01)
-    assert coarse[2] == pytest.approx(fine[2], rel=0.15)
+    assert coarse[2] == pytest.approx(fine[2], rel=0.25)
     with pytest.raises(SimulationError, match="stable step"):
         _entry(1e-3, on_unstable="error")
 

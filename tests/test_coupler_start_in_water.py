@@ -201,19 +201,23 @@ def test_a_body_over_a_pond_resting_above_zero_meets_its_water():
 
 
 def test_the_load_checks_step_bound_takes_the_waters_own_rest_level():
-    """A body that starts in the water gets no approach bound at load (its own forces bound it from
-    its first step), only what its buoyancy can do (82 ms for this slate): judged against level 0
-    instead of the water's 0.5 m, a stone 20 cm under that water was held to be in the air and its
-    throw refused as too fast for the step."""
+    """A body that starts in the water is bound at load also by what its buoyancy can do (82 ms for
+    this slate): judged against level 0 instead of the water's 0.5 m, a stone 20 cm under that water
+    was held to be in the air, its buoyancy left out. Its motion bounds it in the water as in the
+    air (a quarter of its radius per step, which the bound of its forces holds from its first step):
+    thrown at 30 m/s under the water, 0.417 ms."""
     from components.coupler.fixtures import body, still_water
 
     coupler = WaterCoupler("c", WaterCouplerParams())
-    stone = body(position=(0.0, 0.0, 0.3), velocity=(30.0, 0.0, 0.0))
+    drifting = body(position=(0.0, 0.0, 0.3), velocity=(0.03, 0.0, 0.0))
     empty = replace(still_water(0.01, level=0.5), i0=0, j0=0, height=np.zeros((0, 0)), velocity=np.zeros((0, 0)),
                     bottom=np.zeros((0, 0)))
-    in_water = coupler.start_stable_step({"body": stone, "water": empty})
-    assert in_water == coupler._buoyant_bound(stone) == pytest.approx(0.0822, rel=1e-3)
-    assert coupler.start_stable_step({"body": stone, "water": None}) < 0.01 * in_water  # level 0 then: in the air
+    in_water = coupler.start_stable_step({"body": drifting, "water": empty})
+    assert in_water == coupler._buoyant_bound(drifting) == pytest.approx(0.0822, rel=1e-3)
+    in_the_air = coupler.start_stable_step({"body": drifting, "water": None})  # level 0 then
+    assert in_the_air == coupler._motion_bound(drifting) > 5 * in_water
+    thrown = body(position=(0.0, 0.0, 0.3), velocity=(30.0, 0.0, 0.0))
+    assert coupler.start_stable_step({"body": thrown, "water": empty}) == pytest.approx(0.25 * 0.05 / 30.0, rel=1e-12)
 
 
 def test_a_sunk_body_asks_for_water_its_widest_spread_fits_in():

@@ -214,7 +214,8 @@ def test_a_substep_too_long_for_the_forces_it_meets_is_refined_within_the_step()
         again.bound = dt_ns * 1e-9 / substeps * (1.0 + 1e-9)
         stepped = type(again).step(again, t_ns, dt_ns, inputs, "substep")  # the class's own step, not keep
         forces[substeps] = np.asarray(stepped["wrench"].force)
-        assert again.last_substeps == substeps
+        # at least as set; more where the state the step meets needs them (Component.restep: 148 here)
+        assert again.last_substeps >= substeps
     assert np.linalg.norm(forces[2] - forces[1000]) < 0.15 * np.linalg.norm(forces[1000])
 
 
