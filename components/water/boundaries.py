@@ -14,7 +14,9 @@ with h0 the edge cell, h1 its inner neighbour, ' the new step. It lets a wave le
 about 2% of its amplitude, 20 cells 0.5%, 40 cells 0.13%; an oblique wave at angle theta keeps a
 fraction ((1 - cos theta) / (1 + cos theta))^2 of its energy). The box scheme is stable for any c dt;
 with the explicit model it adds no step limit beyond c dt / s <= 1/sqrt(2); with the airy model, whose
-short modes turn faster than sqrt(g d) carries them, it needs a step under 0.9 pi / w_max
+short modes turn nearly half a turn a step at long steps and are not drained by its exact rotation, the
+rewrite feeds them unless c dt / s >= 1.5 (w dt / pi)^2 tan(w dt / 2) (w the checkerboard's frequency),
+and the step must stay under 0.9 pi / w_max besides
 (:meth:`components.water.models.AiryModel.max_stable_step`). Cells on dry faces stay closed.
 
 Optionally, ``sponge_cells`` > 0 adds a layer relaxing h and v towards rest at a rate rising

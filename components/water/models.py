@@ -248,6 +248,48 @@ class ShallowWaterModel(Model):
 
 
 AIRY_EDGE_TURN = 0.9  # [half turns] the most the fastest mode may turn a step between absorbing edges
+# [-] the margin on airy_edge_need: the exact threshold is up to 1.05 times it on long strips and,
+# measured against the checkerboard's turn, 1.42 times it on a 3 x 3 pond (0.6 on 4 x 4 to 8 x 8)
+AIRY_EDGE_SLACK = 1.5
+
+
+def airy_frequency(k: np.ndarray | float, depth: float) -> np.ndarray:
+    """Airy's angular frequency [rad/s] of waves of wavenumber ``k`` [1/m] on water ``depth`` [m]
+    deep, with the surface tension's restoring force: sqrt((g k + gamma k^3 / rho_w) tanh(k d))."""
+    k = np.asarray(k, dtype=np.float64)
+    return np.sqrt((GRAVITY * k + SURFACE_TENSION * k**3 / WATER_DENSITY) * np.tanh(k * depth))
+
+
+def airy_edge_need(turn: float) -> float:
+    """The least c dt / s [-] at which absorbing edges keep airy water bounded when the lattice's
+    fastest wave turns by ``turn`` [rad] a step: (turn / pi)^2 tan(turn / 2), endless at pi.
+
+    A fit to the exact threshold: the c dt / s below which the step's matrix (the modes' rotation,
+    then the edges' one-way rewrite) has an eigenvalue outside the unit circle. On strips of 24
+    cells of 1 mm to 5 cm, 1 cm to 1 m deep, that threshold is at most 1.045 times the fit: 0.94
+    to 1.045 times it from turn = 0.3 pi to 0.98 pi on millimetre cells, whose capillary waves need
+    the most (0.26 at pi / 2, 1.9 at 0.8 pi, 5.0 at 0.9 pi), down to 0.6 at 0.98 pi for gravity
+    waves on deep water; the turn matters, the dispersion's shape little. The turn is the checkerboard's
+    (k = sqrt(2) pi / s), the frequency a large grid's fastest mode tends to: a small grid's own
+    fastest mode is slower and its edge cells more of the water, and it needs more at its own turn
+    (4 times on 3 x 3), but less than AIRY_EDGE_SLACK times the fit at the checkerboard's.
+    """
+    return (turn / math.pi) ** 2 * math.tan(turn / 2.0)
+
+
+def airy_edge_step(speed: float, cell: float, fastest: float) -> float:
+    """The longest step [s] at which absorbing edges of one-way speed ``speed`` [m/s] keep airy water
+    bounded on cells of ``cell`` [m] whose fastest wave has frequency ``fastest`` [rad/s]: the dt
+    with c dt / s = AIRY_EDGE_SLACK airy_edge_need(fastest dt). Every shorter step holds too:
+    airy_edge_need(w dt) / dt rises with dt, from 0 to infinity at w dt = pi."""
+    low, high = 0.0, math.pi / fastest
+    for _ in range(60):  # bisection to the double's resolution
+        mid = 0.5 * (low + high)
+        if speed * mid / cell >= AIRY_EDGE_SLACK * airy_edge_need(fastest * mid):
+            low = mid
+        else:
+            high = mid
+    return low
 
 
 class AiryModel(Model):
@@ -293,25 +335,40 @@ class AiryModel(Model):
         kx = np.pi * np.arange(nx) / (nx * grid.cell)
         ky = np.pi * np.arange(ny) / (ny * grid.cell)
         k = np.hypot(ky[:, None], kx[None, :])
-        # (ny, nx) [rad/s]: Airy's dispersion with the surface tension's restoring force
-        self.omega = np.sqrt((GRAVITY * k + SURFACE_TENSION * k**3 / WATER_DENSITY) * np.tanh(k * grid.depth))
+        self.omega = airy_frequency(k, grid.depth)  # (ny, nx) [rad/s]
         self._dt: float | None = None
+        # the absorbing edges' one-way speed is the grid's sqrt(g d) (components.water.boundaries)
+        checkerboard = float(airy_frequency(math.sqrt(2.0) * math.pi / grid.cell, grid.depth))
+        self._edge_step = airy_edge_step(math.sqrt(grid.c2_uniform), grid.cell, checkerboard)
 
     def max_stable_step(self) -> float:
-        """inf between walls (each mode's step is an exact rotation); with absorbing edges
-        AIRY_EDGE_TURN pi / w_max, w_max the fastest mode's frequency: the edge cells' new velocity is
-        their height's change over one step, which a mode turning by about half a turn a step cannot
-        follow. The water grows without bound from 0.94 pi / w_max on when every mode is excited
-        (white noise on a 16 x 12 pond of 1 cm cells), from about 1.07 pi / w_max for a smooth pulse
-        (on 1, 2 and 5 cm cells, 0.3 to 1 m deep: at 40 ms on 1 cm cells, 1.3 pi / w_max, a pulse's
-        3.85 mJ became 1e31 J)."""
+        """inf between walls (each mode's step is an exact rotation); with absorbing edges the shorter
+        of AIRY_EDGE_TURN pi / w_max (w_max the fastest mode's frequency; noise in every mode grows
+        from 0.94 pi / w_max on, on 16 x 12 cells of 1 cm 0.3 m deep) and :func:`airy_edge_step`.
+
+        The edges rewrite their cells after the modes' rotation by the one-way law
+        h0' = h1 + k (h1' - h0), k = (c dt - s) / (c dt + s), c = sqrt(g d), v0' = (h0' - h0) / dt.
+        A short standing mode, turning nearly w_max dt a step, takes energy from that rewrite unless
+        k is near enough 1 (c dt / s >= :func:`airy_edge_need`), and the exact rotation has nothing to
+        drain it: the bound depends on c dt / s as well as on w_max dt. On centimetre cells and deep
+        water c dt / s is 4 to 8 at 0.9 pi / w_max and the water held there; on millimetre cells
+        (capillarity sets w_max) or shallow water it is about 1, and the water grew from 0.65 pi /
+        w_max on (1 mm cells 5 cm deep; 0.67 on 5 cm cells 2 cm deep): at 0.9 pi / w_max by 2.7% and
+        1.8% a step, a pulse on 40 x 40 mm cells stepped at 1.15 ms ended with 2.6e6 J and the run said
+        ok. The bound there is now 0.51 and 0.53 pi / w_max (0.66 ms, 58 ms); on 1 cm cells 0.3 m deep
+        0.87 of 0.9 pi / w_max on 16 x 12 cells, and 0.97 of it (26.7 ms) on the reference skip's
+        1400 x 350, whose water steps every 2 ms."""
         if self.closed:
             return math.inf
-        return AIRY_EDGE_TURN * math.pi / float(self.omega.max())
+        return min(AIRY_EDGE_TURN * math.pi / float(self.omega.max()), self._edge_step)
 
     def stable_step_cause(self) -> str:
         if self.closed:
             return ""
+        if self._edge_step < AIRY_EDGE_TURN * math.pi / float(self.omega.max()):
+            return ("set by its absorbing edges: their one-way rewrite feeds the short wave modes unless "
+                    f"c dt / s >= {AIRY_EDGE_SLACK:g} (w dt / pi)^2 tan(w dt / 2), c = sqrt(g d), w the "
+                    "frequency of the grid's checkerboard")
         return ("set by its absorbing edges: the edge cannot follow a wave mode that turns about half a turn "
                 f"a step ({AIRY_EDGE_TURN:g} pi / its fastest mode's frequency)")
 
