@@ -102,7 +102,9 @@ def test_a_dry_run_says_what_the_run_would_refuse_of_its_output(tmp_path, capsys
     path = write_sweep(tmp_path, SWEEP)
     (tmp_path / "afile").write_text("")
     assert main(["sweep", str(path), "--dry-run", "-q", "-o", str(tmp_path / "afile" / "x.csv")]) == 2
-    assert "afile is a file, not a folder" in capsys.readouterr().err
+    said = capsys.readouterr()
+    assert "afile is a file, not a folder" in said.err
+    assert ": its output would be refused - " in said.out.splitlines()[0]  # (its first line said "ok")
     other = write_sweep(tmp_path, SWEEP.replace("[2, 3, 5]", "[2, 3, 5]\nset: {components.ball.restitution: 0.5}"),
                         name="other.yaml")
     out = tmp_path / "t.csv"

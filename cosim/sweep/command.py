@@ -55,8 +55,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             sweep.record = True
         if args.dry_run:
             checked, bad = _check_points(sweep, progress=not args.quiet)
-            # a point that makes no scene would be a failed row: the sweep is not ready to run as it is
-            verdict = f"{len(bad)} of {checked} points checked are invalid" if bad else "ok"
+            refused = _output_refused(sweep, fresh=args.fresh)
+            # a point that makes no scene would be a failed row, an output the run refuses stops it at
+            # once: the sweep is not ready to run as it is, and its first line does not say "ok"
+            verdict = (f"{len(bad)} of {checked} points checked are invalid" if bad
+                       else "its output would be refused" if refused else "ok")
             print(f"{args.sweep}: {verdict} - {sweep.describe()}")
             print(f"  scene: {sweep.scene_source}; table: {sweep.output} ({len(sweep.columns)} columns)")
             print(f"  metrics: {', '.join(sweep.metrics) or 'none'}")
@@ -76,7 +79,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 print(f"error: {args.sweep}: {len(bad)} of {checked} points checked make no valid scene (listed "
                       "above); each would be a failed row", file=sys.stderr)
                 return EXIT_BAD_INPUT
-            refused = _output_refused(sweep, fresh=args.fresh)
             if refused:  # what the run would refuse at once: said now, not as "ok"
                 print(f"error: {sweep.output}: {refused}", file=sys.stderr)
                 return EXIT_BAD_INPUT
