@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -301,6 +302,17 @@ def test_an_invalid_value_of_an_override_axis_is_refused_wherever_it_is(tmp_path
     with pytest.raises(ScenarioError, match=r"axes\.components\.ball\.restitution: [0-9.]+ makes an invalid scene: "
                                             r"components\.ball\.restitution: must be <= 1"):
         load_sweep(write_sweep(tmp_path, random))
+
+
+def test_a_value_invalid_only_beside_another_axis_first_value_is_no_refusal(tmp_path):
+    """A value refused only for what it does with another axis's first value (a ball stepping every 2
+    base steps beside its ground's every 1) is valid beside that axis's other values (both at 2): the
+    sweep runs, its invalid combinations failed rows. The check refused the whole sweep."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml"
+    body = (f"scene: {scene}\nuntil: 0.01\naxes:\n  components.sphere.every: [1, 2]\n"
+            "  components.floor_sphere.every: [1, 2]\n")
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    assert [p.problem is None for p in sweep.points] == [True, True, True, True]  # (judged as each runs)
 
 
 def test_the_values_checked_are_bounded_and_take_each_axis_ends(tmp_path, monkeypatch):

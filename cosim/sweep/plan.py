@@ -31,10 +31,10 @@ compared row by row.
 
 :func:`load_sweep` validates the whole file before anything runs and reports every problem with its
 path as one :class:`ScenarioError`, including those of the first point's scene (a misspelt key path
-shows up there) and of each value of an override axis, loaded with the other axes at their first
-values (``VALUES_CHECKED`` values at most, spread over each axis); a later point whose scene is
-invalid only for its combination of values (or for a derived value) becomes an error row of the
-table. A sweep of more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``)
+shows up there) and of each value of an override axis that breaks its own key's rule, loaded with
+the other axes at their first values (``VALUES_CHECKED`` values at most, spread over each axis); a
+later point whose scene is invalid for its combination of values (or for a derived value) becomes
+an error row of the table. A sweep of more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``)
 before any value is built.
 """
 
@@ -70,7 +70,7 @@ TABLE_SUFFIXES = (".csv", ".parquet")  # the results tables a sweep writes
 FIGURE_KEYS = ("metric", "x", "y", "threshold", "reference")
 REFERENCE_KEYS = ("label", "points")  # of figure.reference
 MAX_POINTS = 1_000_000  # a sweep larger than this is almost surely a typo in an axis
-# values of override axes whose scenes are loaded as a sweep is (about 10 ms each: 1 s at most, on
+# values of override axes whose scenes are loaded as a sweep is (4 to 40 ms each, a second or a few on
 # every start and resume); past that, those checked of each axis are spread over it, its ends among them
 VALUES_CHECKED = 100
 ID_LENGTH = 12  # hex digits of a point id (48 bits: collisions are negligible below billions of points)
@@ -826,12 +826,15 @@ def _first_point(point: Point, scene_text: str, scene_source: str,
 
 def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scene_text: str,
                          scene_source: str) -> list[str]:
-    """A problem for each value of an override axis whose scene is invalid, the other axes at the first
-    point's values: a value no point can run with (a radius of -1) is the sweep file's mistake, said
-    before anything runs, where only the first point's was (the others became failed rows, and the
-    sweep exited 0). One scene a value, not one a point; at most ``VALUES_CHECKED`` in all
-    (:func:`_shares`). Points invalid only as a combination of values are still failed rows.
-    ``fixed``: how many of a point's overrides come before its axes' (``set``, ``--set``)."""
+    """A problem for each value of an override axis that breaks its own key's rule (a radius of -1:
+    ``components.stone.radius: must be > 0 m``), loaded with the other axes at the first point's
+    values: such a value makes no scene in any point, and is the sweep file's mistake, said before
+    anything runs, where only the first point's was (the others became failed rows, and the sweep
+    exited 0). A value refused only for what it does with the other settings (a body's ``every``
+    against its ground's, a step against a stable step the speed sets) may be valid beside the other
+    axes' other values, so its points stay failed rows where they are invalid. One scene a value,
+    not one a point; at most ``VALUES_CHECKED`` in all (:func:`_shares`). ``fixed``: how many of a
+    point's overrides come before its axes' (``set``, ``--set``)."""
     first = points[0]
     checked: list[tuple[Axis, int, list[Any]]] = []  # an axis, its place in the overrides, its other values
     place = fixed
@@ -856,8 +859,10 @@ def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scen
             try:
                 loads(scene_text, scene_source, overrides)
             except ScenarioError as exc:
-                problems.append(f"axes.{axis.name}: {_shown(value)} makes an invalid scene{with_others}: "
-                                + "; ".join(exc.problems))
+                own = [p for p in exc.problems if p.startswith((f"{axis.name}:", f"{axis.name}."))]
+                if own:
+                    problems.append(f"axes.{axis.name}: {_shown(value)} makes an invalid scene{with_others}: "
+                                    + "; ".join(own))
     return problems
 
 
