@@ -560,12 +560,9 @@ def _save_together(figures: dict[Path, Figure], dpi: int) -> None:
     staged: list[tuple[Path, Path]] = []  # (temporary file, figure)
     try:
         for path, fig in figures.items():
-            try:
-                # a new file of a unique name: a fixed one (energy.png.tmp) was written over and removed,
-                # whatever it held (a recording so named, the one plotted, was lost)
-                tmp = new_temporary(path)
-            except OSError as exc:
-                raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+            # a new file of a unique name: a fixed one (energy.png.tmp) was written over and removed,
+            # whatever it held (a recording so named, the one plotted, was lost)
+            tmp = new_temporary(path)
             staged.append((tmp, path))
             try:
                 fig.savefig(tmp, dpi=dpi, format="png")

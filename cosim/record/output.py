@@ -347,7 +347,8 @@ def new_temporary(path: Path, suffix: str = TMP_SUFFIX, prefix: str = "") -> Pat
     victim.mcap`` lost the only copy of the recording it was asked to mend, as did ``plot`` and
     ``render`` of a recording so named; two commands writing one target shared it (one repair
     truncated the file the other had memory-mapped: SIGBUS). Its mode is any new file's (0666 less
-    the umask), as the file it becomes is the user's. An OSError names the temporary."""
+    the umask), as the file it becomes is the user's. An OSError names ``path``, the file meant (its
+    folder missing, no inode left), not the temporary the user never asked for."""
     import secrets
 
     for _ in range(100):
@@ -357,6 +358,8 @@ def new_temporary(path: Path, suffix: str = TMP_SUFFIX, prefix: str = "") -> Pat
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
         except FileExistsError:
             continue  # someone's file: another name
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
         os.close(fd)
         return tmp
     raise FileExistsError(errno.EEXIST, "no free temporary file name beside it", str(path))
@@ -370,10 +373,7 @@ def written_whole(path: Path) -> Iterator[Path]:
     temporary (a writer that names no file, such as an image library on a full disk, is taken to have
     failed on it too)."""
     path = Path(path)
-    try:
-        tmp = new_temporary(path)
-    except OSError as exc:  # (its folder missing, no inode left): said of the file meant
-        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+    tmp = new_temporary(path)
     try:
         yield tmp
         os.replace(tmp, path)
