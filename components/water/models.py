@@ -337,6 +337,9 @@ class AiryModel(Model):
         k = np.hypot(ky[:, None], kx[None, :])
         self.omega = airy_frequency(k, grid.depth)  # (ny, nx) [rad/s]
         self._dt: float | None = None
+        # the step in which the fastest mode turns AIRY_EDGE_TURN half turns: found once, not over
+        # every mode at each step the scheduler asks for the bound
+        self._turn_step = AIRY_EDGE_TURN * math.pi / float(self.omega.max())
         # the absorbing edges' one-way speed is the grid's sqrt(g d) (components.water.boundaries)
         checkerboard = float(airy_frequency(math.sqrt(2.0) * math.pi / grid.cell, grid.depth))
         self._edge_step = airy_edge_step(math.sqrt(grid.c2_uniform), grid.cell, checkerboard)
@@ -360,12 +363,12 @@ class AiryModel(Model):
         1400 x 350, whose water steps every 2 ms."""
         if self.closed:
             return math.inf
-        return min(AIRY_EDGE_TURN * math.pi / float(self.omega.max()), self._edge_step)
+        return min(self._turn_step, self._edge_step)
 
     def stable_step_cause(self) -> str:
         if self.closed:
             return ""
-        if self._edge_step < AIRY_EDGE_TURN * math.pi / float(self.omega.max()):
+        if self._edge_step < self._turn_step:
             return ("set by its absorbing edges: their one-way rewrite feeds the short wave modes unless "
                     f"c dt / s >= {AIRY_EDGE_SLACK:g} (w dt / pi)^2 tan(w dt / 2), c = sqrt(g d), w the "
                     "frequency of the grid's checkerboard")
