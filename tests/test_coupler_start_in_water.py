@@ -182,6 +182,19 @@ def test_a_body_that_comes_down_before_the_waters_first_patch_raises_the_water()
     assert windows and not any(m.already_displaced for m in windows)
 
 
+def test_a_level_disk_dropped_from_just_above_the_water_raises_the_water():
+    """The same with a level disk (R 3 cm, e 1 cm) let go 0.5 mm over the water at 1 m/s: it began
+    above the water, though its bounding sphere (30.4 mm round its centre) began 2.5 cm under, and
+    its windows were all flagged already displaced, the water taking it as resting there (no wake)."""
+    sets = ["components.stone.shape=disk", "components.stone.thickness=0.01", "components.stone.radius=0.03",
+            "components.stone.density=2700", "components.stone.position=[0.3, 0.0, 0.0055]",
+            "components.stone.velocity=[0.0, 0.0, -1.0]", "components.pond.ny=120", "record.visual_rate=0"]
+    watch = Channels("coupler.occupied")
+    sim = Simulation(load_scene(SCENES / "ricochet.yaml", sets), observers=[watch])
+    assert sim.run(5_000_000).status == "ok"
+    windows = [m for m in watch.messages("coupler.occupied") if m.b.size]
+    assert windows and not any(m.already_displaced for m in windows)
+
 def _pine_height(level: float) -> float:
     """float_sphere's pine ball let go with its lower 2 cm in a pond resting at ``level`` [m]: its
     height over the level [m] after 1 s."""

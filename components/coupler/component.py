@@ -346,7 +346,7 @@ class WaterCoupler(Component):
         # in the water when the run began: its displacement is part of the water at rest, said so on
         # every occupied window until the water's patches show it holds it (see OccupiedHeight)
         self._start_in_water = True
-        # the lowest point of the body's bounding sphere when the run began [m] (start_inputs); None
+        # the height of the body's lowest point when the run began [m] (start_inputs); None
         # when not told (a coupler stepped by hand): taken as a body that came down into the water
         self._start_bottom: float | None = None
         self._crest = 0.0  # [m] over the rest level: the highest the water said it stands where the body goes
@@ -478,11 +478,13 @@ class WaterCoupler(Component):
                 "the body farther from the edge, or reflecting edges")
 
     def start_inputs(self, inputs: dict[str, Message | None]) -> None:
-        """Where the body began: the lowest point of its bounding sphere at t = 0 (see
+        """Where the body began: the height of its lowest point at t = 0 (see
         :meth:`_mound_raised`); and the bound of the first step (:meth:`start_stable_step`)."""
         body = inputs.get("body")
         if isinstance(body, BodyState):
-            self._start_bottom = float(body.position[2]) - _bounding_radius(body)
+            # its own lowest point, not its bounding sphere's: a level disk a few mm above the water
+            # has its sphere centimetres under it, and was taken as already in the water (its wake lost)
+            self._start_bottom = _lowest_of(body)
             # the first step's bound, as every later step near the water has one: without it the first
             # step was taken whole however fast the body came in (at 2 km/s it was thrown out at 25)
             self.bound = min(self.bound, self.start_stable_step(inputs))
@@ -640,7 +642,7 @@ class WaterCoupler(Component):
                 # in later, and its displacement raises waves, also one that comes in before the water
                 # first shows itself (the ricochet's ball, on a water stepping every 14 ticks). Where the
                 # body began is known when the run told it (start_inputs); else where it is now
-                bottom = self._start_bottom if self._start_bottom is not None else float(pos[2]) - r_bound
+                bottom = self._start_bottom if self._start_bottom is not None else _lowest_of(body)
                 self._start_in_water = bottom < float(patch.rest_level)
             else:  # at any level: a beach's bed rises above the rest level
                 # its own top, not its bounding sphere's: a disk's is far lower, and the stage monitor,
