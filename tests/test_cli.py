@@ -126,9 +126,19 @@ def test_a_restart_refuses_an_override_of_what_the_checkpoint_holds(tmp_path, ca
         "error: --set components.stone.position: sets stone's state at t = 0, which a restart takes from the "
         "checkpoint at 0.05 s instead; to change it, run the scene from the start (cosim run)")
     assert not out.exists()
-    for start_only in ("components.stone.tilt_deg=45", "components.stone.spin=0"):
+    # (tilt_axis too: the stone is tilted about it at t = 0 only; a restart ran on, the override doing nothing)
+    for start_only in ("components.stone.tilt_deg=45", "components.stone.spin=0", "components.stone.tilt_axis=[1,0,0]"):
         assert main(["replay", str(recording), "--from", "0.05", "--set", start_only, "-o", str(out), "-q"]) == 2
         assert f"--set {start_only.partition('=')[0]}: sets stone's state at t = 0" in capsys.readouterr().err
+    # held from a state that turns across the disk's axis (after its first contact): a held disk never
+    # does, and the restart kept that turn for ever, the rim moving and the energy counting it
+    assert main(["replay", str(recording), "--from", "0.1", "--set", "components.stone.lock_attitude=true",
+                 "-o", str(out), "-q"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"error: {recording}: cannot restart from the checkpoint at 0.1 s: component 'stone' turns across its axis "
+        "at 21.73 rad/s in this state (about it at 74.36), which a held disk (lock_attitude) never does; restart it "
+        "with its attitude free, or run the scene held from t = 0")
+    assert not out.exists()
     assert main(["replay", str(recording), "--from", "0.05", "--set", "dt=0.00025", "-o", str(out), "-q"]) == 0
 
 

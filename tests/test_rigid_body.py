@@ -11,6 +11,7 @@ from components.messages import BodyState, Impulse, Shape, Wrench
 from components.rigid import quaternion as quat
 from components.rigid_body import RigidBody
 from cosim.codec.json_codec import codec_for
+from cosim.errors import SimulationError
 from cosim.messages import messages_equal
 from cosim.params import build
 
@@ -71,6 +72,20 @@ def test_unknown_integrator_is_reported_with_the_choices():
      "stone.angular_velocity: turns the held disk across its axis at 20 rad/s, which lock_attitude never does "
      "(the rim would move as if it did): give only its turn about the axis, as spin: 0, or leave the attitude "
      "free"),
+    # a scripted tilt turning faster than a float holds (90 deg in 1e-320 s ran, then failed at t = 0 with
+    # a non-finite kinetic energy in its state; an angle of 1e308 to -1e308 the same)
+    ({"scripted_tilt_deg": [[0, 0], [1e-320, 90]]},
+     "stone.scripted_tilt_deg: makes the stone's kinetic energy overflow a float (got [(0.0, 0.0), (1e-320, 90.0)])"),
+    ({"scripted_tilt_deg": [[0, 1e308], [1, -1e308]]},
+     "stone.scripted_tilt_deg: makes the stone's kinetic energy overflow a float "
+     "(got [(0.0, 1e+308), (1.0, -1e+308)])"),
+    # the moment of inertia out of range is blamed on what takes it there (it was always the radius)
+    ({"density": 1e-300, "radius": 0.025, "thickness": 0.00275},
+     "stone.density: gives the body a moment of inertia of 3.37476e-309 kg m^2, not a positive, finite, normal "
+     "float (got 1e-300)"),
+    ({"mass": 1e-305, "radius": 0.025},
+     "stone.mass: gives the body a moment of inertia of 6.25e-309 kg m^2, not a positive, finite, normal float "
+     "(got 1e-305)"),
     ({"lock_attitude": True, "tilt_deg": 90.0, "angular_velocity": [3, 0, 4]},
      "stone.angular_velocity: turns the held disk across its axis at 4 rad/s, which lock_attitude never does "
      "(the rim would move as if it did): give only its turn about the axis, as spin: -3, or leave the attitude "
@@ -224,6 +239,39 @@ def test_scripted_tilt_follows_the_keyframes():
     msg = run(body, 200, start=100)  # past the last keyframe: held
     assert msg.attack_angle_deg == pytest.approx(30.0)
     assert msg.angular_velocity == pytest.approx(50.0 * np.array(quat.body_axis(tuple(msg.orientation))))
+
+
+@pytest.mark.parametrize("size", [1e200, 1.0, 1e-200])
+def test_a_scripted_tilt_turns_at_its_rate_whatever_the_length_of_its_axis(size):
+    """The scripted tilt's angular velocity is its rate about the unit axis: an axis of 1e200 squared
+    to inf and published no turn at all (the attitude turning), one of 1e-200 divided by zero."""
+    body = make(tilt_axis=[size, 0.0, 0.0], scripted_tilt_deg=[[0.0, 0.0], [0.01, 20.0]])
+    msg = run(body, 4)
+    assert msg.angular_velocity.tolist() == pytest.approx([math.radians(20.0) / 0.01, 0.0, 0.0], rel=1e-12)
+
+
+def test_an_impulse_that_spins_an_rk4_body_past_its_bound_is_taken_in_the_substeps_it_needs():
+    """RK4's bound (0.5 rad a step) is judged before the step; an angular impulse at the step's start
+    to 2000 rad/s about the axis and 300 across it made a 1 ms step 2 rad, taken whole: the angular
+    momentum 3.6% off the impulse's (torque-free, it is conserved) and the attitude 1.6 deg off the
+    exact free rotation. The step is now taken in 5 substeps, said as taken; under on_unstable: error
+    the step fails, naming the bound."""
+    from components.rigid.dynamics import angular_momentum, free_rotation
+    body = make(integrator="rk4", gravity=[0.0, 0.0, 0.0])
+    inertia = body.body.inertia
+    h = (inertia[0] * 300.0, 0.0, inertia[2] * 2000.0)
+    kick = {"impulse": Impulse(np.zeros(3), np.array(h), np.zeros(3)), "wrench": None, "added_mass": None}
+    body.step(0, 1_000_000, kick, on_unstable="substep")
+    assert body.last_substeps == 5
+    s = body.state
+    momentum = angular_momentum(inertia, s.orientation, s.angular_velocity)
+    assert np.linalg.norm(np.subtract(momentum, h)) / np.linalg.norm(h) < 1e-4  # (was 3.6e-2)
+    exact = free_rotation(inertia, quat.IDENTITY, h, 1e-3)
+    assert math.degrees(quat.angle_between(exact, s.orientation)) < 0.01  # (was 1.59)
+    strict = make(integrator="rk4", gravity=[0.0, 0.0, 0.0])
+    strict.status = "initialized"
+    with pytest.raises(SimulationError, match="exceeds the stable step"):
+        strict.step(0, 1_000_000, kick, on_unstable="error")
 
 
 def test_scripted_velocity_drives_the_horizontal_motion_only():

@@ -49,6 +49,21 @@ def from_axis_angle(axis: Vec, angle: float) -> Quat:
     An axis whose squares overflow or underflow is first scaled by its largest component: one of
     1e200 squared to inf and gave a quaternion of length cos(angle / 2), the tilt lost; one of
     1e-320 squared to 0 and was refused as zero."""
+    x, y, z, n = _measured(axis)
+    s = math.sin(0.5 * angle) / n
+    return (math.cos(0.5 * angle), x * s, y * s, z * s)
+
+
+def unit_axis(axis: Vec) -> Vec:
+    """``axis`` (any non-zero, finite length) scaled to length 1, its squares kept in range as
+    :func:`from_axis_angle` keeps them."""
+    x, y, z, n = _measured(axis)
+    return (x / n, y / n, z / n)
+
+
+def _measured(axis: Vec) -> tuple[float, float, float, float]:
+    """``axis`` as (x, y, z, its length), first scaled by its largest component when its squares
+    would overflow or underflow; a ValueError for a zero, infinite or NaN axis."""
     x, y, z = axis[0], axis[1], axis[2]
     n = math.sqrt(x * x + y * y + z * z)
     if not TINY_AXIS < n < math.inf:  # (a NaN anywhere makes n NaN: here, refused below)
@@ -57,8 +72,7 @@ def from_axis_angle(axis: Vec, angle: float) -> Quat:
             raise ValueError(f"rotation axis must be non-zero and finite (got [{x:g}, {y:g}, {z:g}])")
         x, y, z = x / m, y / m, z / m
         n = math.sqrt(x * x + y * y + z * z)
-    s = math.sin(0.5 * angle) / n
-    return (math.cos(0.5 * angle), x * s, y * s, z * s)
+    return x, y, z, n
 
 
 TINY_AXIS = 1e-150  # [-] an axis shorter than this is scaled up first: its squares lose digits below 1e-300
