@@ -635,7 +635,7 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
             ends.extend(match.groups())
         src, sport, dst, dport = ends
         delay = item.get("delay", 0)
-        if isinstance(delay, bool) or not isinstance(delay, int):  # 1.0 is refused as every: 2.0 is
+        if isinstance(delay, bool) or not isinstance(delay, int):  # 1.0 is refused (it was kept as a float)
             rounded = "; a non-integer delay is not rounded" if isinstance(delay, float) else ""
             problems.append(f"{path}.delay: must be 0 or 1, a whole number of base steps (got "
                             f"{show_value(delay)}){rounded}")

@@ -230,7 +230,7 @@ def test_the_default_checkpoint_interval_takes_any_step():
 
 @pytest.mark.parametrize("delay", ["1.0", "0.0", "true", "'1'"])
 def test_a_delay_that_is_not_a_whole_number_is_refused_as_every_is(delay):
-    """`delay: 1.0` was taken and kept as a float, where `every: 2.0` is refused."""
+    """`delay: 1.0` was taken and kept as a float: refused, as any delay but the integers 0 and 1."""
     edge = "{from: src.out, to: g.x, delay: DELAY, initial: {value: 0.0}}".replace("DELAY", delay)
     text = CHECKPOINTED_SCENE.replace("  - src.out -> g.x", f"  - {edge}")
     shown = {"true": "True", "'1'": "'1'"}.get(delay, delay)

@@ -4,11 +4,13 @@ result bit for bit."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from components.water import WaterSurface
 from cosim.errors import ScenarioError
 from cosim.scenario import load, loads
 from cosim.scheduler import BaseObserver, Simulation
@@ -143,6 +145,31 @@ def test_a_checkpoint_of_a_shared_pond_continues_the_same_run():
     tail = straight[straight[:, 0] > 0.3 + 1e-9]
     assert np.array_equal(resumed[-len(tail):], tail)
 
+
+@pytest.mark.parametrize("bodies", [["left", "right", "third"], []])
+def test_a_checkpoint_of_a_shared_pond_is_refused_by_a_water_with_other_bodies(bodies):
+    """The water of two named bodies restored into one taking three (a restart adding a stone by --set)
+    or one unnamed body: one line saying so (three failed on zip()'s own message; one took the
+    checkpoint and dropped both bodies' occupied heights without a word)."""
+    scene = load(SCENES / "two_stones.yaml", ["until=0.01", "components.pond.field_rate=0"])
+    sim = Simulation(scene)
+    sim.run()
+    saved = sim.components["pond"].get_state()
+    params = dataclasses.replace(scene.components["pond"].params, bodies=bodies)
+    other = WaterSurface.configure(params, "components.pond", None, [])("pond", params)  # its ports as the scene's
+    other.setup()
+    with pytest.raises(ValueError, match=f"it holds the occupied heights of 2 bodies on the water, which now "
+                                         f"takes {max(len(bodies), 1)}: a restart keeps the bodies the run had"):
+        other.set_state(saved)
+
+
+def test_a_bad_setting_of_a_shared_pond_is_said_once_not_as_its_named_ports():
+    """A pond setting refused (a depth of -1) left the pond's class without its named ports, and each
+    edge to patch_left, occupied_right... was said to name no port: one line now, the setting's."""
+    with pytest.raises(ScenarioError) as refused:
+        load(SCENES / "two_stones.yaml", ["components.pond.depth=-1"])
+    assert str(refused.value).endswith("components.pond.depth: must be > 0 m (got -1)")
+    assert "port" not in str(refused.value)
 
 @pytest.mark.parametrize("bodies, message", [
     ("[stone, stone]", "must not repeat a name"),

@@ -253,7 +253,9 @@ class WaterSurface(Component):
     @classmethod
     def configure(cls, params: Any, path: str, base_dir: Any, problems: list[str]) -> type[Component] | None:
         """With ``bodies`` named, a class with each body's own occupied, request and patch ports."""
-        if params is None or not params.bodies:
+        if params is None:  # a parameter refused: the ports are not known, the edges not checked (each
+            return None     # one-body port name was a false "no output port 'patch_left'")
+        if not params.bodies:
             return cls
         if any(name for name, _ in params.check() if name == "bodies"):
             return None  # the problem is reported with the parameters
@@ -566,6 +568,11 @@ class WaterSurface(Component):
                     raise ValueError(f"state {key!r} has shape {arr.shape}, the grid is {shape}")
             np.copyto(self._h, state["h"])
             np.copyto(self._v, state["v"])
+        saved = len(state["bodies"]) if "bodies" in state else 1
+        if saved != len(self._occupants):  # (a restart with bodies added or taken away by --set)
+            raise ValueError(f"it holds the occupied heights of {saved} {'body' if saved == 1 else 'bodies'} on "
+                             f"the water, which now takes {len(self._occupants)}: a restart keeps the bodies the "
+                             "run had")
         self._b[:] = 0.0
         if len(self._occupants) == 1:
             self._occupants[0].window = _put_window(self._b, state["b_window"], state["b"])
