@@ -548,6 +548,12 @@ class Simulation:
             name, _, port = channel.partition(".")
             if name in by_name and port in by_name[name].comp.outputs:
                 kind = by_name[name].comp.outputs[port].type
-                self._ahead.append((stamp, name, port, codec_for(kind).decode(payload.encode())))
+                msg = codec_for(kind).decode(payload.encode())
+                self._ahead.append((stamp, name, port, msg))
+                if channel not in cp["slots"]:
+                    # a port no connection reads keeps no past in the checkpoint, but its outputs of
+                    # the step spanning it are its to hold: a checkpoint the restart takes again keeps
+                    # them ahead (a restart of a restart lost the pond's field published at 0.2002 s)
+                    by_name[name].slots[port].entries.append((stamp, msg))
         self.stop_reason = cp.get("stop_reason")
         self._initialized = False

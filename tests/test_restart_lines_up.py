@@ -35,3 +35,21 @@ def test_a_restart_records_what_the_original_did_from_its_checkpoint_on(tmp_path
     assert sorted(after) == sorted(before)
     for topic, messages in before.items():
         assert after[topic] == messages, topic
+
+
+def test_a_restart_of_a_restart_records_what_the_original_did(tmp_path):
+    """The restart's own checkpoint at its start is the original's, so a restart from it is the original
+    again: the pond's field (a port no connection reads) published by the step spanning 0.2 s was left
+    out of the first restart's checkpoint, and the second restart lost it."""
+    original, once, twice = tmp_path / "ricochet.mcap", tmp_path / "once.mcap", tmp_path / "twice.mcap"
+    assert main(["run", str(SCENES / "ricochet.yaml"), "-q", "--until", "0.4", "-o", str(original)]) == 0
+    assert main(["replay", str(original), "--from", "0.2", "-q", "-o", str(once)]) == 0
+    assert main(["replay", str(once), "--from", "0.2", "-q", "-o", str(twice)]) == 0
+    def checkpoint(path: Path) -> bytes:
+        return next(data for _, stamp, data in Recording(path).raw(["/cosim/checkpoint"]) if stamp == FROM_NS)
+
+    assert checkpoint(once) == checkpoint(original)
+    before, after = _after(original, FROM_NS), _after(twice, FROM_NS)
+    assert sorted(after) == sorted(before)
+    for topic, messages in before.items():
+        assert after[topic] == messages, topic
