@@ -452,7 +452,8 @@ class StageMonitor(Component):
                 "timeline": [list(e) for e in self.timeline], "final_x": self.final_x, "final_y": self.final_y,
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
                 "outside_since": self.outside_since, "outside_at": list(self.outside_at), "left_at": self.left_at,
-                "settled_since": self.settled_since, "rest_since": self.rest_since}
+                "settled_since": self.settled_since, "rest_since": self.rest_since,
+                "step": self._step}  # (a restart taking no step gives its times to the same digits)
 
     def set_state(self, state: dict[str, Any]) -> None:
         self.stage = None if state["stage"] is None else StageId(state["stage"])
@@ -470,6 +471,7 @@ class StageMonitor(Component):
         self.settled_since = float(state.get("settled_since", math.nan))
         self.rest_since = float(state.get("rest_since", math.nan))
         self.left_at = float(state.get("left_at", math.nan))
+        self._step = float(state.get("step", 0.0))  # (saved before it was kept: the times to 3 decimals)
 
     def metrics(self) -> dict[str, float | int | str]:
         contact = [r.contact_time for r in self.records]

@@ -36,7 +36,7 @@ try:
         one_line,
         quiet_interrupts,
     )
-    from cosim.timebase import NS_PER_S
+    from cosim.timebase import NS_PER_S, exact_seconds
 except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the same one line as later
     sys.stderr.write("error: cosim: interrupted (Ctrl-C)\n")
     raise SystemExit(1) from None
@@ -364,7 +364,7 @@ def cmd_repair(args: argparse.Namespace) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     from cosim.record.output import beside
     from cosim.record.reader import Recording
-    from cosim.replay import replay_component, restart_simulation
+    from cosim.replay import check_replayable, replay_component, restart_simulation
 
     if args.from_time is None:
         given = [flag for flag, value in (("--set", args.set), ("-o", args.output), ("--until", args.until))
@@ -383,6 +383,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
                             f"cosim replay {args.recording}")
     rec = Recording(args.recording)
     if args.from_time is None:
+        check_replayable(rec)  # (what fails every component: said once)
         names = [args.component] if args.component else rec.scene().order
         status = rec.status()
         if status is not None and status.status == "failed":  # replayed up to where it failed: say so
@@ -415,10 +416,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     # a restart with --set or --until is a variant: named by its overrides as `cosim run` names one,
     # so that one variant never silently replaces another (or the plain restart)
     variant = f"-set-{_overrides_digest(overrides)}" if overrides else ""
-    default = beside(rec.path, f"-from{stamp / NS_PER_S:g}s{variant}.mcap")
+    default = beside(rec.path, f"-from{exact_seconds(stamp)}s{variant}.mcap")
     output = Path(args.output) if args.output else default
     def restarting() -> None:  # said once the output is accepted and the run about to begin
-        print(f"restarting {rec.scene().name!r} from the checkpoint at t = {stamp / NS_PER_S:g} s", flush=True)
+        print(f"restarting {rec.scene().name!r} from the checkpoint at t = {exact_seconds(stamp)} s", flush=True)
         _run_begins()
 
     outcome = run_scene(sim.scene, output, until_ns=args.until,

@@ -22,7 +22,7 @@ from cosim.record.reader import Recording
 from cosim.record.recorder import topic_of
 from cosim.scenario import Scene
 from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start, restore_component, saved_messages
-from cosim.timebase import NS_PER_S
+from cosim.timebase import NS_PER_S, exact_seconds
 
 
 @dataclass
@@ -104,6 +104,20 @@ class _RecordedSource:
                 break
 
 
+def check_replayable(rec: Recording) -> None:
+    """What keeps every component of ``rec`` from being replayed, as a RecordingError (said once, not
+    once a component): a selection of its exchanges recorded, or a restart's checkpoint not there."""
+    scene = rec.scene()
+    _refuse_a_selection(rec, scene)
+    _restart_checkpoint(rec, scene)
+
+
+def _refuse_a_selection(rec: Recording, scene: Scene) -> None:
+    if scene.record.every != 1 or scene.record.channels is not None:
+        raise RecordingError(f"{rec.path}: cannot replay: the run recorded a selection of its exchanges "
+                             "(record.channels / record.every); replay needs every exchange")
+
+
 def replay_component(rec: Recording, name: str, component: Component | None = None) -> ReplayReport:
     """Re-run component ``name`` alone on its recorded inputs and compare its outputs bit for bit.
 
@@ -113,9 +127,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
     if name not in scene.components:
         raise RecordingError(f"{rec.path}: no component {name!r} in the recorded scene "
                              f"(components: {', '.join(scene.order)})")
-    if scene.record.every != 1 or scene.record.channels is not None:
-        raise RecordingError(f"{rec.path}: cannot replay: the run recorded a selection of its exchanges "
-                             "(record.channels / record.every); replay needs every exchange")
+    _refuse_a_selection(rec, scene)
     status = rec.status()
     cfg = scene.components[name]
     comp = component if component is not None else cfg.build()
@@ -247,11 +259,11 @@ def _restart_checkpoint(rec: Recording, scene: Scene) -> tuple[int, dict] | None
         lost = _why_no_checkpoint(rec)
         why = ("recorded without the checkpoint it started from (record.checkpoint_every 0)" if lost is None else
                f"and the checkpoint it started from is not in the file ({lost})")
-        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {rec.restart_ns / NS_PER_S:g} s, {why}: "
+        raise RecordingError(f"{rec.path}: cannot replay: a restart from t = {exact_seconds(rec.restart_ns)} s, {why}: "
                              "replay the recording it was restarted from")
     # the checkpoint's form is the reader's to check; whether it fits the scene that ran, here (a
     # component or an edge it lacks ended in an internal KeyError or IndexError)
-    began = f"the checkpoint at {rec.restart_ns / NS_PER_S:g} s it restarted from"
+    began = f"the checkpoint at {exact_seconds(rec.restart_ns)} s it restarted from"
     missing = [name for name in scene.order if name not in checkpoint["components"]]
     if missing:
         raise RecordingError(f"{rec.path}: cannot replay: {began} holds no state of {missing[0]!r}, a component of "
@@ -297,7 +309,7 @@ def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> Recording
     times = ", ".join(f"{s / NS_PER_S:g}" for s in stamps[:10]) or "none"
     if rec.restart_ns and from_ns < rec.restart_ns:
         # a restart's recording begins at its checkpoint: what came before is in the one it came from
-        began = f"{rec.restart_ns / NS_PER_S:g} s"
+        began = f"{exact_seconds(rec.restart_ns)} s"
         if stamps:
             hint = (f"this recording is a restart from {began}: restart from the recording it came from, or "
                     f"from {began} or later")
@@ -349,7 +361,7 @@ def _refuse_start_only_overrides(sim: Simulation, recorded: Scene | None, unread
                 comp, param = sim.components[path[1]], path[2].partition("[")[0]
                 if param in comp.start_only_params:
                     raise RecordingError(f"--set {key}: sets {path[1]}'s state at t = 0, which a restart takes "
-                                         f"from the checkpoint at {stamp / NS_PER_S:g} s instead; to change it, "
+                                         f"from the checkpoint at {exact_seconds(stamp)} s instead; to change it, "
                                          "run the scene from the start (cosim run)")
             continue
         if recorded is None:
@@ -368,7 +380,7 @@ def _refuse_start_only_overrides(sim: Simulation, recorded: Scene | None, unread
                 verb = "sets" if len(changed) == 1 else "set"
                 raise RecordingError(f"--set {key}: changes {name}'s {_changed(was, now, changed)}, which only "
                                      f"{verb} its state at t = 0: a restart takes that state from the checkpoint "
-                                     f"at {stamp / NS_PER_S:g} s instead; keep the recorded values, or run the "
+                                     f"at {exact_seconds(stamp)} s instead; keep the recorded values, or run the "
                                      "scene from the start (cosim run)")
 
 
@@ -419,7 +431,7 @@ def _check_step_grids(rec: Recording, sim: Simulation, recorded: Scene | None, c
                 f"{gap:g} ms after it, skipping that time")
         fits = _on_grid(rec, recorded, name, state_ns, tick, dt_ns)
         raise RecordingError(
-            f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s with dt = "
+            f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s with dt = "
             f"{dt_ns / NS_PER_S:g} s: {name} (every {every}, a step of {every * dt_ns / 1e6:g} ms) has its state "
             f"at t = {state_ns / NS_PER_S:.9g} s{spans}, but its first step would begin at t = "
             f"{first_ns / NS_PER_S:.9g} s, {what}; {fits}, or run the scene from t = 0 (cosim run)")
@@ -463,13 +475,14 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     except (ValueError, KeyError, TypeError) as exc:  # (TypeError: a component's state holding a wrong kind of value)
         why = (f"it holds no {exc.args[0]!r}, which this scene's components restore (a component or setting "
                "changed by --set?)" if isinstance(exc, KeyError) else str(exc))
-        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {stamp / NS_PER_S:g} s: "
+        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
                              f"{why}") from None
     _check_step_grids(rec, sim, recorded, cp, stamp)
-    if overrides:
+    if any(o.partition("=")[0].strip() != "until" for o in overrides or []):
         # another run from here: a stop the original asked for in the checkpoint's tick was asked under
         # its settings (a restart with the stop's own setting changed ended at once, 0 steps), and is
-        # asked again on the next step if the new settings still call for it
+        # asked again on the next step if the new settings still call for it. A later end alone is the
+        # same run, which stopped there (--until took a step the original never took)
         sim.stop_reason = None
         for runner in sim.runners:
             runner.comp.stop_reason = None

@@ -37,6 +37,14 @@ def format_time(ns: int) -> str:
     return f"{ns / NS_PER_S:.6g} s"
 
 
+def exact_seconds(ns: int) -> str:
+    """A time of ``ns`` whole nanoseconds in seconds, every digit it has and no more (``10.00004``,
+    ``0.5``, ``10``): two times :g would both write 10 never read alike."""
+    whole, part = divmod(abs(ns), NS_PER_S)
+    digits = f"{part:09d}".rstrip("0")
+    return f"{'-' if ns < 0 else ''}{whole}{'.' + digits if digits else ''}"
+
+
 def step_decimals(step_ns: int) -> int:
     """The decimals [of a second] a time on a grid of ``step_ns`` needs to be written exactly: 4 for
     0.5 ms, 5 for 0.25 ms, 3 for 1 ms, 0 for whole seconds."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
@@ -13,6 +14,8 @@ from cosim.runner import run_scene
 from cosim.scenario import loads
 from tests.fmu_toys import fmu_cache  # noqa: F401  (FMUs the tests build go to a folder of their own)
 from tests.toys import Gain
+
+SCENES = Path(__file__).resolve().parent.parent / "scenarios"
 
 SCENE = """
 name: replayable
@@ -238,6 +241,21 @@ def test_a_restart_recorded_without_its_checkpoint_is_refused_in_one_line(record
         replay_component(Recording(outcome.recording), "g")
 
 
+@pytest.mark.parametrize("overrides, said", [
+    (["record.checkpoint_every=0"], "recorded without the checkpoint it started from"),
+    (["record.every=2"], "the run recorded a selection of its exchanges"),
+])
+def test_what_keeps_every_component_from_a_replay_is_said_once(recording, tmp_path, capsys, overrides, said):
+    """`cosim replay` of a restart recorded without its checkpoint, or of a thinned recording: one
+    line, exit 2 (it was said again for each of the scene's components)."""
+    from cosim.cli import main
+    sim, _ = restart_simulation(recording, 45_000_000, overrides=overrides)
+    outcome = run_scene(sim.scene, tmp_path / "again.mcap", progress=False, simulation=sim)
+    assert main(["replay", str(outcome.recording)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and said in err[0], err
+
+
 def test_a_run_from_t0_whose_first_message_comes_later_is_no_restart(tmp_path):
     """A run without checkpoints whose components publish nothing at t = 0 begins its recording a
     step in: it is still a run from t = 0, replayed as one (it was refused as a restart, and inspect
@@ -394,6 +412,23 @@ def test_a_restarts_default_name_tells_its_variants_apart(recording, tmp_path):
     assert len(names) == 4 and {"run-from0.06s.mcap", f"run-from0.06s-set-{digest}.mcap"} <= set(names)
 
 
+def test_restarts_from_checkpoints_apart_by_less_than_six_digits_are_named_apart(tmp_path):
+    """A restart's default name and the times it is said at carry every digit of its checkpoint's time:
+    restarts from 10 s and from 10.00004 s were both written as NAME-from10s.mcap (:g keeps six
+    digits), the second replacing the first, and inspect said the second began at t = 10 s."""
+    from cosim.cli import main
+    from cosim.record.describe import describe_recording
+
+    first, fine = tmp_path / "pong.mcap", tmp_path / "fine.mcap"
+    assert main(["run", str(SCENES / "ping_pong.yaml"), "-q", "--until", "10.001", "--set",
+                 "record.checkpoint_every=10", "-o", str(first)]) == 0
+    assert main(["replay", str(first), "--from", "10", "-q", "--set", "dt=0.00002", "--set",
+                 "record.checkpoint_every=0.00002", "--until", "10.0002", "-o", str(fine)]) == 0
+    for start in ("10", "10.00004"):
+        assert main(["replay", str(fine), "--from", start, "-q"]) == 0
+    assert sorted(p.name for p in tmp_path.glob("fine-from*.mcap")) == ["fine-from10.00004s.mcap", "fine-from10s.mcap"]
+    assert "from t = 10.00004 s (a restart)" in describe_recording(Recording(tmp_path / "fine-from10.00004s.mcap"))
+
 def test_a_restart_decodes_only_its_checkpoint_and_a_damaged_one_elsewhere_does_not_stop_it(recording, tmp_path,
                                                                                              monkeypatch):
     """--from T decoded every checkpoint in the file to use one (as costly as reading the file), and
@@ -498,6 +533,27 @@ def test_a_restart_from_a_stopped_runs_last_checkpoint_stops_there(tmp_path):
     result = sim.run()
     assert (result.status, result.reason) == ("stopped", status.reason)
     assert sim.time_ns == stamp and result.component_steps == 0
+
+    # a later end alone is the same run, which stopped there (--until took a step more than it)
+    sim, _ = restart_simulation(Recording(path), stamp, overrides=["until=2.0"])
+    assert sim.run().component_steps == 0 and sim.time_ns == stamp
+
+
+def test_a_restart_taking_no_step_gives_the_stage_times_to_the_original_digits(tmp_path):
+    """The stage monitor's step is part of its state: a restart from a stopped run's last checkpoint,
+    which takes no step, printed the timeline to the millisecond (slide 0.025 s where the original
+    said 0.0252 s)."""
+    from cosim.scenario import load
+    path = tmp_path / "disk.mcap"
+    scene = load(SCENES / "free_disk.yaml", ["record.checkpoint_every=0.0431", "record.visual_rate=0"])
+    assert run_scene(scene, path, progress=False).result.status == "stopped"
+    monitor = next(name for name, cfg in scene.components.items() if cfg.type_name == "StageMonitor")
+    stop_ns = round(Recording(path).status().time * 1e9)
+    sim, _ = restart_simulation(Recording(path), stop_ns)
+    assert sim.run().component_steps == 0
+    (line,) = [s for s in sim.components[monitor].summary() if "stages:" in s]
+    assert "slide (0.0252 s)" in line
+    assert sim.components[monitor].get_state()["step"] == 0.0001
 
 
 SUBSTEPPING = """

@@ -17,7 +17,7 @@ import math
 from cosim.errors import RecordingError, counted, one_line
 from cosim.record.reader import Recording
 from cosim.record.recorder import STATUS_TOPIC
-from cosim.timebase import NS_PER_S, step_decimals
+from cosim.timebase import NS_PER_S, exact_seconds, step_decimals
 
 TIMELINE_MAX = 60  # timeline rows shown before eliding the middle
 
@@ -63,7 +63,7 @@ def describe_recording(rec: Recording) -> str:
     if rec.overrides:
         lines.append(f"  overrides: {one_line(', '.join(rec.overrides))}")
     span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
-    since = f" from t = {rec.restart_ns / NS_PER_S:g} s (a restart)" if rec.restart_ns else ""
+    since = f" from t = {exact_seconds(rec.restart_ns)} s (a restart)" if rec.restart_ns else ""
     status = rec.status()
     # a component stepping every few ticks stamps its outputs at its step's end, which can lie past the
     # tick the run stopped at: said, so that the two times do not read as a contradiction
@@ -83,7 +83,7 @@ def describe_recording(rec: Recording) -> str:
         steps, since = status.tick, ""
         if rec.restart_ns:
             steps -= rec.restart_ns // rec.dt_ns
-            since = f" from t = {rec.restart_ns / NS_PER_S:g} s"
+            since = f" from t = {exact_seconds(rec.restart_ns)} s"
         lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s "
                      f"({counted(steps, 'step')}{since}) - {one_line(status.reason)}")
     lines.append("  channels:")
@@ -95,7 +95,7 @@ def describe_recording(rec: Recording) -> str:
     if events:
         lines.append("  timeline:")
         if rec.restart_ns:  # (a restart publishes what changes after it: what was in force came before)
-            lines.append(f"    (a restart from t = {rec.restart_ns / NS_PER_S:g} s: what was in force then, and "
+            lines.append(f"    (a restart from t = {exact_seconds(rec.restart_ns)} s: what was in force then, and "
                          "what came before, is in the recording it restarted from)")
         # to the step's last digit (at 50 us a hit at 0.07415 s read 0.0741 s, the run's summary 0.07415)
         decimals = max(4, step_decimals(rec.dt_ns))
