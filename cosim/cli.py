@@ -90,6 +90,19 @@ positive_seconds = number_arg(float, "seconds", above=0, unit=" s")
 _time_since_start = number_arg(float, "seconds", at_least=0, unit=" s")
 
 
+MIN_LIVE_SPEED = 1e-6  # the slowest pace --live-speed takes: a millionth of real time
+
+
+def _live_speed(text: str) -> float:
+    """--live-speed: 0 (unpaced) or a pace of at least MIN_LIVE_SPEED times real time (1e-300 waited
+    past what a clock can say and failed the run with an internal error)."""
+    value = number_arg(float, "a number", at_least=0)(text)
+    if 0 < value < MIN_LIVE_SPEED:
+        raise argparse.ArgumentTypeError(f"must be 0 (unpaced) or at least {MIN_LIVE_SPEED:g} (a millionth of real "
+                                         f"time), got {text}")
+    return value
+
+
 def _seconds_arg(text: str) -> int:
     """A time [s] >= 0 as integer nanoseconds, at most the longest time a recording holds."""
     from cosim.scenario import MAX_TIME_NS
@@ -463,7 +476,7 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
-    p.add_argument("--live-speed", type=number_arg(float, "a number", at_least=0), default=None, metavar="S",
+    p.add_argument("--live-speed", type=_live_speed, default=None, metavar="S",
                    help="with --live: pace the run at S times real time (default 1; 0: unpaced)")
     p.add_argument("--live-linger", type=number_arg(float, "seconds", at_least=0), default=None, metavar="T",
                    help="with --live: keep serving the finished run T seconds of wall time (default: until "
@@ -687,14 +700,15 @@ def _run_begins() -> None:
 def main(argv: list[str] | None = None) -> int:
     """Run the command in ``argv`` (default: this program's arguments) and return its exit code.
 
-    Run as the program (no ``argv``), a command of :data:`ENDS_WHEN_DONE` starts up without the
-    cyclic garbage collector (see ``_collection``; a run turns it back on as it begins) and ends the
-    process as soon as it has returned (:func:`_end_process`), without the interpreter's teardown."""
+    Run as the program (no ``argv``), a command of :data:`STARTS_WITHOUT_COLLECTION` starts up
+    without the cyclic garbage collector (see ``_collection``; a run turns it back on as it begins),
+    and every command ends the process as soon as it has returned (:func:`_end_process`), without the
+    interpreter's teardown."""
     as_program = argv is None
     argv = list(sys.argv[1:] if argv is None else argv)
     if as_program:
         warnings.showwarning = _one_line_warning
-    if as_program and _command(argv) in ENDS_WHEN_DONE:
+    if as_program and _command(argv) in STARTS_WITHOUT_COLLECTION:
         _pause_collection()
     stdout = sys.stdout
     sys.stdout = _ReaderMayLeave(stdout)
@@ -707,9 +721,30 @@ def main(argv: list[str] | None = None) -> int:
         start_up_done()
         if as_program:  # the command has said all it has to: a Ctrl-C as the process ends adds nothing
             sys.unraisablehook = quiet_interrupts(sys.unraisablehook)
-    if as_program and _command(argv) in ENDS_WHEN_DONE:
+    if as_program:
+        _exit_on_late_signals(code)
         _end_process(code)
     return code
+
+
+def _exit_on_late_signals(code: int) -> None:
+    """The command is done and ``code`` decided: a Ctrl-C, SIGTERM or SIGHUP while the interpreter
+    tears down ends the process at once with that code, its output flushed (it killed a plot, a
+    render or a study that had written and said everything: exit 130 or 143, nothing said)."""
+    def handler(signum: int, frame: Any) -> None:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # a reader that left, a stream closed
+                pass
+        os._exit(code)
+
+    try:
+        for signum in (signal.SIGINT, *ending_signals()):
+            if signal.getsignal(signum) is not signal.SIG_IGN:  # (one started ignored, under nohup, stays so)
+                signal.signal(signum, handler)
+    except ValueError:  # not the main thread: its signals are not ours
+        pass
 
 
 def _one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
@@ -753,11 +788,14 @@ def start_up_done() -> None:
         gc.enable()
 
 
-# Commands whose work is finished and on disk once they return (a recording is complete under its
-# final name before run_scene returns): what is left of the process is the interpreter's teardown,
-# which after a run with compiled kernels costs 0.13-0.15 s (freeing numba's and LLVM's objects one
-# by one), more than a short run itself.
-ENDS_WHEN_DONE = frozenset({"run", "validate"})
+# Every command's work is finished and on disk once it returns (a recording is complete under its
+# final name before run_scene returns, a figure or a page moved into place whole): what is left of
+# the process is the interpreter's teardown, which after compiled kernels or matplotlib costs
+# 0.13-0.3 s (freeing numba's, LLVM's and the figures' objects one by one), more than a short run
+# itself, and which restores the default signal handlers first: a Ctrl-C or SIGTERM then killed a
+# plot or a render that had written and said everything (exit 130 or 143). So it is left out.
+# The commands that start up without the collector, a run's start-up making next to no garbage.
+STARTS_WITHOUT_COLLECTION = frozenset({"run", "validate"})
 
 
 def _command(argv: list[str]) -> str:

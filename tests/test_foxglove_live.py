@@ -250,7 +250,7 @@ def test_a_run_late_after_a_stall_is_paced_on_from_there_not_played_flat_out(mon
     monkeypatch.setattr(live.time, "sleep", lambda s: (slept.append(s), clock.update(now=clock["now"] + s)))
     scene = loads(SKIP_SCENE)
     view = LiveView(scene, "127.0.0.1:0", speed=0.5, components=Simulation(scene).components, announce=False)
-    sim = types.SimpleNamespace(time_ns=0)  # the run's clock is all the pacing reads
+    sim = types.SimpleNamespace(time_ns=0, interrupt_reason=None)  # the run's clock and whether it was asked to stop
     try:
         view.on_initialized(sim)
         sim.time_ns = 10_000_000  # 10 ms of simulation ...
@@ -270,6 +270,33 @@ def test_a_run_late_after_a_stall_is_paced_on_from_there_not_played_flat_out(mon
     finally:
         view.close()
 
+
+def test_a_slow_pace_sleeps_in_slices_that_end_when_the_run_is_asked_to_stop(monkeypatch):
+    """Paced at 1e-5 of real time, a 1 ms step waits 100 s: in sleeps of at most PACE_SLICE_S, which
+    stop once a signal has asked the run to stop (one sleep of 100 s sat out Ctrl-C and SIGTERM)."""
+    import cosim.view.live as live
+
+    clock = {"now": 100.0}
+    slept: list[float] = []
+    sim = types.SimpleNamespace(time_ns=0, interrupt_reason=None)
+
+    def sleep(s: float) -> None:
+        slept.append(s)
+        clock["now"] += s
+        if len(slept) == 3:
+            sim.interrupt_reason = "interrupted by SIGTERM"  # what the run's signal handler does
+
+    monkeypatch.setattr(live.time, "perf_counter", lambda: clock["now"])
+    monkeypatch.setattr(live.time, "sleep", sleep)
+    scene = loads(SKIP_SCENE)
+    view = LiveView(scene, "127.0.0.1:0", speed=1e-5, components=Simulation(scene).components, announce=False)
+    try:
+        view.on_initialized(sim)
+        sim.time_ns = 1_000_000
+        view.on_step_complete(sim)
+        assert slept == [live.PACE_SLICE_S] * 3
+    finally:
+        view.close()
 
 def test_every_channel_is_advertised_before_the_first_step():
     """As it starts, the live view makes every channel the run is known to publish on: each output

@@ -209,7 +209,8 @@ def test_plot_render_and_live_without_the_viz_extra_say_what_to_install(scene, t
 
 
 @pytest.mark.parametrize("argv", [["--until", "1e308"], ["--until", "inf"], ["--until", "nan"],
-                                  ["--live-speed", "nan", "--live", "0"], ["--record-every", "0"]])
+                                  ["--live-speed", "nan", "--live", "0"], ["--record-every", "0"],
+                                  ["--live-speed", "1e-300", "--live", "0"]])
 def test_command_line_numbers_out_of_range_are_bad_input(scene, capsys, argv):
     """Times beyond what a recording holds, non-finite numbers and a zero rate: exit 2, one line."""
     with pytest.raises(SystemExit) as exit_:
@@ -510,3 +511,26 @@ def test_a_ctrl_c_as_the_process_ends_prints_no_traceback(tmp_path):
                           timeout=60)
     assert done.returncode == 0 and "Traceback" not in done.stderr and "KeyboardInterrupt" not in done.stderr, \
         done.stderr
+
+
+def test_a_signal_after_a_command_has_written_everything_leaves_its_exit_code(tmp_path):
+    """`cosim plot` has written and said every figure; a SIGTERM in the interpreter's teardown that
+    followed (0.3 s of freeing matplotlib's objects, the default handlers back) killed it: exit -15,
+    though it had succeeded. Every command now ends as soon as it has returned, and a signal until
+    then ends it with the code it decided."""
+    recording = tmp_path / "held.mcap"
+    scene = ROOT / "scenarios" / "held_skip.yaml"
+    assert main(["run", str(scene), "-q", "--until", "0.2", "-o", str(recording)]) == 0
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "cosim.cli", "plot", str(recording), "-o", str(tmp_path / "figs")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    wrote = 0
+    for line in proc.stdout:
+        wrote += line.startswith("wrote ")
+        if wrote == 4:
+            time.sleep(0.1)
+            proc.send_signal(signal.SIGTERM)
+            break
+    _, err = proc.communicate(timeout=60)
+    assert wrote == 4 and proc.returncode == 0, err
+    assert len(list((tmp_path / "figs").glob("*.png"))) == 4

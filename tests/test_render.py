@@ -88,6 +88,13 @@ def test_one_png_frame_at_a_chosen_time(skip_path, tmp_path, capsys):
     assert blue.mean() > 0.05  # the water surface fills part of the frame
 
 
+def test_no_progress_bar_is_drawn_into_a_log(skip_path, tmp_path, capsys):
+    """Without -q, render draws its bar only on a terminal: into a redirected stderr (a log, a pipe;
+    capsys's is no terminal) it wrote some thirty redraws, as a run does not."""
+    out = tmp_path / "short.gif"
+    assert main(["render", str(skip_path), "-o", str(out), "--to", "0.05", "--width", "200"]) == 0
+    assert out.exists() and "render short.gif" not in capsys.readouterr().err
+
 def test_unknown_formats_and_times_are_bad_input(skip_path, tmp_path, capsys):
     """An unknown extension or times outside the recording exit 2 with a one-line reason, no file."""
     assert main(["render", str(skip_path), "-o", str(tmp_path / "x.avi"), "-q"]) == 2

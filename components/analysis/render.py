@@ -1101,7 +1101,9 @@ def _write_frames(renderer: _Frames, cursor: _FieldCursor, times: np.ndarray, ou
         with output_folder(output.parent):
             writer = _writer(output, options.fps, renderer.size)
             try:
-                for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not options.progress,
+                # (no bar into a log or a pipe: its redraws are noise there, as a run's would be)
+                shown = options.progress and sys.stderr.isatty()
+                for t in tqdm(times, desc=f"render {output.name}", unit="frame", disable=not shown,
                               file=sys.stderr, leave=False, dynamic_ncols=True):
                     field = cursor.at(float(t))
                     writer.add(renderer.draw(float(t), field, cursor.mean, cursor.time))

@@ -49,6 +49,7 @@ DEFAULT_RATE = 30.0  # [frames/s] of viewer channels when the scene records none
 CLOCK_PERIOD_S = 1 / 60  # [s of wall time] between clock broadcasts
 MIN_SLEEP_S = 0.002  # [s] pacing sleeps shorter than this are skipped (timer resolution)
 STALL_S = 0.25  # [s] a step this late is a stall: the pacing starts again from it instead of catching up
+PACE_SLICE_S = 0.1  # [s] the longest a pacing sleep lasts before it looks whether the run was asked to stop
 LINGER_TICK_S = 0.25  # [s of wall time] between checks (and clock broadcasts) while lingering
 
 
@@ -291,8 +292,11 @@ class LiveView(BaseObserver):
         if self.speed > 0:
             due = self._wall0 + (sim.time_ns - self._sim0) / NS_PER_S / self.speed
             if due - now > MIN_SLEEP_S:
-                time.sleep(due - now)
-                now = time.perf_counter()
+                # in short sleeps, each ended by a signal's request to stop (a signal's handler only
+                # asks: one long sleep sat out Ctrl-C and SIGTERM for as long as the pace had it wait)
+                while due - now > MIN_SLEEP_S and sim.interrupt_reason is None:
+                    time.sleep(min(due - now, PACE_SLICE_S))
+                    now = time.perf_counter()
             elif now - due > STALL_S:
                 # stalled (kernels compiling, a stopped process): paced on from here, not run flat out
                 # until the time lost is made up (after 50 s of compiling, a 0.5x run played its first
