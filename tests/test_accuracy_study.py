@@ -289,3 +289,19 @@ def test_a_runs_wall_time_leaves_out_the_kernels_it_compiled(monkeypatch):
     reference, _ = accuracy.plan(load(SKIP), True)
     trace = accuracy.run_variant(SKIP, reference, 0.01)
     assert trace.walls == [pytest.approx(0.25 * seen["wall"], rel=1e-12)]
+
+
+def test_a_study_whose_writing_is_interrupted_leaves_no_empty_folder(tmp_path, monkeypatch):
+    """Ctrl-C while the figure is drawn: the output folder and its figures folder, made for them, go
+    again (both were left empty), as a plot's are."""
+    from components.analysis import accuracy
+
+    def interrupted(study, path, dpi=100):
+        Path(path).parent.mkdir(parents=True, exist_ok=True)  # as the figure makes its folder
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(accuracy, "figure", interrupted)
+    out = tmp_path / "new" / "study"
+    with pytest.raises(KeyboardInterrupt):
+        accuracy.write(object(), out)
+    assert not (tmp_path / "new").exists()

@@ -587,6 +587,26 @@ def test_figures_are_put_in_place_all_or_none(skip_path, tmp_path):
     assert (out / "motion.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_a_figure_this_plot_does_not_draw_is_not_left_from_an_earlier_one(skip_path, tmp_path):
+    """The same folder plotted from a recording with contacts, then from one holding only the
+    stone's state (--record): its contacts figure is skipped, and the earlier recording's, left
+    beside the new set, looked part of it. It is removed, and said."""
+    from cosim.runner import run_scene
+    from cosim.scenario import loads
+    from tests.viewer_toys import SKIP_SCENE
+
+    out = tmp_path / "figs"
+    plot_run(skip_path, out, dpi=30)
+    assert (out / "contacts.png").is_file()
+    stone_only = tmp_path / "stone_only.mcap"
+    run_scene(loads(SKIP_SCENE, overrides=["record.visual_rate=0", "record.channels=['/stone/*']"]), stone_only,
+              progress=False)
+    written, skipped = plot_run(stone_only, out, dpi=30)
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in written) == [
+        "energy.png", "motion.png", "trajectory.png"]
+    assert skipped == [("contacts.png", "the recording holds no contact channel (WaterContact or GroundContact); "
+                                        "the contacts.png there from an earlier plot removed")]
+
 def test_the_attack_angle_is_measured_along_the_motion_nose_up_positive():
     """A disk tilted 20 deg about y (its leading edge up when it moves along +x): +20 moving along +x,
     -20 moving along -x (nose down), about 0 moving along y (the lean across the path) where the

@@ -85,6 +85,28 @@ def test_plot_and_render_of_a_recording_named_as_their_temporary_keep_it(water_r
     assert sorted(p.name for p in tmp_path.iterdir()) == ["anim.gif", "anim.gif.part", "anim.gif.tmp", "figs"]
 
 
+def test_a_read_only_output_is_refused_by_every_command_not_replaced(water_run, tmp_path, capsys):
+    """A picture, a set of figures or a page made read-only: exit 2, "is read-only; it is not
+    replaced", the file as it was (render, plot and components --markdown replaced it, exit 0: a new
+    file moved onto it needs only the folder's leave, which a run's recording already refused)."""
+    def read_only(path: Path, text: bytes = b"mine") -> Path:
+        path.write_bytes(text)
+        path.chmod(stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
+        return path
+
+    gif = read_only(tmp_path / "anim.gif")
+    figs = tmp_path / "figs"
+    figs.mkdir()
+    trajectory = read_only(figs / "trajectory.png")
+    page = read_only(tmp_path / "types.md")
+    for argv, target in ((["render", str(water_run), "-o", str(gif), "--speed", "0.1", "-q"], gif),
+                         (["plot", str(water_run), "-o", str(figs)], trajectory),
+                         (["components", "--markdown", str(page)], page)):
+        assert main(argv) == 2
+        assert one_error_line(capsys.readouterr().err) == f"error: {target}: is read-only; it is not replaced"
+        assert target.read_bytes() == b"mine"
+    assert sorted(p.name for p in figs.iterdir()) == ["trajectory.png"]  # (all figures or none)
+
 def test_a_written_whole_file_goes_through_a_new_temporary_of_its_own(tmp_path):
     """written_whole (a sweep's table, its figure, `components --markdown`, `fmu export`, repair):
     the user's `NAME.tmp` is neither written nor removed, on success or failure; the temporary is a

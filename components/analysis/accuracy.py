@@ -44,7 +44,7 @@ import numpy as np
 
 from cosim.cli import positive_int, run_until_ns
 from cosim.docsection import replace_section, section_problem
-from cosim.record.output import nearest_existing, written_whole
+from cosim.record.output import nearest_existing, output_folder, written_whole
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 SECTION = "accuracy-table"
@@ -568,9 +568,12 @@ def figure(study: Study, path: str | Path, dpi: int = 100) -> Path:
 def write(study: Study, out_dir: str | Path) -> tuple[Path, Path]:
     """The figure (DIR/figures/accuracy.png) and the table section of DIR/accuracy.md."""
     out_dir = Path(out_dir)
-    png = figure(study, out_dir / FIGURE)
     page = out_dir / "accuracy.md"
-    replace_section(page, SECTION, section(study))
+    # the folders made here go again if the writing fails or is interrupted (it left DIR and
+    # DIR/figures empty), as a plot's do
+    with output_folder((out_dir / FIGURE).parent):
+        png = figure(study, out_dir / FIGURE)
+        replace_section(page, SECTION, section(study))
     return page, png
 
 

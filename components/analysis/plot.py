@@ -531,7 +531,7 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
             _save(figure_water(rec, fields[0]), path, dpi)
         why = ("the recording holds no body's state (its channels were left out: --record)"
                if scene_publishes(rec, (BodyState,)) else "no body in this run")
-        return [path], [(", ".join(FIGURES), why)]
+        return [path], [(", ".join(FIGURES), why + _removed_from_before(out_dir, list(FIGURES)))]
     run = load_run(rec, body)
     warn_ended_early(rec, "the figures")  # figures of what there is, said to end where the run did
     figures: dict[Path, Figure] = {}
@@ -548,7 +548,25 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
         figures[out_dir / name] = fig
     with output_folder(out_dir):
         _save_together(figures, dpi)
-    return list(figures), skipped
+    return list(figures), [(name, why + _removed_from_before(out_dir, [name])) for name, why in skipped]
+
+
+def _removed_from_before(out_dir: Path, names: list[str]) -> str:
+    """Remove the figures ``names`` an earlier plot left in ``out_dir``, which this one did not draw
+    (its recording has no contacts, or no body): beside the new figures they looked part of the new
+    set. What is said of them: '' when there was none."""
+    removed, left = [], []
+    for name in names:
+        try:
+            (out_dir / name).unlink()
+        except FileNotFoundError:
+            continue
+        except OSError as exc:  # (a folder of that name, a file it may not remove: left, and said)
+            left.append(f"{name} ({exc.strerror})")
+            continue
+        removed.append(name)
+    return ((f"; the {', '.join(removed)} there from an earlier plot removed" if removed else "")
+            + (f"; the {', '.join(left)} there from before left" if left else ""))
 
 
 def _save_together(figures: dict[Path, Figure], dpi: int) -> None:

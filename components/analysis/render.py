@@ -59,7 +59,7 @@ from components.analysis.style import STAGE_LABELS, STONE_RGB, TRAIL_COLOR, stag
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterContact, WaterField
 from components.visuals import SURFACE_SIDE, water_colors
 from cosim.errors import RecordingError
-from cosim.record.output import new_temporary, output_folder
+from cosim.record.output import new_temporary, output_folder, refuse_read_only
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 from cosim.timebase import NS_PER_S
@@ -735,6 +735,7 @@ def _ffmpeg() -> str | None:
 class _Writer:
     def __init__(self, path: Path, fps: float, size: tuple[int, int]):
         self.path = path
+        refuse_read_only(path)  # (before a frame is drawn; it was replaced by the move at the end)
         # a new file of a unique name (NAME.<8 hex digits>.tmp): a fixed one (anim.gif.part) was written
         # over and removed, whatever it held (a recording so named, the one rendered, was lost)
         self.part = new_temporary(path)

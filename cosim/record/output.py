@@ -373,6 +373,7 @@ def written_whole(path: Path) -> Iterator[Path]:
     temporary (a writer that names no file, such as an image library on a full disk, is taken to have
     failed on it too)."""
     path = Path(path)
+    refuse_read_only(path)
     tmp = new_temporary(path)
     try:
         yield tmp
@@ -383,6 +384,18 @@ def written_whole(path: Path) -> Iterator[Path]:
     except BaseException:
         remove_quietly(tmp)
         raise
+
+
+def refuse_read_only(path: Path) -> None:
+    """A PermissionError naming ``path`` when it is a file no one may write to: a command's output
+    replaces a file by moving a new one onto it, which its folder allows (a render, a plot or a page
+    silently replaced a file made read-only, where a run's recording is refused so)."""
+    try:
+        st = os.stat(path)
+    except OSError:  # none there (or not to be seen): the writing says what is wrong, if anything
+        return
+    if stat.S_ISREG(st.st_mode) and not st.st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
+        raise PermissionError(errno.EACCES, "is read-only; it is not replaced", str(path))
 
 
 def named_for(exc: OSError, tmp: Path, path: Path) -> OSError:
@@ -399,6 +412,8 @@ def move_together(staged: list[tuple[Path, Path]]) -> None:
     previous file is set aside until every move is done, and if one fails, the targets moved so far
     are taken back and the previous files put back. An OSError names the target that could not be
     put in place."""
+    for _, path in staged:  # (before any move: all or none)
+        refuse_read_only(path)
     done: list[tuple[Path, Path | None, bool]] = []  # (target, its previous file set aside, the new one in place)
     try:
         for tmp, path in staged:
