@@ -79,6 +79,17 @@ def test_the_critical_speed_rises_on_both_sides_of_the_magic_angle(cell, alpha):
     assert _bounces(SIDE_BOUNCES[alpha], alpha, cell)
 
 
+@pytest.mark.parametrize("cell", [0.005, 0.01])
+def test_the_critical_speed_rises_more_steeply_towards_small_angles(cell):
+    """The row's "steeply towards small angles": the mean slope from the lowest critical speed down to
+    5 deg steeper than the one up to 45 deg. At 5 deg the disk does not bounce at 4.3 m/s (the model's
+    critical speed there is 4.42-4.43 m/s), at 45 deg it does at 3.75 m/s (3.66 m/s): with the lowest
+    between 2.45 and 2.54 m/s (the test above), the slopes are above (4.3 - 2.54) / 15 = 0.117 and
+    below (3.75 - 2.45) / 25 = 0.052 m/s per deg."""
+    assert not _bounces(4.3, 5.0, cell)
+    assert _bounces(3.75, 45.0, cell)
+    assert (4.3 - INSIDE) / (20.0 - 5.0) > (3.75 - BELOW) / (45.0 - 20.0)
+
 def test_no_throw_steeper_than_about_45_degrees_bounces_and_the_window_is_widest_at_20_degrees():
     """Clanet et al. 2004 (fig. 1c), Rosellini et al. 2005 (fig. 6c): at 3.5 m/s the steepest impact
     angle that bounces (tried every 5 deg from 20 to 60 deg) is at alpha = 20 deg within 40-50 deg: it
