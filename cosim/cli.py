@@ -722,22 +722,21 @@ def main(argv: list[str] | None = None) -> int:
         if as_program:  # the command has said all it has to: a Ctrl-C as the process ends adds nothing
             sys.unraisablehook = quiet_interrupts(sys.unraisablehook)
     if as_program:
-        _exit_on_late_signals(code)
         _end_process(code)
     return code
 
 
-def _exit_on_late_signals(code: int) -> None:
-    """The command is done and ``code`` decided: a Ctrl-C, SIGTERM or SIGHUP while the interpreter
-    tears down ends the process at once with that code, its output flushed (it killed a plot, a
-    render or a study that had written and said everything: exit 130 or 143, nothing said)."""
+def _hold_signals_until_exit(code: int) -> None:
+    """The command is done, ``code`` decided and the process about to end: a Ctrl-C, SIGTERM or SIGHUP
+    now lets the exit handlers finish (a second one ends the process at once, with ``code``), and
+    changes no exit code (one in the teardown this skips killed a plot that had written and said
+    everything: exit 143)."""
+    seen = []
+
     def handler(signum: int, frame: Any) -> None:
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError):  # a reader that left, a stream closed
-                pass
-        os._exit(code)
+        if seen:
+            os._exit(code)
+        seen.append(signum)
 
     try:
         for signum in (signal.SIGINT, *ending_signals()):
@@ -816,6 +815,8 @@ def _end_process(code: int) -> None:
         return
     import atexit
 
+    code = code if isinstance(code, int) else 0  # (a plug-in command that returned None: as sys.exit(None))
+    _hold_signals_until_exit(code)
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:

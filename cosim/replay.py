@@ -453,6 +453,11 @@ def _on_grid(rec: Recording, recorded: Scene | None, name: str, state_ns: int, t
             f"recorded dt = {recorded_dt / NS_PER_S:g} s with every {cfg.every}")
 
 
+def _same_run(key: str) -> bool:
+    """Whether an override of ``key`` leaves the run itself as it was: its end, or what is recorded."""
+    return key == "until" or key == "record" or key.startswith("record.")
+
+
 def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None = None,
                        observers: list | None = None) -> tuple[Simulation, int]:
     """A simulation of the recorded scene (with ``overrides``) restored at the last checkpoint at or
@@ -478,11 +483,11 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
         raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
                              f"{why}") from None
     _check_step_grids(rec, sim, recorded, cp, stamp)
-    if any(o.partition("=")[0].strip() != "until" for o in overrides or []):
+    if any(not _same_run(o.partition("=")[0].strip()) for o in overrides or []):
         # another run from here: a stop the original asked for in the checkpoint's tick was asked under
         # its settings (a restart with the stop's own setting changed ended at once, 0 steps), and is
-        # asked again on the next step if the new settings still call for it. A later end alone is the
-        # same run, which stopped there (--until took a step the original never took)
+        # asked again on the next step if the new settings still call for it. A later end, or another
+        # way of recording, is the same run, which stopped there (--until took a step more)
         sim.stop_reason = None
         for runner in sim.runners:
             runner.comp.stop_reason = None

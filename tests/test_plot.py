@@ -606,6 +606,18 @@ def test_a_figure_this_plot_does_not_draw_is_not_left_from_an_earlier_one(skip_p
         "energy.png", "motion.png", "trajectory.png"]
     assert skipped == [("contacts.png", "the recording holds no contact channel (WaterContact or GroundContact); "
                                         "the contacts.png there from an earlier plot removed")]
+    # one made read-only is left, and said (as a figure drawn is not put over it); a water-alone
+    # recording's figure is another recording's too
+    import stat
+    (out / "contacts.png").write_bytes(b"mine")
+    (out / "contacts.png").chmod(stat.S_IRUSR)
+    (out / "water.png").write_bytes(b"an earlier plot's")
+    _, skipped = plot_run(stone_only, out, dpi=30)
+    assert skipped == [
+        ("contacts.png", "the recording holds no contact channel (WaterContact or GroundContact); the "
+                         "contacts.png (read-only) there from before left as it is"),
+        ("water.png", "drawn for a recording of water alone; the water.png there from an earlier plot removed")]
+    assert (out / "contacts.png").read_bytes() == b"mine" and not (out / "water.png").exists()
 
 def test_the_attack_angle_is_measured_along_the_motion_nose_up_positive():
     """A disk tilted 20 deg about y (its leading edge up when it moves along +x): +20 moving along +x,

@@ -270,6 +270,28 @@ def test_a_parquet_table_whose_journal_is_gone_is_refused_not_deleted(tmp_path, 
     assert pq.read_table(out).num_rows == 6 and (tmp_path / "t.journal.csv").exists()
 
 
+@pytest.mark.parametrize("read_only", ["t.parquet", "t.meta.json"])
+def test_a_table_or_record_made_read_only_is_refused_before_any_run(tmp_path, capsys, read_only):
+    """A Parquet table (or the record beside it) made read-only, a point left to run: the sweep ran it,
+    then could not write the finished table, and said to run the same command again, which did the
+    same for ever (a dry run said ok). Refused before any run, in a dry run too, exit 2, nothing
+    changed."""
+    pytest.importorskip("pyarrow.parquet")
+    import stat
+    path, out = write_sweep(tmp_path, SWEEP), tmp_path / "t.parquet"
+    assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "1", "--no-figure"]) == 0
+    journal = tmp_path / "t.journal.csv"
+    journal.write_text("".join(journal.read_text().splitlines(keepends=True)[:-1]))  # a point left to run
+    (tmp_path / read_only).chmod(stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+    capsys.readouterr()
+    for options in ([], ["--dry-run"]):
+        assert main(["sweep", str(path), "-q", "-o", str(out), "--workers", "1", "--no-figure", *options]) == 2
+        said = "" if read_only == "t.parquet" else "t.meta.json beside it "
+        assert capsys.readouterr().err == (f"error: {out}: {said}is read-only, and a sweep rewrites it as it "
+                                           "finishes; make it writable or give -o another name\n")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
+
 @pytest.mark.parametrize(("output", "said"), [
     ("x.txt", "error: cosim sweep: -o x.txt: must name a .csv or .parquet file"),
     ("folder.csv", "folder.csv: is a folder, not a results table: give -o a .csv or .parquet file name"),

@@ -173,6 +173,11 @@ def _release(key: tuple) -> float:
     return ex.release_under_water(shape, density=density).acceleration(start, end)
 
 
+def _slope(rise: float, run: float) -> float:
+    """``rise`` over ``run``; nan for no run."""
+    return rise / run if run else math.nan
+
+
 def _held(ok: bool) -> str:
     return "held" if ok else "**not held**"
 
@@ -291,8 +296,9 @@ def targets(curves, betas, regimes, contact, spheres, skips, reference, series, 
     sides = {cell: (v[ALPHAS.index(10.0)], v[ALPHAS.index(40.0)]) for cell, v in curves.items()}
     # steeply towards small angles: the mean slope from the minimum down to the smallest angle tried
     # above the one up to the largest [m/s per deg]
-    slopes = {cell: ((v[0] - minima[cell][0]) / (minima[cell][1] - ALPHAS[0]),
-                     (v[-1] - minima[cell][0]) / (ALPHAS[-1] - minima[cell][1])) for cell, v in curves.items()}
+    # (a minimum at either end has no slope on that side: nan, and the row is not held)
+    slopes = {cell: (_slope(v[0] - minima[cell][0], minima[cell][1] - ALPHAS[0]),
+                     _slope(v[-1] - minima[cell][0], ALPHAS[-1] - minima[cell][1])) for cell, v in curves.items()}
     rose = all(min(a, b) > minima[c][0] * 1.05 for c, (a, b) in sides.items())
     steeper = all(small > large for small, large in slopes.values())
     rows.append("| same | U_min rises on both sides of the minimum | steeply towards small angles | "

@@ -42,7 +42,15 @@ from components.analysis.data import (
 from components.analysis.style import STAGE_LABELS, WATER_LINE_COLOR, stage_color
 from components.messages import BodyState, GroundContact, Shape, StageId, WaterContact, WaterField
 from components.rigid.quaternion import body_axis
-from cosim.record.output import move_together, named_for, new_temporary, output_folder, remove_quietly, written_whole
+from cosim.record.output import (
+    move_together,
+    named_for,
+    new_temporary,
+    output_folder,
+    refuse_read_only,
+    remove_quietly,
+    written_whole,
+)
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 
@@ -548,7 +556,11 @@ def plot_run(recording: str | Path, out_dir: str | Path, *, body: str | None = N
         figures[out_dir / name] = fig
     with output_folder(out_dir):
         _save_together(figures, dpi)
-    return list(figures), [(name, why + _removed_from_before(out_dir, [name])) for name, why in skipped]
+    skipped = [(name, why + _removed_from_before(out_dir, [name])) for name, why in skipped]
+    water_alone = _removed_from_before(out_dir, [WATER_FIGURE])  # (of an earlier water-alone recording)
+    if water_alone:
+        skipped.append((WATER_FIGURE, "drawn for a recording of water alone" + water_alone))
+    return list(figures), skipped
 
 
 def _removed_from_before(out_dir: Path, names: list[str]) -> str:
@@ -558,15 +570,20 @@ def _removed_from_before(out_dir: Path, names: list[str]) -> str:
     removed, left = [], []
     for name in names:
         try:
+            refuse_read_only(out_dir / name)  # (as a figure drawn is not put over it)
+        except PermissionError:
+            left.append(f"{name} (read-only)")
+            continue
+        try:
             (out_dir / name).unlink()
         except FileNotFoundError:
             continue
-        except OSError as exc:  # (a folder of that name, a file it may not remove: left, and said)
+        except OSError as exc:  # (a folder of that name, a folder it may not remove from: left, and said)
             left.append(f"{name} ({exc.strerror})")
             continue
         removed.append(name)
     return ((f"; the {', '.join(removed)} there from an earlier plot removed" if removed else "")
-            + (f"; the {', '.join(left)} there from before left" if left else ""))
+            + (f"; the {', '.join(left)} there from before left as it is" if left else ""))
 
 
 def _save_together(figures: dict[Path, Figure], dpi: int) -> None:

@@ -349,6 +349,7 @@ class WaterCoupler(Component):
         # the height of the body's lowest point when the run began [m] (start_inputs); None
         # when not told (a coupler stepped by hand): taken as a body that came down into the water
         self._start_bottom: float | None = None
+        self._start_top: float | None = None  # its bounding sphere's top then [m] (the bed's check)
         self._crest = 0.0  # [m] over the rest level: the highest the water said it stands where the body goes
         self.dissipated = 0.0
         self.bound = math.inf
@@ -384,7 +385,8 @@ class WaterCoupler(Component):
                 "held_request": None if self._held_request is None else [
                     self._held_request.x_min, self._held_request.x_max,
                     self._held_request.y_min, self._held_request.y_max, self._held_request.columns],
-                "start_in_water": self._start_in_water, "start_bottom": self._start_bottom, "crest": self._crest,
+                "start_in_water": self._start_in_water, "start_bottom": self._start_bottom,
+                "start_top": self._start_top, "crest": self._crest,
                 **(self._added_book.get_state() if self.added_mass_on else {})}
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -409,6 +411,8 @@ class WaterCoupler(Component):
         self._crest = float(state.get("crest", 0.0))  # (a checkpoint from before the crest: none known)
         bottom = state.get("start_bottom", math.inf)  # a checkpoint without it: as if it began above the water
         self._start_bottom = None if bottom is None else float(bottom)
+        top = state.get("start_top")  # (a checkpoint without it is past the first patch that asks for it)
+        self._start_top = None if top is None else float(top)
         self._added_book.set_state(state)
 
     def notices(self) -> list[str]:
@@ -485,6 +489,7 @@ class WaterCoupler(Component):
             # its own lowest point, not its bounding sphere's: a level disk a few mm above the water
             # has its sphere centimetres under it, and was taken as already in the water (its wake lost)
             self._start_bottom = _lowest_of(body)
+            self._start_top = float(body.position[2]) + _bounding_radius(body)
             # the first step's bound, as every later step near the water has one: without it the first
             # step was taken whole however fast the body came in (at 2 km/s it was thrown out at 25)
             self.bound = min(self.bound, self.start_stable_step(inputs))
@@ -1491,8 +1496,7 @@ class WaterCoupler(Component):
             if self.stop_reason is None:
                 self.request_stop(_in_dry_land(pos, top, bed, float(patch.rest_level), late=True))
             return
-        began_top = None if self._start_bottom is None else self._start_bottom + 2.0 * (top - float(pos[2]))
-        if bed is not None and began_top is not None and began_top >= bed:
+        if bed is not None and self._start_top is not None and self._start_top >= bed:
             # it began above the bed and has gone through it before the water's first answer (a body
             # far faster than thrown stones): it ends as any body through the bed does, not as one
             # started under it

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import CosimError, ScenarioError, counted
-from cosim.record.output import beside, remove_quietly, written_whole
+from cosim.record.output import beside, refuse_read_only, remove_quietly, written_whole
 from cosim.sweep.backends import MACHINE_LIMITS
 from cosim.sweep.plan import yaml_value
 
@@ -168,6 +168,12 @@ def refused_output(output: Path, fresh: bool) -> str:
     if not fresh and not journal_path(output).exists() and output.exists() and not output.is_dir():
         return (f"exists but its journal {journal_path(output).name} beside it is missing, so it cannot be "
                 "resumed; use --fresh to start over or -o for another file")
+    for path in (output, meta):  # rewritten whole as the sweep finishes: refused then, after every run
+        try:
+            refuse_read_only(path)
+        except PermissionError:
+            return (f"{'' if path == output else path.name + ' beside it '}is read-only, and a sweep rewrites it as "
+                    "it finishes; make it writable or give -o another name")
     return ""
 
 
