@@ -405,9 +405,10 @@ class RigidBody(Component):
             rate = norm(s.angular_velocity)
             if rate * dt > RK4_MAX_ROTATION_PER_STEP:
                 bound = RK4_MAX_ROTATION_PER_STEP / rate
-                if self.restep(bound) is not None:  # (None: driven by hand, the step taken as given)
-                    pieces = math.ceil(dt / bound)
-                    h = dt / pieces
+                pieces = math.ceil(dt / bound)
+                h = dt / pieces
+                # (``dt`` may be one of the scheduler's substeps: the count said is the pieces taken)
+                if self.restep(bound, step_taken=h) is not None:  # (None: driven by hand, taken as given)
                     for i in range(pieces):
                         s = self.integrate(self._with_water, s, forces, t + i * h, h, self.rotate)
                     return s

@@ -399,7 +399,7 @@ class Component:
                 f"more than the limit {MAX_SUBSTEPS}")
         return substeps
 
-    def restep(self, bound: float) -> int | None:
+    def restep(self, bound: float, step_taken: float | None = None) -> int | None:
         """For a component that learns, inside its step, that the state it has just received needs a
         shorter stable step than the one the scheduler asked for before the step (:meth:`max_stable_step`
         tells the state at hand then: a coupler's, its body's previous one): the substeps this step
@@ -408,13 +408,17 @@ class Component:
         MAX_SUBSTEPS) and, when more than it takes, said as taken (:attr:`last_substeps`,
         :attr:`last_stable_step`); the component then takes them itself. The count the step already
         takes when ``bound`` covers its substeps; None outside :meth:`step` (a component driven by hand
-        through :meth:`_step_impl` takes the step it is given)."""
+        through :meth:`_step_impl` takes the step it is given). ``step_taken`` [s]: the length of the
+        pieces the component takes itself, when it splits one of the scheduler's substeps under
+        ``bound`` (the count said is then the step over it, which may be more than the bound's own)."""
         if self._stepping is None:
             return None
         t_ns, dt, on_unstable, substeps, _ = self._stepping
         if bound >= dt / substeps:
             return substeps
         substeps = self._substeps_for(t_ns, dt, bound, on_unstable)
+        if step_taken is not None:
+            substeps = max(substeps, round(dt / step_taken))
         self._stepping = (t_ns, dt, on_unstable, substeps, bound)
         return substeps
 
