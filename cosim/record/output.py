@@ -392,8 +392,8 @@ def refuse_read_only(path: Path) -> None:
     silently replaced a file made read-only, where a run's recording is refused so)."""
     try:
         st = os.stat(path)
-    except OSError:  # none there (or not to be seen): the writing says what is wrong, if anything
-        return
+    except (OSError, ValueError):  # none there, not to be seen, no path at all (a NUL in it): the
+        return  # writing says what is wrong, if anything
     if stat.S_ISREG(st.st_mode) and not st.st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
         raise PermissionError(errno.EACCES, "is read-only; it is not replaced", str(path))
 
