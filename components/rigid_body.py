@@ -281,6 +281,10 @@ class RigidBody(Component):
         self.tilt_script = Keyframes(p.scripted_tilt_deg) if p.scripted_tilt_deg else None
         self.velocity_script = Keyframes(p.scripted_velocity) if p.scripted_velocity else None
         self.rotate = not (p.lock_attitude or self.tilt_script is not None)
+        # whether RK4's turn per step bounds the step (max_stable_step, _integrated): found once, not a step
+        self._rk4_turning = p.integrator == "rk4" and self.rotate
+        # the scripted tilt's axis at length 1 (an axis of 1e200 squared to inf and turned at 0 rad/s)
+        self._tilt_unit = quat.unit_axis(self.tilt_axis)
         inertia = _array(self.body.inertia)
         inertia.flags.writeable = False  # shared by every published message
         self._inertia = inertia
@@ -348,9 +352,8 @@ class RigidBody(Component):
     def _scripted_omega(self, t: float, q: quat.Quat) -> Vec:
         """Angular velocity of the scripted attitude: the tilt rate about tilt_axis plus the spin."""
         assert self.tilt_script is not None
-        # about the unit axis: an axis of 1e200 squared to inf and turned at 0 rad/s, one of 1e-200 to 0
         rate = math.radians(self.tilt_script.rate(t)[0])
-        return add(scale(quat.unit_axis(self.tilt_axis), rate), scale(quat.body_axis(q), self.params.spin))
+        return add(scale(self._tilt_unit, rate), scale(quat.body_axis(q), self.params.spin))
 
     # --- stepping -------------------------------------------------------------------------------
 
@@ -401,7 +404,7 @@ class RigidBody(Component):
         impulse taken at the step's start can turn the body faster (a kick to 2000 rad/s took a 1 ms
         step whole, 2 rad in one step: its angular momentum 3.6% off): the step is then taken in the
         substeps that rate needs, judged as the scheduler judges them (:meth:`Component.restep`)."""
-        if self.params.integrator == "rk4" and self.rotate:
+        if self._rk4_turning:
             rate = norm(s.angular_velocity)
             if rate * dt > RK4_MAX_ROTATION_PER_STEP:
                 bound = RK4_MAX_ROTATION_PER_STEP / rate
@@ -456,7 +459,7 @@ class RigidBody(Component):
         self.state = RigidState(as_vec(state["position"]), q, as_vec(state["velocity"]), w)  # type: ignore[arg-type]
 
     def max_stable_step(self) -> float:
-        if self.params.integrator != "rk4" or not self.rotate:
+        if not self._rk4_turning:
             return math.inf
         rate = norm(self.state.angular_velocity)
         return RK4_MAX_ROTATION_PER_STEP / rate if rate > 0 else math.inf

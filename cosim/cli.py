@@ -787,13 +787,7 @@ def start_up_done() -> None:
         gc.enable()
 
 
-# Every command's work is finished and on disk once it returns (a recording is complete under its
-# final name before run_scene returns, a figure or a page moved into place whole): what is left of
-# the process is the interpreter's teardown, which after compiled kernels or matplotlib costs
-# 0.13-0.3 s (freeing numba's, LLVM's and the figures' objects one by one), more than a short run
-# itself, and which restores the default signal handlers first: a Ctrl-C or SIGTERM then killed a
-# plot or a render that had written and said everything (exit 130 or 143). So it is left out.
-# The commands that start up without the collector, a run's start-up making next to no garbage.
+# The commands that start up without the collector (a run's start-up makes next to no garbage).
 STARTS_WITHOUT_COLLECTION = frozenset({"run", "validate"})
 
 
@@ -804,7 +798,12 @@ def _command(argv: list[str]) -> str:
 
 def _end_process(code: int) -> None:
     """Exit with ``code`` now: the exit handlers run and the output is flushed as at a normal exit;
-    only the teardown of the interpreter's objects is left out. A thread still running that is not a
+    only the teardown of the interpreter's objects is left out. Every command's work is finished and
+    on disk once it returns (a recording complete under its final name, a figure or a page moved
+    into place whole); the teardown after compiled kernels or matplotlib costs 0.13-0.3 s (freeing
+    numba's, LLVM's and the figures' objects one by one), more than a short run itself, and restores
+    the default signal handlers first: a Ctrl-C or SIGTERM then killed a plot or a render that had
+    written and said everything (exit 130 or 143). A thread still running that is not a
     daemon (one the interpreter would wait for), or a profiler or tracer watching (``python -m
     cProfile``, a debugger: they report once the program has returned), means a normal exit instead."""
     import threading

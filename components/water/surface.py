@@ -559,6 +559,12 @@ class WaterSurface(Component):
 
     def set_state(self, state: dict[str, Any]) -> None:
         shape = self.grid.shape
+        # (checked before anything is restored: a state refused leaves the water as it was)
+        kept = len(state["bodies"]) if "bodies" in state else 1
+        if kept != len(self._occupants):  # (a restart with bodies added or taken away by --set)
+            raise ValueError(f"it holds the occupied heights of {kept} {'body' if kept == 1 else 'bodies'} on "
+                             f"the water, which now takes {len(self._occupants)}: a restart keeps the bodies the "
+                             "run had")
         if "surface" in state:  # a checkpoint's packed surface (checkpoint_state)
             sparse.unpack(state["surface"], self._h, self._v)
         else:
@@ -568,11 +574,6 @@ class WaterSurface(Component):
                     raise ValueError(f"state {key!r} has shape {arr.shape}, the grid is {shape}")
             np.copyto(self._h, state["h"])
             np.copyto(self._v, state["v"])
-        saved = len(state["bodies"]) if "bodies" in state else 1
-        if saved != len(self._occupants):  # (a restart with bodies added or taken away by --set)
-            raise ValueError(f"it holds the occupied heights of {saved} {'body' if saved == 1 else 'bodies'} on "
-                             f"the water, which now takes {len(self._occupants)}: a restart keeps the bodies the "
-                             "run had")
         self._b[:] = 0.0
         if len(self._occupants) == 1:
             self._occupants[0].window = _put_window(self._b, state["b_window"], state["b"])

@@ -81,7 +81,7 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     if not stat.S_ISREG(st.st_mode):
         raise RecordingError(f"{path}: is not a regular file (a device, pipe or socket); a recording "
                              "is written only to a file")
-    if not st.st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
+    if _read_only(st.st_mode):
         raise RecordingError(f"{path}: is read-only; it is not replaced")
     try:
         with open(path, "rb") as f:
@@ -394,8 +394,14 @@ def refuse_read_only(path: Path) -> None:
         st = os.stat(path)
     except (OSError, ValueError):  # none there, not to be seen, no path at all (a NUL in it): the
         return  # writing says what is wrong, if anything
-    if stat.S_ISREG(st.st_mode) and not st.st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
+    if stat.S_ISREG(st.st_mode) and _read_only(st.st_mode):
         raise PermissionError(errno.EACCES, "is read-only; it is not replaced", str(path))
+
+
+def _read_only(mode: int) -> bool:
+    """Whether a file of ``mode`` is one no one may write to (by its permission bits, which root's
+    writes ignore: a file made read-only is refused by every user alike)."""
+    return not mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH)
 
 
 def named_for(exc: OSError, tmp: Path, path: Path) -> OSError:
