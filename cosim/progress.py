@@ -1,9 +1,11 @@
-"""A progress bar over simulated time (tqdm), shown only for runs that last more than a second."""
+"""Progress on standard error: a bar over simulated time (tqdm) for runs that last more than a
+second, and, for counted work (a sweep's runs), a bar on a terminal or a few plain lines in a log."""
 
 from __future__ import annotations
 
 import sys
-from typing import Any
+import time
+from typing import Any, TextIO
 
 from cosim.scheduler import BaseObserver, RunResult, Simulation
 from cosim.timebase import NS_PER_S
@@ -43,3 +45,54 @@ class ProgressBar(BaseObserver):
         if self.bar is not None:
             self.bar.close()
             self.bar = None
+
+
+class LogLines:
+    """Progress of counted work as plain lines, for a stream that is not a terminal (a log, a pipe).
+
+    A terminal bar redraws itself with carriage returns: in a log that is one line of hundreds of
+    redraws. This says ``DESC: N/TOTAL UNIT (P%), T s`` each time another tenth of the work is done
+    (and at the end), so a long sweep's log shows how far it got in about ten lines. It takes the
+    calls of a tqdm bar that counted work makes (``update``, ``set_postfix``, ``close``).
+    """
+
+    STEPS = 10  # lines over the whole work
+
+    def __init__(self, total: int, initial: int = 0, desc: str = "", unit: str = "it",
+                 file: TextIO | None = None):
+        self.total, self.n, self.desc, self.unit = max(0, int(total)), int(initial), desc, unit
+        self.file = file if file is not None else sys.stderr
+        self.postfix: dict[str, Any] = {}
+        self.start = time.perf_counter()
+        self.said = self._tenth(self.n)
+
+    def _tenth(self, n: int) -> int:
+        return n * self.STEPS // self.total if self.total else self.STEPS
+
+    def update(self, n: int = 1) -> None:
+        self.n += n
+        if self._tenth(self.n) > self.said:
+            self.said = self._tenth(self.n)
+            self._say()
+
+    def set_postfix(self, refresh: bool = False, **values: Any) -> None:
+        self.postfix = dict(values)
+
+    def close(self) -> None:
+        pass
+
+    def _say(self) -> None:
+        share = f" ({100 * self.n / self.total:.0f}%)" if self.total else ""
+        extra = "".join(f", {key} {value}" for key, value in self.postfix.items())
+        print(f"{self.desc}: {self.n}/{self.total} {self.unit}s{share}{extra}, "
+              f"{time.perf_counter() - self.start:.0f} s", file=self.file, flush=True)
+
+
+def work_progress(total: int, *, initial: int = 0, desc: str, unit: str, shown: bool = True, **bar: Any) -> Any:
+    """Progress over ``total`` pieces of work on standard error: a tqdm bar (``bar``: its further
+    options) on a terminal, :class:`LogLines` elsewhere, nothing shown unless ``shown``."""
+    from tqdm import tqdm  # here, not at import: tqdm costs tens of ms at start-up
+
+    if shown and not sys.stderr.isatty():
+        return LogLines(total, initial=initial, desc=desc, unit=unit, file=sys.stderr)
+    return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=sys.stderr, disable=not shown, **bar)

@@ -573,3 +573,35 @@ def test_a_dry_run_that_finds_invalid_points_says_so_and_exits_2(tmp_path, capsy
     path.write_text(body.replace("-1.0", "2.0"))
     assert main(["sweep", str(path), "--dry-run", *strict]) == 0
     assert capsys.readouterr().out.startswith(f"{path}: ok - sweep: 2 points")
+
+
+def test_a_sweep_into_a_log_says_its_progress_in_a_few_plain_lines(tmp_path, monkeypatch, capsys):
+    """Standard error not a terminal (a log, a pipe): the sweep's progress is a line at each tenth of
+    its runs, not a bar redrawn with carriage returns (one log line of every redraw); on a terminal,
+    the bar."""
+    monkeypatch.chdir(tmp_path)
+    path = write_sweep(tmp_path, SWEEP)
+    assert main(["sweep", str(path), "--workers", "1", "--no-figure"]) == 0
+    err = capsys.readouterr().err
+    assert "\r" not in err
+    lines = [line for line in err.splitlines() if line.startswith("sweep: ")]  # the sweep file's name
+    assert [line.split(",")[0] for line in lines] == [f"sweep: {n}/6 runs ({100 * n / 6:.0f}%)"
+                                                       for n in range(1, 7)]
+
+
+def test_log_lines_say_each_tenth_once_with_what_failed():
+    """The plain-line progress: a line as each tenth of the work is passed (10 of 1000 pieces done one
+    by one: 10 lines), what set_postfix gave in it, and none for work already done before it began."""
+    import io
+
+    from cosim.progress import LogLines
+
+    out = io.StringIO()
+    shown = LogLines(1000, initial=300, desc="s", unit="run", file=out)
+    for n in range(700):
+        if n == 650:
+            shown.set_postfix(failed=2, refresh=False)
+        shown.update(1)
+    lines = out.getvalue().splitlines()
+    assert [line.split(" (")[0] for line in lines] == [f"s: {n}/1000 runs" for n in range(400, 1001, 100)]
+    assert "failed 2" in lines[-1] and "failed" not in lines[-2]

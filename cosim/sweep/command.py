@@ -148,16 +148,15 @@ def _check_points(sweep: Any, progress: bool = True) -> tuple[int, list[tuple[An
     """--dry-run: load each point's scene (the first DRY_RUN_CHECKED; about 10 ms each), as a run would
     find them one by one (failed rows); (how many were checked, each invalid point with why). With
     ``progress``, a bar on standard error while they are checked (2,000 took 19 s without a word)."""
-    from tqdm import tqdm
-
     from cosim.errors import ScenarioError
+    from cosim.progress import work_progress
     from cosim.scenario import loads
 
     checked = sweep.points[:DRY_RUN_CHECKED]
     bad = []
-    shown = tqdm(checked, desc="checking the points' scenes", unit="point", leave=False,
-                 disable=not progress or len(checked) < PROGRESS_FROM, file=sys.stderr)
-    for point in shown:
+    shown = work_progress(len(checked), desc="checking the points' scenes", unit="point", leave=False,
+                          shown=progress and len(checked) >= PROGRESS_FROM)
+    for point in checked:
         why = point.problem
         if why is None:
             try:
@@ -166,6 +165,8 @@ def _check_points(sweep: Any, progress: bool = True) -> tuple[int, list[tuple[An
                 why = "invalid scene: " + "; ".join(exc.problems)
         if why:
             bad.append((point, why))
+        shown.update(1)
+    shown.close()
     return len(checked), bad
 
 

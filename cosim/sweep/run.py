@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import signal
-import sys
 import time
 from collections import Counter, deque
 from collections.abc import Callable, Iterator
@@ -25,9 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from cosim.errors import counted, ending_signals
+from cosim.progress import work_progress
 from cosim.sweep.backends import MACHINE_LIMITS, BackendLost, DaskBackend, ProcessBackend, Task, WorkerLost, versions
 from cosim.sweep.plan import Point, Sweep
 from cosim.sweep.table import NOT_RESULTS, ResultTable, cannot, column_kinds, figure_path, run_again, runs_folder
@@ -229,8 +227,8 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
             bar.set_postfix(failed=len(outcome.failures), refresh=False)
 
     wall0 = time.perf_counter()
-    bar = tqdm(total=len(sweep.points), initial=len(done), desc=sweep.name, unit="run", file=sys.stderr,
-               disable=not progress or not todo, dynamic_ncols=True, smoothing=0.1)
+    bar = work_progress(len(sweep.points), initial=len(done), desc=sweep.name, unit="run",
+                       shown=bool(progress and todo), dynamic_ncols=True, smoothing=0.1)
     pending: dict[Any, Point] = {}
     try:
         with _sigterm_interrupts():
