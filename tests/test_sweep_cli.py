@@ -605,3 +605,44 @@ def test_log_lines_say_each_tenth_once_with_what_failed():
     lines = out.getvalue().splitlines()
     assert [line.split(" (")[0] for line in lines] == [f"s: {n}/1000 runs" for n in range(400, 1001, 100)]
     assert "failed 2" in lines[-1] and "failed" not in lines[-2]
+
+
+def test_a_run_past_its_timeout_is_stopped_and_its_row_says_failed_timed_out(tmp_path, monkeypatch, capsys):
+    """--run-timeout (or the file's run_timeout): a run still going after that much wall time is stopped
+    at the end of its step, its recording closed as an interrupted run's, and its row says failed,
+    timed out, with the simulated time it reached; the other points run as before, and a resumed sweep
+    takes the timed-out row as a result (a sweep had no bound: one slow point held it for ever)."""
+    import csv
+
+    from cosim.record.reader import Recording
+
+    monkeypatch.chdir(tmp_path)
+    path = write_sweep(tmp_path, SWEEP.replace("components.ball.speed: [2, 3, 5]",
+                                               "components.ball.burn: [0, 300000]")
+                       .replace("[30, 60]", "[30]") + "run_timeout: 1000\n")
+    out = tmp_path / "t.csv"
+    assert main(["sweep", str(path), "-q", "--workers", "1", "--no-figure", "--record", "--run-timeout", "0.5",
+                 "-o", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "ran 2, 0 already in the table; 1 failed, 1 stopped" in said
+    with open(out, newline="") as table:
+        rows = {row["components.ball.burn"]: row for row in csv.DictReader(table)}
+    slow = rows["300000"]
+    assert slow["status"] == "failed" and slow["error_type"] == "Timeout"
+    assert slow["reason"].startswith("timed out: still running after 0.5 s of wall time (run_timeout); "
+                                     "stopped at t = ")
+    assert 0 < float(slow["sim_time_s"]) < 3.0 and float(slow["wall_s"]) < 30
+    status = Recording(slow["recording"]).status()
+    assert status is not None and status.status == "interrupted" and status.reason.startswith("timed out")
+    assert rows["0"]["status"] == "stopped"
+    assert main(["sweep", str(path), "-q", "--workers", "1", "--no-figure", "--record", "-o", str(out)]) == 0
+    assert "ran 0, 2 already in the table" in capsys.readouterr().out
+
+
+def test_a_run_timeout_that_is_no_number_of_seconds_is_refused(tmp_path, capsys):
+    path = write_sweep(tmp_path, SWEEP + "run_timeout: -1\n")
+    assert main(["sweep", str(path), "-q", "--dry-run", "-o", str(tmp_path / "x.csv")]) == 2
+    assert "run_timeout: must be a number of wall seconds > 0 (got -1)" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exited:
+        main(["sweep", str(path), "-q", "--dry-run", "--run-timeout", "0", "-o", str(tmp_path / "x.csv")])
+    assert exited.value.code == 2 and "argument --run-timeout: must be > 0 s, got 0" in capsys.readouterr().err

@@ -77,6 +77,7 @@ class Task:
     recording: str | None = None
     command_line: str = ""
     problem: str | None = None
+    timeout_s: float | None = None  # wall seconds the run may take, from its start (None: no bound)
 
 
 class WorkerLost(Exception):
@@ -159,11 +160,35 @@ def _interrupted_row(row: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
+TIMED_OUT = "timed out"
+
+
+def _timeout(sim: Any, seconds: float | None) -> threading.Timer | None:
+    """A timer that stops ``sim`` at the end of its step once ``seconds`` of wall time have passed
+    (a sweep's stop or a signal that came first keeps its own reason); None without a bound, or with
+    one longer than a timer can wait (about 290 years: none)."""
+    if seconds is None or seconds >= threading.TIMEOUT_MAX:
+        return None
+
+    def stop() -> None:
+        with _running_lock:
+            if sim.interrupt_reason is None:
+                sim.interrupt(f"{TIMED_OUT}: still running after {seconds:g} s of wall time (run_timeout)")
+
+    timer = threading.Timer(seconds, stop)
+    timer.daemon = True
+    timer.start()
+    return timer
+
+
 def run_task(task: Task) -> dict[str, Any]:
     """Run one point and return its row (never raises, except KeyboardInterrupt).
 
     In a pool worker of a sweep that was stopped the run does not start: its row says ``interrupted``.
-    A run ended by a machine limit (:func:`machine_limit`) has status ``unfinished``."""
+    A run ended by a machine limit (:func:`machine_limit`) has status ``unfinished``. A run still going
+    ``task.timeout_s`` wall seconds after it started is stopped at the end of its step (its recording
+    closed as an interrupted run's) and its row says ``failed``, timed out: a result of its point, not
+    run again on resume (a step that never returns is not ended by it)."""
     from cosim.runner import collect_metrics, run_scene
     from cosim.scenario import loads
     from cosim.scheduler import Simulation
@@ -186,22 +211,28 @@ def run_task(task: Task) -> dict[str, Any]:
                 _running = sim
             if _stopping():  # said while the scene loaded: the run ends at its first tick
                 _interrupt(sim)
+            timer = _timeout(sim, task.timeout_s)
             try:
                 outcome = run_scene(scene, task.recording, progress=False, command_line=task.command_line,
                                     simulation=sim)
             finally:
+                if timer is not None:
+                    timer.cancel()
                 with _running_lock:
                     _running = None
             result = outcome.result
             row.update(status=result.status, reason=result.reason, sim_time_s=result.time_ns / NS_PER_S,
                        ticks=result.tick, error_type=type(result.error).__name__ if result.error else "")
+            if result.status == "interrupted" and result.reason.startswith(TIMED_OUT):
+                row.update(status="failed", error_type="Timeout",
+                           reason=f"{result.reason}; stopped at t = {result.time_ns / NS_PER_S:g} s")
             limit = machine_limit(result.error) if result.error is not None else None
             if limit:  # a component's own write refused (its file on a full disk)
                 row.update(status="unfinished", limit=limit)
             if outcome.simulation is not None:
                 metrics = collect_metrics(outcome.simulation)
                 row.update({key: _cell(metrics.get(key)) for key in task.metrics})
-            if result.status == "interrupted" and _stop is not None:
+            elif result.status == "interrupted" and _stop is not None:
                 # a signal (a Ctrl-C reaches every worker with the sweep): the sweep's stop follows
                 # at once, and the run queued behind this one must see it before it starts
                 _stop.wait(STOP_WAIT_S)

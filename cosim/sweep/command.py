@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int, say_notices, say_warning
+from cosim.cli import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, positive_int, positive_seconds, say_notices, say_warning
 
 SHOWN_POINTS = 10  # --dry-run lists this many points
 DRY_RUN_CHECKED = 2000  # --dry-run loads this many points' scenes at most (about 10 ms each)
@@ -53,6 +53,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         say_notices(sweep.notices)
         if args.record:
             sweep.record = True
+        if args.run_timeout is not None:
+            sweep.run_timeout_s = args.run_timeout
         if args.dry_run:
             checked, bad = _check_points(sweep, progress=not args.quiet)
             refused = _output_refused(sweep, fresh=args.fresh)
@@ -63,7 +65,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             print(f"{args.sweep}: {verdict} - {sweep.describe()}")
             print(f"  scene: {sweep.scene_source}; table: {sweep.output} ({len(sweep.columns)} columns)")
             print(f"  metrics: {', '.join(sweep.metrics) or 'none'}")
-            print(f"  every run: {' '.join(sweep.fixed) or 'the scene as it is'}")
+            bound = "" if sweep.run_timeout_s is None else f"; stopped after {sweep.run_timeout_s:g} s of wall time"
+            print(f"  every run: {' '.join(sweep.fixed) or 'the scene as it is'}{bound}")
             for point in sweep.points[:SHOWN_POINTS]:
                 own = " ".join(point.overrides[len(sweep.fixed):])
                 print(f"  #{point.index} {point.point_id}: {point.problem or own}")
@@ -218,6 +221,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="override a value of the base scene for every run (repeatable)")
     p.add_argument("--fresh", action="store_true", help="discard an existing table instead of resuming it")
     p.add_argument("--record", action="store_true", help="write an MCAP per run into <output stem>_runs/")
+    p.add_argument("--run-timeout", type=positive_seconds, metavar="SECONDS",
+                   help="stop a run still going after this much wall time; its row says failed, timed out "
+                        "(default: the sweep file's run_timeout, else no bound)")
     p.add_argument("--no-figure", action="store_true", help="do not draw the summary figure")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 if any run failed (without it, only if every run failed)")

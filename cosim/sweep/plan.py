@@ -15,6 +15,7 @@ applied as overrides (``key.path=value``, exactly like ``cosim run --set``). A s
     until: 2.0                      # end time of every run [s] (default: the scene's)
     metrics: ["stages.*"]           # component metrics to keep (fnmatch patterns; default: all)
     record: false                   # true: an MCAP per run in <output stem>_runs/
+    run_timeout: 600                # wall seconds a run may take; one longer is stopped, its row failed
     output: runs/demo.csv           # relative to the working directory; .parquet needs pyarrow
     figure: {metric: stages.skips, x: components.stone.tilt_deg, y: speed, threshold: 1}
 
@@ -62,7 +63,7 @@ from cosim.scenario import SCENE_NAME_RE, find_parent, loads, read_input, read_y
 from cosim.scenario import TOP_KEYS as SCENE_KEYS
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
-            "metrics", "record", "output", "figure")
+            "metrics", "record", "run_timeout", "output", "figure")
 MODES = ("grid", "random")
 GRID_SPECS = ("linspace", "logspace", "range")
 RANDOM_SPECS = ("uniform", "loguniform")
@@ -316,6 +317,7 @@ class Sweep:
     seed: int = 0
     metric_kinds: dict[str, str] = field(default_factory=dict)
     notices: list[str] = field(default_factory=list)  # the first point's scene's (Scene.notices)
+    run_timeout_s: float | None = None  # wall seconds a run may take (None: no bound)
 
     @property
     def columns(self) -> list[str]:
@@ -771,6 +773,10 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     if not isinstance(record, bool):
         problems.append(f"record: must be true or false (got {record!r})")
         record = False
+    run_timeout = data.get("run_timeout")
+    if run_timeout is not None and not (_is_number(run_timeout) and run_timeout > 0):
+        problems.append(f"run_timeout: must be a number of wall seconds > 0 (got {_shown(run_timeout)})")
+        run_timeout = None
     out = output if output is not None else data.get("output", f"runs/{name}.csv")
     if not isinstance(out, (str, Path)) or Path(out).suffix not in TABLE_SUFFIXES:
         problems.append(f"output: must be a .csv or .parquet file name (got {out!r})")
@@ -794,7 +800,8 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     sweep = Sweep(name=name, description=str(description), source=source, text=text, scene_text=base[0],
                   scene_source=base[1], mode=mode, axes=axes, derived=derived, fixed=fixed, metrics=metrics,
                   record=record, output=Path(out), figure=None, points=points, samples=samples, seed=seed,
-                  metric_kinds={k: kinds[k] for k in metrics}, notices=notices)
+                  metric_kinds={k: kinds[k] for k in metrics}, notices=notices,
+                  run_timeout_s=None if run_timeout is None else float(run_timeout))
     sweep.figure = _figure_spec(figure, sweep, problems)
     if len({p.point_id for p in points}) < len(points):
         problems.append("axes: two points have the same values (random choices that repeat? "

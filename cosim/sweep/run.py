@@ -186,7 +186,7 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
         recording = str(runs_dir / f"{point.point_id}.mcap") if sweep.record else None
         return Task(point.index, point.point_id, sweep.scene_text, sweep.scene_source, point.overrides,
                     tuple(sweep.metrics), recording, f"{command_line} (point {point.point_id})".strip(),
-                    point.problem)
+                    point.problem, sweep.run_timeout_s)
 
     def record(point: Point, row: dict[str, Any]) -> None:
         if outcome.limit is not None and row.get("error_type") in RECORDING_FAILURES:
