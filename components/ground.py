@@ -54,7 +54,11 @@ a plastic correction gives back unbooked (components.contact.solver, point 4).
 Assumptions: the ground steps at the body's rate (same ``every``, checked as the scene loads), since
 dt is read as the body's step; one plane per SolidGround (a floor and a ramp are two grounds feeding
 the same impulse port, which sums them; while both hold the body, each reads the other's impulse as part of the held
-force, and neither's books are exact then); ``gravity`` must match the body's (it is the
+force, and neither's books are exact then). Two planes that hold a body at once (a V, a corner) are
+not solved together: each cancels the whole approach it sees, the body takes both impulses and
+leaves both planes at the next step, so it chatters on and off them, and each ground reports a
+force on alternate steps (a sphere resting in a 30 deg V: 0.94 N every other step from each plane,
+where a steady hold is M g / (2 cos 30 deg) = 0.51 N at every step); ``gravity`` must match the body's (it is the
 acceleration the ground reconstructs the step with and books the potential energy of its
 corrections against; a RigidBody's is checked when the scene loads, any other body's at the first
 contact, from its published potential energy). A body whose attitude is locked or scripted says so in its state

@@ -181,3 +181,28 @@ def test_contact_solve_always_returns_a_finite_non_negative_normal_force(axis, a
     assert all(math.isfinite(c) for c in res.linear + res.angular + res.correction)
     assert math.isfinite(res.dissipated)
     assert not res.painleve
+
+
+def test_a_bounce_whose_friction_would_add_energy_with_its_lift_is_plastic():
+    """Kane's paradox judged on the whole response: the impulse's kinetic energy and the bounce's lift,
+    J tau / M, against gravity. A tilted disk's rim met at e = 1 with mu 1 (logged from a drop): the
+    kinetic energy alone fell, but the lift's potential energy made the response add 0.47 mJ (the
+    frictional share J_t . u_t / 2), which the kinetic-energy test let through."""
+    state = RigidState((0.0, -0.039607225435414055, 0.002449268215932908),
+                       (-0.020391925686612286, 0.9997920630645113, 0.0, 0.0),
+                       (0.0, -0.10522097939609797, -0.1480643704708038), (27.989761327379043, 0.0, 0.0))
+    floor = slope_plane((0.0, 0.0, 0.0), 0.0)
+    res = resolve_contact(DISK, state, floor, Material(1.0, 1.0, 0.8), G, 0.002)
+    after = apply_impulse(DISK.mass, DISK.inertia, state, res.linear, res.angular, res.correction)
+    gained = mechanical_energy(DISK, after, G) - mechanical_energy(DISK, state, G)
+    assert not res.bounced and gained <= 0.0 and res.dissipated == pytest.approx(-gained, rel=1e-9)
+
+
+def test_an_elastic_frictionless_bounce_stays_a_bounce_and_books_nothing():
+    """The whole-response test does not take an elastic bounce's exact balance for a gain: a flat disk
+    met at 1 m/s, e = 1, no friction, bounces and dissipates nothing beyond round-off."""
+    tau = 2e-4
+    vc = -1.0
+    state = flat(H + vc * tau + 0.5 * G[2] * tau * tau, (0.3, 0.0, vc + G[2] * tau))
+    res = resolve_contact(DISK, state, FLOOR, Material(1.0, 0.0, 0.0), G, DT)
+    assert res.bounced and abs(res.dissipated) < 1e-12
