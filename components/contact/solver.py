@@ -24,9 +24,10 @@ normal acceleration a_n = g.n held:
      is left to leave by itself (no correction).
    - No response adds energy: a bounce that would, its impulse's kinetic energy and its lift's
      potential energy together (Kane's paradox: a rim held by friction), is plastic instead, and a
-     disk's rim point is lifted only as far as the energy its impulse took pays for, beyond what the body's integrator moved it into the plane past a velocity Verlet step (the
-     ``overshoot``: semi-implicit Euler's step falls g dt^2, Verlet's g dt^2 / 2), which is that
-     integrator's own error, lifted without being booked (point 4).
+     disk's rim point is lifted only as far as the energy its impulse took pays for, beyond what
+     the body's integrator moved it into the plane past a velocity Verlet step (the ``overshoot``:
+     semi-implicit Euler's step falls g dt^2, Verlet's g dt^2 / 2), which is that integrator's own
+     error, lifted without being booked (point 4).
 3. The tangential correction is the friction impulse's own displacement: J_t/M * tau for an impact
    tau ago, J_t/M * tau * s for a force acting over the last tau, s the share of a step's velocity
    change that the body's integrator puts into that step's move (``position_share``: 1/2 for velocity
