@@ -278,6 +278,10 @@ class StageMonitor(Component):
         ground: GroundContact | None = inputs["ground"]  # type: ignore[assignment]
         now = t + dt
         self._step = dt  # [s] (the summary gives its times to this step's last digit)
+        # the body's step, which the gravity-speed rules below are about: a body stepping every 4 (2 ms)
+        # under a monitor stepping every 1 rested at g times 2 ms and was never at rest, one rising out
+        # of the water took its first step for a descent and made a skip of it
+        body_step = self.source_steps.get("body", dt)
         x = float(body.position[0])
         track = self.track
         if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
@@ -292,7 +296,8 @@ class StageMonitor(Component):
 
         previous = StageId.APPROACH if self.stage is None else self.stage
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
-                         self.params.takeoff_clearance, self.params.gravity, self.params.water_density, step=dt)
+                         self.params.takeoff_clearance, self.params.gravity, self.params.water_density,
+                         step=body_step)
         stage = self._held_at_rest(stage, previous, now)
         # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
         # a contact, the dry descent after it would have gone on as one, and the next skip would have
@@ -307,7 +312,7 @@ class StageMonitor(Component):
             track.peak_g = 0.0
             track.descended = False
             track.grounded = False
-        if track.in_contact and float(body.velocity[2]) < -abs(self.params.gravity) * dt:
+        if track.in_contact and float(body.velocity[2]) < -abs(self.params.gravity) * body_step:
             # moving down faster than a step of gravity's speed: a body's first step in a scene is
             # under gravity alone (the water's answer reaches it a step later), so a ball started at
             # rest under water reported -g dt, and its rise out of the water was counted a skip
@@ -327,9 +332,11 @@ class StageMonitor(Component):
             # (rest is dated from the start of the slow spell that made it: _held_at_rest; the first
             # stage from the run's start, which it describes: it said "approach (0.005 s)" on a 5 ms step)
             since = self.rest_since if stage is StageId.REST else t if self.stage is None else now
+            # (and the first stage where the run began: it gave where the body was a step later)
+            at = (track.start_x, track.start_y) if self.stage is None else (x, float(body.position[1]))
             self.stage, self.since = stage, since
             self.timeline.append((since, STAGE_NAMES[stage]))
-            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, x, float(body.position[1]), since)
+            outputs["stage"] = Stage(stage, STAGE_NAMES[stage], track.skips, at[0], at[1], since)
         if stage is StageId.FLOAT:
             # a floating body is decided as it first comes in slowly, a dropped one as it plunges: the
             # run ends once it has settled, not while it bobs (it ended mid-plunge, 9.5 cm under)
@@ -376,7 +383,7 @@ class StageMonitor(Component):
         if math.isnan(self.outside_since):
             self.outside_since = now
             self.outside_at = (float(body.position[0]), float(body.position[1]))
-        if now - self.outside_since >= self.params.outside_after and "stage" not in outputs:
+        if _lasted(self.outside_since, now, self.params.outside_after) and "stage" not in outputs:
             # (a stage change this step is published first: left-pond follows at the next)
             self.left_at = now
             self.stage, self.since = StageId.LEFT_POND, now

@@ -152,9 +152,20 @@ def stage(component: str, port: str, msg: Stage) -> list:
     level = "warning" if msg.stage is StageId.SINK else "info"
     # rest is known only once the slow spell that makes it has lasted (REST_HOLD): its line, at that
     # time, says when it began, as the summary, the plots and `inspect` date it
-    began = f", since t = {msg.since:.3f} s" if msg.stage is StageId.REST and not math.isnan(msg.since) else ""
+    began = (f", since t = {_seconds(msg.since, 3)} s" if msg.stage is StageId.REST and not math.isnan(msg.since)
+             else "")
     return [LogLine(LOG_TOPIC, level, component,
                     f"{msg.label} (stage {int(msg.stage)}): skips {msg.skips}, {_where(msg.x, msg.y)}{began}")]
+
+
+def _seconds(t: float, decimals: int) -> str:
+    """A time [s] of the run (on its nanosecond grid) with at least ``decimals`` decimals and every
+    further one it has, as the summary gives it: a rest since 0.4325 s read 0.432 s, a touchdown at
+    0.00075 s (0.25 ms steps) 0.0008 s."""
+    text = f"{t:.9f}"
+    while text.endswith("0") and len(text.partition(".")[2]) > decimals:
+        text = text[:-1]
+    return text
 
 
 def _where(x: float, y: float) -> str:
@@ -171,7 +182,7 @@ def skip_record(component: str, port: str, msg: SkipRecord) -> list:
     return [LogLine(LOG_TOPIC, "info", component,
                     f"skip {msg.index}: touchdown {'at ' if math.isnan(msg.touchdown_y) else ''}"
                     f"{_where(msg.touchdown_x, msg.touchdown_y)}, "
-                    f"t = {msg.touchdown_time:.4f} s; "
+                    f"t = {_seconds(msg.touchdown_time, 4)} s; "
                     f"contact {msg.contact_time * 1e3:.1f} ms, peak {msg.peak_g:.1f} g; "
                     f"take-off {msg.takeoff_angle_deg:.1f} deg; "
                     f"distance {msg.distance:.3f} m; speed {msg.speed_in:.2f} -> {msg.speed_out:.2f} m/s"

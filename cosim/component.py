@@ -108,6 +108,10 @@ class Component:
         # the components feeding each input port, as the scene connects them (set by the simulation;
         # a component driven by hand has none): for its words, never for its physics
         self.input_sources: dict[str, list[str]] = {}
+        # the step [s] of the one component feeding each input port (set by the simulation and by a
+        # replay; none for a port fed by several, or for a component driven by hand): a monitor judges
+        # its body's state against the step that body took, which need not be its own
+        self.source_steps: dict[str, float] = {}
         # a component without a stability bound of its own is not asked for it at every step
         self._bounded = type(self).max_stable_step is not Component.max_stable_step
         self.setup()

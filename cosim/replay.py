@@ -173,6 +173,8 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
                 src.drop_published_before(restart[0] // dt_ns)
             edges.append(edge)
         plan.append((port, edges))
+        if len(edges) == 1:  # as the simulation tells it (Component.source_steps)
+            comp.source_steps[port] = scene.step_of(edges[0].spec.source)
 
     expected: dict[str, dict[int, Message]] = {
         port: dict(channel(name, port, spec.type)) for port, spec in comp.outputs.items()}

@@ -144,6 +144,10 @@ class Scene:
     def dt(self) -> float:
         return self.dt_ns / NS_PER_S
 
+    def step_of(self, name: str) -> float:
+        """The step [s] component ``name`` takes (its ``every`` base steps), as the scheduler gives it."""
+        return self.dt_ns * self.components[name].every / NS_PER_S
+
 
 # --- YAML with duplicate-key detection -----------------------------------------------------------
 

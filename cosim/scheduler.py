@@ -337,6 +337,8 @@ class Simulation:
                 self.edges.extend(edges)
                 runner.plan.append((port, edges))
                 runner.comp.input_sources[port] = [c.source for c in feeding]
+                if len(feeding) == 1:
+                    runner.comp.source_steps[port] = scene.step_of(feeding[0].source)
         # edges were appended runner by runner; keep a canonical order for checkpoints
         self.edges.sort(key=lambda e: scene.connections.index(e.spec))
         self._read_ports = {(e.spec.source, e.spec.source_port) for e in self.edges}

@@ -203,3 +203,44 @@ def test_inspect_dates_each_stage_as_the_runs_summary_does(tmp_path, capsys):
     rows = [line.split() for line in capsys.readouterr().out.splitlines() if "/stages/stage: " in line]
     shown = [(row[3].rstrip(","), row[0]) for row in rows]
     assert [(label, float(t)) for label, t in shown] == [(label, float(t)) for label, t in said]
+
+
+def test_inspect_lists_the_timeline_in_the_order_its_events_began(tmp_path, capsys):
+    """A rest is published REST_HOLD after its slow spell began and dated from its start: listed in
+    the order of the messages, one ball's rest (from 0.0005 s) came after the other ball's landing
+    (0.0105 s), the timeline's times going back."""
+    scene = tmp_path / "two_balls.yaml"
+    ball = "{type: RigidBody, shape: sphere, radius: 0.02, density: 2700.0, position: [%s, 0, %s]}"
+    answer = "{from: %s.impulse, to: %s.impulse, delay: 1, initial: {linear: [0, 0, 0], angular: [0, 0, 0], " \
+             "correction: [0, 0, 0]}}"
+    scene.write_text(f"""
+name: two_balls
+dt: 0.0005
+until: 0.1
+components:
+  resting: {ball % (0, 0.02)}
+  dropped: {ball % (1, 0.0205)}
+  floor_a: {{type: SolidGround}}
+  floor_b: {{type: SolidGround}}
+  resting_st: {{type: StageMonitor, stop_after: 0}}
+  dropped_st: {{type: StageMonitor, stop_after: 0}}
+connections:
+  - resting.state -> floor_a.body
+  - {answer % ("floor_a", "resting")}
+  - dropped.state -> floor_b.body
+  - {answer % ("floor_b", "dropped")}
+  - resting.state -> resting_st.body
+  - floor_a.contact -> resting_st.ground
+  - dropped.state -> dropped_st.body
+  - floor_b.contact -> dropped_st.ground
+""")
+    recording = tmp_path / "two_balls.mcap"
+    assert main(["run", str(scene), "-o", str(recording)]) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(recording)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    rows = out[out.index("  timeline:") + 1:]
+    times = [float(row.split()[0]) for row in rows]
+    rest = next(k for k, row in enumerate(rows) if "/resting_st/stage: rest" in row)
+    landing = next(k for k, row in enumerate(rows) if "/dropped_st/stage: ground" in row)
+    assert times == sorted(times) and rest < landing and times[rest] < 0.002 < 0.01 < times[landing] < 0.02

@@ -786,3 +786,83 @@ def test_each_stage_message_says_when_its_stage_began_as_the_summary_does():
     assert [label for label, _ in published] == ["approach", "ground", "rest"]
     assert published == [(label, t) for t, label in m.timeline]
     assert published[0][1] == 0.0 and published[2][1] == pytest.approx(0.002)  # rest from its spell's start
+
+
+def test_rest_and_a_descent_are_judged_on_the_bodys_step_not_the_monitors():
+    """The rules about a step of gravity's speed (a body the ground holds is reported with up to |g|
+    step; a descent is faster than that) are about the body's step, which the scene tells the monitor
+    (Component.source_steps). A body stepping every 4 ms under a monitor stepping every 1 ms: held
+    still at 4 ms of gravity's speed it rests (it never did: 39 mm/s against the monitor's 10 mm/s),
+    and its first step under water, -g 4 ms, is no descent (its rise out was a skip). A monitor
+    stepping every 10 ms over a body at 1 ms: 20 mm/s on the ground is no rest (|g| 10 ms let it be)."""
+    holding = GroundContact(True, 1.0, 0.0, False, 0.0)
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    m.source_steps["body"] = 0.004
+    drive(m, [(body(0.0, 0.003, 0.0, -0.035), None, holding)] * HOLD)
+    assert m.stage is StageId.REST
+    light = 0.2 * DISK_WATER
+    under = buoyant_water(1.0, DISK_WATER * 9.81)
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    m.source_steps["body"] = 0.004
+    drive(m, [(body(0.0, -0.02, 2.0, -9.81 * 0.004, light), under, None),
+              *[(body(0.002 * k, -0.02 + 0.002 * k, 2.0, 0.5 * k, light), under, None) for k in range(1, 5)],
+              (body(0.01, 0.02, 2.0, 2.5, light), water(False, depth=-0.005), None)])
+    assert m.track.skips == 0
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    m.source_steps["body"] = 0.001
+    for k in range(3 * HOLD):
+        m.step(k * 10 * MS, 10 * MS, {"body": body(0.0, 0.003, 0.02, 0.0), "water": None, "ground": holding})
+    assert m.stage is StageId.GROUND
+
+
+def test_the_scene_tells_a_monitor_its_bodys_step(tmp_path):
+    """Through the scheduler: a ball resting on a floor, the ball and its floor stepping every 4 base
+    steps (2 ms) and its monitor every step, comes to rest (it stayed on the ground for good), and
+    a replay of the monitor alone is told the same step (bit for bit)."""
+    from cosim.record.reader import Recording
+    from cosim.replay import replay_component
+    from cosim.runner import run_scene
+    from cosim.scenario import loads
+    from cosim.scheduler import Simulation
+
+    scene = loads("""
+name: resting
+dt: 0.0005
+until: 0.2
+components:
+  ball: {type: RigidBody, shape: sphere, radius: 0.02, density: 2700.0, position: [0, 0, 0.02], every: 4}
+  floor: {type: SolidGround, every: 4}
+  stages: {type: StageMonitor, stop_after: 0}
+connections:
+  - ball.state -> floor.body
+  - from: floor.impulse
+    to: ball.impulse
+    delay: 1
+    initial: {linear: [0, 0, 0], angular: [0, 0, 0], correction: [0, 0, 0]}
+  - ball.state -> stages.body
+  - floor.contact -> stages.ground
+""")
+    sim = Simulation(scene)
+    assert sim.components["stages"].source_steps == {"body": 0.002, "ground": 0.002}
+    outcome = run_scene(scene, tmp_path / "resting.mcap", progress=False, simulation=sim)
+    assert outcome.result.status == "ok" and sim.components["stages"].stage is StageId.REST
+    report = replay_component(Recording(tmp_path / "resting.mcap"), "stages")
+    assert report.ok and report.messages_compared >= 2, str(report)
+
+
+def test_leaving_the_pond_is_decided_when_outside_after_has_passed_whatever_the_rounding():
+    """outside_after 10 ms at 1 ms steps from t = 0: 0.011 - 0.001 is a hair under 0.01 in floating
+    point, and the stone was found to have left the pond a step late (11 ms) for some starts."""
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.01, stop_after=0))
+    out = drive(m, [(body(0.1 * k, -0.01, 5.0, -0.5), water(False, depth=0.004), None) for k in range(12)])
+    left = [k for k, o in enumerate(out) if "stage" in o and o["stage"].label == "left-pond"]
+    assert left == [10] and m.timeline[-1] == (pytest.approx(0.011), "left-pond")
+
+
+def test_the_first_stage_is_placed_where_the_run_began():
+    """The first stage is dated t = 0, the run's start; its place is the body's there, not a step
+    later (an inspect of the reference skip said approach at 0 s, x 0.3055, its stone thrown from 0.3)."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    m.start_inputs({"body": body(0.3, 0.1, 11.0, -1.0)})
+    out = drive(m, [(body(0.3055, 0.1, 11.0, -1.0), water(False), None)])
+    assert (out[0]["stage"].since, out[0]["stage"].x) == (0.0, 0.3)

@@ -123,6 +123,9 @@ def test_every_stage_change_is_a_log_line():
     # a y a hair below 0 is 0.000 (it read -0.000); rest, known REST_HOLD after it began, says when
     (line,) = stage("monitor", "stage", Stage(StageId.REST, "rest", 0, 2.0, -9.436e-19, since=0.43))
     assert line.text == "rest (stage 5): skips 0, at (2.000, 0.000) m, since t = 0.430 s"
+    # every digit the run's time has, as the summary gives it (0.4325 read 0.432)
+    (line,) = stage("monitor", "stage", Stage(StageId.REST, "rest", 0, 2.0, 0.0, since=0.4325))
+    assert line.text.endswith("since t = 0.4325 s")
     assert getattr(stage, "every_message", False) and getattr(skip_record, "every_message", False)
 
 
@@ -133,3 +136,6 @@ def test_every_skip_is_a_log_line():
     (line,) = skip_record("monitor", "skip", SkipRecord(2, 0.31, 0.5, 0.038, 13.8, 0.88, 4.19, 4.12, peak_g=7.25,
                                                         touchdown_y=1.25))
     assert line.text.startswith("skip 2: touchdown at (0.500, 1.250) m, t = 0.3100 s")
+    # a touchdown at 0.25 ms steps to its last digit (0.00075 s read 0.0008 s)
+    (line,) = skip_record("monitor", "skip", SkipRecord(1, 0.00075, 0.5, 0.038, 13.8, 0.88, 4.19, 4.12))
+    assert "t = 0.00075 s;" in line.text

@@ -91,7 +91,9 @@ def describe_recording(rec: Recording) -> str:
     for topic in sorted(rec.channels):
         ch = rec.channels[topic]
         lines.append(f"    {one_line(topic):<{width}}  {ch.count:>8}  {one_line(ch.schema_name)}")
-    events = timeline(rec)
+    # in the order the events began (a rest, dated back to its slow spell's start, was listed after a
+    # later stage of another body); the stream's order between events that began together
+    events = sorted(timeline(rec), key=lambda event: _began(event[0], event[2]))
     if events:
         lines.append("  timeline:")
         if rec.restart_ns:  # (a restart publishes what changes after it: what was in force came before)
