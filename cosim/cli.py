@@ -131,16 +131,18 @@ def run_until_ns(text: str) -> int:
 def _live_address(text: str) -> str:
     """``--live [HOST:]PORT`` (or ``HOST``), checked before anything runs: a port outside 0..65535
     is bad input."""
+    from cosim.params import whole_digits
+
     if text.count(":") > 1 and not text.strip().startswith("["):
         # an IPv6 address has colons of its own: ::1 would read as host ':' and port 1
         raise argparse.ArgumentTypeError(f"write an IPv6 address in brackets, [ADDRESS]:PORT (e.g. [::1]:8765), "
                                          f"got {text!r}")
     host, sep, port = text.strip().rpartition(":")
-    if not text.strip() or (sep and not port.isdigit()):
+    if not text.strip() or (sep and not whole_digits(port)):
         raise argparse.ArgumentTypeError(f"expected [HOST:]PORT, got {text!r}")
-    if port.isdigit() and not 0 <= int(port) <= 65535:
+    if whole_digits(port) and not 0 <= int(port) <= 65535:
         raise argparse.ArgumentTypeError(f"the port must be in 0..65535, got {port}")
-    if not sep and not port.isdigit():
+    if not sep and not whole_digits(port):
         host = port  # HOST alone
     if host and not _HOST.fullmatch(host.strip("[]")):
         raise argparse.ArgumentTypeError(f"{host!r} is not a host name or address (letters, digits, '-', '.'; "

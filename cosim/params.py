@@ -45,6 +45,13 @@ def beyond_float(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and not fits_float(value)
 
 
+def whole_digits(text: str) -> bool:
+    """Whether ``text`` is a whole number written in the digits 0-9 alone (str.isdigit also takes '²'
+    and other digits int() refuses, and full-width ones it reads: an index '²' failed as an internal
+    error, a full-width 1 named item 1)."""
+    return text.isascii() and text.isdigit()
+
+
 def number_text(value: Any) -> str:
     """A number for a message, as ``:g`` writes it: ``0.001``, ``1e+21``; an integer beyond a
     float's range (which ``:g`` cannot write) in the same form from its leading digits: ``1e+309``."""

@@ -207,9 +207,12 @@ def test_a_checkpoint_interval_that_is_no_whole_multiple_of_dt_is_refused_naming
     assert problem(text.replace("checkpoint_every: 0.01", "checkpoint_every: 0.00125")) == (
         "record.checkpoint_every: 0.00125 s is not a whole multiple of dt = 0.0005 s; checkpoints are taken at "
         "base steps: use 0.001 s or 0.0015 s")
-    assert problem(CHECKPOINTED_SCENE, ["record.checkpoint_every=0.0010000001"]) == (
-        "record.checkpoint_every: 0.0010000001 s is not a whole multiple of dt = 0.001 s; checkpoints are taken "
+    assert problem(CHECKPOINTED_SCENE, ["record.checkpoint_every=0.0010001"]) == (
+        "record.checkpoint_every: 0.0010001 s is not a whole multiple of dt = 0.001 s; checkpoints are taken "
         "at base steps: use 0.001 s or 0.002 s")
+    # (a tenth of a nanosecond off is off the clock's grid: said so, not rounded onto it)
+    assert problem(CHECKPOINTED_SCENE, ["record.checkpoint_every=0.0010000001"]) == (
+        "record.checkpoint_every: must be a whole number of nanoseconds (got 0.0010000001 s)")
     assert loads(text.replace("checkpoint_every: 0.01", "checkpoint_every: 0.0015")).record.checkpoint_every == 0.0015
     assert loads(text, overrides=["record.checkpoint_every=0"]).record.checkpoint_every == 0
 

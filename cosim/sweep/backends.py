@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from cosim.errors import CosimError, ScenarioError, quiet_interrupts
+from cosim.params import whole_digits
 from cosim.timebase import NS_PER_S
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
@@ -749,7 +750,7 @@ def probe_scheduler(address: str, timeout_s: float) -> None:
     if sep and scheme != "tcp":
         return
     host, _, port = (rest if sep else address).rpartition(":")
-    if not host or not port.isdigit():
+    if not host or not whole_digits(port):
         return  # Dask's own parsing says what is wrong with it
     hint = "is it the scheduler's address (port 8786 by default), not its dashboard's (8787)?"
     deadline = time.monotonic() + timeout_s

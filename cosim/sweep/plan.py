@@ -55,11 +55,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from cosim.errors import ScenarioError
 from cosim.params import FLOAT_LIMIT, beyond_float, fits_float, number_text, show_value
-from cosim.scenario import SCENE_NAME_RE, find_parent, loads, read_input, read_yaml
+from cosim.scenario import SCENE_NAME_RE, dump_yaml, find_parent, loads, read_input, read_yaml
 from cosim.scenario import TOP_KEYS as SCENE_KEYS
 
 TOP_KEYS = ("name", "description", "scene", "mode", "samples", "seed", "axes", "derived", "set", "until",
@@ -100,12 +99,12 @@ def yaml_value(value: Any) -> str:
     quick = _plain_yaml(value)
     if quick is not None:
         return quick
-    text = yaml.safe_dump(value, default_flow_style=True, width=math.inf, allow_unicode=True)
+    text = dump_yaml(value, default_flow_style=True, width=math.inf, allow_unicode=True)
     return text.removesuffix("\n...\n").strip()
 
 
 def _plain_yaml(value: Any) -> str | None:
-    """The text :func:`yaml.safe_dump` gives a number, a bool, None or a list of them, written
+    """The text :func:`dump_yaml` gives a number, a bool, None or a list of them, written
     here directly (a sweep's plan writes one per axis and derived key at every point: 180,000 for a
     300 x 300 grid, 16 s through the dumper); None for anything else (text needs the dumper's
     quoting)."""
@@ -477,6 +476,10 @@ def _sampler(name: str, spec: Any, problems: list[str]) -> tuple[Any, ...] | Non
     if kind == "loguniform" and not a > 0:
         problems.append(f"{path}.loguniform: both ends must be > 0 (got {a:g})")
         return None
+    if kind == "uniform" and not math.isfinite(float(b) - float(a)):  # (numpy's draw overflowed)
+        problems.append(f"{path}.uniform: the span from {a:g} to {b:g} is beyond what a float holds; "
+                        "give ends whose difference is finite")
+        return None
     return (kind, float(a), float(b))
 
 
@@ -500,7 +503,7 @@ def _base_scene(data: dict[str, Any], base_dir: Path, source: str,
         problems.append("scene: missing (required: a scene file relative to this sweep, or a scene mapping)")
         return None
     if isinstance(spec, dict):
-        return yaml.safe_dump(spec, sort_keys=False), f"{source}:scene", spec
+        return dump_yaml(spec, sort_keys=False), f"{source}:scene", spec
     if not isinstance(spec, str):
         problems.append(f"scene: must be a file name or a mapping (got {spec!r})")
         return None

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from cosim.errors import CosimError, ScenarioError, counted
+from cosim.params import whole_digits
 from cosim.record.output import beside, refuse_read_only, remove_quietly, written_whole
 from cosim.sweep.backends import MACHINE_LIMITS
 from cosim.sweep.plan import yaml_value
@@ -392,7 +393,7 @@ class ResultTable:
         if len(last) != len(self.columns) or not whole_wall:
             return False
         row = dict(zip(self.columns, last, strict=True))
-        return row["index"].isdigit() and row["point_id"] in known_ids and row["status"] in ROW_STATUSES
+        return whole_digits(row["index"]) and row["point_id"] in known_ids and row["status"] in ROW_STATUSES
 
     def _swallows_rows(self, raw: bytes, first_line: int, known_ids: set[str]) -> bool:
         """Whether the text from line ``first_line`` of ``raw`` on holds, after its first line, a line
@@ -405,7 +406,7 @@ class ResultTable:
                 values = next(csv.reader([line]), [])
             except csv.Error:  # (a field over the csv module's limit: no row of this sweep)
                 continue
-            if (len(values) == len(self.columns) and values[index].isdigit() and values[point] in known_ids
+            if (len(values) == len(self.columns) and whole_digits(values[index]) and values[point] in known_ids
                     and values[status] in ROW_STATUSES):
                 return True
         return False
