@@ -62,6 +62,27 @@ def test_a_standing_mode_oscillates_at_airys_frequency(cell, depth, m):
     assert v == pytest.approx(-1e-3 * omega * math.sin(omega * t) * _mode(nx, m), abs=1e-14)
 
 
+@pytest.mark.parametrize("m", [23, 4])  # 1.7 cm ripples (capillarity restores 0.96 as much as gravity), 10 cm
+def test_a_modes_energy_is_its_potential_energy_then_its_flows_kinetic_energy(m):
+    """A standing mode of amplitude A at rest holds 1/2 (rho g + gamma k^2) A^2 / 2 per area, gravity's
+    and the surface tension's potential energy; a quarter period later the same, as the potential
+    flow's kinetic energy 1/2 rho V^2 / (k tanh kd) (Lamb 1932, sections 229, 267). The model's energy
+    gave gravity's share alone: half of it for a ripple near c_min."""
+    nx, cell, depth, amplitude = 200, 0.001, 0.3, 1e-4
+    grid = build_grid(nx, 2, cell, depth)
+    model = AiryModel(grid, None)
+    k = math.pi * m / (nx * cell)
+    exact = 0.5 * (WATER_DENSITY * GRAVITY + SURFACE_TENSION * k * k) * amplitude**2 / 2 * (nx * 2 * cell * cell)
+    h, v = amplitude * _mode(nx, m), np.zeros((2, nx))
+    assert model.energy(h, v) == pytest.approx(exact, rel=1e-12)
+    h_out, v_out = np.empty_like(h), np.empty_like(v)
+    model.advance(h, v, h_out, v_out, 0.5 * math.pi / _airy(k, depth))
+    assert np.abs(h_out).max() < 1e-12 * amplitude
+    kinetic = 0.5 * WATER_DENSITY * float(np.sum(v_out**2)) * cell**2 / (k * math.tanh(k * depth))
+    assert model.energy(h_out, v_out) == pytest.approx(exact, rel=1e-12)
+    assert kinetic == pytest.approx(exact, rel=1e-12)
+
+
 def test_a_deep_water_packet_travels_at_its_group_speed():
     """5 cm waves on 0.5 m of water: the packet moves at the group speed d omega / dk = 0.18 m/s (0.14
     without capillarity, which carries a 5 cm wave's group a quarter faster),
