@@ -290,9 +290,10 @@ def test_a_time_that_is_no_whole_number_of_nanoseconds_is_said_with_its_key():
 
 
 def test_a_step_just_off_a_multiple_of_dt_is_said_in_enough_digits():
-    """`step: 0.0010000001` was reported as '0.001 s is not a whole multiple of dt = 0.001 s (ratio 1)'."""
-    assert problem(CHECKPOINTED_SCENE, ["components.g.step=0.0010000001"]) == (
-        "components.g.step: 0.0010000001 s is not a whole multiple of dt = 0.001 s (ratio 1.0000001); rates "
+    """`step: 0.001000001` (a nanosecond over) was reported as '0.001 s is not a whole multiple of dt = 0.001 s
+    (ratio 1)'."""
+    assert problem(CHECKPOINTED_SCENE, ["components.g.step=0.001000001"]) == (
+        "components.g.step: 0.001000001 s is not a whole multiple of dt = 0.001 s (ratio 1.000001); rates "
         "must divide exactly: use 0.001 s or 0.002 s")
     assert problem(CHECKPOINTED_SCENE, ["components.g.step=0.0005"]).endswith("(ratio 0.5); rates must divide "
                                                                              "exactly: use 0.001 s")
