@@ -39,7 +39,7 @@ from cosim.errors import ScenarioError
 from cosim.messages import Message
 from cosim.params import beyond_float, build, number_text, show_value, whole_digits
 from cosim.registry import UnknownComponentType, resolve
-from cosim.timebase import NS_PER_S, seconds_to_ns
+from cosim.timebase import NS_PER_S, exact_seconds, seconds_to_ns
 
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a component name: it becomes channel names
 # the first part of the framework's and the viewer's own channels (/cosim/status, /perf/tick,
@@ -489,6 +489,20 @@ def _range_text(low_ns: int) -> str:
     return f"between {low_ns / NS_PER_S:g} s and {MAX_TIME_NS / NS_PER_S:.3g} s"
 
 
+def _beside_range(value: Any) -> str:
+    """``value`` as a time refused for its range: in short, unless the short text would read as a
+    time within it (9223372036.854775807 s, a hair over the largest, read 9.22337e+09 s), then whole
+    and the largest time too, every digit."""
+    text = number_text(value)
+    try:
+        shown = float(text)
+    except ValueError:
+        return text
+    if MIN_STEP_NS <= shown * NS_PER_S <= MAX_TIME_NS:
+        return f"{value!r}, over the largest, {exact_seconds(MAX_TIME_NS)} s"
+    return text
+
+
 def _seconds(data: dict, key: str, problems: list[str], *, required: bool, default: float = 0.0) -> int | None:
     if key not in data:
         if required:
@@ -516,7 +530,7 @@ def seconds_value(value: Any, path: str, problems: list[str], *, zero: str | Non
     if not MIN_STEP_NS <= value * NS_PER_S <= MAX_TIME_NS:  # (exact for an integer of any size)
         below = " (shorter than the clock's 1 ns tick)" if value * NS_PER_S < MIN_STEP_NS else ""
         rule = _range_text(MIN_STEP_NS) if zero is None else f"0 ({zero}) or {_range_text(MIN_STEP_NS)}"
-        problems.append(f"{path}: must be {rule}{below} (got {number_text(value)})")
+        problems.append(f"{path}: must be {rule}{below} (got {_beside_range(value)})")
         return None
     try:
         return seconds_to_ns(float(value), what=path)

@@ -114,3 +114,15 @@ def test_a_run_of_more_than_a_billion_component_steps_is_told_its_least_time():
                       "2 us a step, with no physics, the run takes at least 1.27e+05 years; check dt, until and the "
                       "components' every")
     assert loads(BASE, "base.yaml", [f"until={LONG_RUN_STEPS / 2 * 1e-9:g}", "dt=1e-9"]).notices == []
+
+
+def test_a_time_a_hair_over_the_largest_is_said_over_it():
+    """until 9223372036.854775807 s (2^63 ns as a float) was refused as 'must be between 1e-09 s and
+    9.22e+09 s (got 9.22337e+09)', a value that reads within the range."""
+    with pytest.raises(ScenarioError) as refused:
+        loads(BASE, "base.yaml", ["until=9223372036.854775807"])
+    assert refused.value.problems == ["until: must be between 1e-09 s and 9.22e+09 s (got 9223372036.854776, over "
+                                      "the largest, 9223372036.854775807 s)"]
+    with pytest.raises(ScenarioError) as refused:
+        loads(BASE, "base.yaml", ["until=1e30"])
+    assert refused.value.problems == ["until: must be between 1e-09 s and 9.22e+09 s (got 1e+30)"]
