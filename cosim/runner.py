@@ -50,11 +50,14 @@ def _signals_interrupt(sim: Simulation, recorder: Any = None) -> Iterator[None]:
     ``nohup``) end the run after the current tick; a second Ctrl-C aborts at once. The
     ``recorder`` is told of each (:meth:`cosim.record.recorder.Recorder.interrupted`): a writer process
     that has stopped answering is then not waited for without end."""
+    signalled: list[int] = []  # the signals taken so far (a sweep's timeout or stop is no signal)
+
     def handler(signum: int, frame: Any) -> None:
         if recorder is not None:
             recorder.interrupted()
-        if sim.interrupt_reason is not None and signum == signal.SIGINT:
+        if signalled and signum == signal.SIGINT:
             raise KeyboardInterrupt
+        signalled.append(signum)
         sim.interrupt(f"interrupted by {signal.Signals(signum).name}")
 
     try:

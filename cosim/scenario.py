@@ -491,16 +491,18 @@ def _range_text(low_ns: int) -> str:
 
 def _beside_range(value: Any) -> str:
     """``value`` as a time refused for its range: in short, unless the short text would read as a
-    time within it (9223372036.854775807 s, a hair over the largest, read 9.22337e+09 s), then whole
-    and the largest time too, every digit."""
+    time within it (9223372036.854775807 s, a hair over the largest, read 9.22337e+09 s), then whole,
+    with the end of the range it passed, every digit."""
     text = number_text(value)
     try:
         shown = float(text)
     except ValueError:
         return text
-    if MIN_STEP_NS <= shown * NS_PER_S <= MAX_TIME_NS:
+    if not MIN_STEP_NS <= shown * NS_PER_S <= MAX_TIME_NS:
+        return text
+    if value * NS_PER_S > MAX_TIME_NS:
         return f"{value!r}, over the largest, {exact_seconds(MAX_TIME_NS)} s"
-    return text
+    return f"{value!r}, under the smallest, {exact_seconds(MIN_STEP_NS)} s"
 
 
 def _seconds(data: dict, key: str, problems: list[str], *, required: bool, default: float = 0.0) -> int | None:
@@ -1233,20 +1235,25 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     return scene
 
 
-LONG_RUN_STEPS = 1e9  # component steps beyond which a scene is told how long its run must take at least
 LEAST_STEP_S = 2e-6  # [s] the scheduler's own cost of a component step that does nothing (docs/performance.md)
+LEAST_TICK_S = 0.5e-6  # [s] its own cost of a base tick, whatever steps in it
+LONG_RUN_S = 2000.0  # [s] the least time (1e9 component steps) beyond which a scene is told it
 
 
 def _long_run(scene: Scene) -> list[str]:
-    """A notice when the run takes more than LONG_RUN_STEPS component steps (a dt of 1e-8 s on the
-    reference skip: 6e8 steps, about three days, started without a word), with the least time it can
-    take: LEAST_STEP_S a component step, the scheduler alone, no physics."""
+    """A notice when the run must take more than LONG_RUN_S with no physics at all: LEAST_TICK_S a
+    base tick and LEAST_STEP_S a component step, the scheduler alone (a dt of 1e-8 s on the reference
+    skip: 6e8 steps, about three days, started without a word; a component stepping every million
+    ticks of 1 ns still costs each tick)."""
+    ticks = -(-scene.until_ns // scene.dt_ns)
     steps = sum(-(-scene.until_ns // (scene.dt_ns * cfg.every)) for cfg in scene.components.values())
-    if steps <= LONG_RUN_STEPS:
+    least = ticks * LEAST_TICK_S + steps * LEAST_STEP_S
+    if least <= LONG_RUN_S:
         return []
-    return [f"until {_seconds_text(scene.until_ns)} s at dt = {_seconds_text(scene.dt_ns)} s is {steps:.3g} component "
-            f"steps: even at the scheduler's own {LEAST_STEP_S * 1e6:g} us a step, with no physics, the run takes "
-            f"at least {_duration(steps * LEAST_STEP_S)}; check dt, until and the components' every"]
+    return [f"until {_seconds_text(scene.until_ns)} s at dt = {_seconds_text(scene.dt_ns)} s is {ticks:.3g} ticks and "
+            f"{steps:.3g} component steps: even at the scheduler's own {LEAST_TICK_S * 1e6:g} us a tick and "
+            f"{LEAST_STEP_S * 1e6:g} us a step, with no physics, the run takes at least {_duration(least)}; check dt, "
+            "until and the components' every"]
 
 
 def _duration(seconds: float) -> str:

@@ -448,7 +448,8 @@ class Simulation:
                     status, reason = "stopped", self.stop_reason
                 while status == "ok" and self.tick < end_tick:
                     self.step()
-                    if self.interrupt_reason is not None:
+                    if self.interrupt_reason is not None and self.tick < end_tick:
+                        # (one that came in the last tick finds the run at its end: it reached it)
                         status, reason = "interrupted", self.interrupt_reason
                         break
                     if self.stop_reason is not None:

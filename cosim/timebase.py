@@ -7,6 +7,8 @@ two runs with the same inputs agree to the nanosecond.
 
 from __future__ import annotations
 
+import math
+
 NS_PER_S = 1_000_000_000
 
 
@@ -15,12 +17,12 @@ def seconds_to_ns(seconds: float, *, what: str = "time") -> int:
 
     Raises ValueError when ``seconds`` is not a whole number of nanoseconds, because a silently
     rounded step would make ``t_k = k * dt`` drift away from the time the user asked for. What is
-    allowed off a whole number is the float's own round-off: 1e-3 ns, or 1e-12 of the time (a few
-    thousand of its last bits). (It was a millionth of the time: from 0.5 ms up, a dt of
-    0.0012345678912 s ran as 1234568 ns without a word, while 1.2345e-6 s was refused.)
+    allowed off a whole number is the float's own round-off, 8 of its last bits. (It was a millionth
+    of the time: from 0.5 ms up, a dt of 0.0012345678912 s ran as 1234568 ns without a word, while
+    1.2345e-6 s was refused.)
     """
     ns = round(seconds * NS_PER_S)
-    if abs(seconds * NS_PER_S - ns) > max(1e-3, 1e-12 * abs(ns)):
+    if abs(seconds * NS_PER_S - ns) > 8.0 * math.ulp(seconds * NS_PER_S):
         raise ValueError(f"{what} must be a whole number of nanoseconds (got {seconds!r} s)")
     return int(ns)
 

@@ -18,7 +18,7 @@ import pytest
 
 from cosim.cli import main
 from cosim.errors import ScenarioError
-from cosim.scenario import LONG_RUN_STEPS, execution_order, loads, read_yaml
+from cosim.scenario import LONG_RUN_S, execution_order, loads, read_yaml
 from cosim.sweep.plan import yaml_value
 from cosim.timebase import seconds_to_ns
 from tests.cli_toys import one_error_line
@@ -107,13 +107,19 @@ def test_components_ready_together_run_in_the_order_they_are_declared():
     assert order == ["b", "a", "d", "c"]
 
 
-def test_a_run_of_more_than_a_billion_component_steps_is_told_its_least_time():
-    scene = loads(BASE, "base.yaml", ["dt=1e-9", "until=1e9"])
-    (notice,) = scene.notices
-    assert notice == ("until 1000000000.0 s at dt = 1e-09 s is 2e+18 component steps: even at the scheduler's own "
-                      "2 us a step, with no physics, the run takes at least 1.27e+05 years; check dt, until and the "
-                      "components' every")
-    assert loads(BASE, "base.yaml", [f"until={LONG_RUN_STEPS / 2 * 1e-9:g}", "dt=1e-9"]).notices == []
+def test_a_run_that_must_take_hours_is_told_its_least_time():
+    """Told with the least time the scheduler alone takes, 0.5 us a base tick and 2 us a component
+    step: a billion steps, or a component stepping every million ticks of 1 ns, which still pays for
+    every tick (it had no word)."""
+    (notice,) = loads(BASE, "base.yaml", ["dt=1e-9", "until=1e9"]).notices
+    assert notice == ("until 1000000000.0 s at dt = 1e-09 s is 1e+18 ticks and 2e+18 component steps: even at the "
+                      "scheduler's own 0.5 us a tick and 2 us a step, with no physics, the run takes at least "
+                      "1.43e+05 years; check dt, until and the components' every")
+    (notice,) = loads(BASE, "base.yaml", ["dt=1e-9", "until=100000", "components.ping.every=1000000",
+                                          "components.pong.every=1000000"]).notices
+    assert "is 1e+14 ticks and 2e+08 component steps" in notice and "at least 1.58 years" in notice
+    ticks = LONG_RUN_S / 2.5e-6 / 2  # (each tick steps both: 2.5 us a tick)
+    assert loads(BASE, "base.yaml", [f"until={ticks * 1e-9:g}", "dt=1e-9"]).notices == []
 
 
 def test_a_time_a_hair_over_the_largest_is_said_over_it():
@@ -126,3 +132,18 @@ def test_a_time_a_hair_over_the_largest_is_said_over_it():
     with pytest.raises(ScenarioError) as refused:
         loads(BASE, "base.yaml", ["until=1e30"])
     assert refused.value.problems == ["until: must be between 1e-09 s and 9.22e+09 s (got 1e+30)"]
+
+
+def test_a_time_a_hair_under_the_tick_is_said_under_it():
+    with pytest.raises(ScenarioError) as refused:
+        loads(BASE, "base.yaml", ["dt=9.9999999999e-10"])
+    assert refused.value.problems[0] == ("dt: must be between 1e-09 s and 9.22e+09 s (shorter than the clock's 1 ns "
+                                         "tick) (got 9.9999999999e-10, under the smallest, 0.000000001 s)")
+
+
+@pytest.mark.parametrize("seconds", [1000.0000000005, 600.0000000004, 1e-12])
+def test_a_time_half_a_nanosecond_off_is_refused_however_long(seconds):
+    """(The tolerance was a thousandth of a nanosecond or 1e-12 of the time: from 500 s up half a
+    nanosecond was rounded away; now it is the float's own last bits.)"""
+    with pytest.raises(ValueError, match="must be a whole number of nanoseconds"):
+        seconds_to_ns(seconds)

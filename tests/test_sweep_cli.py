@@ -642,7 +642,7 @@ def test_a_run_past_its_timeout_is_stopped_and_its_row_says_failed_timed_out(tmp
 def test_a_run_timeout_that_is_no_number_of_seconds_is_refused(tmp_path, capsys):
     path = write_sweep(tmp_path, SWEEP + "run_timeout: -1\n")
     assert main(["sweep", str(path), "-q", "--dry-run", "-o", str(tmp_path / "x.csv")]) == 2
-    assert "run_timeout: must be a number of wall seconds > 0 (got -1)" in capsys.readouterr().err
+    assert "run_timeout: must be a finite number of wall seconds > 0 (got -1)" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exited:
         main(["sweep", str(path), "-q", "--dry-run", "--run-timeout", "0", "-o", str(tmp_path / "x.csv")])
     assert exited.value.code == 2 and "argument --run-timeout: must be > 0 s, got 0" in capsys.readouterr().err

@@ -233,8 +233,9 @@ def resolve_contact(body: MassProperties, state: RigidState, plane: Plane, mater
     Euler: (v - v_begun) dt / 2; zero when not known), whose part into the plane a rim point's lift
     makes up uncharged (point 2); ``rotate`` false treats a body whose
     attitude is held (only its translation responds); ``other_force`` (3,) [N, world] is the force
-    on the body besides gravity and contacts (a wrench), held over the step: only the dissipated
-    energy uses it (the correction's jump against it, point 4 of the module docstring).
+    on the body besides gravity and contacts (a wrench), held over the step: the dissipated energy
+    uses it (the correction's jump against it, point 4 of the module docstring), and so does the
+    test of whether a bounce would add energy (its lift against it).
     """
     x, q, v, w = state
     if geometry is None:

@@ -233,7 +233,7 @@ def run_task(task: Task) -> dict[str, Any]:
             if outcome.simulation is not None:
                 metrics = collect_metrics(outcome.simulation)
                 row.update({key: _cell(metrics.get(key)) for key in task.metrics})
-            elif result.status == "interrupted" and _stop is not None:
+            if row["status"] == "interrupted" and _stop is not None:
                 # a signal (a Ctrl-C reaches every worker with the sweep): the sweep's stop follows
                 # at once, and the run queued behind this one must see it before it starts
                 _stop.wait(STOP_WAIT_S)

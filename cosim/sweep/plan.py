@@ -778,7 +778,7 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         record = False
     run_timeout = data.get("run_timeout")
     if run_timeout is not None and not (_is_number(run_timeout) and run_timeout > 0):
-        problems.append(f"run_timeout: must be a number of wall seconds > 0 (got {_shown(run_timeout)})")
+        problems.append(f"run_timeout: must be a finite number of wall seconds > 0 (got {_shown(run_timeout)})")
         run_timeout = None
     out = output if output is not None else data.get("output", f"runs/{name}.csv")
     if not isinstance(out, (str, Path)) or Path(out).suffix not in TABLE_SUFFIXES:

@@ -222,9 +222,9 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
         outcome.counts[row["status"]] += 1
         if row["status"] == "failed":
             outcome.failures.append((point.index, point.label(), str(row.get("reason", ""))))
-        bar.update(1)
-        if outcome.failures:
+        if outcome.failures:  # (before the update: a log line says the count as it is)
             bar.set_postfix(failed=len(outcome.failures), refresh=False)
+        bar.update(1)
 
     wall0 = time.perf_counter()
     bar = work_progress(len(sweep.points), initial=len(done), desc=sweep.name, unit="run",

@@ -1,0 +1,90 @@
+"""A sweep run's wall-time bound (run_timeout) against the other ways a run ends: a signal, the sweep's
+stop, the scene's end, and what the log says of the failures."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+import pytest
+
+import cosim.sweep.backends as backends
+from cosim.cli import main
+from cosim.scenario import loads
+from cosim.scheduler import BaseObserver, Simulation
+from tests.sweep_toys import BALL_SCENE, write_sweep
+
+
+class _Interrupting(BaseObserver):
+    """Interrupts the run as its tick ``at`` completes (as a signal or a timer landing in that tick)."""
+
+    def __init__(self, at: int):
+        self.at = at
+
+    def on_step_complete(self, sim: Simulation) -> None:
+        if sim.tick == self.at:
+            sim.interrupt("timed out: in the last tick")
+
+
+def test_an_interrupt_in_the_last_tick_finds_the_run_at_its_end():
+    """The run has taken every tick it was to take: it reached its end, status ok (a sweep's timer
+    firing in the last tick wrote a run that had reached until as failed, timed out)."""
+    scene = loads(BALL_SCENE.replace("until: 3.0", "until: 0.005"), "ball.yaml")  # (in flight throughout)
+    assert Simulation(scene, observers=[_Interrupting(5)]).run().status == "ok"
+    result = Simulation(scene, observers=[_Interrupting(4)]).run()
+    assert (result.status, result.tick) == ("interrupted", 4)
+
+
+def test_one_ctrl_c_after_a_timeout_lets_the_step_end(monkeypatch):
+    """The timeout sets the run's interrupt; a Ctrl-C after it is the first signal, not a second one: the
+    step in progress ends and the run with it, interrupted by the signal (it raised KeyboardInterrupt and
+    cut the step off, no tick taken)."""
+    monkeypatch.setenv("COSIM_COMPONENT_PACKAGES", "tests")
+    task = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", ("components.ball.burn=8000000",), (), None, "", None, 0.1)
+    threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    row = backends.run_task(task)
+    assert (row["status"], row["reason"], row["ticks"]) == ("interrupted", "interrupted by SIGINT", 1)
+
+
+def test_a_worker_interrupted_by_a_signal_waits_for_the_sweeps_stop(monkeypatch):
+    """A Ctrl-C reaches the workers with the sweep: the interrupted run's worker waits for the sweep's
+    stop before it takes the next run (which would start and be cut); a timed-out run does not wait."""
+    monkeypatch.setenv("COSIM_COMPONENT_PACKAGES", "tests")
+    waits = []
+
+    class Stop:
+        def is_set(self) -> bool:
+            return False
+
+        def wait(self, seconds: float) -> bool:
+            waits.append(seconds)
+            return True
+
+    monkeypatch.setattr(backends, "_stop", Stop())
+    task = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", ("components.ball.burn=2000000",), ())
+    threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    assert backends.run_task(task)["status"] == "interrupted" and waits == [backends.STOP_WAIT_S]
+    waits.clear()
+    timed = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", ("components.ball.burn=2000000",), (), None, "", None,
+                          0.2)
+    row = backends.run_task(timed)
+    assert (row["status"], row["error_type"]) == ("failed", "Timeout") and waits == []
+
+
+def test_the_last_progress_line_counts_every_failure(tmp_path, monkeypatch, capsys):
+    """Into a log, the line a run's end prints counts that run's failure too (the last said 'failed 1'
+    of two failed runs)."""
+    monkeypatch.chdir(tmp_path)
+    path = write_sweep(tmp_path, "scene: ball.yaml\naxes:\n  components.ball.fail_at_bounce: [1, 2]\n"
+                                 "output: results/f.csv\n")
+    assert main(["sweep", str(path), "--workers", "1", "--no-figure"]) == 1
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("sweep: ")]
+    assert lines[-1].startswith("sweep: 2/2 runs (100%), failed 2, ")
+
+
+@pytest.fixture(autouse=True)
+def _no_pending_signal():
+    """(A test's timer signal that came after its run would reach the next test.)"""
+    yield
+    signal.signal(signal.SIGINT, signal.default_int_handler)
