@@ -34,8 +34,9 @@ is dt/M times the whole held force, gravity and wrench together (exact for every
 body has: each holds the force over its step). That is the force of the step that led to the state
 being answered; the body will move under the next step's. So the books close to the sum of the
 force's change over one step times the correction, |W_k - W_(k-1)| |c_k|: nothing for a body resting
-under water (and its dissipation is then 0 J a step, as it must be), 5.4e-5 J over the three bounces
-of scenarios/float_sphere.yaml's granite ball, whose drag changes fast as it lands and whose underside,
+under water (and its dissipation is then 0 J a step, as it must be), 9.0e-5 J over the three bounces
+of scenarios/float_sphere.yaml's granite ball, whose drag changes fast as it lands (the water told of
+the ground's answer turns to resisting the rebound at once) and whose underside,
 pressed into the bed, leaves the water. The first step begins at the body's state at t = 0
 (:meth:`SolidGround.start_inputs`); only after a restart from an older checkpoint, with no step seen
 before, is gravity alone assumed, as on a dry floor.
@@ -43,13 +44,14 @@ before, is gravity alone assumed, as on a dry floor.
 The force so read includes the water the body carries along (its added mass, by which the body
 scales the held force): the other side of these books is the work of the held forces along the
 body's move, which must not count the velocity change of this ground's impulse, applied at the
-start of the body's step. A coupler's book of the added mass differencing the body's published
-velocities across that step counts M_a (J/M) . dx / dt as the water's work: 2.09 J of the 2.10 J
-by which a disk thrown steeply at 10 m/s onto the bed of a 3 cm pond was booked more than it lost
-(the torque's work likewise wants the angular velocity the step began with, this ground's angular
-impulse included). Under semi-implicit Euler each step of the body loses M |dv|^2 / 2 (dv the step's
-velocity change) that no component books: the integrator's own error, whose share along the normal
-a plastic correction gives back unbooked (components.contact.solver, point 4).
+start of the body's step. A coupler not told of this ground's answer (its input ``ground``) books
+the added mass from the body's published velocities across that step, counting M_a (J/M) . dx / dt
+as the water's work; told, it takes the step from the velocity the impulse leaves (the torque's
+work likewise from the angular velocity), and meets the water with that state (docs/validation.md,
+section 7, says what the books still miss when a body carrying water strikes the bed). Under
+semi-implicit Euler each step of the body loses M |dv|^2 / 2 (dv the step's velocity change) that no
+component books: the integrator's own error, whose share along the normal a plastic correction gives
+back unbooked (components.contact.solver, point 4).
 
 Assumptions: the ground steps at the body's rate (same ``every``, checked as the scene loads), since
 dt is read as the body's step; one plane per SolidGround (a floor and a ramp are two grounds feeding

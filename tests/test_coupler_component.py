@@ -21,6 +21,7 @@ from components.messages import (
     AddedMass,
     BodyState,
     HeightPatch,
+    Impulse,
     OccupiedHeight,
     PatchRequest,
     Shape,
@@ -50,9 +51,11 @@ def step(coupler, b, patch, k=0, **kw):
 
 
 def test_ports_and_type_names():
-    """Inputs body/water and outputs wrench/occupied/request/contact/added_mass carry the physics
+    """Inputs body/water/ground and outputs wrench/occupied/request/contact/added_mass carry the physics
     messages; the type is reachable as WaterCoupler and as Coupler."""
-    assert {k: p.type for k, p in WaterCoupler.inputs.items()} == {"body": BodyState, "water": HeightPatch}
+    assert {k: p.type for k, p in WaterCoupler.inputs.items()} == {"body": BodyState, "water": HeightPatch,
+                                                                   "ground": Impulse}
+    assert WaterCoupler.inputs["ground"].event and not WaterCoupler.inputs["ground"].required
     assert {k: p.type for k, p in WaterCoupler.outputs.items()} == {
         "wrench": Wrench, "occupied": OccupiedHeight, "request": PatchRequest, "contact": WaterContact,
         "added_mass": AddedMass}

@@ -84,8 +84,10 @@ def test_float_sphere_ground_books_never_fall_and_close():
     the buoyancy's share of each lift was charged to it), and the granite's kinetic + potential
     energy plus what the water and the bed dissipated stays constant within the one thing the bed
     cannot know: how the water's force changes in the step after its correction, at most the sum
-    of |W_k - W_(k-1)| |c_k| over the corrections (5.4e-5 J here, against 0.79 J exchanged: the water's
-    force changes most as the ball's underside, pressed into the bed at a landing, leaves the water)."""
+    of |W_k - W_(k-1)| |c_k| over the corrections (9.0e-5 J here, against 0.79 J exchanged: the water's
+    force changes most as the ball's underside, pressed into the bed at a landing, leaves the water, and
+    as the water, told of the bed's answer (scenarios/float_sphere.yaml wires it), turns at once from
+    resisting the fall to resisting the rebound; 5.4e-5 J before it was told)."""
     watch = Channels("granite.state", "granite_water.contact", "granite_water.wrench", "bottom.contact",
                      "bottom.impulse")
     sim = Simulation(load(SCENES / "float_sphere.yaml"), observers=[watch])
@@ -102,7 +104,7 @@ def test_float_sphere_ground_books_never_fall_and_close():
     bound = sum(np.abs(forces[k] - forces[k - 1]) @ np.abs(next(corrections).correction)
                 for k in np.flatnonzero(contact) if k > 0)
     assert np.abs(total - total[0]).max() <= bound + 1e-12
-    assert bound < 1e-4 * (body[0] - body.min())  # small beside the energy exchanged (0.79 J)
+    assert bound < 1.5e-4 * (body[0] - body.min())  # small beside the energy exchanged (0.79 J)
 
 
 @pytest.mark.parametrize("scene", sorted(p.name for p in SCENES.glob("*.yaml")
