@@ -205,6 +205,15 @@ class Component:
         watches, not another body's). The scene is refused otherwise. Default: none."""
         return {}
 
+    def told_of(self) -> dict[str, tuple[str, str]]:
+        """Inputs that take the answers another component is given: each input port with (another
+        input of this component, the input of that one's sender the answers arrive on). A coupler's
+        ``ground`` takes what answers its body on the body's ``impulse``. The scene must then feed it
+        from every component and only the components answering there, directly (the answer to the
+        state it meets in the same tick) and stepping at this component's rate; one answered but
+        not told is said as the scene loads. Default: none."""
+        return {}
+
     def check_start(self, inputs: dict[str, Message | None]) -> list[str]:
         """Problems with what this component will receive at t = 0, as plain sentences; the scene is
         refused with them when it loads (bad input, exit 2). ``inputs``: each input port's value then

@@ -45,12 +45,14 @@ class RunOutcome:
 
 
 @contextmanager
-def _signals_interrupt(sim: Simulation, recorder: Any = None) -> Iterator[None]:
+def _signals_interrupt(sim: Simulation, recorder: Any = None, signalled: list[int] | None = None) -> Iterator[None]:
     """Ctrl-C, SIGTERM and SIGHUP (the terminal closed; not when started ignoring it, as under
     ``nohup``) end the run after the current tick; a second Ctrl-C aborts at once. The
     ``recorder`` is told of each (:meth:`cosim.record.recorder.Recorder.interrupted`): a writer process
-    that has stopped answering is then not waited for without end."""
-    signalled: list[int] = []  # the signals taken so far (a sweep's timeout or stop is no signal)
+    that has stopped answering is then not waited for without end. ``signalled``: the signals taken
+    so far, shared by the contexts of one run (a sweep's timeout or stop is no signal; a Ctrl-C in
+    the run and one while its recording is finished are two)."""
+    signalled = [] if signalled is None else signalled
 
     def handler(signum: int, frame: Any) -> None:
         if recorder is not None:
@@ -206,7 +208,8 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
                 if recorder is not None:
                     recorder.discard()
                 raise
-        with _signals_interrupt(sim, recorder), notice:
+        signalled: list[int] = []  # the signals this run has taken, in the run and while it is finished
+        with _signals_interrupt(sim, recorder, signalled), notice:
             try:
                 result = sim.run(end_ns)
             except SimulationError as exc:
@@ -223,7 +226,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
             # the run's own signal handling stays on while the file is finished: a Ctrl-C or SIGTERM
             # there (after the run ended) waits for the writer as one during the run would, and the
             # run is told as what it was, not as interrupted (a second Ctrl-C still aborts)
-            with _signals_interrupt(sim, recorder) if recorder is not None else nullcontext():
+            with _signals_interrupt(sim, recorder, signalled) if recorder is not None else nullcontext():
                 path = recorder.close() if recorder is not None else None
         except BaseException:
             finished = False  # a recording that could not be finished: nothing left to serve

@@ -1027,6 +1027,41 @@ def _check_wiring(scene: Scene, built: dict[str, Component], problems: list[str]
                                     "another body")
 
 
+def _check_told(scene: Scene, built: dict[str, Component], problems: list[str]) -> list[str]:
+    """Each component's :meth:`~cosim.component.Component.told_of`: refused when told of answers
+    otherwise than directly, at its rate and by exactly the components giving them; a notice (returned)
+    when the answers are given and it is told of none."""
+    notices = []
+    for name, comp in built.items():
+        every = scene.components[name].every
+        for port, (via, theirs) in comp.told_of().items():
+            told = [e for e in scene.connections if e.target == name and e.target_port == port]
+            answered = [e for e in scene.connections if e.target in _senders(scene, name, via)
+                        and e.target_port == theirs]
+            if not told:
+                if answered:
+                    wire = "; ".join(f"{e.source}.{e.source_port} -> {name}.{port}" for e in answered)
+                    notices.append(f"components.{name}: {answered[0].target} is answered on {theirs!r} by "
+                                   f"{', '.join(sorted({e.source for e in answered}))}, which it is not told of: "
+                                   f"connect {wire} (it meets the state before that answer)")
+                continue
+            for edge in told:
+                if edge.delay:
+                    problems.append(f"components.{name}: {edge} is delayed: its {port!r} takes the answer to the "
+                                    "state it meets in the same step; connect it without delay")
+                if scene.components[edge.source].every != every:
+                    problems.append(f"components.{name}: it steps every {every} base steps and {edge.source} every "
+                                    f"{scene.components[edge.source].every}: its {port!r} would take several answers "
+                                    f"at once; set components.{name}.every to {scene.components[edge.source].every}")
+            have, want = {e.source for e in told}, {e.source for e in answered}
+            if have != want:
+                problems.append(f"components.{name}: its {port!r} comes from {', '.join(sorted(have))}, but what "
+                                f"answers {', '.join(sorted(_senders(scene, name, via)))} on {theirs!r} from "
+                                f"{', '.join(sorted(want)) or 'nothing'}: it must be told of every one of those, "
+                                "and of no other")
+    return notices
+
+
 def _check_start(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each component's :meth:`~cosim.component.Component.check_start` on what it will receive at
     t = 0: for each input port, its source's initial output (a direct edge) or the edge's ``initial``
@@ -1226,12 +1261,13 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     _check_answers(scene, built_components, problems)
     _check_answer_rates(scene, built_components, problems)
     _check_wiring(scene, built_components, problems)
+    told = _check_told(scene, built_components, problems)
     _check_start(scene, built_components, problems)
     if problems:
         raise ScenarioError(problems, source)
     scene.notices = ([f"components.{name}: {notice}" for name, comp in built_components.items()
                       for notice in comp.notices()] + _idle_connections(scene, built_components)
-                     + _unplaced_looks(scene) + _long_run(scene))
+                     + _unplaced_looks(scene) + told + _long_run(scene))
     return scene
 
 

@@ -448,8 +448,7 @@ class Simulation:
                     status, reason = "stopped", self.stop_reason
                 while status == "ok" and self.tick < end_tick:
                     self.step()
-                    if self.interrupt_reason is not None and self.tick < end_tick:
-                        # (one that came in the last tick finds the run at its end: it reached it)
+                    if self.interrupt_reason is not None:
                         status, reason = "interrupted", self.interrupt_reason
                         break
                     if self.stop_reason is not None:

@@ -6,34 +6,71 @@ from __future__ import annotations
 import os
 import signal
 import threading
+from pathlib import Path
 
 import pytest
 
 import cosim.sweep.backends as backends
 from cosim.cli import main
 from cosim.scenario import loads
-from cosim.scheduler import BaseObserver, Simulation
+from cosim.scheduler import Simulation
 from tests.sweep_toys import BALL_SCENE, write_sweep
 
 
-class _Interrupting(BaseObserver):
-    """Interrupts the run as its tick ``at`` completes (as a signal or a timer landing in that tick)."""
+def test_a_timeout_leaves_a_run_in_its_last_tick_to_end():
+    """The timer finding the run in its last tick lets it reach its end (interrupted there, a finished run
+    was written as timed out); in an earlier tick it interrupts it."""
+    scene = loads(BALL_SCENE.replace("until: 3.0", "until: 0.005"), "ball.yaml")
+    sim = Simulation(scene)
+    timer = backends._timeout(sim, 1000.0)
+    timer.cancel()
+    sim.tick = 4  # (its fifth and last tick under way)
+    timer.function()
+    assert sim.interrupt_reason is None
+    sim.tick = 3
+    timer.function()
+    assert sim.interrupt_reason == "timed out: still running after 1000 s of wall time (run_timeout)"
 
-    def __init__(self, at: int):
-        self.at = at
 
-    def on_step_complete(self, sim: Simulation) -> None:
-        if sim.tick == self.at:
-            sim.interrupt("timed out: in the last tick")
+def test_a_second_ctrl_c_while_the_recording_is_finished_aborts(tmp_path):
+    """One Ctrl-C in the run, a second while its recording is finished: the second aborts, as the run's
+    own words promise (each context counted its own signals: the second was taken for a first, and the
+    finishing went on). In a process of its own: an abort leaves the writer to its own end."""
+    import subprocess
+    import sys
+    import textwrap
 
+    probe = textwrap.dedent(f"""
+        import os, signal
+        import cosim.scheduler as scheduler
+        from cosim.record.recorder import Recorder
+        from cosim.runner import run_scene
+        from cosim.scenario import loads
+        from tests.sweep_toys import BALL_SCENE
 
-def test_an_interrupt_in_the_last_tick_finds_the_run_at_its_end():
-    """The run has taken every tick it was to take: it reached its end, status ok (a sweep's timer
-    firing in the last tick wrote a run that had reached until as failed, timed out)."""
-    scene = loads(BALL_SCENE.replace("until: 3.0", "until: 0.005"), "ball.yaml")  # (in flight throughout)
-    assert Simulation(scene, observers=[_Interrupting(5)]).run().status == "ok"
-    result = Simulation(scene, observers=[_Interrupting(4)]).run()
-    assert (result.status, result.tick) == ("interrupted", 4)
+        closing, stepping = Recorder.close, scheduler.Simulation.step
+
+        def close(self):
+            os.kill(os.getpid(), signal.SIGINT)  # the second Ctrl-C, while the file is finished
+            return closing(self)
+
+        def step(self):
+            stepping(self)
+            if self.tick == 3:
+                os.kill(os.getpid(), signal.SIGINT)  # the first, in the run
+
+        Recorder.close, scheduler.Simulation.step = close, step
+        try:
+            run_scene(loads(BALL_SCENE, "ball.yaml"), {str(tmp_path / "ball.mcap")!r}, progress=False)
+            print("finished")
+        except KeyboardInterrupt:
+            print("aborted")
+    """)
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "COSIM_COMPONENT_PACKAGES": "tests", "PYTHONPATH": str(root)}
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, env=env,
+                          cwd=root)
+    assert done.stdout.strip() == "aborted", done.stderr
 
 
 def test_one_ctrl_c_after_a_timeout_lets_the_step_end(monkeypatch):

@@ -533,6 +533,12 @@ class WaterCoupler(Component):
         would move this one's water as if it had been bounced)."""
         return {"ground": "body"}
 
+    def told_of(self) -> dict[str, tuple[str, str]]:
+        """Its ``ground`` takes every impulse its body's ``impulse`` takes, directly and at its rate (one
+        of two grounds left out, a delayed edge or a coupler stepping every 2 met the body with the
+        wrong answer, or none)."""
+        return {"ground": ("body", "impulse")}
+
     def answers(self) -> dict[str, str]:
         """The wrench and the added mass go back to the body whose state it reads (wired to another
         body, one stone was pushed by the water another met: 305 m/s)."""
@@ -603,9 +609,9 @@ class WaterCoupler(Component):
         self._published = inputs.get("body")  # type: ignore[assignment]
         outputs = self._advance(dt, n, answered)
         if answered is not inputs and self._prev is not None:
-            body = inputs["body"]
-            self._prev["position"] = body.position.tolist()  # type: ignore[union-attr]
-            self._prev["omega"] = body.angular_velocity.tolist()  # type: ignore[union-attr]
+            # (the angular velocity stays the answered one: the ground books its angular impulse
+            # itself, and the torque's work over the step is from the rate the step began with)
+            self._prev["position"] = inputs["body"].position.tolist()  # type: ignore[union-attr]
         return self._with_added_mass(answered.get("body"), self._publishable(outputs))
 
     def _with_added_mass(self, body: BodyState | None, outputs: dict[str, Message]) -> dict[str, Message]:
@@ -692,7 +698,8 @@ class WaterCoupler(Component):
         self._account_work(booked.position, booked.angular_velocity, dt, bool(body.attitude_locked))
         self._submerged = 0.0
         if self.added_mass_on:
-            self.dissipated += self._added_book.settle(body, dt)
+            # the step that led to the state the body published (held from the answered one before it)
+            self.dissipated += self._added_book.settle(booked, dt)
         # fast exit: the bounding sphere's bottom, even after falling for two steps, is above any crest:
         # the allowance, or the crest the water says stands where the body goes when that is higher (a
         # wave another body raised; the body, far, asks for that crest alone: _far_request)

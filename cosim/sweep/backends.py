@@ -173,7 +173,10 @@ def _timeout(sim: Any, seconds: float | None) -> threading.Timer | None:
 
     def stop() -> None:
         with _running_lock:
-            if sim.interrupt_reason is None:
+            # (a run in its last tick is left to reach its end: interrupted there, a finished run was
+            # written as timed out)
+            last = (sim.tick + 1) * sim.dt_ns >= sim.scene.until_ns
+            if sim.interrupt_reason is None and not last:
                 sim.interrupt(f"{TIMED_OUT}: still running after {seconds:g} s of wall time (run_timeout)")
 
     timer = threading.Timer(seconds, stop)
