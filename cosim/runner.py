@@ -177,6 +177,7 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
     recorder = None
     observers: list[Any] = []
     finished = False
+    signalled: list[int] = []  # the signals this run has taken, in the run and while its file is finished
     try:
         if output is not None:
             # the writer process starts here (unless cosim run started it first, or this process kept
@@ -208,7 +209,6 @@ def run_scene(scene: Scene, output: str | Path | None, *, until_ns: int | None =
                 if recorder is not None:
                     recorder.discard()
                 raise
-        signalled: list[int] = []  # the signals this run has taken, in the run and while it is finished
         with _signals_interrupt(sim, recorder, signalled), notice:
             try:
                 result = sim.run(end_ns)
