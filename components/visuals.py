@@ -27,6 +27,7 @@ import numpy as np
 from components.messages import BodyState, Shape, SkipRecord, Stage, StageId, WaterField
 from components.rigid import quaternion as quat
 from components.stages import CURVE_DRIFT, CURVE_HEADING_DEG
+from cosim.timebase import NS_PER_S, exact_seconds
 from cosim.view.items import (
     LOG_TOPIC,
     WORLD,
@@ -160,12 +161,12 @@ def stage(component: str, port: str, msg: Stage) -> list:
 
 def _seconds(t: float, decimals: int) -> str:
     """A time [s] of the run (on its nanosecond grid) with at least ``decimals`` decimals and every
-    further one it has, as the summary gives it: a rest since 0.4325 s read 0.432 s, a touchdown at
-    0.00075 s (0.25 ms steps) 0.0008 s."""
-    text = f"{t:.9f}"
-    while text.endswith("0") and len(text.partition(".")[2]) > decimals:
-        text = text[:-1]
-    return text
+    further one it has (:func:`exact_seconds`), as the summary gives it: a rest since 0.4325 s read
+    0.432 s, a touchdown at 0.00075 s (0.25 ms steps) 0.0008 s."""
+    if not math.isfinite(t):
+        return f"{t:.{decimals}f}"
+    whole, _, digits = exact_seconds(round(t * NS_PER_S)).partition(".")
+    return f"{whole}.{digits.ljust(decimals, '0')}"
 
 
 def _where(x: float, y: float) -> str:

@@ -91,8 +91,8 @@ class LogLines:
 def work_progress(total: int, *, initial: int = 0, desc: str, unit: str, shown: bool = True, **bar: Any) -> Any:
     """Progress over ``total`` pieces of work on standard error: a tqdm bar (``bar``: its further
     options) on a terminal, :class:`LogLines` elsewhere, nothing shown unless ``shown``."""
-    from tqdm import tqdm  # here, not at import: tqdm costs tens of ms at start-up
-
     if shown and not sys.stderr.isatty():
         return LogLines(total, initial=initial, desc=desc, unit=unit, file=sys.stderr)
+    from tqdm import tqdm  # here, not at import: tqdm costs tens of ms at start-up
+
     return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=sys.stderr, disable=not shown, **bar)

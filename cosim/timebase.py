@@ -21,8 +21,9 @@ def seconds_to_ns(seconds: float, *, what: str = "time") -> int:
     of the time: from 0.5 ms up, a dt of 0.0012345678912 s ran as 1234568 ns without a word, while
     1.2345e-6 s was refused.)
     """
-    ns = round(seconds * NS_PER_S)
-    if abs(seconds * NS_PER_S - ns) > 8.0 * math.ulp(seconds * NS_PER_S):
+    exact = seconds * NS_PER_S
+    ns = round(exact)
+    if abs(exact - ns) > 8.0 * math.ulp(exact):
         raise ValueError(f"{what} must be a whole number of nanoseconds (got {seconds!r} s)")
     return int(ns)
 
