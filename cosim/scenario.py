@@ -1036,8 +1036,8 @@ def _check_told(scene: Scene, built: dict[str, Component], problems: list[str]) 
         every = scene.components[name].every
         for port, (via, theirs) in comp.told_of().items():
             told = [e for e in scene.connections if e.target == name and e.target_port == port]
-            answered = [e for e in scene.connections if e.target in _senders(scene, name, via)
-                        and e.target_port == theirs]
+            bodies = _senders(scene, name, via)
+            answered = [e for e in scene.connections if e.target in bodies and e.target_port == theirs]
             if not told:
                 if answered:
                     wire = "; ".join(f"{e.source}.{e.source_port} -> {name}.{port}" for e in answered)
@@ -1049,14 +1049,15 @@ def _check_told(scene: Scene, built: dict[str, Component], problems: list[str]) 
                 if edge.delay:
                     problems.append(f"components.{name}: {edge} is delayed: its {port!r} takes the answer to the "
                                     "state it meets in the same step; connect it without delay")
-                if scene.components[edge.source].every != every:
+                theirs_every = scene.components[edge.source].every
+                if theirs_every != every:
                     problems.append(f"components.{name}: it steps every {every} base steps and {edge.source} every "
-                                    f"{scene.components[edge.source].every}: its {port!r} would take several answers "
-                                    f"at once; set components.{name}.every to {scene.components[edge.source].every}")
+                                    f"{theirs_every}: its {port!r} would take several answers at once; set "
+                                    f"components.{name}.every to {theirs_every}")
             have, want = {e.source for e in told}, {e.source for e in answered}
             if have != want:
                 problems.append(f"components.{name}: its {port!r} comes from {', '.join(sorted(have))}, but what "
-                                f"answers {', '.join(sorted(_senders(scene, name, via)))} on {theirs!r} from "
+                                f"answers {', '.join(sorted(bodies))} on {theirs!r} from "
                                 f"{', '.join(sorted(want)) or 'nothing'}: it must be told of every one of those, "
                                 "and of no other")
     return notices
