@@ -311,7 +311,7 @@ components:
     density: {density!r}
     position: [0.2, 0.2, -0.2]
     integrator: verlet
-  pond:
+{motion}  pond:
     type: WaterSurface
     nx: 40
     ny: 40
@@ -334,6 +334,9 @@ connections:
 RELEASE_ADDED_MASS = ("  - {from: coupler.added_mass, to: body.added_mass, delay: 1, "
                       "initial: {axial: 0, radial: 0, axial_inertia: 0, diameter_inertia: 0}}")
 """The connection that takes the added mass to the body, for :data:`RELEASE_SCENE`'s ``connection``."""
+RELEASE_TUMBLING = ("    tilt_deg: 45\n    velocity: [0.3, 0.2, 0.1]\n"
+                    "    angular_velocity: [5.0, 30.0, 100.0]\n")
+"""The body's lines that throw it tumbling, for :data:`RELEASE_SCENE`'s ``motion``."""
 RELEASE_RADIUS = 0.02  # [m] of the released sphere and disk
 RELEASE_THICKNESS = 0.006  # [m] of the released disk (a slate)
 SLATE = 2650.0  # [kg/m^3]
@@ -355,14 +358,16 @@ class Release:
 
 
 def release_under_water(shape: str, *, density: float = SLATE, added_mass: bool = True,
-                        until: float = 0.02) -> Release:
+                        until: float = 0.02, tumbling: bool = False) -> Release:
     """A sphere or a disk (face down) of ``density`` [kg/m^3] released at rest under a still pond of
     1 cm columns, with every effect of the reference skip's six (the added mass left out when
     ``added_mass`` is False; the wave drag, against horizontal motion only, does nothing to this
-    vertical start)."""
+    vertical start). ``tumbling``: thrown instead, tilted 45 deg, at (0.3, 0.2, 0.1) m/s and
+    turning at (5, 30, 100) rad/s (spun about its axis and tumbling across it)."""
     text = RELEASE_SCENE.format(until=until, shape=shape, radius=RELEASE_RADIUS, thickness=RELEASE_THICKNESS,
                                 density=density, added=", added_mass" if added_mass else "",
-                                connection=RELEASE_ADDED_MASS if added_mass else "")
+                                connection=RELEASE_ADDED_MASS if added_mass else "",
+                                motion=RELEASE_TUMBLING if tumbling else "")
     log = _ReleaseLog()
     Simulation(loads(text, source="release"), observers=[log]).run()
     return Release(log.vz, {t: log.energy[t] + w for t, w in log.water.items() if t in log.energy})
