@@ -128,6 +128,31 @@ def test_the_exported_skip_imported_back_as_a_component_runs_the_same_throw(expo
     assert seen[-1][1].skips == 3
 
 
+def test_two_scenes_exported_under_one_name_run_side_by_side_each_its_own(exported, tmp_path):
+    """PythonFMU runs one model module of a name per process: two FMUs exported as skip.fmu from two
+    scenes share one module text (each runs the scene of its own resources), so one scene holds both
+    (a module that differed would be refused as the scene loads: tests/test_fmu_component.py)."""
+    fmu, rec = exported
+    states, _ = _recorded(rec)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "skip.fmu").write_bytes(fmu.read_bytes())
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(tmp_path / "b" / "skip.fmu"), "--step", str(STEP),
+                 "--set", "components.stone.velocity=[6.88, 0.0, -1.39]"]) == 0
+    both = IMPORT_SCENE.replace("until: 0.6", "until: 0.05").replace("path: skip.fmu", "path: a/skip.fmu")
+    both += both[both.index("  throw:"):both.index("record:")].replace("throw:", "other:").replace("a/skip", "b/skip")
+    both = both.replace("\nrecord: {visual_rate: 0, checkpoint_every: 0}\n  other:", "\n  other:")
+    both += "record: {visual_rate: 0, checkpoint_every: 0}\n"
+    (tmp_path / "both.yaml").write_text(both)
+    outcome = run_scene(load(tmp_path / "both.yaml"), tmp_path / "both.mcap", progress=False)
+    assert outcome.result.status == "ok", outcome.result.reason
+    imported = Recording(outcome.recording)
+    a, b = (dict(imported.messages(f"/{name}/stage", Stage)) for name in ("throw", "other"))
+    assert sorted(a) == sorted(b) and len(a) == 6
+    for stamp in a:
+        assert np.float64(a[stamp].x).tobytes() == states[stamp].position[:1].tobytes()
+    assert b[50_000_000].x == pytest.approx(a[50_000_000].x - 0.05, abs=1e-12)  # b thrown 1 m/s slower
+
+
 def test_the_imported_skip_restarts_from_a_checkpoint_through_the_fmus_own_state(exported, tmp_path):
     """The exported FMU saves its state (the scene's checkpoint); a restart of the importing scene from
     0.3 s ends where the whole run ends, bit for bit."""

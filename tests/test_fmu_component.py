@@ -20,6 +20,7 @@ pytest.importorskip("pythonfmu")
 from components.messages import BodyState, Wrench
 from cosim.cli import main
 from cosim.errors import RecordingError, ScenarioError
+from cosim.examples import Number
 from cosim.fmi.build import build_fmu
 from cosim.record.reader import Recording
 from cosim.replay import replay_component, restart_simulation
@@ -529,3 +530,44 @@ def test_an_fmu_file_name_too_long_for_the_file_system_is_said_on_its_key(tmp_pa
     with pytest.raises(ScenarioError, match=rf"components\.gust\.{key}: cannot be looked up: File name too long "
                                             r"\(300 characters: 'x{57}\.\.\.'\)"):
         load(path)
+
+
+_GAIN_MODEL = '''from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+
+
+class Gain(Fmi2Slave):
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.y = 0.0
+        self.register_variable(Real("y", causality=Fmi2Causality.output))
+
+    def do_step(self, t, h):
+        self.y = {gain} * (t + h)
+        return True
+'''
+
+
+def test_two_models_of_one_file_name_are_refused_rather_than_one_running_the_others_code(tmp_path):
+    """PythonFMU imports an FMU's model module by name, once per process: b/gain.py ran a/gain.py's
+    code (y = t where it says 100 t), the run said ok and its replay vouched for it. Refused as the
+    scene loads, naming the module and what to do; the same model twice is one module and runs."""
+    for folder, gain in (("a", 1.0), ("b", 100.0)):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "gain.py").write_text(_GAIN_MODEL.format(gain=gain))
+    scene = ("name: twin\ndt: 0.01\nuntil: 0.03\ncomponents:\n"
+             "  a: {{type: FMU, model: a/gain.py, outputs: {{y: y}}}}\n"
+             "  b: {{type: FMU, model: {b}/gain.py, outputs: {{y: y}}}}\n"
+             "record: {{visual_rate: 0, checkpoint_every: 0}}\n")
+    twins = tmp_path / "twins.yaml"
+    twins.write_text(scene.format(b="b"))
+    with pytest.raises(ScenarioError, match=r"components\.b: .*its model module 'gain' is already loaded in this "
+                                            r"process .* and differs from this FMU's; .*give the model's file a "
+                                            r"name of its own"):
+        load(twins)
+    same = tmp_path / "same.yaml"
+    same.write_text(scene.format(b="a"))
+    outcome = run_scene(load(same), tmp_path / "same.mcap", progress=False)
+    assert outcome.result.status == "ok"
+    recording = Recording(outcome.recording)
+    for name in ("a", "b"):
+        assert [m.value for _, m in recording.messages(f"/{name}/y", Number)] == pytest.approx([0.0, 0.01, 0.02, 0.03])

@@ -122,6 +122,34 @@ def check_pythonfmu_resources(md: Any, folder: str, fmu_file: Path) -> None:
     if not ((resources / f"{top}.py").is_file() or (resources / top / "__init__.py").is_file()):
         raise ValueError(f"{fmu_file}: its model module {module!r} is missing from its resources (no "
                          f"resources/{top}.py): the FMU is damaged (export it again)")
+    _check_module_not_taken(module, resources, fmu_file)
+
+
+def _check_module_not_taken(module: str, resources: Path, fmu_file: Path) -> None:
+    """PythonFMU's binary puts the FMU's resources on ``sys.path`` and imports its model module by
+    name: a module of that name this process already holds (another FMU's model of the same file
+    name, or a module of Python's own) is the one every later FMU of that name runs. Two models
+    ``a/gain.py`` and ``b/gain.py`` in one scene ran a's code for both, without a word, and a replay
+    vouched for it bit for bit. Refused (ValueError) unless the module held is this FMU's own text."""
+    import sys
+
+    held = sys.modules.get(module)
+    if held is None:
+        return
+    relative = Path(*module.split("."))
+    own = next((f for f in (resources / relative.with_suffix(".py"), resources / relative / "__init__.py")
+                if f.is_file()), None)
+    held_file = getattr(held, "__file__", None)
+    try:
+        same = own is not None and held_file is not None and Path(held_file).read_bytes() == own.read_bytes()
+    except OSError:  # the held module's file is gone (an FMU unpacked for an earlier run)
+        same = False
+    if not same:
+        where = f"from {held_file}" if held_file else "built into Python"
+        raise ValueError(f"{fmu_file}: its model module {module!r} is already loaded in this process ({where}) "
+                         f"and differs from this FMU's; PythonFMU runs one module of a name per process, so this "
+                         f"FMU would run that one's code: give the model's file a name of its own and build the "
+                         f"FMU again")
 
 
 def _status_name(status: int) -> str:

@@ -45,7 +45,7 @@ def model_identifier(output: Path) -> str:
     return name if plain else f"fmu_{name}"
 
 
-SLAVE_MODULE = '''"""The scene {scene!r} as an FMI 2.0 co-simulation FMU (cosim fmu export)."""
+SLAVE_MODULE = '''"""A cosim scene as an FMI 2.0 co-simulation FMU (cosim fmu export), the scene in its resources."""
 
 from cosim.fmi.slave import SceneSlave, hold_namespace
 
@@ -132,7 +132,9 @@ def export_scene(scene: Scene, spec: ExportSpec, output: str | Path) -> Path:
         # the module's name is its own (a scene called "json" must not import the standard library's
         # json in its place); the class, named as the FMU, is the model identifier
         script = folder / f"cosim_scene_{identifier}.py"
-        script.write_text(SLAVE_MODULE.format(scene=scene.name, identifier=identifier), encoding="utf-8")
+        # the same text for every scene exported under one name: PythonFMU runs one module of a name per
+        # process, so two such FMUs in one scene share the first one's (each runs its own resources' scene)
+        script.write_text(SLAVE_MODULE.format(identifier=identifier), encoding="utf-8")
         (folder / SCENE_FILE).write_text(scene.text, encoding="utf-8")
         (folder / SPEC_FILE).write_text(spec.to_json(), encoding="utf-8")
         built = build_fmu(script, folder / "out" / output.name, extra_files=[folder / SCENE_FILE, folder / SPEC_FILE],
