@@ -471,3 +471,18 @@ def test_a_water_gone_non_finite_is_named_so_in_the_crest_not_a_rounding_error()
         for columns in (True, False):
             crest = w.patch(PatchRequest(-0.02, 0.02, -0.02, 0.02, columns=columns)).crest
             assert math.isnan(crest) if math.isnan(bad) else crest == math.inf
+
+
+def test_a_nan_made_by_arithmetic_is_said_in_the_crest():
+    """x86 makes inf - inf and 0 * inf a NaN with its sign bit set, whose bits are below 0's: the
+    crest's maximum of the bits passed it over and said 0, and a water full of NaN went on (a NaN of
+    either sign, next to numbers of either sign, is said as NaN)."""
+    negative_nan = -np.array([math.nan])[0]
+    assert np.signbit(negative_nan)
+    for others in (0.0, 0.004, -0.004):
+        w = pond()
+        w._h[:, :] = others
+        w._h[4, 9] = negative_nan
+        for columns in (True, False):
+            crest = w.patch(PatchRequest(-0.02, 0.02, -0.02, 0.02, columns=columns)).crest
+            assert math.isnan(crest)

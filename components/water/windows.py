@@ -55,18 +55,28 @@ def patch_arrays(surface0: np.ndarray, h: np.ndarray, v: np.ndarray, bed: np.nda
     return out[0], out[1], out[2], out[3]
 
 
+_MAGNITUDE = 0x7FFF_FFFF_FFFF_FFFF  # a float64's bits but its sign
+_INF_BITS = 0x7FF0_0000_0000_0000  # +inf's bits: a magnitude above them is a NaN's
+_NAN_BITS = 0x7FF8_0000_0000_0000  # a quiet NaN's, sign clear: above every number's
+
+
 @njit(cache=True)
 def _top_bits(row, lo, hi):  # pragma: no cover - compiled
-    # The highest of row[lo:hi] and 0, as the bits of a float64. Doubles of one sign order as their
-    # bits do, and a negative one's bits are negative, below those of 0: the integer maximum of the
-    # bits is the one wanted, and unlike a float maximum (held to one lane by NaN's comparisons) it
-    # vectorises. A NaN with its sign bit clear is above every number: the highest.
+    # The highest of row[lo:hi] and 0, as the bits of a float64, or a NaN's if the row holds one.
+    # Doubles of one sign order as their bits do, and a negative one's bits are negative, below those
+    # of 0: the integer maximum of the bits is the one wanted, and unlike a float maximum (held to one
+    # lane by NaN's comparisons) it vectorises. A NaN with its sign bit clear is above every number,
+    # but one with it set (what x86 makes of inf - inf or 0 * inf) is below 0: NaNs of either sign are
+    # found by a second maximum, of the bits without the sign (above infinity's: a NaN).
     bits = row.view(np.int64)
     top = 0
+    magnitude = 0
     for i in range(lo, hi):
         b = bits[i]
         top = b if b > top else top
-    return top
+        m = b & _MAGNITUDE
+        magnitude = m if m > magnitude else magnitude
+    return top if magnitude <= _INF_BITS else _NAN_BITS
 
 
 @njit(cache=True)
