@@ -52,11 +52,12 @@ the throw's stone the dense throw's bit for bit (`tests/test_water_tiles.py`; wi
 the water too is the dense step's bit for bit), so the figures above are for the same physics. `shallow_water` (its
 implicit sweeps reach a whole row in one step), `airy`, smoothing, a sloped bed whose waves run at
 its depth's speed or that dries, and the numpy or parallel kernels keep the dense path (a sloped
-bed under one set `wave_speed` or `wave_length` is uniform, and tiled). Memory: on a flat bed the bed, depths, face coefficients and masks are
-one value seen at every column, and the height and velocity arrays are zeros whose pages the system
-maps only when a wave first writes them, so the far water of a lake takes no memory; volume and
-energy are summed over the moving tiles. `WaterSurface.estimate_bytes` counts 8 arrays per column
-on a flat bed (the bound if every column moved), 16 otherwise.
+bed under one set `wave_speed` or `wave_length` is uniform, and tiled). Memory: on a flat bed the
+bed, depths, face coefficients and masks are one value seen at every column, and the height and
+velocity arrays are zeros whose pages the system maps only when a wave first writes them, so the
+far water of a lake takes no memory; volume and energy are summed over the moving tiles.
+`WaterSurface.estimate_bytes` counts 8 arrays per column on a flat bed (the bound if every column
+moved), 16 otherwise.
 
 What the lake costs beyond the pond. The pond's absorbing edges are 0.5 m either side of the throw;
 the lake keeps every wave the stone leaves. Its water runs them at the speed of the stone's ripples
