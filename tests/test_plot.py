@@ -726,3 +726,87 @@ def test_stages_are_dated_when_they_began_and_never_run_backwards():
              (700_000_000, Stage(StageId.REST, "rest", 0, 0.0, 0.0, 0.68)),
              (800_000_000, Stage(StageId.SINK, "sink", 0, 0.0))]
     assert stage_times(pairs).tolist() == [0.0, 0.68, 0.8] and math.isnan(pairs[2][1].since)
+
+
+MARS = ["components.stone.gravity=[0,0,-3.71]", "components.coupler.g=3.71", "components.stages.gravity=3.71"]
+
+
+def test_a_contacts_peak_and_bounce_level_are_in_the_bodys_own_gravity(tmp_path):
+    """The held skip on Mars (g = 3.71 m/s^2) to 0.11 s, in its first contact (no skip record yet):
+    the bounce level is 4 M g at the body's gravity (1.85 N, not 4.90 N at 9.81) and the peak in the
+    title is the water's largest vertical force over that weight. A scripted body, which tells no
+    gravity, takes its stage monitor's."""
+    import re
+
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    path = run_scene(load(scene, ["until=0.11", "record.visual_rate=0", *MARS]), tmp_path / "mars.mcap",
+                     progress=False).recording
+    mars = load_run(path)
+    assert not mars.skips
+    panel = figure_contacts(mars).axes[0]
+    (level,) = [line for line in panel.lines if line.get_label().startswith("4 M g")]
+    weight = mars.body.mass * 3.71  # [N]
+    assert level.get_ydata()[0] == pytest.approx(4.0 * weight, rel=1e-12)
+    (start, end), c = contact_intervals(mars)[0], mars.contacts[0]
+    during = (c.t >= start) & (c.t <= end)
+    peak = float((c.buoyancy + c.pressure + c.friction + c.wave_drag)[during, 2].max()) / weight
+    assert panel.get_title().endswith(f", peak {peak:.1f} g")
+    assert float(re.search(r"peak ([0-9.]+) g", panel.get_title()).group(1)) > 20.0  # (about 22.7 at 9.81)
+    record_skip(tmp_path / "toy.mcap", ["record.visual_rate=0", "until=0.15", "components.stages.gravity=3.71"])
+    assert load_run(tmp_path / "toy.mcap").gravity == 3.71
+
+
+def test_the_energy_figure_does_not_say_it_leaves_out_what_a_recorded_wrench_books(tmp_path):
+    """The held skip recorded without its coupler's reports but with its wrench: the total books that
+    wrench's work on the stone, the coupler's dissipation, and the title says nothing is left out (it
+    said "the total leaves out coupler's dissipation (not recorded)")."""
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    kept = "record.channels=['/stone/*', '/stages/*', '/coupler/wrench']"
+    path = run_scene(load(scene, ["until=0.11", "record.visual_rate=0", kept]), tmp_path / "wrench.mcap",
+                     progress=False).recording
+    run = load_run(path)
+    assert "work done on it by /coupler/wrench, taken off" in energy_terms(run)
+    assert run.unbooked == []
+    assert "leaves out" not in figure_energy(run).axes[0].get_title()
+
+
+TO_THE_FOURTH_CONTACT = ["record.visual_rate=0", "until=0.66"]  # the run ends in a contact after the last skip
+
+
+def test_contacts_after_the_last_skip_are_drawn_without_the_couplers_reports(tmp_path):
+    """The toy skip ending in a contact after its third (last) skip, recorded without the coupler's
+    reports: contacts.png has that contact as the stage monitor's hit and slide say it, from its hit
+    (it drew the three skips alone, without a word of the fourth)."""
+    kept = "record.channels=['/stone/*', '/stages/*', '/coupler/wrench']"
+    record_skip(tmp_path / "whole.mcap", TO_THE_FOURTH_CONTACT)
+    record_skip(tmp_path / "part.mcap", [*TO_THE_FOURTH_CONTACT, kept])
+    whole, part = load_run(tmp_path / "whole.mcap"), load_run(tmp_path / "part.mcap")
+    assert not part.contacts and len(part.skips) == 3
+    assert contact_intervals(part) == contact_intervals(whole) and len(contact_intervals(part)) == 4
+    hit = float(part.stages.t[part.stages.stage == StageId.HIT][-1])
+    assert contact_intervals(part)[3][0] == hit
+    visible = [ax for ax in figure_contacts(part).axes if ax.get_visible()]
+    assert len(visible) == 4 and visible[3].get_title().startswith(f"contact 4: t = {hit:.4f} s")
+
+
+def test_a_thinned_recordings_contact_begins_at_the_monitors_hit(tmp_path):
+    """With one message in ten kept, the contact after the last skip (no skip record dates it) began
+    at the stage monitor's hit, kept whole (0.636 s), not at its first kept wetted report (0.641 s),
+    as a whole recording dates it; without the monitor's stages, at that first wetted report."""
+    import dataclasses
+
+    record_skip(tmp_path / "thin.mcap", [*TO_THE_FOURTH_CONTACT, "record.every=10"])
+    record_skip(tmp_path / "whole.mcap", TO_THE_FOURTH_CONTACT)
+    thin, whole = load_run(tmp_path / "thin.mcap"), load_run(tmp_path / "whole.mcap")
+    hit = float(thin.stages.t[thin.stages.stage == StageId.HIT][-1])
+    c = thin.contacts[0]
+    first_wet = float(c.t[(c.t > hit) & c.wetted][0])
+    assert first_wet > hit  # (the case: the hit fell between two kept reports)
+    assert contact_intervals(thin)[3][0] == hit == contact_intervals(whole)[3][0]
+    assert contact_intervals(dataclasses.replace(thin, stages=None))[3][0] == first_wet

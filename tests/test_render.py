@@ -745,3 +745,24 @@ def test_a_grounds_plane_is_drawn_within_the_boxs_height():
     xs = sorted(set(np.round(cut[:, 0], 12)))
     assert xs[-1] - xs[0] == pytest.approx(0.5 / slope) and len(cut) == 4
     assert len(_clip_z(plane + np.array([0.0, 0.0, 10.0]), -0.2, 0.3)) < 3
+
+
+def test_frame_times_are_written_to_the_recordings_step(tmp_path, capsys, monkeypatch):
+    """The held skip (0.5 ms steps), one message in ten kept: the frame at the hit that began at
+    0.0745 s says t = 0.0745 s, and so do the line render prints and the times of the stone and the
+    water drawn older than it (each said 0.074 s, 0.070 s, 0.000 s: a step before the hit)."""
+    from components.analysis import render as render_module
+
+    recording = tmp_path / "held.mcap"
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    assert main(["run", str(scene), "-q", "-o", str(recording), "--set", "until=0.08",
+                 "--set", "record.visual_rate=0", "--set", "record.every=10"]) == 0
+    headers = []
+    monkeypatch.setattr(render_module._Frames, "_header", lambda self, draw, text, color: headers.append(text))
+    capsys.readouterr()
+    assert main(["render", str(recording), "-o", str(tmp_path / "hit.png"), "--at", "0.0745", "--width", "320",
+                 "-q"]) == 0
+    assert "t = 0.0745 .. 0.0745 s)" in capsys.readouterr().out
+    (header,) = headers
+    assert "   t = 0.0745 s   hit   " in header
+    assert "(stone as at t = 0.0700 s)" in header and "(water drawn as at t = 0.0000 s)" in header

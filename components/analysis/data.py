@@ -35,6 +35,8 @@ from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
 from cosim.timebase import NS_PER_S
 
+DEFAULT_GRAVITY = 9.81  # [m/s^2] the RigidBody's and the StageMonitor's default: where a scene tells none
+
 
 def _schema(message_type: type[Message]) -> str:
     return codec_for(message_type).schema_name
@@ -242,6 +244,7 @@ class RunData:
     # script's work), for the energy figure to say
     unbooked: list[str] = field(default_factory=list)
     restart: float | None = None  # [s] when a restart's run began (None: not a restart)
+    gravity: float = DEFAULT_GRAVITY  # [m/s^2] the size of the body's gravity (:func:`body_gravity`)
 
 
 def warn_ended_early(rec: Recording, drawn: str) -> None:
@@ -386,14 +389,16 @@ def load_run(recording: str | Path | Recording, body: str | None = None) -> RunD
     return RunData(Path(path), rec.metadata.get("scene", Path(path).stem), track, stages, contacts, grounds,
                    wrenches, skips, topics_of(rec, WaterField), rest_level(rec, track.name),
                    max(end, float(track.t[-1])), body_step(rec, track.name), rec.status() is None, touchdown_before,
-                   unbooked(rec, track.name), rec.restart_ns / NS_PER_S if rec.restart_ns else None)
+                   unbooked(rec, track.name), rec.restart_ns / NS_PER_S if rec.restart_ns else None,
+                   body_gravity(rec, track.name))
 
 
 def unbooked(rec: Recording, body: str) -> list[str]:
     """What the energy budget of ``body`` cannot count, from the recorded scene: the dissipation of a
     component reporting contacts with it (a water coupler, a ground) whose reports were not recorded
-    (a --record that left them out), and the work of a script moving it (scripted_tilt_deg,
-    scripted_velocity), which nothing books. Empty when the scene cannot be read."""
+    (a --record that left them out) and whose wrench on the body was not recorded either, and the
+    work of a script moving it (scripted_tilt_deg, scripted_velocity), which nothing books. Empty
+    when the scene cannot be read."""
     try:
         scene = rec.scene()
     except Exception:  # an old or damaged scene: nothing known to be missing
@@ -404,12 +409,60 @@ def unbooked(rec: Recording, body: str) -> list[str]:
         cfg = scene.components.get(name)
         ports = [] if cfg is None else [p for p, spec in cfg.cls.outputs.items()
                                        if spec.type in (WaterContact, GroundContact)]
-        if any(f"/{name}/{port}" not in rec.channels for port in ports):
+        # without its reports, the energy figure books the work of its recorded wrench on the body
+        # instead (plot.energy_terms), which is what it dissipated: the title said it left that out
+        missing = any(f"/{name}/{port}" not in rec.channels for port in ports)
+        if missing and not _wrench_recorded(rec, scene, name, body):
             out.append(f"{name}'s dissipation (not recorded)")
     params = getattr(scene.components.get(body), "params", None)
     if getattr(params, "scripted_tilt_deg", None) or getattr(params, "scripted_velocity", None):
         out.append("the work of its script")
     return out
+
+
+def _wrench_recorded(rec: Recording, scene, name: str, body: str) -> bool:
+    """Whether component ``name`` of the recorded ``scene`` feeds ``body`` a Wrench whose messages
+    were recorded (as :func:`topics_of` finds them)."""
+    cfg = scene.components.get(name)
+    if cfg is None:
+        return False
+    for c in scene.connections:
+        port = cfg.cls.outputs.get(c.source_port) if c.source == name and c.target == body else None
+        channel = rec.channels.get(f"/{name}/{c.source_port}")
+        if port is not None and port.type is Wrench and channel is not None and channel.count:
+            return True
+    return False
+
+
+def body_gravity(rec: Recording, body: str) -> float:
+    """The size [m/s^2] of the gravity component ``body`` falls under, from the recorded scene: its own
+    ``gravity`` (a RigidBody's vector), else that of a stage monitor watching it (a scripted body
+    tells none; the monitor's must be its body's, checked at the start), else
+    :data:`DEFAULT_GRAVITY` (a scene that cannot be read, or that tells none). The unit of a
+    contact's peak and of the bounce level in contacts.png (a run on Mars was drawn against 9.81)."""
+    try:
+        scene = rec.scene()
+    except Exception:  # an old or damaged scene: the default both components have
+        return DEFAULT_GRAVITY
+    own_gravity = _gravity_of(scene.components.get(body))
+    if own_gravity is not None:
+        return own_gravity
+    monitors = [scene.components.get(c.target) for c in scene.connections if c.source == body]
+    told = [g for g in (_gravity_of(cfg) for cfg in monitors
+                        if cfg is not None and any(port.type is Stage for port in cfg.cls.outputs.values()))
+            if g is not None]
+    return told[0] if told else DEFAULT_GRAVITY
+
+
+def _gravity_of(cfg) -> float | None:
+    """The size [m/s^2] of a component config's ``gravity`` parameter (a vector or a magnitude), None
+    without one."""
+    gravity = getattr(getattr(cfg, "params", None), "gravity", None)
+    if isinstance(gravity, (int, float)):
+        return abs(float(gravity))
+    if isinstance(gravity, (tuple, list)) and len(gravity) == 3:
+        return float(np.linalg.norm(np.asarray(gravity, dtype=float)))
+    return None
 
 
 def body_step(rec: Recording, body: str) -> float:

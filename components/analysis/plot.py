@@ -57,7 +57,6 @@ from cosim.record.recorder import component_of
 MAX_CONTACTS = 8  # contacts shown in contacts.png (the first ones)
 CONTACT_MARGIN = 0.2  # [fraction of the contact duration] shown before and after each contact
 FIGSIZE = (10.0, 4.5)  # [in]
-GRAVITY = 9.81  # [m/s^2] the unit of a contact's peak (the stage monitor's default)
 WRENCH_COLORS = ["k", "tab:purple", "tab:olive", "tab:cyan"]  # one per wrench channel (a coupler's, a gust's)
 BOUNCE_G = 4.0  # [g] a disk bounces once the water's push passes about this (Tang et al. 2021)
 SIDE_VIEW_MIN_TRAVEL = 0.5  # [fraction of the height range] of horizontal travel for a side view
@@ -305,33 +304,63 @@ OUT_OF_THE_WATER = (StageId.APPROACH, StageId.FLY_AWAY, StageId.LEFT_POND, Stage
 
 def contact_intervals(run: RunData) -> list[tuple[float, float]]:
     """(start, end) [s] of each contact: the stage monitor's skips (the durations the run's summary
-    gives) and then the wetted spans of the first water coupler after the last skip; without skips,
-    the wetted spans, else ground contact spans, else the hit/slide stage spans. Wetted spans are
-    contacts as the monitor counts them (:func:`_as_the_monitor_counts`)."""
+    gives) and then, after the last skip, the wetted spans of the first water coupler, else (its
+    reports not recorded) the hit/slide stage spans; without skips, the wetted spans, else ground
+    contact spans, else the hit/slide stage spans. Wetted spans are contacts as the monitor counts
+    them (:func:`_wetted_spans`)."""
     if run.skips:
         skips = sorted(run.skips, key=lambda s: s.index)
         spans = [(float(s.touchdown_time), float(s.touchdown_time + s.contact_time)) for s in skips]
-        if run.contacts:
-            c = run.contacts[0]
-            later = _as_the_monitor_counts(run, _spans(c.wetted, c.t))
-            spans += [span for span in later if span[0] > spans[-1][1]]
+        # (without the coupler's reports, the glide after the last skip was left out: the stages say it)
+        later = _wetted_spans(run) if run.contacts else _stage_spans(run)
+        spans += [span for span in later if span[0] > spans[-1][1]]
         return spans
     if run.contacts:
-        c = run.contacts[0]
-        return _as_the_monitor_counts(run, _spans(c.wetted, c.t))
+        return _wetted_spans(run)
     if run.grounds:
         g = run.grounds[0]
         return _spans(g.in_contact, g.t)
-    if run.stages is not None:
-        spans, current = [], None
-        for start, end, stage in run.stages.spans(run.end):
-            if stage in (StageId.HIT, StageId.SLIDE):
-                current = (current[0] if current else start, end)
-            elif current is not None:
-                spans.append(current)
-                current = None
-        return [*spans, current] if current else spans
-    return []
+    return _stage_spans(run)
+
+
+def _stage_spans(run: RunData) -> list[tuple[float, float]]:
+    """(start, end) [s] of each run of hit and slide stages (none without a stage monitor), the last
+    one lasting to the run's end."""
+    if run.stages is None:
+        return []
+    spans, current = [], None
+    for start, end, stage in run.stages.spans(run.end):
+        if stage in (StageId.HIT, StageId.SLIDE):
+            current = (current[0] if current else start, end)
+        elif current is not None:
+            spans.append(current)
+            current = None
+    return [*spans, current] if current else spans
+
+
+def _wetted_spans(run: RunData) -> list[tuple[float, float]]:
+    """The wetted spans of the first water coupler (:func:`_spans`), each begun when the stage monitor
+    says its hit began (:func:`_hit_start`), joined into the contacts the monitor counts
+    (:func:`_as_the_monitor_counts`)."""
+    c = run.contacts[0]
+    spans = []
+    for (start, end), (first, _) in zip(_spans(c.wetted, c.t), contact_spans(c.wetted, c.t), strict=True):
+        if first > 0:
+            start = _hit_start(run, float(c.t[first - 1]), start)
+        spans.append((start, end))
+    return _as_the_monitor_counts(run, spans)
+
+
+def _hit_start(run: RunData, dry: float, wet: float) -> float:
+    """When the contact first reported wetted at ``wet`` [s], its last report before dry at ``dry``,
+    began: the stage monitor's hit after ``dry`` and at or before ``wet`` (its stage changes are all
+    kept), else ``wet``. A recording that keeps one message in ten dated the held skip's glide from
+    its first kept wetted report, 0.7600 s, for the monitor's hit at 0.7585 s."""
+    if run.stages is None:
+        return wet
+    # (a nanosecond's slack: the monitor's float time of a hit at the wetted report itself)
+    hits = run.stages.t[(run.stages.stage == StageId.HIT) & (run.stages.t > dry) & (run.stages.t <= wet + 1e-9)]
+    return min(float(hits[0]), wet) if len(hits) else wet
 
 
 def _as_the_monitor_counts(run: RunData, spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -385,9 +414,10 @@ def _motion_direction(run: RunData, t: float) -> np.ndarray:
 
 def figure_contacts(run: RunData) -> Figure | None:
     """Forces during each contact (the first :data:`MAX_CONTACTS`), each titled with its peak (the
-    water's largest vertical force over the body's weight, in g, as the stage monitor reports it) and
-    drawn against the level a disk bounces above (BOUNCE_G), or None without contacts or without
-    a channel of forces to draw (a recording that left them out)."""
+    water's largest vertical force over the body's weight under its own gravity, ``run.gravity``, in
+    that g, as the stage monitor reports it) and drawn against the level a disk bounces above
+    (BOUNCE_G), or None without contacts or without a channel of forces to draw (a recording that
+    left them out)."""
     every = contact_intervals(run)
     intervals = every[:MAX_CONTACTS]
     if not intervals or not (run.contacts or run.grounds or run.wrenches):
@@ -413,14 +443,15 @@ def figure_contacts(run: RunData) -> Figure | None:
         def window(t: np.ndarray, lo: float = lo, hi: float = hi) -> np.ndarray:
             return (t >= lo) & (t <= hi)
 
-        weight = run.body.mass * GRAVITY
+        # the body's own gravity, the monitor's unit of peak_g (a run on Mars was drawn against 9.81)
+        weight = run.body.mass * run.gravity
         along = _motion_direction(run, start)  # the horizontal forces are drawn along the motion
         peak = 0.0  # the water's largest vertical force over the weight during the contact [g]
         for c in run.contacts:
             m = window(c.t)
             ms = (c.t[m] - start) * 1e3
             during = (c.t >= start) & (c.t <= end)
-            if during.any():
+            if during.any() and weight > 0.0:  # (a weightless body has no peak in g)
                 vertical = (c.buoyancy + c.pressure + c.friction + c.wave_drag)[during, 2]
                 peak = max(peak, float(vertical.max()) / weight)
             # (along x alone, a throw along +y lost its drag: flat at 0)
@@ -452,10 +483,10 @@ def figure_contacts(run: RunData) -> Figure | None:
                     label=f"ground friction ({g.topic})")
         ax.axvspan(0.0, (end - start) * 1e3, color="0.9", zorder=0)
         ax.axhline(0.0, color="0.5", linewidth=0.6)
-        if run.contacts and run.body.shape == Shape.DISK:
+        if run.contacts and run.body.shape == Shape.DISK and weight > 0.0:
             ax.axhline(BOUNCE_G * weight, color="tab:red", linewidth=0.8, linestyle="-.",
                        label=f"{BOUNCE_G:g} M g: a disk bounces above about this (Tang et al. 2021)")
-        peak_text = f", peak {peak:.1f} g" if run.contacts else ""
+        peak_text = f", peak {peak:.1f} g" if run.contacts and weight > 0.0 else ""
         # a contact still going on when the recording ends lasted at least this long, not this long
         going_on = end >= run.body.t[-1] - 1e-9
         ends = ("+ (cut off)" if run.cut_off else "+ (to the run's end)") if going_on else ""

@@ -62,7 +62,7 @@ from cosim.errors import RecordingError
 from cosim.record.output import new_temporary, output_folder, refuse_read_only
 from cosim.record.reader import Recording
 from cosim.record.recorder import component_of
-from cosim.timebase import NS_PER_S
+from cosim.timebase import NS_PER_S, step_decimals
 from cosim.view.items import decimation
 
 FORMATS = (".gif", ".mp4", ".png")
@@ -124,8 +124,16 @@ class RenderResult:
     frames: int
     width: int
     height: int
-    start: float
-    stop: float
+    start: float  # [s] the first frame's time
+    stop: float  # [s] the last frame's time
+    decimals: int = 3  # to write the frames' times with (:func:`time_decimals`)
+
+
+def time_decimals(rec: Recording) -> int:
+    """The decimals [of a second] a frame's time is written with: as many as a time on the recording's
+    step needs (:func:`cosim.timebase.step_decimals`), at least 3 (milliseconds). At three, a frame at
+    the hit that began at 0.0745 s (0.5 ms steps) said t = 0.074 s."""
+    return max(3, step_decimals(rec.dt_ns))
 
 
 # --- geometry -------------------------------------------------------------------------------------
@@ -298,6 +306,8 @@ class _Frames:
         self.options = options
         self.rest = rest
         self.title = title
+        # of the times written in the header: milliseconds, unless told the recording's (time_decimals)
+        self.decimals = 3
         width = frame_width(options)
         height = max(2, round(width * ASPECT) // 2 * 2)
         self.size = (width, height)
@@ -543,9 +553,10 @@ class FrameRenderer(_Frames):
 
         stage = self.stage_at(t)
         label = STAGE_LABELS.get(stage, "") if stage >= 0 else ""  # type: ignore[call-overload]
-        header = (f"{self.title}   t = {t:.3f} s   {label}   {self._where(pos)}, "
-                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{self._state_age(t, float(body.t[i]))}"
-                  f"{self._field_age(t, field_time)}")
+        state_age = self._state_age(t, float(body.t[i]), self.decimals)
+        header = (f"{self.title}   t = {t:.{self.decimals}f} s   {label}   {self._where(pos)}, "
+                  f"speed {body.speed[i]:.2f} m/s, lowest point {self.caption}{state_age}"
+                  f"{self._field_age(t, field_time, self.decimals)}")
         if surface is not None and surface.at_rest_beyond:
             header += "  (water beyond the recorded window drawn at rest)"
         if aspect[2] > view.box[2] * (1.0 + 1e-9):
@@ -593,22 +604,23 @@ class FrameRenderer(_Frames):
             return None
         return -float(depths[k])
 
-    def _state_age(self, t: float, state_time: float) -> str:
+    def _state_age(self, t: float, state_time: float, decimals: int = 3) -> str:
         """``  (stone as at t = 0.100 s)`` when the body's state drawn is more than the body's step
         older than the frame's time ``t`` [s] (a recording thinned with --record-every): its place,
         speed and gap are then that state's, while the stage is the frame's (stage changes are all
-        kept)."""
+        kept). Its time to ``decimals`` decimals."""
         if t - state_time <= self.body_step * (1 + 1e-9):
             return ""
-        return f"  (stone as at t = {state_time:.3f} s)"
+        return f"  (stone as at t = {state_time:.{decimals}f} s)"
 
     @staticmethod
-    def _field_age(t: float, field_time: float | None) -> str:
+    def _field_age(t: float, field_time: float | None, decimals: int = 3) -> str:
         """``  (water drawn as at t = 1.700 s)`` when the drawn surface is a field recorded before the
-        frame's time ``t`` [s] (fields come a few times a second), else nothing."""
+        frame's time ``t`` [s] (fields come a few times a second), else nothing. Its time to
+        ``decimals`` decimals."""
         if field_time is None or t - field_time <= 1e-9:
             return ""
-        return f"  (water drawn as at t = {field_time:.3f} s)"
+        return f"  (water drawn as at t = {field_time:.{decimals}f} s)"
 
     # --- the pieces of a frame ----------------------------------------------------------------------
 
@@ -711,7 +723,7 @@ class WaterRenderer(_Frames):
         if field is not None and field.height.size:
             crest, trough = float(field.height.max()) - self.rest, float(field.height.min()) - self.rest
             waves = f"   crest {crest * 1000:+.2f} mm, trough {trough * 1000:+.2f} mm"
-        header = f"{self.title}   t = {t:.3f} s{waves}   (heights x {self.exaggeration:.0f})"
+        header = f"{self.title}   t = {t:.{self.decimals}f} s{waves}   (heights x {self.exaggeration:.0f})"
         self._header(ImageDraw.Draw(image), header, (50, 50, 50))
         return np.asarray(image)
 
@@ -926,6 +938,7 @@ def render(recording: str | Path, output: str | Path, options: RenderOptions | N
                              stages, has_water, depths, rec.dt_ns / NS_PER_S, body_step(rec, body.name),
                              ground_planes(rec, body.name))
     renderer.extent = _water_extent(rec, water)
+    renderer.decimals = time_decimals(rec)
     if options.water is not None and has_water:
         _warn_if_never_in_view(rec, options.water, renderer, times, body_water_topic(rec, body.name, fields))
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
@@ -1090,6 +1103,7 @@ def _render_water(rec: Recording, output: Path, options: RenderOptions) -> Rende
     shown = max(t for t in stamps if t <= times[0] + 1e-9), times[-1] + 1e-9
     swing = max(w for t, w in zip(stamps, swings, strict=True) if shown[0] <= t <= shown[1])
     renderer = WaterRenderer(first, swing, options, rest, f"{rec.metadata.get('scene', '')}: {water.strip('/')}")
+    renderer.decimals = time_decimals(rec)
     return _write_frames(renderer, _FieldCursor(rec, water), times, output, options)
 
 
@@ -1114,7 +1128,7 @@ def _write_frames(renderer: _Frames, cursor: _FieldCursor, times: np.ndarray, ou
                 raise
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror or str(exc), str(output)) from None
-    return RenderResult(output, len(times), *renderer.size, float(times[0]), float(times[-1]))
+    return RenderResult(output, len(times), *renderer.size, float(times[0]), float(times[-1]), renderer.decimals)
 
 
 def stone_color() -> tuple[float, float, float]:
