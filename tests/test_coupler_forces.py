@@ -60,6 +60,21 @@ def test_wave_drag_vanishes_below_c_min_and_grows_above():
     assert wave_drag_magnitude(1.0, 0.0, 0.1, 1000.0, 0.3, C_MIN, 9.81) == 0.0
 
 
+def test_wave_drag_fades_with_the_depth_of_the_body_under_the_surface():
+    """A body whose top is d under the surface makes waves through the pressure it sets up there:
+    Havelock's factor exp(-2 g d / U^2) on the surface-piercing law, 1 at d = 0 (continuous as the
+    water closes over the body), 0.0293 for a top 18 cm under at 1 m/s."""
+    args = (4.0 / 3.0 * math.pi * 0.02**3, 0.04, 1000.0, 0.3, C_MIN, 9.81)
+    at_surface = wave_drag_magnitude(1.0, *args)
+    assert wave_drag_magnitude(1.0, *args, 0.0) == at_surface
+    assert wave_drag_magnitude(1.0, *args, -0.01) == at_surface
+    assert wave_drag_magnitude(1.0, *args, 1e-9) == pytest.approx(at_surface, rel=1e-7)
+    assert wave_drag_magnitude(1.0, *args, 0.18) == pytest.approx(at_surface * math.exp(-2 * 9.81 * 0.18), rel=1e-12)
+    assert wave_drag_magnitude(1.0, *args, 0.18) / at_surface == pytest.approx(0.0293, abs=1e-4)
+    assert wave_drag_magnitude(4.0, *args, 0.18) / wave_drag_magnitude(4.0, *args) == pytest.approx(
+        math.exp(-2 * 9.81 * 0.18 / 16.0), rel=1e-12)  # faster: longer waves, which reach deeper
+
+
 def test_wave_drag_saturates_past_the_hull_speed():
     """Far above sqrt(g L) the wave drag tends to 1/2 C_W rho g V_sub, a share of the displaced weight."""
     far = wave_drag_magnitude(200.0, 1e-5, 0.1, 1000.0, 0.3, C_MIN, 9.81)

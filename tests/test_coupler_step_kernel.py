@@ -73,7 +73,7 @@ def _separate(coupler: WaterCoupler, b, patch: HeightPatch):
     coupler._b_geo = np.zeros(patch.height.shape)
     stats = coupler._evaluate(b, b.position, b.velocity, b.angular_velocity, x.axes, x.half, x.low, x.water,
                               x.elements, x.nsub, coupler._b_geo, np.zeros_like(coupler._stats),
-                              coupler._local, coupler._planing(b.position, x.low, x.water))
+                              coupler._local, *coupler._immersion(b.position, x.low, x.water))
     ring = coupler._ring(b, b.position, x.axes, x.half, x.low, x.water, x.elements, x.nsub)
     coupler._add_hydrostatics(stats, ring, int(b.shape) == kernel.SHAPE_SPHERE)
     return stats, ring, coupler._top_under(b.position, x.low, x.water), coupler._stability_bound(b, stats)

@@ -18,7 +18,7 @@ water piled up ahead of a planing face carries the steady part of its added mass
 wetted face's water, which the measured law leaves out: docs/validation.md, "How long a contact
 lasts"), and a floating one radiates waves. So the added mass
 comes in with the submerged share, 1 minus the planing share (the body's top going under the
-surface over the closure depth, :meth:`WaterCoupler._planing`), as the planing lift goes out.
+surface over the closure depth, :meth:`WaterCoupler._immersion`), as the planing lift goes out.
 
 The coupler publishes M_a (:class:`AddedMass`) and the body adds it to its own inertia, so that
 the force needs no acceleration from the step before: held over a step, -M_a a lags behind a and

@@ -369,7 +369,7 @@ class WaterCoupler(Component):
         self._held_request: PatchRequest | None = None  # the window the water holds from us
         self.met = MetSurface()  # the surface the body met, which the surface effects read
         self._planing_share = 0.0  # how far this step's body is planing, 0 (floating) to 1 (see planing_share)
-        self._submerged = 0.0  # how far this step's body is a submerged one, 0 to 1 (1 - _planing)
+        self._submerged = 0.0  # how far this step's body is a submerged one, 0 to 1 (1 - _immersion's share)
         self._added_book = AddedMassBook()  # also the added mass the body holds (the last published)
 
     def initial_outputs(self) -> dict[str, Message]:
@@ -760,9 +760,9 @@ class WaterCoupler(Component):
             met_height, met_velocity = self.met.read(int(patch.i0), int(patch.j0), height, wvel,
                                                      self._planing_share)
             met = (x0, y0, float(patch.cell), met_height, met_velocity, bottom, water[6])
-        planing = self._planing(pos, low, met)
+        planing, wave_depth = self._immersion(pos, low, met)
         stats = self._evaluate(body, pos, vel, omega, axes, half, low, met, elements, nsub,
-                               self._b_geo, self._stats, self._local, planing)
+                               self._b_geo, self._stats, self._local, planing, wave_depth)
         if self.added_mass_on:
             self._submerged = 1.0 - planing
         ring = self._ring(body, pos, axes, half, low, water, elements, nsub) if self._ring_on else None
@@ -958,9 +958,10 @@ class WaterCoupler(Component):
                 "occupied": occupied, "request": request, "contact": contact}
 
     def _evaluate(self, body, pos, vel, omega, axes, half, low, water, elements, nsub, b_geo, stats, flags,
-                  planing):
+                  planing, wave_depth):
         """The named effects' forces on ``body`` over ``water`` into ``stats``, the pressure following
-        the planing law in the share ``planing`` (:meth:`_planing` of the same pose and water)."""
+        the planing law in the share ``planing``, the wave drag faded with the top's depth
+        ``wave_depth`` [m] (:meth:`_immersion` of the same pose and water)."""
         p = self.params
         x0, y0, cell, height, wvel, bottom, _ = water
         c_d = p.c_d_disk if body.shape == Shape.DISK else p.c_d_sphere
@@ -971,12 +972,14 @@ class WaterCoupler(Component):
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole,
             elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_b, p.c_f, p.c_w, p.c_min, p.wet_ramp, flags, nsub,
-            b_geo, _NO_WATERLINE, stats, planing, c_d)
+            b_geo, _NO_WATERLINE, stats, planing, c_d, wave_depth)
         return stats
 
-    def _planing(self, pos: np.ndarray, low: tuple[float, float, float], water) -> float:
-        """The share [-] of the pressure that follows the planing law: 1 while the body's highest
-        point is above the surface, falling to 0 as it goes ``closure_depth`` under.
+    def _immersion(self, pos: np.ndarray, low: tuple[float, float, float], water) -> tuple[float, float]:
+        """(the share [-] of the pressure that follows the planing law, the depth [m] of the body's
+        top under the surface): the share is 1 while the body's highest point is above the surface,
+        falling to 0 as it goes ``closure_depth`` under; the depth is 0 while the body pierces the
+        surface or is off the water (the wave drag's depth, :func:`forces.wave_drag_magnitude`).
 
         The planing law holds for a face meeting the flow at the free surface, with the splash
         sheet ahead and an air cavity behind the body. Once the water closes over the body's top,
@@ -985,8 +988,8 @@ class WaterCoupler(Component):
         it were skimming."""
         under = self._top_under(pos, low, water)
         if under is None:
-            return 1.0
-        return min(1.0, max(0.0, 1.0 - under / self.params.closure_depth))
+            return 1.0, 0.0
+        return min(1.0, max(0.0, 1.0 - under / self.params.closure_depth)), max(0.0, under)
 
     @staticmethod
     def _top_under(pos: np.ndarray, low: tuple[float, float, float], water) -> float | None:
@@ -1108,7 +1111,7 @@ class WaterCoupler(Component):
             elements.pos, elements.nrm, elements.area, elements.t1, elements.t2, elements.sub, elements.whole,
             elements.world_fixed,
             p.rho, p.g, p.c_l, p.c_n, p.c_b, p.c_f, p.c_w, p.c_min, p.wet_ramp,
-            DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats, 1.0, 0.0)
+            DISPLACEMENT | (self.flags & BUOYANCY), nsub, b_rest, waterline, stats, 1.0, 0.0, 0.0)
         return stats
 
     def _ring(self, body: BodyState, pos, axes, half, low, water, elements, nsub: int,
@@ -1459,7 +1462,7 @@ class WaterCoupler(Component):
                 low = lowest_point(is_disk, x, axis, radius, thick)
                 half = disk_half_extents(axis, radius, thick) if is_disk else (radius, radius)
                 stats = self._evaluate(body, x, v, w, axes, half, low, met, elements, nsub,
-                                       b_scratch, s_scratch, flags, self._planing(x, low, met))
+                                       b_scratch, s_scratch, flags, *self._immersion(x, low, met))
                 if ring_mode:
                     self._add_hydrostatics(stats, self._ring(body, x, axes, half, low, water, elements,
                                                              nsub, ring_scratch), not is_disk)

@@ -41,7 +41,8 @@ EFFECTS: dict[str, Effect] = {
         Effect("friction", FRICTION, False, True,
                "tangential skin friction on wetted faces, -1/2 rho C_f |u| u_t dA"),
         Effect("wave_drag", WAVE_DRAG, True, False,
-               "capillary-gravity wave drag against the horizontal velocity above c_min"),
+               "capillary-gravity wave drag against the horizontal velocity above c_min, fading as the body's "
+               "top goes under (exp(-2 g d / U^2))"),
         Effect("added_mass", ADDED_MASS, False, False,
                "the water a submerged body carries along, added to its inertia (published as AddedMass)"),
     )

@@ -134,12 +134,25 @@ def ventilation(u_n: float, depth: float, g: float) -> float:
 
 @njit(cache=True)
 def wave_drag_magnitude(speed: float, volume: float, length: float, rho: float, c_w: float,
-                        c_min: float, g: float) -> float:
-    """Capillary-gravity wave drag [N] against a horizontal ``speed`` [m/s] (0 below c_min)."""
+                        c_min: float, g: float, depth: float = 0.0) -> float:
+    """Capillary-gravity wave drag [N] against a horizontal ``speed`` [m/s] (0 below c_min) of a
+    body whose top is ``depth`` [m] under the surface (0 or less: it pierces the surface).
+
+    A body under water makes waves only through the pressure its flow sets up at the surface, and
+    the pressure of a wave of number k falls off with depth as exp(-k d): a submerged body's wave
+    resistance carries Havelock's factor exp(-2 k0 f), k0 = g / U^2 the wave number of the
+    waves that keep pace with it, f its depth (Havelock 1931; Wehausen & Laitone 1960, section 19).
+    Here f is the depth of the body's top, so the drag goes on continuously from the surface-piercing
+    law as the water closes over the body; without it a sphere 20 cm under water at 1 m/s felt the
+    same wave drag as one at the surface (0.029 N, a sixth of its pressure drag) where the factor
+    gives 0.02 of it."""
     if speed <= c_min or volume <= 0.0 or length <= 0.0:
         return 0.0
     froude2 = speed * speed / (g * length) if g > 0.0 else 0.0
-    return 0.5 * rho * c_w * (volume / length) * (speed * speed - c_min * c_min) / (1.0 + froude2)
+    drag = 0.5 * rho * c_w * (volume / length) * (speed * speed - c_min * c_min) / (1.0 + froude2)
+    if depth > 0.0 and g > 0.0:
+        drag *= math.exp(-2.0 * g * depth / (speed * speed))
+    return drag
 
 
 def segment_area(radius: float, s_f: float) -> float:

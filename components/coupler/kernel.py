@@ -341,14 +341,14 @@ def evaluate(shape, radius, thickness, centre, axes, velocity, omega, half_x, ha
              x0, y0, cell, height, wvel, bottom,
              el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
              rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
-             b_geo, waterline, stats, planing, c_d):
+             b_geo, waterline, stats, planing, c_d, wave_depth):
     """:func:`evaluate_into` with work arrays of its own."""
     n_el = el_area.shape[0]
     evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low, z_low,
                   x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole,
                   world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub, b_geo, waterline, stats, planing, c_d,
-                  np.empty((n_el, 3)), np.empty((n_el, PLANING_PLACE)), np.empty(n_el), np.empty(n_el))
+                  wave_depth, np.empty((n_el, 3)), np.empty((n_el, PLANING_PLACE)), np.empty(n_el), np.empty(n_el))
 
 
 @njit(cache=True)
@@ -356,7 +356,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                   x0, y0, cell, height, wvel, bottom,
                   el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
                   rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
-                  b_geo, waterline, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
+                  b_geo, waterline, stats, planing, c_d, wave_depth, pl_f, pl_r, pl_s, pl_m):
     """Water forces on one body state over one patch; see the module docstring.
 
     centre (3,), velocity (3,), omega (3,) world [m, m/s, rad/s]; axes (3, 3) body->world rotation
@@ -365,7 +365,9 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
     wvel, bottom: (nj, ni) patch arrays; el_*: the body's surface elements; nsub: sub-cells per
     column side; planing [-]: the share of the pressure that is the planing law (1 while the body
     pierces the surface), the rest (1 - planing) is the submerged pressure drag of coefficient c_d
-    (``-1/2 rho c_d (u.n) u dA``, see :mod:`components.coupler.forces`). Writes b_geo (nj, ni) [m] (zero where dry) and
+    (``-1/2 rho c_d (u.n) u dA``, see :mod:`components.coupler.forces`); wave_depth [m]: how far the
+    body's top is under the surface (0 while it pierces it; the wave drag's depth,
+    :func:`components.coupler.forces.wave_drag_magnitude`). Writes b_geo (nj, ni) [m] (zero where dry) and
     stats (N_STATS,); and, unless it is
     empty, waterline (3, nj, ni): per column, the area [m^2] of its sub-columns the surface cuts
     through the body and that area's first moments about the centre, sum dx a and sum dy a [m^3].
@@ -378,7 +380,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
         return
     if flags & (DISPLACEMENT | BUOYANCY | WAVE_DRAG):
         _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, half_y, z_low, x0, y0, cell,
-                       height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats,
+                       height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats, wave_depth,
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
@@ -392,7 +394,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
 def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, half_x, half_y, x_low, y_low,
                        z_low, x0, y0, cell, height, wvel, bottom, el_pos, el_nrm, el_area, el_t1, el_t2,
                        el_sub, el_whole, world_fixed, rho, g, c_l, c_n, c_b, c_f, c_w, c_min, wet_ramp, flags, nsub,
-                       b_geo, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m,
+                       b_geo, stats, planing, c_d, wave_depth, pl_f, pl_r, pl_s, pl_m,
                        rest_level, flat, still, rest_flags, b_rest, rest_waterline, rest_stats, box):
     """:func:`evaluate_into` (no waterline) and, when the body reaches below ``rest_level``, the rest
     pass: :func:`evaluate_into` of the body at rest (zero velocity) against the flat surface
@@ -428,7 +430,7 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
     if columns or rest_columns:
         _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, half_y, z_low, x0, y0, cell,
                        height, bottom, rho, g, c_w, c_min, nsub, flags if columns else 0, b_geo,
-                       np.zeros((0, 0, 0)), stats, rest_level, rest_flags if rest_columns else 0, b_rest,
+                       np.zeros((0, 0, 0)), stats, wave_depth, rest_level, rest_flags if rest_columns else 0, b_rest,
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
         _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
@@ -526,7 +528,7 @@ def _column_dry(shape, hcol, z_low, xc, yc, cx, cy, cz, base, gx, gy, slack, rad
 
 @njit(cache=True)
 def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, half_y, z_low, x0, y0, cell,
-                   height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats,
+                   height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats, wave_depth,
                    rest_level, rest_flags, b_rest, rest_waterline, rest_stats):
     """The columns' part of :func:`evaluate_into` (occupied height, buoyancy, submerged volume, wave
     drag) against ``height`` (nj, ni) with ``flags`` (0: not this pass) into b_geo, waterline (when
@@ -646,20 +648,20 @@ def _column_passes(shape, radius, thickness, centre, axes, velocity, half_x, hal
         tx = ty = r_tx = r_ty = 0.0
     if live:
         _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
-                      cx, cy, cz, shape == SHAPE_SPHERE)
+                      cx, cy, cz, shape == SHAPE_SPHERE, wave_depth)
     if rest:
         _column_stats(rest_stats, rest_flags, r_vol, r_mx, r_my, r_mz, r_wl, r_ncol, r_fz, r_tx, r_ty,
-                      np.zeros(3), radius, rho, g, c_w, c_min, cx, cy, cz, shape == SHAPE_SPHERE)
+                      np.zeros(3), radius, rho, g, c_w, c_min, cx, cy, cz, shape == SHAPE_SPHERE, 0.0)
 
 
 @njit(cache=True)
 def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity, radius, rho, g, c_w, c_min,
-                  cx, cy, cz, through_centre):
+                  cx, cy, cz, through_centre, wave_depth):
     """A column pass's sums into ``stats``: volume, centroid, waterline, columns; the buoyancy and
     its stiffness and the wave drag when switched on, the wave drag at the submerged centroid, or
     through the centre when ``through_centre`` (a sphere: the waves' pressure, as all pressure on
     it, acts along its normals; at the centroid it rolled a pushed floating ball and, spun backwards,
-    gave it energy)."""
+    gave it energy), faded with the depth ``wave_depth`` [m] of the body's top under the surface."""
     stats[S_VOLUME] = vol
     stats[S_CENTROID] = mx
     stats[S_CENTROID + 1] = my
@@ -675,7 +677,7 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
         vx = velocity[0]
         vy = velocity[1]
         speed = math.sqrt(vx * vx + vy * vy)
-        mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min, g)
+        mag = wave_drag_magnitude(speed, vol, 2.0 * radius, rho, c_w, c_min, g, wave_depth)
         if mag > 0.0:
             fx = -mag * vx / speed
             fy = -mag * vy / speed

@@ -56,7 +56,7 @@ B_INERTIA_MIN = 16  # least principal moment of inertia [kg m^2]
 N_BODY = 17
 
 # results vector (float64) besides stats
-R_PLANING = 0  # the planing share of the pressure [-] (see WaterCoupler._planing)
+R_PLANING = 0  # the planing share of the pressure [-] (see WaterCoupler._immersion)
 R_TOP_UNDER = 1  # how far the body's top is under the live surface [m]; NaN off the patch or over dry land
 R_BOUND = 2  # the stability bound [s]
 R_I_LO = 3  # the deposit's window in patch indices (i_lo, i_hi, j_lo, j_hi); empty: i_lo > i_hi
@@ -241,6 +241,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
     rho, g = prm[P_RHO], prm[P_G]
     under = _top_under(body, x_low, y_low, z_low, x0, y0, cell, met_h, met_v, bottom)
     planing = 1.0 if math.isnan(under) else min(1.0, max(0.0, 1.0 - under / prm[P_CLOSURE]))
+    wave_depth = 0.0 if math.isnan(under) else max(0.0, under)  # (the wave drag's depth)
     results[:] = 0.0
     results[R_PLANING] = planing
     results[R_TOP_UNDER] = _top_under(body, x_low, y_low, z_low, x0, y0, cell, height, wvel, bottom)
@@ -253,7 +254,7 @@ def ring_step(shape, body, prm, flags, local_flags, nsub, rest_level, share,
                               el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed,
                               rho, g, prm[P_C_L], prm[P_C_N], prm[P_C_B], prm[P_C_F], prm[P_C_W], prm[P_C_MIN],
                               prm[P_WET_RAMP], local_flags, nsub, b_geo, stats, planing, prm[P_C_D],
-                              pl_f, pl_r, pl_s, pl_m,
+                              wave_depth, pl_f, pl_r, pl_s, pl_m,
                               rest_level, flat, still, DISPLACEMENT | (flags & BUOYANCY), b_rest, waterline,
                               rest_stats, numbers[NUM_BOX:NUM_BOX + 4])
     # --- the ring: the body under the rest level, pushed out around it --------------------------
