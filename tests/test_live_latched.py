@@ -262,3 +262,44 @@ def test_a_viewer_connected_from_the_start_gets_each_channels_first_message():
     first_skip = codec_for(SkipRecord).decode(seen.got["/stages/skip"][0][1])
     assert (first_stage.stage, first_skip.index) == (StageId.APPROACH, 1)
     assert seen.got["/scene/stone"][0][0] == 0  # the stone from the start, not a second later
+
+
+class _RegisteredChannel:
+    """A channel as the SDK holds it between registering a new subscription and telling the listener
+    of it: it has a sink (has_sinks), and what is logged reaches that subscriber."""
+
+    def __init__(self) -> None:
+        self.logged: list[tuple[bytes, int]] = []
+
+    def has_sinks(self) -> bool:
+        return True
+
+    def log(self, data: bytes, *, log_time: int) -> None:
+        self.logged.append((data, log_time))
+
+
+class _Told:
+    topic = "/stages/stage"
+
+
+def test_a_message_logged_before_the_listener_hears_of_its_subscriber_reaches_it_once():
+    """The SDK registers a subscription, and logs to it, before it calls the listener's on_subscribe
+    (which waits for the GIL): a stage logged in between went out live, and again as the latest once
+    the subscription was noted (a viewer got the run's first stage twice on a loaded machine). Live
+    messages go only to subscriptions noted: the first stage reaches the viewer once, as the latest,
+    and the next ones live."""
+    scene = loads(SKIP_SCENE)
+    view = LiveView(scene, "127.0.0.1:0", speed=0.0, announce=False)
+    try:
+        channel = view._channels["/stages/stage"] = _RegisteredChannel()
+        first = Stage(StageId.APPROACH, "approach", 0, 0.3, 0.0, 0.0)
+        view.on_exchange(1_000_000, "stages", "stage", first)  # subscription registered, not yet noted
+        view._subscriptions.on_subscribe(None, _Told())
+        view._send_latest()
+        hit = Stage(StageId.HIT, "hit", 0, 0.9, 0.0, 0.06)
+        view.on_exchange(60_000_000, "stages", "stage", hit)
+        view._send_latest()
+        encode = codec_for(Stage).encode
+        assert channel.logged == [(encode(first), 1_000_000), (encode(hit), 60_000_000)]
+    finally:
+        view.close()

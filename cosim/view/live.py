@@ -136,19 +136,35 @@ class _Subscriptions:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._topics: set[str] = set()
+        self._subscribers: dict[str, int] = {}  # by topic, the subscriptions noted and not ended
 
     def on_subscribe(self, client: Any, channel: Any) -> None:
         with self._lock:
             self._topics.add(channel.topic)
+            self._subscribers[channel.topic] = self._subscribers.get(channel.topic, 0) + 1
 
     def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        """Nothing to do (a channel's latest messages are kept for the next subscriber), but the SDK
-        calls it on every listener: without it each unsubscribe or disconnect prints an error."""
+        """A subscription ended (also each of a client's when it leaves; a channel's latest messages
+        are kept for the next subscriber)."""
+        with self._lock:
+            left = self._subscribers.get(channel.topic, 0) - 1
+            if left > 0:
+                self._subscribers[channel.topic] = left
+            else:
+                self._subscribers.pop(channel.topic, None)
+
+    def noted(self, topic: str) -> bool:
+        """Whether a subscription to ``topic`` has been noted (:meth:`on_subscribe`) and not ended:
+        what is logged live, rather than the channel's own ``has_sinks()``. The SDK registers a
+        subscription, and logs to it, before it calls :meth:`on_subscribe` (which waits for the
+        GIL): a message logged in between reached the new client live, :meth:`served` found nothing
+        to take back, and the latest was sent again once the subscription was noted (a viewer got
+        the run's first stage twice on a loaded machine). (A dictionary read: no lock.)"""
+        return topic in self._subscribers
 
     def served(self, topic: str) -> None:
         """The latest message of ``topic``'s only source was just logged: every subscriber noted so
-        far has it (the SDK registers a subscription before it calls :meth:`on_subscribe`), so
-        sending it again would only repeat it."""
+        far has it, so sending it again would only repeat it."""
         with self._lock:
             self._topics.discard(topic)
 
@@ -262,15 +278,18 @@ class LiveView(BaseObserver):
             channel = self._channel(topic, codec.schema_name, SCHEMA_ENCODING, codec.schema_bytes(),
                                     MESSAGE_ENCODING)
         self._latest.setdefault(topic, {})[component, port] = (msg, time_ns)
-        if channel.has_sinks():
+        noted = self._subscriptions.noted
+        if noted(topic):
             channel.log(codec_for(type(msg)).encode(msg), log_time=time_ns)
             self._subscriptions.served(topic)
         for extra in self.deriver(time_ns, component, port, msg):
             self._latest.setdefault(extra.topic, {})[component, port] = (extra.data, time_ns)
-            self._channel(extra.topic, extra.schema_name, extra.schema_encoding, extra.schema_data,
-                          extra.message_encoding).log(extra.data, log_time=time_ns)
-            if len(self._latest[extra.topic]) == 1:  # else a new subscriber still lacks the others'
-                self._subscriptions.served(extra.topic)
+            derived = self._channel(extra.topic, extra.schema_name, extra.schema_encoding, extra.schema_data,
+                                    extra.message_encoding)
+            if noted(extra.topic):
+                derived.log(extra.data, log_time=time_ns)
+                if len(self._latest[extra.topic]) == 1:  # else a new subscriber still lacks the others'
+                    self._subscriptions.served(extra.topic)
 
     def _send_latest(self) -> None:
         """Send each newly subscribed channel its latest messages, with their original log times.
