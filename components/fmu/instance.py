@@ -130,7 +130,9 @@ def _check_module_not_taken(module: str, resources: Path, fmu_file: Path) -> Non
     name: a module of that name this process already holds (another FMU's model of the same file
     name, or a module of Python's own) is the one every later FMU of that name runs. Two models
     ``a/gain.py`` and ``b/gain.py`` in one scene ran a's code for both, without a word, and a replay
-    vouched for it bit for bit. Refused (ValueError) unless the module held is this FMU's own text."""
+    vouched for it bit for bit. Refused (ValueError) unless the module held is this FMU's own text,
+    or its file is gone and cannot be compared (an FMU that FMPy's ``simulate_fmu`` unpacked, ran and
+    deleted in this process; the FMUs of scenes stay unpacked until the process ends)."""
     import sys
 
     held = sys.modules.get(module)
@@ -140,9 +142,11 @@ def _check_module_not_taken(module: str, resources: Path, fmu_file: Path) -> Non
     own = next((f for f in (resources / relative.with_suffix(".py"), resources / relative / "__init__.py")
                 if f.is_file()), None)
     held_file = getattr(held, "__file__", None)
+    if held_file is not None and not Path(held_file).is_file():
+        return
     try:
         same = own is not None and held_file is not None and Path(held_file).read_bytes() == own.read_bytes()
-    except OSError:  # the held module's file is gone (an FMU unpacked for an earlier run)
+    except OSError:
         same = False
     if not same:
         where = f"from {held_file}" if held_file else "built into Python"
