@@ -138,6 +138,8 @@ def add_wrench(acc, rx, ry, rz, fx, fy, fz):
 SPRAY_ROOT_POWER = 6  # planing pressure grows like xi^p from the trailing edge (xi = 0) to the spray
 # root (xi = 1): its centre at (p + 1) / (p + 2) = 7/8 of the wetted length; fitted once on Rosellini et
 # al.'s fig. 3 (p = 2, Savitsky's steady 3/4, lets a 65 rev/s disk lose 4 deg of attack) [-]
+SPRAY_ROOT_LEVEL = 0.5 * math.sin(math.radians(4.0))  # [-] the lean (sin(2 tilt) / 2: 2 deg of tilt) from
+# which the side a disk's lowest point is on, not the flow, says where its spray root is (_spray_root)
 
 
 FACE_PIECES = FACE_SUBDIVISION * FACE_SUBDIVISION  # pieces of a disk face's square (Elements.sub)
@@ -253,6 +255,36 @@ def _weight_of_pieces(el_sub, k, shares, x, a, b, forward):
         xi = min(1.0, max(0.0, x))
         return (1.0 - forward) + forward * (p + 1) * xi ** p, 0.0, 0.0
     return mean_w / wet, du / mean_w, dv / mean_w
+
+
+@njit(cache=True, inline="always")
+def _spray_root(lean_x, lean_y, vx, vy, hspeed):
+    """(hx, hy, share): the horizontal direction from a wetted face's trailing edge towards its spray
+    root, and the share [0, 1] of the planing load weighted towards it, of a disk leaning by (lean_x,
+    lean_y) [-] (its axis's horizontal part times minus its vertical one: sin(2 tilt) / 2 towards
+    its centre from its lowest point, 0 level and edge on) and moving at (vx, vy) [m/s] (``hspeed``).
+
+    A tilted disk's wetted area is the segment around its lowest point, cut by the waterline across
+    the direction from that point to the centre: the water meets it along that direction, the lean's.
+    A level face is wetted all over at once and meets the water along the flow, as does a disk on
+    its edge (its lowest point under its centre). Within SPRAY_ROOT_LEVEL of level (a lean below it,
+    about 2 deg of tilt) the flow's direction is added, fading out as the lean grows to it: the
+    direction turns smoothly from the flow's to the lean's, and is the lean's alone beyond. (It was
+    the lean's whenever the lowest point was off the centre: a disk tilted 1e-7 rad nose down had its
+    load's centre 26 mm behind its centre where level had it 26 mm ahead, and a flat throw bounced or
+    sank on a 1e-5 deg difference of its tilt.) Where the two cancel (a disk leaning nose down into
+    the flow by half SPRAY_ROOT_LEVEL), no side leads and the share falls to 0: the load is spread
+    evenly, as on a face meeting the water head on."""
+    lean = math.sqrt(lean_x * lean_x + lean_y * lean_y)
+    hx, hy = lean_x, lean_y
+    if hspeed > 0.0 and lean < SPRAY_ROOT_LEVEL:
+        flow = (SPRAY_ROOT_LEVEL - lean) / hspeed
+        hx += flow * vx
+        hy += flow * vy
+    reach = math.sqrt(hx * hx + hy * hy)
+    if not reach > 0.0:
+        return 1.0, 0.0, 0.0
+    return hx / reach, hy / reach, min(1.0, reach / SPRAY_ROOT_LEVEL)
 
 
 @njit(cache=True)
@@ -723,17 +755,10 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
         # pl_*), weighted towards the spray root once the wetted area's extent along the flow is known
         # (see _spread_planing), piece by piece of the element (Elements.sub)
         n_pl = 0
-        # the direction from the wetted area's trailing edge towards its spray root: away from the
-        # lowest point (a disk's wetted area is the segment around it, cut by the waterline across
-        # this direction), or along the flow for a body whose lowest point is under its centre
         hspeed = math.sqrt(vx * vx + vy * vy)
-        hx, hy = cx - x_low, cy - y_low
-        reach = math.sqrt(hx * hx + hy * hy)
-        if reach > 1e-6 * radius:
-            hx /= reach
-            hy /= reach
-        elif hspeed > 0.0:
-            hx, hy = vx / hspeed, vy / hspeed
+        # a disk leans towards its lowest point (its axis tilted the other way); a sphere does not
+        lean = -az if shape == SHAPE_DISK else 0.0
+        hx, hy, root_share = _spray_root(lean * ax, lean * ay, vx, vy, hspeed)
         # a face piece's offset (du, dv) along body x and y moves it by du sx + dv sy along the flow
         # and by du zx + dv zy in height
         sx, sy = axes[0, 0] * hx + axes[1, 0] * hy, axes[0, 1] * hx + axes[1, 1] * hy
@@ -929,7 +954,7 @@ def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0
         if n_pl > 0:
             # planing: the body skims forward, faster than its own gravity waves (a Froude number
             # U / sqrt(g L) above 1); a floating or dropped body presses the water evenly
-            forward = hspeed * hspeed / (hspeed * hspeed + vz * vz + 2.0 * g * radius)
+            forward = root_share * hspeed * hspeed / (hspeed * hspeed + vz * vz + 2.0 * g * radius)
             _spread_planing(fp, pl_f, pl_r, pl_s, pl_m, n_pl, el_sub, el_whole, el_t1, axes, sx, sy, zx, zy,
                             wet_ramp, s_lo, s_hi, forward)
         if do_p:
