@@ -56,7 +56,10 @@ from numba.core.typing.context import Context as TypingContext
 from numba.core.typing.typeof import typeof_impl
 from numba.np import numpy_support
 
+from components import kernel_cache
 from cosim.jit_time import watch_compiles
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
 
 PROBED = ("scipy.linalg", "cffi")  # imported by numba's start-up only to probe optional features
 _CACHE_LOAD_PARTS = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")  # numba's, used

@@ -13,6 +13,15 @@ run has called yet, or called with other argument types, is compiled by the firs
 
 It runs when the ``components`` package is imported, before any kernel can be called: reading and
 checksumming the sources takes a fraction of a millisecond.
+
+That alone does not cover a process that read the sources before they changed: it still compiles
+from the old text, and what it writes to the cache after another process has dropped it (a sweep
+left running across a ``git pull``, a test run beside an edit) was loaded by every later run, its
+kernel's own file unchanged (numba keys a kernel's cache on that file alone): a coupler edited in
+``kernel.py`` ran the old code through ``step_kernel.ring_step`` for as long as that cache lasted. So
+each module of :data:`KERNEL_SOURCES` with cached kernels calls :func:`install` before them, and
+numba's cache of this package's kernels is keyed on the fingerprint of all of them besides: a
+kernel written from other sources than those on disk is never loaded, only compiled again.
 """
 
 from __future__ import annotations
@@ -83,3 +92,39 @@ def refresh() -> bool:
     except OSError:
         return False
     return True
+
+
+_installed = False
+
+
+def install() -> None:
+    """Key numba's cache of the kernels of :data:`KERNEL_SOURCES` on the fingerprint of all of them
+    (:func:`fingerprint`, as read now) besides the kernel's own file: numba's own cache locators, the
+    one under ``NUMBA_CACHE_DIR`` and the one in ``__pycache__``, each with that added to the stamp
+    its index is checked against. Other files' kernels are left to numba's locators. Once a process;
+    to be called before a module's cached kernels are defined (numba picks a kernel's locator then)."""
+    global _installed
+    if _installed:
+        return
+    from numba.core import caching
+
+    sources = {os.path.normcase(os.path.abspath(PACKAGE / name)) for name in KERNEL_SOURCES}
+    stamp = fingerprint()
+
+    def fingerprinted(base: type) -> type:
+        class Fingerprinted(base):  # type: ignore[misc, valid-type]
+            @classmethod
+            def from_function(cls, py_func, py_file):  # type: ignore[no-untyped-def]
+                if os.path.normcase(os.path.abspath(py_file)) not in sources:
+                    return None
+                return super().from_function(py_func, py_file)
+
+            def get_source_stamp(self):  # type: ignore[no-untyped-def]
+                return super().get_source_stamp(), stamp
+
+        Fingerprinted.__name__ = Fingerprinted.__qualname__ = f"Fingerprinted{base.__name__}"
+        return Fingerprinted
+
+    caching.CacheImpl._locator_classes[:0] = [fingerprinted(caching.UserProvidedCacheLocator),
+                                              fingerprinted(caching.InTreeCacheLocator)]
+    _installed = True

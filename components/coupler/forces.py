@@ -87,6 +87,10 @@ import math
 
 from numba import njit
 
+from components import kernel_cache
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
+
 RHO_WATER = 1000.0  # water density [kg/m^3]
 GRAVITY = 9.81  # gravitational acceleration [m/s^2]
 SURFACE_TENSION = 0.072  # water-air surface tension [N/m]

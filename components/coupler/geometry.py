@@ -35,6 +35,10 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
+from components import kernel_cache
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
+
 EMPTY = (1.0, 0.0)  # an empty chord (lo > hi)
 AXIS_EPS = 1e-12  # below this, a disk axis component counts as zero (no division by it)
 

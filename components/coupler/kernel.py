@@ -14,6 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
+from components import kernel_cache
 from components.coupler.effects import BUOYANCY, DISPLACEMENT, FRICTION, PRESSURE, WAVE_DRAG
 from components.coupler.forces import pressure_magnitude, ventilation, wave_drag_magnitude
 from components.coupler.geometry import (
@@ -25,6 +26,8 @@ from components.coupler.geometry import (
     disk_chord,
     sphere_chord,
 )
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
 
 SHAPE_DISK = 0
 SHAPE_SPHERE = 1

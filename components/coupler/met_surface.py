@@ -27,7 +27,10 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from components import kernel_cache
 from components.messages import BodyState
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
 
 
 @njit(cache=True)

@@ -20,10 +20,13 @@ import math
 import numpy as np
 from numba import njit
 
+from components import kernel_cache
 from components.coupler import kernel
 from components.coupler.effects import BUOYANCY, DISPLACEMENT
 from components.coupler.geometry import quat_to_matrix
 from components.coupler.met_surface import _freeze
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
 
 # parameter vector (float64), set once per component
 P_RHO = 0

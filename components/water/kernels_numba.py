@@ -18,6 +18,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from components import kernel_cache
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
+
 PARALLEL_MIN_CELLS = 32_768  # smaller grids run single-threaded even in PARALLEL (thread start-up dominates)
 COLUMN_BLOCK = 64  # columns per thread's task in the parallel column (y) sweep: contiguous runs of this many doubles
 

@@ -43,7 +43,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from components import kernel_cache
 from components.water.kernels_numba import wave_uniform_span
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
 
 REST_BELOW = 1e-30  # [m] a stepped tile moving by no more than this rests (see above)
 DEFAULT_TILE = 32  # cells per tile side: 8 KiB of each array per tile, a wake is followed to within 32 cm at 1 cm

@@ -11,6 +11,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from components import kernel_cache
+
+kernel_cache.install()  # before the cached kernels below: their cache keyed on every kernel source
+
 
 @njit(cache=True)
 def apply_window(h, occupied, total, shared, b, b_i0, b_j0, u0, u1, v0, v1):
