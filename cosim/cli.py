@@ -712,14 +712,17 @@ def main(argv: list[str] | None = None) -> int:
         warnings.showwarning = _one_line_warning
     if as_program and _command(argv) in STARTS_WITHOUT_COLLECTION:
         _pause_collection()
-    stdout = sys.stdout
+    stdout, stderr = sys.stdout, sys.stderr
     sys.stdout = _ReaderMayLeave(stdout)
+    sys.stderr = _ErrorsReaderMayLeave(stderr)
     try:
         with _CtrlC() as ctrl_c:
             code = _main(argv, ctrl_c)
     finally:
         if isinstance(sys.stdout, _ReaderMayLeave):
             sys.stdout = stdout
+        if isinstance(sys.stderr, _ErrorsReaderMayLeave):
+            sys.stderr = stderr
         start_up_done()
         if as_program:  # the command has said all it has to: a Ctrl-C as the process ends adds nothing
             sys.unraisablehook = quiet_interrupts(sys.unraisablehook)
@@ -891,6 +894,31 @@ class _ReaderMayLeave:
         return getattr(self._stream, name)
 
 
+class _ErrorsReaderMayLeave:
+    """Standard error whose reader may leave (``cosim validate bad.yaml 2>&1 | head -1``): from then on
+    what is said goes nowhere, and the exit code stays the command's. The pipe's error, raised while
+    a bad scene's problems were being said, turned exit 2 (bad input) into 1 (the run failed)."""
+
+    def __init__(self, stream: Any):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            _quiet(self._stream)
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            _quiet(self._stream)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def _named_stdout(exc: OSError) -> OSError:
     """``exc``, a write to stdout failing, with "standard output" as its file when it names none (the
     error said "cosim run: its output: cannot be written", which reads as the recording)."""
@@ -901,10 +929,15 @@ def _named_stdout(exc: OSError) -> OSError:
 
 def _quiet_stdout() -> None:
     """Point stdout at /dev/null, so the interpreter's own flush at exit does not fail again."""
+    _quiet(sys.stdout)
+
+
+def _quiet(stream: Any) -> None:
+    """Point ``stream``'s file at /dev/null (its reader gone): what is still written goes nowhere."""
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):
+        os.dup2(devnull, stream.fileno())
+    except (OSError, ValueError, AttributeError):
         pass
 
 

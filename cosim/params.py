@@ -199,8 +199,10 @@ def _bounds(meta: dict[str, Any], value: Any, path: str, problems: list[str]) ->
             problems.append(f"{path}: must be {word} {bound:g}{unit} (got {value:g})")
 
 
-def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
-    """Build parameter dataclass ``cls`` from a mapping; problems are appended, never raised."""
+def build(cls: type, data: Any, path: str, problems: list[str], beside: tuple[str, ...] = ()) -> Any:
+    """Build parameter dataclass ``cls`` from a mapping; problems are appended, never raised.
+    ``beside``: other keys written in the same mapping (a component's ``every``), offered with the
+    parameters when an unknown key is near one of them."""
     prefix = f"{path}." if path else ""
     if data is None:
         data = {}
@@ -211,7 +213,7 @@ def build(cls: type, data: Any, path: str, problems: list[str]) -> Any:
     fields = {f.name: f for f in dataclasses.fields(cls)}
     for key in data:
         if key not in fields:
-            close = difflib.get_close_matches(str(key), list(fields), n=1)
+            close = difflib.get_close_matches(str(key), [*fields, *beside], n=1)
             hint = (f"; did you mean {close[0]!r}?" if close else f"; known: {', '.join(fields)}" if fields
                     else f" ({path or 'this'} takes no parameters)")
             problems.append(f"{prefix}{key}: unknown key{hint}")

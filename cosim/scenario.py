@@ -575,7 +575,7 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
     if on_unstable not in ON_UNSTABLE:
         problems.append(f"{path}.on_unstable: must be one of 'error', 'substep' (got {on_unstable!r})")
     params_data = {k: v for k, v in spec.items() if k not in COMPONENT_KEYS}
-    params = build(cls.Params, params_data, path, problems)
+    params = build(cls.Params, params_data, path, problems, tuple(sorted(COMPONENT_KEYS)))
     configured = cls.configure(params, path, base_dir, problems)  # ports that depend on the parameters
     if configured is None:
         del classes[name]
@@ -1222,10 +1222,13 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
                             "such as ['/stone/*'], or leave the key out to record every exchange")
         cp = seconds_value(values.checkpoint_every, "record.checkpoint_every", problems,
                            zero="no checkpoints")
-        if cp and dt_ns is not None and cp < dt_ns:
-            given = "" if "checkpoint_every" in raw_record else ", the default"  # a scene that set none
+        if cp and dt_ns is not None and cp < dt_ns and "checkpoint_every" not in raw_record:
+            # the default (about a second) at the whole number of base steps nearest to it, at least
+            # one: a scene of dt 2 s that set none was refused for the default, even with --no-record
+            record.checkpoint_every = dt_ns / NS_PER_S
+        elif cp and dt_ns is not None and cp < dt_ns:
             problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
-                            f"(got {values.checkpoint_every:g}{given})")
+                            f"(got {values.checkpoint_every:g})")
         elif (cp and dt_ns is not None and "checkpoint_every" in raw_record
               and not _whole_multiple(values.checkpoint_every, cp, dt_ns)):
             # checkpoints are taken at base steps: one given between them was rounded to the nearest

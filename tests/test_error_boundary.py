@@ -103,6 +103,26 @@ def test_a_reader_that_leaves_does_not_turn_a_failure_into_success(tmp_path):
     assert Recording(out).status().status == "failed"
 
 
+def test_a_reader_of_the_errors_that_leaves_keeps_the_exit_code_of_bad_input(tmp_path):
+    """`cosim validate bad.yaml 2>&1 | head -1`: the error lines find stderr's pipe closed. The pipe's
+    error turned exit 2 (bad input) into 1 (the run failed); now what is said goes nowhere and 2
+    stands."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before anything is said
+    try:
+        done = subprocess.run([sys.executable, "-m", "cosim.cli", "validate", "scenarios/ping_pong.yaml", "--set",
+                               "connections=null"], stdout=subprocess.DEVNULL, stderr=write, cwd=root, timeout=300)
+    finally:
+        os.close(write)
+    assert done.returncode == 2
+
+
 def test_a_full_disk_under_stdout_is_said_of_stdout_not_of_the_recording(tmp_path):
     """`cosim run ... > /dev/full`: "cosim run: its output: cannot be written" read as the recording,
     which is whole; the line now names standard output."""

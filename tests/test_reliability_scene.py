@@ -297,13 +297,17 @@ def test_every_record_problem_is_said_at_once():
                                   "record.checkpoint_every: must be finite (got nan)"]
 
 
-def test_a_default_checkpoint_interval_under_dt_is_said_to_be_the_default():
-    """A scene with no record section and dt = 2 s: the checkpoint interval it is refused for (1 s)
-    is the default, said so; it read as if the scene had set it."""
+def test_a_default_checkpoint_interval_under_dt_is_one_base_step():
+    """A scene that sets no checkpoint interval and steps by 2 s takes the default (about a second) at
+    the nearest whole number of base steps, at least one, as docs/scenes.md says: it was refused for
+    the default it never set (record.checkpoint_every 1 under dt = 2 s), even with --no-record. One
+    it sets itself under dt is still refused."""
     text = "dt: 0.001\nuntil: 4\ncomponents:\n  g: {type: \"tests.toys:Gain\"}\n"
+    assert loads(text, "s.yaml", ["dt=2"]).record.checkpoint_every == 2.0
+    assert loads(text, "s.yaml", ["dt=0.3"]).record.checkpoint_every == 1.0  # taken at 3 steps, 0.9 s
     with pytest.raises(ScenarioError) as err:
-        loads(text, "s.yaml", ["dt=2"])
-    assert "record.checkpoint_every: must be 0 (none) or at least dt = 2 s (got 1, the default)" in err.value.problems
+        loads(text, "s.yaml", ["dt=2", "record.checkpoint_every=1"])
+    assert "record.checkpoint_every: must be 0 (none) or at least dt = 2 s (got 1)" in err.value.problems
 
 
 def test_an_end_before_the_first_step_is_refused():

@@ -61,6 +61,9 @@ MALFORMED = {
     "unknown key": (
         scene_with('a: {type: "tests.toys:Gain", gian: 2}'),
         r"components\.a\.gian: unknown key; did you mean 'gain'\?"),
+    "a component key misspelled (every)": (  # the component's own keys are offered with its parameters
+        scene_with('a: {type: "tests.toys:Gain", evry: 2}'),
+        r"components\.a\.evry: unknown key; did you mean 'every'\?"),
     "unknown top-level key": (
         GOOD + "speed: 3\n", r"speed: unknown key \(known: components, connections"),
     "wrong type": (
