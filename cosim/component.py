@@ -21,9 +21,10 @@ A component declares typed ports and parameters and implements one pure step::
 
 The public :meth:`Component.step` owns the bookkeeping: status and step count, the stability guard
 against :meth:`max_stable_step` (error, or substepping; :meth:`Component.restep` applies it to a
-bound a component learns inside its step), checking outputs (known ports, right types,
-finite values) and turning any exception into a :class:`SimulationError` naming the component, the
-simulation time and the reason. Physics code never sees the scheduler.
+bound a component learns inside its step), checking outputs (known ports, right types, finite
+values, enum fields holding one of their members) and turning any exception into a
+:class:`SimulationError` naming the component, the simulation time and the reason. Physics code
+never sees the scheduler.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Literal, TypeVar
 
 from cosim.errors import SimulationError
-from cosim.messages import Message
+from cosim.messages import NONFINITE, Message
 from cosim.timebase import NS_PER_S
 
 OnUnstable = Literal["error", "substep"]
@@ -465,7 +466,10 @@ class Component:
                 self.status = "failed"
                 raise SimulationError(self.name, t_ns, f"output {port!r} must be {spec.type.__name__}, "
                                       f"got {type(msg).__name__}")
-            bad = msg.first_nonfinite()
+            bad = msg.first_invalid()
             if bad is not None:
                 self.status = "failed"
-                raise SimulationError(self.name, t_ns, f"non-finite value in output {port!r} field {bad!r}")
+                field, fault = bad
+                if fault == NONFINITE:
+                    raise SimulationError(self.name, t_ns, f"non-finite value in output {port!r} field {field!r}")
+                raise SimulationError(self.name, t_ns, f"output {port!r} field {field!r}: {fault}")

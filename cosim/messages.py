@@ -87,25 +87,68 @@ class Message:
     def first_nonfinite(self) -> str | None:
         """Name of the first float field (or array) holding NaN or infinity, or None.
 
-        Fast path (:func:`_finite_check`, generated once per type): one sum over every float value
+        Fast path (:func:`_value_check`, generated once per type): one sum over every float value
         (an array's values or their squares, :func:`_array_sum`) is finite exactly when each value
         is (barring an overflow of huge finite values, which the slow path then rules out field by
         field).
         """
         check = _CHECKS.get(type(self))
         if check is None:
-            check = _CHECKS[type(self)] = _finite_check(type(self))
+            check = _CHECKS[type(self)] = _value_check(type(self))
         if check(self):
             return None
-        floats, arrays = _finiteness_plan(type(self))
-        for name in floats:
-            if not math.isfinite(getattr(self, name)):
-                return name
-        for name in arrays:
-            value = np.asarray(getattr(self, name))  # as given: an array, or a list where one was declared
-            if value.size and not np.isfinite(value).all():
-                return name
-        return None
+        return _first_nonfinite_field(self)
+
+    def first_invalid(self) -> tuple[str, str] | None:
+        """(name, fault) of the first field holding a value no message may carry, or None; every
+        output of a component is checked so. A float field or float array holding NaN or infinity
+        comes first (fault :data:`NONFINITE`), then an enum field holding a number that none of its
+        type's members has (fault ``7 is not a Shape (0 disk, 1 sphere)``): the codecs would write
+        it, and no reader could read it back. The fast path is :meth:`first_nonfinite`'s one
+        generated expression, which checks the enum fields too; only a message it does not pass is
+        looked at field by field."""
+        check = _CHECKS.get(type(self))  # (written out, not a helper's call: this runs for every output)
+        if check is None:
+            check = _CHECKS[type(self)] = _value_check(type(self))
+        if check(self):
+            return None
+        name = _first_nonfinite_field(self)
+        if name is not None:
+            return name, NONFINITE
+        return _first_bad_enum(self)
+
+
+NONFINITE = "non-finite"
+"""The fault :meth:`Message.first_invalid` gives a float field or array holding NaN or infinity."""
+
+
+def _first_nonfinite_field(msg: Message) -> str | None:
+    """The slow path of :meth:`Message.first_nonfinite`: its float fields, then its float arrays,
+    one by one."""
+    floats, arrays = _finiteness_plan(type(msg))
+    for name in floats:
+        if not math.isfinite(getattr(msg, name)):
+            return name
+    for name in arrays:
+        value = np.asarray(getattr(msg, name))  # as given: an array, or a list where one was declared
+        if value.size and not np.isfinite(value).all():
+            return name
+    return None
+
+
+def _first_bad_enum(msg: Message) -> tuple[str, str] | None:
+    """(name, fault) of the first enum field of ``msg`` holding a value no member of its type has
+    (one the codecs' decoders refuse: ``Shape(value)`` fails), or None."""
+    for spec in type(msg).__cosim_fields__:
+        if spec.enum_type is None:
+            continue
+        value = getattr(msg, spec.name)
+        try:
+            spec.enum_type(value)
+        except ValueError:
+            members = ", ".join(f"{int(m)} {m.name.lower()}" for m in spec.enum_type)
+            return spec.name, f"{value!r} is not a {spec.enum_type.__name__} ({members})"
+    return None
 
 
 _CHECKS: dict[type, typing.Callable[[Message], bool]] = {}
@@ -137,27 +180,35 @@ def _finiteness_plan(message_type: type[Message]) -> tuple[tuple[str, ...], tupl
                   and np.dtype(s.array.dtype).kind == "f"))
 
 
-def _finite_check(message_type: type[Message]) -> typing.Callable[[Message], bool]:
+def _value_check(message_type: type[Message]) -> typing.Callable[[Message], bool]:
     """A function generated for ``message_type``: whether the sum of all its float values (fields
-    and float arrays) is finite, in one expression, with no loop over the fields (it runs for every
-    output of every step). A small fixed 1-D array (at most 16 values) is summed as Python floats,
-    far cheaper than a numpy reduction, any other by :func:`_array_sum`. A value it cannot sum so (a
-    nested list, a scalar where an array was declared) makes it answer False, and
-    :meth:`Message.first_nonfinite` looks field by field."""
+    and float arrays) is finite and each enum field holds one of its type's values, in one
+    expression, with no loop over the fields (it runs for every output of every step). A small fixed
+    1-D array (at most 16 values) is summed as Python floats, far cheaper than a numpy reduction,
+    any other by :func:`_array_sum`; an enum field adds the 0.0 its value finds in a dict of its
+    type's members (one lookup: an int that is none of theirs finds nothing). A value it cannot sum or
+    find so (a nested list, a scalar where an array was declared) makes it answer False, and
+    :meth:`Message.first_nonfinite` and :meth:`Message.first_invalid` look field by field."""
     floats, arrays = _finiteness_plan(message_type)
     specs = {s.name: s for s in message_type.__cosim_fields__}
+    env: dict[str, Any] = {"_isfinite": math.isfinite, "_array_sum": _array_sum}
     terms = [f"m.{name}" for name in floats]
     for name in arrays:
         array = specs[name].array
         assert array is not None
         small = array.fixed_size is not None and len(array.shape) == 1 and array.fixed_size <= _SMALL_ARRAY
         terms.append(f"sum(m.{name}.tolist())" if small else f"_array_sum(m.{name})")
+    for i, spec in enumerate(message_type.__cosim_fields__):
+        if spec.enum_type is not None:
+            # keyed by the members (found by identity, as a component passes them), which an int finds
+            # by its equal value
+            env[f"_members{i}"] = dict.fromkeys(spec.enum_type, 0.0)
+            terms.append(f"_members{i}[m.{spec.name}]")
     body = " + ".join(["0.0", *terms])
-    env: dict[str, Any] = {"_isfinite": math.isfinite, "_array_sum": _array_sum}
     exec("def check(m):\n"
          "    try:\n"
          f"        return _isfinite({body})\n"
-         "    except (AttributeError, TypeError, ValueError):\n"
+         "    except (AttributeError, TypeError, ValueError, KeyError):\n"
          "        return False\n", env)
     return env["check"]
 

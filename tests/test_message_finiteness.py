@@ -1,6 +1,7 @@
 """The finiteness guard every output passes (``Message.first_nonfinite``): it names the field holding
 NaN or infinity, in a float, a small array or a large one (the float fields first, then the arrays,
-each in declaration order), also when an array came as another shape or as a list."""
+each in declaration order), also when an array came as another shape or as a list. The same check
+(``Message.first_invalid``) names an enum field holding a number that is none of its members."""
 
 from __future__ import annotations
 
@@ -107,3 +108,53 @@ def test_a_large_grid_is_checked_on_the_calling_thread(monkeypatch):
     assert dotted == [27 * 66] * 3
     field[599, 0] = math.nan
     assert patch.first_nonfinite() == "height"
+
+
+@pytest.mark.parametrize(("shape", "fault"), [
+    (7, "7 is not a Shape (0 disk, 1 sphere)"),
+    (-1, "-1 is not a Shape (0 disk, 1 sphere)"),
+    (0.5, "0.5 is not a Shape (0 disk, 1 sphere)"),
+    ("disk", "'disk' is not a Shape (0 disk, 1 sphere)"),
+], ids=["seven", "negative", "fraction", "text"])
+def test_an_enum_field_holding_no_member_is_named(shape, fault):
+    """An enum field holding a number that is none of its type's members (BodyState(shape=7)) is named
+    with the members it may hold: both codecs wrote it, and no reader could read the recording back.
+    ``first_nonfinite`` still answers for non-finite values alone."""
+    assert _state(shape=shape).first_invalid() == ("shape", fault)
+    assert _state(shape=shape).first_nonfinite() is None
+
+
+@pytest.mark.parametrize("shape", [Shape.DISK, Shape.SPHERE, 0, 1, np.int64(1), 1.0, True],
+                         ids=["disk", "sphere", "int-0", "int-1", "numpy-int", "whole-float", "bool"])
+def test_an_enum_field_holding_a_members_value_passes(shape):
+    """A member, or any number equal to a member's value, as the codecs write it (an int, a numpy int,
+    a whole float), passes."""
+    assert _state(shape=shape).first_invalid() is None
+
+
+def test_a_nonfinite_value_is_named_before_a_bad_enum():
+    """A message with both faults names its non-finite field first, as the finiteness guard did."""
+    from cosim.messages import NONFINITE
+
+    assert _state(shape=7, speed=math.nan).first_invalid() == ("speed", NONFINITE)
+    assert _state(speed=math.inf).first_invalid() == ("speed", NONFINITE)
+    assert _patch(height=np.full((23, 71), math.nan)).first_invalid() == ("height", NONFINITE)
+
+
+def test_a_component_publishing_a_bad_enum_fails_naming_it():
+    """A component's output holding an enum value that is no member is its failure, naming the port,
+    the field, the value and the members (it was recorded, and the recording could not be read)."""
+    from cosim.component import Component, Port
+    from cosim.errors import SimulationError
+
+    class Thrower(Component):
+        outputs = {"state": Port(BodyState)}
+
+        def _step_impl(self, t, dt, inputs):
+            return {"state": _state(shape=7)}
+
+    thrower = Thrower("stone")
+    with pytest.raises(SimulationError, match=r"^component 'stone' failed at t = 0.002 s: output 'state' field "
+                                              r"'shape': 7 is not a Shape \(0 disk, 1 sphere\)$"):
+        thrower.step(2_000_000, 1_000_000, {})
+    assert thrower.status == "failed"

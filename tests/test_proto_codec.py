@@ -119,6 +119,26 @@ def test_the_slow_path_makes_fields_what_the_type_declares():
         codec.encode(example(n=2**70))
 
 
+@message
+class Reading(Message):
+    """One reading held as a 0-d array: value [m]."""
+
+    value: Annotated[np.ndarray, Array("float64", ())]
+
+
+@pytest.mark.parametrize("value", [np.array(1.5), 1.5, np.array(1.5, dtype=np.float32), np.float64(1.5)],
+                         ids=["array", "float", "float32-array", "numpy-float"])
+def test_a_0d_array_field_takes_a_scalar_as_json_does(value):
+    """A 0-d array field given a Python scalar (or another float dtype) is made a 0-d array by the slow
+    path, as JSON's encoder makes it (np.ascontiguousarray made it shape (1,), which the packer then
+    refused: a ProtoError)."""
+    codec = proto_codec_for(Reading)
+    back = codec.decode(codec.encode(Reading(value)))
+    assert back.value.shape == () and back.value.dtype == np.float64 and back.value == 1.5
+    assert codec.encode(Reading(value)) == codec.encode(Reading(np.array(1.5)))
+    assert codec_for(Reading).decode(codec_for(Reading).encode(Reading(value))).value.shape == ()
+
+
 def test_the_protobuf_library_reads_the_schema_and_the_payloads():
     """The hand-written FileDescriptorSet is what protoc would describe: the protobuf library decodes
     the payload to the same numbers, and what it writes back decodes to the same message."""

@@ -1,9 +1,10 @@
 """Checkpoints as protobuf (cosim.codec.state_proto): the same state as the JSON form, bit for bit,
 readable by any protobuf reader from the recording's own schema, and JSON checkpoints of older
-recordings still read."""
+recordings still read; what a checkpoint cannot give back as it was is refused, naming where it is."""
 
 import math
 import pickle
+import re
 
 import hypothesis.extra.numpy as hnp
 import numpy as np
@@ -114,3 +115,90 @@ def test_json_checkpoints_of_an_older_recording_still_read(tmp_path, monkeypatch
     assert new.channels[rec.CHECKPOINT_TOPIC].message_encoding == "protobuf"
     assert [t for t, _ in old.checkpoints()] == [t for t, _ in new.checkpoints()] == [0, 10**9, 2 * 10**9]
     assert all(same(a, b) for (_, a), (_, b) in zip(old.checkpoints(), new.checkpoints(), strict=True))
+
+
+class Count(int):
+    """An int subclass, as a library may hand one over."""
+
+
+def test_text_and_int_subclasses_are_written_as_plain_text_and_ints():
+    """A ``np.str_`` (a value or a key) and an int subclass are written as the str and int they are:
+    the protobuf writer takes exact types only, and a ``np.str_`` in a state failed the recording's
+    writer, so that the whole recording was lost."""
+    state = {"label": np.str_("hello"), np.str_("count"): Count(3), "big": Count(2**70)}
+    plain = plain_state(state)
+    assert [type(k) for k in plain] == [str, str, str] and type(plain["label"]) is str
+    assert type(plain["count"]) is int and type(plain["big"]) is int
+    back = decode_checkpoint(state_bytes(plain))
+    assert back == {"label": "hello", "count": 3, "big": 2**70}
+    assert same(back, decode_state(encode_state(state)))
+
+
+@pytest.mark.parametrize(("state", "where"), [
+    ({"state": {"label": "file\udcff.dat"}}, r"state\.label: text 'file\\udcff\.dat'"),
+    ({"state": {"files": ["a", ["b", "\ud800"]]}}, r"state\.files\[1\]\[1\]: text '\\ud800'"),
+    ({"state": {"a b": {"x\udcff": 1.0}}}, r"state\['a b'\]: key 'x\\udcff'"),
+], ids=["value", "in-a-list", "key"])
+def test_text_holding_a_lone_surrogate_is_refused_naming_where_it_is(state, where):
+    """A lone surrogate (a file name's byte that is not UTF-8) has no UTF-8 form, which a protobuf
+    checkpoint's text must have (any protobuf reader refuses it): refused, naming its key path, in
+    the JSON form as well so the two agree (it failed the writer and lost the recording)."""
+    for encode in (plain_state, encode_state):
+        with pytest.raises(TypeError, match=where + r".* holds the lone surrogate '\\ud[89a-f][0-9a-f]{2}': a "
+                                            r"checkpoint's text must be valid UTF-8"):
+            encode(state)
+
+
+@pytest.mark.parametrize("array", [
+    np.array([1.5, "a", None], dtype=object),
+    np.array(["2020-01-01"], dtype="datetime64[D]"),
+    np.array([3], dtype="timedelta64[s]"),
+    np.zeros(2, dtype=[("a", "<f8"), ("b", "<i4")]),
+    np.zeros(2, dtype="V4"),
+], ids=["object", "datetime64", "timedelta64", "structured", "void"])
+def test_an_array_whose_bytes_are_not_its_values_is_refused(array):
+    """An object array's bytes are pointers (they were recorded as such), a datetime64 array has no
+    buffer (an internal error), a structured one came back as void bytes: each is refused as not
+    plain data (a TypeError, which the recorder says as the component's failure), naming where."""
+    with pytest.raises(TypeError, match=rf"^state\.s\[0\]: an array of dtype {re.escape(str(array.dtype))} is not "
+                                        r"plain data \(a checkpoint holds arrays of booleans, numbers, or bytes or "
+                                        r"text of fixed size\)$"):
+        plain_state({"state": {"s": [array]}})
+
+
+@pytest.mark.parametrize("array", [
+    np.array(["ab", "c"]), np.array([b"ab", b""]), np.array([1 + 2j], dtype=np.complex64),
+    np.array([1.5, -2.0], dtype=np.float16), np.arange(4, dtype=">i4"), np.array([True, False]),
+], ids=["str", "bytes", "complex", "float16", "big-endian", "bool"])
+def test_arrays_of_numbers_and_fixed_size_text_read_back_in_both_forms(array):
+    """Every dtype kind a checkpoint holds comes back with its values, shape and (little-endian)
+    dtype, alike from the protobuf and the JSON form."""
+    back = decode_checkpoint(state_bytes(plain_state({"a": array})))["a"]
+    assert back.dtype == array.dtype.newbyteorder("<") and back.shape == array.shape and (back == array).all()
+    assert same(back, decode_state(encode_state({"a": array}))["a"])
+
+
+def test_a_0d_array_keeps_its_shape_and_a_strided_one_its_values():
+    """A 0-d array comes back 0-d (np.ascontiguousarray made it shape (1,)); a transposed or strided
+    one comes back C-ordered with its values."""
+    grid = np.arange(12.0).reshape(3, 4)
+    state = {"acc": np.array(2.5), "flag": np.array(True), "t": grid.T, "every_other": grid[:, ::2]}
+    for back in (decode_checkpoint(state_bytes(plain_state(state))), decode_state(encode_state(state))):
+        assert back["acc"].shape == () and back["acc"] == 2.5
+        assert back["flag"].shape == () and back["flag"].dtype == np.bool_
+        assert back["t"].tobytes() == np.ascontiguousarray(grid.T).tobytes() and back["t"].shape == (4, 3)
+        assert back["every_other"].tolist() == grid[:, ::2].tolist()
+
+
+@pytest.mark.parametrize(("state", "said"), [
+    ({"hist": {1: 2.0, "1": 3.0}}, r"^hist: key 1 \(int\) is not a string"),
+    ({"hist": [{(0, 1): 2.0}]}, r"^hist\[0\]: key \(0, 1\) \(tuple\) is not a string"),
+    ({None: 1}, r"^key None \(NoneType\) is not a string"),
+], ids=["int", "tuple", "none"])
+def test_a_key_that_is_not_a_string_is_refused(state, said):
+    """Keys are written as text: an int key came back a string, and {1: a, "1": b} as one key, the
+    other value dropped without a word. Refused, naming where (no component of the project keys its
+    state by anything but strings)."""
+    with pytest.raises(TypeError, match=said + r": a checkpoint's keys are strings \(written as text, it would "
+                                               r"come back as one\)$"):
+        plain_state(state)

@@ -480,19 +480,58 @@ def decode(message_type: type[Message], payload: bytes) -> Message:
 
 # --- plain-data state (checkpoints) -------------------------------------------------------------
 
+# the dtype kinds whose array bytes are its values, read back by np.frombuffer: bool, signed and
+# unsigned int, float, complex, bytes and str of fixed size. Others are not: an object array's bytes
+# are pointers, a datetime64 array gives no buffer, a structured one came back as void bytes.
+_PLAIN_ARRAY_KINDS = frozenset("biufcSU")
+
+
+class NotPlainData(TypeError):
+    """A state value that is not plain data (:func:`plain_state`): ``what`` is wrong with it, and
+    ``path`` the keys and list indexes leading to it from the state given (its text leads the
+    message, so the component whose state it is can be named: ``state.label: ...``)."""
+
+    def __init__(self, what: str, path: tuple[str | int, ...] = ()):
+        super().__init__(f"{_path_text(path)}: {what}" if path else what)
+        self.what, self.path = what, path
+
+    def inside(self, key: str | int) -> NotPlainData:
+        """The same fault, seen from the dict or list holding it at ``key``."""
+        return NotPlainData(self.what, (key, *self.path))
+
+
+def _path_text(path: tuple[str | int, ...]) -> str:
+    """A key path as code reads it: ``state.records[2]``, ``state['a b']``."""
+    text = ""
+    for key in path:
+        if isinstance(key, int):
+            text += f"[{key}]"
+        elif key.isidentifier():
+            text += f".{key}" if text else key
+        else:
+            text += f"[{key!r}]"
+    return text
+
+
 def plain_state(value: Any) -> Any:
     """State data (dicts, lists, numbers, strings, numpy arrays) as JSON values, every array as a
     tagged dict holding its little-endian bytes as a :class:`pickle.PickleBuffer` (written as base64
     by :func:`cosim.codec.jsontext.state_text`; pickled out of band). The buffers share the state's arrays:
-    use them before the state changes."""
+    use them before the state changes.
+
+    Every value comes out as the exact type the checkpoint codecs write (a ``np.str_`` as a ``str``,
+    an int subclass as an ``int``: the protobuf form takes nothing else), and what they could not
+    give back as it was is refused with :class:`NotPlainData` (a TypeError) naming where it is: a
+    key that is not a string (an int key came back a string, and ``{1: a, "1": b}`` as one key),
+    text holding a lone surrogate (both forms' text is UTF-8), an array whose bytes are not its
+    values (:data:`_PLAIN_ARRAY_KINDS`: objects, datetimes, structured records). Anything else that
+    is not plain data is a TypeError."""
     if isinstance(value, np.ndarray):
-        arr = np.ascontiguousarray(value)
-        arr = arr.astype(arr.dtype.newbyteorder("<"), copy=False)
-        return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape), "base64": pickle.PickleBuffer(arr)}
+        return _plain_array(value)
     if isinstance(value, dict):
-        return {str(k): plain_state(v) for k, v in value.items()}
+        return _plain_dict(value)
     if isinstance(value, (list, tuple)):
-        return [plain_state(v) for v in value]
+        return _plain_list(value)
     if isinstance(value, (np.floating, float)):
         x = float(value)
         # tagged, so a state string that happens to read "nan" stays a string
@@ -502,10 +541,64 @@ def plain_state(value: Any) -> Any:
     if isinstance(value, np.bool_):
         return bool(value)
     if isinstance(value, enum.Enum):
-        return value.value
-    if value is None or isinstance(value, (int, str, bool)):
+        return plain_state(value.value)
+    if value is None or isinstance(value, bool):
         return value
+    if isinstance(value, int):
+        return int(value)  # (a subclass of int as the int it is)
+    if isinstance(value, str):
+        return _plain_text(value, "text")
     raise TypeError(f"state value of type {type(value).__name__} is not plain data")
+
+
+def _plain_array(value: np.ndarray) -> dict[str, Any]:
+    dtype = value.dtype
+    if dtype.kind not in _PLAIN_ARRAY_KINDS or dtype.fields is not None:
+        raise NotPlainData(f"an array of dtype {dtype} is not plain data (a checkpoint holds arrays of "
+                           "booleans, numbers, or bytes or text of fixed size)")
+    arr = np.asarray(value)  # (a subclass's bytes, as the array they are)
+    if not arr.flags.c_contiguous:
+        arr = arr.copy(order="C")  # (np.ascontiguousarray made a 0-d array 1-d)
+    arr = arr.astype(dtype.newbyteorder("<"), copy=False)
+    return {"__ndarray__": arr.dtype.str, "shape": list(arr.shape), "base64": pickle.PickleBuffer(arr)}
+
+
+def _plain_dict(value: dict) -> dict[str, Any]:
+    out = {}
+    for key, item in value.items():
+        if not isinstance(key, str):
+            raise NotPlainData(f"key {key!r} ({type(key).__name__}) is not a string: a checkpoint's keys are "
+                               "strings (written as text, it would come back as one)")
+        key = _plain_text(key, "key")
+        try:
+            out[key] = plain_state(item)
+        except NotPlainData as exc:
+            raise exc.inside(key) from None
+    return out
+
+
+def _plain_list(value: list | tuple) -> list[Any]:
+    out = []
+    for i, item in enumerate(value):
+        try:
+            out.append(plain_state(item))
+        except NotPlainData as exc:
+            raise exc.inside(i) from None
+    return out
+
+
+def _plain_text(text: str, what: str) -> str:
+    """``text`` as a plain ``str``; :class:`NotPlainData` when it holds a lone surrogate (as Python
+    carries a file name's byte that is not UTF-8), which a checkpoint's text, UTF-8, cannot: the
+    protobuf form would fail in the recording's writer, or be refused by every protobuf reader."""
+    text = str(text)
+    if not text.isascii():
+        try:
+            text.encode()
+        except UnicodeEncodeError as exc:
+            raise NotPlainData(f"{what} {text!r} holds the lone surrogate {text[exc.start]!r}: a checkpoint's "
+                               "text must be valid UTF-8") from None
+    return text
 
 
 def _state_in(value: Any) -> Any:

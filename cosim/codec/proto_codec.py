@@ -329,7 +329,8 @@ class ProtoCodec:
                     if not np.can_cast(arr.dtype, dtype, "same_kind"):
                         raise ProtoError(f"field {spec.name!r}: dtype {arr.dtype} is not {dtype}")
                     arr = arr.astype(dtype)
-                value = np.ascontiguousarray(arr)
+                # (np.ascontiguousarray made a 0-d array, as a Python scalar gives, 1-d: refused by its shape)
+                value = arr if arr.flags.c_contiguous else arr.copy(order="C")
             values[spec.name] = value
         return types.SimpleNamespace(**values)
 
