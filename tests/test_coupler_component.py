@@ -18,6 +18,7 @@ import pytest
 from components.coupler import EFFECTS, WaterCoupler, WaterCouplerParams
 from components.coupler.fixtures import axis_angle, body, disk_at_depth, pitched, still_water
 from components.coupler.forces import C_MIN, wave_drag_magnitude
+from components.coupler.geometry import quat_to_matrix
 from components.messages import (
     AddedMass,
     BodyState,
@@ -768,3 +769,39 @@ def test_a_body_wholly_under_water_has_its_whole_skin_friction(direction):
     friction = np.asarray(contact.friction)
     assert float(np.linalg.norm(friction)) == pytest.approx(whole, rel=0.02)
     assert float(friction @ u) / (float(np.linalg.norm(friction)) * speed) == pytest.approx(-1.0, abs=1e-3)
+
+
+def _sloped_water(slope: float, cell: float = 0.005, half_width: float = 0.25) -> HeightPatch:
+    """A patch whose surface is the plane h = slope x (which bilinear sampling gives exactly)."""
+    n = round(2 * half_width / cell)
+    origin = -(n - 1) / 2 * cell
+    x = origin + np.arange(n) * cell
+    return HeightPatch(0, 0, cell, origin, origin, 0.0, np.tile(slope * x, (n, 1)), np.zeros((n, n)),
+                       np.full((n, n), -1.0))
+
+
+@pytest.mark.parametrize("slope", [0.0, 0.1, -0.1])
+def test_a_face_on_a_sloping_surface_is_wetted_where_the_plane_covers_it(slope):
+    """A held disk (R 5 cm, 6 mm) at 20 deg, 3.5 m/s, its lower face cut by the plane h = slope x:
+    the wetted area the pressure acts on is the area of the face under that plane within 0.5%
+    (counted exactly over 1,000,000 points of the face) at five depths. Each 6 mm square of the face
+    read the surface at its centre and wetted its pieces against that level: on a slope of 0.1 the
+    area was 3.7% short to 5% over."""
+    radius, thickness, attack, speed = 0.05, 0.006, math.radians(20.0), 3.5
+    velocity = np.array([speed * math.cos(attack), 0.0, -speed * math.sin(attack)])
+    grid = (np.arange(1000) + 0.5) / 1000 * 2 * radius - radius
+    gx, gy = np.meshgrid(grid, grid)
+    inside = gx * gx + gy * gy <= radius * radius
+    face = np.column_stack([gx[inside], gy[inside], np.full(inside.sum(), -thickness / 2)])
+    axes = quat_to_matrix(pitched(attack))
+    normal = -axes[:, 2]
+    pressure = 0.5 * 1000.0 * speed * float(velocity @ normal)  # C_L = 1, C_N = 0: the planing law's
+    for z in np.linspace(0.008, 0.012, 5):
+        b = body(position=(0.0, 0.0, z), orientation=pitched(attack), velocity=tuple(velocity), radius=radius,
+                 thickness=thickness)
+        out = WaterCoupler("c", WaterCouplerParams(effects=["pressure"])).step(
+            0, DT_NS, {"body": b, "water": _sloped_water(slope)})
+        model = -float(np.asarray(out["contact"].pressure) @ normal) / pressure
+        points = face @ axes.T + [0.0, 0.0, z]
+        exact = float((points[:, 2] < slope * points[:, 0]).sum()) * (2 * radius / 1000) ** 2
+        assert model == pytest.approx(exact, rel=5e-3)
