@@ -202,3 +202,11 @@ def test_a_key_that_is_not_a_string_is_refused(state, said):
     with pytest.raises(TypeError, match=said + r": a checkpoint's keys are strings \(written as text, it would "
                                                r"come back as one\)$"):
         plain_state(state)
+
+
+@pytest.mark.parametrize("tag", ["__ndarray__", "__float__"])
+def test_a_key_that_is_the_checkpoints_own_tag_is_refused(tag):
+    """A state mapping keyed "__float__" or "__ndarray__" is how a checkpoint writes a non-finite float
+    or an array: {"__float__": "nan"} came back as the float nan. Refused, naming where."""
+    with pytest.raises(TypeError, match=rf"^mode: key '{tag}' is the checkpoint's own tag"):
+        plain_state({"mode": {tag: "nan"}})

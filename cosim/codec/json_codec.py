@@ -486,6 +486,9 @@ def decode(message_type: type[Message], payload: bytes) -> Message:
 _PLAIN_ARRAY_KINDS = frozenset("biufcSU")
 
 
+_TAGS = frozenset({"__ndarray__", "__float__"})  # the keys a state's arrays and non-finite floats are written under
+
+
 class NotPlainData(TypeError):
     """A state value that is not plain data (:func:`plain_state`): ``what`` is wrong with it, and
     ``path`` the keys and list indexes leading to it from the state given (its text leads the
@@ -569,6 +572,9 @@ def _plain_dict(value: dict) -> dict[str, Any]:
         if not isinstance(key, str):
             raise NotPlainData(f"key {key!r} ({type(key).__name__}) is not a string: a checkpoint's keys are "
                                "strings (written as text, it would come back as one)")
+        if key in _TAGS:
+            raise NotPlainData(f"key {key!r} is the checkpoint's own tag of an array or a non-finite float: "
+                               "a mapping holding it would come back as one")
         key = _plain_text(key, "key")
         try:
             out[key] = plain_state(item)
