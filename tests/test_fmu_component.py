@@ -571,3 +571,28 @@ def test_two_models_of_one_file_name_are_refused_rather_than_one_running_the_oth
     recording = Recording(outcome.recording)
     for name in ("a", "b"):
         assert [m.value for _, m in recording.messages(f"/{name}/y", Number)] == pytest.approx([0.0, 0.01, 0.02, 0.03])
+
+
+def test_a_model_module_whose_file_is_gone_is_let_go_for_the_next_fmu_to_import_its_own(tmp_path):
+    """A model module held from an FMU FMPy unpacked, ran and deleted cannot be compared with the next
+    FMU's of the same name: kept, the next one ran its code (b's gain.py running a's); it is let go,
+    so that PythonFMU imports the next FMU's own file."""
+    import sys
+    import types
+
+    from components.fmu.instance import _check_module_not_taken
+
+    for folder, gain in (("a", 1), ("b", 2)):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "gone_gain.py").write_text(f"K = {gain}\n")
+    held = types.ModuleType("gone_gain")
+    held.__file__ = str(tmp_path / "a" / "gone_gain.py")
+    sys.modules["gone_gain"] = held
+    try:
+        with pytest.raises(ValueError, match="already loaded in this process"):
+            _check_module_not_taken("gone_gain", tmp_path / "b", tmp_path / "b.fmu")
+        (tmp_path / "a" / "gone_gain.py").unlink()
+        _check_module_not_taken("gone_gain", tmp_path / "b", tmp_path / "b.fmu")
+        assert "gone_gain" not in sys.modules
+    finally:
+        sys.modules.pop("gone_gain", None)

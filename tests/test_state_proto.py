@@ -210,3 +210,18 @@ def test_a_key_that_is_the_checkpoints_own_tag_is_refused(tag):
     or an array: {"__float__": "nan"} came back as the float nan. Refused, naming where."""
     with pytest.raises(TypeError, match=rf"^mode: key '{tag}' is the checkpoint's own tag"):
         plain_state({"mode": {tag: "nan"}})
+
+
+def test_an_enum_key_is_written_as_its_value_and_a_masked_array_is_refused():
+    """A str-valued enum member as a key came back as its name ('E.A', where the same member as a
+    value came back 'a'); a masked array lost its mask without a word."""
+    import enum
+
+    class Mode(str, enum.Enum):  # noqa: UP042 (the mixin whose str() is its name, unlike StrEnum)
+        GLIDE = "glide"
+
+    for back in (decode_checkpoint(state_bytes(plain_state({Mode.GLIDE: 1.5}))),
+                 decode_state(encode_state({Mode.GLIDE: 1.5}))):
+        assert back == {"glide": 1.5}
+    with pytest.raises(TypeError, match=r"^m: a masked array is not plain data"):
+        plain_state({"m": np.ma.array([1.0, 2.0], mask=[0, 1])})

@@ -67,7 +67,7 @@ from the face.)
   c_min = (4 g gamma / rho_w)^(1/4) = 0.23 m/s). Chosen form, a drag on the immersed cross-section
   that saturates past the hull speed::
 
-      F_w = -1/2 rho_w C_W S_w (U^2 - c_min^2) / (1 + U^2 / (g L)) U_hat,    for U > c_min
+      F_w = -1/2 rho_w C_W S_w (U^2 - c_min^2) / (1 + U^2 / (g L)) exp(-2 g d / U^2) U_hat,  U > c_min
       S_w = V_sub / L,   L = 2 R
 
   U is the body's horizontal speed (the water has no horizontal velocity in a height field), V_sub
@@ -77,8 +77,10 @@ from the face.)
   onset keeps the dynamics step-size independent). Slow, it grows like a form drag; past the hull
   speed sqrt(g L) the wave resistance of a body stops growing (Havelock), so F_w tends to
   1/2 C_W rho_w g V_sub, a fixed share of the displaced weight: a floating ball pushed at 0.5 m/s
-  feels it fully, a stone skimming at 8 m/s (Froude number ~10) hardly at all. It acts at the
-  submerged centroid. C_W is a calibration coefficient (default 0.3).
+  feels it fully, a stone skimming at 8 m/s (Froude number ~10) hardly at all. d is the depth of the
+  body's top under the surface (0 while it pierces it): a body under water makes waves only through
+  the pressure it sets up at the surface, Havelock's factor (:func:`wave_drag_magnitude`). It acts at
+  the submerged centroid. C_W is a calibration coefficient (default 0.3).
 """
 
 from __future__ import annotations

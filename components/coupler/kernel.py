@@ -104,7 +104,8 @@ def sample_water_slope(x, y, x0, y0, cell, height, wvel, bottom):
     """:func:`sample_water` and the slope of the surface it samples there, the gradient of the
     bilinear interpolant: (ok, height [m], vertical velocity [m/s], depth [m], dh/dx, dh/dy [-]).
     The height, velocity and depth are sample_water's to the bit; the slope is 0 exactly on a level
-    surface, and along a clamped edge."""
+    surface, and in the outer half column of a patch, where the height is held at the edge's, it is
+    the edge cell's (the surface going on as it went)."""
     ok, i, j, i1, j1, w00, w10, w01, w11 = _bilinear(x, y, x0, y0, cell, height.shape)
     if not ok:
         return False, 0.0, 0.0, 0.0, 0.0, 0.0

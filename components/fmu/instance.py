@@ -130,9 +130,10 @@ def _check_module_not_taken(module: str, resources: Path, fmu_file: Path) -> Non
     name: a module of that name this process already holds (another FMU's model of the same file
     name, or a module of Python's own) is the one every later FMU of that name runs. Two models
     ``a/gain.py`` and ``b/gain.py`` in one scene ran a's code for both, without a word, and a replay
-    vouched for it bit for bit. Refused (ValueError) unless the module held is this FMU's own text,
-    or its file is gone and cannot be compared (an FMU that FMPy's ``simulate_fmu`` unpacked, ran and
-    deleted in this process; the FMUs of scenes stay unpacked until the process ends)."""
+    vouched for it bit for bit. Refused (ValueError) unless the module held is this FMU's own text.
+    One whose file is gone (an FMU that FMPy's ``simulate_fmu`` unpacked, ran and deleted in this
+    process; the FMUs of scenes stay unpacked until the process ends) cannot be compared: it is let
+    go, so that this FMU imports its own."""
     import sys
 
     held = sys.modules.get(module)
@@ -143,6 +144,8 @@ def _check_module_not_taken(module: str, resources: Path, fmu_file: Path) -> Non
                 if f.is_file()), None)
     held_file = getattr(held, "__file__", None)
     if held_file is not None and not Path(held_file).is_file():
+        for name in [n for n in sys.modules if n == module or n.startswith(module + ".")]:
+            del sys.modules[name]
         return
     try:
         same = own is not None and held_file is not None and Path(held_file).read_bytes() == own.read_bytes()

@@ -555,6 +555,9 @@ def plain_state(value: Any) -> Any:
 
 
 def _plain_array(value: np.ndarray) -> dict[str, Any]:
+    if isinstance(value, np.ma.MaskedArray):
+        raise NotPlainData("a masked array is not plain data (its mask would be lost: write the values "
+                           "and the mask as two arrays)")
     dtype = value.dtype
     if dtype.kind not in _PLAIN_ARRAY_KINDS or dtype.fields is not None:
         raise NotPlainData(f"an array of dtype {dtype} is not plain data (a checkpoint holds arrays of "
@@ -569,6 +572,8 @@ def _plain_array(value: np.ndarray) -> dict[str, Any]:
 def _plain_dict(value: dict) -> dict[str, Any]:
     out = {}
     for key, item in value.items():
+        if isinstance(key, enum.Enum):
+            key = key.value  # (a str-valued member's str() is its name: E.A came back as 'E.A')
         if not isinstance(key, str):
             raise NotPlainData(f"key {key!r} ({type(key).__name__}) is not a string: a checkpoint's keys are "
                                "strings (written as text, it would come back as one)")
