@@ -714,14 +714,14 @@ def main(argv: list[str] | None = None) -> int:
         _pause_collection()
     stdout, stderr = sys.stdout, sys.stderr
     sys.stdout = _ReaderMayLeave(stdout)
-    sys.stderr = _ErrorsReaderMayLeave(stderr)
+    sys.stderr = _ReaderMayLeave(stderr, names_stdout=False)
     try:
         with _CtrlC() as ctrl_c:
             code = _main(argv, ctrl_c)
     finally:
         if isinstance(sys.stdout, _ReaderMayLeave):
             sys.stdout = stdout
-        if isinstance(sys.stderr, _ErrorsReaderMayLeave):
+        if isinstance(sys.stderr, _ReaderMayLeave):
             sys.stderr = stderr
         start_up_done()
         if as_program:  # the command has said all it has to: a Ctrl-C as the process ends adds nothing
@@ -865,55 +865,38 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
 
 
 class _ReaderMayLeave:
-    """Standard output whose reader may leave (``cosim replay RUN.mcap | head -1``): from then on what
-    is printed goes nowhere, and the command goes on to its end and its own exit code. The pipe's
-    error ended the command where it printed, with exit 0: a replay that had found a divergence, or a
-    restart that never ran, said success."""
+    """A standard stream whose reader may leave (``cosim replay RUN.mcap | head -1``, ``cosim validate
+    bad.yaml 2>&1 | head -1``): from then on what is written goes nowhere, and the command goes on to
+    its end and its own exit code. The pipe's error ended the command where it printed, with exit 0:
+    a replay that had found a divergence, or a restart that never ran, said success; on stderr,
+    raised while a bad scene's problems were said, it turned exit 2 (bad input) into 1 (the run
+    failed). Another error of standard output (a full disk under ``> out.txt``) is said of it, not
+    of "its output" (``names_stdout``)."""
 
-    def __init__(self, stream: Any):
+    def __init__(self, stream: Any, *, names_stdout: bool = True):
         self._stream = stream
+        self._names_stdout = names_stdout
 
     def write(self, text: str) -> int:
         try:
             return self._stream.write(text)
         except BrokenPipeError:
-            _quiet_stdout()
+            _quiet(self._stream)
             return len(text)
-        except OSError as exc:  # a full disk under `> out.txt`: said of stdout, not of "its output"
-            raise _named_stdout(exc) from None
-
-    def flush(self) -> None:
-        try:
-            self._stream.flush()
-        except BrokenPipeError:
-            _quiet_stdout()
         except OSError as exc:
+            if not self._names_stdout:
+                raise
             raise _named_stdout(exc) from None
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._stream, name)
-
-
-class _ErrorsReaderMayLeave:
-    """Standard error whose reader may leave (``cosim validate bad.yaml 2>&1 | head -1``): from then on
-    what is said goes nowhere, and the exit code stays the command's. The pipe's error, raised while
-    a bad scene's problems were being said, turned exit 2 (bad input) into 1 (the run failed)."""
-
-    def __init__(self, stream: Any):
-        self._stream = stream
-
-    def write(self, text: str) -> int:
-        try:
-            return self._stream.write(text)
-        except BrokenPipeError:
-            _quiet(self._stream)
-            return len(text)
 
     def flush(self) -> None:
         try:
             self._stream.flush()
         except BrokenPipeError:
             _quiet(self._stream)
+        except OSError as exc:
+            if not self._names_stdout:
+                raise
+            raise _named_stdout(exc) from None
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
