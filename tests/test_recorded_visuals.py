@@ -389,3 +389,21 @@ def test_a_process_with_a_kept_writer_exits_while_a_forked_child_lives(tmp_path)
         assert _alive(child)  # the parent ended first
     finally:
         os.kill(child, signal.SIGKILL)
+
+
+def test_a_ground_is_drawn_from_its_first_message_that_has_a_body_to_draw_under(tmp_path):
+    """A ground's slab spans the path of the body it holds, which it is told of only as the run's first
+    step begins: at t = 0 it has nothing to draw, and that frame counted as drawn, so the floor
+    appeared a frame (33 ms) after the bodies above it. Its next message draws it: at the first step,
+    while the bodies are drawn from t = 0."""
+    from mcap.reader import make_reader
+
+    scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml", ["until=0.05"])
+    out = tmp_path / "g.mcap"
+    run_scene(scene, out, progress=False)
+    first: dict[str, int] = {}
+    with open(out, "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages(topics=["/scene/floor_flat", "/scene/disk_flat"]):
+            first.setdefault(channel.topic, message.log_time)
+    assert first["/scene/disk_flat"] == 0
+    assert first["/scene/floor_flat"] == scene.dt_ns

@@ -303,11 +303,13 @@ class VisualsWarning(UserWarning):
 
 @dataclass
 class _Slot:
-    """Visuals of one (component, port): the function and when its next frame is due [ns]."""
+    """Visuals of one (component, port): the function, when its next frame is due [ns], and whether it
+    has drawn anything yet."""
 
     function: VisualsFunction
     every_message: bool
     due_ns: int = 0
+    drawn: bool = False
 
 
 _UNRESOLVED = object()
@@ -399,6 +401,10 @@ class VisualDeriver:
             slot.due_ns = self.next_frame_ns(time_ns)
         items = self._items(slot, time_ns, component, port, msg)
         if not items:
+            if not slot.drawn:
+                # nothing to draw yet (a ground told of no body before the run's first step): its
+                # next message is drawn, not the next frame's (the floor appeared a frame late, 33 ms)
+                slot.due_ns = time_ns
             return []
         return items if self.encoder is None else self.encoder.encode(time_ns, items)
 
@@ -425,6 +431,7 @@ class VisualDeriver:
             raw = list(slot.function(component, port, msg))
             for item in raw:
                 self._check(item)
+            slot.drawn = slot.drawn or bool(raw)
         except Exception as exc:
             self._slots[(component, port)] = None
             text = (f"visuals of /{component}/{port} failed at t = {time_ns / NS_PER_S:g} s and are "
