@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -31,7 +32,7 @@ from tornado.websocket import WebSocketClosedError
 from components.messages import SkipRecord, Stage, StageId
 from cosim.codec.json_codec import codec_for
 from cosim.record.recorder import physics_topics
-from cosim.scenario import loads
+from cosim.scenario import load, loads
 from cosim.scheduler import BaseObserver, Simulation
 from cosim.view.foxglove import visual_deriver
 from cosim.view.live import DEFAULT_RATE, LiveView
@@ -138,19 +139,31 @@ async def _close(ws) -> None:
 class Latest(BaseObserver):
     """The latest message on every channel from each port publishing on it, as the live view
     should latch them: physics channels JSON-encoded, viewer channels from a deriver of its own
-    (the deriver is deterministic: the same exchanges give the same bytes)."""
+    (the deriver is deterministic: the same exchanges give the same bytes); of a SceneUpdate channel,
+    whose messages hold only the entities that changed, the latest message carrying each entity."""
 
     def __init__(self, sim: Simulation):
         scene = sim.scene
         self.deriver = visual_deriver(scene.record.visual_rate or DEFAULT_RATE, physics_topics(scene))
         self.deriver.bind(sim.components)
-        self.latest: dict[str, dict[tuple[str, str], tuple[int, bytes]]] = {}
+        self.latest: dict[str, dict[tuple, tuple[int, bytes]]] = {}
 
     def on_exchange(self, time_ns: int, component: str, port: str, msg: Any) -> None:
+        from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
         encoded = codec_for(type(msg)).encode(msg)
         self.latest.setdefault(f"/{component}/{port}", {})[component, port] = (time_ns, encoded)
         for extra in self.deriver(time_ns, component, port, msg):
-            self.latest.setdefault(extra.topic, {})[component, port] = (time_ns, extra.data)
+            held = self.latest.setdefault(extra.topic, {})
+            if extra.schema_name == "foxglove.SceneUpdate":
+                for entity in SceneUpdate.FromString(extra.data).entities:
+                    held[component, port, entity.id] = (time_ns, extra.data)
+            else:
+                held[component, port] = (time_ns, extra.data)
+
+    def wanted(self) -> dict[str, list[tuple[int, bytes]]]:
+        """By channel, the messages a late viewer gets, each once, in order."""
+        return {topic: sorted(set(by_source.values())) for topic, by_source in self.latest.items()}
 
 
 def test_a_viewer_connecting_after_the_run_gets_every_channels_latest_message():
@@ -163,7 +176,7 @@ def test_a_viewer_connecting_after_the_run_gets_every_channels_latest_message():
     expected = Latest(sim)
     sim.observers += [view, expected]
     sim.run()
-    want = {topic: sorted(by_source.values()) for topic, by_source in expected.latest.items()}
+    want = expected.wanted()
     seen = Received()
     main = threading.main_thread().ident
     assert main is not None
@@ -301,5 +314,34 @@ def test_a_message_logged_before_the_listener_hears_of_its_subscriber_reaches_it
         view._send_latest()
         encode = codec_for(Stage).encode
         assert channel.logged == [(encode(first), 1_000_000), (encode(hit), 60_000_000)]
+    finally:
+        view.close()
+
+
+def test_a_viewer_that_comes_after_the_run_gets_the_whole_trail():
+    """A SceneUpdate holds only the entities that changed: the held skip's trail sends its path about
+    once a second and its tip every frame, so the latest message alone, latched, drew a viewer that
+    came after the run the stone's last three points. The latest message carrying each entity is
+    latched: the path (its 59 points before the tip) and the tip."""
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    from cosim.runner import run_scene
+
+    scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml", ["until=2.0"])
+    view = run_scene(scene, None, live="127.0.0.1:0", live_speed=0, keep_live=True, progress=False).live
+    try:
+        topic = "/scene/stone/trail"
+        channel = view._channels[topic] = _RegisteredChannel()
+
+        class Subscribed:
+            pass
+
+        Subscribed.topic = topic
+        view._subscriptions.on_subscribe(None, Subscribed())
+        view._send_latest()
+        entities = {e.id: sum(len(line.points) for line in e.lines)
+                    for data, _ in channel.logged for e in SceneUpdate.FromString(data).entities}
+        assert entities.keys() == {"trail", "trail-tip"} and entities["trail"] >= 50
+        assert [t for _, t in channel.logged] == sorted(t for _, t in channel.logged)
     finally:
         view.close()

@@ -129,6 +129,16 @@ def _quiet_sdk_logs() -> None:
         logger.propagate = False
 
 
+SCENE_UPDATE = "foxglove.SceneUpdate"  # the schema of viewer channels whose messages hold entities
+
+
+def _entity_ids(data: bytes) -> list[str]:
+    """The ids of the entities a SceneUpdate's bytes hold."""
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    return [entity.id for entity in SceneUpdate.FromString(data).entities]
+
+
 class _Subscriptions:
     """The server's listener: notes the topics clients subscribe to, for the main thread to send
     their latest messages (the SDK calls it on a server thread, where logging can deadlock)."""
@@ -216,6 +226,11 @@ class LiveView(BaseObserver):
         # channel's bytes; a viewer channel such as /tf or /log has several sources, and the latest
         # of just one of them would leave the others' frames unknown to a late viewer
         self._latest: dict[str, dict[tuple[str, str], tuple[Message | bytes, int]]] = {}
+        # per SceneUpdate topic, the latest message that carried each entity, by (component, port,
+        # entity id): a SceneUpdate holds only the entities that changed (a trail's path is sent again
+        # about once a second, its tip every frame), so its latest message alone drew a late viewer
+        # the stone with no path
+        self._entities: dict[str, dict[tuple[str, str, str], tuple[bytes, int]]] = {}
         self._wall0 = 0.0
         self._sim0 = 0
         self._last_clock = 0.0
@@ -284,11 +299,18 @@ class LiveView(BaseObserver):
             self._subscriptions.served(topic)
         for extra in self.deriver(time_ns, component, port, msg):
             self._latest.setdefault(extra.topic, {})[component, port] = (extra.data, time_ns)
+            scene = extra.schema_name == SCENE_UPDATE
+            if scene:
+                held = self._entities.setdefault(extra.topic, {})
+                for entity in _entity_ids(extra.data):
+                    held[component, port, entity] = (extra.data, time_ns)
             derived = self._channel(extra.topic, extra.schema_name, extra.schema_encoding, extra.schema_data,
                                     extra.message_encoding)
             if noted(extra.topic):
                 derived.log(extra.data, log_time=time_ns)
-                if len(self._latest[extra.topic]) == 1:  # else a new subscriber still lacks the others'
+                # else a new subscriber still lacks the other sources' messages, or the entities
+                # earlier messages of this one carried
+                if len(self._latest[extra.topic]) == 1 and not scene:
                     self._subscriptions.served(extra.topic)
 
     def _send_latest(self) -> None:
@@ -300,8 +322,13 @@ class LiveView(BaseObserver):
         """
         for topic in self._subscriptions.take():
             # oldest first (a stable sort: sources with equal times keep their first-publish order)
-            # (a channel made before the run may have none yet: its first message goes to it as usual)
-            for data, log_time in sorted(self._latest.get(topic, {}).values(), key=lambda latest: latest[1]):
+            # (a channel made before the run may have none yet: its first message goes to it as usual);
+            # a SceneUpdate topic's messages that carry the latest of each entity, each once, the later
+            # replacing what the earlier drew of the same entities
+            latest = self._latest.get(topic, {}).values()
+            if topic in self._entities:
+                latest = list({id(data): (data, t) for data, t in self._entities[topic].values()}.values())
+            for data, log_time in sorted(latest, key=lambda message: message[1]):
                 if not isinstance(data, bytes):
                     data = codec_for(type(data)).encode(data)
                 self._channels[topic].log(data, log_time=log_time)
