@@ -398,7 +398,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
                             f"cosim replay {args.recording}")
     rec = Recording(args.recording)
     if args.from_time is None:
-        check_replayable(rec)  # (what fails every component: said once)
+        check_replayable(rec, args.component)  # (what fails every component: said once)
         names = [args.component] if args.component else rec.scene().order
         status = rec.status()
         if status is not None and status.status == "failed":  # replayed up to where it failed: say so

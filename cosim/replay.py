@@ -10,6 +10,7 @@ before a time, optionally with changed settings, ready to run on.
 
 from __future__ import annotations
 
+import fnmatch
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -104,18 +105,39 @@ class _RecordedSource:
                 break
 
 
-def check_replayable(rec: Recording) -> None:
-    """What keeps every component of ``rec`` from being replayed, as a RecordingError (said once, not
-    once a component): a selection of its exchanges recorded, or a restart's checkpoint not there."""
+def check_replayable(rec: Recording, component: str | None = None) -> None:
+    """What keeps every component of ``rec`` (or ``component`` alone) from being replayed, as a
+    RecordingError (said once, not once a component): an exchange it needs not recorded, or a
+    restart's checkpoint not there."""
     scene = rec.scene()
-    _refuse_a_selection(rec, scene)
+    if component is None or component in scene.components:  # (one it does not have is said by replay_component)
+        _refuse_a_selection(rec, scene, component)
     _restart_checkpoint(rec, scene)
 
 
-def _refuse_a_selection(rec: Recording, scene: Scene) -> None:
-    if scene.record.every != 1 or scene.record.channels is not None:
+def _refuse_a_selection(rec: Recording, scene: Scene, component: str | None = None) -> None:
+    """Refuse (RecordingError) a recording that left out an exchange the replay needs: every one of
+    them kept one in ``record.every``, or, of ``record.channels``, a channel it does not match: any
+    component's output for the whole replay, ``component``'s own outputs and inputs for its own.
+    (Any ``record.channels`` was refused: ``--record '*'``, which keeps every exchange, and a
+    selection holding all a component needs.)"""
+    if scene.record.every != 1:
         raise RecordingError(f"{rec.path}: cannot replay: the run recorded a selection of its exchanges "
-                             "(record.channels / record.every); replay needs every exchange")
+                             f"(record.every {scene.record.every}); replay needs every exchange")
+    patterns = scene.record.channels
+    if patterns is None:
+        return
+    if component is None:
+        needed = [f"/{name}/{port}" for name in scene.order for port in scene.components[name].cls.outputs]
+    else:
+        needed = [f"/{component}/{port}" for port in scene.components[component].cls.outputs]
+        needed += [f"/{c.source}/{c.source_port}" for c in scene.connections if c.target == component]
+    left_out = [topic for topic in dict.fromkeys(needed)
+                if not any(fnmatch.fnmatchcase(topic, pattern) for pattern in patterns)]
+    if left_out:
+        shown = ", ".join(left_out[:3]) + (f" and {len(left_out) - 3} more" if len(left_out) > 3 else "")
+        raise RecordingError(f"{rec.path}: cannot replay: the run's record.channels left out {shown}; "
+                             "replay needs every exchange it re-runs")
 
 
 def replay_component(rec: Recording, name: str, component: Component | None = None) -> ReplayReport:
@@ -127,7 +149,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
     if name not in scene.components:
         raise RecordingError(f"{rec.path}: no component {name!r} in the recorded scene "
                              f"(components: {', '.join(scene.order)})")
-    _refuse_a_selection(rec, scene)
+    _refuse_a_selection(rec, scene, name)
     status = rec.status()
     cfg = scene.components[name]
     comp = component if component is not None else cfg.build()

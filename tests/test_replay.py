@@ -11,7 +11,7 @@ from cosim.errors import RecordingError
 from cosim.record.reader import Recording
 from cosim.replay import replay_component, restart_simulation
 from cosim.runner import run_scene
-from cosim.scenario import loads
+from cosim.scenario import load, loads
 from tests.fmu_toys import fmu_cache  # noqa: F401  (FMUs the tests build go to a folder of their own)
 from tests.toys import Gain
 
@@ -599,3 +599,21 @@ def test_a_restart_with_new_settings_from_a_stopped_runs_last_checkpoint_runs_un
     sim, _ = restart_simulation(Recording(path), stop_ns, overrides=["components.acc.stop_at=0.6"])
     result = sim.run()
     assert result.status == "stopped" and sim.time_ns > stop_ns and result.reason.startswith("acc: total reached 0.6")
+
+
+def test_a_recording_that_kept_what_a_replay_needs_is_replayed_whatever_its_channel_patterns(tmp_path, capsys):
+    """record.channels that match every exchange (`--record '*'`), or every one a component's replay
+    needs (its outputs and inputs), were refused as "a selection"; a selection that leaves out
+    what the replay needs is still refused, naming what it left out."""
+    from cosim.cli import main
+
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "ground_bounce.yaml"
+    every, part = tmp_path / "every.mcap", tmp_path / "part.mcap"
+    run_scene(load(scene, ["until=0.05", "record.channels=['*']"]), every, progress=False)
+    run_scene(load(scene, ["until=0.05", "record.channels=['/sphere/*', '/floor_sphere/*']"]), part, progress=False)
+    assert main(["replay", str(every)]) == 0
+    assert main(["replay", str(part), "--component", "sphere"]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(part)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "the run's record.channels left out /disk_flat/state" in err[0], err
