@@ -88,22 +88,16 @@ def sample_water(x, y, x0, y0, cell, height, wvel, bottom):
     depth [m]), the depth the bilinear mean of the columns' own, max(height - bottom, 0), so that it
     is 0 exactly over dry land (a column whose surface is its bed) and the layer between the bed and
     the surface elsewhere. (The same weights as sample_surface's, the height and velocity the same
-    to the bit.)"""
-    ok, i, j, i1, j1, w00, w10, w01, w11 = _bilinear(x, y, x0, y0, cell, height.shape)
-    if not ok:
-        return False, 0.0, 0.0, 0.0
-    h = w00 * height[j, i] + w10 * height[j, i1] + w01 * height[j1, i] + w11 * height[j1, i1]
-    v = w00 * wvel[j, i] + w10 * wvel[j, i1] + w01 * wvel[j1, i] + w11 * wvel[j1, i1]
-    d = (w00 * max(height[j, i] - bottom[j, i], 0.0) + w10 * max(height[j, i1] - bottom[j, i1], 0.0)
-         + w01 * max(height[j1, i] - bottom[j1, i], 0.0) + w11 * max(height[j1, i1] - bottom[j1, i1], 0.0))
-    return True, h, v, d
+    to the bit.) :func:`sample_water_slope` without the slope."""
+    ok, h, v, d, _, _ = sample_water_slope(x, y, x0, y0, cell, height, wvel, bottom)
+    return ok, h, v, d
 
 
 @njit(cache=True, inline="always")
 def sample_water_slope(x, y, x0, y0, cell, height, wvel, bottom):
     """:func:`sample_water` and the slope of the surface it samples there, the gradient of the
     bilinear interpolant: (ok, height [m], vertical velocity [m/s], depth [m], dh/dx, dh/dy [-]).
-    The height, velocity and depth are sample_water's to the bit; the slope is 0 exactly on a level
+    The slope is 0 exactly on a level
     surface, and in the outer half column of a patch, where the height is held at the edge's, it is
     the edge cell's (the surface going on as it went)."""
     ok, i, j, i1, j1, w00, w10, w01, w11 = _bilinear(x, y, x0, y0, cell, height.shape)
@@ -460,7 +454,7 @@ def evaluate_into(shape, radius, thickness, centre, axes, velocity, omega, half_
                        height, bottom, rho, g, c_w, c_min, nsub, flags, b_geo, waterline, stats, wave_depth,
                        0.0, 0, b_geo, waterline, stats)
     if flags & (PRESSURE | FRICTION):
-        _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
+        _element_pass(shape, radius, centre, axes, velocity, omega, x0, y0, cell, height, wvel,
                       bottom, hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l,
                       c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
@@ -510,7 +504,7 @@ def evaluate_with_rest(shape, radius, thickness, centre, axes, velocity, omega, 
                        np.zeros((0, 0, 0)), stats, wave_depth, rest_level, rest_flags if rest_columns else 0, b_rest,
                        rest_waterline, rest_stats)
     if flags & (PRESSURE | FRICTION):
-        _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
+        _element_pass(shape, radius, centre, axes, velocity, omega, x0, y0, cell, height, wvel,
                       bottom, hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l,
                       c_n, c_b, c_f,
                       wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m)
@@ -770,7 +764,7 @@ def _column_stats(stats, flags, vol, mx, my, mz, wl, ncol, fz, tx, ty, velocity,
 
 
 @njit(cache=True)
-def _element_pass(shape, radius, centre, axes, velocity, omega, x_low, y_low, x0, y0, cell, height, wvel,
+def _element_pass(shape, radius, centre, axes, velocity, omega, x0, y0, cell, height, wvel,
                   bottom, hmax, el_pos, el_nrm, el_area, el_t1, el_t2, el_sub, el_whole, world_fixed, rho, g, c_l,
                   c_n, c_b, c_f,
                   wet_ramp, flags, stats, planing, c_d, pl_f, pl_r, pl_s, pl_m):
