@@ -226,8 +226,8 @@ class LiveView(BaseObserver):
         # channel's bytes; a viewer channel such as /tf or /log has several sources, and the latest
         # of just one of them would leave the others' frames unknown to a late viewer
         self._latest: dict[str, dict[tuple[str, str], tuple[Message | bytes, int]]] = {}
-        # per SceneUpdate topic, the latest message that carried each entity, by (component, port,
-        # entity id): a SceneUpdate holds only the entities that changed (a trail's path is sent again
+        # per SceneUpdate topic instead, the latest message that carried each entity, by (component,
+        # port, entity id): a SceneUpdate holds only the entities that changed (a trail's path is sent again
         # about once a second, its tip every frame), so its latest message alone drew a late viewer
         # the stone with no path
         self._entities: dict[str, dict[tuple[str, str, str], tuple[bytes, int]]] = {}
@@ -298,19 +298,20 @@ class LiveView(BaseObserver):
             channel.log(codec_for(type(msg)).encode(msg), log_time=time_ns)
             self._subscriptions.served(topic)
         for extra in self.deriver(time_ns, component, port, msg):
-            self._latest.setdefault(extra.topic, {})[component, port] = (extra.data, time_ns)
             scene = extra.schema_name == SCENE_UPDATE
             if scene:
                 held = self._entities.setdefault(extra.topic, {})
                 for entity in _entity_ids(extra.data):
                     held[component, port, entity] = (extra.data, time_ns)
+            else:
+                self._latest.setdefault(extra.topic, {})[component, port] = (extra.data, time_ns)
             derived = self._channel(extra.topic, extra.schema_name, extra.schema_encoding, extra.schema_data,
                                     extra.message_encoding)
             if noted(extra.topic):
                 derived.log(extra.data, log_time=time_ns)
                 # else a new subscriber still lacks the other sources' messages, or the entities
                 # earlier messages of this one carried
-                if len(self._latest[extra.topic]) == 1 and not scene:
+                if not scene and len(self._latest[extra.topic]) == 1:
                     self._subscriptions.served(extra.topic)
 
     def _send_latest(self) -> None:
@@ -325,9 +326,10 @@ class LiveView(BaseObserver):
             # (a channel made before the run may have none yet: its first message goes to it as usual);
             # a SceneUpdate topic's messages that carry the latest of each entity, each once, the later
             # replacing what the earlier drew of the same entities
-            latest = self._latest.get(topic, {}).values()
             if topic in self._entities:
                 latest = list({id(data): (data, t) for data, t in self._entities[topic].values()}.values())
+            else:
+                latest = list(self._latest.get(topic, {}).values())
             for data, log_time in sorted(latest, key=lambda message: message[1]):
                 if not isinstance(data, bytes):
                     data = codec_for(type(data)).encode(data)
