@@ -10,7 +10,6 @@ before a time, optionally with changed settings, ready to run on.
 
 from __future__ import annotations
 
-import fnmatch
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -20,7 +19,7 @@ from cosim.component import Component
 from cosim.errors import CosimError, RecordingError, counted, shortened
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
-from cosim.record.recorder import topic_of
+from cosim.record.recorder import selected, topic_of
 from cosim.scenario import Scene
 from cosim.scheduler import Simulation, _Edge, _Slot, gather, gather_start, restore_component, saved_messages
 from cosim.timebase import NS_PER_S, exact_seconds
@@ -132,8 +131,7 @@ def _refuse_a_selection(rec: Recording, scene: Scene, component: str | None = No
     else:
         needed = [f"/{component}/{port}" for port in scene.components[component].cls.outputs]
         needed += [f"/{c.source}/{c.source_port}" for c in scene.connections if c.target == component]
-    left_out = [topic for topic in dict.fromkeys(needed)
-                if not any(fnmatch.fnmatchcase(topic, pattern) for pattern in patterns)]
+    left_out = [topic for topic in dict.fromkeys(needed) if not selected(topic, patterns)]
     if left_out:
         shown = ", ".join(left_out[:3]) + (f" and {len(left_out) - 3} more" if len(left_out) > 3 else "")
         raise RecordingError(f"{rec.path}: cannot replay: the run's record.channels left out {shown}; "

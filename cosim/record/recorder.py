@@ -212,8 +212,7 @@ class Recorder(BaseObserver):
     def wanted(self, topic: str) -> bool:
         ok = self._wanted.get(topic)
         if ok is None:
-            ok = self._wanted[topic] = self.patterns is None or any(
-                fnmatch.fnmatchcase(topic, p) for p in self.patterns)
+            ok = self._wanted[topic] = selected(topic, self.patterns)
         return ok
 
     # --- observer interface ----------------------------------------------------------------------------
@@ -425,6 +424,11 @@ def _utf8(text: str) -> str:
     except UnicodeEncodeError:  # a surrogate no file system byte stands for
         return text.encode("utf-8", "backslashreplace").decode("utf-8")
     return raw.decode("utf-8", "backslashreplace")
+
+
+def selected(topic: str, patterns: list[str] | None) -> bool:
+    """Whether a recording of ``record.channels`` ``patterns`` (None: every channel) keeps ``topic``."""
+    return patterns is None or any(fnmatch.fnmatchcase(topic, p) for p in patterns)
 
 
 def physics_topics(scene: Scene) -> frozenset[str]:
