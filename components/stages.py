@@ -276,12 +276,12 @@ class StageMonitor(Component):
         body: BodyState = inputs["body"]  # type: ignore[assignment]
         water: WaterContact | None = inputs["water"]  # type: ignore[assignment]
         ground: GroundContact | None = inputs["ground"]  # type: ignore[assignment]
-        now = t + dt
-        self._step = dt  # [s] (the summary gives its times to this step's last digit)
         # the body's step, which the gravity-speed rules below are about: a body stepping every 4 (2 ms)
         # under a monitor stepping every 1 rested at g times 2 ms and was never at rest, one rising out
         # of the water took its first step for a descent and made a skip of it
         body_step = self.source_steps.get("body", dt)
+        now = t + dt if body_step >= dt else _first_stamp_after(t, body_step)
+        self._step = min(dt, body_step)  # [s] (the summary gives its times to this step's last digit)
         x = float(body.position[0])
         track = self.track
         if math.isnan(track.start_x):  # stepped without its inputs at t = 0 (a component driven by hand)
@@ -399,11 +399,12 @@ class StageMonitor(Component):
             outputs["stage"] = Stage(StageId.LEFT_POND, LEFT_POND, self.track.skips, x, y, now)
             if self.params.stop_after > 0:  # 0: this monitor ends no run (one body of several leaving)
                 what = "left the pond" if not math.isnan(self.track.touchdown_time) else "missed the water"
-                # (rounded to the millimetre first: a throw along y = 0 printed "y = -7.93e-17 m")
-                x_said, y_said = round(x, 3) + 0.0, round(y, 3) + 0.0
-                self.request_stop(f"{self._body_name()} {what}: it came down beside the water at x = {x_said:.3g} m, "
-                                  f"y = {y_said:.3g} m (below the water's level with no water under it since "
-                                  f"t = {self.outside_since:.4g} s)")
+                # to the millimetre (a throw along y = 0 printed "y = -7.93e-17 m"), every digit of it (to
+                # three figures, 10.544 m was "10.5 m" beside a distance of 10.24 m from x = 0.3), and the
+                # time as the timeline gives it (1.1875 s, not 1.188)
+                self.request_stop(f"{self._body_name()} {what}: it came down beside the water at x = {_mm(x)} m, "
+                                  f"y = {_mm(y)} m (below the water's level with no water under it since "
+                                  f"t = {self.time_text(self.outside_since)} s)")
 
     def _finish_skip(self, now: float, body: BodyState) -> SkipRecord:
         track = self.track
@@ -551,6 +552,21 @@ FINAL_STAGES = (StageId.SINK, StageId.FLOAT, StageId.REST)  # (and left-pond, wh
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
 SETTLED_SPEED = 0.01  # [m/s] a floating body slower than this has settled: the run may end
+
+
+def _first_stamp_after(t: float, step: float) -> float:
+    """The time [s] of the body's state a monitor stepping less often than its body reads in its step
+    from ``t`` [s]: the body, stepping every ``step`` [s], has run its step that holds ``t`` (it comes
+    first in the tick), so the newest state is stamped at that step's end, not the monitor's. (Dated
+    at the monitor's end instead, a monitor stepping every 4 base steps of 0.5 ms put the reference
+    skip's touchdown at 0.062 s, with the x of the state stamped 0.0605 s; the stone wetted at 0.0595.)"""
+    t_ns, step_ns = round(t * NS_PER_S), round(step * NS_PER_S)
+    return (t_ns // step_ns + 1) * step_ns / NS_PER_S
+
+
+def _mm(length: float) -> str:
+    """``length`` [m] to the millimetre, without trailing zeros: 10.544, 0.8, 0 (never -0)."""
+    return f"{round(length, 3) + 0.0:.3f}".rstrip("0").rstrip(".")
 
 
 def _vertical_water_force(water: WaterContact) -> float:

@@ -314,7 +314,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         check_channel_patterns(scene, perf=True)  # (a run may add /perf/tick with --perf)
     print(f"{one_line(args.scene)}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
           f"{counted(len(scene.connections), 'connection')}, dt = {scene.dt:g} s, "
-          f"until = {scene.until_ns / NS_PER_S:g} s")
+          f"until = {exact_seconds(scene.until_ns)} s")
     print(f"  order within a tick: {' -> '.join(scene.order)}")
     for name in scene.order:
         cfg = scene.components[name]
@@ -367,11 +367,12 @@ def cmd_repair(args: argparse.Namespace) -> int:
     if done.status is None:
         ending = "no final status (the run's end was cut off: cosim inspect says where it stops)"
     else:
-        ending = f"the run's final status: {done.status.status} at t = {done.status.time:g} s"
+        ending = (f"the run's final status: {done.status.status} at t = "
+                  f"{exact_seconds(round(done.status.time * NS_PER_S))} s")
     how = "was cut short" if done.cut_short else "is damaged"
     if done.damage and done.cut_short:  # damaged besides: each stretch left out was said in a warning above
         how += f", with {counted(len(done.damage), 'damaged stretch', 'damaged stretches')} left out (above),"
-    print(f"wrote {done.path}: {done.messages} messages, up to t = {done.end_ns / NS_PER_S:g} s, with {ending}; "
+    print(f"wrote {done.path}: {done.messages} messages, up to t = {exact_seconds(done.end_ns)} s, with {ending}; "
           f"{args.recording} {how} and is left as it was")
     return EXIT_OK
 
@@ -394,7 +395,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
                             "recorded inputs, --from restarts the whole scene from a checkpoint; give one of them",
                             f"cosim replay {args.recording}")
     if args.from_time is not None and args.until is not None and args.until <= args.from_time:
-        raise ScenarioError(f"--until {args.until / NS_PER_S:g} s must be after --from {args.from_time / NS_PER_S:g} s",
+        raise ScenarioError(f"--until {exact_seconds(args.until)} s must be after --from "
+                            f"{exact_seconds(args.from_time)} s",
                             f"cosim replay {args.recording}")
     rec = Recording(args.recording)
     if args.from_time is None:
@@ -402,7 +404,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         names = [args.component] if args.component else rec.scene().order
         status = rec.status()
         if status is not None and status.status == "failed":  # replayed up to where it failed: say so
-            print(f"the recorded run failed at t = {status.time:g} s ({one_line(status.reason)}): each component "
+            print(f"the recorded run failed at t = {exact_seconds(round(status.time * NS_PER_S))} s "
+                  f"({one_line(status.reason)}): each component "
                   "is replayed up to it")
         worst = EXIT_OK
         for name in names:
@@ -424,10 +427,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if end_ns <= args.from_time:  # (an explicit --until was checked above) a restart of no time: no file
         status = rec.status()
         went_on = round(status.time * NS_PER_S) if status is not None else rec.end_ns
-        beyond = f" (the recorded run went on to t = {went_on / NS_PER_S:g} s)" if went_on > end_ns else ""
-        raise ScenarioError(f"--from {args.from_time / NS_PER_S:g} s is not before the restarted run's end, the "
-                            f"scene's until = {end_ns / NS_PER_S:g} s{beyond}: give --until T, later than "
-                            f"{args.from_time / NS_PER_S:g} s", f"cosim replay {args.recording}")
+        beyond = f" (the recorded run went on to t = {exact_seconds(went_on)} s)" if went_on > end_ns else ""
+        raise ScenarioError(f"--from {exact_seconds(args.from_time)} s is not before the restarted run's end, the "
+                            f"scene's until = {exact_seconds(end_ns)} s{beyond}: give --until T, later than "
+                            f"{exact_seconds(args.from_time)} s", f"cosim replay {args.recording}")
     # a restart with --set or --until is a variant: named by its overrides as `cosim run` names one,
     # so that one variant never silently replaces another (or the plain restart)
     variant = f"-set-{_overrides_digest(overrides)}" if overrides else ""

@@ -59,7 +59,8 @@ class ReplayReport:
 
     def __str__(self) -> str:
         cut = ("" if self.cut_off_ns is None else
-               f" (the recording is incomplete: replayed up to its last output, t = {self.cut_off_ns / NS_PER_S:g} s)")
+               f" (the recording is incomplete: replayed up to its last output, "
+               f"t = {exact_seconds(self.cut_off_ns)} s)")
         if self.ok:
             cost = self.per_step_us()
             took = ("" if cost is None else f"; {cost:.3g} us a step" if cost < 1000 else
@@ -321,14 +322,14 @@ def _check_recorded(rec: Recording, name: str, comp: Component, inputs: dict[str
     for port, spec in comp.inputs.items():
         if spec.required and inputs.get(port) is None and port in topics:
             raise RecordingError(
-                f"{rec.path}: cannot replay {name!r} at t = {start_ns / NS_PER_S:g} s: its input {port!r} "
+                f"{rec.path}: cannot replay {name!r} at t = {exact_seconds(start_ns)} s: its input {port!r} "
                 f"({topics[port]}) has no message recorded at or before then: the recording has a gap there "
                 "(a damaged chunk left out by repair); replay from a checkpoint after it (--from)")
 
 
 def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:
     """Why there is no checkpoint at or before ``from_ns`` to restart from, and what to do."""
-    times = ", ".join(f"{s / NS_PER_S:g}" for s in stamps[:10]) or "none"
+    times = ", ".join(f"{exact_seconds(s)}" for s in stamps[:10]) or "none"
     if rec.restart_ns and from_ns < rec.restart_ns:
         # a restart's recording begins at its checkpoint: what came before is in the one it came from
         began = f"{exact_seconds(rec.restart_ns)} s"
@@ -340,12 +341,12 @@ def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> Recording
             none = "recorded without checkpoints" if lost is None else f"and holds no checkpoint ({lost})"
             hint = f"this recording is a restart from {began}, {none}: restart from the recording it came from"
     elif stamps:
-        hint = f"restart from {stamps[0] / NS_PER_S:g} s or later"
+        hint = f"restart from {exact_seconds(stamps[0])} s or later"
     else:
         lost = _why_no_checkpoint(rec)
         hint = ("record with record.checkpoint_every > 0" if lost is None else
                 f"the recording holds none ({lost})")
-    return RecordingError(f"{rec.path}: no checkpoint at or before t = {from_ns / NS_PER_S:g} s "
+    return RecordingError(f"{rec.path}: no checkpoint at or before t = {exact_seconds(from_ns)} s "
                           f"(checkpoints at [s]: {times}); {hint}")
 
 
@@ -454,7 +455,7 @@ def _check_step_grids(rec: Recording, sim: Simulation, recorded: Scene | None, c
         fits = _on_grid(rec, recorded, name, state_ns, tick, dt_ns)
         raise RecordingError(
             f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s with dt = "
-            f"{dt_ns / NS_PER_S:g} s: {name} (every {every}, a step of {every * dt_ns / 1e6:g} ms) has its state "
+            f"{exact_seconds(dt_ns)} s: {name} (every {every}, a step of {every * dt_ns / 1e6:g} ms) has its state "
             f"at t = {state_ns / NS_PER_S:.9g} s{spans}, but its first step would begin at t = "
             f"{first_ns / NS_PER_S:.9g} s, {what}; {fits}, or run the scene from t = 0 (cosim run)")
 
@@ -472,7 +473,7 @@ def _on_grid(rec: Recording, recorded: Scene | None, name: str, state_ns: int, t
         return (f"give {name} a step whose grid passes through t = {state_ns / NS_PER_S:.9g} s, such as its "
                 f"recorded {span / 1e6:g} ms: every {every} with this dt (components.{name}.every={every})")
     return (f"give {name} a step whose grid passes through t = {state_ns / NS_PER_S:.9g} s, such as the "
-            f"recorded dt = {recorded_dt / NS_PER_S:g} s with every {cfg.every}")
+            f"recorded dt = {exact_seconds(recorded_dt)} s with every {cfg.every}")
 
 
 def _same_run(key: str) -> bool:
@@ -488,8 +489,8 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     end_ns = round(status.time * NS_PER_S) if status is not None else rec.end_ns
     if from_ns > end_ns:
         # the checkpoint before it would be the run's last: a restart there is not what was asked
-        raise RecordingError(f"{rec.path}: --from {from_ns / NS_PER_S:g} s is after the recorded run's end "
-                             f"(t = {end_ns / NS_PER_S:g} s); restart from a time within it")
+        raise RecordingError(f"{rec.path}: --from {exact_seconds(from_ns)} s is after the recorded run's end "
+                             f"(t = {exact_seconds(end_ns)} s); restart from a time within it")
     stamps, stamp, cp = rec.checkpoint_at_or_before(from_ns)
     if stamp is None or cp is None:
         raise _no_checkpoint(rec, from_ns, stamps)

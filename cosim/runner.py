@@ -24,7 +24,7 @@ from cosim.record.recorder import PERF_TOPIC, Recorder, physics_topics
 from cosim.record.writer import SinkError
 from cosim.scenario import Scene
 from cosim.scheduler import RunResult, Simulation
-from cosim.timebase import NS_PER_S
+from cosim.timebase import exact_seconds
 
 COMPILE_NOTE_S = 0.05  # compiling shorter than this [s] goes unmentioned in the summary
 
@@ -254,12 +254,12 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     if r.compile_s >= COMPILE_NOTE_S:
         speed = (f"wall {r.wall_s:.3g} s, of which {r.compile_s:.3g} s compiling kernels once (later runs "
                  "load them from disk)" + (f"; {rate} (compiling left out)" if rate else ""))
-    since = f" from t = {r.start_ns / NS_PER_S:g} s" if r.start_ns else ""
-    lines.append(f"  simulated {r.simulated_ns / NS_PER_S:.4g} s{since} in {counted(r.steps, 'step')} of "
+    since = f" from t = {exact_seconds(r.start_ns)} s" if r.start_ns else ""
+    lines.append(f"  simulated {exact_seconds(r.simulated_ns)} s{since} in {counted(r.steps, 'step')} of "
                  f"{scene.dt * 1e3:g} ms ({counted(r.component_steps, 'component step')}); {speed}")
     if r.start_ns and outcome.summary:  # a restart: the components' counters came back with their state
         lines.append(f"  (the components' figures below count from t = 0: the checkpoint at "
-                     f"{r.start_ns / NS_PER_S:g} s brought back their totals)")
+                     f"{exact_seconds(r.start_ns)} s brought back their totals)")
     substepped = [f"{runner.name} up to {runner.most_substeps}" for runner in
                   (outcome.simulation.runners if outcome.simulation is not None else []) if runner.most_substeps > 1]
     if substepped:  # the stable step was shorter than the component's own: it took several in one

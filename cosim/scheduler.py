@@ -4,16 +4,19 @@ Tick k covers [t_k, t_{k+1}] with t_k = k * dt_ns. A component with ``every = m`
 where k % m == 0, from t_k to t_{k+m}; its outputs are stamped t_{k+m} (the logical end of its step).
 Within a tick, components run in topological order of the direct edges. What an input receives:
 
-- a direct edge: the newest source output stamped at or before the END of the receiver's step
-  (Gauss-Seidel: a source that ran earlier in this tick is seen at its new time). If none is stamped
-  that early yet (a slower source at start-up), its oldest output is held (events wait instead).
+- a direct edge: the newest source output published so far and stamped at or before the END of the
+  receiver's step (Gauss-Seidel: a source that ran earlier in this tick is seen at its new time; a
+  receiver stepping less often steps in its span's first tick, so it holds the output of its source's
+  step in that tick). If none is stamped that early yet (a slower source at start-up), its oldest
+  output is held (events wait instead).
 - a delayed edge (``delay: 1``): the newest output stamped at or before the START of the receiver's
   step, ignoring the t = 0 initial outputs; before the first one, the edge's ``initial`` value.
 - an ``event`` input receives each message exactly once, by the same rule (stamped by the end of
   its step, or by its start on a delayed edge, where the t = 0 output gives way to ``initial``): a
   receiver stepping less often than its source receives the sum of the messages since its last step
   (an additive type: contact impulses; the scene refuses a type that is not), where it received only
-  the last and the others were lost; otherwise the value is held.
+  the last and the others were lost; otherwise the value is held. A t = 0 event of a type that cannot
+  be summed is refused as the run starts where the source's first step's reaches the same step.
 - an additive port fed by several edges receives the sum of their values.
 
 The rule depends only on stamps, so replaying a component from a recording reconstructs exactly the
@@ -35,7 +38,7 @@ from cosim.errors import SimulationError
 from cosim.jit_time import compile_timer
 from cosim.messages import Message
 from cosim.scenario import Connection, Scene
-from cosim.timebase import NS_PER_S
+from cosim.timebase import NS_PER_S, exact_seconds
 
 
 class Observer(Protocol):
@@ -253,6 +256,24 @@ class _Runner:
         self.most_substeps = 1  # the most substeps one of its steps took (on_unstable: substep)
 
 
+def _check_event_at_start(runner: _Runner, port: str, msg: Message, every: dict[str, int]) -> None:
+    """A message published at t = 0 on ``port`` reaches a direct event edge at the receiver's first
+    step; so does the source's first step's, when the source steps as often as the receiver (``every``:
+    each component's, in base steps; a slower receiver of such a type is refused as the scene loads). A
+    type that cannot be summed would deliver only the later one, so such an edge is refused as the
+    run starts (a delayed edge's ``initial`` stands for the t = 0 output instead)."""
+    if msg.additive:
+        return
+    for edge in runner.slots[port].listeners:
+        if not edge.delayed and runner.every <= every[edge.spec.target]:
+            raise SimulationError(
+                runner.name, 0,
+                f"it publishes a {type(msg).__name__} at t = 0 on {port!r}, which reaches the event input "
+                f"{edge.spec.target}.{edge.spec.target_port} together with its first step's, and a "
+                f"{type(msg).__name__} cannot be summed: one would be lost; publish no event at t = 0, or "
+                f"give the connection a delay (its initial then stands for t = 0)")
+
+
 def gather(plan: list[tuple[str, list[_Edge]]], start: int, end: int) -> dict[str, Message | None]:
     """The inputs of a step from ``start`` to ``end`` [ns]: each port's edge value, summed over
     several edges (additive ports), None where nothing is delivered."""
@@ -375,12 +396,14 @@ class Simulation:
                 obs.on_exchange(stamp, name, port, msg)
         self._ahead = []
         if self.tick == 0:
+            every = {runner.name: runner.every for runner in self.runners}
             for runner in self.runners:
                 outputs = runner.comp.start_outputs()  # t = 0 values obey the same rules as step outputs
                 for port, msg in outputs.items():
                     runner.slots[port].publish(0, msg)
                     for obs in self.observers:
                         obs.on_exchange(0, runner.name, port, msg)
+                    _check_event_at_start(runner, port, msg, every)
             for runner in self.runners:
                 runner.comp.begin(gather_start(runner.plan))
 
@@ -440,7 +463,7 @@ class Simulation:
         steps0 = self.component_steps()
         tick0 = self.tick
         # the end as run: whole steps, the last one reaching or passing until_ns
-        status, reason, error = "ok", f"reached t = {end_tick * self.dt_ns / NS_PER_S:g} s", None
+        status, reason, error = "ok", f"reached t = {exact_seconds(end_tick * self.dt_ns)} s", None
         with compile_timer() as compiling:
             try:
                 self.initialize()
@@ -531,8 +554,8 @@ class Simulation:
         """Continue from a checkpoint; the base step may differ if the checkpoint time is on its grid."""
         time_ns = cp["tick"] * cp["dt_ns"]
         if time_ns % self.dt_ns:
-            raise ValueError(f"checkpoint time {time_ns / NS_PER_S:g} s is not a multiple of dt = "
-                             f"{self.dt_ns / NS_PER_S:g} s")
+            raise ValueError(f"checkpoint time {exact_seconds(time_ns)} s is not a multiple of dt = "
+                             f"{exact_seconds(self.dt_ns)} s")
         self.tick = time_ns // self.dt_ns
         for runner in self.runners:
             saved = cp["components"].get(runner.name)

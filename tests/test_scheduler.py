@@ -521,3 +521,37 @@ def test_a_run_whose_end_is_not_on_a_step_says_where_it_ended():
     scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "ping_pong.yaml", ["until=0.0015"])
     result = Simulation(scene).run()
     assert result.steps == 2 and result.reason == "reached t = 0.002 s"
+
+
+_NOTES = """
+name: notes
+dt: 0.001
+until: 0.004
+components:
+  a: {{type: "tests.toys:Announcer", at_start: {at_start}, every: {every}}}
+  s: {{type: "tests.toys:Summer"}}
+connections:
+  - {edge}
+"""
+
+
+def test_an_event_at_t0_that_cannot_be_summed_with_the_first_steps_is_refused_not_dropped():
+    """On a direct event edge the source's t = 0 message and its first step's reach the receiver's
+    first step together; a type that cannot be summed delivered the later alone (five published,
+    four delivered). The run now fails at t = 0 naming both ends; without a t = 0 message, over a
+    delayed edge (its initial stands for t = 0) or from a source stepping less often than the
+    receiver (its first step's comes later), every message is delivered once."""
+    trace = Trace()
+    with pytest.raises(SimulationError, match=r"Scalar at t = 0 on 'note'.*s\.kick.*cannot be summed"):
+        run(_NOTES.format(at_start="true", every=1, edge="a.note -> s.kick"), observers=[trace])
+    assert trace.finished.status == "failed"
+    sim, result = run(_NOTES.format(at_start="false", every=1, edge="a.note -> s.kick"))
+    assert result.status == "ok"
+    assert values(sim.components["s"], "kick") == [(0.0, 0.001), (1.0, 0.002), (2.0, 0.003), (3.0, 0.004)]
+    sim, result = run(_NOTES.format(at_start="true", every=1,
+                                     edge="{from: a.note, to: s.kick, delay: 1, initial: {value: -1}}"))
+    assert result.status == "ok"
+    assert values(sim.components["s"], "kick") == [(0.0, -1.0), (1.0, 0.001), (2.0, 0.002), (3.0, 0.003)]
+    sim, result = run(_NOTES.format(at_start="true", every=2, edge="a.note -> s.kick"))
+    assert result.status == "ok"
+    assert values(sim.components["s"], "kick") == [(0.0, 0.0), (1.0, 0.002), (2.0, None), (3.0, 0.004)]

@@ -253,6 +253,40 @@ def test_dry_below_the_water_level_for_long_is_leaving_the_pond():
     assert m.timeline[-1] == (pytest.approx(0.007), "left-pond")
 
 
+def test_the_left_pond_line_gives_where_and_when_to_the_millimetre_and_the_step():
+    """The stop line gave x to three figures and the time to four: "x = 10.5 m ... since t = 1.188 s"
+    for a stone that came down at 10.544 m at 1.1875 s, beside a timeline saying 1.1875 s and a
+    distance of 10.24 m from x = 0.3. Now both to the digit the summary gives them."""
+    half = MS // 2
+    m = StageMonitor("stages", StageMonitor.Params(outside_after=0.002))
+    script = [(body(10.5, 0.10, 5.0, -1.0), water(False)), (body(10.52, 0.0, 5.0, -0.5), water(True)),
+              (body(10.53, 0.01, 5.0, 0.5), water(False, depth=-0.01))]
+    script += [(body(10.5444 + 0.01 * k, -0.01 * (k + 1), 5.0, -0.5), water(False, depth=0.004 + 0.01 * k))
+               for k in range(8)]
+    for k, (b, w) in enumerate(script, start=2371):
+        m.step(k * half, half, {"body": b, "water": w, "ground": None})
+    assert m.stop_reason is not None
+    assert "came down beside the water at x = 10.544 m, y = 0 m" in m.stop_reason
+    assert "since t = 1.1875 s)" in m.stop_reason and m.outside_since == pytest.approx(1.1875)
+
+
+def test_a_monitor_slower_than_its_body_dates_what_it_read_at_the_states_time():
+    """Stepping every 4 base steps of 0.5 ms over a body stepping every one, the monitor reads, as
+    its step begins, the body's state at the end of the body's step (the body comes first in the
+    tick), not at the end of its own: it dated that state 1.5 ms late (the reference skip's touchdown
+    at 0.062 s, with the x of the state of 0.0605 s). Now each stage and touchdown is dated with the
+    state it was read from, to the body's digit."""
+    two = 2 * MS
+    m = StageMonitor("stages")
+    m.source_steps["body"] = 0.0005  # [s] as the scene tells it
+    script = [(body(0.0, 0.05, 5.0, -1.0), water(False)), (body(0.0125, 0.0, 5.0, -1.0), water(True)),
+              (body(0.0225, 0.0, 5.0, -1.0), water(True))]
+    for k, (b, w) in enumerate(script, start=30):
+        m.step(k * two, two, {"body": b, "water": w, "ground": None})
+    assert m.track.touchdown_time == pytest.approx(31 * 0.002 + 0.0005)  # the state read at 0.0625 s
+    assert "-> hit (0.0625 s)" in m.summary()[0]
+
+
 def test_a_monitor_that_ends_no_run_lets_the_others_go_on_when_its_stone_leaves():
     """stop_after 0 (each monitor of several bodies in one pond): its stone leaving the pond is its
     outcome, but it ends no run, so the other stones' contacts are not cut short (one stone off the

@@ -177,6 +177,23 @@ class Kicker(Component):
         self.n = state["n"]
 
 
+class Announcer(Component):
+    """Publishes the event Scalar(t_end) at every step on ``note`` (a type that cannot be summed),
+    and, with ``at_start``, Scalar(0) at t = 0 too."""
+
+    @dataclass(frozen=True)
+    class Params:
+        at_start: bool = param(True)
+
+    outputs = {"note": Port(Scalar, event=True)}
+
+    def initial_outputs(self):
+        return {"note": Scalar(0.0)} if self.params.at_start else {}
+
+    def _step_impl(self, t, dt, inputs):
+        return {"note": Scalar(t + dt)}
+
+
 class Catcher(Component):
     """Takes the additive event input ``kick``; publishes the total of what it received."""
 

@@ -37,7 +37,7 @@ from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
 from cosim.scenario import MAX_TIME_NS, loads
 from cosim.scheduler import BaseObserver, Simulation
-from cosim.timebase import NS_PER_S
+from cosim.timebase import NS_PER_S, exact_seconds
 
 SCENE_FILE = "scene.yaml"
 SPEC_FILE = "export.json"
@@ -216,7 +216,7 @@ class SceneSlave(Fmi2Slave):
         ticks = start_time * NS_PER_S / dt_ns
         if abs(ticks - round(ticks)) > STEP_SLACK:
             self._fail(f"a start time of {start_time:.9g} s is not a whole multiple of the scene's base step "
-                       f"dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
+                       f"dt = {exact_seconds(dt_ns)} s (the scene advances in whole base steps)")
         return round(ticks)
 
     def enter_initialization_mode(self) -> None:
@@ -311,7 +311,7 @@ class SceneSlave(Fmi2Slave):
         steps = step_size * NS_PER_S / dt_ns
         if round(steps) < 1 or abs(steps - round(steps)) > STEP_SLACK:
             return self._refuse(f"a communication step of {step_size:.9g} s is not a whole multiple of the scene's "
-                                f"base step dt = {dt_ns / NS_PER_S:g} s (the scene advances in whole base steps)")
+                                f"base step dt = {exact_seconds(dt_ns)} s (the scene advances in whole base steps)")
         if abs(current_time * NS_PER_S - sim.time_ns) > TIME_SLACK * dt_ns:
             return self._refuse(f"doStep from t = {current_time!r} s, but the scene is at t = "
                                 f"{sim.time_ns / NS_PER_S!r} s (a co-simulation steps on from where it is)")

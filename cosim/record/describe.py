@@ -57,12 +57,12 @@ def _began(stamp: int, msg: dict) -> int:
 def describe_recording(rec: Recording) -> str:
     meta = rec.metadata
     lines = [f"{one_line(rec.path)}: cosim recording of scene {meta.get('scene', '?')!r} "
-             f"(cosim {one_line(meta.get('version', '?'))}, dt = {rec.dt_ns / NS_PER_S:g} s)"]
+             f"(cosim {one_line(meta.get('version', '?'))}, dt = {exact_seconds(rec.dt_ns)} s)"]
     if meta.get("command_line"):
         lines.append(f"  command: {one_line(meta['command_line'])}")
     if rec.overrides:
         lines.append(f"  overrides: {one_line(', '.join(rec.overrides))}")
-    span = ((rec.end_ns or 0) - (rec.start_ns or 0)) / NS_PER_S
+    span = exact_seconds((rec.end_ns or 0) - (rec.start_ns or 0))
     since = f" from t = {exact_seconds(rec.restart_ns)} s (a restart)" if rec.restart_ns else ""
     status = rec.status()
     # a component stepping every few ticks stamps its outputs at its step's end, which can lie past the
@@ -70,13 +70,13 @@ def describe_recording(rec: Recording) -> str:
     # (of a failed run, also the outputs of the steps its failing tick took before the failure)
     why = ("the steps taken in the failing tick before its failure" if status is not None and status.status == "failed"
            else "the last step of a component that steps every few ticks ends after the run's last tick")
-    past = (f" (to t = {(rec.end_ns or 0) / NS_PER_S:g} s: {why})"
+    past = (f" (to t = {exact_seconds(rec.end_ns or 0)} s: {why})"
             if status is not None and (rec.end_ns or 0) > round(status.time * NS_PER_S) else "")
-    lines.append(f"  time span: {span:g} s{since}{past}, {sum(c.count for c in rec.channels.values())} messages")
+    lines.append(f"  time span: {span} s{since}{past}, {sum(c.count for c in rec.channels.values())} messages")
     if status is None:
-        end = (rec.end_ns or 0) / NS_PER_S
+        end = exact_seconds(rec.end_ns or 0)
         lines.append(f"  status: missing - the recording is incomplete: the run was cut off (killed?) and it "
-                     f"ends at t = {end:g} s, with its last message")
+                     f"ends at t = {end} s, with its last message")
     else:
         # a restart's tick counts its own steps from t = 0, which the run before it may have taken at
         # another dt: the steps said are the restart's own, from where it began
@@ -84,7 +84,7 @@ def describe_recording(rec: Recording) -> str:
         if rec.restart_ns:
             steps -= rec.restart_ns // rec.dt_ns
             since = f" from t = {exact_seconds(rec.restart_ns)} s"
-        lines.append(f"  status: {one_line(status.status)} at t = {status.time:g} s "
+        lines.append(f"  status: {one_line(status.status)} at t = {exact_seconds(round(status.time * NS_PER_S))} s "
                      f"({counted(steps, 'step')}{since}) - {one_line(status.reason)}")
     lines.append("  channels:")
     width = max((len(one_line(t)) for t in rec.channels), default=10)

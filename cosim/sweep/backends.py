@@ -40,7 +40,7 @@ from typing import Any
 
 from cosim.errors import CosimError, ScenarioError, quiet_interrupts
 from cosim.params import whole_digits
-from cosim.timebase import NS_PER_S
+from cosim.timebase import NS_PER_S, exact_seconds
 
 DASK_CONNECT_TIMEOUT_S = 20  # how long to try reaching a Dask scheduler before giving up
 DASK_HANDSHAKE_MAX = 1 << 20  # [bytes] more than any scheduler's first message (its handshake, about 60)
@@ -229,7 +229,7 @@ def run_task(task: Task) -> dict[str, Any]:
                        ticks=result.tick, error_type=type(result.error).__name__ if result.error else "")
             if result.status == "interrupted" and result.reason.startswith(TIMED_OUT):
                 row.update(status="failed", error_type="Timeout",
-                           reason=f"{result.reason}; stopped at t = {result.time_ns / NS_PER_S:g} s")
+                           reason=f"{result.reason}; stopped at t = {exact_seconds(result.time_ns)} s")
             limit = machine_limit(result.error) if result.error is not None else None
             if limit:  # a component's own write refused (its file on a full disk)
                 row.update(status="unfinished", limit=limit)
