@@ -555,3 +555,17 @@ def test_an_event_at_t0_that_cannot_be_summed_with_the_first_steps_is_refused_no
     sim, result = run(_NOTES.format(at_start="true", every=2, edge="a.note -> s.kick"))
     assert result.status == "ok"
     assert values(sim.components["s"], "kick") == [(0.0, 0.0), (1.0, 0.002), (2.0, None), (3.0, 0.004)]
+
+
+def test_the_end_is_said_to_every_digit_of_the_time():
+    """A run ending at 1000.125 s said "reached t = 1000.12 s" (six figures), beside a recording and
+    a status stamped 1000.125."""
+    _, result = run("""
+name: long
+dt: 0.125
+until: 1000.125
+components:
+  s: {type: "tests.toys:Source", rate: 1}
+""")
+    assert result.status == "ok" and result.reason == "reached t = 1000.125 s"
+    assert result.time_ns == 1_000_125_000_000
