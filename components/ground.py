@@ -217,12 +217,14 @@ class SolidGround(Component):
         return min(1.0, max(0.5, share))
 
     @staticmethod
-    def _overshoot(share: float, dv: Vec3Param | None, dt: float) -> Vec3Param:
+    def _overshoot(share: float, dv: Vec3Param | None, dt: float) -> Vec3Param | None:
         """How far [m] the body's integrator moved it over the step whose velocity change was ``dv``
         [m/s] beyond a velocity Verlet step with the same change: (share - 1/2) dv dt (dv dt / 2 for
-        semi-implicit Euler, nothing for Verlet and RK4, whose share is read as exactly 1/2; zero when
+        semi-implicit Euler, nothing for Verlet and RK4, whose share is read as exactly 1/2; None when
         the step's start is not known)."""
-        if dv is None or share == 0.5:
+        if dv is None:
+            return None
+        if share == 0.5:
             return (0.0, 0.0, 0.0)
         k = (share - 0.5) * dt
         return (k * dv[0], k * dv[1], k * dv[2])
