@@ -185,6 +185,13 @@ def _timeout(sim: Any, seconds: float | None) -> threading.Timer | None:
     return timer
 
 
+def _recorded(task: Task, reached: bool) -> bool:
+    """Whether the row of ``task`` names its recording: only a run that was started (``reached``) and
+    left the file. A point whose derived values failed, or whose scene was refused at load, never ran:
+    a cell naming its file would point at nothing, or at a file an earlier run of the point left."""
+    return task.recording is not None and reached and os.path.isfile(task.recording)
+
+
 def run_task(task: Task) -> dict[str, Any]:
     """Run one point and return its row (never raises, except KeyboardInterrupt).
 
@@ -192,7 +199,8 @@ def run_task(task: Task) -> dict[str, Any]:
     A run ended by a machine limit (:func:`machine_limit`) has status ``unfinished``. A run still going
     ``task.timeout_s`` wall seconds after it started is stopped at the end of its step (its recording
     closed as an interrupted run's) and its row says ``failed``, timed out: a result of its point, not
-    run again on resume (a step that never returns is not ended by it)."""
+    run again on resume (a step that never returns is not ended by it). The row names ``task.recording``
+    only if the run started and left that file (:func:`_recorded`)."""
     from cosim.runner import collect_metrics, run_scene
     from cosim.scenario import loads
     from cosim.scheduler import Simulation
@@ -204,6 +212,7 @@ def run_task(task: Task) -> dict[str, Any]:
     row.update(dict.fromkeys(task.metrics))
     if _stopping():
         return _interrupted_row(row)
+    reached = False  # whether the run was started: before that, no recording of this task was written
     try:
         if task.problem is not None:
             row.update(reason=task.problem, error_type="ScenarioError")
@@ -216,6 +225,7 @@ def run_task(task: Task) -> dict[str, Any]:
             if _stopping():  # said while the scene loaded: the run ends at its first tick
                 _interrupt(sim)
             timer = _timeout(sim, task.timeout_s)
+            reached = True
             try:
                 outcome = run_scene(scene, task.recording, progress=False, command_line=task.command_line,
                                     simulation=sim)
@@ -248,7 +258,7 @@ def run_task(task: Task) -> dict[str, Any]:
                    error_type=type(exc).__name__)
         if limit:
             row["limit"] = limit  # said once by the sweep, which stops: every run would end the same way
-    if task.recording is not None:
+    if _recorded(task, reached):
         row["recording"] = task.recording
     row["wall_s"] = time.perf_counter() - start
     return row

@@ -18,6 +18,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from cosim.errors import counted
 from cosim.record.output import written_whole
 from cosim.sweep.plan import Sweep
 
@@ -50,14 +51,28 @@ def _positions(values: list[str], even_only: bool = False) -> tuple[list[str], l
 
 
 def _placed(value: float, labels: list[str], positions: list[float]) -> float:
-    """Where a value [the axis's unit] falls on an axis laid out one position a value: between the
-    positions of the values about it, in proportion (nan off a non-numeric axis)."""
+    """Where a value [the axis's unit] falls on an axis laid out one position a value (``labels`` in
+    ascending order): between the positions of the values about it, in proportion; outside the axis's
+    range, on the line through its two end positions, so beyond its end cell (np.interp alone would
+    clamp it onto the end cell, drawing 100 in the cell of 20). nan off a non-numeric axis, and for a
+    value other than the only one of a one-value axis (no scale to place it by)."""
     import numpy as np
 
     numbers = [_number(v) for v in labels]
     if not all(math.isfinite(n) for n in numbers):
         return math.nan
-    return float(np.interp(value, numbers, positions))
+    if numbers[0] <= value <= numbers[-1]:
+        return float(np.interp(value, numbers, positions))
+    if len(numbers) < 2:
+        return math.nan
+    end, inner = (0, 1) if value < numbers[0] else (-1, -2)
+    per_unit = (positions[end] - positions[inner]) / (numbers[end] - numbers[inner])
+    return positions[end] + (value - numbers[end]) * per_unit
+
+
+def _within(position: float, edges: list[float]) -> bool:
+    """Whether a position lies on the drawn cells of an axis whose cell edges are ``edges`` (False for nan)."""
+    return edges[0] <= position <= edges[-1]
 
 
 def _edges(centres: list[float]) -> list[float]:
@@ -88,11 +103,7 @@ def draw(sweep: Sweep, rows: list[dict[str, str]], path: Path) -> Path | None:
         else:
             place = _heat_map(ax, fig, rows, spec)
         if spec.reference_points:
-            xs, ys = zip(*spec.reference_points, strict=True)
-            if sweep.mode != "random" and spec.y is not None:  # onto the heat map's cells
-                xs, ys = place(xs, ys)
-            ax.plot(xs, ys, "*", color="tab:red", markersize=13, markeredgecolor="k",
-                    label=spec.reference_label, zorder=5)
+            _reference(ax, spec, place if sweep.mode != "random" and spec.y is not None else None)
         if ax.get_legend_handles_labels()[0]:  # below the axes, so no cell is hidden
             ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, fontsize=8, frameon=False)
         _mark_cut_short(ax, rows, spec, sweep.mode == "random")
@@ -141,8 +152,24 @@ def _value(row: dict[str, str], metric: str) -> float:
     return _number(row[metric]) if row["status"] != "failed" else math.nan
 
 
+def _reference(ax: Any, spec: Any, place: Any) -> None:
+    """Overlay the reference points as stars: onto the heat map's cells by ``place`` (from
+    :func:`_heat_map`), or as given when None. Points outside the swept range are not on the map: the
+    legend says how many, as a star missing from the picture would otherwise go unnoticed."""
+    xs, ys = zip(*spec.reference_points, strict=True)
+    label = spec.reference_label
+    if place is not None:
+        xs, ys, outside = place(xs, ys)
+        if outside:
+            label += f" ({counted(outside, 'point')} outside the swept range: not on the map)"
+    ax.plot(xs, ys, "*", color="tab:red", markersize=13, markeredgecolor="k", label=label, zorder=5)
+
+
 def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> Any:
-    """Draw the heat map; returns how to place points given in the axes' values onto it."""
+    """Draw the heat map; returns how to place points given in the axes' values onto it: their
+    positions and how many lie off its cells. An axis laid out one cell a value keeps to its cells (a
+    point beyond them is not drawn: past the last cell that axis has no scale to show it on); a
+    numeric axis grows to show such a point at its value."""
     import numpy as np
 
     xs, xpos, xnum = _positions([r[spec.x] for r in rows], even_only=True)
@@ -156,7 +183,8 @@ def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> Any:
     for (x, y), values in cells.items():
         grid[ys.index(y), xs.index(x)] = sum(values) / len(values)
     cmap = __import__("matplotlib").colormaps["viridis"].with_extremes(bad="0.85")
-    mesh = ax.pcolormesh(_edges(xpos), _edges(ypos), np.ma.masked_invalid(grid), cmap=cmap, shading="flat")
+    x_edges, y_edges = _edges(xpos), _edges(ypos)
+    mesh = ax.pcolormesh(x_edges, y_edges, np.ma.masked_invalid(grid), cmap=cmap, shading="flat")
     fig.colorbar(mesh, ax=ax, label=_averaged(spec.metric, cells.values()))
     if grid.size <= MAX_LABELLED_CELLS:
         finite = grid[np.isfinite(grid)]
@@ -181,12 +209,18 @@ def _heat_map(ax: Any, fig: Any, rows: list[dict[str, str]], spec: Any) -> Any:
     ax.set_ylabel(spec.y)
     if not xnum:
         ax.set_xticks(xpos, xs, rotation=30)
+        ax.set_xlim(x_edges[0], x_edges[-1])
     if not ynum:
         ax.set_yticks(ypos, ys)
+        ax.set_ylim(y_edges[0], y_edges[-1])
 
-    def place(x_values: Any, y_values: Any) -> tuple[list[float], list[float]]:
-        return ([float(v) if xnum else _placed(float(v), xs, xpos) for v in x_values],
-                [float(v) if ynum else _placed(float(v), ys, ypos) for v in y_values])
+    def place(x_values: Any, y_values: Any) -> tuple[list[float], list[float], int]:
+        px = [float(v) if xnum else _placed(float(v), xs, xpos) for v in x_values]
+        py = [float(v) if ynum else _placed(float(v), ys, ypos) for v in y_values]
+        # (a numeric axis grows to show a point beyond its cells: only the one-cell-a-value axes leave it off)
+        outside = sum(not ((xnum or _within(x, x_edges)) and (ynum or _within(y, y_edges)))
+                      for x, y in zip(px, py, strict=True))
+        return px, py, outside
     return place
 
 
