@@ -18,7 +18,6 @@ import warnings
 
 try:
     import argparse
-    import errno
     import math
     import os
     import re
@@ -28,6 +27,7 @@ try:
     from typing import Any
 
     from cosim.errors import (
+        NO_ROOM,
         CosimError,
         RecordingError,
         ScenarioError,
@@ -42,7 +42,6 @@ except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the sam
     raise SystemExit(1) from None
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})  # writes refused for want of room
 
 
 class _Parser(argparse.ArgumentParser):
@@ -619,7 +618,7 @@ def report(exc: BaseException, command: str) -> int:
     if isinstance(exc, MemoryError):
         print(f"error: {what}: out of memory (at {_where(exc)})", file=sys.stderr)
         return EXIT_FAILED
-    if isinstance(exc, OSError) and exc.errno in FULL:  # the machine's limits, not the user's input
+    if isinstance(exc, OSError) and exc.errno in NO_ROOM:  # the machine's limits, not the user's input
         where = _one_line(exc.filename) if exc.filename is not None else f"{what}: its output"
         print(f"error: {where}: cannot be written ({_one_line(exc.strerror or str(exc))})", file=sys.stderr)
         return EXIT_FAILED

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import errno
 import re
 import signal
 from typing import Any
 
 from cosim.timebase import format_time
+
+NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+"""The errnos of a write refused for want of room (a full disk, a quota, a file-size limit)."""
 
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")  # control characters and every line break
 

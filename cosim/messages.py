@@ -85,7 +85,8 @@ class Message:
         return dataclasses.replace(self, **changes)  # type: ignore[type-var]
 
     def first_nonfinite(self) -> str | None:
-        """Name of the first float field (or array) holding NaN or infinity, or None.
+        """Name of the first float field (or array) holding NaN or infinity, or something that is no
+        number at all (a text), or None.
 
         Fast path (:func:`_value_check`, generated once per type): one sum over every float value
         (an array's values or their squares, :func:`_array_sum`) is finite exactly when each value
@@ -97,12 +98,14 @@ class Message:
             check = _CHECKS[type(self)] = _value_check(type(self))
         if check(self):
             return None
-        return _first_nonfinite_field(self)
+        bad = _first_bad_number(self)
+        return None if bad is None else bad[0]
 
     def first_invalid(self) -> tuple[str, str] | None:
         """(name, fault) of the first field holding a value no message may carry, or None; every
         output of a component is checked so. A float field or float array holding NaN or infinity
-        comes first (fault :data:`NONFINITE`), then an enum field holding a number that none of its
+        comes first (fault :data:`NONFINITE`; one holding no number, such as a text, fault ``must be
+        a number, got str``), then an enum field holding a number that none of its
         type's members has (fault ``7 is not a Shape (0 disk, 1 sphere)``): the codecs would write
         it, and no reader could read it back. The fast path is :meth:`first_nonfinite`'s one
         generated expression, which checks the enum fields too; only a message it does not pass is
@@ -112,28 +115,41 @@ class Message:
             check = _CHECKS[type(self)] = _value_check(type(self))
         if check(self):
             return None
-        name = _first_nonfinite_field(self)
-        if name is not None:
-            return name, NONFINITE
-        return _first_bad_enum(self)
+        return _first_bad_number(self) or _first_bad_enum(self)
 
 
 NONFINITE = "non-finite"
 """The fault :meth:`Message.first_invalid` gives a float field or array holding NaN or infinity."""
 
 
-def _first_nonfinite_field(msg: Message) -> str | None:
-    """The slow path of :meth:`Message.first_nonfinite`: its float fields, then its float arrays,
-    one by one."""
+def _first_bad_number(msg: Message) -> tuple[str, str] | None:
+    """The slow path of :meth:`Message.first_nonfinite` and :meth:`Message.first_invalid`: (name,
+    fault) of the first float field, then float array, holding NaN or infinity (fault
+    :data:`NONFINITE`) or something that is no number (a text: ``must be a number, got str``; the
+    fast path cannot sum it, and math.isfinite's TypeError was an internal error), or None."""
     floats, arrays = _finiteness_plan(type(msg))
     for name in floats:
-        if not math.isfinite(getattr(msg, name)):
-            return name
+        value = getattr(msg, name)
+        try:
+            if not math.isfinite(value):
+                return name, NONFINITE
+        except (TypeError, ValueError):
+            return name, f"must be a number, got {type(value).__name__}"
     for name in arrays:
-        value = np.asarray(getattr(msg, name))  # as given: an array, or a list where one was declared
-        if value.size and not np.isfinite(value).all():
-            return name
+        given = getattr(msg, name)
+        try:
+            value = np.asarray(given)  # as given: an array, or a list where one was declared
+            if value.size and not np.isfinite(value).all():
+                return name, NONFINITE
+        except (TypeError, ValueError):  # texts, objects, or a ragged list, which numpy cannot test
+            return name, f"must be an array of numbers, got {_array_kind(given)}"
     return None
+
+
+def _array_kind(given: Any) -> str:
+    """What an array field was given, for its fault: an array's dtype (``an array of <U3``), else the
+    value's type (``str``, ``list``)."""
+    return f"an array of {given.dtype}" if isinstance(given, np.ndarray) else type(given).__name__
 
 
 def _first_bad_enum(msg: Message) -> tuple[str, str] | None:

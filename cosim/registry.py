@@ -82,10 +82,7 @@ def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
                 f"(allow more with {ALLOW_ENV}=package[,package])")
         target = type_name
     module_name, _, attr = target.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise UnknownComponentType(f"component type {type_name!r}: cannot import {module_name!r} ({exc})") from None
+    module = _import(type_name, module_name)
     cls = getattr(module, attr, None)
     if cls is None:
         near = sorted(name for name, value in vars(module).items()
@@ -99,6 +96,33 @@ def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
         raise UnknownComponentType(f"component type {type_name!r}: {target!r} does not step (it has no "
                                    "_step_impl of its own): name a component class built on it")
     return cls
+
+
+def _import(type_name: str, module_name: str) -> Any:
+    """The module ``module_name`` of component type ``type_name``. A module that fails as it is
+    imported, in any way (an ImportError, 1/0, a SyntaxError, ``sys.exit(3)``), is the scene's
+    component type that cannot be used (UnknownComponentType, said on its key), not an error inside
+    cosim: a SystemExit ended the command with the module's own exit code and nothing said. A
+    KeyboardInterrupt (Ctrl-C, SIGTERM) stays what it is."""
+    try:
+        return importlib.import_module(module_name)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:
+        raise UnknownComponentType(f"component type {type_name!r}: cannot import {module_name!r} "
+                                   f"({_import_failure(exc)})") from None
+
+
+def _import_failure(exc: BaseException) -> str:
+    """What a failed import says: an ImportError's own text; a SyntaxError's type, text and
+    ``file:line``; a SystemExit's code; anything else its type and text."""
+    if isinstance(exc, ImportError):
+        return str(exc)
+    if isinstance(exc, SyntaxError):
+        return f"{type(exc).__name__}: {exc.msg} (at {exc.filename}:{exc.lineno})"
+    if isinstance(exc, SystemExit):
+        return f"it called sys.exit({exc.code!r}) as it was imported"
+    return f"{type(exc).__name__}: {exc}"
 
 
 # --- what each type takes -----------------------------------------------------------------------

@@ -35,7 +35,7 @@ import yaml
 
 from cosim.codec.json_codec import CodecError, codec_for
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound, substep_count
-from cosim.errors import ScenarioError
+from cosim.errors import NO_ROOM, ScenarioError
 from cosim.messages import Message
 from cosim.params import beyond_float, build, number_text, show_value, whole_digits
 from cosim.registry import UnknownComponentType, resolve
@@ -1253,6 +1253,8 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         try:
             built_components[comp_name] = cfg.build()
         except Exception as exc:  # a component that cannot be built from valid-looking parameters
+            if isinstance(exc, OSError) and exc.errno in NO_ROOM:
+                raise  # the machine's limit (an FMU unpacked on a full disk), not the scene's values
             what = ("a number in its set-up leaves a float's range" if isinstance(exc, ArithmeticError)
                     else "cannot be built from these values")
             problems.append(f"components.{comp_name}: {what}: {type(exc).__name__}: {exc}")

@@ -10,19 +10,23 @@ from __future__ import annotations
 
 import atexit
 import gc
+import os
 import shutil
+import tempfile
 from collections.abc import Callable
 from ctypes import byref
 from pathlib import Path
 from typing import Any
 
 import cosim.fmi
+from cosim.errors import NO_ROOM
 from cosim.fmi.pythonfmu_exit import release_at_exit
 
 LOG_KEEP = 50  # log messages kept per call: a chatty FMU cannot grow memory without bound
 STATUS = ["OK", "Warning", "Discard", "Error", "Fatal", "Pending"]
 ERROR, FATAL = 3, 4
 FREEING = frozenset({"freeFMUstate"})  # the calls (through _call) an FMU that returned Error still takes
+
 
 _unpacked: dict[tuple[str, int, int], str] = {}
 
@@ -77,14 +81,31 @@ class FmuNotCalled(FmuCallError):
 
 def _unpack(fmu_file: Path) -> str:
     """The folder ``fmu_file`` is unpacked to, once per process per file version."""
-    from fmpy import extract
-
     st = fmu_file.stat()
     key = (str(fmu_file.resolve()), st.st_mtime_ns, st.st_size)
     folder = _unpacked.get(key)
     if folder is None:
-        folder = _unpacked[key] = str(extract(str(fmu_file)))
+        folder = _unpacked[key] = _extract_whole(fmu_file)
         atexit.register(shutil.rmtree, folder, True)
+    return folder
+
+
+def _extract_whole(fmu_file: Path) -> str:
+    """A new folder in the temporary folder (``$TMPDIR``) holding all of ``fmu_file``, or none at all:
+    on any failure the folder goes again (FMPy's own extract left a half-unpacked folder behind at
+    each try). A write refused for want of room (a full disk, a quota, a file-size limit) is raised
+    as the OSError of that errno naming the folder, which the command line reports as the machine's
+    limit (``FOLDER: cannot be written (...)``, exit 1), not as the scene's fault."""
+    from fmpy import extract
+
+    folder = tempfile.mkdtemp(prefix="cosim-fmu-")
+    try:
+        extract(str(fmu_file), folder)
+    except BaseException as exc:  # an interrupt too: nothing half-unpacked stays
+        shutil.rmtree(folder, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in NO_ROOM:
+            raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), folder) from None
+        raise
     return folder
 
 

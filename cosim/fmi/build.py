@@ -9,19 +9,23 @@ and that import must not leave the model's module (or its folder on ``sys.path``
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 import sys
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
+from cosim.errors import NO_ROOM
 from cosim.record.output import sibling_stem
 
 CACHE_ENV = "COSIM_FMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/cosim/fmu)
 BUILD_TIMEOUT_S = 300  # a build taking longer than this [s] is reported as failed
+_ERRNO = re.compile(r"\[Errno (\d+)\]")  # how a Python error output gives an OSError's number
 
 
 class FmuBuildError(RuntimeError):
@@ -42,9 +46,13 @@ def build_fmu(model: str | Path, dest: str | Path, *, extra_files: Iterable[str 
     """Build the pythonfmu model ``model`` (a .py file) into the FMU file ``dest`` (written whole or
     not at all). ``extra_files``: files the model imports, packed into the FMU's resources beside it;
     ``state``: declare canGetAndSetFMUstate and canSerializeFMUstate (the model keeps its whole state
-    in its registered variables, which is what pythonfmu serializes)."""
+    in its registered variables, which is what pythonfmu serializes).
+
+    A build that fails for want of room (a full disk, a quota, a file-size limit; in the build's
+    temporary folder or at ``dest``) raises the OSError of that errno naming ``dest``, the file that
+    could not be made: the machine's limit, not the model's fault (FmuBuildError). The folders made
+    for ``dest`` go again when it is not written."""
     model, dest = Path(model), Path(dest)
-    dest.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="cosim-fmu-") as tmp:
         command = [sys.executable, "-m", "pythonfmu", "build", "-f", str(model.resolve()), "-d", tmp,
                    *(["--handle-state", "--serialize-state"] if state else []),
@@ -57,15 +65,55 @@ def build_fmu(model: str | Path, dest: str | Path, *, extra_files: Iterable[str 
         built = sorted(Path(tmp).glob("*.fmu"))
         if done.returncode != 0 or len(built) != 1:
             said = (done.stderr.strip() or done.stdout.strip()).splitlines()
+            refused = _refused_for_room(said)
+            if refused is not None:
+                raise OSError(refused, os.strerror(refused), str(dest))
             raise FmuBuildError(f"{model}: pythonfmu build failed ({said[-1] if said else f'exit {done.returncode}'})")
-        part = dest.with_name(f".{sibling_stem(dest.name, 30)}.{os.getpid()}.part")
-        try:
-            shutil.copyfile(built[0], part)
-            os.replace(part, dest)  # whole or not at all, also when two processes build the same model
-        except BaseException:  # a full disk, an interrupt: no part left behind in the cache for ever
-            part.unlink(missing_ok=True)
-            raise
+        # the folder made only now, once there is an FMU to put in it: a failed build leaves none
+        with _folders_made_for(dest):
+            _copy_whole(built[0], dest)
     return dest
+
+
+def _refused_for_room(lines: list[str]) -> int | None:
+    """The errno of a write refused for want of room that pythonfmu's error output ``lines`` reports
+    (its last ``[Errno N]``, N one of NO_ROOM), or None."""
+    for line in reversed(lines):
+        match = _ERRNO.search(line)
+        if match and int(match.group(1)) in NO_ROOM:
+            return int(match.group(1))
+    return None
+
+
+@contextlib.contextmanager
+def _folders_made_for(dest: Path) -> Iterator[None]:
+    """Make the folders ``dest`` needs; should the body fail, remove those made here that stay empty
+    (an empty cache/<key> folder was left by each build on a full disk). One another process has
+    filled meanwhile is left as it is."""
+    made = [p for p in (dest.parent, *dest.parent.parents) if not p.exists()]
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        yield
+    except BaseException:
+        for folder in made:  # innermost first
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (another build's), or gone: left as it is
+                break
+        raise
+
+
+def _copy_whole(built: Path, dest: Path) -> None:
+    """Copy ``built`` to ``dest`` whole or not at all, also when two processes build the same model."""
+    part = dest.with_name(f".{sibling_stem(dest.name, 30)}.{os.getpid()}.part")
+    try:
+        shutil.copyfile(built, part)
+        os.replace(part, dest)
+    except BaseException as exc:  # a full disk, an interrupt: no part left behind in the cache for ever
+        part.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.errno in NO_ROOM:  # named as the file it was to be
+            raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), str(dest)) from None
+        raise
 
 
 def cache_key(model: Path, extra_files: Iterable[Path] = (), state: bool = True) -> str:
@@ -95,7 +143,9 @@ def cached_fmu(model: str | Path, *, extra_files: Iterable[str | Path] = (), sta
     try:
         if not target.is_file():
             build_fmu(model, target, extra_files=extras, state=state)
-    except OSError as exc:  # a cache that is a file, not writable or full (the system's error named a folder in it)
+    except OSError as exc:  # a cache that is a file or not writable (the system's error named a folder in it)
+        if exc.errno in NO_ROOM:  # the machine's limit, not the scene's: said as the file not written
+            raise
         said = "$" + CACHE_ENV if os.environ.get(CACHE_ENV) else f"the default; ${CACHE_ENV} names another"
         raise FmuBuildError(f"{model}: cannot keep its FMU in the FMU cache {folder} ({said}): "
                             f"{exc.strerror or exc}") from None

@@ -10,6 +10,7 @@ scene's base step, or the export is refused.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -85,12 +86,11 @@ def fmu_path(text: str) -> str:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from cosim.fmi.export import export_scene
     from cosim.scenario import load
 
     scene = load(args.scene, overrides=args.set or [])
     spec = build_spec(args, scene)
-    path = export_scene(scene, spec, args.output)
+    path = _export_naming_the_output(scene, spec, args.output)
     names = lambda items: ", ".join(i.name for i in items) or "none"
     print(f"{path}: FMI 2.0 co-simulation FMU of scene {scene.name!r} ({path.stat().st_size / 1e6:.2g} MB)")
     print(f"  parameters: {names(spec.parameters)}")
@@ -99,6 +99,21 @@ def cmd_export(args: argparse.Namespace) -> int:
     print(f"  communication step: any whole multiple of dt = {scene.dt:g} s (default experiment: {default:g} s); "
           f"runs the Python of {sys.executable} (with cosim installed)")
     return EXIT_OK
+
+
+def _export_naming_the_output(scene: Scene, spec: ExportSpec, output: str) -> Path:
+    """:func:`cosim.fmi.export.export_scene`, with a write refused for want of room (a full disk, a
+    quota, a file-size limit) said of ``output``, the file asked for: it was said as an internal
+    error naming a file in the build's temporary folder, deleted by then."""
+    from cosim.fmi.build import NO_ROOM
+    from cosim.fmi.export import export_scene
+
+    try:
+        return export_scene(scene, spec, output)
+    except OSError as exc:
+        if exc.errno not in NO_ROOM:
+            raise
+        raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), output) from None
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

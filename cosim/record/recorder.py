@@ -43,11 +43,11 @@ from cosim.codec.jsontext import RecordLayout
 from cosim.codec.proto_codec import MESSAGE_ENCODING as PROTO_ENCODING
 from cosim.codec.proto_codec import proto_codec_for
 from cosim.codec.wire import wire_codec
-from cosim.errors import RecordingError, SimulationError
+from cosim.errors import NO_ROOM, RecordingError, SimulationError
 from cosim.messages import Message, message
 from cosim.record.derive import DerivedMessage
 from cosim.record.output import METADATA_NAME, check_output, nearest_existing
-from cosim.record.writer import NO_ROOM, SinkError, open_sink
+from cosim.record.writer import SinkError, open_sink
 from cosim.scenario import Scene
 from cosim.scheduler import BaseObserver, RunResult, Simulation
 

@@ -52,7 +52,7 @@ from typing import Any
 from cosim.codec.jsontext import RecordLayout, Renderer, renderer
 from cosim.codec.records import BYTES, MESSAGE, OTHER, Stage, Write, iter_records, read_other
 from cosim.codec.state_proto import state_bytes
-from cosim.errors import CosimError, shortened
+from cosim.errors import NO_ROOM, CosimError, shortened
 from cosim.record.derive import (
     RELAY_TAG,
     Derivation,
@@ -170,7 +170,6 @@ def _warn_whole(line: str) -> None:
 
 
 # writes that fail for want of room: a rebuilt copy of the recording would need as much again
-NO_ROOM = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 class _File(io.FileIO):
@@ -730,8 +729,6 @@ def _ring() -> RingProducer:
     (``ulimit -f``, which counts the memory file too) is lower, the largest power-of-two share of it
     that fits, down to :data:`SMALLEST_RING_BYTES` (every recording failed at its start, blaming its
     output file, under a limit below 64 MiB)."""
-    import errno
-
     size = RING_BYTES
     while True:
         try:
