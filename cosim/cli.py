@@ -411,7 +411,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
             try:
                 report = replay_component(rec, name)
             except RecordingError as gap:  # this component's inputs have a gap: said, and the others replayed
-                print(f"error: {_one_line(str(gap))}", file=sys.stderr, flush=True)
+                said = str(gap)
+                if f"cannot replay {name!r}" not in said:  # (a message it reads, shared by several: whose)
+                    said = f"cannot replay {name!r}: {said}"
+                print(f"error: {_one_line(said)}", file=sys.stderr, flush=True)
                 worst = EXIT_BAD_INPUT
                 continue
             print(report, flush=True)

@@ -239,3 +239,18 @@ def test_a_run_whose_checkpoints_the_full_disk_lost_is_not_told_to_record_them(b
 def _written_copy(src: Path, dst: Path) -> Path:
     dst.write_bytes(src.read_bytes())
     return dst
+
+
+def test_replay_says_which_component_a_message_it_cannot_read_stops(tmp_path, capsys):
+    """ground_bounce with the flat disk's states undecodable (valid CRCs, as another tool would write
+    them): the disk and the floor that reads them each stop, and each line said the same words twice
+    with no component named. Now each names the component it stops, exit 2."""
+    recorded = tmp_path / "gb.mcap"
+    run_scene(load(SCENES / "ground_bounce.yaml", ["until=0.05"]), recorded, progress=False)
+    garbage = b"\xff\xff\xff\xff\x0f"
+    bad = copy_recording(recorded, tmp_path / "bad.mcap",
+                         message=lambda ch, msg: garbage if ch.topic == "/disk_flat/state" else msg.data)
+    assert main(["replay", str(bad), "-q"]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error: ")]
+    assert [line.split(":")[1].strip() for line in lines] == ["cannot replay 'disk_flat'", "cannot replay 'floor_flat'"]
+    assert all("/disk_flat/state at 0 ns" in line for line in lines)
