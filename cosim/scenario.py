@@ -1222,15 +1222,18 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
                             "such as ['/stone/*'], or leave the key out to record every exchange")
         cp = seconds_value(values.checkpoint_every, "record.checkpoint_every", problems,
                            zero="no checkpoints")
-        if cp and dt_ns is not None and cp < dt_ns and "checkpoint_every" not in raw_record:
+        # the value the scene gave, when it is the one checked here: a value refused above (null, a
+        # text) leaves the default in its place, which was then said not to fit dt either
+        raw_cp = raw_record.get("checkpoint_every")
+        given = _plain_number(raw_cp) and raw_cp == values.checkpoint_every
+        if cp and dt_ns is not None and cp < dt_ns and not given:
             # the default (about a second) at the whole number of base steps nearest to it, at least
             # one: a scene of dt 2 s that set none was refused for the default, even with --no-record
             record.checkpoint_every = dt_ns / NS_PER_S
         elif cp and dt_ns is not None and cp < dt_ns:
             problems.append(f"record.checkpoint_every: must be 0 (none) or at least dt = {dt_ns / NS_PER_S:g} s "
                             f"(got {values.checkpoint_every:g})")
-        elif (cp and dt_ns is not None and "checkpoint_every" in raw_record
-              and not _whole_multiple(values.checkpoint_every, cp, dt_ns)):
+        elif cp and dt_ns is not None and given and not _whole_multiple(values.checkpoint_every, cp, dt_ns):
             # checkpoints are taken at base steps: one given between them was rounded to the nearest
             # (half to even) without a word; the default (about a second) still is, as any dt gives it
             problems.append(f"record.checkpoint_every: {values.checkpoint_every!r} s is not a whole multiple of "

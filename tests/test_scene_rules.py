@@ -229,6 +229,18 @@ def test_the_default_checkpoint_interval_takes_any_step():
         "record.checkpoint_every: 1.0 s is not a whole multiple of dt = 0.024 s")
 
 
+def test_a_checkpoint_interval_refused_as_no_number_is_not_also_refused_as_the_default():
+    """`checkpoint_every: null` at a dt that does not divide 1 s was refused twice, the second time
+    for the default the refused value left in its place ("1.0 s is not a whole multiple of dt");
+    an integer given (1) was taken for the default and rounded without a word."""
+    text = CHECKPOINTED_SCENE.replace("dt: 0.001", "dt: 0.024").replace("until: 0.05", "until: 0.048")
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, overrides=["record.checkpoint_every=null"])
+    assert refused.value.problems == ["record.checkpoint_every: must be a number (got None)"]
+    assert problem(text, ["record.checkpoint_every=1"]).startswith(
+        "record.checkpoint_every: 1.0 s is not a whole multiple of dt = 0.024 s")
+
+
 # --- 4. a connection's delay ----------------------------------------------------------------------
 
 @pytest.mark.parametrize("delay", ["1.0", "0.0", "true", "'1'"])
