@@ -57,6 +57,22 @@ def test_every_recording_a_recorded_sweep_names_exists(tmp_path):
     assert all(r["recording"] and Path(r["recording"]).is_file() for r in ran)
 
 
+def test_whether_a_sweep_runs_does_not_hang_on_the_order_of_its_axis_values(tmp_path):
+    """A derived value that fails at the first point (sqrt(v - 1) at v = 0.5) refused the whole sweep,
+    where the same failure at a later point was a failed row: [0.5, 2, 5] was refused, [2, 5, 0.5]
+    ran. The sweep's scene is now checked at the first point whose derived values can be worked out;
+    only when none can is the sweep refused."""
+    from cosim.scenario import ScenarioError
+
+    body = ("scene: ball.yaml\naxes:\n  v: [0.5, 2.0, 5.0]\n"
+            "derived:\n  components.ball.speed: \"sqrt(v - 1)\"\nuntil: 0.2\n")
+    sweep = load_sweep(write_sweep(tmp_path, body))
+    assert [bool(p.problem) for p in sweep.points] == [True, False, False]
+    assert "ball.bounces" in sweep.metrics
+    with pytest.raises(ScenarioError, match=r"the first point \(v=0\.5\): derived\.components\.ball\.speed"):
+        load_sweep(write_sweep(tmp_path, body.replace("[0.5, 2.0, 5.0]", "[0.5, 0.7]"), name="none.yaml"))
+
+
 # -- defect 2: a reference point outside an unevenly spaced axis ----------------------------------
 
 def test_a_value_beyond_an_uneven_axis_is_placed_beyond_its_end_cell():

@@ -31,10 +31,11 @@ a resumed sweep skips finished points and tables from different backends or work
 compared row by row.
 
 :func:`load_sweep` validates the whole file before anything runs and reports every problem with its
-path as one :class:`ScenarioError`, including those of the first point's scene (a misspelt key path
-shows up there) and of each value of an override axis that breaks its own key's rule, loaded with
-the other axes at their first values (``VALUES_CHECKED`` values at most, spread over each axis); a
-later point whose scene is invalid for its combination of values (or for a derived value) becomes
+path as one :class:`ScenarioError`, including those of the scene of the first point whose derived
+values can be worked out (a misspelt key path shows up there; when no point's can, the first one's
+failure) and of each value of an override axis that breaks its own key's rule, loaded with
+the other axes at their first values (``VALUES_CHECKED`` values at most, spread over each axis); any
+other point whose scene is invalid for its combination of values (or for a derived value) becomes
 an error row of the table. A sweep of more than ``MAX_POINTS`` points is refused from its axis counts (or ``samples``)
 before any value is built.
 """
@@ -797,7 +798,11 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
         raise ScenarioError(problems, source)
 
     points = _points(mode, axes, samples, seed, fixed, derived)  # at most MAX_POINTS: checked above
-    metric_keys, kinds, notices = _first_point(points[0], base[0], base[1], source)
+    # the first point whose derived values can be worked out (one of sqrt(v - 1) at v = 0.5 refused
+    # the sweep, where the same failure at a later point was only a failed row: the order of an
+    # axis's values decided whether the sweep ran)
+    worked_out = next((p for p in points if not p.problem), points[0])
+    metric_keys, kinds, notices = _first_point(worked_out, base[0], base[1], source)
     problems += _invalid_axis_values(points, axes, len(fixed), base[0], base[1])
     metrics = _select_metrics(metric_keys, metric_patterns, problems)
     sweep = Sweep(name=name, description=str(description), source=source, text=text, scene_text=base[0],
@@ -816,13 +821,14 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
 
 def _first_point(point: Point, scene_text: str, scene_source: str,
                  source: str) -> tuple[list[str], dict[str, str], list[str]]:
-    """Validate the first point's scene (so a wrong key path is reported before anything runs) and
-    return the metric keys its components report, with their kinds (number or text), and its
-    notices."""
+    """Validate the scene of ``point``, the first whose derived values could be worked out (so a wrong
+    key path is reported before anything runs), and return the metric keys its components report,
+    with their kinds (number or text), and its notices. When no point's could, the first one's
+    failure refuses the sweep."""
     from cosim.runner import collect_metrics
     from cosim.scheduler import Simulation
 
-    where = f"the first point ({point.label()})"
+    where = f"the first point ({point.label()})" if point.index == 0 else f"point {point.index} ({point.label()})"
     if point.problem:
         raise ScenarioError(f"{where}: {point.problem}", source)
     try:
