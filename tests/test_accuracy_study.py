@@ -259,6 +259,20 @@ def test_an_until_out_of_range_is_bad_input_before_any_run(tmp_path, capsys, mon
     assert not (tmp_path / "o").exists()
 
 
+def test_an_until_shorter_than_a_variants_step_is_said_of_until_before_any_run(tmp_path, capsys, monkeypatch):
+    """--until 0.7 ms against the quick study's 1 ms variants: refused as the scene file's own `until`
+    ("until: must be at least one base step, dt = 0.001 s"), which the user never set, at a dt not the
+    scene's, after warm-up runs; now said of --until and the variant, before any run."""
+    import components.analysis.accuracy as accuracy
+
+    monkeypatch.setattr(accuracy, "run_variant", lambda *a, **k: pytest.fail("a variant ran"))
+    assert main(["bench", "accuracy", str(SKIP), "--quick", "--until", "0.0007", "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["error: --until 0.0007 s is shorter than one base step of the variant 'semi_implicit_euler, "
+                   "dt = 1 ms' (dt = 0.001 s): give --until of at least 0.001 s"]
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_pages_section_is_written_through_a_new_file_and_leaves_a_same_named_one_alone(tmp_path):
     """A page's section is written to a new temporary beside it, never to a file that was there: a
     fixed PAGE.tmp was written over, then removed, whatever it held."""

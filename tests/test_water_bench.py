@@ -6,6 +6,8 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import pytest
+
 TOOL = Path(__file__).resolve().parent.parent / "tools" / "bench_water.py"
 
 
@@ -99,3 +101,15 @@ def test_paths_benchmark_judges_each_wave_path_against_the_designs_share_of_the_
     monkeypatch.setattr(bench, "measure", fast)
     assert bench.main(["--sizes", "16", "--write", str(doc)]) == 0
     assert "every wave path meets it." in doc.read_text()
+
+
+def test_a_grid_too_small_for_its_boundaries_is_refused_before_any_row(capsys):
+    """--sizes 2 with absorbing edges (the default boundaries) measured the reflecting rows, then
+    ended in a traceback (exit 1) at the first absorbing one: refused in one line, exit 2."""
+    bench = load_tool()
+    with pytest.raises(SystemExit) as exc:
+        bench.main(["--sizes", "2", "--rounds", "1", "--min-time", "0.001"])
+    assert exc.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.splitlines()[-1].endswith(
+        "error: --sizes: each at least 3 with the boundaries reflecting and absorbing (got 2)")

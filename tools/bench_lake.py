@@ -1,7 +1,7 @@
 """The held skip's throw on a lake against the same throw on its own pond, and a lake's memory.
 
 Runs ``scenarios/held_skip.yaml`` (recording off) on its 8 m x 1 m pond and on a 40 m x 6 m lake of the
-same 1 cm columns (the stone over open water: 5 m of lake behind it, 2.5 m either side), in turn, for
+same 1 cm columns (the stone over open water: 5 m of lake behind it, 3 m either side), in turn, for
 several rounds in one process, and reports the wall time of the run loop of each (``RunResult.wall_s``,
 compilation excluded), the ratio lake / pond as the median of each round's own ratio and best against
 best, and the share of the water that was active. Then, in a fresh process each, the same throw on a

@@ -203,6 +203,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--markdown", type=Path, help="write the results section into this markdown file")
     args = ap.parse_args(argv)
     check_output(ap, args.markdown, "--markdown", text=True)
+    least = 3 if "absorbing" in args.boundaries else 2  # (an absorbing edge needs a column inside it)
+    if min(args.sizes) < least:  # refused before anything runs, not as a traceback after the first rows
+        ap.error(f"--sizes: each at least {least} with the boundaries {' and '.join(args.boundaries)} "
+                 f"(got {min(args.sizes)})")
     backends = ["numba"] + ["numba-parallel"] * args.parallel + ["numpy"] * args.numpy
     load_start = os.getloadavg()[0]
     rows = []

@@ -7,8 +7,8 @@ The default model is the reference skip's: the WaterCoupler with all six effects
 buoyancy, pressure, friction, wave drag, added mass) and its default coefficients, the stage
 monitor's default bounce criterion (the stone rises with its lowest point 2 mm clear of the water).
 Throws are those of the experiments (components/analysis/experiments.py). Besides the table, this
-writes the magic-angle section (its curve at 5 mm and 1 cm columns, and the force law alone, from
-tools/validate_magic_angle.py) and the bounce-criterion section.
+writes the magic-angle-default section (its curve at 5 mm and 1 cm columns; the force law alone is
+tools/validate_magic_angle.py's section) and the bounce-criterion section.
 """
 
 from __future__ import annotations

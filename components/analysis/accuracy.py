@@ -3,7 +3,7 @@
 Every variant is the scene with a few ``--set``-style overrides, run without a recording (output
 None, no progress bar) and compared with one reference run, finer in every setting the study varies:
 
-- *base step*: dt times 1/4 .. 10, the water's step (and any other multi-rate component's) held in
+- *base step*: dt times 1/8 .. 10, the water's step (and any other multi-rate component's) held in
   seconds through its ``every``;
 - *integrator*: ``semi_implicit_euler`` and ``rk4`` against the scene's own (``verlet`` by default);
 - *water*: the other model (``wave`` / ``shallow_water``), cells twice as large (nx, ny halved, same
@@ -12,14 +12,14 @@ None, no progress bar) and compared with one reference run, finer in every setti
   all-delayed edges (Jacobi: the coupler reads the body and the water of the previous step);
 - *effects*: each of the coupler's effects switched off in turn.
 
-The reference takes a quarter of the base step and, unless ``--quick``, water cells and water step
-halved. Errors, over the time both runs cover: the largest distance between the stone's positions at
-equal times (the reference interpolated linearly at the variant's sample times, which lie on its own
-grid when the steps divide); the skip count; the largest difference of the skip distances (skips both
-runs made); the largest difference of the stone's mechanical energy, in % of its initial energy.
-Wall time is the simulation loop's, best of ``--repeats`` interleaved rounds, reported as a ratio to
-the fastest run of the same study (the machine is shared, so only ratios measured together mean
-anything).
+The reference takes a sixteenth of the base step (a quarter with ``--quick``) and, unless
+``--quick``, water cells and water step halved. Errors, over the time both runs cover: the largest
+distance between the stone's positions at equal times (the reference interpolated linearly at the
+variant's sample times, which lie on its own grid when the steps divide); the skip count; the
+largest difference of the skip distances (skips both runs made); the largest difference of the
+stone's mechanical energy, in % of its initial energy. Wall time is the simulation loop's, best of
+``--repeats`` interleaved rounds, reported as a ratio to the fastest run of the same study (the
+machine is shared, so only ratios measured together mean anything).
 
 Output: a markdown table (printed, and written into the ``accuracy-table`` section of
 ``DIR/accuracy.md``, between ``<!-- accuracy-table:begin -->`` and ``<!-- accuracy-table:end -->``,
@@ -401,6 +401,17 @@ class Study:
         return [r for r in self.rows if r.variant.group == name]
 
 
+def _check_until_covers_a_step(until: float, dt: float, variants: list[Variant]) -> None:
+    """Refuse ``--until`` [s] shorter than the base step of a variant (the scene's ``dt`` [s] or the
+    one its ``dt=`` override sets): said of ``--until`` before any run, where the variant's load
+    blamed the scene file's own ``until`` (which the user never set) at a dt not the scene's."""
+    for variant in variants:
+        step = next((float(o.split("=", 1)[1]) for o in variant.overrides if o.startswith("dt=")), dt)
+        if until < step * (1.0 - 1e-9):
+            raise StudyError(f"--until {until:g} s is shorter than one base step of the variant "
+                             f"{variant.name!r} (dt = {step:g} s): give --until of at least {step:g} s")
+
+
 def run_study(scene_path: str | Path, *, quick: bool = False, repeats: int = 2, until: float | None = None,
               log: Any = None) -> Study:
     """Plan, warm up, run every variant ``repeats`` times (interleaved) and compare with the reference."""
@@ -411,6 +422,8 @@ def run_study(scene_path: str | Path, *, quick: bool = False, repeats: int = 2, 
     if until is None and quick:
         until = min(QUICK_UNTIL, scene.until_ns / 1e9)
     everything = [reference, *variants]
+    if until is not None:
+        _check_until_covers_a_step(until, scene.dt, everything)
 
     def say(text: str) -> None:
         if log is not None:
