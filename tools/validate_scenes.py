@@ -94,7 +94,7 @@ def archimedes() -> str:
 
 
 def flattening() -> str:
-    _, w = run("tilted_float", ["disk.state"], ponds=["pond"])
+    sim, w = run("tilted_float", ["disk.state"], ponds=["pond"])
     states = w.seen["disk.state"]
     rows = ["| time [s] | largest tilt in the next 0.5 s [deg] |", "|---:|---:|"]
     rows.append(f"| 0 | {states[0][1].attack_angle_deg:.2f} (let go) |")
@@ -103,11 +103,15 @@ def flattening() -> str:
         rows.append(f"| {t0:.1f} | {tilt:.2f} |")
     v = np.array(w.volumes["pond"])
     z = np.mean([m.position[2] for t, m in states if t >= 3.5])
+    # the water the disk displaces floating (its mass over the water's density) over the basin's area
+    grid = sim.components["pond"].grid
+    rise = states[0][1].mass / 1000.0 / (grid.nx * grid.ny * grid.cell**2)
     rows.append("")
     rows.append(f"Largest relative change of the basin's water volume over {len(v)} water steps: "
                 f"{np.abs(v - v[0]).max() / v[0]:.1e}. Mean height of the disk's centre over 3.5-4 s: "
                 f"{z * 1e3:.2f} mm (half immersed: 0 mm; the disk was in the water before the run, so "
-                f"the 0.11 mm by which its volume would raise this small basin is not on the surface).")
+                f"the {rise * 1e3:.2f} mm by which its volume would raise this small basin is not on the "
+                "surface).")
     return "\n".join(rows)
 
 
