@@ -107,17 +107,20 @@ def test_a_huge_record_number_is_said_once_beside_the_other_record_problems():
 
 
 def test_a_derived_value_beyond_a_floats_range_fails_its_point_naming_the_key(tmp_path):
-    """`attack**1000` is an integer of 1001 digits: the first point's failure is bad input, another
-    point's fails that point, both naming the derived key (it reached the scene: internal error)."""
+    """`attack**1000` is an integer of 1001 digits: a point's failure fails that point, naming the
+    derived key (it reached the scene: internal error), and is bad input when no point's derived
+    values can be worked out."""
     body = "scene: ball.yaml\naxes: {v: [2, 10]}\nderived: {components.ball.speed: 'v**400'}\n"
     sweep = load_sweep(write_sweep(tmp_path, body))
     assert sweep.points[0].problem is None
     assert sweep.points[1].problem == (
         "derived.components.ball.speed: cannot evaluate 'v**400': ValueError: v ** 400 is 1e+400, beyond a "
         "float's range (at most 1.8e+308 in size)")
+    assert [p.problem is None for p in load_sweep(write_sweep(tmp_path, body.replace("[2, 10]", "[10, 2]"))).points] \
+        == [False, True]
     with pytest.raises(ScenarioError, match=r"the first point \(v=10\): derived\.components\.ball\.speed: "
                                             r"cannot evaluate 'v\*\*400': .* beyond a float's range"):
-        load_sweep(write_sweep(tmp_path, body.replace("[2, 10]", "[10, 2]")))
+        load_sweep(write_sweep(tmp_path, body.replace("[2, 10]", "[10, 20]")))
     # each step is refused, so a tower of powers never builds an integer of millions of digits
     with pytest.raises(ValueError, match=r"^v \*\* 400 is 1e\+400, beyond a float's range"):
         Expression("(v**400)**1000 ** 1")({"v": 10})
