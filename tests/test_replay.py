@@ -546,8 +546,15 @@ def test_a_restart_taking_no_step_gives_the_stage_times_to_the_original_digits(t
     which takes no step, printed the timeline to the millisecond (slide 0.025 s where the original
     said 0.0252 s)."""
     from cosim.scenario import load
+    from cosim.scheduler import Simulation
+    from cosim.timebase import exact_seconds
+
     path = tmp_path / "disk.mcap"
-    scene = load(SCENES / "free_disk.yaml", ["record.checkpoint_every=0.0431", "record.visual_rate=0"])
+    # a checkpoint where the run stops (found by a run without a recording): the restart takes no step
+    stopped = Simulation(load(SCENES / "free_disk.yaml", ["record.visual_rate=0"])).run()
+    assert stopped.status == "stopped"
+    scene = load(SCENES / "free_disk.yaml", [f"record.checkpoint_every={exact_seconds(stopped.time_ns)}",
+                                              "record.visual_rate=0"])
     assert run_scene(scene, path, progress=False).result.status == "stopped"
     monitor = next(name for name, cfg in scene.components.items() if cfg.type_name == "StageMonitor")
     stop_ns = round(Recording(path).status().time * 1e9)
