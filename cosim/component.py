@@ -1,6 +1,13 @@
 """The component contract.
 
-A component declares typed ports and parameters and implements one pure step::
+A component declares typed ports and parameters and implements one pure step (``Number`` is the
+message type of :mod:`cosim.examples`, a ``value`` float)::
+
+    from dataclasses import dataclass
+
+    from cosim.component import Component, Port
+    from cosim.examples import Number
+    from cosim.params import param
 
     class Counter(Component):
         '''Adds its input to a running total.'''
@@ -9,20 +16,20 @@ A component declares typed ports and parameters and implements one pure step::
         class Params:
             gain: float = param(1.0)
 
-        inputs = {"x": Port(Scalar)}
-        outputs = {"total": Port(Scalar)}
+        inputs = {"x": Port(Number)}
+        outputs = {"total": Port(Number)}
 
         def setup(self) -> None:
             self.total = 0.0
 
         def _step_impl(self, t, dt, inputs):
             self.total += self.params.gain * (inputs["x"].value if inputs["x"] else 0.0)
-            return {"total": Scalar(self.total)}
+            return {"total": Number(self.total)}
 
 The public :meth:`Component.step` owns the bookkeeping: status and step count, the stability guard
 against :meth:`max_stable_step` (error, or substepping; :meth:`Component.restep` applies it to a
 bound a component learns inside its step), checking outputs (known ports, right types, finite
-values, enum fields holding one of their members) and turning any exception into a
+values, enum fields holding one of their members, arrays of their declared shape) and turning any exception into a
 :class:`SimulationError` naming the component, the simulation time and the reason. Physics code
 never sees the scheduler.
 """

@@ -109,13 +109,15 @@ class Message:
         type's members has (fault ``7 is not a Shape (0 disk, 1 sphere)``): the codecs would write
         it, and no reader could read it back. The fast path is :meth:`first_nonfinite`'s one
         generated expression, which checks the enum fields too; only a message it does not pass is
-        looked at field by field."""
+        looked at field by field. Then an array field whose shape is not the one its :class:`Array`
+        declares (fault ``must have shape (3,), got (2,)``; a free dimension takes any length): the
+        codecs would write a message no reader could read back, or fail naming no component."""
         check = _CHECKS.get(type(self))  # (written out, not a helper's call: this runs for every output)
         if check is None:
             check = _CHECKS[type(self)] = _value_check(type(self))
         if check(self):
             return None
-        return _first_bad_number(self) or _first_bad_enum(self)
+        return _first_bad_number(self) or _first_bad_enum(self) or _first_bad_shape(self)
 
 
 NONFINITE = "non-finite"
@@ -165,6 +167,39 @@ def _first_bad_enum(msg: Message) -> tuple[str, str] | None:
             members = ", ".join(f"{int(m)} {m.name.lower()}" for m in spec.enum_type)
             return spec.name, f"{value!r} is not a {spec.enum_type.__name__} ({members})"
     return None
+
+
+def _first_bad_shape(msg: Message) -> tuple[str, str] | None:
+    """(name, fault) of the first array field of ``msg`` whose shape is not its declared one (fault
+    ``must have shape (3,), got (2,)``; ``n`` in the declared shape marks a free dimension), or
+    None. A list given for an array is judged by the shape numpy gives it."""
+    for spec in type(msg).__cosim_fields__:
+        if spec.array is None:
+            continue
+        shape = np.shape(getattr(msg, spec.name))
+        if not _shape_fits(shape, spec.array.shape):
+            return spec.name, f"must have shape {_shape_text(spec.array.shape)}, got {_shape_text(shape)}"
+    return None
+
+
+def _shape_fits(shape: tuple[int, ...], declared: tuple[int | None, ...]) -> bool:
+    """Whether an array of ``shape`` fits the ``declared`` one (None: any length there)."""
+    return len(shape) == len(declared) and all(d is None or d == n for n, d in zip(shape, declared, strict=True))
+
+
+def _shape_text(shape: tuple[int | None, ...]) -> str:
+    """A shape as Python writes a tuple, ``n`` for a free dimension: ``(3,)``, ``(n, 3)``."""
+    parts = ["n" if d is None else str(d) for d in shape]
+    return f"({parts[0]},)" if len(parts) == 1 else f"({', '.join(parts)})"
+
+
+def _shape_term(name: str, declared: tuple[int | None, ...]) -> str:
+    """The generated check's test of array field ``name``'s shape: one tuple comparison when every
+    dimension is fixed (a few tens of nanoseconds), else its number of dimensions and fixed ones."""
+    if all(d is not None for d in declared):
+        return f"m.{name}.shape == {tuple(declared)!r}"
+    fixed = [f"m.{name}.shape[{i}] == {d}" for i, d in enumerate(declared) if d is not None]
+    return " and ".join([f"m.{name}.ndim == {len(declared)}", *fixed])
 
 
 _CHECKS: dict[type, typing.Callable[[Message], bool]] = {}
@@ -221,9 +256,12 @@ def _value_check(message_type: type[Message]) -> typing.Callable[[Message], bool
             env[f"_members{i}"] = dict.fromkeys(spec.enum_type, 0.0)
             terms.append(f"_members{i}[m.{spec.name}]")
     body = " + ".join(["0.0", *terms])
+    # each array's shape as declared: a 2-vector where (3,) was declared sums to a finite number too
+    shapes = "".join(f" and {_shape_term(s.name, s.array.shape)}" for s in message_type.__cosim_fields__
+                     if s.array is not None)
     exec("def check(m):\n"
          "    try:\n"
-         f"        return _isfinite({body})\n"
+         f"        return _isfinite({body}){shapes}\n"
          "    except (AttributeError, TypeError, ValueError, KeyError):\n"
          "        return False\n", env)
     return env["check"]

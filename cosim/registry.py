@@ -13,6 +13,7 @@ other module (``os``, ``subprocess``, a file beside the scene) is refused before
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import os
 import re
@@ -25,6 +26,9 @@ from typing import Any
 from cosim.component import Component, Port
 from cosim.messages import FieldKind, Message
 from cosim.params import ParamRow, describe
+
+COMPONENT_KEYS = frozenset({"type", "every", "step", "on_unstable"})
+"""The keys a scene's component takes for itself; every other key is one of its parameters."""
 
 ENTRY_POINT_GROUP = "cosim.components"
 ALLOW_ENV = "COSIM_COMPONENT_PACKAGES"
@@ -95,7 +99,65 @@ def resolve(type_name: str, allow: Iterable[str] = ()) -> type[Component]:
     if cls._step_impl is Component._step_impl:  # a base to build on (Component itself): it cannot step
         raise UnknownComponentType(f"component type {type_name!r}: {target!r} does not step (it has no "
                                    "_step_impl of its own): name a component class built on it")
+    check_contract(cls, type_name)
     return cls
+
+
+def check_contract(cls: type[Component], type_name: str) -> None:
+    """Refuse (UnknownComponentType naming ``type_name`` and the rule) a component class whose
+    ``Params`` is not a dataclass or has a parameter named like a scene's own component key, or whose
+    ``inputs``/``outputs`` are not a mapping of port name to :class:`Port` of a message type: each
+    came out as an internal error when the scene was built or run, or a parameter silently kept its
+    default. Checked once per class (:func:`_contract_problem` is cached)."""
+    problem = _contract_problem(cls)
+    if problem:
+        raise UnknownComponentType(f"component type {type_name!r}: {problem}")
+
+
+@cache
+def _contract_problem(cls: type[Component]) -> str:
+    """What breaks the component contract in ``cls`` (see :func:`check_contract`), or ""."""
+    return _params_problem(cls.Params) or _ports_problem(cls, "inputs") or _ports_problem(cls, "outputs")
+
+
+def _params_problem(params: Any) -> str:
+    """What is wrong with a component's ``Params`` class, or ""."""
+    if not (isinstance(params, type) and dataclasses.is_dataclass(params)):
+        return (f"its Params must be a dataclass class (decorate it with @dataclass(frozen=True)); "
+                f"got {_what(params)}")
+    for field in dataclasses.fields(params):
+        if field.name in COMPONENT_KEYS:
+            # the scene takes such a key for itself, and the parameter silently kept its default
+            return f"its parameter {field.name!r} has the name of a scene key ({_KEYS_SAID}): rename it"
+    return ""
+
+
+_KEYS_SAID = "step, every, type, on_unstable"  # COMPONENT_KEYS, as the scene reference lists them
+
+
+def _ports_problem(cls: type[Component], side: str) -> str:
+    """What is wrong with a component's ``inputs`` or ``outputs`` (``side``), or ""."""
+    ports = getattr(cls, side)
+    if not isinstance(ports, dict):
+        return f"its {side} must be a dict of port name -> Port(MessageType), got {_what(ports)}"
+    way = side[:-1]
+    for name, port in ports.items():
+        if not isinstance(name, str):
+            return f"its {side} must be named by text, got {name!r}"
+        if not isinstance(port, Port):
+            return f"its {way} {name!r} must be a Port(MessageType), got {_what(port)}"
+        kind = port.type
+        if not (isinstance(kind, type) and issubclass(kind, Message) and "__cosim_fields__" in vars(kind)):
+            return (f"its {way} {name!r} carries {_what(kind)}, not a message type (a Message subclass "
+                    "decorated with @message)")
+    return ""
+
+
+def _what(value: Any) -> str:
+    """A value as a contract problem names it: a class by its module and name, else its type."""
+    if isinstance(value, type):
+        return f"class {value.__module__}.{value.__qualname__}"
+    return f"a {type(value).__name__} ({value!r})" if len(repr(value)) <= 60 else f"a {type(value).__name__}"
 
 
 def _import(type_name: str, module_name: str) -> Any:

@@ -38,7 +38,7 @@ from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound,
 from cosim.errors import NO_ROOM, ScenarioError
 from cosim.messages import Message
 from cosim.params import beyond_float, build, number_text, show_value, whole_digits
-from cosim.registry import UnknownComponentType, resolve
+from cosim.registry import COMPONENT_KEYS, UnknownComponentType, check_contract, resolve
 from cosim.timebase import NS_PER_S, exact_seconds, seconds_to_ns
 
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a component name: it becomes channel names
@@ -59,7 +59,6 @@ MEMORY_SHARE = 0.9  # a scene whose components' estimated memory exceeds this sh
 EDGE_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*->\s*(\w+)\.(\w+)\s*$")
 END_RE = re.compile(r"^\s*(\w+)\.(\w+)\s*$")  # one end of a connection written as a mapping: component.port
 TOP_KEYS = {"name", "description", "dt", "until", "on_unstable", "components", "connections", "record"}
-COMPONENT_KEYS = {"type", "every", "step", "on_unstable"}
 ON_UNSTABLE = ("error", "substep")
 
 
@@ -580,6 +579,13 @@ def _component(name: str, spec: Any, dt_ns: int | None, default_unstable: str,
     if configured is None:
         del classes[name]
         return None
+    if configured is not cls:  # a class made for these parameters (an FMU's ports) keeps the contract too
+        try:
+            check_contract(configured, type_name)
+        except UnknownComponentType as exc:
+            problems.append(f"{path}.type: {exc}")
+            del classes[name]
+            return None
     cls = classes[name] = configured
     if params is None or every is None:
         return None
@@ -781,6 +787,37 @@ def _check_inputs(components: dict[str, type[Component]], edges: list[Connection
             if spec.required and (name, port) not in fed and (name, port) not in written:
                 problems.append(f"components.{name}: required input {port!r} ({spec.type.__name__}) "
                                 "is not connected")
+
+
+FRAMEWORK_SCHEMAS = {"cosim.Event": "/cosim/events", "cosim.RunStatus": "/cosim/status",
+                     "cosim.PerfSample": "/perf/tick", "cosim.Checkpoint": "/cosim/checkpoint"}
+"""The schema names a recording gives the framework's own channels (:mod:`cosim.record.recorder`)."""
+FRAMEWORK_MODULE = "cosim.record.recorder"  # where the framework's own message types are declared
+
+
+def schema_name(message_type: type[Message]) -> str:
+    """The schema name a recording gives ``message_type`` (both codecs' ``cosim.<ClassName>``)."""
+    return f"cosim.{message_type.__name__}"
+
+
+def _check_schema_names(components: dict[str, type[Component]], problems: list[str]) -> None:
+    """Two distinct message types on the scene's ports with one schema name (a user's ``Wrench``
+    beside components.messages.Wrench), or one with the name of the framework's own channels: a
+    recording keeps one schema under a name, and its channels of the other type could not be read
+    back (the run said ok all the same)."""
+    carriers: dict[str, dict[type[Message], list[str]]] = {}
+    for name, cls in components.items():
+        for port, spec in (*cls.inputs.items(), *cls.outputs.items()):
+            carriers.setdefault(schema_name(spec.type), {}).setdefault(spec.type, []).append(f"{name}.{port}")
+    for schema, types in carriers.items():
+        said = [f"{t.__module__}.{t.__qualname__} (on {', '.join(ports)})" for t, ports in types.items()]
+        own = [t for t in types if schema in FRAMEWORK_SCHEMAS and t.__module__ != FRAMEWORK_MODULE]
+        if len(types) > 1:
+            problems.append(f"components: message types {' and '.join(said)} have the same class name, "
+                            f"which is their schema name {schema} in a recording: rename one of them")
+        elif own:
+            problems.append(f"components: message type {said[0]} has the schema name {schema} of the "
+                            f"framework's own channel {FRAMEWORK_SCHEMAS[schema]}: rename it")
 
 
 def execution_order(names: list[str], edges: list[Connection]) -> tuple[list[str], list[str] | None]:
@@ -1189,6 +1226,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     # an input the scene does connect, by a connection refused above, is not also "not connected"
     written = {end for end in map(_written_target, raw_edges) if end is not None}
     _check_inputs(classes, edges, problems, written)
+    _check_schema_names(classes, problems)
 
     record = RecordConfig()
     raw_record = data.get("record")

@@ -158,7 +158,8 @@ class Recorder(BaseObserver):
                 raise SinkError(f"{self.path}: the recording could not be written: {reason}; no file was left") \
                     from None
             raise RecordingError(f"{self.path}: cannot write the recording ({reason})") from None
-        self._schemas: dict[str, int] = {}
+        # schema name -> (its id, encoding, data): one name is never given to a second schema
+        self._schemas: dict[str, tuple[int, str, bytes]] = {}
         self._channels: dict[str, int] = {}
         self._routes: dict[tuple[str, str], list] = {}
         self._wanted: dict[str, bool] = {}
@@ -187,13 +188,26 @@ class Recorder(BaseObserver):
                  message_encoding: str, layout: RecordLayout | None = None) -> int:
         channel = self._channels.get(topic)
         if channel is None:
-            schema = self._schemas.get(schema_name)
-            if schema is None:
-                schema = self._schemas[schema_name] = self.sink.register_schema(
-                    schema_name, schema_encoding, schema_data)
+            schema = self._schema(topic, schema_name, schema_encoding, schema_data)
             channel = self._channels[topic] = self.sink.register_channel(
                 topic, message_encoding, schema, layout)
         return channel
+
+    def _schema(self, topic: str, schema_name: str, schema_encoding: str, schema_data: bytes) -> int:
+        """The id of the schema ``schema_name``, registered the first time it is asked for. Asked for
+        another schema under a name it has (two message types of one class name: the scene refuses
+        them as it loads), a RecordingError: the channel would be tied to the other type's schema,
+        and the recording could not be read back."""
+        known = self._schemas.get(schema_name)
+        if known is None:
+            schema_id = self.sink.register_schema(schema_name, schema_encoding, schema_data)
+            self._schemas[schema_name] = (schema_id, schema_encoding, schema_data)
+            return schema_id
+        if known[1:] != (schema_encoding, schema_data):
+            raise RecordingError(f"{topic}: its schema {schema_name} ({schema_encoding}) differs from the one "
+                                 f"this recording already holds under that name ({known[1]}): two message "
+                                 "types of one class name cannot be recorded together; rename one of them")
+        return known[0]
 
     def _message_channel(self, topic: str, msg_type: type[Message]) -> int:
         channel = self._channels.get(topic)

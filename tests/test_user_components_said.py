@@ -1,0 +1,304 @@
+"""A user's component or message type that breaks a rule is said as the scene loads, naming it and
+the rule, exit 2; a component publishing a wrong array shape fails naming its output and field.
+
+Before: a user's ``Wrench`` beside components.messages.Wrench shared one schema in the recording
+(the run said ok, the recording could not be inspected or replayed); a parameter named ``step`` was
+taken by the scene as the component's step and silently kept its default; a 2-vector force ended in
+"internal error ProtoError ... (an int beyond 64 bits?)" naming no component; Params without
+@dataclass, ``inputs = ["inp"]`` and ``Port(float)`` were internal errors; the example of
+cosim/component.py named a message type, Scalar, that exists nowhere.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Annotated, ClassVar
+
+import numpy as np
+import pytest
+
+import cosim.component
+from components.messages import BodyState
+from cosim.cli import main
+from cosim.component import Component, Port
+from cosim.errors import RecordingError
+from cosim.examples import Number
+from cosim.messages import Array, Message, message
+from cosim.params import param
+from cosim.registry import UnknownComponentType, resolve
+from cosim.scenario import loads
+from tests.cli_toys import one_error_line
+
+HERE = "tests.test_user_components_said"
+KEYS_SAID = "(step, every, type, on_unstable)"
+
+ON_A_BODY = """
+dt: 0.001
+until: 0.005
+components:
+  stone: {{type: RigidBody, position: [0, 0, 1]}}
+  {extra}
+  push: {{type: "{push}"}}
+connections:
+  - {{from: push.wrench, to: stone.wrench, delay: 1, initial: {{force: [0, 0, 0], torque: [0, 0, 0]}}}}
+  {edge}
+record: {{visual_rate: 0}}
+"""
+
+
+@message
+class Wrench(Message):
+    """A user's own reading that happens to be called Wrench."""
+
+    speed: float
+    label: str
+
+
+@message
+class Event(Message):
+    """A user's type named like the framework's own events."""
+
+    what: str
+
+
+@message
+class UserNumber(Message):
+    """A number with its unit (recorded as cosim.UserNumber)."""
+
+    value: float
+    unit: str
+
+
+UserNumber.__name__ = "Number"  # a user's Number(value, unit) beside cosim.examples' Number
+
+
+@message
+class Patch(Message):
+    """Heights of n points in 3 columns: a free first dimension."""
+
+    h: Annotated[np.ndarray, Array("float64", (None, 3))]
+
+
+def _body_wrench() -> type[Message]:
+    from components.messages import Wrench as BodyWrench
+    return BodyWrench
+
+
+class Gauge(Component):
+    """Publishes a reading of its own Wrench type."""
+
+    inputs: ClassVar[dict[str, Port]] = {"body": Port(BodyState, required=True)}
+    outputs: ClassVar[dict[str, Port]] = {"reading": Port(Wrench)}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        return {"reading": Wrench(float(inputs["body"].position[2]), "z")}
+
+
+class Announcer(Component):
+    """Publishes a message type named Event."""
+
+    outputs: ClassVar[dict[str, Port]] = {"said": Port(Event)}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        return {"said": Event("hello")}
+
+
+class Lift(Component):
+    """A constant lift (the body's own Wrench type)."""
+
+    outputs: ClassVar[dict[str, Port]] = {"wrench": Port(_body_wrench())}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        return {"wrench": _body_wrench()(np.array([0.0, 0.0, 0.1]), np.zeros(3))}
+
+
+class FlatPush(Component):
+    """A push whose force is a 2-vector by mistake (from t = 2 ms on)."""
+
+    outputs: ClassVar[dict[str, Port]] = {"wrench": Port(_body_wrench())}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        force = np.array([0.5, 0.0]) if t >= 0.002 else np.zeros(3)
+        return {"wrench": _body_wrench()(force, np.zeros(3))}
+
+
+class StepParam(Lift):
+    """A lift with a parameter named like the scene's 'step'."""
+
+    @dataclass(frozen=True)
+    class Params:
+        step: float = param(0.5, unit="N", doc="push")
+
+
+class EveryParam(Lift):
+    """A lift with a parameter named 'every'."""
+
+    @dataclass(frozen=True)
+    class Params:
+        every: int = param(1)
+
+
+class NoDataclass(Lift):
+    """Params forgot @dataclass."""
+
+    class Params:
+        gain: float = param(1.0)
+
+
+class ListInputs(Lift):
+    """Inputs given as a list of names."""
+
+    inputs = ["inp"]  # type: ignore[assignment]
+
+
+class FloatPort(Lift):
+    """A port of float, not of a message type."""
+
+    inputs: ClassVar[dict[str, Port]] = {"inp": Port(float)}  # type: ignore[arg-type]
+
+
+def test_two_message_types_of_one_class_name_are_refused_as_the_scene_loads(tmp_path, capsys):
+    """A user's Wrench beside the body's components.messages.Wrench: exit 2 naming both classes,
+    their modules and ports, and no recording (the run said ok over one that could not be read)."""
+    scene = tmp_path / "a.yaml"
+    scene.write_text(ON_A_BODY.format(push=f"{HERE}:Lift", extra=f'gauge: {{type: "{HERE}:Gauge"}}',
+                                      edge="- stone.state -> gauge.body"))
+    out = tmp_path / "a.mcap"
+    assert main(["run", str(scene), "-q", "-o", str(out)]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line == (f"error: {scene}: components: message types components.messages.Wrench (on stone.wrench, "
+                    f"push.wrench) and {HERE}.Wrench (on gauge.reading) have the same class name, which is "
+                    "their schema name cosim.Wrench in a recording: rename one of them")
+    assert not out.exists()
+
+
+def test_a_users_number_beside_the_examples_number_is_refused(tmp_path, capsys):
+    """cosim.examples' Number on ping's ports and a user's Number(value, unit): exit 2."""
+    scene = tmp_path / "n.yaml"
+    scene.write_text("dt: 0.001\nuntil: 0.002\ncomponents:\n  ping: {type: 'cosim.examples:Ping'}\n"
+                     f"  talk: {{type: '{HERE}:Talk'}}\n"
+                     "connections:\n  - {from: ping.out, to: ping.inp, delay: 1, initial: {value: 0.0}}\n")
+    assert main(["validate", str(scene)]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert "cosim.examples.Number (on ping.inp, ping.out)" in line
+    assert f"{HERE}.UserNumber (on talk.out)" in line and "schema name cosim.Number" in line
+
+
+class Talk(Component):
+    """Publishes a number with its unit."""
+
+    outputs: ClassVar[dict[str, Port]] = {"out": Port(UserNumber)}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        return {"out": UserNumber(1.0, "m")}
+
+
+def test_a_message_type_named_like_the_frameworks_own_is_refused(tmp_path, capsys):
+    """A user's Event would share the schema of /cosim/events."""
+    scene = tmp_path / "e.yaml"
+    scene.write_text(f"dt: 0.001\nuntil: 0.002\ncomponents:\n  talk: {{type: '{HERE}:Announcer'}}\n")
+    assert main(["validate", str(scene)]) == 2
+    assert one_error_line(capsys.readouterr().err) == (
+        f"error: {scene}: components: message type {HERE}.Event (on talk.said) has the schema name "
+        "cosim.Event of the framework's own channel /cosim/events: rename it")
+
+
+def test_the_framework_schemas_are_the_recorders():
+    """The names the scene keeps for the framework's channels are those the recorder gives them."""
+    from cosim.codec import state_proto
+    from cosim.record import recorder
+    from cosim.scenario import FRAMEWORK_SCHEMAS  # (new with the rule)
+
+    assert FRAMEWORK_SCHEMAS == {f"cosim.{recorder.Event.__name__}": recorder.EVENTS_TOPIC,
+                                 f"cosim.{recorder.RunStatus.__name__}": recorder.STATUS_TOPIC,
+                                 f"cosim.{recorder.PerfSample.__name__}": recorder.PERF_TOPIC,
+                                 state_proto.SCHEMA_NAME: recorder.CHECKPOINT_TOPIC}
+
+
+def test_the_recorder_never_ties_a_channel_to_another_types_schema(tmp_path):
+    """Asked for a second schema under a name it holds, the recorder refuses (it tied the channel to
+    the first type's schema, silently); the same schema again is the one it has."""
+    from cosim.record.recorder import Recorder
+
+    scene = loads("dt: 0.001\nuntil: 0.002\ncomponents:\n  ping: {type: 'cosim.examples:Ping'}\n"
+                  "connections:\n  - {from: ping.out, to: ping.inp, delay: 1, initial: {value: 0.0}}\n")
+    recorder = Recorder(tmp_path / "r.mcap", scene, background=False)
+    try:
+        first = recorder._message_channel("/a/out", Number)
+        assert recorder._message_channel("/b/out", Number) != first  # its own channel, the same schema
+        with pytest.raises(RecordingError, match=r"^/c/out: its schema cosim\.Number .* rename one of them$"):
+            recorder._message_channel("/c/out", UserNumber)
+    finally:
+        recorder.discard()
+
+
+@pytest.mark.parametrize(("cls", "key"), [("StepParam", "step"), ("EveryParam", "every")])
+def test_a_parameter_named_like_a_scene_key_is_refused(tmp_path, capsys, cls, key):
+    """``step: 0.002`` became the scheduling step and the parameter kept its default: now the type is
+    refused, in a scene and by ``cosim components``, exit 2."""
+    said = (f"component type '{HERE}:{cls}': its parameter '{key}' has the name of a scene key {KEYS_SAID}: "
+            "rename it")
+    scene = tmp_path / "b.yaml"
+    scene.write_text(ON_A_BODY.format(push=f"{HERE}:{cls}", extra="", edge=""))
+    assert main(["validate", str(scene)]) == 2
+    assert one_error_line(capsys.readouterr().err) == f"error: {scene}: components.push.type: {said}"
+    assert main(["components", f"{HERE}:{cls}"]) == 2
+    assert one_error_line(capsys.readouterr().err) == f"error: cosim components: {said}"
+
+
+def test_a_wrong_array_shape_is_the_components_failure(tmp_path, capsys):
+    """A 2-vector force in a Wrench of force (3,): the component fails naming its output and field
+    (it was an internal ProtoError of the recorder naming no component)."""
+    scene = tmp_path / "c.yaml"
+    scene.write_text(ON_A_BODY.format(push=f"{HERE}:FlatPush", extra="", edge=""))
+    out = tmp_path / "c.mcap"
+    assert main(["run", str(scene), "-q", "-o", str(out)]) == 1
+    assert one_error_line(capsys.readouterr().err) == (
+        "error: component 'push' failed at t = 0.002 s: output 'wrench' field 'force': "
+        "must have shape (3,), got (2,)")
+
+
+def test_first_invalid_judges_shapes_as_declared():
+    """Each fixed dimension as declared; a list of the right length still passes; a free dimension
+    takes any length."""
+    body_wrench = _body_wrench()
+    assert body_wrench(np.zeros(3), np.zeros(3)).first_invalid() is None
+    assert body_wrench([0.0, 1.0, 2.0], np.zeros(3)).first_invalid() is None
+    assert body_wrench(np.zeros(3), np.zeros((3, 1))).first_invalid() == (
+        "torque", "must have shape (3,), got (3, 1)")
+    assert body_wrench(np.zeros(4), np.zeros(3)).first_nonfinite() is None  # (finiteness alone)
+    from cosim.messages import _first_bad_shape  # (new with the rule)
+
+    assert Patch(np.zeros((5, 3))).first_invalid() is None
+    assert Patch(np.zeros((5, 2))).first_invalid() == ("h", "must have shape (n, 3), got (5, 2)")
+    assert _first_bad_shape(Patch(np.zeros(3))) == ("h", "must have shape (n, 3), got (3,)")
+
+
+@pytest.mark.parametrize(("cls", "rule"), [
+    ("NoDataclass", f"its Params must be a dataclass class (decorate it with @dataclass(frozen=True)); "
+                    f"got class {HERE}.NoDataclass.Params"),
+    ("ListInputs", "its inputs must be a dict of port name -> Port(MessageType), got a list (['inp'])"),
+    ("FloatPort", "its input 'inp' carries class builtins.float, not a message type (a Message subclass "
+                  "decorated with @message)"),
+])
+def test_a_component_class_breaking_the_contract_is_refused_naming_the_rule(capsys, cls, rule):
+    """Each was an internal error; now resolve refuses the class, and ``cosim components`` says so."""
+    with pytest.raises(UnknownComponentType) as caught:
+        resolve(f"{HERE}:{cls}")
+    assert str(caught.value) == f"component type '{HERE}:{cls}': {rule}"
+    assert main(["components", f"{HERE}:{cls}"]) == 2
+    assert one_error_line(capsys.readouterr().err) == f"error: cosim components: {caught.value!s}"
+
+
+def test_the_example_of_the_component_module_runs():
+    """The docstring's Counter is built and stepped (it named Scalar, which exists nowhere)."""
+    text = cosim.component.__doc__ or ""
+    block = re.search(r"::\n\n((?:    .*\n|\n)+)", text)
+    assert block is not None
+    code = "\n".join(line[4:] for line in block.group(1).splitlines())
+    space: dict = {}
+    exec(compile(code, "cosim/component.py (docstring)", "exec"), space)
+    counter = space["Counter"]("counter")
+    outputs = counter.step(0, 1_000_000, {"x": Number(2.0)})
+    assert type(outputs["total"]) is Number and outputs["total"].value == 2.0
