@@ -84,7 +84,7 @@ from components.rigid.vec import as_vec
 from components.rigid_body import POSITION_MAX, RigidBody
 from cosim.component import Component, Port
 from cosim.messages import Message
-from cosim.params import param
+from cosim.params import param, require_valid
 
 GRAVITY_MISMATCH = 1e-9  # relative potential-energy difference that reveals another gravity field
 _NO_CHANGE = (0.0, 0.0, 0.0)  # [m/s] the velocity change of a step answered with no impulse
@@ -133,6 +133,7 @@ class SolidGround(Component):
 
     def setup(self) -> None:
         p: SolidGroundParams = self.params
+        require_valid(p)  # (built in code, a restitution of 2 was taken)
         self.plane = slope_plane(as_vec(p.point), p.slope_deg, p.downhill_deg)
         self.material = Material(p.restitution, p.mu_static, p.mu_kinetic, p.bounce_threshold,
                                  p.face_tolerance)

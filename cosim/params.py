@@ -239,11 +239,33 @@ def build(cls: type, data: Any, path: str, problems: list[str], beside: tuple[st
 
 
 def require_valid(params: Any) -> None:
-    """Raise ValueError with the rules across fields that ``params`` breaks (its ``check()``), for
-    a component built in code rather than from a scene, which :func:`build` checks."""
-    problems = params.check()
+    """Raise ValueError with the rules ``params`` breaks, for a component built in code rather than
+    from a scene, which :func:`build` checks: each field's own (:func:`field_problems`), then those
+    across fields (its ``check()``, run only when the fields are right)."""
+    problems = field_problems(params)
+    if not problems:
+        problems = [f"{name}: {text}" for name, text in params.check()]
     if problems:
-        raise ValueError("; ".join(f"{name}: {text}" for name, text in problems))
+        raise ValueError("; ".join(problems))
+
+
+def field_problems(params: Any) -> list[str]:
+    """What breaks the rules of a parameter dataclass's own fields, as a scene would be told: a
+    ``Literal`` field's value not among its choices, a number outside its declared bounds. Built in
+    code, Params took them without a word (``shape="cube"`` made a sphere, ``restitution=2.0`` a
+    bounce gaining energy). Values of other kinds (nested mappings, lists) are the component's to
+    check, as before."""
+    problems: list[str] = []
+    hints = typing.get_type_hints(type(params))
+    for f in dataclasses.fields(params):
+        value = getattr(params, f.name)
+        tp = hints[f.name]
+        if typing.get_origin(tp) is Literal and value not in typing.get_args(tp):
+            problems.append(f"{f.name}: must be one of {', '.join(map(repr, typing.get_args(tp)))} "
+                            f"(got {show_value(value)})")
+        elif isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            _bounds(dict(f.metadata), value, f.name, problems)
+    return problems
 
 
 class ParamRow(typing.NamedTuple):

@@ -302,3 +302,22 @@ def test_the_example_of_the_component_module_runs():
     counter = space["Counter"]("counter")
     outputs = counter.step(0, 1_000_000, {"x": Number(2.0)})
     assert type(outputs["total"]) is Number and outputs["total"].value == 2.0
+
+
+@pytest.mark.parametrize(("kind", "given", "said"), [
+    ("RigidBody", {"shape": "cube"}, "shape: must be one of 'disk', 'sphere' (got 'cube')"),
+    ("SolidGround", {"restitution": 2.0}, "restitution: must be <= 1 (got 2)"),
+    ("WaterCoupler", {"rho": -1.0}, "rho: must be > 0 kg/m^3 (got -1)"),
+    ("RigidBody", {"radius": -1.0}, "radius: must be > 0 m (got -1)"),
+], ids=["shape", "restitution", "rho", "radius"])
+def test_params_built_in_code_keep_the_rules_a_scene_is_held_to(kind, given, said):
+    """Built in code, a disk's shape "cube" made a sphere, a restitution of 2 and a water density of -1
+    were taken, and a radius of -1 was refused for the rod it made of the thickness: each field's own
+    rule is now said, as a scene is told it."""
+    from components.coupler import WaterCoupler
+    from components.ground import SolidGround
+    from components.rigid_body import RigidBody
+
+    cls = {"RigidBody": RigidBody, "SolidGround": SolidGround, "WaterCoupler": WaterCoupler}[kind]
+    with pytest.raises(ValueError, match="^" + re.escape(said)):
+        cls("c", cls.Params(**given))

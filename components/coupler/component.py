@@ -106,7 +106,7 @@ from components.rigid.shapes import shape_volume
 from components.rigid_body import gravity_mismatch
 from cosim.component import Component, Port
 from cosim.messages import Message
-from cosim.params import param
+from cosim.params import param, require_valid
 
 DAMPING_SAFETY = 1.0  # step <= this / damping rate: explicit relaxation never overshoots (limit is 2) [-]
 SPRING_SAFETY = 1.0  # step <= this / sqrt(stiffness / mass) (symplectic limit is 2) [-]
@@ -300,6 +300,7 @@ class WaterCoupler(Component):
         problems = unknown_effects(p.effects)
         if problems:
             raise ValueError("effects: " + "; ".join(problems))
+        require_valid(p)  # (built in code, a water density of -1 was taken)
         self.flags = effect_mask(p.effects)
         self._approach_rates: dict[tuple, float] = {}  # _approach_bound's damping rate per speed, by body
         # the added mass is no force of the kernels: the body takes it on its own port

@@ -33,17 +33,20 @@ def _past_the_checks(component: str, name: str, value, monkeypatch=None) -> Simu
     """The hard-case scene built, then ``component``'s parameter ``name`` set to ``value`` and the
     component set up again: a value the scene would refuse, to test what the run does with it. With
     ``monkeypatch``, the checks that would catch it before its overflow are taken out: the body's
-    gravity bound, and the coupler's bound for the body's first wet step (which substeps, or stops
-    the run, before the force can overflow)."""
+    gravity bound, the coupler's bound for the body's first wet step (which substeps, or stops the
+    run, before the force can overflow) and its own parameters' bounds, which it checks as it is set
+    up."""
     import dataclasses
     import math
 
+    import components.coupler.component
     import components.rigid_body
     from components.coupler.component import WaterCoupler
 
     if monkeypatch is not None:
         monkeypatch.setattr(components.rigid_body, "GRAVITY_MAX", math.inf)
         monkeypatch.setattr(WaterCoupler, "_approach_bound", lambda self, body: math.inf)
+        monkeypatch.setattr(components.coupler.component, "require_valid", lambda params: None)
     sim = Simulation(scene())
     comp = sim.components[component]
     comp.params = dataclasses.replace(comp.params, **{name: value})
