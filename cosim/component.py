@@ -26,7 +26,9 @@ message type of :mod:`cosim.examples`, a ``value`` float)::
             self.total += self.params.gain * (inputs["x"].value if inputs["x"] else 0.0)
             return {"total": Number(self.total)}
 
-The public :meth:`Component.step` owns the bookkeeping: status and step count, the stability guard
+The public :meth:`Component.step` (for a component driven by hand: its inputs held to the declared
+ports and types first) and the scheduler's :meth:`Component.step_gathered` own the bookkeeping:
+status and step count, the stability guard
 against :meth:`max_stable_step` (error, or substepping; :meth:`Component.restep` applies it to a
 bound a component learns inside its step), checking outputs (known ports, right types, finite
 values, enum fields holding one of their members, arrays of their declared shape) and turning any exception into a
@@ -368,7 +370,35 @@ class Component:
 
     def step(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
              on_unstable: OnUnstable = "error") -> dict[str, Message]:
-        """Advance one step of ``dt_ns`` from ``t_ns``; guards and bookkeeping around ``_step_impl``."""
+        """Advance one step of ``dt_ns`` [ns] from ``t_ns`` [ns] on ``inputs`` (input port -> message or
+        None), driven by hand (a test, a script): the inputs are held to the declared ports first, so a
+        misspelt port or a message of another type is the caller's error, named, not a port silently
+        left empty or an AttributeError deep in the step. The scheduler, whose inputs are its own
+        plan's, goes straight to :meth:`step_gathered`."""
+        self._check_inputs(t_ns, inputs)
+        return self.step_gathered(t_ns, dt_ns, inputs, on_unstable)
+
+    def _check_inputs(self, t_ns: int, inputs: Any) -> None:
+        """A :class:`SimulationError` unless ``inputs`` maps this component's input ports to messages
+        of their types (or None); the component is left as it was (the error is the caller's)."""
+        if not isinstance(inputs, dict):
+            raise SimulationError(self.name, t_ns, f"was given inputs as {type(inputs).__name__}, not a mapping "
+                                  "of input port to message")
+        declared = self.inputs
+        for port, msg in inputs.items():
+            spec = declared.get(port)
+            if spec is None:
+                ports = ", ".join(declared) or "none"
+                raise SimulationError(self.name, t_ns, f"was given input {port!r}, which is not one of its "
+                                      f"input ports ({ports})")
+            if msg is not None and not isinstance(msg, spec.type):
+                raise SimulationError(self.name, t_ns, f"input {port!r} was given a {type(msg).__name__}; "
+                                      f"the port takes {spec.type.__name__}")
+
+    def step_gathered(self, t_ns: int, dt_ns: int, inputs: dict[str, Message | None],
+                      on_unstable: OnUnstable = "error") -> dict[str, Message]:
+        """:meth:`step` on inputs already known to be the component's own ports' (the scheduler's
+        gather, a replay's decoded channels): guards and bookkeeping around ``_step_impl``."""
         if self.status not in ("initialized", "running"):
             raise SimulationError(self.name, t_ns, f"cannot step a component whose status is {self.status!r}")
         t = t_ns / NS_PER_S

@@ -257,7 +257,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         inputs = gather(plan, start, end)
         _check_recorded(rec, name, comp, inputs, start, topics)
         began = clock()
-        outputs = comp.step(start, end - start, inputs, cfg.on_unstable)
+        outputs = comp.step_gathered(start, end - start, inputs, cfg.on_unstable)
         if steps:
             seconds += clock() - began
         steps += 1

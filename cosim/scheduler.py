@@ -420,7 +420,7 @@ class Simulation:
             span = every * dt_ns
             end = start + span
             comp = runner.comp
-            outputs = comp.step(start, span, gather(runner.plan, start, end), runner.on_unstable)
+            outputs = comp.step_gathered(start, span, gather(runner.plan, start, end), runner.on_unstable)
             slots = runner.slots
             for port, msg in outputs.items():
                 # _Slot.publish inline (a call less for every output of every step)

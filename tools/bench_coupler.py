@@ -16,7 +16,7 @@ its load, ratios much less):
   ``tile: 0``; tiled, the bare pond at rest would not be stepped at all).
 * **The coupler's share of the held skip.** ``scenarios/held_skip.yaml`` (the scene the target was set
   on) with recording off, the
-  wall time spent inside the coupler's steps (``WaterCoupler.step``, timed around each call) over
+  wall time spent inside the coupler's steps (``WaterCoupler.step_gathered``, timed around each call) over
   the wall time of the whole run loop, median over the repeats.
 """
 
@@ -189,11 +189,12 @@ def step_ratio(n: int, *, rounds: int, batch: int) -> tuple[float, float, float,
 
 
 class StepTimer:
-    """Adds up the wall time of a component's steps [s] (wraps its ``step``)."""
+    """Adds up the wall time of a component's steps [s] (wraps its ``step_gathered``, the scheduler's
+    call)."""
 
     def __init__(self, comp: Component):
         self.seconds = 0.0
-        inner = comp.step
+        inner = comp.step_gathered
 
         def step(*args, **kwargs):
             start = time.perf_counter()
@@ -202,7 +203,7 @@ class StepTimer:
             finally:
                 self.seconds += time.perf_counter() - start
 
-        comp.step = step  # type: ignore[method-assign]
+        comp.step_gathered = step  # type: ignore[method-assign]
 
 
 def skip_share() -> tuple[float, float]:

@@ -201,13 +201,13 @@ def test_a_substep_too_long_for_the_forces_it_meets_is_refined_within_the_step()
                                       "record.visual_rate=0"]))
     coupler = sim.components["coupler"]
     seen = []
-    inner = coupler.step
+    inner = coupler.step_gathered
 
     def keep(t_ns, dt_ns, inputs, *args, **kwargs):
         seen.append((t_ns, dt_ns, dict(inputs), copy.deepcopy(coupler)))
         return inner(t_ns, dt_ns, inputs, *args, **kwargs)
 
-    coupler.step = keep
+    coupler.step_gathered = keep
     sim.run()
     t_ns, dt_ns, inputs, before = seen[0]
     assert inputs["body"].position[2] < 0.0  # the stone in the water at its first step
@@ -215,7 +215,7 @@ def test_a_substep_too_long_for_the_forces_it_meets_is_refined_within_the_step()
     for substeps in (2, 1000):
         again = copy.deepcopy(before)
         again.bound = dt_ns * 1e-9 / substeps * (1.0 + 1e-9)
-        stepped = type(again).step(again, t_ns, dt_ns, inputs, "substep")  # the class's own step, not keep
+        stepped = type(again).step_gathered(again, t_ns, dt_ns, inputs, "substep")  # the class's own, not keep
         forces[substeps] = np.asarray(stepped["wrench"].force)
         # at least as set; more where the state the step meets needs them (Component.restep: 148 here)
         assert again.last_substeps >= substeps
