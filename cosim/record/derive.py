@@ -102,7 +102,9 @@ class Derivation:
         self.derivers: dict[str, Any] = {}  # name -> the deriver (None: it could not be made)
         self.ports: dict[int, list[_Port]] = {} if ports is None else ports
         self._channels: dict[str, int] = {}  # derived topic -> the writer's key of its channel
-        self._schemas: dict[str, int] = {}  # schema name -> the writer's key of the schema
+        # (schema name, encoding, bytes) -> the writer's key of the schema: two derivers may name a
+        # schema alike with other fields (a user's type beside a viewer's), each channel keeps its own
+        self._schemas: dict[tuple[str, str, bytes], int] = {}
         self._next = DERIVED_KEYS
 
     def apply(self, record: tuple) -> None:
@@ -175,9 +177,10 @@ class Derivation:
         """The writer's key of a derived message's channel, registered on first use."""
         key = self._channels.get(extra.topic)
         if key is None:
-            schema = self._schemas.get(extra.schema_name)
+            what = (extra.schema_name, extra.schema_encoding, extra.schema_data)
+            schema = self._schemas.get(what)
             if schema is None:
-                schema = self._schemas[extra.schema_name] = self._new()
+                schema = self._schemas[what] = self._new()
                 self.target.apply(("schema", schema, extra.schema_name, extra.schema_encoding, extra.schema_data))
             key = self._channels[extra.topic] = self._new()
             self.target.apply(("channel", key, extra.topic, extra.message_encoding, schema, None))
