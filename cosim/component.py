@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import decimal
 import math
+import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,7 +125,15 @@ class Component:
         self.source_steps: dict[str, float] = {}
         # a component without a stability bound of its own is not asked for it at every step
         self._bounded = type(self).max_stable_step is not Component.max_stable_step
+        # a component whose class saves no state of its own: its attributes as set up, to tell at a
+        # checkpoint whether it keeps a state between steps that a restart could not give back
+        self._unsaved_seen = False
+        framework = set(vars(self)) | {"_framework_attrs", "_set_up"}
         self.setup()
+        cls = type(self)
+        saves_nothing = (cls.get_state is Component.get_state and cls.checkpoint_state is Component.checkpoint_state)
+        self._framework_attrs = frozenset(framework) if saves_nothing else None
+        self._set_up = self._own_attributes() if saves_nothing else {}
         self.status = "initialized"
 
     # --- to be written by components ---------------------------------------------------------
@@ -337,6 +346,30 @@ class Component:
     def begin(self, inputs: dict[str, Message | None]) -> None:
         """:meth:`start_inputs`, any failure a :class:`SimulationError` naming the component at t = 0."""
         self._own_failure(0, "its inputs at t = 0: ", lambda: self.start_inputs(inputs))
+
+    def _own_attributes(self) -> dict[str, bytes | None]:
+        """Each attribute the component set itself (not the framework's), pickled (None: it does not
+        pickle, so its changes cannot be told)."""
+        own = {}
+        for key, value in vars(self).items():
+            if key in self._framework_attrs:
+                continue
+            try:
+                own[key] = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+            except Exception:  # any object may refuse pickling in its own way
+                own[key] = None
+        return own
+
+    def unsaved_state(self) -> list[str]:
+        """The attributes, by name, that a component whose class saves no state (the base
+        :meth:`get_state`) has changed or added since it was set up: a state between steps that a
+        checkpoint does not hold, so a restart from it would start the component as set up, not as it
+        was. Empty for a component that saves its state, or keeps none."""
+        if self._framework_attrs is None:
+            return []
+        now = self._own_attributes()
+        return sorted(key for key, value in now.items()
+                      if value is not None and (key not in self._set_up or self._set_up[key] != value))
 
     def state_for_checkpoint(self, t_ns: int) -> dict[str, Any]:
         """:meth:`checkpoint_state` for a checkpoint at ``t_ns``: a state that fails, or is not a

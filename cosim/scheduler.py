@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -301,6 +302,12 @@ def restore_component(comp: Component, saved: dict[str, Any]) -> None:
     state, its steps so far, the substeps its last step took (a restart said again that a component
     substepping all along took 2 substeps) and a stop it asked for in the tick the checkpoint closes
     (a restart from a stopped run's last checkpoint ran on past the stop)."""
+    unsaved = saved.get("unsaved")
+    if unsaved:
+        raise ValueError(f"component {comp.name!r} kept a state between steps that it did not save "
+                         f"({_attributes(unsaved)} changed since it was set up, its get_state saving nothing): "
+                         f"restarted here it would start as set up, not as it was; give its class get_state "
+                         f"and set_state, and run it again")
     state = saved["state"]
     comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
     comp.step_count = saved["step_count"]
@@ -314,6 +321,11 @@ def saved_messages(cp: dict[str, Any], component: str, port: str, msg_type: type
     """The last messages of output ``component.port`` a checkpoint holds, as (stamp [ns], message)."""
     return [(stamp, codec_for(msg_type).decode(payload.encode()))
             for stamp, payload in cp["slots"].get(f"{component}.{port}", [])]
+
+
+def _attributes(names: list[str]) -> str:
+    """Attribute names as said: "its attribute total", "its attributes a, b"."""
+    return f"its attribute{'s' if len(names) > 1 else ''} {', '.join(names)}"
 
 
 def gather_start(plan: list[tuple[str, list[_Edge]]]) -> dict[str, Message | None]:
@@ -504,10 +516,7 @@ class Simulation:
         return {
             "tick": self.tick,
             "dt_ns": self.dt_ns,
-            "components": {r.name: {"state": r.comp.state_for_checkpoint(self.time_ns), "step_count": r.comp.step_count,
-                                    "substeps": r.comp.last_substeps, "stable_step": r.comp.last_stable_step,
-                                    "most_substeps": r.most_substeps, "stop_reason": r.comp.stop_reason}
-                           for r in self.runners},
+            "components": {r.name: self._component_entry(r) for r in self.runners},
             "stop_reason": self.stop_reason,  # a stop asked for in the tick this checkpoint closes
             # only the ports some edge reads: the others' past messages cannot change what follows
             "slots": {f"{r.name}.{port}": [[stamp, codec_for(type(msg)).encode(msg).decode()]
@@ -525,6 +534,26 @@ class Simulation:
                       for r in self.runners for port, slot in r.slots.items()
                       for stamp, msg in slot.entries if stamp > self.time_ns],
         }
+
+    def _component_entry(self, runner: Any) -> dict[str, Any]:
+        """A component's entry in a checkpoint: its state and the scheduler's counts of it; and, for a
+        component that keeps a state between steps its class does not save (``unsaved``: the
+        attributes, :meth:`Component.unsaved_state`), said once as a warning, so that the run tells
+        at once what a restart from it would refuse."""
+        comp = runner.comp
+        entry = {"state": comp.state_for_checkpoint(self.time_ns), "step_count": comp.step_count,
+                 "substeps": comp.last_substeps, "stable_step": comp.last_stable_step,
+                 "most_substeps": runner.most_substeps, "stop_reason": comp.stop_reason}
+        unsaved = comp.unsaved_state()
+        if unsaved:
+            entry["unsaved"] = unsaved
+            if not comp._unsaved_seen:
+                comp._unsaved_seen = True
+                warnings.warn(f"component {comp.name!r} ({type(comp).__name__}) keeps a state between steps "
+                              f"that its class does not save ({_attributes(unsaved)} changed since it was set "
+                              f"up, its get_state the base one, saving nothing): a restart from this run's "
+                              f"checkpoints is refused; give the class get_state and set_state", stacklevel=2)
+        return entry
 
     def _restore_edges(self, cp: dict[str, Any], time_ns: int) -> None:
         """What each connection had delivered, found by the connection (a restart that lists its
