@@ -304,10 +304,11 @@ def restore_component(comp: Component, saved: dict[str, Any]) -> None:
     (a restart from a stopped run's last checkpoint ran on past the stop)."""
     unsaved = saved.get("unsaved")
     if unsaved:
-        raise ValueError(f"component {comp.name!r} kept a state between steps that it did not save "
-                         f"({_attributes(unsaved)} changed since it was set up, its get_state saving nothing): "
-                         f"restarted here it would start as set up, not as it was; give its class get_state "
-                         f"and set_state, and run it again")
+        # said, not refused: the attributes may be no state at all (a log of what it was given, a cache)
+        warnings.warn(f"component {comp.name!r} changed {_attributes(unsaved)} between steps before this "
+                      f"checkpoint but saves no state (its get_state the base one): it restarts as set up, "
+                      f"not as it was, and the run from here differs from the original wherever those "
+                      f"attributes decide its outputs", stacklevel=2)
     state = saved["state"]
     comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
     comp.step_count = saved["step_count"]
@@ -539,7 +540,7 @@ class Simulation:
         """A component's entry in a checkpoint: its state and the scheduler's counts of it; and, for a
         component that keeps a state between steps its class does not save (``unsaved``: the
         attributes, :meth:`Component.unsaved_state`), said once as a warning, so that the run tells
-        at once what a restart from it would refuse."""
+        at once what a restart from it would not give back."""
         comp = runner.comp
         entry = {"state": comp.state_for_checkpoint(self.time_ns), "step_count": comp.step_count,
                  "substeps": comp.last_substeps, "stable_step": comp.last_stable_step,
@@ -549,10 +550,11 @@ class Simulation:
             entry["unsaved"] = unsaved
             if not comp._unsaved_seen:
                 comp._unsaved_seen = True
-                warnings.warn(f"component {comp.name!r} ({type(comp).__name__}) keeps a state between steps "
-                              f"that its class does not save ({_attributes(unsaved)} changed since it was set "
-                              f"up, its get_state the base one, saving nothing): a restart from this run's "
-                              f"checkpoints is refused; give the class get_state and set_state", stacklevel=2)
+                warnings.warn(f"component {comp.name!r} ({type(comp).__name__}) changes {_attributes(unsaved)} "
+                              f"between steps but its class saves no state (its get_state the base one): a "
+                              f"restart from this run's checkpoints would start it as set up, not as it was; "
+                              f"give the class get_state and set_state (returning {{}} where those attributes "
+                              f"are no state: a log, a cache)", stacklevel=2)
         return entry
 
     def _restore_edges(self, cp: dict[str, Any], time_ns: int) -> None:
