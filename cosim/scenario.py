@@ -982,13 +982,25 @@ def _senders(scene: Scene, name: str, port: str) -> set[str]:
 
 def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
-    component sending on that input."""
+    component sending on that input, and no other component on the port it reaches them on: a
+    coupler's wrench or a ground's impulse also fed to a second body (an additive port, so nothing
+    else refused it) pushed that body with forces worked out for the first, the run "ok"."""
     for name, comp in built.items():
         answers = comp.answers()
         needed = comp.needed_outputs()
         for out_port, in_port in answers.items():
             senders = sorted(_senders(scene, name, in_port))
             receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
+            answered = {(type(built[e.target]), e.target_port) for e in scene.connections
+                        if e.source == name and e.source_port == out_port and e.target in senders}
+            for edge in scene.connections:
+                if (edge.source == name and edge.source_port == out_port and edge.target not in senders
+                        and (type(built[edge.target]), edge.target_port) in answered):
+                    fed = f"{edge.target}.{edge.target_port}"
+                    problems.append(f"components.{name}: its {out_port!r} answers the {in_port!r} that "
+                                    f"{', '.join(senders)} sends it, but also feeds {fed}, which sends it none: "
+                                    f"{edge.target} would take what was worked out for {senders[0]}; remove the "
+                                    f"connection {name}.{out_port} -> {fed}")
             for sender in senders:
                 if sender in receivers:
                     continue

@@ -248,6 +248,64 @@ def test_a_scene_wiring_one_bodys_ports_to_anothers_is_refused(swap, message):
     assert message in two_stones_rewired(swap).problems
 
 
+def test_a_bodys_wrench_also_fed_to_another_body_is_refused():
+    """A coupler's wrench fed to its own body and also to another (an additive port, so no other rule
+    refused it): the left stone took both stones' water forces and climbed to 0.50 m instead of
+    skipping, the run "ok"."""
+    extra = ("  - {from: right_water.wrench, to: left.wrench, delay: 1, "
+             "initial: {force: [0, 0, 0], torque: [0, 0, 0]}}\n")
+    text = (SCENES / "two_stones.yaml").read_text().replace("connections:\n", "connections:\n" + extra, 1)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "two_stones.yaml")
+    assert refused.value.problems == [
+        "components.right_water: its 'wrench' answers the 'body' that right sends it, but also feeds left.wrench, "
+        "which sends it none: left would take what was worked out for right; remove the connection "
+        "right_water.wrench -> left.wrench"]
+
+
+GROUND = ("  - stone.state -> bottom.body\n"
+          "  - {from: bottom.impulse, to: stone.impulse, delay: 1, initial: {linear: [0, 0, 0], angular: [0, 0, 0], "
+          "correction: [0, 0, 0]}}\n"
+          "  - bottom.impulse -> stone_water.ground\n")
+
+
+@pytest.mark.parametrize("extra, answer, port", [
+    (GROUND + "  - {from: bottom.impulse, to: ball.impulse, delay: 1, initial: {linear: [0, 0, 0], "
+              "angular: [0, 0, 0], correction: [0, 0, 0]}}\n", "bottom.impulse", "impulse"),
+    ("  - {from: stone_water.added_mass, to: ball.added_mass, delay: 1, initial: {axial: 0, radial: 0, "
+     "axial_inertia: 0, diameter_inertia: 0}}\n", "stone_water.added_mass", "added_mass"),
+], ids=["ground-impulse", "added-mass"])
+def test_an_answer_also_fed_to_a_body_it_was_not_worked_out_for_is_refused(extra, answer, port):
+    """A ground under the stone whose impulse also reached the floating ball (the stone's bed pushes
+    moved the ball 4 cm, and the scene's notice said to tell the ball's coupler of the ground, which
+    the scene then refused); the stone's added mass given to the ball as well (the ball has none of
+    its own wired, so no other rule refused it)."""
+    text = (SCENES / "stone_and_ball.yaml").read_text()
+    text = text.replace("components:\n", "components:\n  bottom: {type: SolidGround, point: [0, 0, -0.5]}\n", 1)
+    text = text.replace("connections:\n", "connections:\n" + (extra if port == "impulse" else GROUND + extra), 1)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "stone_and_ball.yaml")
+    source, out = answer.split(".")
+    assert refused.value.problems == [
+        f"components.{source}: its {out!r} answers the 'body' that stone sends it, but also feeds ball.{port}, "
+        f"which sends it none: ball would take what was worked out for stone; remove the connection "
+        f"{answer} -> ball.{port}"]
+
+
+def test_a_coupler_not_asking_a_shared_water_is_told_its_port():
+    """A coupler whose request reaches no input, on a water that serves several bodies: the fix said
+    names the body's own port (it said only ``<water>.request``, a port such a water does not have)."""
+    line = ("  - {from: right_water.request, to: pond.request_right, delay: 1, "
+            "initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}}\n")
+    text = (SCENES / "two_stones.yaml").read_text()
+    assert line in text
+    with pytest.raises(ScenarioError) as refused:
+        loads(text.replace(line, ""), SCENES / "two_stones.yaml")
+    [problem] = refused.value.problems
+    assert problem.startswith("components.right_water: its output 'request' feeds nothing")
+    assert problem.endswith("(an empty window; on a water shared by several bodies, its request_<body> input)")
+
+
 def test_plots_of_one_body_show_only_its_own_monitor_coupler_and_skips(tmp_path):
     """In a recording of two stones, the figures' data for one stone come from its own monitor,
     coupler and wrench channels (the scene's edges say which), not from the other stone's."""

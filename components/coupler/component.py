@@ -510,7 +510,8 @@ class WaterCoupler(Component):
         water, and left unconnected the effect silently does nothing."""
         needed = {"request": "the water sends only the window asked for: connect it to the water's request "
                              f"input, e.g. {{from: {self.name}.request, to: <water>.request, delay: 1, "
-                             "initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}} (an empty window)"}
+                             "initial: {x_min: 1, x_max: 0, y_min: 1, y_max: 0}} (an empty window; on a water "
+                             "shared by several bodies, its request_<body> input)"}
         if self.flags & ~(DISPLACEMENT | ADDED_MASS):
             needed["wrench"] = ("the body feels the water's forces only through it: connect it to the body's "
                                 f"wrench input, e.g. {{from: {self.name}.wrench, to: <body>.wrench, delay: 1, "
@@ -518,7 +519,8 @@ class WaterCoupler(Component):
         if self.flags & DISPLACEMENT:
             needed["occupied"] = ("effect displacement reaches the water only through it: connect it to the water's "
                                   f"occupied input, e.g. {{from: {self.name}.occupied, to: <water>.occupied, "
-                                  "delay: 1, initial: {i0: 0, j0: 0, b: []}}")
+                                  "delay: 1, initial: {i0: 0, j0: 0, b: []}} (on a water shared by several bodies, "
+                                  "its occupied_<body> input)")
         if self.added_mass_on:
             needed["added_mass"] = ("effect added_mass acts only through it: connect it to the body's added_mass "
                                     f"input, e.g. {{from: {self.name}.added_mass, to: <body>.added_mass, delay: 1, "
