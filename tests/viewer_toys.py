@@ -139,6 +139,12 @@ class ScriptedCoupler(Component):
     def setup(self) -> None:
         self.dissipated = 0.0
 
+    def get_state(self):
+        return {"dissipated": self.dissipated}  # (it publishes it: a restart must carry it on)
+
+    def set_state(self, state):
+        self.dissipated = float(state["dissipated"])
+
     def _step_impl(self, t, dt, inputs):
         body: BodyState = inputs["body"]
         lowest = float(body.position[2]) - body.radius * math.sin(math.radians(body.attack_angle_deg))
