@@ -394,5 +394,48 @@ def test_a_viewer_speaking_only_the_older_protocol_is_told_refused_not_disconnec
     finally:
         view.close()
     (line,) = err.splitlines()
-    assert line.startswith(f"live view: viewer {host}:{port} refused: its WebSocket handshake failed; this server "
-                           "speaks the foxglove.sdk.v1 subprotocol only")
+    assert line.startswith(f"live view: connection {host}:{port} refused: its WebSocket handshake failed (this "
+                           "server speaks the foxglove.sdk.v1 subprotocol only: a viewer offering only "
+                           "foxglove.websocket.v1")
+
+
+def test_a_request_that_is_no_websocket_is_said_refused_as_such_too(capsys):
+    """The server's record of a failed handshake is the same for a plain HTTP request (a browser page,
+    curl) as for a viewer offering the older subprotocol: the line said the request had offered that
+    subprotocol; it names both."""
+    view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
+    try:
+        sock = socket.create_connection(("127.0.0.1", view.port), timeout=5)
+        host, port = sock.getsockname()[:2]
+        sock.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
+        sock.recv(4096)
+        sock.close()
+        err, deadline = "", time.monotonic() + 5
+        while "refused" not in err and time.monotonic() < deadline:
+            time.sleep(0.02)
+            err += capsys.readouterr().err
+    finally:
+        view.close()
+    (line,) = err.splitlines()
+    assert line.startswith(f"live view: connection {host}:{port} refused: its WebSocket handshake failed (")
+    assert line.endswith("a request that is no WebSocket's, a browser page's or curl's, is refused alike)")
+
+
+def test_closing_does_not_wait_for_a_viewer_that_never_answers():
+    """The SDK's server.stop() waits until every connection is closed: a connection that never
+    finished its handshake (a tab hung on the port) held Ctrl-C and --live-linger's end until it
+    dropped (40 s). Closing now returns while that connection is still open: the client here closes
+    only once close() has returned, or after a minute if it never does."""
+    view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
+    sock = socket.create_connection(("127.0.0.1", view.port), timeout=5)
+    time.sleep(0.2)  # the server has taken the connection in
+    released = threading.Event()
+    fallback = threading.Timer(60.0, lambda: (released.set(), sock.close()))
+    fallback.start()
+    try:
+        view.close()
+        closed_by_fallback = released.is_set()
+    finally:
+        fallback.cancel()
+        sock.close()
+    assert not closed_by_fallback

@@ -51,6 +51,11 @@ MIN_SLEEP_S = 0.002  # [s] pacing sleeps shorter than this are skipped (timer re
 STALL_S = 0.25  # [s] a step this late is a stall: the pacing starts again from it instead of catching up
 PACE_SLICE_S = 0.1  # [s] the longest a pacing sleep lasts before it looks whether the run was asked to stop
 LINGER_TICK_S = 0.25  # [s of wall time] between checks (and clock broadcasts) while lingering
+# [s of wall time] how long closing waits for the viewers to close their connections: the SDK's
+# server.stop() waits for every one, and a viewer that never answers (a tab hung on the port, a laptop
+# asleep, a connection that never finished its handshake) held Ctrl-C and --live-linger's end until
+# it dropped, 40 s and more; past this the process ends and its connections with it
+STOP_WAIT_S = 2.0
 
 
 class LiveViewError(CosimError):
@@ -103,10 +108,13 @@ class _ViewerNotes(logging.Handler):
         self._said.add(key)
         if gone and "handshake failed" in text:
             # it never connected: the SDK's server speaks foxglove.sdk.v1 only, and answered a viewer
-            # offering the older foxglove.websocket.v1 with a 400, said as "disconnected"
-            line = (f"live view: viewer {key} refused: its WebSocket handshake failed; this server speaks the "
-                    f"{SUBPROTOCOL} subprotocol only (a viewer offering only foxglove.websocket.v1, as older "
-                    "Foxglove Studio and Lichtblick releases do, cannot connect; open the recording instead)")
+            # offering the older foxglove.websocket.v1 with a 400, said as "disconnected"; its record
+            # is the same for any request that is not a WebSocket's (a browser page, curl), so the
+            # line names both
+            line = (f"live view: connection {key} refused: its WebSocket handshake failed (this server speaks the "
+                    f"{SUBPROTOCOL} subprotocol only: a viewer offering only foxglove.websocket.v1, as older "
+                    "Foxglove Studio and Lichtblick releases do, cannot connect and can open the recording "
+                    "instead; a request that is no WebSocket's, a browser page's or curl's, is refused alike)")
         elif gone:
             line = f"live view: viewer {key} disconnected"
         else:
@@ -116,6 +124,18 @@ class _ViewerNotes(logging.Handler):
             print(line, file=sys.stderr, flush=True)
         except (OSError, ValueError):  # stderr closed or gone: nothing to tell it with
             pass
+
+
+def _stop_waiting_at_most(server: Any, wait_s: float) -> None:
+    """Stop the SDK's ``server``, waiting at most ``wait_s`` [s] for its viewers to close their
+    connections (see STOP_WAIT_S), or less if interrupted (a Ctrl-C then ends the wait, not the
+    command's own ending): the stop goes on in a daemon thread, which the process's exit ends."""
+    stopping = threading.Thread(target=server.stop, name="live-view-stop", daemon=True)
+    stopping.start()
+    try:
+        stopping.join(wait_s)
+    except KeyboardInterrupt:
+        pass
 
 
 def _quiet_sdk_logs() -> None:
@@ -219,7 +239,7 @@ class LiveView(BaseObserver):
         try:
             self._advertise(scene)
         except BaseException:  # a server left running would keep the process alive
-            self.server.stop()
+            _stop_waiting_at_most(self.server, STOP_WAIT_S)
             raise
         # per topic, the latest message from each (component, port) publishing on it, with its log
         # time [ns]: a physics Message (encoded only when a client subscribes) or a viewer
@@ -401,4 +421,4 @@ class LiveView(BaseObserver):
             # waits for a lock of the SDK while holding the GIL, and a server thread that holds that
             # lock while it waits for the GIL (as when a viewer has just disconnected) then waits for
             # ever (seen as a hang on Ctrl-C). Stopping the server ends every channel's subscribers.
-            self.server.stop()
+            _stop_waiting_at_most(self.server, STOP_WAIT_S)
