@@ -251,7 +251,8 @@ def require_valid(params: Any) -> None:
 
 def field_problems(params: Any) -> list[str]:
     """What breaks the rules of a parameter dataclass's own fields, as a scene would be told: a
-    ``Literal`` field's value not among its choices, a number outside its declared bounds. Built in
+    ``Literal`` field's value not among its choices, a number outside its declared bounds or not
+    finite (a tilt of inf failed on a bare "math domain error", one of NaN at the first step). Built in
     code, Params took them without a word (``shape="cube"`` made a sphere, ``restitution=2.0`` a
     bounce gaining energy). Values of other kinds (nested mappings, lists) are the component's to
     check, as before."""
@@ -263,8 +264,11 @@ def field_problems(params: Any) -> list[str]:
         if typing.get_origin(tp) is Literal and value not in typing.get_args(tp):
             problems.append(f"{f.name}: must be one of {', '.join(map(repr, typing.get_args(tp)))} "
                             f"(got {show_value(value)})")
-        elif isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-            _bounds(dict(f.metadata), value, f.name, problems)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            if math.isfinite(value):
+                _bounds(dict(f.metadata), value, f.name, problems)
+            elif value != f.default:  # (a default of inf, "none", is the field's own; NaN never is)
+                problems.append(f"{f.name}: must be finite (got {value})")
     return problems
 
 

@@ -11,6 +11,7 @@ cosim/component.py named a message type, Scalar, that exists nowhere.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from typing import Annotated, ClassVar
@@ -309,7 +310,10 @@ def test_the_example_of_the_component_module_runs():
     ("SolidGround", {"restitution": 2.0}, "restitution: must be <= 1 (got 2)"),
     ("WaterCoupler", {"rho": -1.0}, "rho: must be > 0 kg/m^3 (got -1)"),
     ("RigidBody", {"radius": -1.0}, "radius: must be > 0 m (got -1)"),
-], ids=["shape", "restitution", "rho", "radius"])
+    ("RigidBody", {"tilt_deg": math.inf}, "tilt_deg: must be finite (got inf)"),
+    ("RigidBody", {"tilt_deg": math.nan}, "tilt_deg: must be finite (got nan)"),
+    ("WaterCoupler", {"c_l": -math.inf}, "c_l: must be finite (got -inf)"),
+], ids=["shape", "restitution", "rho", "radius", "tilt-inf", "tilt-nan", "c_l-inf"])
 def test_params_built_in_code_keep_the_rules_a_scene_is_held_to(kind, given, said):
     """Built in code, a disk's shape "cube" made a sphere, a restitution of 2 and a water density of -1
     were taken, and a radius of -1 was refused for the rod it made of the thickness: each field's own

@@ -85,6 +85,8 @@ def from_rotation_vector(rv: Vec) -> Quat:
     if a < SMALL_ANGLE:
         s = 0.5 - a2 / 48.0  # sin(a/2)/a to O(a^4), below round-off at this size
         c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
+    elif a == math.inf:  # a turn past 1.3e154 rad (an infinite torque): no attitude, said as the state's
+        return (math.nan, math.nan, math.nan, math.nan)  # (math.sin(inf) raised a bare "math domain error")
     else:
         s = math.sin(0.5 * a) / a
         c = math.cos(0.5 * a)

@@ -234,3 +234,20 @@ def test_a_stone_through_the_bed_before_the_waters_first_answer_is_not_said_to_s
     sim.run()
     assert sim.components["coupler"].stop_reason.startswith("the body went through the water's bed at x = ")
     assert sim.components["coupler"].dissipated > 0.0
+
+
+@pytest.mark.parametrize("integrator", ["verlet", "semi_implicit_euler", "rk4"])
+@pytest.mark.parametrize("torque", [math.inf, 1e200])
+def test_a_torque_turning_the_body_past_any_angle_is_said_as_its_state_not_a_domain_error(integrator, torque):
+    """A torque whose step turns the body by more than 1.3e154 rad (an infinite one, or 1e200 N m)
+    failed the step on a bare 'ValueError: math domain error' (the sine of an infinite angle) under
+    verlet and semi-implicit Euler; it is said as every other non-finite input is, by the state it
+    leaves, under each integrator."""
+    from components.messages import Wrench
+    from components.rigid_body import RigidBody, RigidBodyParams
+
+    body = RigidBody("stone", RigidBodyParams(shape="disk", radius=0.05, thickness=0.01, density=2650.0,
+                                              integrator=integrator))
+    with pytest.raises(SimulationError, match=r"^component 'stone' failed at t = 0 s: non-finite value in output "
+                                              r"'state' field '\w+'$"):
+        body.step(0, 1_000_000, {"wrench": Wrench(np.zeros(3), np.array([torque, 0.0, 0.0]))})
