@@ -10,10 +10,20 @@ from pathlib import Path
 
 
 def section_problem(text: str, name: str) -> str | None:
-    """Why the section ``name`` of a page's ``text`` cannot be replaced (its end marker before its
-    begin marker), or None."""
+    """Why the section ``name`` of a page's ``text`` cannot be replaced, or None: its end marker
+    before its begin marker, one of the two without the other, or either twice. (A begin marker
+    alone had a whole section added after it, and the next write replaced the page's own text from
+    that marker to the added section's end.)"""
     begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
-    if begin in text and end in text and end not in text.split(begin, 1)[1]:
+    begins, ends = text.count(begin), text.count(end)
+    if begins > 1 or ends > 1:
+        twice = begin if begins > 1 else end
+        return f"its '{twice}' is there {max(begins, ends)} times; keep one section (one begin, one end)"
+    if begins != ends:
+        there, missing = (begin, end) if begins else (end, begin)
+        return (f"it has a '{there}' but no '{missing}'; add the missing marker around the section "
+                f"(or remove the one there)")
+    if begins and end not in text.split(begin, 1)[1]:
         return f"its '{end}' comes before its '{begin}'; put the section's end after its begin (or remove both)"
     return None
 

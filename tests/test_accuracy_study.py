@@ -3,6 +3,7 @@ setting against the reference skip, plus the plan's overrides and the table's bo
 
 from __future__ import annotations
 
+import re
 from itertools import pairwise
 from pathlib import Path
 
@@ -172,7 +173,8 @@ def test_replace_section_that_cannot_be_written_leaves_the_page_as_it_was(tmp_pa
     assert [p.name for p in tmp_path.iterdir()] == ["a.md"]
 
 
-@pytest.mark.parametrize("problem", ["not_utf8", "figure_is_a_folder", "read_only_page", "markers_swapped"])
+@pytest.mark.parametrize("problem", ["not_utf8", "figure_is_a_folder", "read_only_page", "markers_swapped",
+                                     "begin_alone", "end_alone", "begin_twice"])
 def test_a_page_or_figure_the_study_cannot_write_is_bad_input_before_any_run(tmp_path, capsys, monkeypatch,
                                                                             problem):
     """A page that is not UTF-8 text, a folder where the figure goes, a read-only page: exit 2 and one
@@ -188,6 +190,13 @@ def test_a_page_or_figure_the_study_cannot_write_is_bad_input_before_any_run(tmp
         figure.mkdir(parents=True)
     elif problem == "markers_swapped":  # (an internal error after the whole study, its figure already replaced)
         page.write_text(f"x\n<!-- {SECTION}:end -->\ny\n<!-- {SECTION}:begin -->\n", encoding="utf-8")
+    elif problem == "begin_alone":  # (a section was added after it, and the next study's page lost "b")
+        page.write_text(f"a\n<!-- {SECTION}:begin -->\nb\n", encoding="utf-8")
+    elif problem == "end_alone":
+        page.write_text(f"a\n<!-- {SECTION}:end -->\nb\n", encoding="utf-8")
+    elif problem == "begin_twice":
+        page.write_text(f"<!-- {SECTION}:begin -->\n<!-- {SECTION}:begin -->\nb\n<!-- {SECTION}:end -->\n",
+                        encoding="utf-8")
     else:
         page.write_text("# Accuracy\n", encoding="utf-8")
         page.chmod(0o444)
@@ -319,3 +328,21 @@ def test_a_study_whose_writing_is_interrupted_leaves_no_empty_folder(tmp_path, m
     with pytest.raises(KeyboardInterrupt):
         accuracy.write(object(), out)
     assert not (tmp_path / "new").exists()
+
+
+def test_a_scenes_own_until_shorter_than_a_variants_step_is_said_of_it_before_any_run(tmp_path, capsys,
+                                                                                      monkeypatch):
+    """The full study of a scene whose own `until` (1.5 ms) is shorter than its coarse variant's step
+    (2 ms): it was refused as "until: must be at least one base step, dt = 0.002 s", the variant's dt
+    said as the scene file's (0.5 ms); now said of the scene's until and the variant, before any run."""
+    import components.analysis.accuracy as accuracy
+
+    text = (ROOT / "scenarios" / "held_skip.yaml").read_text()
+    scene = tmp_path / "tiny.yaml"
+    scene.write_text(re.sub(r"(?m)^until: [0-9.]+", "until: 0.0015", text, count=1))
+    monkeypatch.setattr(accuracy, "run_variant", lambda *a, **k: pytest.fail("a variant ran"))
+    assert main(["bench", "accuracy", str(scene), "-o", str(tmp_path / "o")]) == 2
+    (err,) = capsys.readouterr().err.strip().splitlines()
+    assert re.fullmatch(r"error: the scene's until, 0\.0015 s, is shorter than one base step of the variant "
+                        r"'.*' \(dt = 0\.002 s\): give --until of at least 0\.002 s", err), err
+    assert not (tmp_path / "o").exists()

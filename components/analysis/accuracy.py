@@ -401,15 +401,17 @@ class Study:
         return [r for r in self.rows if r.variant.group == name]
 
 
-def _check_until_covers_a_step(until: float, dt: float, variants: list[Variant]) -> None:
-    """Refuse ``--until`` [s] shorter than the base step of a variant (the scene's ``dt`` [s] or the
-    one its ``dt=`` override sets): said of ``--until`` before any run, where the variant's load
-    blamed the scene file's own ``until`` (which the user never set) at a dt not the scene's."""
+def _check_until_covers_a_step(until: float, dt: float, variants: list[Variant], given: bool = True) -> None:
+    """Refuse an end ``until`` [s] shorter than the base step of a variant (the scene's ``dt`` [s] or
+    the one its ``dt=`` override sets): said before any run, of ``--until`` (``given``) or of the
+    scene's own ``until``, where the variant's load blamed the scene file's ``until`` at a dt not
+    the scene's (the variant's)."""
     for variant in variants:
         step = next((float(o.split("=", 1)[1]) for o in variant.overrides if o.startswith("dt=")), dt)
         if until < step * (1.0 - 1e-9):
-            raise StudyError(f"--until {until:g} s is shorter than one base step of the variant "
-                             f"{variant.name!r} (dt = {step:g} s): give --until of at least {step:g} s")
+            said = f"--until {until:g} s" if given else f"the scene's until, {until:g} s,"
+            raise StudyError(f"{said} is shorter than one base step of the variant {variant.name!r} "
+                             f"(dt = {step:g} s): give --until of at least {step:g} s")
 
 
 def run_study(scene_path: str | Path, *, quick: bool = False, repeats: int = 2, until: float | None = None,
@@ -422,8 +424,8 @@ def run_study(scene_path: str | Path, *, quick: bool = False, repeats: int = 2, 
     if until is None and quick:
         until = min(QUICK_UNTIL, scene.until_ns / 1e9)
     everything = [reference, *variants]
-    if until is not None:
-        _check_until_covers_a_step(until, scene.dt, everything)
+    _check_until_covers_a_step(scene.until_ns / 1e9 if until is None else until, scene.dt, everything,
+                               given=until is not None)
 
     def say(text: str) -> None:
         if log is not None:
