@@ -22,6 +22,12 @@ message type of :mod:`cosim.examples`, a ``value`` float)::
         def setup(self) -> None:
             self.total = 0.0
 
+        def get_state(self):  # what a checkpoint holds, so that a restart goes on from it
+            return {"total": self.total}
+
+        def set_state(self, state):
+            self.total = float(state["total"])
+
         def _step_impl(self, t, dt, inputs):
             self.total += self.params.gain * (inputs["x"].value if inputs["x"] else 0.0)
             return {"total": Number(self.total)}
@@ -40,13 +46,13 @@ from __future__ import annotations
 
 import decimal
 import math
-import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Literal, TypeVar
 
 from cosim.errors import SimulationError
+from cosim.fingerprint import fingerprint
 from cosim.messages import NONFINITE, Message
 from cosim.timebase import NS_PER_S
 
@@ -125,15 +131,15 @@ class Component:
         self.source_steps: dict[str, float] = {}
         # a component without a stability bound of its own is not asked for it at every step
         self._bounded = type(self).max_stable_step is not Component.max_stable_step
-        # a component whose class saves no state of its own: its attributes as set up, to tell at a
-        # checkpoint whether it keeps a state between steps that a restart could not give back
+        # a component whose class saves no state of its own: the fingerprints of its own attributes at
+        # the run's first checkpoint, to tell at the later ones whether it keeps a state between steps
+        # that a restart could not give back (unsaved_state)
         self._unsaved_seen = False
-        framework = set(vars(self)) | {"_framework_attrs", "_set_up"}
-        self.setup()
+        self._first_fingerprints: dict[str, str | None] | None = None
         cls = type(self)
         saves_nothing = (cls.get_state is Component.get_state and cls.checkpoint_state is Component.checkpoint_state)
-        self._framework_attrs = frozenset(framework) if saves_nothing else None
-        self._set_up = self._own_attributes() if saves_nothing else {}
+        self._framework_attrs = frozenset(vars(self)) | {"_framework_attrs"} if saves_nothing else None
+        self.setup()
         self.status = "initialized"
 
     # --- to be written by components ---------------------------------------------------------
@@ -347,29 +353,29 @@ class Component:
         """:meth:`start_inputs`, any failure a :class:`SimulationError` naming the component at t = 0."""
         self._own_failure(0, "its inputs at t = 0: ", lambda: self.start_inputs(inputs))
 
-    def _own_attributes(self) -> dict[str, bytes | None]:
-        """Each attribute the component set itself (not the framework's), pickled (None: it does not
-        pickle, so its changes cannot be told)."""
-        own = {}
-        for key, value in vars(self).items():
-            if key in self._framework_attrs:
-                continue
-            try:
-                own[key] = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-            except Exception:  # any object may refuse pickling in its own way
-                own[key] = None
-        return own
+    def _own_fingerprints(self) -> dict[str, str | None]:
+        """Each attribute the component set itself (not the framework's), by the fingerprint of its
+        value (:func:`cosim.fingerprint.fingerprint`; None: its content cannot be read, so its changes
+        cannot be told)."""
+        return {key: fingerprint(value) for key, value in vars(self).items() if key not in self._framework_attrs}
 
     def unsaved_state(self) -> list[str]:
         """The attributes, by name, that a component whose class saves no state (the base
-        :meth:`get_state`) has changed or added since it was set up: a state between steps that a
-        checkpoint does not hold, so a restart from it would start the component as set up, not as it
-        was. Empty for a component that saves its state, or keeps none."""
+        :meth:`get_state`) has changed or added since the run's first checkpoint (at its start, once
+        set up and given its inputs at t = 0): a state between steps that a checkpoint does not hold,
+        so a restart from it would start the component as set up, not as it was. Empty for a
+        component that saves its state or keeps none, and at the first checkpoint. Values are compared
+        by content (a set rebuilt in another order is the same set), through fingerprints, never a
+        copy: a large table the component only reads costs a pass over it at each checkpoint, and
+        nothing in between."""
         if self._framework_attrs is None:
             return []
-        now = self._own_attributes()
-        return sorted(key for key, value in now.items()
-                      if value is not None and (key not in self._set_up or self._set_up[key] != value))
+        now = self._own_fingerprints()
+        first = self._first_fingerprints
+        if first is None:
+            self._first_fingerprints = now
+            return []
+        return sorted(key for key, value in now.items() if value is not None and first.get(key) != value)
 
     def state_for_checkpoint(self, t_ns: int) -> dict[str, Any]:
         """:meth:`checkpoint_state` for a checkpoint at ``t_ns``: a state that fails, or is not a

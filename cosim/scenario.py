@@ -980,6 +980,12 @@ def _senders(scene: Scene, name: str, port: str) -> set[str]:
     return {e.source for e in scene.connections if e.target == name and e.target_port == port}
 
 
+def _sends_on(scene: Scene, name: str, port: str) -> bool:
+    """Whether component ``name`` feeds an input named ``port`` of any component (a body its state to
+    a coupler's ``body``): another body, not a component that only reads the answer (a logger)."""
+    return any(e.source == name and e.target_port == port for e in scene.connections)
+
+
 def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
     component sending on that input, and no other component on the port it reaches them on: a
@@ -991,11 +997,14 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
         for out_port, in_port in answers.items():
             senders = sorted(_senders(scene, name, in_port))
             receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
-            answered = {(type(built[e.target]), e.target_port) for e in scene.connections
+            # the ports the answer reaches its senders on, by name and message type (not by class: a
+            # subclass of the body, or an FMU body, each a class of its own, took another's wrench)
+            answered = {(e.target_port, built[e.target].inputs[e.target_port].type) for e in scene.connections
                         if e.source == name and e.source_port == out_port and e.target in senders}
             for edge in scene.connections:
                 if (edge.source == name and edge.source_port == out_port and edge.target not in senders
-                        and (type(built[edge.target]), edge.target_port) in answered):
+                        and (edge.target_port, built[edge.target].inputs[edge.target_port].type) in answered
+                        and _sends_on(scene, edge.target, in_port)):
                     fed = f"{edge.target}.{edge.target_port}"
                     problems.append(f"components.{name}: its {out_port!r} answers the {in_port!r} that "
                                     f"{', '.join(senders)} sends it, but also feeds {fed}, which sends it none: "

@@ -10,7 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from components.messages import Wrench
+from components.rigid_body import RigidBody
 from components.water import WaterSurface
+from cosim.component import Component, Port
 from cosim.errors import ScenarioError
 from cosim.scenario import load, loads
 from cosim.scheduler import BaseObserver, Simulation
@@ -261,6 +264,45 @@ def test_a_bodys_wrench_also_fed_to_another_body_is_refused():
         "components.right_water: its 'wrench' answers the 'body' that right sends it, but also feeds left.wrench, "
         "which sends it none: left would take what was worked out for right; remove the connection "
         "right_water.wrench -> left.wrench"]
+
+
+class Slate(RigidBody):
+    """A body of a class of its own (as every FMU body is): nothing added."""
+
+
+def test_a_wrench_also_fed_to_a_body_of_another_class_is_refused():
+    """The rule keyed on the receiving component's class: a second body of a subclass of RigidBody (or
+    an FMU body, each of a class of its own) took another stone's wrench, the scene "ok"."""
+    extra = ("  - {from: left_water.wrench, to: right.wrench, delay: 1, "
+             "initial: {force: [0, 0, 0], torque: [0, 0, 0]}}\n")
+    text = (SCENES / "two_stones.yaml").read_text()
+    text = text.replace("  right:\n    type: RigidBody\n", "  right:\n    type: \"tests.test_shared_pond:Slate\"\n", 1)
+    text = text.replace("connections:\n", "connections:\n" + extra, 1)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "two_stones.yaml")
+    assert refused.value.problems == [
+        "components.left_water: its 'wrench' answers the 'body' that left sends it, but also feeds right.wrench, "
+        "which sends it none: right would take what was worked out for left; remove the connection "
+        "left_water.wrench -> right.wrench"]
+
+
+def test_an_answer_also_read_by_a_component_that_is_no_body_is_not_refused():
+    """A component that reads a coupler's wrench beside the body (a logger: it sends no state to any
+    coupler) is no second body."""
+    text = (SCENES / "two_stones.yaml").read_text()
+    text = text.replace("components:\n", "components:\n  logger: {type: \"tests.test_shared_pond:WrenchLog\"}\n", 1)
+    text = text.replace("connections:\n", "connections:\n  - right_water.wrench -> logger.wrench\n", 1)
+    loads(text, SCENES / "two_stones.yaml")
+
+
+class WrenchLog(Component):
+    """Reads a wrench, publishes nothing."""
+
+    inputs = {"wrench": Port(Wrench)}
+    outputs = {}
+
+    def _step_impl(self, t, dt, inputs):
+        return {}
 
 
 GROUND = ("  - stone.state -> bottom.body\n"

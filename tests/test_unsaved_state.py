@@ -126,3 +126,48 @@ def test_no_state_is_not_said(tmp_path, capsys):
     out, err = run(tmp_path, "Double", capsys)
     assert "warning" not in err
     assert main(["replay", str(out), "--from", "0.01", "-o", str(tmp_path / "again.mcap"), "-q"]) == 0
+
+
+class Rebuilt(Double):
+    """Keeps no state, but rebuilds equal values each step: a set in another order, a dict whose keys
+    come in another order, equal strings that are not one object, a constant set after setup."""
+
+    def __init__(self, name, params=None):
+        super().__init__(name, params)
+        self.gain = 3.0  # set in __init__, after the base class's setup
+
+    def setup(self) -> None:
+        super().setup()
+        self.ids, self.table, self.labels = {8, 16, 24}, {"a": 1, "b": 2}, ["x" * 40, "x" * 40]
+
+    def _step_impl(self, t, dt, inputs):
+        self.ids = {24, 16, 8} if len(self.labels) % 2 == 0 else {8, 16, 24}
+        self.table = {"b": 2, "a": 1}
+        self.labels = ["".join(["x"] * 40), "".join(["x"] * 40)]
+        return super()._step_impl(t, dt, inputs)
+
+
+class TableInPlace(Double):
+    """Keeps its state in an array it changes in place."""
+
+    def setup(self) -> None:
+        super().setup()
+        import numpy as np
+
+        self.history = np.zeros(4)
+
+    def _step_impl(self, t, dt, inputs):
+        self.history[0] += 1.0
+        return super()._step_impl(t, dt, inputs)
+
+
+def test_equal_values_rebuilt_between_steps_are_no_state(tmp_path, capsys):
+    """Compared by pickle, a set rebuilt in another order, two equal strings that were one object,
+    and a constant a subclass sets after the base class's setup were said to be a state."""
+    _, err = run(tmp_path, "Rebuilt", capsys)
+    assert "warning" not in err
+
+
+def test_an_array_changed_in_place_is_a_state(tmp_path, capsys):
+    with pytest.warns(UserWarning, match=r"^component 'sum' \(TableInPlace\) changes its attribute history between"):
+        run(tmp_path, "TableInPlace", capsys)

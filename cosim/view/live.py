@@ -84,6 +84,9 @@ SUBPROTOCOL = "foxglove.sdk.v1"  # the WebSocket subprotocol the SDK's server (0
 CLIENT_ADDRESS = re.compile(r"\bclient (\[[^\]]*\]:\d+|[^\s:]+:\d+)", re.IGNORECASE)
 
 
+_OPEN_VIEWS = 0  # live views open in this process: the SDK's records are said only while one is
+
+
 class _ViewerNotes(logging.Handler):
     """Where the SDK's warnings and errors go instead of the application's logging: one line on
     stderr per viewer its errors are about, saying the viewer has gone, and each other text once.
@@ -97,6 +100,8 @@ class _ViewerNotes(logging.Handler):
         self._said: set[str] = set()  # the clients and texts said so far
 
     def emit(self, record: logging.LogRecord) -> None:
+        if not _OPEN_VIEWS:  # a server closed, still letting its last connections go: nothing to say
+            return
         text = " ".join(record.getMessage().split())
         found = CLIENT_ADDRESS.search(text)
         # the SDK's errors about a client are failures to talk to it (sending, receiving, its
@@ -109,12 +114,12 @@ class _ViewerNotes(logging.Handler):
         if gone and "handshake failed" in text:
             # it never connected: the SDK's server speaks foxglove.sdk.v1 only, and answered a viewer
             # offering the older foxglove.websocket.v1 with a 400, said as "disconnected"; its record
-            # is the same for any request that is not a WebSocket's (a browser page, curl), so the
-            # line names both
-            line = (f"live view: connection {key} refused: its WebSocket handshake failed (this server speaks the "
+            # is the same for anything else that never completes the handshake (a browser page, curl,
+            # a connection that sends nothing), so the line names the likely cause among the others
+            line = (f"live view: connection {key} dropped: its WebSocket handshake failed (this server speaks the "
                     f"{SUBPROTOCOL} subprotocol only: a viewer offering only foxglove.websocket.v1, as older "
                     "Foxglove Studio and Lichtblick releases do, cannot connect and can open the recording "
-                    "instead; a request that is no WebSocket's, a browser page's or curl's, is refused alike)")
+                    "instead; a browser page, curl, or a connection that sent nothing ends the same way)")
         elif gone:
             line = f"live view: viewer {key} disconnected"
         else:
@@ -224,12 +229,14 @@ class LiveView(BaseObserver):
         self.context = foxglove.Context()
         self._subscriptions = _Subscriptions()
         _quiet_sdk_logs()
+        global _OPEN_VIEWS
         try:
             self.server = foxglove.start_server(
                 name=f"cosim: {scene.name}", host=host, port=port, context=self.context,
                 capabilities=[foxglove.Capability.Time], server_listener=self._subscriptions)
         except Exception as exc:  # the SDK reports bind failures as plain runtime errors
             raise LiveViewError(f"--live {address}: cannot start the WebSocket server ({exc})") from None
+        _OPEN_VIEWS += 1
         self.host, self.port = host, self.server.port
         self.speed = speed
         self.deriver = visual_deriver(scene.record.visual_rate or DEFAULT_RATE, physics_topics(scene))
@@ -239,6 +246,7 @@ class LiveView(BaseObserver):
         try:
             self._advertise(scene)
         except BaseException:  # a server left running would keep the process alive
+            _OPEN_VIEWS -= 1
             _stop_waiting_at_most(self.server, STOP_WAIT_S)
             raise
         # per topic, the latest message from each (component, port) publishing on it, with its log
@@ -415,8 +423,10 @@ class LiveView(BaseObserver):
 
     def close(self) -> None:
         """Stop the server (safe to call twice)."""
+        global _OPEN_VIEWS
         if not self._closed:
             self._closed = True
+            _OPEN_VIEWS -= 1
             # The server is stopped without closing its channels one by one first: Channel.close
             # waits for a lock of the SDK while holding the GIL, and a server thread that holds that
             # lock while it waits for the GIL (as when a viewer has just disconnected) then waits for
