@@ -273,6 +273,10 @@ def _in_dry_land(pos: np.ndarray, top: float, bed: float, level: float, late: bo
             "body on it, add a SolidGround there (as scenarios/float_sphere.yaml does)")
 
 
+# [-] the wetted area over R^2 (and volume over R^3) below which a body is not wetted: round-off of a
+# body on the bed of a dry column, far below any real first touch (a disk's first wet step wets mm^2)
+WET_FLOOR = 1e-12
+
 class WaterCoupler(Component):
     """Stone-water interaction per water column: displacement, buoyancy, pressure, friction, wave drag,
     added mass."""
@@ -795,7 +799,8 @@ class WaterCoupler(Component):
             return quiet
         under = self._top_under(pos, low, water) if volume > 0.0 else None
         fraction = self._submerged_fraction(body, volume, math.nan if under is None else under)
-        contact = self._contact(volume, area, fraction, mean[:kernel.S_TOTAL + 6].copy(), float(depth))
+        contact = self._contact(volume, area, fraction, mean[:kernel.S_TOTAL + 6].copy(), float(depth),
+                                float(body.radius))
         if ring is not None:
             occupied = self._empty_occupied if ring.window is None else OccupiedHeight(
                 int(patch.i0) + ring.window[0], int(patch.j0) + ring.window[1], ring.window[2],
@@ -830,14 +835,18 @@ class WaterCoupler(Component):
         return None
 
     def _contact(self, volume: float, area: float, fraction: float, forces: np.ndarray,
-                 depth: float) -> WaterContact:
+                 depth: float, radius: float) -> WaterContact:
         """The contact report from this step's submerged ``volume`` [m^3], wetted ``area`` [m^2],
         submerged ``fraction`` [-], the effects' forces in ``forces`` (kernel.S_* layout, an array
-        the report keeps: its force arrays are views of it) and the ``depth`` [m] of the body's
-        lowest point."""
+        the report keeps: its force arrays are views of it), the ``depth`` [m] of the body's lowest
+        point and the body's ``radius`` [m]. Wetted means more than round-off: a body lying on dry
+        land, its lowest point on the bed where the surface is the bed itself, met a film of no
+        water and was wetted over 1e-20 m^2 now and then, every force zero (a stone sliding up a dry
+        beach was said to slide in the water a dozen times)."""
         b, p, f, w = kernel.S_BUOYANCY, kernel.S_PRESSURE, kernel.S_FRICTION, kernel.S_WAVE
+        floor = WET_FLOOR * radius * radius
         return WaterContact(
-            wetted=bool(volume > 0.0 or area > 0.0), submerged_fraction=fraction, wetted_area=area,
+            wetted=bool(volume > floor * radius or area > floor), submerged_fraction=fraction, wetted_area=area,
             buoyancy=forces[b:b + 3], pressure=forces[p:p + 3], friction=forces[f:f + 3],
             wave_drag=forces[w:w + 3], depth=depth, dissipated_energy=self.dissipated)
 
@@ -949,7 +958,8 @@ class WaterCoupler(Component):
         if quiet is not None:
             return quiet
         forces = numbers[:kernel.S_TOTAL + 6].copy()  # the messages' arrays are views of one copy
-        contact = self._contact(volume, area, self._submerged_fraction(body, volume, top_under), forces, depth)
+        contact = self._contact(volume, area, self._submerged_fraction(body, volume, top_under), forces, depth,
+                                float(body.radius))
         occupied = self._empty_occupied
         if i_lo <= i_hi:
             i_lo, i_hi, j_lo, j_hi = int(i_lo), int(i_hi), int(j_lo), int(j_hi)
