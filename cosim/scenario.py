@@ -151,8 +151,9 @@ class Scene:
 
 # --- YAML with duplicate-key detection -----------------------------------------------------------
 
-class _StrictLoader(yaml.SafeLoader):
-    """SafeLoader that records duplicate mapping keys instead of silently keeping the last one."""
+class _Strict:
+    """What both of this module's loaders share: duplicate mapping keys recorded instead of the last
+    one silently kept, and a value that cannot be built said at its line."""
 
     duplicates: list[str]
 
@@ -166,6 +167,10 @@ class _StrictLoader(yaml.SafeLoader):
             why = f" ({exc})" if isinstance(exc, ValueError) else ""  # (month must be in 1..12)
             raise yaml.constructor.ConstructorError(
                 None, None, f"cannot read {what} as {node.tag.rpartition(':')[2]}{why}", node.start_mark) from None
+
+
+class _StrictLoader(_Strict, yaml.SafeLoader):
+    """SafeLoader that records duplicate mapping keys instead of silently keeping the last one."""
 
 
 _MERGE_TAG = "tag:yaml.org,2002:merge"  # the key << (YAML 1.1 merge): its mappings' pairs join this one
@@ -285,6 +290,63 @@ def _construct_float(loader: _StrictLoader, node: yaml.Node) -> float:
 _StrictLoader.add_constructor(_INT_TAG, _construct_int)
 _StrictLoader.add_constructor(_FLOAT_TAG, _construct_float)
 
+# A large scene read by libyaml's parser (PyYAML's Python scanner took 4 s for 100,000 values, 90% of
+# the load), built by the same constructors and resolvers; only a clean read is taken from it: any
+# error or duplicate key is read again by the Python loader, whose messages the scenes' errors are.
+# libyaml's composer recurses in C without a limit (200,000 nested '[' crash the process), so it is
+# given only text whose nesting is surely far below C_NESTING_LIMIT (_nesting_bound).
+FAST_YAML_BYTES = 65_536  # [characters] smaller scenes read in milliseconds either way
+C_NESTING_LIMIT = 1000
+_NON_PRINTABLE = yaml.reader.Reader.NON_PRINTABLE  # (the Python reader says where such a character is)
+
+if getattr(yaml, "__with_libyaml__", False):
+    class _FastStrictLoader(_Strict, yaml.CSafeLoader):
+        """libyaml's parser with :class:`_StrictLoader`'s constructors and resolvers."""
+
+    _FastStrictLoader.yaml_constructors = _StrictLoader.yaml_constructors
+    _FastStrictLoader.yaml_implicit_resolvers = _StrictLoader.yaml_implicit_resolvers
+else:  # pragma: no cover - PyYAML built without libyaml
+    _FastStrictLoader = None
+
+
+def _nesting_bound(text: str) -> int:
+    """An upper bound of how deeply ``text``'s YAML nests: the deepest run of flow brackets (counted
+    in quoted text too, which only raises it) plus, for the block collections, twice a line's
+    indentation plus one, plus the indicators on it ('-', '?', ':'), which opens at most as many
+    block levels as that (a mapping's sequence may share its key's column, each such level one
+    indicator on its line)."""
+    codes = np.frombuffer(text.encode("utf-8", "surrogatepass"), dtype=np.uint8)
+    step = np.zeros(256, dtype=np.int64)
+    step[[ord("["), ord("{")]] = 1
+    step[[ord("]"), ord("}")]] = -1
+    flow = int(np.cumsum(step[codes]).max(initial=0))
+    block = 0
+    for line in text.split("\n"):
+        stripped = line.lstrip(" ")
+        indicators = stripped.count("-") + stripped.count(":") + stripped.count("?")
+        block = max(block, 2 * (len(line) - len(stripped) + 1) + indicators)
+    return flow + block
+
+
+def _read_fast(text: str) -> tuple[bool, Any]:
+    """(True, the data) where libyaml reads ``text`` cleanly and safely, else (False, None): the
+    Python loader then reads it (and says what is wrong with it)."""
+    if (_FastStrictLoader is None or len(text) < FAST_YAML_BYTES or _NON_PRINTABLE.search(text)
+            or _nesting_bound(text) > C_NESTING_LIMIT):
+        return False, None
+    try:
+        loader = _FastStrictLoader(text)
+    except Exception:  # whatever it is, the Python loader says it
+        return False, None
+    loader.duplicates = []
+    try:
+        data = loader.get_single_data()
+    except Exception:  # as above
+        return False, None
+    finally:
+        loader.dispose()
+    return (False, None) if loader.duplicates else (True, data)
+
 
 class _QuotingDumper(yaml.SafeDumper):
     """SafeDumper that quotes every text YAML 1.2's numbers would read as a number, as well as what
@@ -328,6 +390,12 @@ def _shape_problem(data: Any) -> str | None:
 
 def read_yaml(text: str, source: str) -> Any:
     """YAML text to plain data, refusing duplicate keys; errors as one ScenarioError with the line."""
+    clean, data = _read_fast(text)
+    if clean:
+        problem = _shape_problem(data)
+        if problem is not None:
+            raise ScenarioError(f"the YAML {problem}", source)
+        return data
     try:
         loader = _StrictLoader(text)
     except yaml.reader.ReaderError as exc:  # a character YAML does not allow, found as the reader starts
