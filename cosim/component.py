@@ -45,14 +45,18 @@ never sees the scheduler.
 from __future__ import annotations
 
 import decimal
+import hashlib
 import math
+import types
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, Literal, TypeVar
 
+import numpy as np
+
 from cosim.errors import SimulationError
-from cosim.fingerprint import fingerprint
 from cosim.messages import NONFINITE, Message
 from cosim.timebase import NS_PER_S
 
@@ -355,7 +359,7 @@ class Component:
 
     def _own_fingerprints(self) -> dict[str, str | None]:
         """Each attribute the component set itself (not the framework's), by the fingerprint of its
-        value (:func:`cosim.fingerprint.fingerprint`; None: its content cannot be read, so its changes
+        value (:func:`fingerprint`; None: its content cannot be read, so its changes
         cannot be told)."""
         return {key: fingerprint(value) for key, value in vars(self).items() if key not in self._framework_attrs}
 
@@ -549,3 +553,88 @@ class Component:
                 if fault == NONFINITE:
                     raise SimulationError(self.name, t_ns, f"non-finite value in output {port!r} field {field!r}")
                 raise SimulationError(self.name, t_ns, f"output {port!r} field {field!r}: {fault}")
+
+
+# --- fingerprints: whether a component's own attributes changed between two checkpoints -------------
+# (Component.unsaved_state). A value's fingerprint is a short digest that two equal values share
+# whatever their layout in memory (a set rebuilt in another order, a dict whose keys came in another
+# order, equal strings that are or are not one object), an array read in place, never copied; a value
+# whose content cannot be read (an open file, a lock, a native handle) has none: None.
+
+FINGERPRINT_DEPTH = 8  # nesting read into; deeper, the value's content is not told (no fingerprint)
+
+_SCALARS = (type(None), bool, int, float, complex, str, bytes)
+_NAMED = (types.FunctionType, types.BuiltinFunctionType, types.MethodType, types.ModuleType, type)
+
+
+class _Untold(Exception):
+    """Raised inside :func:`fingerprint` for a value whose content cannot be read."""
+
+
+def fingerprint(value: Any) -> str | None:
+    """The hex digest of ``value``'s content, or None where it cannot be read."""
+    digest = hashlib.blake2b(digest_size=16)
+    try:
+        _feed(digest, value, 0, set())
+    except (_Untold, RecursionError):
+        return None
+    return digest.hexdigest()
+
+
+def _feed(digest: Any, value: Any, depth: int, inside: set[int]) -> None:
+    if depth > FINGERPRINT_DEPTH:
+        raise _Untold
+    if isinstance(value, _SCALARS):
+        digest.update(f"{type(value).__name__}:{value!r};".encode())
+        return
+    if isinstance(value, np.ndarray):
+        if value.dtype.hasobject:
+            _feed(digest, value.tolist(), depth + 1, inside)
+            return
+        # its bytes by their CRC, read in place when the array is contiguous (a CRC is about twice as
+        # fast as a cryptographic digest over a large table, and a change it misses is a 2^-32 chance)
+        content = zlib.crc32(np.ascontiguousarray(value).data)
+        digest.update(f"array:{value.dtype.str}:{value.shape}:{content};".encode())
+        return
+    if isinstance(value, np.generic):
+        digest.update(f"{type(value).__name__}:{value!r};".encode())
+        return
+    if isinstance(value, _NAMED):  # code, not data: known by its name
+        digest.update(f"named:{getattr(value, '__module__', '')}.{getattr(value, '__qualname__', value)!s};".encode())
+        return
+    if id(value) in inside:  # a cycle: its content is being read further up
+        digest.update(b"cycle;")
+        return
+    inside.add(id(value))
+    try:
+        if isinstance(value, (list, tuple)):
+            digest.update(f"{type(value).__name__}[{len(value)};".encode())
+            for item in value:
+                _feed(digest, item, depth + 1, inside)
+        elif isinstance(value, (set, frozenset)):
+            digest.update(f"{type(value).__name__}{{{len(value)};".encode())
+            for item in sorted(_member(v, depth, inside) for v in value):
+                digest.update(item.encode())
+        elif isinstance(value, dict):
+            digest.update(f"{type(value).__name__}{{{len(value)};".encode())
+            for pair in sorted(_member(k, depth, inside) + _member(v, depth, inside) for k, v in value.items()):
+                digest.update(pair.encode())
+        elif hasattr(value, "__dict__") or hasattr(type(value), "__slots__"):
+            fields = dict(vars(value)) if hasattr(value, "__dict__") else {}
+            for slot in getattr(type(value), "__slots__", ()):
+                if hasattr(value, slot):
+                    fields[slot] = getattr(value, slot)
+            digest.update(f"object:{type(value).__module__}.{type(value).__qualname__};".encode())
+            _feed(digest, fields, depth + 1, inside)
+        else:
+            raise _Untold
+    finally:
+        inside.discard(id(value))
+
+
+def _member(value: Any, depth: int, inside: set[int]) -> str:
+    """The digest of a member of a set or a dict (whose order is not the content's: the members are
+    sorted by it), read within the same walk (its depth and the cycles above it)."""
+    digest = hashlib.blake2b(digest_size=16)
+    _feed(digest, value, depth + 1, inside)
+    return digest.hexdigest()

@@ -6,7 +6,7 @@ import threading
 
 import numpy as np
 
-from cosim.fingerprint import fingerprint
+from cosim.component import fingerprint
 
 
 class Box:
