@@ -106,6 +106,12 @@ class NoParams:
     """A component without parameters."""
 
 
+# the attributes Component.__init__ sets (the framework's, not a component's own state)
+FRAMEWORK_ATTRIBUTES = frozenset({
+    "name", "params", "status", "step_count", "last_substeps", "last_stable_step", "_stepping", "stop_reason",
+    "input_sources", "source_steps", "_bounded", "_unsaved_seen", "_first_fingerprints", "_framework_attrs"})
+
+
 class Component:
     """Base class of every component; subclasses write :meth:`_step_impl` (and usually :meth:`setup`)."""
 
@@ -142,7 +148,9 @@ class Component:
         self._first_fingerprints: dict[str, str | None] | None = None
         cls = type(self)
         saves_nothing = (cls.get_state is Component.get_state and cls.checkpoint_state is Component.checkpoint_state)
-        self._framework_attrs = frozenset(vars(self)) | {"_framework_attrs"} if saves_nothing else None
+        # (named, not read off vars(self): reading an instance's __dict__ makes CPython keep its
+        # attributes in a dict of their own, and every step's attribute reads then took 0.2 us more)
+        self._framework_attrs = FRAMEWORK_ATTRIBUTES if saves_nothing else None
         self.setup()
         self.status = "initialized"
 

@@ -171,3 +171,13 @@ def test_equal_values_rebuilt_between_steps_are_no_state(tmp_path, capsys):
 def test_an_array_changed_in_place_is_a_state(tmp_path, capsys):
     with pytest.warns(UserWarning, match=r"^component 'sum' \(TableInPlace\) changes its attribute history between"):
         run(tmp_path, "TableInPlace", capsys)
+
+
+def test_the_framework_attributes_named_are_those_the_base_sets():
+    """The framework's own attributes are named (reading vars(self) as a component is built made
+    CPython keep its attributes in a dict of their own, every step's reads 0.2 us slower): the names
+    are exactly what the base class sets, so that none is taken for a component's own state."""
+    from cosim.component import FRAMEWORK_ATTRIBUTES
+    from cosim.examples import Ping
+
+    assert set(vars(Ping("p"))) == FRAMEWORK_ATTRIBUTES
