@@ -463,8 +463,11 @@ class Component:
                 outputs = self._step_impl(t, dt, inputs)
             else:
                 outputs = self._substep(t, dt, substeps, inputs)
-            # (the count a component's restep raised it to, said as the scheduler's own)
-            self.last_substeps, self.last_stable_step = self._stepping[3:]
+            # (the count a component's restep raised it to, said as the scheduler's own; read by index,
+            # not as a slice: this is every step's path)
+            stepping = self._stepping
+            self.last_substeps = stepping[3]
+            self.last_stable_step = stepping[4]
         except SimulationError:
             self.status = "failed"
             raise
@@ -477,7 +480,8 @@ class Component:
             raise SimulationError(self.name, t_ns, f"{type(exc).__name__}: {exc}") from exc
         finally:
             self._stepping = None
-        self._mapping(outputs, t_ns, "its step returned", "output port to message")
+        if not isinstance(outputs, dict):  # (the guard's call only when it fails: every step's path)
+            self._mapping(outputs, t_ns, "its step returned", "output port to message")
         self._check_outputs(t_ns, outputs)
         self.step_count += 1
         return outputs
