@@ -284,9 +284,13 @@ class WaterContact(Message):
     """What the water did to the body this step (for the stage monitor, plots and energy books).
 
     wetted: the body touches water; submerged_fraction: immersed volume / body volume;
-    wetted_area [m^2]; buoyancy, pressure, friction, wave_drag: (3,) forces of each effect [N];
-    depth: depth of the body's lowest point below the local surface [m] (negative above it; over dry
-    land, where there is no surface, below the rest level);
+    wetted_area [m^2]: the wetted surface as the surface effects meet it (0 when neither pressure
+    nor friction is on: only they tile the faces); buoyancy, pressure, friction, wave_drag: (3,)
+    forces of each effect [N]; depth: depth of the body's lowest point below the local surface [m]
+    (negative above it; over dry land, where there is no surface, below the rest level; for a body
+    far above the water, its bounding sphere above the coupler's wave_allowance over the rest level
+    or the crest the water reports, the bounding sphere's lowest point below the rest level, which
+    costs no look at its pose);
     dissipated_energy [J], cumulative work done by the water on the body, with the sign flipped.
     """
 

@@ -856,7 +856,7 @@ class WaterCoupler(Component):
         how far its top is under the surface, ``top_under`` [m] (NaN off the patch).
 
         The column sum samples the body, so a body wholly under water sums to about its volume, not
-        exactly (0.992-1.013 of it for a level 5 cm disk on 1 cm cells, with where it lies on the
+        exactly (0.987-1.013 of it for a level 5 cm disk on 1 cm cells, with where it lies on the
         grid): a body whose top (the point opposite its lowest one) is under the surface there is
         wholly submerged."""
         radius = float(body.radius)

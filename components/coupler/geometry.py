@@ -12,8 +12,9 @@ Two samplings, each chosen for what it feeds:
   column acts at the centroid of that wet interval. The chord of a sphere or a tilted disk goes to
   zero continuously at the silhouette, so the sums are continuous in the body's pose; a level
   disk's chord is its whole thickness up to its rim and then none, so its sums step as sub-cell
-  lines cross the rim (by up to 0.3% of its buoyancy for 25 um of travel, 1 cm cells), and its
-  sampled volume depends on where it lies on the grid (0.992-1.013 of its own, wholly under).
+  lines cross the rim (by up to 0.6% of its buoyancy for 25 um of travel, 1 cm cells), and its
+  sampled volume depends on where it lies on the grid (0.987-1.013 of its own, wholly under, for a
+  5 cm disk 6 mm thick on 1 cm cells; finer sub-columns bring both to 1).
 * **Surface elements** (pressure, friction): the faces are tiled once in the body frame (a square
   grid clipped to the disk, plus the rim; equal-area latitude bands on a sphere). Each element
   reads the water height and vertical velocity at its own position (bilinear between column
