@@ -174,32 +174,28 @@ class _Edge:
     def pick(self, start: int, end: int) -> Message | None:
         if self.event:
             return self._pick_event(start, end)
-        chosen: tuple[int, Message] | None = None
         entries = self.slot.entries
         if self.delayed:
-            # the newest message stamped in (0, start]; usually the last of the slot's two
-            if entries and 0 < entries[-1][0] <= start:
-                chosen = entries[-1]
-            else:
-                for entry in reversed(entries):
-                    if 0 < entry[0] <= start:
-                        chosen = entry
-                        break
-            if chosen is None and self.initial is not None:
-                chosen = (0, self.initial)
-        else:
-            # the newest message stamped by ``end``; usually the last of the slot's two
-            if entries and entries[-1][0] <= end:
-                chosen = entries[-1]
-            else:
-                for entry in reversed(entries):
-                    if entry[0] <= end:
-                        chosen = entry
-                        break
-            # start-up of a slower source: hold its first value
-            if chosen is None and entries:
-                chosen = entries[0]
-        return None if chosen is None else chosen[1]
+            # the newest message stamped in (0, start]; usually the last of the slot's two (returned
+            # at once: every input of every step comes here)
+            if entries:
+                last = entries[-1]
+                if 0 < last[0] <= start:
+                    return last[1]
+            for entry in reversed(entries):
+                if 0 < entry[0] <= start:
+                    return entry[1]
+            return self.initial
+        # the newest message stamped by ``end``; usually the last of the slot's two
+        if entries:
+            last = entries[-1]
+            if last[0] <= end:
+                return last[1]
+        for entry in reversed(entries):
+            if entry[0] <= end:
+                return entry[1]
+        # start-up of a slower source: hold its first value
+        return entries[0][1] if entries else None
 
     def _pick_event(self, start: int, end: int) -> Message | None:
         """Every message not delivered yet that the rule reaches, summed (one, usually): those
