@@ -374,18 +374,15 @@ def test_a_viewer_that_drops_is_said_once_not_logged_per_message(capsys, caplog)
     assert [r for r in caplog.records if r.name.startswith("foxglove")] == []
 
 
-def test_a_viewer_speaking_only_the_older_protocol_is_told_dropped_at_its_handshake_not_disconnected(capsys):
-    """The SDK's server speaks foxglove.sdk.v1 only: a viewer offering only foxglove.websocket.v1 (older
-    Foxglove Studio and Lichtblick releases) gets a 400 at its handshake, which the run said as
-    'viewer ADDR disconnected'; it is said to be dropped at its handshake, and why, in one line."""
+def handshake_line(capsys, request: bytes) -> tuple[str, str, int, bytes]:
+    """The one line a live view says of a connection that sends ``request`` and fails its
+    handshake, with the connection's host and port and the server's reply."""
     view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
     try:
         sock = socket.create_connection(("127.0.0.1", view.port), timeout=5)
         host, port = sock.getsockname()[:2]
-        sock.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                      b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
-                      b"Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n")
-        assert sock.recv(4096).startswith(b"HTTP/1.1 400")
+        sock.sendall(request)
+        reply = sock.recv(4096)
         sock.close()
         err, deadline = "", time.monotonic() + 5
         while "dropped" not in err and time.monotonic() < deadline:
@@ -394,6 +391,18 @@ def test_a_viewer_speaking_only_the_older_protocol_is_told_dropped_at_its_handsh
     finally:
         view.close()
     (line,) = err.splitlines()
+    return line, host, port, reply
+
+
+def test_a_viewer_speaking_only_the_older_protocol_is_told_dropped_at_its_handshake_not_disconnected(capsys):
+    """The SDK's server speaks foxglove.sdk.v1 only: a viewer offering only foxglove.websocket.v1 (older
+    Foxglove Studio and Lichtblick releases) gets a 400 at its handshake, which the run said as
+    'viewer ADDR disconnected'; it is said to be dropped at its handshake, and why, in one line."""
+    line, host, port, reply = handshake_line(
+        capsys, b"GET / HTTP/1.1\r\nHost: localhost\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                b"Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n")
+    assert reply.startswith(b"HTTP/1.1 400")
     assert line.startswith(f"live view: connection {host}:{port} dropped: its WebSocket handshake failed (this "
                            "server speaks the foxglove.sdk.v1 subprotocol only: a viewer offering only "
                            "foxglove.websocket.v1")
@@ -403,20 +412,7 @@ def test_a_request_that_is_no_websocket_is_said_dropped_naming_the_other_causes_
     """The server's record of a failed handshake is the same for a plain HTTP request (a browser page,
     curl) or a connection that sends nothing as for a viewer offering the older subprotocol: the line
     said the request had offered that subprotocol; it names the others too."""
-    view = LiveView(loads(SKIP_SCENE), "127.0.0.1:0", announce=False)
-    try:
-        sock = socket.create_connection(("127.0.0.1", view.port), timeout=5)
-        host, port = sock.getsockname()[:2]
-        sock.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
-        sock.recv(4096)
-        sock.close()
-        err, deadline = "", time.monotonic() + 5
-        while "dropped" not in err and time.monotonic() < deadline:
-            time.sleep(0.02)
-            err += capsys.readouterr().err
-    finally:
-        view.close()
-    (line,) = err.splitlines()
+    line, host, port, _ = handshake_line(capsys, b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
     assert line.startswith(f"live view: connection {host}:{port} dropped: its WebSocket handshake failed (")
     assert line.endswith("a browser page, curl, or a connection that sent nothing ends the same way)")
 

@@ -251,16 +251,23 @@ def test_a_scene_wiring_one_bodys_ports_to_anothers_is_refused(swap, message):
     assert message in two_stones_rewired(swap).problems
 
 
+def wrench_also_to_the_other(source: str, other: str, right_type: str = "RigidBody") -> list[str]:
+    """The problems refusing two_stones with ``source``'s coupler's wrench also fed to ``other``'s
+    wrench, the right stone of ``right_type``."""
+    text = (SCENES / "two_stones.yaml").read_text()
+    text = text.replace("  right:\n    type: RigidBody\n", f"  right:\n    type: \"{right_type}\"\n", 1)
+    text = text.replace("connections:\n", f"connections:\n  - {{from: {source}_water.wrench, to: {other}.wrench, "
+                        "delay: 1, initial: {force: [0, 0, 0], torque: [0, 0, 0]}}\n", 1)
+    with pytest.raises(ScenarioError) as refused:
+        loads(text, SCENES / "two_stones.yaml")
+    return refused.value.problems
+
+
 def test_a_bodys_wrench_also_fed_to_another_body_is_refused():
     """A coupler's wrench fed to its own body and also to another (an additive port, so no other rule
     refused it): the left stone took both stones' water forces and climbed to 0.50 m instead of
     skipping, the run "ok"."""
-    extra = ("  - {from: right_water.wrench, to: left.wrench, delay: 1, "
-             "initial: {force: [0, 0, 0], torque: [0, 0, 0]}}\n")
-    text = (SCENES / "two_stones.yaml").read_text().replace("connections:\n", "connections:\n" + extra, 1)
-    with pytest.raises(ScenarioError) as refused:
-        loads(text, SCENES / "two_stones.yaml")
-    assert refused.value.problems == [
+    assert wrench_also_to_the_other("right", "left") == [
         "components.right_water: its 'wrench' answers the 'body' that right sends it, but also feeds left.wrench, "
         "which sends it none: left would take what was worked out for right; remove the connection "
         "right_water.wrench -> left.wrench"]
@@ -273,14 +280,7 @@ class Slate(RigidBody):
 def test_a_wrench_also_fed_to_a_body_of_another_class_is_refused():
     """The rule keyed on the receiving component's class: a second body of a subclass of RigidBody (or
     an FMU body, each of a class of its own) took another stone's wrench, the scene "ok"."""
-    extra = ("  - {from: left_water.wrench, to: right.wrench, delay: 1, "
-             "initial: {force: [0, 0, 0], torque: [0, 0, 0]}}\n")
-    text = (SCENES / "two_stones.yaml").read_text()
-    text = text.replace("  right:\n    type: RigidBody\n", "  right:\n    type: \"tests.test_shared_pond:Slate\"\n", 1)
-    text = text.replace("connections:\n", "connections:\n" + extra, 1)
-    with pytest.raises(ScenarioError) as refused:
-        loads(text, SCENES / "two_stones.yaml")
-    assert refused.value.problems == [
+    assert wrench_also_to_the_other("left", "right", right_type="tests.test_shared_pond:Slate") == [
         "components.left_water: its 'wrench' answers the 'body' that left sends it, but also feeds right.wrench, "
         "which sends it none: right would take what was worked out for left; remove the connection "
         "left_water.wrench -> right.wrench"]
