@@ -109,7 +109,7 @@ class NoParams:
 # the attributes Component.__init__ sets (the framework's, not a component's own state)
 FRAMEWORK_ATTRIBUTES = frozenset({
     "name", "params", "status", "step_count", "last_substeps", "last_stable_step", "_stepping", "stop_reason",
-    "input_sources", "source_steps", "_bounded", "_unsaved_seen", "_first_fingerprints", "_framework_attrs"})
+    "input_sources", "source_steps", "_bounded", "_first_fingerprints", "_framework_attrs"})
 
 
 class Component:
@@ -144,7 +144,6 @@ class Component:
         # a component whose class saves no state of its own: the fingerprints of its own attributes at
         # the run's first checkpoint, to tell at the later ones whether it keeps a state between steps
         # that a restart could not give back (unsaved_state)
-        self._unsaved_seen = False
         self._first_fingerprints: dict[str, str | None] | None = None
         cls = type(self)
         saves_nothing = (cls.get_state is Component.get_state and cls.checkpoint_state is Component.checkpoint_state)

@@ -27,7 +27,8 @@ from cosim.component import Component, Port
 from cosim.messages import FieldKind, Message
 from cosim.params import ParamRow, describe
 
-COMPONENT_KEYS = frozenset({"type", "every", "step", "on_unstable"})
+_KEYS_IN_ORDER = ("step", "every", "type", "on_unstable")  # as the scene reference lists them
+COMPONENT_KEYS = frozenset(_KEYS_IN_ORDER)
 """The keys a scene's component takes for itself; every other key is one of its parameters."""
 
 ENTRY_POINT_GROUP = "cosim.components"
@@ -128,11 +129,9 @@ def _params_problem(params: Any) -> str:
     for field in dataclasses.fields(params):
         if field.name in COMPONENT_KEYS:
             # the scene takes such a key for itself, and the parameter silently kept its default
-            return f"its parameter {field.name!r} has the name of a scene key ({_KEYS_SAID}): rename it"
+            return (f"its parameter {field.name!r} has the name of a scene key ({', '.join(_KEYS_IN_ORDER)}): "
+                    "rename it")
     return ""
-
-
-_KEYS_SAID = "step, every, type, on_unstable"  # COMPONENT_KEYS, as the scene reference lists them
 
 
 def _ports_problem(cls: type[Component], side: str) -> str:

@@ -1054,6 +1054,11 @@ def _sends_on(scene: Scene, name: str, port: str) -> bool:
     return any(e.source == name and e.target_port == port for e in scene.connections)
 
 
+def _target_port(built: dict[str, Component], edge: Connection) -> tuple[str, type[Message]]:
+    """The input ``edge`` reaches, by its name and message type."""
+    return edge.target_port, built[edge.target].inputs[edge.target_port].type
+
+
 def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
     component sending on that input, and no other component on the port it reaches them on: a
@@ -1064,20 +1069,19 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
         needed = comp.needed_outputs()
         for out_port, in_port in answers.items():
             senders = sorted(_senders(scene, name, in_port))
-            receivers = {e.target for e in scene.connections if e.source == name and e.source_port == out_port}
+            fed = [e for e in scene.connections if e.source == name and e.source_port == out_port]
+            receivers = {e.target for e in fed}
             # the ports the answer reaches its senders on, by name and message type (not by class: a
             # subclass of the body, or an FMU body, each a class of its own, took another's wrench)
-            answered = {(e.target_port, built[e.target].inputs[e.target_port].type) for e in scene.connections
-                        if e.source == name and e.source_port == out_port and e.target in senders}
-            for edge in scene.connections:
-                if (edge.source == name and edge.source_port == out_port and edge.target not in senders
-                        and (edge.target_port, built[edge.target].inputs[edge.target_port].type) in answered
+            answered = {_target_port(built, e) for e in fed if e.target in senders}
+            for edge in fed:
+                if (edge.target not in senders and _target_port(built, edge) in answered
                         and _sends_on(scene, edge.target, in_port)):
-                    fed = f"{edge.target}.{edge.target_port}"
+                    other = f"{edge.target}.{edge.target_port}"
                     problems.append(f"components.{name}: its {out_port!r} answers the {in_port!r} that "
-                                    f"{', '.join(senders)} sends it, but also feeds {fed}, which sends it none: "
-                                    f"{edge.target} would take what was worked out for {senders[0]}; remove the "
-                                    f"connection {name}.{out_port} -> {fed}")
+                                    f"{', '.join(senders)} sends it, but also feeds {other}, which sends it "
+                                    f"none: {edge.target} would take what was worked out for {senders[0]}; "
+                                    f"remove the connection {name}.{out_port} -> {other}")
             for sender in senders:
                 if sender in receivers:
                     continue

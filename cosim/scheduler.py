@@ -352,6 +352,7 @@ class Simulation:
         self.tick = 0
         self.observers: list[Any] = list(observers or [])
         self.stop_reason: str | None = None
+        self._unsaved_said: set[str] = set()  # the components said to keep a state they do not save
         self.interrupt_reason: str | None = None
         self._initialized = False
         self.last_result: RunResult | None = None  # of the last run(), also one that raised
@@ -543,8 +544,8 @@ class Simulation:
     def _component_entry(self, runner: Any) -> dict[str, Any]:
         """A component's entry in a checkpoint: its state and the scheduler's counts of it; and, for a
         component that keeps a state between steps its class does not save (``unsaved``: the
-        attributes, :meth:`Component.unsaved_state`), said once as a warning, so that the run tells
-        at once what a restart from it would not give back."""
+        attributes, :meth:`Component.unsaved_state`), said once a component as a warning, so that the
+        run tells at once what a restart from it would not give back."""
         comp = runner.comp
         entry = {"state": comp.state_for_checkpoint(self.time_ns), "step_count": comp.step_count,
                  "substeps": comp.last_substeps, "stable_step": comp.last_stable_step,
@@ -552,8 +553,8 @@ class Simulation:
         unsaved = comp.unsaved_state()
         if unsaved:
             entry["unsaved"] = unsaved
-            if not comp._unsaved_seen:
-                comp._unsaved_seen = True
+            if runner.name not in self._unsaved_said:
+                self._unsaved_said.add(runner.name)
                 warnings.warn(f"component {comp.name!r} ({type(comp).__name__}) changes {_attributes(unsaved)} "
                               f"between steps but its class saves no state (its get_state the base one): a "
                               f"restart from this run's checkpoints would start it as set up, not as it was; "

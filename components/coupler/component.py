@@ -277,6 +277,7 @@ def _in_dry_land(pos: np.ndarray, top: float, bed: float, level: float, late: bo
 # body on the bed of a dry column, far below any real first touch (a disk's first wet step wets mm^2)
 WET_FLOOR = 1e-12
 
+
 class WaterCoupler(Component):
     """Stone-water interaction per water column: displacement, buoyancy, pressure, friction, wave drag,
     added mass."""

@@ -131,14 +131,17 @@ class _ViewerNotes(logging.Handler):
             pass
 
 
-def _stop_waiting_at_most(server: Any, wait_s: float) -> None:
-    """Stop the SDK's ``server``, waiting at most ``wait_s`` [s] for its viewers to close their
-    connections (see STOP_WAIT_S), or less if interrupted (a Ctrl-C then ends the wait, not the
+def _stop_server(server: Any) -> None:
+    """Stop the SDK's ``server`` of an open live view, which is no longer counted open (what the
+    server still logs of its connections is not said), waiting at most STOP_WAIT_S for its viewers
+    to close their connections, or less if interrupted (a Ctrl-C then ends the wait, not the
     command's own ending): the stop goes on in a daemon thread, which the process's exit ends."""
+    global _OPEN_VIEWS
+    _OPEN_VIEWS -= 1
     stopping = threading.Thread(target=server.stop, name="live-view-stop", daemon=True)
     stopping.start()
     try:
-        stopping.join(wait_s)
+        stopping.join(STOP_WAIT_S)
     except KeyboardInterrupt:
         pass
 
@@ -246,8 +249,7 @@ class LiveView(BaseObserver):
         try:
             self._advertise(scene)
         except BaseException:  # a server left running would keep the process alive
-            _OPEN_VIEWS -= 1
-            _stop_waiting_at_most(self.server, STOP_WAIT_S)
+            _stop_server(self.server)
             raise
         # per topic, the latest message from each (component, port) publishing on it, with its log
         # time [ns]: a physics Message (encoded only when a client subscribes) or a viewer
@@ -423,12 +425,10 @@ class LiveView(BaseObserver):
 
     def close(self) -> None:
         """Stop the server (safe to call twice)."""
-        global _OPEN_VIEWS
         if not self._closed:
             self._closed = True
-            _OPEN_VIEWS -= 1
             # The server is stopped without closing its channels one by one first: Channel.close
             # waits for a lock of the SDK while holding the GIL, and a server thread that holds that
             # lock while it waits for the GIL (as when a viewer has just disconnected) then waits for
             # ever (seen as a hang on Ctrl-C). Stopping the server ends every channel's subscribers.
-            _stop_waiting_at_most(self.server, STOP_WAIT_S)
+            _stop_server(self.server)
