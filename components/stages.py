@@ -23,7 +23,8 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
   ``water_density`` times its volume, and the water's buoyancy acts); final. Until a hundredth of
   the stone is under water the contact goes on as hit or slide;
 - rest: on the solid ground, held by its static friction and slower than ``rest_speed`` [m/s] for
-  REST_HOLD on end (from the start of that spell); final;
+  REST_HOLD on end, its velocity changing by less than REST_DRIFT ``rest_speed`` over it (from the
+  start of that spell; a ball turning round on a slope is slow there, but not steady); final;
 - ground: on the solid ground and dry, not at rest (sliding, rolling, bouncing on a beach); ends
   in the water (hit, slide), at rest, or in the air (fly-away rising, approach coming down).
 
@@ -61,6 +62,13 @@ BUOYANCY_READABLE = 0.01  # submerged volume fraction from which the buoyancy te
 REST_HOLD = 0.02  # [s] how long a body stays slow on the ground before it is at rest (final): a ball let
 # go on a 20 deg slope was at rest at its first slow step, rolling on its static friction, and the run
 # ended with it moving at 0.73 m/s
+REST_DRIFT = 0.25  # share of rest_speed by which a body's velocity may change over that hold and still be
+# at rest: a ball rolling up a slope and back is slow for 2 rest_speed / a about its turn (a = 5/7 g
+# sin slope, 33 ms on a 5 deg slope, 65 ms for a ball drifting up a beach), and was declared at rest
+# there, the run ended while it rolled back down; a body at rest keeps one velocity (the ground's late
+# answer, -g dt, the same at every step), a turning one changes it by a over the hold. A turn slower
+# than REST_DRIFT rest_speed / REST_HOLD (0.125 m/s^2 by default: a ball on a slope under 1 deg) is not
+# told from rest in that hold
 STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
 LEFT_POND = STAGE_NAMES[StageId.LEFT_POND]  # the outcome of a stone that left the water's grid
 
@@ -237,6 +245,7 @@ class StageMonitor(Component):
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.outside_at = (math.nan, math.nan)  # where the stone was then (x, y) [m]
         self.rest_since = math.nan  # first time of the current slow spell on the ground [s]
+        self.rest_velocity = (math.nan, math.nan, math.nan)  # the body's velocity then [m/s]
         self._step = 0.0  # the last step [s]: the summary gives its times to its last digit
         self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
@@ -298,7 +307,7 @@ class StageMonitor(Component):
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
                          self.params.takeoff_clearance, self.params.gravity, self.params.water_density,
                          step=body_step)
-        stage = self._held_at_rest(stage, previous, now)
+        stage = self._held_at_rest(stage, previous, now, body)
         # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
         # a contact, the dry descent after it would have gone on as one, and the next skip would have
         # taken the brush's touchdown
@@ -357,15 +366,21 @@ class StageMonitor(Component):
         sources = self.input_sources.get("body") or ["stone"]
         return sources[0]
 
-    def _held_at_rest(self, stage: StageId, previous: StageId, now: float) -> StageId:
+    def _held_at_rest(self, stage: StageId, previous: StageId, now: float, body: BodyState) -> StageId:
         """``stage``, or while a body has been slow on the ground (classified at rest) for less than
         REST_HOLD, on the ground (``previous`` if that was a stage in the water): rest is final, and
-        a body starting to roll or slide from standing still is slow for its first steps."""
+        a body starting to roll or slide from standing still, or turning round on a slope, is slow for
+        its first steps. The spell starts again where the velocity has changed by more than
+        REST_DRIFT of ``rest_speed`` since it began: a body at rest keeps its velocity."""
         if stage is not StageId.REST or previous is StageId.REST:
             self.rest_since = math.nan
             return stage
-        if math.isnan(self.rest_since):
+        v = body.velocity
+        v0 = self.rest_velocity
+        drift = math.sqrt((float(v[0]) - v0[0]) ** 2 + (float(v[1]) - v0[1]) ** 2 + (float(v[2]) - v0[2]) ** 2)
+        if math.isnan(self.rest_since) or not drift <= REST_DRIFT * self.params.rest_speed:
             self.rest_since = now
+            self.rest_velocity = (float(v[0]), float(v[1]), float(v[2]))
         if _lasted(self.rest_since, now, REST_HOLD):
             return stage
         # not yet: on the ground, unless it was in the water (sunk, or in a contact on a shallow bed)
@@ -461,6 +476,7 @@ class StageMonitor(Component):
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
                 "outside_since": self.outside_since, "outside_at": list(self.outside_at), "left_at": self.left_at,
                 "settled_since": self.settled_since, "rest_since": self.rest_since,
+                "rest_velocity": list(self.rest_velocity),
                 "step": self._step}  # (a restart taking no step gives its times to the same digits)
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -478,6 +494,12 @@ class StageMonitor(Component):
         self.outside_at = tuple(float(c) for c in state.get("outside_at", (math.nan, math.nan)))  # type: ignore[assignment]
         self.settled_since = float(state.get("settled_since", math.nan))
         self.rest_since = float(state.get("rest_since", math.nan))
+        # (saved before it was kept: the spell starts again at the next step, as at a spell's start)
+        rest_velocity = state.get("rest_velocity")
+        if rest_velocity is None:
+            self.rest_since = math.nan
+            rest_velocity = (math.nan, math.nan, math.nan)
+        self.rest_velocity = tuple(float(c) for c in rest_velocity)  # type: ignore[assignment]
         self.left_at = float(state.get("left_at", math.nan))
         self._step = float(state.get("step", 0.0))  # (saved before it was kept: the times to 3 decimals)
 
