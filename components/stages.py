@@ -17,8 +17,9 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
 - sink: touching water slower than ``sink_speed`` [m/s] horizontally, at least a hundredth under
   water and too heavy to float (or on water without buoyancy); or wholly under water, not rising and
   pushed up by the water (the vertical force of all its effects) no harder than its weight (a stone
-  under water that the pressure still throws back up is in hit or slide); final, except that a sunk
-  stone can come to rest on the bottom;
+  under water that the pressure still throws back up is in hit or slide, as is one the solid ground
+  pushes); final, except that a sunk stone can come to rest on the bottom, and one thrown wholly back
+  out of the water, rising clear of it, is in its fly-away;
 - float: what sink is for a stone the water can carry (lighter than water: its mass is less than
   ``water_density`` times its volume, and the water's buoyancy acts); final. Until a hundredth of
   the stone is under water the contact goes on as hit or slide;
@@ -50,6 +51,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from components.messages import BodyState, GroundContact, Shape, SkipRecord, Stage, StageId, WaterContact
+from components.rigid.quaternion import body_axis
 from components.rigid.shapes import shape_volume
 from components.rigid_body import HEADING_SPEED, gravity_mismatch
 from cosim.component import Component, Port
@@ -154,9 +156,15 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     # sinking is final, but a sunk stone can come to rest on the bottom; rest is final too (a stone
     # settling on the bottom, or on a slope, rocks a little faster than rest_speed now and then: it
     # went from rest to approach some thirty times on a beach, and the run never ended)
+    vz = float(body.velocity[2])
+    if (previous is StageId.SINK and water is not None and not water.wetted and vz > 0.0
+            and not contact_goes_on(water, vz, clearance)):
+        # ... except that a stone thrown wholly back out of the water, rising clear of it, has not sunk:
+        # a slow stone landing in a shallow pond whose bed throws it back up (said to have sunk as it
+        # came in, and the run ended while it flew 4 cm over the water)
+        return StageId.FLY_AWAY
     if previous in (StageId.SINK, StageId.FLOAT, StageId.REST):
         return previous
-    vz = float(body.velocity[2])
     horizontal = math.hypot(float(body.velocity[0]), float(body.velocity[1]))
     if water is not None and water.wetted:
         if previous is StageId.FLY_AWAY and vz >= 0:
@@ -184,7 +192,11 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
             # under water, the stone has sunk unless it is rising or the water pushes it back up: a
             # thin stone thrown fast dips wholly under the surface for a few milliseconds while the
             # pressure on it (tens of times its weight) throws it back out
-            if _vertical_water_force(water) <= body.mass * gravity:
+            # Nor while the solid ground pushes it (a stone driven into a shallow pond's bed, wholly
+            # under its 3 cm of water and still moving down, the bed's answer a step away: it was said
+            # to have sunk, which is final, and flew 10 cm out of the water)
+            if (_vertical_water_force(water) <= body.mass * gravity
+                    and not (ground is not None and ground.in_contact)):
                 return StageId.SINK
         return StageId.HIT if vz < 0 else StageId.SLIDE
     if ground is not None and ground.in_contact:
@@ -330,7 +342,8 @@ class StageMonitor(Component):
             track.grounded = True
         if track.in_contact and water is not None:
             track.peak_g = max(track.peak_g, _vertical_water_force(water) / (float(body.mass) * self.params.gravity))
-        if stage is StageId.FLY_AWAY and self.stage in (StageId.HIT, StageId.SLIDE) and track.descended:
+        if (stage is StageId.FLY_AWAY and self.stage in (StageId.HIT, StageId.SLIDE, StageId.SINK)
+                and track.descended):
             if track.grounded:  # the ground turned it, not the water (a shallow pond's bed)
                 track.ground_bounces += 1
             else:
@@ -349,7 +362,7 @@ class StageMonitor(Component):
         if stage is StageId.FLOAT:
             # a floating body is decided as it first comes in slowly, a dropped one as it plunges: the
             # run ends once it has settled, not while it bobs (it ended mid-plunge, 9.5 cm under)
-            if body.speed >= SETTLED_SPEED:
+            if not settled(body):
                 self.settled_since = math.nan
             elif math.isnan(self.settled_since):
                 self.settled_since = now
@@ -574,6 +587,23 @@ FINAL_STAGES = (StageId.SINK, StageId.FLOAT, StageId.REST)  # (and left-pond, wh
 CURVE_DRIFT = 0.005  # [m] sideways offset from which a throw is reported as curving
 CURVE_HEADING_DEG = 0.1  # [deg] turn of the heading from which a throw is reported as curving
 SETTLED_SPEED = 0.01  # [m/s] a floating body slower than this has settled: the run may end
+
+
+def settled(body: BodyState) -> bool:
+    """Whether a floating body has settled: its kinetic energy, moving and (a disk) rocking, less
+    than that of moving at SETTLED_SPEED. A disk's rocking is its turn across its axis, weighed by
+    its radius of gyration about a diameter (sqrt(I / m)): a disk let go tilted rocked at 3.5 deg and
+    1.2 rad/s (3 cm/s so weighed) when its centre had been slower than 1 cm/s for 0.3 s and the run
+    ended; rocking at 0.3 deg and 0.2 rad/s it has settled. (A turn about the axis, or a ball's,
+    moves no water up or down.)"""
+    rock = 0.0
+    if body.shape == Shape.DISK:
+        axis = body_axis(tuple(float(c) for c in body.orientation))  # type: ignore[arg-type]
+        w = [float(c) for c in body.angular_velocity]
+        along = w[0] * axis[0] + w[1] * axis[1] + w[2] * axis[2]
+        across_sq = sum((w[k] - along * axis[k]) ** 2 for k in range(3))
+        rock = across_sq * float(body.inertia[0]) / float(body.mass)  # [m^2/s^2]
+    return body.speed * body.speed + rock < SETTLED_SPEED * SETTLED_SPEED
 
 
 def _first_stamp_after(t: float, step: float) -> float:

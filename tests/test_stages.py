@@ -468,11 +468,14 @@ def test_a_slow_stone_floats_if_lighter_than_water_else_sinks(density_ratio, sta
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))
     fraction, mass = 0.3, density_ratio * DISK_WATER
     lift = DISK_WATER * 9.81 * fraction  # buoyancy of the submerged 30%
+    # bobbing changes nothing: a floating stone bobbing clear of the water, a sunk one rising within
+    # it (one thrown clear out of it has not sunk: the test below)
+    bob = water(False) if stage == "float" else water(True, depth=-0.001)
     script = [(body(0.0, 0.01, 5.0, -1.0, mass), water(False), None),
               (body(0.5, 0.0, 0.3, -0.1, mass), buoyant_water(fraction, lift), None),
-              (body(0.5, 0.0, 0.3, 0.1, mass), water(False), None),  # bobbing out again changes nothing
-              (body(0.5, 0.0, 0.3, 0.1, mass), water(False), None),
-              (body(0.5, 0.0, 0.3, 0.1, mass), water(False), None),
+              (body(0.5, 0.0, 0.3, 0.1, mass), bob, None),
+              (body(0.5, 0.0, 0.3, 0.1, mass), bob, None),
+              (body(0.5, 0.0, 0.3, 0.1, mass), bob, None),
               (body(0.5, 0.0, 0.0, 0.005, mass), buoyant_water(fraction, lift), None),  # settled from t = 6 ms
               (body(0.5, 0.0, 0.0, 0.0, mass), buoyant_water(fraction, lift), None),
               (body(0.5, 0.0, 0.0, 0.0, mass), buoyant_water(fraction, lift), None)]
@@ -485,6 +488,48 @@ def test_a_slow_stone_floats_if_lighter_than_water_else_sinks(density_ratio, sta
     assert m.stop_reason == f"stone {stage} since t = 0.002 s"
     assert asked == (3 if stage == "sink" else 7)  # 2 ms after sinking; 2 ms after settling (at 6 ms)
     assert m.metrics()["outcome"] == stage
+
+
+def test_a_sunk_stone_thrown_clear_out_of_the_water_has_not_sunk():
+    """A slow stone landing in a shallow pond is said to sink as it comes in; its bed can throw it
+    back up and out (a slate at 1 m/s onto 3 cm of water over a bed of restitution 0.7 flew 4 cm
+    over the water while the run, said to have sunk, ended): rising clear of the water (its lowest
+    point more than the take-off clearance above it), it is in a fly-away, a bounce off the ground,
+    not a skip. Within the clearance, or coming down, it stays sunk."""
+    heavy = 2.65 * DISK_WATER
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    bed = GroundContact(True, 20.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0.0, 0.01, 0.3, -1.0, heavy), water(False), None),
+                    (body(0.01, 0.0, 0.3, -1.0, heavy), water(True, 0.3), None),  # in slowly: sunk
+                    (body(0.02, -0.01, 0.3, -1.0, heavy), water(True, 1.0), bed),  # on the bed
+                    (body(0.03, 0.0, 0.3, 0.5, heavy), water(False, depth=-0.001), None),  # within the clearance
+                    (body(0.04, 0.01, 0.3, 0.5, heavy), water(False, depth=-0.003), None),  # clear, rising
+                    (body(0.05, 0.02, 0.3, -0.5, heavy), water(False, depth=-0.01), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink", "fly-away", "approach"]
+    assert m.track.skips == 0 and m.track.ground_bounces == 1
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, 0.01, 0.3, -1.0, heavy), water(False), None),
+                    (body(0.01, 0.0, 0.3, -1.0, heavy), water(True, 0.3), None),
+                    (body(0.02, 0.01, 0.3, -0.1, heavy), water(False, depth=-0.003), None)])  # clear, falling
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]
+
+
+def test_a_stone_driven_into_a_shallow_bed_has_not_sunk_while_the_bed_pushes():
+    """Wholly under a shallow pond's water and still moving down as it meets the bed, the water's push
+    below its weight: the bed, whose answer reaches it a step later, throws it back (it was said to
+    have sunk, final, and flew 10 cm out of the water)."""
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    bed = GroundContact(True, 800.0, 0.0, False, 0.0)
+    out = drive(m, [(body(0.0, 0.01, 1.0, -5.0), water(False), None),
+                    (body(0.01, -0.01, 1.0, -5.0), water(True, 1.0), None),
+                    (body(0.02, -0.02, 1.0, -4.0), water(True, 1.0), bed)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]  # before the bed: sunk
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
+    out = drive(m, [(body(0.0, 0.01, 1.0, -5.0), water(False), None),
+                    (body(0.01, -0.01, 1.0, -5.0), water(True, 0.5), None),
+                    (body(0.02, -0.02, 1.0, -4.0), water(True, 1.0), bed),
+                    (body(0.02, -0.02, 1.0, 1.5), water(True, 1.0), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "hit", "slide"]
 
 
 def test_a_slow_stone_barely_touching_waits_for_the_buoyancy_to_tell():
@@ -900,3 +945,34 @@ def test_the_first_stage_is_placed_where_the_run_began():
     m.start_inputs({"body": body(0.3, 0.1, 11.0, -1.0)})
     out = drive(m, [(body(0.3055, 0.1, 11.0, -1.0), water(False), None)])
     assert (out[0]["stage"].since, out[0]["stage"].x) == (0.0, 0.3)
+
+
+def _floating_disk(angular_velocity: tuple[float, float, float], speed: float = 0.001) -> BodyState:
+    """A wooden disk (R = 5 cm, e = 2 cm, 500 kg/m^3) lying flat, its centre moving at ``speed``
+    [m/s] and turning at ``angular_velocity`` [rad/s]."""
+    mass = 500.0 * math.pi * 0.05**2 * 0.02
+    across = mass * (0.05**2 / 4 + 0.02**2 / 12)
+    v, w = np.array([speed, 0.0, 0.0]), np.array(angular_velocity)
+    return BodyState(np.zeros(3), np.array([1.0, 0, 0, 0]), v, w, Shape.DISK, 0.05, 0.02, mass,
+                     np.array([across, across, mass * 0.05**2 / 2]), 0.0, speed, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("angular_velocity, is_settled", [
+    ((1.2, 0.0, 0.0), False),  # rocking at 1.2 rad/s: 3.1 cm/s weighed by its radius of gyration (2.6 cm)
+    ((0.0, 0.3, 0.0), True),  # 0.3 rad/s: 0.8 cm/s, with its centre's 0.1 cm/s under 1 cm/s
+    ((0.0, 0.0, 5.0), True),  # spinning about its axis moves no water up or down
+])
+def test_a_floating_disk_has_settled_once_it_no_longer_rocks(angular_velocity, is_settled):
+    """The run ends stop_after once a floating body has settled: a disk let go tilted ended the run
+    at 0.67 s, its centre slower than 1 cm/s for 0.3 s, while it still rocked at 3.5 deg and
+    1.2 rad/s."""
+    from components.stages import settled
+    assert settled(_floating_disk(angular_velocity)) is is_settled
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0.002))
+    fraction = 0.5
+    lift = 1000.0 * math.pi * 0.05**2 * 0.02 * 9.81 * fraction
+    disk = _floating_disk(angular_velocity)
+    for k in range(6):
+        m.step(k * MS, MS, {"body": disk, "water": buoyant_water(fraction, lift), "ground": None})
+    assert [label for _, label in m.timeline] == ["float"]
+    assert bool(m.stop_reason) is is_settled
