@@ -260,8 +260,10 @@ class WaterField(Message):
 
     cell [m]; origin_x, origin_y: centre of cell (0, 0) [m]; height: (ny, nx) elevation z [m];
     volume: total water volume above the bed [m^3]; energy: the wave model's energy [J] (the explicit
-    model's lattice energy, within O(c dt / s) of its step's exact invariant, so bounded when the model
-    is stable, and for short waves far above their physical energy, see components.water.diagnostics;
+    model's lattice energy, oscillating about its step's exact invariant without drift (by a few
+    percent for waves many columns long, by several times for grid-scale noise near the stable step),
+    so bounded when the model is stable, and for short waves far above their physical energy, see
+    components.water.diagnostics;
     the implicit shallow_water model's lattice energy, which its numerical damping takes; the airy
     model's modes' energy);
     active_fraction: share of the water stepped in the last step (tiles not at rest over all tiles; 1

@@ -398,12 +398,27 @@ def test_summary_names_model_grid_and_volume_change():
 
 
 def test_summary_counts_one_tile_and_one_step_in_the_singular():
-    """A pond of one tile stepped once says "of 1 tile ..., over 1 step", not "1 tiles", "1 steps"."""
+    """A pond of one tile stepped once says "of 1 tile ..., over 1 step", not "1 tiles", "1 steps";
+    the tile no larger than the grid (a tile of 10^12 on a 60 x 60 pond was "10^12 x 10^12 cells")."""
     p = WaterSurface("pond", WaterParams(nx=20, ny=20, depth=0.5,
                                          initial=GaussianBump(x=0.1, y=0.1, amplitude=0.001, width=0.03)))
     p.step(0, 1_000_000, {})
     (line,) = p.summary()
-    assert "(of 1 tile of 32 x 32 cells, over 1 step)" in line
+    assert "(of 1 tile of 20 x 20 cells, over 1 step)" in line
+    p = WaterSurface("pond", WaterParams(nx=60, ny=40, depth=0.5, tile=10**12,
+                                         initial=GaussianBump(x=0.1, y=0.1, amplitude=0.001, width=0.03)))
+    p.step(0, 1_000_000, {})
+    assert "(of 1 tile of 60 x 40 cells, over 1 step)" in p.summary()[0]
+
+
+def test_a_wave_speed_whose_square_is_no_number_is_refused():
+    """At 1e-300 m/s the speed's square underflowed to 0: the water stood still, and its summary said
+    its waves ran at 1e-300 m/s. A fixed speed is at least a micrometre a second."""
+    problems: list[str] = []
+    build(WaterParams, {"wave_speed": 1e-300}, "pond", problems)
+    assert problems == ["pond.wave_speed: must be >= 1e-06 m/s (got 1e-300)"]
+    assert build(WaterParams, {"wave_speed": 1e-6}, "pond", problems).wave_speed == 1e-6
+    assert len(problems) == 1
 
 
 def test_a_wave_that_takes_the_surface_under_a_beachs_bed_is_said():

@@ -535,8 +535,8 @@ FIGURES = {
 def figure_water(rec: Recording, topic: str) -> Figure:
     """The water of one WaterField channel over time: its highest crest and lowest trough above the
     rest level [mm], the change of its volume relative to the first field, and its lattice energy
-    (:mod:`components.water.diagnostics`: in a closed basin without losses it oscillates within
-    O(c dt / s) about the explicit step's invariant and never drifts; it falls as waves leave through
+    (:mod:`components.water.diagnostics`: in a closed basin without losses it oscillates about
+    the explicit step's invariant and never drifts; it falls as waves leave through
     absorbing edges)."""
     rest = water_rest_level(rec, topic)
     rows = [(t, float(f.height.max()) - rest, float(f.height.min()) - rest, f.volume, f.energy)

@@ -18,7 +18,11 @@ sum eta^2 s^2, for energy books that compare the water with a body.
 This is the quantity the undamped semi-discrete model conserves exactly (v_t = -S h with S the
 symmetric operator of the faces); it is zero at rest. The explicit `wave` step conserves instead the
 shadow energy E + m dt/2 sum_ij v_ij a_ij (a the acceleration of h), to round-off, so E itself
-oscillates within O(c dt / s) of it but never drifts.
+oscillates about it but never drifts: a wave of frequency omega holds between 1 / (1 + omega dt / 2)
+and 1 / (1 - omega dt / 2) times its share of the shadow energy, omega dt / 2 being at most
+sqrt(2) c dt / s, for the grid's shortest waves. So E stays within a few percent for waves many
+columns long (3% for a smooth bump at c dt / s = 0.42), but grid-scale noise near the stable step
+swings it by several times (2.4 to 4.5 times its start, from random noise at c dt / s = 0.67).
 """
 
 from __future__ import annotations

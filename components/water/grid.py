@@ -31,6 +31,8 @@ DEPTH_MAX = 1e5  # [m] a rest depth of at most 100 km (the deepest ocean is 11 k
 INDEX_LIMIT = 2.0**62  # a cell index beyond any grid, as a float: farther requests are clipped to it
 LEVEL_MAX = 1e6  # [m] |z| of a rest level: 1000 km, beyond any water; heights there still resolve 1e-10 m
 WAVE_SPEED_MAX = 1e4  # [m/s] a fixed wave speed of at most 10 km/s (sqrt(g d) at DEPTH_MAX is 1 km/s)
+WAVE_SPEED_MIN = 1e-6  # [m/s] and of at least a micrometre a second (three hours to cross a 1 cm column):
+# at 1e-300 m/s its square was 0, the water stood still and the summary said its waves ran
 SURFACE_TENSION = 0.072  # [N/m] water-air, gamma of physics.md
 WAVE_LENGTH_MAX = 1e6  # [m] a wave of at most 1000 km sets the speed (longer ones all run at sqrt(g d))
 

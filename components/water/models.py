@@ -91,8 +91,8 @@ class Model:
 
     name: ClassVar[str] = ""
     explicit: ClassVar[bool] = False
-    # what :meth:`energy` is, for the run summary: the semi-discrete model's invariant, which the explicit
-    # step keeps within O(c dt / s), oscillating (its own invariant is the shadow energy), so not called one
+    # what :meth:`energy` is, for the run summary: the semi-discrete model's invariant, about which the
+    # explicit step oscillates (its own invariant is the shadow energy: diagnostics), so not called one
     invariant: ClassVar[str] = "lattice energy"
     # arrays of the grid's size the model holds or makes in a step beyond the surface's own (its
     # memory estimate, WaterSurface.estimate_bytes)
@@ -129,8 +129,9 @@ class Model:
 
     def energy(self, h: np.ndarray, v: np.ndarray) -> float:
         """The model's energy [J]: the lattice energy of :mod:`components.water.diagnostics` unless
-        the model says otherwise, kept by the undamped explicit model to O(c dt / s) and taken by
-        the implicit one's own numerical damping (see the module's docstring)."""
+        the model says otherwise, about which the undamped explicit model oscillates without drift
+        (by a factor 1 / (1 -+ omega dt / 2) for a wave of frequency omega: diagnostics), and which
+        the implicit one's own numerical damping takes (see the module's docstring)."""
         return lattice_energy(self.grid, h, v)
 
     def get_state(self) -> dict[str, Any]:
@@ -298,11 +299,12 @@ class AiryModel(Model):
     with capillarity), stepped exactly.
 
     The ``wave`` and ``shallow_water`` models carry waves of every length at one speed, sqrt(g d):
-    on a pond 0.5 m deep a 5 cm wave runs at 2.2 m/s instead of the 0.28 m/s of real water, and a
-    body moving near that one speed resonates with every wave it makes (docs/accuracy.md, "The glide
-    is where the water model is weakest"). Here each standing mode of the basin (a cosine in x times
-    a cosine in y: the walls reflect) turns at its own frequency: in the mode's coefficients (H, V)
-    of the height and the vertical velocity, one step of dt is the exact rotation
+    on a pond 0.5 m deep a 5 cm wave runs at 2.2 m/s instead of the 0.30 m/s of real water (gravity
+    and capillarity), and a body moving near that one speed resonates with every wave it makes
+    (docs/accuracy.md, "The glide is where the water model is weakest"). Here each standing mode of
+    the basin (a cosine in x times a cosine in y: the walls reflect) turns at its own frequency: in
+    the mode's coefficients (H, V) of the height and the vertical velocity, one step of dt is the
+    exact rotation
 
         H' = H cos(w dt) + V sin(w dt) / w,   V' = (-H w sin(w dt) + V cos(w dt)) damp
 

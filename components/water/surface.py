@@ -64,6 +64,7 @@ from components.water.grid import (
     LEVEL_MAX,
     WAVE_LENGTH_MAX,
     WAVE_SPEED_MAX,
+    WAVE_SPEED_MIN,
     build_grid,
     holds_one_value,
     wave_speed_of,
@@ -125,8 +126,8 @@ class WaterParams:
         doc="bed slope (dz/dx, dz/dy), each at most 1000 in size; cells with the bed above rest level are dry")
     model: str = param("wave", doc="wave (explicit), shallow_water (implicit, Kass-Miller) or airy (water's "
                                    "dispersion, each basin mode stepped exactly; a flat bed only; slower)")
-    wave_speed: float | None = param(None, unit="m/s", gt=0, le=WAVE_SPEED_MAX,
-                                     doc="fixed wave speed c; default sqrt(g d) (at most 10 km/s)")
+    wave_speed: float | None = param(None, unit="m/s", ge=WAVE_SPEED_MIN, le=WAVE_SPEED_MAX,
+                                     doc="fixed wave speed c; default sqrt(g d) (1 um/s to 10 km/s)")
     wave_length: float | None = param(
         None, unit="m", gt=0, le=WAVE_LENGTH_MAX,
         doc="or the speed of water waves this long at the rest depth (gravity and capillarity, "
@@ -521,8 +522,14 @@ class WaterSurface(Component):
         if t is None:
             return "every column stepped every step (active fraction 1)"
         return (f"active water {100 * t.peak_fraction():.3g}% at most, {100 * t.mean_fraction():.3g}% on "
-                f"average (of {counted(t.count, 'tile')} of {t.tile} x {t.tile} cells, "
+                f"average (of {counted(t.count, 'tile')} of {self._tile_shape()} cells, "
                 f"over {counted(t.steps, 'step')})")
+
+    def _tile_shape(self) -> str:
+        """A tile's columns along x and y, as the summary says them: no more than the grid's (a tile of
+        10^12 on a 60 x 60 pond was said to be 10^12 x 10^12 cells)."""
+        t, g = self.tiles, self.grid
+        return f"{min(t.tile, g.nx)} x {min(t.tile, g.ny)}"
 
     def active_fraction(self) -> float:
         """Fraction of the water stepped in the last step (1 on the dense path)."""
