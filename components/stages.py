@@ -24,8 +24,8 @@ velocity ``vz`` [m/s], up positive) and the contact reports:
   ``water_density`` times its volume, and the water's buoyancy acts); final. Until a hundredth of
   the stone is under water the contact goes on as hit or slide;
 - rest: on the solid ground, held by its static friction and slower than ``rest_speed`` [m/s] for
-  REST_HOLD on end, its velocity changing by less than REST_DRIFT ``rest_speed`` over it (from the
-  start of that spell; a ball turning round on a slope is slow there, but not steady); final;
+  REST_HOLD on end (from the start of that spell; long enough that a ball turning round on a slope
+  comes out of it); final;
 - ground: on the solid ground and dry, not at rest (sliding, rolling, bouncing on a beach); ends
   in the water (hit, slide), at rest, or in the air (fly-away rising, approach coming down).
 
@@ -61,16 +61,14 @@ from cosim.timebase import NS_PER_S, step_decimals
 
 FULLY_SUBMERGED = 0.999  # submerged volume fraction counted as "under water"
 BUOYANCY_READABLE = 0.01  # submerged volume fraction from which the buoyancy tells whether a stone floats
-REST_HOLD = 0.02  # [s] how long a body stays slow on the ground before it is at rest (final): a ball let
-# go on a 20 deg slope was at rest at its first slow step, rolling on its static friction, and the run
-# ended with it moving at 0.73 m/s
-REST_DRIFT = 0.25  # share of rest_speed by which a body's velocity may change over that hold and still be
-# at rest: a ball rolling up a slope and back is slow for 2 rest_speed / a about its turn (a = 5/7 g
-# sin slope, 33 ms on a 5 deg slope, 65 ms for a ball drifting up a beach), and was declared at rest
-# there, the run ended while it rolled back down; a body at rest keeps one velocity (the ground's late
-# answer, -g dt, the same at every step), a turning one changes it by a over the hold. A turn slower
-# than REST_DRIFT rest_speed / REST_HOLD (0.125 m/s^2 by default: a ball on a slope under 1 deg) is not
-# told from rest in that hold
+REST_HOLD = 0.2  # [s] how long a body stays slow on the ground before it is at rest (final). A body starting
+# to roll or slide from standing is slow for its first steps (a ball let go on a 20 deg slope was at rest
+# at its first slow step, and the run ended with it moving at 0.73 m/s), and one rolling up a slope
+# and back is slow about its turn for 2 rest_speed / a (a = 5/7 g sin slope: 33 ms on a 5 deg slope,
+# 65 ms for a ball drifting up a beach; a 20 ms hold declared it at rest there and the run ended as it
+# rolled back down). A turn slower than 2 rest_speed / REST_HOLD (0.1 m/s^2: a ball on a slope under
+# 0.8 deg) is not told from rest. Its velocity cannot tell it sooner: a lead disk settled on a pond's
+# bed circles on its rim at 3 mm/s, its velocity turning round, as a turning ball's does
 STAGE_NAMES = {s: s.name.lower().replace("_", "-") for s in StageId}
 LEFT_POND = STAGE_NAMES[StageId.LEFT_POND]  # the outcome of a stone that left the water's grid
 
@@ -257,7 +255,6 @@ class StageMonitor(Component):
         self.outside_since = math.nan  # first time of the current dry-below-the-level spell [s]
         self.outside_at = (math.nan, math.nan)  # where the stone was then (x, y) [m]
         self.rest_since = math.nan  # first time of the current slow spell on the ground [s]
-        self.rest_velocity = (math.nan, math.nan, math.nan)  # the body's velocity then [m/s]
         self._step = 0.0  # the last step [s]: the summary gives its times to its last digit
         self.settled_since = math.nan  # floating: since when it moves slower than SETTLED_SPEED [s]
         self.left_at = math.nan  # when the stone was found to have left the pond [s]
@@ -319,7 +316,7 @@ class StageMonitor(Component):
         stage = classify(previous, body, water, ground, self.params.sink_speed, self.params.rest_speed,
                          self.params.takeoff_clearance, self.params.gravity, self.params.water_density,
                          step=body_step)
-        stage = self._held_at_rest(stage, previous, now, body)
+        stage = self._held_at_rest(stage, previous, now)
         # a brush while still rising after a fly-away is part of the flight (docs/stages.md): begun as
         # a contact, the dry descent after it would have gone on as one, and the next skip would have
         # taken the brush's touchdown
@@ -379,21 +376,16 @@ class StageMonitor(Component):
         sources = self.input_sources.get("body") or ["stone"]
         return sources[0]
 
-    def _held_at_rest(self, stage: StageId, previous: StageId, now: float, body: BodyState) -> StageId:
+    def _held_at_rest(self, stage: StageId, previous: StageId, now: float) -> StageId:
         """``stage``, or while a body has been slow on the ground (classified at rest) for less than
         REST_HOLD, on the ground (``previous`` if that was a stage in the water): rest is final, and
-        a body starting to roll or slide from standing still, or turning round on a slope, is slow for
-        its first steps. The spell starts again where the velocity has changed by more than
-        REST_DRIFT of ``rest_speed`` since it began: a body at rest keeps its velocity."""
+        a body starting to roll or slide from standing still, or turning round on a slope, is slow
+        for a while."""
         if stage is not StageId.REST or previous is StageId.REST:
             self.rest_since = math.nan
             return stage
-        v = body.velocity
-        v0 = self.rest_velocity
-        drift = math.sqrt((float(v[0]) - v0[0]) ** 2 + (float(v[1]) - v0[1]) ** 2 + (float(v[2]) - v0[2]) ** 2)
-        if math.isnan(self.rest_since) or not drift <= REST_DRIFT * self.params.rest_speed:
+        if math.isnan(self.rest_since):
             self.rest_since = now
-            self.rest_velocity = (float(v[0]), float(v[1]), float(v[2]))
         if _lasted(self.rest_since, now, REST_HOLD):
             return stage
         # not yet: on the ground, unless it was in the water (sunk, or in a contact on a shallow bed)
@@ -489,7 +481,6 @@ class StageMonitor(Component):
                 "records": [[getattr(r, f) for f in _SKIP_FIELDS] for r in self.records],
                 "outside_since": self.outside_since, "outside_at": list(self.outside_at), "left_at": self.left_at,
                 "settled_since": self.settled_since, "rest_since": self.rest_since,
-                "rest_velocity": list(self.rest_velocity),
                 "step": self._step}  # (a restart taking no step gives its times to the same digits)
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -507,12 +498,6 @@ class StageMonitor(Component):
         self.outside_at = tuple(float(c) for c in state.get("outside_at", (math.nan, math.nan)))  # type: ignore[assignment]
         self.settled_since = float(state.get("settled_since", math.nan))
         self.rest_since = float(state.get("rest_since", math.nan))
-        # (saved before it was kept: the spell starts again at the next step, as at a spell's start)
-        rest_velocity = state.get("rest_velocity")
-        if rest_velocity is None:
-            self.rest_since = math.nan
-            rest_velocity = (math.nan, math.nan, math.nan)
-        self.rest_velocity = tuple(float(c) for c in rest_velocity)  # type: ignore[assignment]
         self.left_at = float(state.get("left_at", math.nan))
         self._step = float(state.get("step", 0.0))  # (saved before it was kept: the times to 3 decimals)
 

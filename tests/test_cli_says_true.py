@@ -216,7 +216,7 @@ def test_inspect_lists_the_timeline_in_the_order_its_events_began(tmp_path, caps
     scene.write_text(f"""
 name: two_balls
 dt: 0.0005
-until: 0.1
+until: 0.25
 components:
   resting: {ball % (0, 0.02)}
   dropped: {ball % (1, 0.0205)}

@@ -860,7 +860,8 @@ def test_each_stage_message_says_when_its_stage_began_as_the_summary_does():
     message carries since [s], the time the summary gives."""
     m = StageMonitor("stages", StageMonitor.Params(stop_after=0))
     holding = GroundContact(True, 1.0, 0.0, False, 0.0)
-    out = drive(m, [(body(0.0, 0.05, 0.0, -1.0), None, None)] + [(body(0.0, 0.003, 0.0, 0.0), None, holding)] * 30)
+    still = (body(0.0, 0.003, 0.0, 0.0), None, holding)
+    out = drive(m, [(body(0.0, 0.05, 0.0, -1.0), None, None)] + [still] * (HOLD + 8))
     published = [(o["stage"].label, o["stage"].since) for o in out if "stage" in o]
     assert [label for label, _ in published] == ["approach", "ground", "rest"]
     assert published == [(label, t) for t, label in m.timeline]
@@ -907,7 +908,7 @@ def test_the_scene_tells_a_monitor_its_bodys_step(tmp_path):
     scene = loads("""
 name: resting
 dt: 0.0005
-until: 0.2
+until: 0.25
 components:
   ball: {type: RigidBody, shape: sphere, radius: 0.02, density: 2700.0, position: [0, 0, 0.02], every: 4}
   floor: {type: SolidGround, every: 4}
