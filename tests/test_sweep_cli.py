@@ -119,6 +119,25 @@ def test_a_dry_run_says_what_the_run_would_refuse_of_its_output(tmp_path, capsys
     assert "mine.meta.json beside it is missing or unreadable, so it cannot be resumed" in capsys.readouterr().err
 
 
+def test_a_dry_run_says_a_table_holding_points_no_longer_swept_is_refused(tmp_path, capsys):
+    """An axis that lost values, pointed at the table the longer sweep wrote: the run refuses to resume
+    it (its rows of points the sweep no longer has); the dry run said ok, exit 0. It now says what the
+    run says, and leaves the table as it was."""
+    path, out = write_sweep(tmp_path, SWEEP), tmp_path / "t.csv"
+    assert main(["sweep", str(path), "-q", "--workers", "1", "--no-figure", "-o", str(out)]) == 0
+    table = out.read_bytes()
+    shorter = write_sweep(tmp_path, SWEEP.replace("[2, 3, 5]", "[2, 3]"), name="shorter.yaml")
+    capsys.readouterr()
+    assert main(["sweep", str(shorter), "--dry-run", "-q", "-o", str(out)]) == 2
+    said = capsys.readouterr()
+    assert ": its output would be refused - " in said.out.splitlines()[0]
+    assert f"error: {out}: holds 2 points that are not in this sweep (e.g. " in said.err
+    assert main(["sweep", str(shorter), "-q", "--workers", "1", "--no-figure", "-o", str(out)]) == 2
+    assert f"error: {out}: holds 2 points that are not in this sweep (e.g. " in capsys.readouterr().err
+    assert out.read_bytes() == table
+    assert main(["sweep", str(shorter), "--dry-run", "-q", "--fresh", "-o", str(out)]) == 0
+
+
 def test_dry_run_lists_points_and_runs_nothing(tmp_path, capsys):
     """--dry-run validates the sweep and lists each point's overrides without running or writing."""
     path = write_sweep(tmp_path, SWEEP)
@@ -646,3 +665,28 @@ def test_a_run_timeout_that_is_no_number_of_seconds_is_refused(tmp_path, capsys)
     with pytest.raises(SystemExit) as exited:
         main(["sweep", str(path), "-q", "--dry-run", "--run-timeout", "0", "-o", str(tmp_path / "x.csv")])
     assert exited.value.code == 2 and "argument --run-timeout: must be > 0 s, got 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_as_the_finished_sweep_writes_its_table_lets_it_finish(tmp_path, monkeypatch, capsys, signum):
+    """Every point run, a SIGTERM (or Ctrl-C) while the sweep writes its table and figure: it said
+    "interrupted", exit 1, and nothing of the table, which was whole, and the same command again had
+    nothing to run. The sweep now finishes its table and figure, says the signal came then, exit 0."""
+    pytest.importorskip("matplotlib")
+    import cosim.sweep.figure
+
+    drawn = cosim.sweep.figure.draw
+
+    def draw_signalled(*args, **kwargs):
+        os.kill(os.getpid(), signum)
+        return drawn(*args, **kwargs)
+
+    monkeypatch.setattr(cosim.sweep.figure, "draw", draw_signalled)
+    path, out = write_sweep(tmp_path, SWEEP), tmp_path / "x.csv"
+    assert main(["sweep", str(path), "-o", str(out), "--workers", "1", "-q"]) == 0
+    said = capsys.readouterr()
+    name = "SIGTERM" if signum == signal.SIGTERM else "Ctrl-C"
+    assert f"  {name} came as the sweep finished: it was let finish (its table and figure whole)" in said.out
+    assert said.err == ""
+    assert (tmp_path / "x.png").exists() and "finished" in json.loads((tmp_path / "x.meta.json").read_text())
+    assert len(out.read_text().splitlines()) == 1 + 6

@@ -30,7 +30,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from cosim.errors import ScenarioError, one_line
     from cosim.sweep.backends import BackendError, DaskBackend, make_backend
     from cosim.sweep.plan import TABLE_SUFFIXES, load_sweep
-    from cosim.sweep.run import run_sweep
+    from cosim.sweep.run import LateSignals, run_sweep
     from cosim.sweep.table import MachineLimit, journal_path
 
     if args.output is not None and args.output.suffix not in TABLE_SUFFIXES:
@@ -125,8 +125,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_FAILED
     finally:
-        backend.close()
+        with LateSignals() as late:  # (a complete sweep's workers closing: as its table's writing)
+            backend.close()
     print(outcome.summary())
+    late_signal = outcome.late_signal or late.seen
+    if late_signal is not None and outcome.complete:
+        print(f"  {late_signal} came as the sweep finished: it was let finish (its table"
+              f"{' and figure' if outcome.figure is not None else ''} whole)")
     for notice, label in outcome.notices.items():  # a later point's (the first point's were said)
         if notice not in sweep.notices:
             say_warning(f"{notice} (point {label}, and any other like it)")
@@ -199,7 +204,26 @@ def _output_refused(sweep: Any, fresh: bool) -> str:
         record = json.loads(meta_path(output).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return no_record(meta_path(output))
-    return not_this_sweeps(record, sweep.fingerprint(), sweep.columns) if isinstance(record, dict) else ""
+    foreign = not_this_sweeps(record, sweep.fingerprint(), sweep.columns) if isinstance(record, dict) else ""
+    return foreign or _strangers(journal_path(output), {point.point_id for point in sweep.points})
+
+
+def _strangers(journal: Path, known: set[str]) -> str:
+    """Why the run would refuse to resume ``journal`` for holding rows of points this sweep has not
+    (an axis that lost values: the dry run said ok and the run exited 2), read without changing it;
+    '' if it holds none or cannot be read here (the run then says what is wrong with it)."""
+    import csv
+
+    try:
+        with open(journal, newline="", encoding="utf-8") as f:
+            strangers = [row.get("point_id") for row in csv.DictReader(f)
+                         if row.get("point_id") and row.get("point_id") not in known]
+    except (OSError, ValueError, csv.Error):
+        return ""
+    if not strangers:
+        return ""
+    return (f"holds {len(strangers)} points that are not in this sweep (e.g. {strangers[0]}); use --fresh to "
+            "start over or -o for another file")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

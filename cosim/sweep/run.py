@@ -61,6 +61,7 @@ class SweepOutcome:
     failures: list[tuple[int, str, str]] = field(default_factory=list)
     notices: dict[str, str] = field(default_factory=dict)  # each point scene's notice, and the first point's label
     fresh: bool = False  # started with --fresh: the same command again would discard what this one kept
+    late_signal: str | None = None  # a signal that came while the finished sweep wrote its table and figure
 
     @property
     def complete(self) -> bool:
@@ -124,6 +125,36 @@ def _sigterm_interrupts() -> Iterator[None]:
     finally:
         for signum, handler_before in old.items():
             signal.signal(signum, handler_before)
+
+
+class LateSignals:
+    """Holds off Ctrl-C, SIGTERM and SIGHUP while a sweep whose every point has run writes its table
+    and figure and closes its workers (a fraction of a second): a signal then cut the complete sweep
+    short, said "interrupted", exit 1, nothing said of the table that was whole. The first signal is
+    noted (``seen``: its name) and the work goes on; a second one of SIGTERM or SIGHUP ends the process
+    at once, as it does elsewhere."""
+
+    def __init__(self) -> None:
+        self.seen: str | None = None
+        self._old: dict[int, Any] = {}
+
+    def _note(self, signum: int, frame: Any) -> None:
+        if self.seen is None:
+            self.seen = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
+        if signum != signal.SIGINT:
+            signal.signal(signum, signal.SIG_DFL)
+
+    def __enter__(self) -> LateSignals:
+        try:
+            for signum in (signal.SIGINT, *ending_signals()):
+                self._old[signum] = signal.signal(signum, self._note)
+        except ValueError:  # not the main thread: its signals are not ours to hold
+            pass
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, old in self._old.items():
+            signal.signal(signum, old)
 
 
 def _failed_row(point: Point, reason: str, error_type: str) -> dict[str, Any]:
@@ -293,16 +324,18 @@ def _run_points(sweep: Sweep, output: Path, backend: ProcessBackend | DaskBacken
         outcome.wall_s = time.perf_counter() - wall0
     outcome.failures.sort()
     if outcome.complete:
-        summary = {"counts": dict(outcome.counts), "backend": backend.info()}
-        outcome.rows = table.finish(order, summary)
-        outcome.failures = [(int(r["index"]), label[r["point_id"]].label(), r["reason"])
-                            for r in outcome.rows if r["status"] == "failed"]
-        if figure and sweep.figure is not None:
-            from cosim.sweep.figure import draw
+        with LateSignals() as late:
+            summary = {"counts": dict(outcome.counts), "backend": backend.info()}
+            outcome.rows = table.finish(order, summary)
+            outcome.failures = [(int(r["index"]), label[r["point_id"]].label(), r["reason"])
+                                for r in outcome.rows if r["status"] == "failed"]
+            if figure and sweep.figure is not None:
+                from cosim.sweep.figure import draw
 
-            try:
-                outcome.figure = draw(sweep, outcome.rows, figure_path(output))
-            except OSError as exc:
-                raise cannot(output, exc, "draw the sweep's figure",
-                             "; the table is complete (--no-figure leaves the figure out)") from None
+                try:
+                    outcome.figure = draw(sweep, outcome.rows, figure_path(output))
+                except OSError as exc:
+                    raise cannot(output, exc, "draw the sweep's figure",
+                                 "; the table is complete (--no-figure leaves the figure out)") from None
+        outcome.late_signal = late.seen
     return outcome
