@@ -345,3 +345,25 @@ def test_a_start_time_is_checked_against_the_base_step_the_parameters_give(stepp
     on_grid.setup_experiment(0.002, None, None)
     on_grid.exit_initialization_mode()
     assert on_grid.sim.time_ns == 2_000_000
+
+
+@pytest.fixture(scope="module")
+def until_fmu(tmp_path_factory) -> Path:
+    """The held skip with its end (the scene's `until`) as a parameter."""
+    fmu = tmp_path_factory.mktemp("until") / "until.fmu"
+    assert main(["fmu", "export", str(SKIP_SCENE), "-o", str(fmu), "--step", str(STEP),
+                 "--parameter", "end=until"]) == 0
+    return fmu
+
+
+def test_the_scene_ends_at_its_until_and_the_outputs_hold_after_it(until_fmu):
+    """The FMU runs its scene as `cosim run` does, which ends it at its `until`: past it time goes on
+    and the outputs hold (it ran on, so that `--parameter end=until` moved nothing and a master past
+    the end got values `cosim run` never gives). The rows up to the end are those of a longer scene's,
+    bit for bit."""
+    short = fmpy.simulate_fmu(str(until_fmu), stop_time=0.1, output_interval=STEP, start_values={"end": 0.05})
+    long = fmpy.simulate_fmu(str(until_fmu), stop_time=0.1, output_interval=STEP, start_values={"end": 0.1})
+    rows = lambda table: np.array([[row[k] for k in MOTION] for row in table])
+    assert rows(short)[:6].tobytes() == rows(long)[:6].tobytes()  # t = 0 to 0.05 s
+    assert (rows(short)[6:] == rows(short)[5]).all()  # held from the end on
+    assert not (rows(long)[6:] == rows(long)[5]).all()  # the longer scene moves on

@@ -71,11 +71,14 @@ def _value(out: Output, msg: Message | None) -> Any:
 
 
 def _run_to(sim: Simulation, end_tick: int) -> None:
-    """Run ``sim``'s base steps up to ``end_tick``; once the scene has stopped itself (the stone
-    sank), time goes on and the outputs hold."""
-    while sim.tick < end_tick and sim.stop_reason is None:
+    """Run ``sim``'s base steps up to ``end_tick``; once the scene has ended, as `cosim run` ends it
+    (it stopped itself, the stone sank, or reached its ``until``), time goes on and the outputs hold.
+    (The scene ran on past its ``until``, which a ``--parameter`` on it therefore did not move: a
+    master running past it got values `cosim run` never gives.)"""
+    last_tick = -(-sim.scene.until_ns // sim.dt_ns)  # the scene's end as run: its last step reaches until
+    while sim.tick < min(end_tick, last_tick) and sim.stop_reason is None:
         sim.step()
-    if sim.stop_reason is not None:
+    if sim.tick < end_tick:
         sim.tick = end_tick
 
 
