@@ -32,6 +32,12 @@ message type of :mod:`cosim.examples`, a ``value`` float)::
             self.total += self.params.gain * (inputs["x"].value if inputs["x"] else 0.0)
             return {"total": Number(self.total)}
 
+A message is a value: once returned, its arrays are the message's (a delayed receiver, a slower
+one and the recording hold it). A component that keeps an array and changes it in place returns a
+copy of it (``Pos(self.p.copy())``), and reads its inputs' arrays without changing them: neither is
+copied nor made read-only for it (every exchange, every step; the compiled kernels take a read-only
+array as another type).
+
 The public :meth:`Component.step` (for a component driven by hand: its inputs held to the declared
 ports and types first) and the scheduler's :meth:`Component.step_gathered` own the bookkeeping:
 status and step count, the stability guard
