@@ -26,6 +26,7 @@ import heapq
 import math
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,7 @@ import yaml
 
 from cosim.codec.json_codec import CodecError, codec_for
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound, substep_count
-from cosim.errors import NO_ROOM, ScenarioError
+from cosim.errors import NO_ROOM, ScenarioError, one_line
 from cosim.messages import Message
 from cosim.params import beyond_float, build, number_text, show_value, whole_digits
 from cosim.registry import COMPONENT_KEYS, UnknownComponentType, check_contract, resolve
@@ -964,11 +965,30 @@ def _check_memory(components: dict[str, ComponentConfig], problems: list[str]) -
                         f"machine's {_gb(memory)} allows ({MEMORY_SHARE:.0%}); {advice}")
 
 
+_FAILED = object()  # what _asked gives for a component's hook that raised (its problem said)
+
+
+def _asked(name: str, what: str, hook: Callable[[], Any], problems: list[str]) -> Any:
+    """``hook()``, a question the scene's check asks component ``name`` (its stable step, an input's
+    age bound, the outputs it needs answered); if its code raises, the problem said on the
+    component's key and _FAILED (a user component's max_stable_step raising was an internal error of
+    cosim's, the component unnamed, exit 1, where a failing setup is said on its key)."""
+    try:
+        return hook()
+    except Exception as exc:
+        problems.append(f"components.{name}: its {what} failed ({type(exc).__name__}: "
+                        f"{one_line(str(exc)) or '(no message)'})")
+        return _FAILED
+
+
 def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     for name, comp in built.items():
+        bound = _asked(name, "max_stable_step()", comp.max_stable_step, problems)
+        cause = _asked(name, "stable_step_cause()", comp.stable_step_cause, problems)
+        if bound is _FAILED or cause is _FAILED:
+            continue
         problems.extend(f"components.{name}: {problem}"
-                        for problem in _step_problems(scene, name, comp.max_stable_step(), later=False,
-                                                      cause=comp.stable_step_cause()))
+                        for problem in _step_problems(scene, name, bound, later=False, cause=cause))
 
 
 def _step_problems(scene: Scene, name: str, bound: float, later: bool, cause: str = "") -> list[str]:
@@ -1004,8 +1024,10 @@ def _check_freshness(scene: Scene, built: dict[str, Component], problems: list[s
     """Each input port whose component bounds its age (:meth:`~cosim.component.Component.input_max_age`)
     is fed at least that often."""
     for edge in scene.connections:
-        bound = built[edge.target].input_max_age(edge.target_port)
-        if bound is None:
+        target = built[edge.target]
+        bound = _asked(edge.target, f"input_max_age({edge.target_port!r})",
+                       lambda target=target, port=edge.target_port: target.input_max_age(port), problems)
+        if bound is None or bound is _FAILED:
             continue
         max_age, param_name = bound
         held = scene.dt * (scene.components[edge.source].every + edge.delay)  # how long each message stays
@@ -1038,7 +1060,10 @@ def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: l
     """Each output a component needs consumed (:meth:`~cosim.component.Component.needed_outputs`)
     feeds at least one input."""
     for name, comp in built.items():
-        for port, why in comp.needed_outputs().items():
+        needed = _asked(name, "needed_outputs()", comp.needed_outputs, problems)
+        if needed is _FAILED:
+            continue
+        for port, why in needed.items():
             if not any(edge.source == name and edge.source_port == port for edge in scene.connections):
                 problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
 
@@ -1065,8 +1090,10 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
     coupler's wrench or a ground's impulse also fed to a second body (an additive port, so nothing
     else refused it) pushed that body with forces worked out for the first, the run "ok"."""
     for name, comp in built.items():
-        answers = comp.answers()
-        needed = comp.needed_outputs()
+        answers = _asked(name, "answers()", comp.answers, [])  # (a failure of either is said once, above)
+        needed = _asked(name, "needed_outputs()", comp.needed_outputs, [])
+        if answers is _FAILED or needed is _FAILED:
+            continue
         for out_port, in_port in answers.items():
             senders = sorted(_senders(scene, name, in_port))
             fed = [e for e in scene.connections if e.source == name and e.source_port == out_port]

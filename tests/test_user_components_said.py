@@ -325,3 +325,48 @@ def test_params_built_in_code_keep_the_rules_a_scene_is_held_to(kind, given, sai
     cls = {"RigidBody": RigidBody, "SolidGround": SolidGround, "WaterCoupler": WaterCoupler}[kind]
     with pytest.raises(ValueError, match="^" + re.escape(said)):
         cls("c", cls.Params(**given))
+
+
+class BoundBreaks(Lift):
+    def max_stable_step(self) -> float:
+        raise ValueError("bound broke")
+
+
+class CauseBreaks(Lift):
+    def stable_step_cause(self) -> str:
+        raise ValueError("cause broke")
+
+
+class NeededBreaks(Lift):
+    def needed_outputs(self) -> dict[str, str]:
+        raise KeyError("wrench")
+
+
+class AgeBreaks(Component):
+    """Reads the body's height; asked how old its input may be, it raises."""
+
+    inputs: ClassVar[dict[str, Port]] = {"body": Port(BodyState, required=True)}
+    outputs: ClassVar[dict[str, Port]] = {"height": Port(Number)}
+
+    def input_max_age(self, port: str) -> tuple[float, str] | None:
+        raise ValueError("age\nbroke")
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        return {"height": Number(float(inputs["body"].position[2]))}
+
+
+@pytest.mark.parametrize(("cls", "extra", "edge", "said"), [
+    ("BoundBreaks", "", "", "components.push: its max_stable_step() failed (ValueError: bound broke)"),
+    ("CauseBreaks", "", "", "components.push: its stable_step_cause() failed (ValueError: cause broke)"),
+    ("NeededBreaks", "", "", "components.push: its needed_outputs() failed (KeyError: 'wrench')"),
+    ("Lift", f"gauge: {{type: \"{HERE}:AgeBreaks\"}}", "- stone.state -> gauge.body",
+     "components.gauge: its input_max_age('body') failed (ValueError: age\\nbroke)"),  # (one line)
+])
+def test_a_users_hook_failing_as_the_scene_loads_is_said_on_its_key(tmp_path, capsys, cls, extra, edge, said):
+    """The scene's checks ask each component its stable step, what sets it, the outputs it needs
+    consumed and how old an input may be; a user's hook raising there was an internal error of cosim's,
+    the component unnamed, exit 1. It is said on the component's key, exit 2, as a failing setup is."""
+    scene = tmp_path / "h.yaml"
+    scene.write_text(ON_A_BODY.format(push=f"{HERE}:{cls}", extra=extra, edge=edge))
+    assert main(["validate", str(scene)]) == 2
+    assert one_error_line(capsys.readouterr().err) == f"error: {scene}: {said}"
