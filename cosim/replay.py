@@ -14,6 +14,8 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from cosim.codec.json_codec import codec_for
 from cosim.component import Component
 from cosim.errors import CosimError, RecordingError, counted, shortened
@@ -77,6 +79,28 @@ def _show(msg: Message | None, field: str) -> str:
         return type(msg).__name__
     text = repr(getattr(msg, field))
     return text if len(text) < 80 else text[:77] + "..."
+
+
+def _divergence(stamp: int, port: str, field: str, want: Message, got: Message) -> Divergence:
+    """Where ``got`` first differs from ``want`` in ``field``: an array field by its first element
+    that differs, its index and both values to every digit (numpy's print of two arrays a bit apart
+    showed them alike, and a window's over several lines, the report one line a component)."""
+    a = getattr(want, field, None) if field not in ("<type>", "<message>", "<encoding>") else None
+    b = getattr(got, field, None) if a is not None else None
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
+        if a.shape != b.shape:
+            return Divergence(stamp, port, field, f"shape {a.shape}", f"shape {b.shape}")
+        if a.dtype != b.dtype or a.size == 0:
+            return Divergence(stamp, port, field, f"{a.dtype} {a.shape}", f"{b.dtype} {b.shape}")
+        # element by element, bit for bit (NaNs of the same bits alike, as the comparison takes them)
+        bits_a = np.ascontiguousarray(a).reshape(-1).view(np.uint8).reshape(a.size, -1)
+        bits_b = np.ascontiguousarray(b).reshape(-1).view(np.uint8).reshape(b.size, -1)
+        differs = np.flatnonzero((bits_a != bits_b).any(axis=1))
+        if differs.size:
+            index = np.unravel_index(int(differs[0]), a.shape)
+            where = ", ".join(str(int(i)) for i in index)
+            return Divergence(stamp, port, f"{field}[{where}]", repr(a[index].item()), repr(b[index].item()))
+    return Divergence(stamp, port, field, _show(want, field), _show(got, field))
 
 
 class _RecordedSource:
@@ -217,8 +241,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
                     "nothing" if got is None else type(got).__name__))
             if codec_for(type(got)).encode(got) != codec_for(type(want)).encode(want):
                 field = first_difference(want, got) or "<encoding>"
-                return ReplayReport(name, steps, compared,
-                                    Divergence(stamp, port, field, _show(want, field), _show(got, field)))
+                return ReplayReport(name, steps, compared, _divergence(stamp, port, field, want, got))
         return None
 
     every = cfg.every

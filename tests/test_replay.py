@@ -624,3 +624,32 @@ def test_a_recording_that_kept_what_a_replay_needs_is_replayed_whatever_its_chan
     assert main(["replay", str(part)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "the run's record.channels left out /disk_flat/state" in err[0], err
+
+
+def test_an_array_field_that_differs_is_shown_by_its_first_differing_element():
+    """A replayed body state one bit off in one velocity component: numpy's print of the two arrays
+    (8 digits) showed them alike, and a water window's took several lines. The report names the
+    element and gives both values to every digit, on one line."""
+    import numpy as np
+
+    from components.messages import HeightPatch, Wrench
+    from cosim.replay import _divergence
+
+    force = np.array([7.61465171453155, -8.1e-22, -1.46])
+    nudged = force.copy()
+    nudged[0] = np.nextafter(force[0], 0.0)
+    said = _divergence(80_000_000, "wrench", "force", Wrench(force, np.zeros(3)), Wrench(nudged, np.zeros(3)))
+    assert str(said) == ("first divergence at t = 0.08 s on port 'wrench', field 'force[0]': recorded "
+                         "7.61465171453155, replayed 7.614651714531549")
+    height = np.zeros((30, 40))
+    changed = height.copy()
+    changed[3, 7] = 8.289046e-317
+
+    def patch(h):
+        return HeightPatch(0, 0, 0.01, 0.0, 0.0, 0.0, h, np.zeros((30, 40)), np.zeros((30, 40)))
+
+    said = _divergence(0, "patch", "height", patch(height), patch(changed))
+    assert str(said) == ("first divergence at t = 0 s on port 'patch', field 'height[3, 7]': recorded 0.0, "
+                         "replayed 8.289046e-317")
+    said = _divergence(0, "patch", "height", patch(height), patch(np.zeros((2, 2))))
+    assert (said.field, said.expected, said.got) == ("height", "shape (30, 40)", "shape (2, 2)")
