@@ -193,6 +193,46 @@ def test_claims_of_one_target_exclude_each_other(tmp_path):
     assert parts(out) == []
 
 
+def test_a_private_file_is_locked_before_another_run_can_find_it(tmp_path, monkeypatch):
+    """The private file gets its .part name (the one another run looks for) only once locked: made and
+    locked under it, a run starting at that moment found it unlocked, said it was an earlier run's
+    leftover to repair, and its probe's shared lock could make the first run's own lock fail."""
+    import cosim.record.output as output
+
+    seen = []
+    renamed = output.rename_new
+
+    def rename_new(source, target):
+        seen.append((Path(target).suffix, output.being_written(str(source)), list(tmp_path.glob("*.part"))))
+        renamed(source, target)
+
+    monkeypatch.setattr(output, "rename_new", rename_new)
+    held = claim(tmp_path / "x.mcap")
+    assert seen == [(".part", True, [])]  # locked already, and no .part to be found before the rename
+    assert output.being_written(str(held.part)) and held.part.suffix == ".part"
+    held.release(remove=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_private_file_removed_as_it_is_looked_at_is_no_leftover(tmp_path, monkeypatch, recwarn):
+    """A run that ends removes its private file, then lets go of its lock: found by another run's look
+    between the two, or gone by the time it is opened, it was said to be what an earlier run left,
+    with a repair of a file no longer there."""
+    import cosim.record.output as output
+
+    out = tmp_path / "x.mcap"
+    ending = claim(out)
+
+    def being_written(part):  # the other run ends just as it is looked at
+        ending.release(remove=True)
+        return False
+
+    monkeypatch.setattr(output, "being_written", being_written)
+    claim(out).release(remove=True)
+    assert [str(w.message) for w in recwarn] == []
+    assert parts(out) == []
+
+
 def test_the_writer_killed_mid_run_is_one_line_and_leaves_the_recording_salvaged(tmp_path, capsys):
     """SIGKILL of the writer process: exit 1, one line saying so and up to when and where the
     recording was salvaged; the output is a valid recording, ending there with a `failed` status

@@ -241,19 +241,40 @@ def beside(path: Path, ending: str) -> Path:
     return path.with_name(sibling_stem(path.stem, len(os.fsencode(ending))) + ending)
 
 
+LOCKING_SUFFIX = ".lock"  # a private file's name while it is locked, before it is a .part (as long)
+
+
 def _private_file(path: Path) -> tuple[int, str]:
     """Create ``NAME.<random>.part`` beside ``path``, new (never an existing file), open for reading
-    and writing: (descriptor, name). Its mode is what any new file of the user's gets (0666 less the
-    umask, as for the figures and tables the other commands write), not tempfile's 0600: the
-    recording it becomes is for viewers and colleagues to read."""
+    and writing and locked: (descriptor, name). It is made and locked as ``NAME.<random>.lock`` and
+    only then given its .part name, so that another run never finds it unlocked (it took a live run's
+    file for one an earlier run had left, and said to repair it; its probe's shared lock could make
+    this run's own lock fail, said as a recording that could not be written). Its mode is what any
+    new file of the user's gets (0666 less the umask, as for the figures and tables the other
+    commands write), not tempfile's 0600: the recording it becomes is for viewers and colleagues to
+    read."""
     import secrets
 
     for _ in range(100):
-        name = os.path.join(path.parent, f"{_part_stem(path)}.{secrets.token_hex(4)}{PART_SUFFIX}")
+        stem = os.path.join(path.parent, f"{_part_stem(path)}.{secrets.token_hex(4)}")
+        locking, name = stem + LOCKING_SUFFIX, stem + PART_SUFFIX
         try:
-            return os.open(name, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666), name
+            fd = os.open(locking, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
         except FileExistsError:
             continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # (no other process knows the name: never refused)
+            rename_new(locking, name)
+        except FileExistsError:
+            os.close(fd)
+            os.unlink(locking)
+            continue
+        except BaseException:
+            os.close(fd)
+            with contextlib.suppress(OSError):
+                os.unlink(locking)
+            raise
+        return fd, name
     raise FileExistsError(f"{path}: no free private file name beside it")
 
 
@@ -273,10 +294,9 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
     import glob  # here: the writer process imports this module for finish() only, and starts sooner
 
     path = Path(path)
-    fd, name = _private_file(path)
+    fd, name = _private_file(path)  # (locked already)
     mine = Claim(path, Path(name), fd)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         # NAME.<8 hex digits>.part, as _private_file names them: NAME.* took another target's (a.mcap.x.mcap's
         # private file was "another run writing a.mcap")
         pattern = os.path.join(glob.escape(str(path.parent)), glob.escape(_part_stem(path)) + "." + "[0-9a-f]" * 8
@@ -289,6 +309,10 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
             if being_written(other):
                 raise RecordingError(f"{path}: another run is writing it now ({Path(other).name}); "
                                      "wait for it or choose another output (-o)")
+            if not os.path.lexists(other):
+                # removed as it was looked at: a run that ended (it removes its file, then lets go of
+                # its lock), not one an earlier run left (said so, with a repair of a file not there)
+                continue
             left.append(Path(other).name)
         if left:  # a run killed with its writer: what it recorded is there still, until removed
             import warnings
