@@ -62,8 +62,23 @@ class SimulationError(CosimError):
     def __init__(self, component: str, time_ns: int, reason: str):
         self.component = component
         self.time_ns = time_ns
-        self.reason = reason
+        self.reason = reason = readable_reason(reason)
         super().__init__(f"component {component!r} failed at t = {format_time(time_ns)}: {reason}")
+
+
+ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+REASON_MOST = 1000  # [characters] of a failure's reason kept in the one line, the status and the summary
+
+
+def readable_reason(reason: str) -> str:
+    """``reason`` without a terminal's colour codes, at most REASON_MOST characters: an exception's
+    text becomes a run's error line, its recorded status and its summary, and a compiled kernel's
+    typing error (numba's) held several kilobytes coloured for a terminal."""
+    reason = ANSI_ESCAPE.sub("", str(reason))
+    if len(reason) <= REASON_MOST:
+        return reason
+    kept = REASON_MOST - len(f"... ({len(reason)} more characters)")
+    return reason[:kept] + f"... ({len(reason) - kept} more characters)"
 
 
 def quiet_interrupts(hook: Any) -> Any:

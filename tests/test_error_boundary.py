@@ -140,3 +140,19 @@ def test_a_full_disk_under_stdout_is_said_of_stdout_not_of_the_recording(tmp_pat
     assert done.returncode == 1
     assert done.stderr.strip() == "error: standard output: cannot be written (No space left on device)"
     assert Recording(out).status().status == "ok"
+
+
+def test_a_failures_reason_loses_a_terminals_colours_and_is_cut_to_a_readable_length():
+    """A compiled kernel's typing error (numba's) held several kilobytes coloured for a terminal, and all
+    of it became the run's error line, its recorded status and its summary. The reason keeps no colour
+    codes and at most REASON_MOST characters, saying how many more there were."""
+    from cosim.errors import REASON_MOST, SimulationError
+
+    coloured = "\x1b[1m\x1b[1mFailed in nopython mode pipeline\x1b[0m: " + "x" * 5000
+    error = SimulationError("coupler", 3_500_000, f"TypingError: {coloured}")
+    assert "\x1b" not in str(error)
+    plain = "TypingError: Failed in nopython mode pipeline: " + "x" * 5000
+    kept, said = error.reason.split("... (")
+    assert len(error.reason) <= REASON_MOST and plain.startswith(kept)
+    assert said == f"{len(plain) - len(kept)} more characters)"
+    assert SimulationError("c", 0, "short \x1b[31mred\x1b[0m").reason == "short red"
