@@ -207,6 +207,20 @@ def test_a_whole_recording_with_a_damaged_chunk_keeps_the_rest_and_its_status(pa
     assert done.status is not None and done.status.status == Recording(paint).status().status
 
 
+def test_damage_that_takes_the_runs_description_is_not_sent_to_repair(paint, tmp_path, capsys):
+    """A byte changed in the header's length: the damage takes the cosim metadata and the scene with
+    it. inspect said repair would make it a valid recording, and repair then refused it ("not a cosim
+    recording"); it now says repair cannot, as repair finds."""
+    bad = _damaged(paint, tmp_path / "head.mcap", 10)
+    assert main(["inspect", str(bad)]) == 2
+    line = one_error_line(capsys.readouterr().err)
+    assert line.startswith(f"error: {bad}: corrupt: the CRC of its data does not match (changed on disk?): ")
+    assert line.endswith("(it takes its run's description with it, so cosim repair cannot make it a recording)")
+    assert main(["repair", str(bad), "-o", str(tmp_path / "fixed.mcap")]) == 2
+    assert "cannot be made a cosim recording" in capsys.readouterr().err
+    assert not (tmp_path / "fixed.mcap").exists()
+
+
 def test_a_repaired_recording_whose_gap_leaves_an_input_without_a_message_is_replayed_as_far_as_it_can(
         tmp_path, capsys):
     """ping_pong with its first chunk left out by repair: pong's input has no message at t = 0. The

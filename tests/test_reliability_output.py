@@ -233,6 +233,27 @@ def test_a_private_file_removed_as_it_is_looked_at_is_no_leftover(tmp_path, monk
     assert parts(out) == []
 
 
+def test_a_whole_recording_left_under_a_private_name_is_said_whole_not_cut_short(tmp_path):
+    """A finished recording its run could not move onto its target (the folder made read-only) stays
+    under its private .part name: the next run said it was cut short and that repair would make it a
+    recording, and repair refused it as whole already. It is said whole, with the name to give it;
+    one cut short is still sent to repair."""
+    out = tmp_path / "x.mcap"
+    assert main(["run", str(tmp_path / "s.yaml") if (tmp_path / "s.yaml").write_text(SCENE) else "", "-q",
+                 "-o", str(out)]) == 0
+    whole = tmp_path / "x.mcap.0123abcd.part"
+    out.rename(whole)
+    with pytest.warns(UserWarning) as said:
+        claim(out).release(remove=True)
+    assert [str(w.message) for w in said] == [
+        f"{out}: beside it, {whole.name} is a whole recording an earlier run could not move onto it; give it a "
+        f"name ending in .mcap to keep it (mv {whole} {tmp_path / 'x.mcap.kept.mcap'})"]
+    whole.write_bytes(whole.read_bytes()[:-100])
+    with pytest.warns(UserWarning, match=r"is what an earlier run left cut short \(killed with its writer\); "
+                                         rf"cosim repair {whole} makes it a valid recording"):
+        claim(out).release(remove=True)
+
+
 def test_the_writer_killed_mid_run_is_one_line_and_leaves_the_recording_salvaged(tmp_path, capsys):
     """SIGKILL of the writer process: exit 1, one line saying so and up to when and where the
     recording was salvaged; the output is a valid recording, ending there with a `failed` status

@@ -101,6 +101,14 @@ def check_output(path: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     return _named_as_a_recording(path, inputs)
 
 
+def _whole_file(path: Path) -> bool:
+    """Whether the MCAP file ``path`` ends as a whole one does (False when it cannot be read)."""
+    try:
+        return _ends_whole(path, os.stat(path).st_size)
+    except OSError:
+        return False
+
+
 def _ends_whole(path: Path, size: int) -> bool:
     """Whether the MCAP file ``path`` (``size`` bytes) ends with the magic its footer is followed by."""
     if size < 2 * len(MCAP_MAGIC):
@@ -314,12 +322,20 @@ def claim(path: str | Path, replacing: Claim | None = None) -> Claim:
                 # its lock), not one an earlier run left (said so, with a repair of a file not there)
                 continue
             left.append(Path(other).name)
-        if left:  # a run killed with its writer: what it recorded is there still, until removed
+        # a whole one is a recording an earlier run could not move onto its target (its folder made
+        # read-only): said to be cut short, with a repair that then refused it as whole already
+        whole = sorted(name for name in left if _whole_file(path.parent / name))
+        cut = sorted(name for name in left if name not in whole)
+        if cut or whole:
             import warnings
-
-            warnings.warn(f"{path}: beside it, {', '.join(sorted(left))} is what an earlier run left cut short "
-                          f"(killed with its writer); cosim repair {path.parent / sorted(left)[0]} makes it a "
+        if cut:  # a run killed with its writer: what it recorded is there still, until removed
+            warnings.warn(f"{path}: beside it, {', '.join(cut)} is what an earlier run left cut short "
+                          f"(killed with its writer); cosim repair {path.parent / cut[0]} makes it a "
                           "valid recording", UserWarning, stacklevel=2)
+        if whole:
+            warnings.warn(f"{path}: beside it, {', '.join(whole)} is a whole recording an earlier run could not "
+                          f"move onto it; give it a name ending in .mcap to keep it (mv {path.parent / whole[0]} "
+                          f"{path.parent / (_part_stem(path) + '.kept.mcap')})", UserWarning, stacklevel=2)
     except BaseException:
         mine.release(remove=True)
         raise

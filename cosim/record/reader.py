@@ -112,16 +112,20 @@ def _damage(path: Path) -> tuple[str, str]:
     """Where the MCAP file ``path`` is damaged ("the chunk at byte 483093 fails its CRC") and what
     ``cosim repair`` makes of it, as :func:`cosim.record.seal.find_damage` finds it; ("", "") when no
     record of its data section is found damaged."""
-    from cosim.record.seal import find_damage
+    from cosim.record.seal import find_damage_and_names
 
     try:
-        damage = find_damage(path)
+        damage, metadata, attachments = find_damage_and_names(path)
     except (ValueError, OSError):  # not even its header whole, or unreadable: said by what calls this
         return "", ""
     if not damage:
         return "", ""
     shown = damage[:3]
     where = "; ".join(d.what for d in shown) + (f"; and {len(damage) - 3} more" if len(damage) > 3 else "")
+    if METADATA_NAME not in metadata or SCENE_ATTACHMENT not in attachments:
+        # (a byte changed near its start: repair was said to make it a recording, then refused it)
+        lost = "its run's description" if METADATA_NAME not in metadata else "its scene"
+        return where, f"it takes {lost} with it, so cosim repair cannot make it a recording"
     last, it = damage[-1], ("it" if len(damage) == 1 else "them")
     if not last.resumed:
         upto = "it" if len(damage) == 1 else "the last (leaving the others out)"

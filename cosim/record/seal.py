@@ -462,11 +462,20 @@ def find_damage(path: str | Path) -> list[Damage]:
     """The damaged stretches of the MCAP file ``path``, read past each to the next whole chunk (the
     last not resumed when reading stops there); empty when what it holds is whole, up to a cut at its
     end. Raises ValueError when not even its magic and header are whole, OSError when it cannot be read."""
+    return find_damage_and_names(path)[0]
+
+
+def find_damage_and_names(path: str | Path) -> tuple[list[Damage], set[str], set[str]]:
+    """(:func:`find_damage`'s stretches, the names of the metadata records and of the attachments read
+    whole around them): whether what a repair keeps still holds what makes the file a recording of
+    its kind (a cosim recording's metadata and scene)."""
     with open(path, "rb") as f:
         if os.fstat(f.fileno()).st_size == 0:
             raise ValueError("the file is empty")
         with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
-            return _scan(data, skip=True).damage
+            found = _scan(data, skip=True)
+            return (found.damage, {index.name for index, _, _ in found.metadata},
+                    {index.name for index, _, _ in found.attachments})
 
 
 def _name(op: int) -> str:
