@@ -50,6 +50,7 @@ from components.rigid.vec import ZERO, Vec, add, as_vec, norm, scale
 from cosim.component import Component, Port
 from cosim.messages import Message
 from cosim.params import param, require_valid
+from cosim.timebase import NS_PER_S
 
 Vec3Param = tuple[float, float, float]
 # (the `noqa: RUF009` below: param() returns a dataclasses.field with an immutable default)
@@ -91,6 +92,13 @@ def _about_the_axis(w: Vec, axis: Vec) -> Vec:
     return w if across <= 1e-12 * math.hypot(*w) else scale(axis, along)
 
 
+def _step_end(t: float, dt: float) -> float:
+    """The time [s] a step from ``t`` over ``dt`` ends at, as the scheduler's clock has it (whole
+    nanoseconds), not t + dt in floating point: 1.599 + 0.001 is 1.5999999999999999, and a scripted
+    body at its 1.6 s keyframe was published still turning, at the rate of the segment before it."""
+    return (round(t * NS_PER_S) + round(dt * NS_PER_S)) / NS_PER_S
+
+
 @dataclass(frozen=True)
 class RigidBodyParams:
     """Parameters of a RigidBody (SI units; angles in degrees in fields ending ``_deg``)."""
@@ -114,12 +122,19 @@ class RigidBodyParams:
     integrator: str = param("verlet", doc="verlet | semi_implicit_euler | rk4")
     lock_attitude: bool = param(False, doc="hold orientation and angular velocity (high-spin limit)")
     scripted_tilt_deg: list[tuple[float, float]] = param(
-        [], doc="keyframes [t [s], tilt [deg]] about tilt_axis; empty: free attitude")
+        [], doc="keyframes [t [s], tilt [deg]] about tilt_axis, times from 0 and increasing, the tilt linear "
+                "between them and held before the first and after the last; empty: free attitude")
     scripted_velocity: list[tuple[float, float, float]] = param(
-        [], doc="keyframes [t [s], vx [m/s], vy [m/s]]; empty: free horizontal motion")
+        [], doc="keyframes [t [s], vx [m/s], vy [m/s]], times from 0 and increasing, the velocity linear "
+                "between them and held before the first and after the last (x and y its integral); empty: "
+                "free horizontal motion")
 
     def check(self) -> list[tuple[str, str]]:
         problems = []
+        if self.scripted_velocity and (self.velocity[0] != 0.0 or self.velocity[1] != 0.0):
+            # (they were dropped without a word: the script sets the horizontal velocity from t = 0)
+            problems.append(("velocity", "its x and y are set by scripted_velocity; leave them 0 (z, the "
+                                         f"vertical velocity, stays free) (got {list(self.velocity)})"))
         bad = unknown_integrator(self.integrator)
         if bad:
             problems.append(("integrator", bad))
@@ -388,13 +403,14 @@ class RigidBody(Component):
             # the water carried along: the force scaled along the axis and across it (AddedMass.carried)
             forces = (added.carried(self.body.mass, quat.body_axis(s.orientation), forces[0]), forces[1])  # type: ignore[attr-defined]
         s = self._integrated(s, forces, t, dt)
+        end = _step_end(t, dt)
         if self.tilt_script is not None:
-            q = quat.from_axis_angle(self.tilt_axis, math.radians(self.tilt_script.value(t + dt)[0]))
-            s = s._replace(orientation=q, angular_velocity=self._scripted_omega(t + dt, q))
+            q = quat.from_axis_angle(self.tilt_axis, math.radians(self.tilt_script.value(end)[0]))
+            s = s._replace(orientation=q, angular_velocity=self._scripted_omega(end, q))
         if self.velocity_script is not None:
             x0, y0 = self.velocity_script.integral(t)
-            x1, y1 = self.velocity_script.integral(t + dt)
-            vx, vy = self.velocity_script.value(t + dt)
+            x1, y1 = self.velocity_script.integral(end)
+            vx, vy = self.velocity_script.value(end)
             pos, vel = s.position, s.velocity
             s = s._replace(position=(start.position[0] + (x1 - x0), start.position[1] + (y1 - y0), pos[2]),
                            velocity=(vx, vy, vel[2]))
@@ -410,7 +426,7 @@ class RigidBody(Component):
         force into a_z: a disk tilted 45 deg carrying 5 M along its axis rose at 0.39 m/s after 0.1 s
         of a 1 N push the script held, and fell at 0.57 m/s where 0.28 is right.)"""
         n = quat.body_axis(s.orientation)
-        (vx0, vy0), (vx1, vy1) = self.velocity_script.value(t), self.velocity_script.value(t + dt)  # type: ignore[union-attr]
+        (vx0, vy0), (vx1, vy1) = self.velocity_script.value(t), self.velocity_script.value(_step_end(t, dt))  # type: ignore[union-attr]
         ax, ay = (vx1 - vx0) / dt, (vy1 - vy0) / dt
         skew = added.axial - added.radial
         zz = added.radial + skew * n[2] * n[2]
