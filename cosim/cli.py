@@ -480,7 +480,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("--perf", action="store_true",
                    help="add a wall-clock channel, /perf/tick: the wall time and real-time factor of every 100 "
                         "ticks and of the run's last ones (not deterministic)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress bar, and no notice that the kernels are being compiled")
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
     p.add_argument("--live-speed", type=_live_speed, default=None, metavar="S",
@@ -525,7 +526,8 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
                         "recording, C the time of the checkpoint it restarts from; with --set or --until, "
                         "RECORDING-fromCs-set-<hash>.mcap)")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="with --from: end time [s]")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress bar, and no notice that the kernels are being compiled")
     p.set_defaults(func=cmd_replay)
 
     if command in sub.choices:
@@ -621,7 +623,8 @@ def report(exc: BaseException, command: str) -> int:
     if isinstance(exc, MemoryError):
         print(f"error: {what}: out of memory (at {_where(exc)})", file=sys.stderr)
         return EXIT_FAILED
-    if isinstance(exc, OSError) and exc.errno in NO_ROOM:  # the machine's limits, not the user's input
+    if isinstance(exc, OSError) and (exc.errno in NO_ROOM or exc.filename == STDOUT_NAME):
+        # the machine's limits, or standard output that takes nothing (closed, >&-): not the user's input
         where = _one_line(exc.filename) if exc.filename is not None else f"{what}: its output"
         print(f"error: {where}: cannot be written ({_one_line(exc.strerror or str(exc))})", file=sys.stderr)
         return EXIT_FAILED
@@ -718,8 +721,11 @@ def main(argv: list[str] | None = None) -> int:
     if as_program and _command(argv) in STARTS_WITHOUT_COLLECTION:
         _pause_collection()
     stdout, stderr = sys.stdout, sys.stderr
-    sys.stdout = _ReaderMayLeave(stdout)
-    sys.stderr = _ReaderMayLeave(stderr, names_stdout=False)
+    # a stream the process was started without (``>&-``: Python makes it None) is one that cannot be
+    # written: stdout's said as /dev/full's is, stderr's taken as read by no one (its None was an
+    # internal error, and turned a bad scene's exit 2 into 1)
+    sys.stdout = _ReaderMayLeave(_ClosedStream(writable=False) if stdout is None else stdout)
+    sys.stderr = _ReaderMayLeave(_ClosedStream(writable=True) if stderr is None else stderr, names_stdout=False)
     try:
         with _CtrlC() as ctrl_c:
             code = _main(argv, ctrl_c)
@@ -869,6 +875,36 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
         return report(ctrl_c.interruption() if ctrl_c.seen else exc, command)
 
 
+class _ClosedStream:
+    """A standard stream the process was started without: writing to it fails as a closed descriptor
+    does (``writable`` False), or goes nowhere (True: standard error, which nothing reads then)."""
+
+    def __init__(self, *, writable: bool):
+        self._writable = writable
+
+    def write(self, text: str) -> int:
+        if not self._writable:
+            raise _closed()
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+    def fileno(self) -> int:
+        raise _closed()
+
+
+def _closed() -> OSError:
+    """The error of a write to a closed descriptor."""
+    import errno
+    import os
+
+    return OSError(errno.EBADF, os.strerror(errno.EBADF))
+
+
 class _ReaderMayLeave:
     """A standard stream whose reader may leave (``cosim replay RUN.mcap | head -1``, ``cosim validate
     bad.yaml 2>&1 | head -1``): from then on what is written goes nowhere, and the command goes on to
@@ -889,8 +925,10 @@ class _ReaderMayLeave:
             _quiet(self._stream)
             return len(text)
         except OSError as exc:
-            if not self._names_stdout:
-                raise
+            if not self._names_stdout:  # standard error that takes nothing: nothing can be said there
+                # (its error, raised as a bad scene was said, turned exit 2 into 1)
+                _quiet(self._stream)
+                return len(text)
             raise _named_stdout(exc) from None
 
     def flush(self) -> None:
@@ -900,18 +938,22 @@ class _ReaderMayLeave:
             _quiet(self._stream)
         except OSError as exc:
             if not self._names_stdout:
-                raise
+                _quiet(self._stream)
+                return
             raise _named_stdout(exc) from None
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
 
 
+STDOUT_NAME = "standard output"  # the file an error of writing to stdout names
+
+
 def _named_stdout(exc: OSError) -> OSError:
     """``exc``, a write to stdout failing, with "standard output" as its file when it names none (the
     error said "cosim run: its output: cannot be written", which reads as the recording)."""
     if exc.filename is None:
-        exc.filename = "standard output"
+        exc.filename = STDOUT_NAME
     return exc
 
 
