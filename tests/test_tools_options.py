@@ -78,3 +78,24 @@ def test_check_output(tmp_path):
         with pytest.raises(SystemExit) as exit_:
             options.check_output(parser, path, "--write", text=text)
         assert exit_.value.code == 2
+
+
+@pytest.mark.parametrize(("tool", "option", "marker"), [
+    ("tools/validate_scenes.py", "--markdown", "<!-- bocquet:end -->"),
+    ("tools/bench_framework.py", "--write", "<!-- framework:end -->"),
+    ("tools/bench_water.py", "--markdown", "<!-- water-throughput:end -->"),
+])
+def test_a_page_whose_section_cannot_be_replaced_is_refused_before_the_run(tmp_path, tool, option, marker):
+    """A page missing one of the markers of a section the tool rewrites was found after the whole run,
+    as a traceback, and a tool writing several sections had rewritten the earlier ones (bench_water
+    wrote its begin marker a second time). Now one usage line before any run, the page untouched."""
+    name = marker[5:marker.index(":")]
+    page = tmp_path / "p.md"
+    page.write_text(f"# page\n\n<!-- {name}:begin -->\nold\n\nkept\n", encoding="utf-8")
+    before = page.read_bytes()
+    done = _tool(tool, option, str(page))
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines()[-1].endswith(
+        f"{option} {page}: it has a '<!-- {name}:begin -->' but no '{marker}'; add the missing marker around the "
+        "section (or remove the one there)")
+    assert page.read_bytes() == before

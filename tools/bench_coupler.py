@@ -224,7 +224,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeats", type=positive_int, default=5, help="runs of the held skip (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the coupler section of this file")
     args = parser.parse_args(argv)
-    check_output(parser, args.write, "--write", text=True)
+    check_output(parser, args.write, "--write", text=True, sections=("coupler",))
     Simulation(load(SKIP, overrides=["until=0.05"])).run()  # kernels loaded from numba's cache
     load_before = os.getloadavg()[0]
     rows, speeds = [], []

@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="runs of each kind, the best kept (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the framework section of this file")
     args = parser.parse_args(argv)
-    check_output(parser, args.write, "--write", text=True)
+    check_output(parser, args.write, "--write", text=True, sections=("framework",))
     steps = 2 * args.ticks
     runs = {"plain": lambda: plain_loop(args.ticks), "off": lambda: framework(args.ticks, False),
             "on": lambda: framework(args.ticks, True), "mosaik": lambda: mosaik_loop(args.ticks)}

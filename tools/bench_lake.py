@@ -197,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", metavar="MARKDOWN", help="put the table into this file's lake section")
     parser.add_argument("--memory-child", metavar="OVERRIDES", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    check_output(parser, args.write, "--write", text=True)
+    check_output(parser, args.write, "--write", text=True, sections=("lake",))
     if args.memory_child is not None:
         memory_child(json.loads(args.memory_child))
         return 0

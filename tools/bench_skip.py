@@ -121,7 +121,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--scene {args.scene}: no such file")
     if args.write and args.scene.resolve() != SCENE:
         parser.error(f"--write updates the reference skip's sections; {args.scene} is another scene")
-    check_output(parser, args.write, "--write", text=True)
+    check_output(parser, args.write, "--write", text=True,
+                 sections=("skip" + ("-fresh" if args.fresh else "") + ("-busy" if args.busy else ""),))
     busy = subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) if args.busy else None
     try:
         report(args, command_line("bench_skip.py", argv))

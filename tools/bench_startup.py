@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-byte-compile", action="store_true",
                     help="leave the project's modules as they are (without bytecode, compiled at every start)")
     args = ap.parse_args(argv)
-    check_output(ap, args.write, "--write", text=True)
+    check_output(ap, args.write, "--write", text=True, sections=("startup",))
     if not args.no_byte_compile:
         byte_compile()
     with tempfile.TemporaryDirectory() as tmp:

@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeats", type=positive_int, default=5, help="repeats of each sweep (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the sweeps section of this file")
     args = parser.parse_args(argv)
-    check_output(parser, args.write, "--write", text=True)
+    check_output(parser, args.write, "--write", text=True, sections=("sweeps",))
     tiny = 0.001  # one tick of ping-pong: the run itself costs next to nothing
     run_s = in_process(args.until, 3)
     tiny_ms = in_process(tiny, 20) * 1e3

@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="seconds per timed batch (default %(default)s)")
     ap.add_argument("--markdown", type=Path, help="write the results section into this markdown file")
     args = ap.parse_args(argv)
-    check_output(ap, args.markdown, "--markdown", text=True)
+    check_output(ap, args.markdown, "--markdown", text=True, sections=(NAME,))
     least = 3 if "absorbing" in args.boundaries else 2  # (an absorbing edge needs a column inside it)
     if min(args.sizes) < least:  # refused before anything runs, not as a traceback after the first rows
         ap.error(f"--sizes: each at least {least} with the boundaries {' and '.join(args.boundaries)} "

@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="seconds per timed batch (default %(default)s)")
     ap.add_argument("--write", metavar="MARKDOWN", help="update the water-paths section of this file")
     args = ap.parse_args(argv)
-    check_output(ap, args.write, "--write", text=True)
+    check_output(ap, args.write, "--write", text=True, sections=("water-paths",))
     load = [os.getloadavg()[0]]
     rows = []
     worst = 0.0

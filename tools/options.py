@@ -58,12 +58,15 @@ def angle_deg(lo: float, hi: float) -> Callable[[str], float]:
 
 
 def check_output(parser: argparse.ArgumentParser, path: str | Path | None, option: str,
-                 *, text: bool = False) -> Path | None:
+                 *, text: bool = False, sections: tuple[str, ...] = ()) -> Path | None:
     """Refuse (``parser.error``, exit status 2) an output path that the run could not write at its end.
 
     The path must not be a directory; its folder must exist or be makeable (its nearest existing
     ancestor a writable directory); an existing file must be writable and, with ``text`` (a markdown
-    page whose sections are rewritten), UTF-8 text. Returns the path (None when not given)."""
+    page whose sections are rewritten), UTF-8 text, and each of its ``sections`` the tool rewrites
+    replaceable (:func:`cosim.docsection.section_problem`: a lone or doubled marker was found after the
+    whole run, as a traceback, the page's earlier sections already rewritten). Returns the path (None
+    when not given)."""
     if path is None:
         return None
     path = Path(path)
@@ -74,11 +77,17 @@ def check_output(parser: argparse.ArgumentParser, path: str | Path | None, optio
             parser.error(f"{option} {path}: not writable")
         if text:
             try:
-                path.read_text(encoding="utf-8")
+                page = path.read_text(encoding="utf-8")
             except UnicodeDecodeError:
                 parser.error(f"{option} {path}: not UTF-8 text")
             except OSError as exc:
                 parser.error(f"{option} {path}: {exc.strerror or exc}")
+            from cosim.docsection import section_problem
+
+            for name in sections:
+                problem = section_problem(page, name)
+                if problem is not None:
+                    parser.error(f"{option} {path}: {problem}")
         return path
     folder = nearest_existing(path.absolute().parent) or Path(path.absolute().anchor)
     if not folder.is_dir():

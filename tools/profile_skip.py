@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", type=positive_int, default=5, help="runs of each measure (default %(default)s)")
     parser.add_argument("--write", metavar="MARKDOWN", help="update the two profile sections of this file")
     args = parser.parse_args(argv)
-    check_output(parser, args.write, "--write", text=True)
+    check_output(parser, args.write, "--write", text=True, sections=tuple(s[0] for s in SCENES))
     for section, title, scene in SCENES:
         text = f"## {title}\n\n" + report(scene, args.runs, command_line("profile_skip.py", argv))
         print(text + "\n")

@@ -315,7 +315,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--lake", action="store_true",
                     help="the same for the lake's throw, with every effect and with the pressure alone")
     args = ap.parse_args(argv)
-    check_output(ap, args.markdown, "--markdown", text=True)
+    check_output(ap, args.markdown, "--markdown", text=True, sections=("spin-precession",))
     check_output(ap, args.figure, "--figure")
     if args.lake:
         print(lake_table())

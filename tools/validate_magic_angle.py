@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--markdown", type=Path, help="rewrite the magic-angle table in this markdown file")
     args = parser.parse_args(argv)
     check_output(parser, args.figure, "--figure")
-    check_output(parser, args.markdown, "--markdown", text=True)
+    check_output(parser, args.markdown, "--markdown", text=True, sections=("magic-angle",))
     alphas = QUICK_ALPHAS if args.quick else ALPHAS
     step = 0.2 if args.quick else 0.1
     tol = 0.05 if args.quick else 0.01

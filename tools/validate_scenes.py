@@ -163,7 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--markdown", type=Path, help="rewrite the generated sections of this markdown file")
     args = parser.parse_args(argv)
-    check_output(parser, args.markdown, "--markdown", text=True)
+    check_output(parser, args.markdown, "--markdown", text=True,
+                 sections=("archimedes", "flattening", "bocquet"))
     sections = {"archimedes": archimedes(), "flattening": flattening(), "bocquet": bocquet()}
     for name, text in sections.items():
         print(f"<!-- {name} -->\n{text}\n")
