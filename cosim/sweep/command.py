@@ -15,6 +15,7 @@ import argparse
 import os
 import shlex
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -92,6 +93,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    complete = False  # every point of the sweep run, its table and figure written
     try:  # the backend is closed whatever ends this, a Ctrl-C while a Dask cluster starts included
         if isinstance(backend, DaskBackend):
             # started here, so that a cluster out of reach is said before the table is touched; a local
@@ -118,6 +120,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         outcome = run_sweep(sweep, backend=backend, fresh=args.fresh, progress=not args.quiet,
                             figure=not args.no_figure, command_line=command,
                             on_resume=resuming if resumed else None)
+        complete = outcome.complete
     except ScenarioError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -125,10 +128,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_FAILED
     finally:
-        with LateSignals() as late:  # (a complete sweep's workers closing: as its table's writing)
+        # a complete sweep's workers closing, as its table's writing; any other's as before
+        with LateSignals() if complete else nullcontext() as late:
             backend.close()
     print(outcome.summary())
-    late_signal = outcome.late_signal or late.seen
+    late_signal = outcome.late_signal or (late.seen if late is not None else None)
     if late_signal is not None and outcome.complete:
         print(f"  {late_signal} came as the sweep finished: it was let finish (its table"
               f"{' and figure' if outcome.figure is not None else ''} whole)")

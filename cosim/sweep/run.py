@@ -131,14 +131,16 @@ class LateSignals:
     """Holds off Ctrl-C, SIGTERM and SIGHUP while a sweep whose every point has run writes its table
     and figure and closes its workers (a fraction of a second): a signal then cut the complete sweep
     short, said "interrupted", exit 1, nothing said of the table that was whole. The first signal is
-    noted (``seen``: its name) and the work goes on; a second one of SIGTERM or SIGHUP ends the process
-    at once, as it does elsewhere."""
+    noted (``seen``: its name) and the work goes on; a second one ends it as elsewhere (a Ctrl-C as
+    an interruption, SIGTERM or SIGHUP the process at once)."""
 
     def __init__(self) -> None:
         self.seen: str | None = None
         self._old: dict[int, Any] = {}
 
     def _note(self, signum: int, frame: Any) -> None:
+        if self.seen is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
         if self.seen is None:
             self.seen = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
         if signum != signal.SIGINT:
