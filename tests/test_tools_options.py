@@ -99,3 +99,46 @@ def test_a_page_whose_section_cannot_be_replaced_is_refused_before_the_run(tmp_p
         f"{option} {page}: it has a '<!-- {name}:begin -->' but no '{marker}'; add the missing marker around the "
         "section (or remove the one there)")
     assert page.read_bytes() == before
+
+
+def test_a_run_cut_short_by_ctrl_c_ends_a_tool_writing_nothing(tmp_path, monkeypatch):
+    """A Ctrl-C ends a run as "interrupted" and run() returns: the tools then wrote the cut-short run's
+    figures into the page as measured, exit 0. Under the tools (tools.options imported) the
+    interruption goes on once the run's observers are told (a recording closed), and the tool ends in
+    one line, exit 130, nothing more written."""
+    from cosim.examples import Ping
+    from cosim.scenario import loads
+    from cosim.scheduler import BaseObserver, Simulation
+
+    class Interrupts(Ping):
+        def _step_impl(self, t, dt, inputs):
+            if t >= 0.005:
+                raise KeyboardInterrupt
+            return super()._step_impl(t, dt, inputs)
+
+    told = []
+
+    class Told(BaseObserver):
+        def on_finished(self, sim, result):
+            told.append(result.status)
+
+    scene = loads((ROOT / "scenarios" / "ping_pong.yaml").read_text(), source="ping_pong")
+
+    def built():
+        components = scene.instantiate()
+        components["ping"] = Interrupts("ping", scene.components["ping"].params)
+        return components
+
+    monkeypatch.setattr(Simulation, "raise_interrupts", False)
+    assert Simulation(scene, components=built(), observers=[Told()]).run().status == "interrupted"
+    monkeypatch.setattr(Simulation, "raise_interrupts", True)
+    with pytest.raises(KeyboardInterrupt):
+        Simulation(scene, components=built(), observers=[Told()]).run()
+    assert told == ["interrupted", "interrupted"]
+    page = tmp_path / "p.md"
+    page.write_text("kept\n")
+    done = _tool("-c", f"import sys\nsys.modules['__main__'].__file__ = {str(ROOT / 'tools' / 'a_tool.py')!r}\n"
+                       "sys.argv[0] = 'a_tool.py'\nimport tools.options\nraise KeyboardInterrupt")
+    assert done.returncode == 130
+    assert done.stderr == "a_tool.py: interrupted; what it had not yet written is not written\n"
+    assert page.read_text() == "kept\n"

@@ -12,6 +12,26 @@ from collections.abc import Callable
 from pathlib import Path
 
 from cosim.record.output import nearest_existing
+from cosim.scheduler import Simulation
+
+
+def _interrupted_hook(kind: type[BaseException], value: BaseException, traceback: object) -> None:
+    if issubclass(kind, KeyboardInterrupt):
+        print(f"{Path(sys.argv[0]).name}: interrupted; what it had not yet written is not written",
+              file=sys.stderr)
+        sys.stderr.flush()
+        os._exit(130)
+    _hook_before(kind, value, traceback)  # type: ignore[arg-type]
+
+
+_hook_before = sys.excepthook
+# A tool run as a program reports what its runs measured: a run cut short by Ctrl-C ends the tool,
+# nothing of it written (Simulation.raise_interrupts), said in one line, exit 130 (a shell's code for
+# an interruption). Not where a tool's functions are imported by another program (the tests).
+_program = getattr(sys.modules.get("__main__"), "__file__", None) or "/"
+if Path(_program).resolve().parent == Path(__file__).resolve().parent:
+    Simulation.raise_interrupts = True
+    sys.excepthook = _interrupted_hook
 
 
 def description(doc: str | None) -> str:
