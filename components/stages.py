@@ -156,7 +156,7 @@ def classify(previous: StageId, body: BodyState, water: WaterContact | None, gro
     # went from rest to approach some thirty times on a beach, and the run never ended)
     vz = float(body.velocity[2])
     if (previous is StageId.SINK and water is not None and not water.wetted and vz > 0.0
-            and not contact_goes_on(water, vz, clearance)):
+            and water.depth <= -clearance):  # (above the surface: not a sunk stone off the grid's edge)
         # ... except that a stone thrown wholly back out of the water, rising clear of it, has not sunk:
         # a slow stone landing in a shallow pond whose bed throws it back up (said to have sunk as it
         # came in, and the run ended while it flew 4 cm over the water)

@@ -1090,8 +1090,8 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
     coupler's wrench or a ground's impulse also fed to a second body (an additive port, so nothing
     else refused it) pushed that body with forces worked out for the first, the run "ok"."""
     for name, comp in built.items():
-        answers = _asked(name, "answers()", comp.answers, [])  # (a failure of either is said once, above)
-        needed = _asked(name, "needed_outputs()", comp.needed_outputs, [])
+        answers = _asked(name, "answers()", comp.answers, problems)
+        needed = _asked(name, "needed_outputs()", comp.needed_outputs, [])  # (its failure said above)
         if answers is _FAILED or needed is _FAILED:
             continue
         for out_port, in_port in answers.items():
@@ -1136,7 +1136,10 @@ def _check_answer_rates(scene: Scene, built: dict[str, Component], problems: lis
     impulses summed threw a ball dropped from 0.5 m to 49 m, the run "ok"."""
     for name, comp in built.items():
         every = scene.components[name].every
-        for out_port, in_port in comp.answers().items():
+        answers = _asked(name, "answers()", comp.answers, [])  # (its failure said by _check_answers)
+        if answers is _FAILED:
+            continue
+        for out_port, in_port in answers.items():
             senders = _senders(scene, name, in_port)
             for edge in scene.connections:
                 if edge.source != name or edge.source_port != out_port or edge.target not in senders:

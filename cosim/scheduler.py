@@ -479,7 +479,8 @@ class Simulation:
         """Run to ``until_ns`` (default: the scene's end) or until a stop is requested.
 
         A SimulationError ends the run with status ``failed`` (observers are told, then it is
-        re-raised); an :class:`Interrupted` or KeyboardInterrupt ends it with ``interrupted``.
+        re-raised); an :class:`Interrupted` or KeyboardInterrupt ends it with ``interrupted`` (and,
+        with :attr:`raise_interrupts` set, goes on to the caller once the observers are told).
         """
         until_ns = self.scene.until_ns if until_ns is None else until_ns
         end_tick = -(-until_ns // self.dt_ns)

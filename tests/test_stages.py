@@ -512,6 +512,12 @@ def test_a_sunk_stone_thrown_clear_out_of_the_water_has_not_sunk():
                     (body(0.01, 0.0, 0.3, -1.0, heavy), water(True, 0.3), None),
                     (body(0.02, 0.01, 0.3, -0.1, heavy), water(False, depth=-0.003), None)])  # clear, falling
     assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]
+    m = StageMonitor("stages", StageMonitor.Params(stop_after=0, outside_after=0))
+    out = drive(m, [(body(0.0, 0.01, 0.3, -1.0, heavy), water(False), None),
+                    (body(0.01, 0.0, 0.3, -1.0, heavy), water(True, 0.3), None),
+                    # dry, rising, its lowest point below the level: off the grid's edge under water
+                    (body(0.02, -0.1, 0.3, 0.005, heavy), water(False, depth=0.15), None)])
+    assert [o["stage"].label for o in out if "stage" in o] == ["approach", "sink"]
 
 
 def test_a_stone_driven_into_a_shallow_bed_has_not_sunk_while_the_bed_pushes():

@@ -690,3 +690,17 @@ def test_a_signal_as_the_finished_sweep_writes_its_table_lets_it_finish(tmp_path
     assert said.err == ""
     assert (tmp_path / "x.png").exists() and "finished" in json.loads((tmp_path / "x.meta.json").read_text())
     assert len(out.read_text().splitlines()) == 1 + 6
+
+
+def test_a_second_ctrl_c_as_a_finished_sweep_closes_interrupts_it():
+    """Held off while a complete sweep finishes, the first Ctrl-C is noted and a second one interrupts,
+    also when the first came while the table was written and the second as the workers close."""
+    from cosim.sweep.run import LateSignals
+
+    with LateSignals() as late:
+        os.kill(os.getpid(), signal.SIGINT)
+        assert late.seen == "Ctrl-C"
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt), LateSignals("Ctrl-C"):
+        os.kill(os.getpid(), signal.SIGINT)

@@ -337,6 +337,11 @@ class CauseBreaks(Lift):
         raise ValueError("cause broke")
 
 
+class AnswersBreaks(Lift):
+    def answers(self) -> dict[str, str]:
+        raise ValueError("answers broke")
+
+
 class NeededBreaks(Lift):
     def needed_outputs(self) -> dict[str, str]:
         raise KeyError("wrench")
@@ -359,6 +364,7 @@ class AgeBreaks(Component):
     ("BoundBreaks", "", "", "components.push: its max_stable_step() failed (ValueError: bound broke)"),
     ("CauseBreaks", "", "", "components.push: its stable_step_cause() failed (ValueError: cause broke)"),
     ("NeededBreaks", "", "", "components.push: its needed_outputs() failed (KeyError: 'wrench')"),
+    ("AnswersBreaks", "", "", "components.push: its answers() failed (ValueError: answers broke)"),
     ("Lift", f"gauge: {{type: \"{HERE}:AgeBreaks\"}}", "- stone.state -> gauge.body",
      "components.gauge: its input_max_age('body') failed (ValueError: age\\nbroke)"),  # (one line)
 ])

@@ -19,7 +19,11 @@ def _interrupted_hook(kind: type[BaseException], value: BaseException, traceback
     if issubclass(kind, KeyboardInterrupt):
         print(f"{Path(sys.argv[0]).name}: interrupted; what it had not yet written is not written",
               file=sys.stderr)
-        sys.stderr.flush()
+        for stream in (sys.stdout, sys.stderr):  # (what it printed before, into a pipe or a file, kept)
+            try:
+                stream.flush()
+            except (OSError, ValueError, AttributeError):
+                pass
         os._exit(130)
     _hook_before(kind, value, traceback)  # type: ignore[arg-type]
 

@@ -68,7 +68,7 @@ def stage_changes(rec: Recording, topic: str) -> list[tuple[int, Stage]]:
 
 def stage_times(pairs: list[tuple[int, Stage]]) -> np.ndarray:
     """When each stage of :func:`stage_changes`' (time [ns], Stage) pairs began [s]: its message's
-    ``since`` (rest: the start of its slow spell, published 20 ms on; the first stage: 0), not when it
+    ``since`` (rest: the start of its slow spell, published 0.2 s on; the first stage: 0), not when it
     was known and published; a recording made before the monitor said so, the message's time. Never
     before the change listed ahead of it (a restart's restored stage, dated at the checkpoint, came
     after a rest whose spell began before the checkpoint: the times ran backwards)."""

@@ -129,10 +129,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return EXIT_FAILED
     finally:
         # a complete sweep's workers closing, as its table's writing; any other's as before
-        with LateSignals() if complete else nullcontext() as late:
+        with LateSignals(outcome.late_signal) if complete else nullcontext() as late:
             backend.close()
     print(outcome.summary())
-    late_signal = outcome.late_signal or (late.seen if late is not None else None)
+    late_signal = late.seen if late is not None else None
     if late_signal is not None and outcome.complete:
         print(f"  {late_signal} came as the sweep finished: it was let finish (its table"
               f"{' and figure' if outcome.figure is not None else ''} whole)")

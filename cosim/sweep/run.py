@@ -15,6 +15,7 @@ When every point has a row, the table is sorted by point index and the summary f
 from __future__ import annotations
 
 import math
+import os
 import signal
 import time
 from collections import Counter, deque
@@ -134,17 +135,18 @@ class LateSignals:
     noted (``seen``: its name) and the work goes on; a second one ends it as elsewhere (a Ctrl-C as
     an interruption, SIGTERM or SIGHUP the process at once)."""
 
-    def __init__(self) -> None:
-        self.seen: str | None = None
+    def __init__(self, seen: str | None = None) -> None:
+        self.seen = seen  # (one noted while the table was written, for the workers' close after it)
         self._old: dict[int, Any] = {}
 
     def _note(self, signum: int, frame: Any) -> None:
-        if self.seen is not None and signum == signal.SIGINT:
-            raise KeyboardInterrupt
         if self.seen is None:
             self.seen = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
-        if signum != signal.SIGINT:
-            signal.signal(signum, signal.SIG_DFL)
+            return
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        signal.signal(signum, signal.SIG_DFL)  # a second SIGTERM or SIGHUP: ends the process, as it would
+        os.kill(os.getpid(), signum)
 
     def __enter__(self) -> LateSignals:
         try:
