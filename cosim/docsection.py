@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import secrets
+import stat
 from pathlib import Path
 
 
@@ -50,6 +51,13 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
         text = head + block + tail
     else:
         text = (text.rstrip() + "\n\n" if text.strip() else "") + block + "\n"
+    try:
+        mode = stat.S_IMODE(os.stat(path).st_mode)
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and not mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH):
+        # made read-only: not replaced, whoever runs the tool (root's writes ignore the bits)
+        raise PermissionError(13, "is read-only; its section is not written", str(path))
     path.parent.mkdir(parents=True, exist_ok=True)
     # (as cosim.record.output.written_whole does, which this contract-layer module may not import): a
     # new file of a unique name, never one that was there (a fixed PAGE.tmp was overwritten, then removed)
@@ -60,6 +68,8 @@ def replace_section(path: str | Path, name: str, body: str) -> None:
         os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666))
         made = True
         tmp.write_text(text, encoding="utf-8")
+        if mode is not None:  # the page keeps its mode (a page of 0600 became 0644)
+            os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException as exc:
         if made:  # (never a file of that name that was there)

@@ -142,3 +142,26 @@ def test_a_run_cut_short_by_ctrl_c_ends_a_tool_writing_nothing(tmp_path, monkeyp
     assert done.returncode == 130
     assert done.stderr == "a_tool.py: interrupted; what it had not yet written is not written\n"
     assert page.read_text() == "kept\n"
+
+
+def test_a_pages_section_keeps_the_pages_mode_and_a_read_only_page_is_refused(tmp_path):
+    """A section written into a page of mode 0600 left it 0644 (a new file moved onto it); a page made
+    read-only was replaced all the same by a tool run as root, whose writes ignore the bits. The mode
+    is kept, and a read-only page refused: by the tool before its run, and by the writing itself."""
+    import stat
+
+    from cosim.docsection import replace_section
+
+    page = tmp_path / "p.md"
+    page.write_text("# page\n", encoding="utf-8")
+    page.chmod(0o600)
+    replace_section(page, "s", "body")
+    assert stat.S_IMODE(page.stat().st_mode) == 0o600 and "body" in page.read_text()
+    page.chmod(0o444)
+    with pytest.raises(PermissionError, match="is read-only; its section is not written"):
+        replace_section(page, "s", "other")
+    assert "other" not in page.read_text()
+    parser = argparse.ArgumentParser()
+    with pytest.raises(SystemExit):
+        options.check_output(parser, page, "--write", text=True)
+    page.chmod(0o644)

@@ -97,7 +97,8 @@ def check_output(parser: argparse.ArgumentParser, path: str | Path | None, optio
     if path.is_dir():
         parser.error(f"{option} {path}: is a directory")
     if path.exists():
-        if not os.access(path, os.W_OK):
+        # (by the permission bits too: root's writes ignore them, and a page made read-only was replaced)
+        if not os.access(path, os.W_OK) or not os.stat(path).st_mode & 0o222:
             parser.error(f"{option} {path}: not writable")
         if text:
             try:
