@@ -40,7 +40,7 @@ from cosim.errors import NO_ROOM, ScenarioError, one_line
 from cosim.messages import Message
 from cosim.params import beyond_float, build, number_text, show_value, whole_digits
 from cosim.registry import COMPONENT_KEYS, UnknownComponentType, check_contract, resolve
-from cosim.timebase import NS_PER_S, exact_seconds, seconds_to_ns
+from cosim.timebase import NS_PER_S, exact_seconds, seconds_to_ns, ticks_reaching
 
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a component name: it becomes channel names
 # the first part of the framework's and the viewer's own channels (/cosim/status, /perf/tick,
@@ -981,6 +981,17 @@ def _asked(name: str, what: str, hook: Callable[[], Any], problems: list[str]) -
         return _FAILED
 
 
+def _asked_of_each(built: dict[str, Component], hook: str, problems: list[str]) -> dict[str, Any]:
+    """Each component's answer to its method ``hook`` (``needed_outputs``, ``answers``), asked once
+    for the checks that use it; a component whose hook raised is said (:func:`_asked`) and left out."""
+    answers = {}
+    for name, comp in built.items():
+        value = _asked(name, f"{hook}()", getattr(comp, hook), problems)
+        if value is not _FAILED:
+            answers[name] = value
+    return answers
+
+
 def _check_stability(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
     for name, comp in built.items():
         bound = _asked(name, "max_stable_step()", comp.max_stable_step, problems)
@@ -1056,13 +1067,10 @@ def _check_event_rates(scene: Scene, built: dict[str, Component], problems: list
                 f"{spec.type.__name__} cannot be summed; step {edge.target} at least as often as {edge.source}")
 
 
-def _check_needed_outputs(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
-    """Each output a component needs consumed (:meth:`~cosim.component.Component.needed_outputs`)
-    feeds at least one input."""
-    for name, comp in built.items():
-        needed = _asked(name, "needed_outputs()", comp.needed_outputs, problems)
-        if needed is _FAILED:
-            continue
+def _check_needed_outputs(scene: Scene, needed_of: dict[str, dict[str, str]], problems: list[str]) -> None:
+    """Each output a component needs consumed (:meth:`~cosim.component.Component.needed_outputs`,
+    ``needed_of`` by component) feeds at least one input."""
+    for name, needed in needed_of.items():
         for port, why in needed.items():
             if not any(edge.source == name and edge.source_port == port for edge in scene.connections):
                 problems.append(f"components.{name}: its output {port!r} feeds nothing, but {why}")
@@ -1084,16 +1092,17 @@ def _target_port(built: dict[str, Component], edge: Connection) -> tuple[str, ty
     return edge.target_port, built[edge.target].inputs[edge.target_port].type
 
 
-def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
-    """Each output that answers an input (:meth:`~cosim.component.Component.answers`) reaches every
-    component sending on that input, and no other component on the port it reaches them on: a
-    coupler's wrench or a ground's impulse also fed to a second body (an additive port, so nothing
-    else refused it) pushed that body with forces worked out for the first, the run "ok"."""
-    for name, comp in built.items():
-        answers = _asked(name, "answers()", comp.answers, problems)
-        needed = _asked(name, "needed_outputs()", comp.needed_outputs, [])  # (its failure said above)
-        if answers is _FAILED or needed is _FAILED:
+def _check_answers(scene: Scene, built: dict[str, Component], answers_of: dict[str, dict[str, str]],
+                   needed_of: dict[str, dict[str, str]], problems: list[str]) -> None:
+    """Each output that answers an input (:meth:`~cosim.component.Component.answers`, ``answers_of``
+    by component) reaches every component sending on that input, and no other component on the port
+    it reaches them on: a coupler's wrench or a ground's impulse also fed to a second body (an
+    additive port, so nothing else refused it) pushed that body with forces worked out for the first,
+    the run "ok"."""
+    for name, answers in answers_of.items():
+        if name not in needed_of:  # (its needed_outputs() raised: said)
             continue
+        needed = needed_of[name]
         for out_port, in_port in answers.items():
             senders = sorted(_senders(scene, name, in_port))
             fed = [e for e in scene.connections if e.source == name and e.source_port == out_port]
@@ -1129,16 +1138,14 @@ def _check_answers(scene: Scene, built: dict[str, Component], problems: list[str
                                     f"to it, feeds {fed}: connect {name}.{out_port} -> {sender}")
 
 
-def _check_answer_rates(scene: Scene, built: dict[str, Component], problems: list[str]) -> None:
+def _check_answer_rates(scene: Scene, built: dict[str, Component], answers_of: dict[str, dict[str, str]],
+                        problems: list[str]) -> None:
     """An answer that its sender takes as an event (an impulse, received once and summed) is made
     once for each message it answers, so the answering component steps at its sender's rate: a
     ground stepping four times a body step answered the same state four times, and the four
     impulses summed threw a ball dropped from 0.5 m to 49 m, the run "ok"."""
-    for name, comp in built.items():
+    for name, answers in answers_of.items():
         every = scene.components[name].every
-        answers = _asked(name, "answers()", comp.answers, [])  # (its failure said by _check_answers)
-        if answers is _FAILED:
-            continue
         for out_port, in_port in answers.items():
             senders = _senders(scene, name, in_port)
             for edge in scene.connections:
@@ -1427,9 +1434,11 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     _check_stability(scene, built_components, problems)
     _check_freshness(scene, built_components, problems)
     _check_event_rates(scene, built_components, problems)
-    _check_needed_outputs(scene, built_components, problems)
-    _check_answers(scene, built_components, problems)
-    _check_answer_rates(scene, built_components, problems)
+    needed_of = _asked_of_each(built_components, "needed_outputs", problems)
+    answers_of = _asked_of_each(built_components, "answers", problems)
+    _check_needed_outputs(scene, needed_of, problems)
+    _check_answers(scene, built_components, answers_of, needed_of, problems)
+    _check_answer_rates(scene, built_components, answers_of, problems)
     _check_wiring(scene, built_components, problems)
     told = _check_told(scene, built_components, problems)
     _check_start(scene, built_components, problems)
@@ -1451,8 +1460,8 @@ def _long_run(scene: Scene) -> list[str]:
     base tick and LEAST_STEP_S a component step, the scheduler alone (a dt of 1e-8 s on the reference
     skip: 6e8 steps, about three days, started without a word; a component stepping every million
     ticks of 1 ns still costs each tick)."""
-    ticks = -(-scene.until_ns // scene.dt_ns)
-    steps = sum(-(-scene.until_ns // (scene.dt_ns * cfg.every)) for cfg in scene.components.values())
+    ticks = ticks_reaching(scene.until_ns, scene.dt_ns)
+    steps = sum(ticks_reaching(scene.until_ns, scene.dt_ns * cfg.every) for cfg in scene.components.values())
     least = ticks * LEAST_TICK_S + steps * LEAST_STEP_S
     if least <= LONG_RUN_S:
         return []

@@ -39,7 +39,7 @@ from cosim.errors import SimulationError
 from cosim.jit_time import compile_timer
 from cosim.messages import Message
 from cosim.scenario import Connection, Scene
-from cosim.timebase import NS_PER_S, exact_seconds
+from cosim.timebase import NS_PER_S, exact_seconds, ticks_reaching
 
 
 class Observer(Protocol):
@@ -483,7 +483,7 @@ class Simulation:
         with :attr:`raise_interrupts` set, goes on to the caller once the observers are told).
         """
         until_ns = self.scene.until_ns if until_ns is None else until_ns
-        end_tick = -(-until_ns // self.dt_ns)
+        end_tick = ticks_reaching(until_ns, self.dt_ns)
         wall0 = time.perf_counter()
         steps0 = self.component_steps()
         tick0 = self.tick

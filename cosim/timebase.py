@@ -38,6 +38,12 @@ def tick_time_ns(tick: int, dt_ns: int) -> int:
     return tick * dt_ns
 
 
+def ticks_reaching(t_ns: int, step_ns: int) -> int:
+    """How many steps of ``step_ns`` a run takes to reach ``t_ns`` [ns]: its last step reaches or
+    passes it (a run's end off the step grid ends on the step after it)."""
+    return -(-t_ns // step_ns)
+
+
 def format_time(ns: int) -> str:
     """Human-readable simulation time, e.g. ``1.2345 s``."""
     return f"{ns / NS_PER_S:.6g} s"

@@ -37,7 +37,7 @@ from cosim.fmi.spec import ExportSpec, Output, load_preset
 from cosim.messages import Message
 from cosim.scenario import MAX_TIME_NS, loads
 from cosim.scheduler import BaseObserver, Simulation
-from cosim.timebase import NS_PER_S, exact_seconds
+from cosim.timebase import NS_PER_S, exact_seconds, ticks_reaching
 
 SCENE_FILE = "scene.yaml"
 SPEC_FILE = "export.json"
@@ -75,7 +75,7 @@ def _run_to(sim: Simulation, end_tick: int) -> None:
     (it stopped itself, the stone sank, or reached its ``until``), time goes on and the outputs hold.
     (The scene ran on past its ``until``, which a ``--parameter`` on it therefore did not move: a
     master running past it got values `cosim run` never gives.)"""
-    last_tick = -(-sim.scene.until_ns // sim.dt_ns)  # the scene's end as run: its last step reaches until
+    last_tick = ticks_reaching(sim.scene.until_ns, sim.dt_ns)  # the scene's end, as Simulation.run ends it
     while sim.tick < min(end_tick, last_tick) and sim.stop_reason is None:
         sim.step()
     if sim.tick < end_tick:
