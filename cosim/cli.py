@@ -42,6 +42,7 @@ except KeyboardInterrupt:  # Ctrl-C while the command line itself loads: the sam
     raise SystemExit(1) from None
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+QUIET_HELP = "no progress bar, and no notice that the kernels are being compiled"  # (run, replay)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -480,8 +481,7 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
     p.add_argument("--perf", action="store_true",
                    help="add a wall-clock channel, /perf/tick: the wall time and real-time factor of every 100 "
                         "ticks and of the run's last ones (not deterministic)")
-    p.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress bar, and no notice that the kernels are being compiled")
+    p.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     p.add_argument("--live", nargs="?", const="127.0.0.1:8765", metavar="[HOST:]PORT", type=_live_address,
                    help="also stream to Foxglove over WebSocket (default 127.0.0.1:8765)")
     p.add_argument("--live-speed", type=_live_speed, default=None, metavar="S",
@@ -526,8 +526,7 @@ def build_parser(command: str = "") -> argparse.ArgumentParser:
                         "recording, C the time of the checkpoint it restarts from; with --set or --until, "
                         "RECORDING-fromCs-set-<hash>.mcap)")
     p.add_argument("--until", type=_seconds_arg, metavar="T", help="with --from: end time [s]")
-    p.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress bar, and no notice that the kernels are being compiled")
+    p.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     p.set_defaults(func=cmd_replay)
 
     if command in sub.choices:
@@ -724,8 +723,8 @@ def main(argv: list[str] | None = None) -> int:
     # a stream the process was started without (``>&-``: Python makes it None) is one that cannot be
     # written: stdout's said as /dev/full's is, stderr's taken as read by no one (its None was an
     # internal error, and turned a bad scene's exit 2 into 1)
-    sys.stdout = _ReaderMayLeave(_ClosedStream(writable=False) if stdout is None else stdout)
-    sys.stderr = _ReaderMayLeave(_ClosedStream(writable=True) if stderr is None else stderr, names_stdout=False)
+    sys.stdout = _ReaderMayLeave(_ClosedStream() if stdout is None else stdout)
+    sys.stderr = _ReaderMayLeave(_ClosedStream() if stderr is None else stderr, names_stdout=False)
     try:
         with _CtrlC() as ctrl_c:
             code = _main(argv, ctrl_c)
@@ -876,16 +875,11 @@ def _main(argv: list[str], ctrl_c: _CtrlC) -> int:
 
 
 class _ClosedStream:
-    """A standard stream the process was started without: writing to it fails as a closed descriptor
-    does (``writable`` False), or goes nowhere (True: standard error, which nothing reads then)."""
-
-    def __init__(self, *, writable: bool):
-        self._writable = writable
+    """A standard stream the process was started without: writing to it fails as to a closed
+    descriptor (:class:`_ReaderMayLeave` says it of stdout, and lets standard error's go nowhere)."""
 
     def write(self, text: str) -> int:
-        if not self._writable:
-            raise _closed()
-        return len(text)
+        raise _closed()
 
     def flush(self) -> None:
         pass

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from cosim.record.output import nearest_existing
+from cosim.record.output import nearest_existing, refuse_read_only
 from cosim.scheduler import Simulation
 
 
@@ -97,8 +97,11 @@ def check_output(parser: argparse.ArgumentParser, path: str | Path | None, optio
     if path.is_dir():
         parser.error(f"{option} {path}: is a directory")
     if path.exists():
-        # (by the permission bits too: root's writes ignore them, and a page made read-only was replaced)
-        if not os.access(path, os.W_OK) or not os.stat(path).st_mode & 0o222:
+        try:  # (by the permission bits too: root's writes ignore them, and a page made read-only was replaced)
+            refuse_read_only(path)
+        except PermissionError:
+            parser.error(f"{option} {path}: not writable")
+        if not os.access(path, os.W_OK):
             parser.error(f"{option} {path}: not writable")
         if text:
             try:

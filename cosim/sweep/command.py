@@ -218,16 +218,15 @@ def _strangers(journal: Path, known: set[str]) -> str:
     '' if it holds none or cannot be read here (the run then says what is wrong with it)."""
     import csv
 
+    from cosim.sweep.table import strangers_said
+
     try:
         with open(journal, newline="", encoding="utf-8") as f:
             strangers = [row.get("point_id") for row in csv.DictReader(f)
                          if row.get("point_id") and row.get("point_id") not in known]
     except (OSError, ValueError, csv.Error):
         return ""
-    if not strangers:
-        return ""
-    return (f"holds {len(strangers)} points that are not in this sweep (e.g. {strangers[0]}); use --fresh to "
-            "start over or -o for another file")
+    return strangers_said(strangers) if strangers else ""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -78,6 +78,13 @@ def journal_path(output: Path) -> Path:
     return output if output.suffix == ".csv" else beside(output, ".journal.csv")
 
 
+def strangers_said(strangers: list[str]) -> str:
+    """Why a table holding rows of the points ``strangers`` (their ids), which this sweep has not, is
+    not resumed (an axis that lost values)."""
+    return (f"holds {len(strangers)} points that are not in this sweep (e.g. {strangers[0]}); use --fresh to "
+            "start over or -o for another file")
+
+
 def run_again(fresh: bool) -> str:
     """How to go on with a table a sweep has begun: after --fresh the same command again would discard
     the rows it kept."""
@@ -484,8 +491,7 @@ class ResultTable:
             if kept is None or (kept["status"] in NOT_RESULTS and row["status"] not in NOT_RESULTS):
                 rows[row["point_id"]] = row
         if strangers:
-            raise ScenarioError(f"holds {len(strangers)} points that are not in this sweep (e.g. "
-                                f"{strangers[0]}); use --fresh to start over or -o for another file", where)
+            raise ScenarioError(strangers_said(strangers), where)
         # a run that was interrupted is no result of its point (README: it runs again on resume)
         results = {point: row for point, row in rows.items() if row["status"] not in NOT_RESULTS}
         self.dropped = len(rows) - len(results)
