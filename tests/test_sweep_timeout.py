@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 import signal
-import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -14,7 +14,7 @@ import cosim.sweep.backends as backends
 from cosim.cli import main
 from cosim.scenario import loads
 from cosim.scheduler import Simulation
-from tests.sweep_toys import BALL_SCENE, write_sweep
+from tests.sweep_toys import BALL_SCENE, Ball, write_sweep
 
 
 def test_a_timeout_leaves_a_run_in_its_last_tick_to_end():
@@ -78,8 +78,20 @@ def test_one_ctrl_c_after_a_timeout_lets_the_step_end(monkeypatch):
     step in progress ends and the run with it, interrupted by the signal (it raised KeyboardInterrupt and
     cut the step off, no tick taken)."""
     monkeypatch.setenv("COSIM_COMPONENT_PACKAGES", "tests")
-    task = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", ("components.ball.burn=8000000",), (), None, "", None, 0.1)
-    threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    stepping = Ball._step_impl
+
+    def step_until_timed_out_then_ctrl_c(self, t, dt, inputs):
+        # the Ctrl-C is sent in the first step, once the timeout has set the run's interrupt: by the
+        # run's state, not by a guess of how long loading and the step take (a busy machine loaded the
+        # scene past a fixed 0.3 s, and the signal reached the test itself)
+        deadline = time.monotonic() + 30.0
+        while backends._running.interrupt_reason is None and time.monotonic() < deadline:
+            time.sleep(0.005)
+        os.kill(os.getpid(), signal.SIGINT)
+        return stepping(self, t, dt, inputs)
+
+    monkeypatch.setattr(Ball, "_step_impl", step_until_timed_out_then_ctrl_c)
+    task = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", (), (), None, "", None, 0.1)
     row = backends.run_task(task)
     assert (row["status"], row["reason"], row["ticks"]) == ("interrupted", "interrupted by SIGINT", 1)
 
@@ -99,8 +111,20 @@ def test_a_worker_interrupted_by_a_signal_waits_for_the_sweeps_stop(monkeypatch)
             return True
 
     monkeypatch.setattr(backends, "_stop", Stop())
-    task = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", ("components.ball.burn=2000000",), ())
-    threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    stepping = Ball._step_impl
+
+    sent = []
+
+    def ctrl_c_in_the_first_step(self, t, dt, inputs):
+        # (in the step, where the run's handler takes it: a timer guessing when the run had started
+        # reached the test itself on a busy machine)
+        if not sent:
+            sent.append(t)
+            os.kill(os.getpid(), signal.SIGINT)
+        return stepping(self, t, dt, inputs)
+
+    monkeypatch.setattr(Ball, "_step_impl", ctrl_c_in_the_first_step)
+    task = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", (), ())
     assert backends.run_task(task)["status"] == "interrupted" and waits == [backends.STOP_WAIT_S]
     waits.clear()
     timed = backends.Task(0, "p0", BALL_SCENE, "ball.yaml", ("components.ball.burn=2000000",), (), None, "", None,
