@@ -187,6 +187,22 @@ def test_a_client_receives_the_physics_and_viewer_channels_with_sim_time():
     assert clock == sorted(clock) and clock[-1] == 300_000_000
 
 
+def test_the_run_s_end_is_streamed_whatever_the_frame_rate():
+    """The run's last message of a port that came after the port's last frame is drawn as the run
+    ends, as a recording draws it: at 30 frames a second a run ending at 0.31 s streams /tf at 0.31 s
+    (it stopped at the 0.3 s frame, and a viewer saw the stone where it was a frame before the end)."""
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+
+    scene = loads(SKIP_SCENE, overrides=["until=0.31"])
+    _, got, clock = stream(scene, {"/stone/state", "/tf"})
+    last_state = codec_for(BodyState).decode(got["/stone/state"][-1][1])
+    last_time, last_tf = got["/tf"][-1]
+    tf = FrameTransforms.FromString(last_tf).transforms[0]
+    assert got["/stone/state"][-1][0] == last_time == clock[-1] == 310_000_000
+    assert [tf.translation.x, tf.translation.y, tf.translation.z] == list(last_state.position)
+    assert sorted(t for t, _ in got["/tf"])[-2] == 300_000_000  # the frames before it as they were
+
+
 def test_a_live_run_records_the_same_physics(tmp_path):
     """Streaming live (unpaced) leaves the recorded physics channels identical."""
     from tests.test_foxglove_recording import physics

@@ -266,6 +266,10 @@ class LiveView(BaseObserver):
         self._last_clock = 0.0
         self._closed = False
         self._sim_end: int | None = None  # the finished run's simulation time [ns]
+        # per (component, port), its last message when it came after the port's last frame: drawn as
+        # the run ends, as a recording draws it (the viewer showed the stone up to a frame short of its
+        # end, where the recording of the same run showed where it ended)
+        self._undrawn: dict[tuple[str, str], tuple[int, Message]] = {}
         if announce:
             print(f"live view: {self.url} (Foxglove: Open connection > Foxglove WebSocket)", file=sys.stderr)
 
@@ -327,7 +331,17 @@ class LiveView(BaseObserver):
         if noted(topic):
             channel.log(codec_for(type(msg)).encode(msg), log_time=time_ns)
             self._subscriptions.served(topic)
-        for extra in self.deriver(time_ns, component, port, msg):
+        if time_ns < self.deriver.due_ns(component, port):
+            self._undrawn[component, port] = (time_ns, msg)
+        else:
+            self._undrawn.pop((component, port), None)
+        self._publish(time_ns, component, port, self.deriver(time_ns, component, port, msg))
+
+    def _publish(self, time_ns: int, component: str, port: str, extras: Any) -> None:
+        """Send the viewer items ``extras`` the deriver made of ``component``'s ``port`` at ``time_ns``,
+        and keep each as the latest of its topic (or entity) for a viewer that subscribes later."""
+        noted = self._subscriptions.noted
+        for extra in extras:
             scene = extra.schema_name == SCENE_UPDATE
             if scene:
                 held = self._entities.setdefault(extra.topic, {})
@@ -387,6 +401,10 @@ class LiveView(BaseObserver):
         self._send_latest()
 
     def on_finished(self, sim: Simulation, result: RunResult) -> None:
+        # the end is drawn whatever the frame rate: each port's last message after its last frame
+        undrawn, self._undrawn = self._undrawn, {}
+        for (component, port), (time_ns, msg) in undrawn.items():
+            self._publish(time_ns, component, port, self.deriver(time_ns, component, port, msg, final=True))
         self._sim_end = sim.time_ns
         self.server.broadcast_time(sim.time_ns)
         self._send_latest()
