@@ -74,6 +74,7 @@ HEADING_SPEED = 1e-6  # [m/s] a body let go slower than this horizontally has no
 BANK_NOTICE_DEG = 1.0  # [deg] a thrown disk banked more than this across its throw is said as the scene loads
 GRAVITY_MAX = 1e4  # [m/s^2] a component of the body's gravity at most (the coupler's g has the same bound)
 POSITION_MAX = 1e6  # [m] a start coordinate at most: 1000 km, the water's own bound (components.water.grid.LEVEL_MAX)
+MAX_DENSITY = 1e6  # [kg/m^3] of any body, given or implied by its mass (osmium is 22,590)
 DENSITY_RANGE = (1.0, 1e5)  # [kg/m^3] ordinary densities: a mass out of range with one is the size's doing
 
 
@@ -106,9 +107,10 @@ class RigidBodyParams:
     shape: Literal["disk", "sphere"] = param("disk", doc="thin disk (axis along body z) or sphere")
     radius: float = param(0.05, unit="m", gt=0, doc="disk or sphere radius")
     thickness: float = param(0.005, unit="m", ge=0, doc="disk thickness (ignored for a sphere)")
-    density: float = param(2700.0, unit="kg/m^3", gt=0, le=1e6,
+    density: float = param(2700.0, unit="kg/m^3", gt=0, le=MAX_DENSITY,
                            doc="sets the mass unless mass is given (at most 1e6: osmium is 22,590)")
-    mass: float | None = param(None, unit="kg", gt=0, doc="overrides the density")
+    mass: float | None = param(None, unit="kg", gt=0,
+                               doc="overrides the density (at most the mass the density's bound, 1e6 kg/m^3, gives)")
     position: Vec3Param = param((0.0, 0.0, 0.1), unit="m", doc="initial centre of mass")
     velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="m/s", doc="initial velocity")
     angular_velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="rad/s", doc="initial, world frame")
@@ -215,6 +217,12 @@ class RigidBodyParams:
                 source = "thickness" if self.shape == "disk" and self.thickness > r else "radius"
             return [(source, f"gives the body a mass of {mass:g} kg, not a positive, finite, normal float "
                              f"(got {getattr(self, source)!r})")]
+        if source == "mass" and mass > MAX_DENSITY * volume:
+            # as dense as the density's own bound allows, no denser: 1e307 kg on a 5 cm disk passed,
+            # and its contact with the ground failed the run with a non-finite force
+            return [("mass", f"makes the body denser than {MAX_DENSITY:g} kg/m^3 (the density's bound; osmium is "
+                             f"22,590): at most {MAX_DENSITY * volume:.4g} kg for its {volume:.4g} m^3 "
+                             f"(got {self.mass!r})")]
         weight = mass * max(abs(g) for g in self.gravity)
         if not math.isfinite(weight):
             return [(source, f"gives the body a weight of {weight:g} N, not a finite float "

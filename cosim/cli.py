@@ -68,6 +68,8 @@ def number_arg(kind: type[int] | type[float], what: str, *, above: float | None 
     a bad value is a one-line error naming what was expected and what was given."""
     def parse(text: str) -> Any:
         try:
+            if "_" in text:  # Python's 1_0 is 10; a scene's YAML numbers (and --set) refuse it
+                raise ValueError(text)
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
@@ -122,10 +124,9 @@ def run_until_ns(text: str) -> int:
     nothing). It becomes the scene's ``until`` (an override), whose rules then hold: a time shorter than
     one base step is refused (exit 2, "until: must be at least one base step"), and one between two steps
     runs to the next whole step."""
-    ns = _seconds_arg(text)
-    if ns <= 0:
+    if not seconds(text) > 0:  # one rule for 0 and below (-1 was told "must be >= 0 s", then 0 refused)
         raise argparse.ArgumentTypeError(f"must be later than 0 s (a run of no time), got {text}")
-    return ns
+    return _seconds_arg(text)
 
 
 def _live_address(text: str) -> str:
@@ -300,12 +301,8 @@ def say_warning(text: str, file: Any = None) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from cosim.scenario import load, read_input, read_yaml
+    from cosim.scenario import load
 
-    data = read_yaml(read_input(args.scene), args.scene)
-    if isinstance(data, dict) and "axes" in data and "scene" in data and "components" not in data:
-        raise ScenarioError("this is a sweep file (it has scene: and axes:, no components:); check it with "
-                            f"`cosim sweep {args.scene} --dry-run`", args.scene)
     scene = load(args.scene, overrides=args.set or [])
     say_notices(scene.notices)
     if scene.record.channels is not None:

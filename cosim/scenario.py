@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from cosim.codec.json_codec import CodecError, codec_for
+from cosim.codec.json_codec import CodecError, codec_for, json_kind
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound, substep_count
 from cosim.errors import NO_ROOM, ScenarioError, one_line
 from cosim.messages import Message
@@ -449,7 +449,12 @@ def _parse_yaml(text: str, source: str) -> dict[str, Any]:
     if data is None:
         raise ScenarioError("the scene is empty (expected a mapping with dt, until, components)", source)
     if not isinstance(data, dict):
-        raise ScenarioError(f"the scene must be a mapping (got {type(data).__name__})", source)
+        raise ScenarioError(f"the scene must be a mapping (got {json_kind(data)})", source)
+    if "axes" in data and "scene" in data and "components" not in data:
+        # said as one thing, by every command that loads a scene (cosim run listed its keys one by one
+        # as unknown, where cosim validate named the file for what it is)
+        raise ScenarioError(f"this is a sweep file (it has scene: and axes:, no components:): run it with "
+                            f"`cosim sweep {source}` (`--dry-run` checks it)", source)
     return data
 
 
@@ -794,8 +799,26 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
             problems.append(f"{path}.initial{where}: {number_text(value)} is beyond {LARGEST_INITIAL:g} (too large "
                             "for any start of a run)")
             return None
+        codec = codec_for(out_type)
+        fields = f"fields of {out_type.__name__}: {', '.join(s.name for s in codec.fields)}"
+        if not isinstance(initial_data, dict):
+            problems.append(f"{path}.initial: expected a mapping of the message's fields ({fields}), got "
+                            f"{show_value(initial_data)}")
+            return None
+        # said here in the scene's words (each key on its path, the type as the scene's ports name it):
+        # a key that was no text (5:, ~:) was an internal error, and the codec's own words named
+        # 'cosim.Number'
+        strangers = [key for key in initial_data if key not in {s.name for s in codec.fields}]
+        for key in strangers:
+            spelled = json_kind(key) if key is None or isinstance(key, bool) else str(key)
+            problems.append(f"{path}.initial.{spelled}: unknown key ({fields})")
+        missing = codec.missing(initial_data)
+        if missing:
+            problems.append(f"{path}.initial: missing {', '.join(missing)} ({fields})")
+        if strangers or missing:
+            return None
         try:
-            initial = codec_for(out_type).from_dict(initial_data)
+            initial = codec.from_dict(initial_data)
         except CodecError as exc:  # (about one field: said on it, path.initial.x_max: ...)
             problems.append(f"{path}.initial.{exc}" if exc.field else f"{path}.initial: {exc}")
             return None

@@ -100,13 +100,14 @@ def test_inspect_dates_the_timeline_to_the_digit_of_the_runs_step(tmp_path, caps
     assert row.split()[0] == said
 
 
-def test_validate_on_a_sweep_file_says_it_is_one_and_how_to_check_it(capsys):
-    """`cosim validate` of a sweep file does not list its keys as unknown scene keys: one line says it
-    is a sweep and names the command that checks it (exit 2)."""
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_a_command_given_a_sweep_file_says_it_is_one_and_how_to_run_it(command, capsys):
+    """`cosim validate` or `cosim run` of a sweep file does not list its keys as unknown scene keys:
+    one line says it is a sweep and names the command that runs it (exit 2; run listed 5 keys)."""
     sweep = str(ROOT / "scenarios" / "sweeps" / "magic_angle.yaml")
-    assert main(["validate", sweep]) == 2
+    assert main([command, sweep, "--no-record"][:3 if command == "run" else 2]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "sweep file" in err[0] and f"cosim sweep {sweep} --dry-run" in err[0]
+    assert len(err) == 1 and "sweep file" in err[0] and f"`cosim sweep {sweep}` (`--dry-run` checks it)" in err[0]
 
 
 def test_a_flat_throw_called_sunk_has_sunk():

@@ -385,6 +385,11 @@ def test_pictures_too_large_to_make_are_bad_input(tmp_path, capsys, argv, said):
     # (a thousandth of a nanosecond is off the clock's grid, no longer taken for 0)
     (["--until", "1e-12"], "error: cosim run: argument --until: must be a whole number of nanoseconds, got 1e-12 s"),
     (["--until", "0"], "error: cosim run: argument --until: must be later than 0 s (a run of no time), got 0"),
+    # one rule below 0 too (-1 was told "must be >= 0 s", a rule 0 then met and was refused by)
+    (["--until", "-1"], "error: cosim run: argument --until: must be later than 0 s (a run of no time), got -1"),
+    # a number as the scene's YAML and --set read one (Python's 1_0 ran for 10 s, where until=1_0 is refused)
+    (["--until", "1_0"], "error: cosim run: argument --until: expected seconds, got '1_0'"),
+    (["--record-every", "1_0"], "error: cosim run: argument --record-every: expected a whole number, got '1_0'"),
 ])
 def test_run_options_that_would_do_nothing_are_bad_input(scene, tmp_path, capsys, monkeypatch, argv, said):
     """Options that silently did nothing (recorded no channel, ignored -o, ran 0 s): exit 2, one line."""

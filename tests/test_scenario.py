@@ -114,7 +114,8 @@ MALFORMED = {
     "bad initial": (
         scene_with('g: {type: "tests.toys:Gain"}\nacc: {type: "tests.toys:Accumulator"}',
                    "[g.out -> acc.x, {from: acc.total, to: g.x, delay: 1, initial: {valu: 1}}]"),
-        r"connections\.1\.initial: cosim\.Scalar: missing value; unknown valu"),
+        r"connections\.1\.initial\.valu: unknown key \(fields of Scalar: value\)\n.*connections\.1\.initial: missing "
+        r"value \(fields of Scalar: value\)"),
     "input connected twice where not additive": (
         scene_with('a: {type: "tests.toys:Source"}\nb: {type: "tests.toys:Source"}\ng: {type: "tests.toys:Gain"}',
                    "[a.out -> g.x, b.out -> g.x]"),
@@ -144,7 +145,7 @@ MALFORMED = {
     "yaml syntax error": (
         "dt: 0.001\ncomponents: {a: [\n", r"YAML syntax error: line \d+, column \d+"),
     "empty file": ("", r"the scene is empty"),
-    "not a mapping": ("- 1\n- 2\n", r"the scene must be a mapping \(got list\)"),
+    "not a mapping": ("- 1\n- 2\n", r"the scene must be a mapping \(got a list\)"),
     "malformed edge": (
         scene_with('a: {type: "tests.toys:Source"}', "[a.out => b.x]"),
         r"connections\.0: expected 'source\.port -> target\.port' \(got 'a\.out => b\.x'\)"),
@@ -224,7 +225,12 @@ def test_a_refused_connection_is_not_also_said_to_leave_its_input_unconnected(ch
 
 @pytest.mark.parametrize(("override", "said"), [
     ("connections.5.initial.x_max=abc", "connections.5.initial.x_max: expected a number, got string 'abc'"),
-    ("connections.3.initial.radial=null", "connections.3.initial.radial: expected a number, got NoneType"),
+    ("connections.3.initial.radial=null", "connections.3.initial.radial: expected a number, got null"),
+    # a key that is no text, said on its path as the file wrote it (it was an internal error, exit 1)
+    ("connections.3.initial={5: 0}", "connections.3.initial.5: unknown key (fields of AddedMass: "),
+    ("connections.3.initial={~: 0}", "connections.3.initial.null: unknown key (fields of AddedMass: "),
+    ("connections.3.initial=7", "connections.3.initial: expected a mapping of the message's fields (fields of "
+                                "AddedMass: "),
 ])
 def test_a_wrong_scalar_in_a_connections_initial_value_is_named_by_its_field(override, said):
     """A delayed edge's initial message with a scalar field of the wrong type: the error names the field

@@ -56,6 +56,20 @@ def _float_out(x: float) -> float | str:
     return x if math.isfinite(x) else nonfinite_text(x)
 
 
+def json_kind(x: Any) -> str:
+    """What a decoded JSON or YAML value is, in the file's words: null, true, a list, an object (a
+    Python type name, 'NoneType', meant nothing to the one who wrote the file)."""
+    if x is None:
+        return "null"
+    if isinstance(x, bool):
+        return "true" if x else "false"
+    if isinstance(x, list | tuple):
+        return "a list"
+    if isinstance(x, dict):
+        return "an object"
+    return type(x).__name__
+
+
 def _float_in(x: Any) -> float:
     if isinstance(x, str):
         if x.startswith("nan:") and len(x) == 20:
@@ -68,7 +82,7 @@ def _float_in(x: Any) -> float:
         except KeyError:
             raise CodecError(f"expected a number, got string {x!r}") from None
     if isinstance(x, bool) or not isinstance(x, (int, float)):
-        raise CodecError(f"expected a number, got {type(x).__name__}")
+        raise CodecError(f"expected a number, got {json_kind(x)}")
     return float(x)
 
 
@@ -364,11 +378,10 @@ class MessageCodec:
     def from_dict(self, data: Any) -> Message:
         """Build a message from a decoded dict, checking every field; raises CodecError."""
         if not isinstance(data, dict):
-            raise CodecError(f"{self.schema_name}: expected an object, got {type(data).__name__}")
+            raise CodecError(f"{self.schema_name}: expected an object, got {json_kind(data)}")
         names = {name for name, _ in self._decoders}
-        unknown = sorted(set(data) - names)
-        # a field with a default may be left out (a message written before the field was added)
-        missing = [name for name, _ in self._decoders if name not in data and name not in self._defaulted]
+        unknown = sorted(map(str, set(data) - names))  # (a YAML key may be a number or null)
+        missing = self.missing(data)
         if unknown or missing:
             parts = []
             if missing:
@@ -381,6 +394,11 @@ class MessageCodec:
         except CodecError as exc:  # said with the field it is about (array fields name themselves)
             raise self._failing_field(data, exc) from None
         return self.message_type(**values)
+
+    def missing(self, data: dict) -> list[str]:
+        """The fields a message needs that ``data`` lacks, in declaration order (a field with a default
+        may be left out: a message written before the field was added)."""
+        return [name for name, _ in self._decoders if name not in data and name not in self._defaulted]
 
     def _failing_field(self, data: dict, exc: CodecError) -> CodecError:
         """``exc`` led by the field of ``data`` that fails to decode ('x_max: expected a number, got
