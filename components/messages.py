@@ -43,7 +43,7 @@ class BodyState(Message):
     horizontal plane [deg] (0 for a sphere), unsigned and whichever way the face leans: the attack
     angle while the lean stays along the path (components.analysis.data.attack_along_motion gives
     the signed angle along the motion); speed [m/s]; kinetic_energy and potential_energy [J]
-    (potential relative to z = 0).
+    (potential -M g . position, zero at the origin: relative to z = 0 when gravity is along -z).
     attitude_locked: the body ignores torques and angular impulses (locked or scripted attitude), so
     contact components must not expect it to turn.
     """
