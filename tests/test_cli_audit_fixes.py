@@ -38,11 +38,16 @@ from_list: {<<: *q}
 """
 
 
-def test_merge_keys_read_as_pyyaml_safe_loader_reads_them():
-    """`<<: *a` and `<<: [*a, *b]` merge (the first listed winning), a key written beside a merge
-    overrides the merged one, and a mapping that merged and overrode is itself merged unchanged."""
+def test_merge_keys_read_as_the_yaml_merge_type_says():
+    """`<<: *a` and `<<: [*a, *b]` merge (the first listed winning, as the YAML merge type has it:
+    "keys in mapping nodes earlier in the sequence override keys specified in later mapping nodes"),
+    a key written beside a merge overrides the merged one, and a mapping that merged and overrode is
+    itself merged unchanged. PyYAML's safe loader reads the single merges alike; of a list of an alias
+    and a mapping written in place, its 6.0.4 lets the last win (6.0.3 the first), so the list's case
+    is held to the merge type itself, not to whichever PyYAML is installed."""
     data = read_yaml(MERGES, "m.yaml")
-    assert data == yaml.safe_load(MERGES)
+    single = {key: value for key, value in yaml.safe_load(MERGES).items() if key != "two"}
+    assert {key: value for key, value in data.items() if key != "two"} == single
     assert data["floor"] == {"type": "SolidGround", "restitution": 0.5, "mu_static": 0.6}
     assert data["two"] == {"type": "SolidGround", "restitution": 0.7, "z": 1, "a": 1}
     assert data["deeper"] == {"type": "SolidGround", "restitution": 0.1}

@@ -127,7 +127,9 @@ def test_an_fmu_that_cannot_be_unpacked_for_want_of_room_leaves_nothing_and_name
     the folder it was unpacked to (which the command line says as ``FOLDER: cannot be written
     (File too large)``, exit 1), and that folder removed, at every try; ``validate`` names the
     folder too, exit 1 (it said exit 2, the scene's values), and leaves nothing in $TMPDIR (each try
-    left a half-unpacked folder)."""
+    left a half-unpacked folder). (The FMU is built: the [fmi] extra, skipped without it.)"""
+    pytest.importorskip("pythonfmu")
+    pytest.importorskip("fmpy")
     from cosim.fmi.build import cached_fmu
 
     fmu = cached_fmu(GUST_MODEL)  # built here, with no limit: the child only unpacks it
@@ -165,7 +167,8 @@ def test_an_fmu_built_for_want_of_room_is_said_of_its_file_and_leaves_nothing(tm
     """``fmu export`` under a file-size limit: ``error: out.fmu: cannot be written (File too large)``,
     exit 1, no out.fmu and nothing in $TMPDIR (an internal error naming a deleted temporary file).
     A model built into the FMU cache so: the file it was to be, exit 1, and no empty key folder left
-    in the cache."""
+    in the cache. (The [fmi] extra: skipped without it.)"""
+    pytest.importorskip("pythonfmu")
     temporary = tmp_path / "tmp"
     temporary.mkdir()
     shutil.copy(ROOT / "scenarios" / "ping_pong.yaml", tmp_path / "pp.yaml")
