@@ -114,10 +114,13 @@ def refused(host: str, port: int, within: float = 5.0) -> bool:
     return False
 
 
-def stream(scene, wanted: set[str]) -> tuple[dict[str, dict], dict[str, list[tuple[int, bytes]]], list[int]]:
+def stream(scene, wanted: set[str], last: tuple[str, int] | None = None
+           ) -> tuple[dict[str, dict], dict[str, list[tuple[int, bytes]]], list[int]]:
     """Run ``scene`` live (paced at real time) with a client subscribed to ``wanted`` topics; return
     the advertised channels by topic, the (log time, payload) pairs received per topic, and the
-    clock broadcasts."""
+    clock broadcasts. Received until the clock has reached the scene's end and, with ``last`` =
+    (topic, log time), that topic a message of that time (the server's clock and a channel's
+    messages reach a client by separate queues: either can come first)."""
     sim = Simulation(scene)
     view = LiveView(scene, "127.0.0.1:0", speed=1.0, components=sim.components, announce=False)
     client = WsClient("127.0.0.1", view.port)
@@ -136,7 +139,12 @@ def stream(scene, wanted: set[str]) -> tuple[dict[str, dict], dict[str, list[tup
 
     try:
         runner.start()
-        while not (not runner.is_alive() and clock and clock[-1] == scene.until_ns):
+        def done() -> bool:
+            if runner.is_alive() or not clock or clock[-1] != scene.until_ns:
+                return False
+            return last is None or any(t == last[1] for t, _ in got.get(last[0], []))
+
+        while not done():
             try:
                 op, data = client.recv()
             except (TimeoutError, ConnectionError):
@@ -195,7 +203,7 @@ def test_the_run_s_end_is_streamed_whatever_the_frame_rate():
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 
     scene = loads(SKIP_SCENE, overrides=["until=0.31"])
-    _, got, clock = stream(scene, {"/stone/state", "/tf"})
+    _, got, clock = stream(scene, {"/stone/state", "/tf"}, last=("/tf", 310_000_000))
     last_state = codec_for(BodyState).decode(got["/stone/state"][-1][1])
     last_time, last_tf = got["/tf"][-1]
     tf = FrameTransforms.FromString(last_tf).transforms[0]
