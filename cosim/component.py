@@ -43,7 +43,9 @@ ports and types first) and the scheduler's :meth:`Component.step_gathered` own t
 status and step count, the stability guard
 against :meth:`max_stable_step` (error, or substepping; :meth:`Component.restep` applies it to a
 bound a component learns inside its step), checking outputs (known ports, right types, finite
-values, enum fields holding one of their members, arrays of their declared shape) and turning any exception into a
+values, each field a value of its own kind: an int a whole number within 64 bits, a bool a bool, a
+str a text, an array a numpy array of its dtype's kind and declared shape; enum fields holding one
+of their members) and turning any exception into a
 :class:`SimulationError` naming the component, the simulation time and the reason. Physics code
 never sees the scheduler.
 """
@@ -430,9 +432,24 @@ class Component:
         None), driven by hand (a test, a script): the inputs are held to the declared ports first, so a
         misspelt port or a message of another type is the caller's error, named, not a port silently
         left empty or an AttributeError deep in the step. The scheduler, whose inputs are its own
-        plan's, goes straight to :meth:`step_gathered`."""
+        plan's, goes straight to :meth:`step_gathered`. An input port left out is given None, as the
+        scheduler gives an unconnected one (a required one left out is the caller's error, named), and
+        the times must be whole nanoseconds (a dt in seconds, 0.01, ran a step of 1e-11 s)."""
+        for name, value in (("t_ns", t_ns), ("dt_ns", dt_ns)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
+                raise SimulationError(self.name, 0, f"was given {name} = {value!r}, not a whole number of "
+                                      "nanoseconds (step takes times in ns; its _step_impl is given seconds)")
+        if dt_ns <= 0:
+            raise SimulationError(self.name, int(t_ns), f"was given dt_ns = {dt_ns}, not a step: it must be > 0")
         self._check_inputs(t_ns, inputs)
-        return self.step_gathered(t_ns, dt_ns, inputs, on_unstable)
+        missing = [port for port, spec in self.inputs.items() if port not in inputs]
+        if missing:
+            required = [port for port in missing if self.inputs[port].required]
+            if required:
+                raise SimulationError(self.name, int(t_ns), f"was not given its required input "
+                                      f"{', '.join(map(repr, required))}")
+            inputs = {**dict.fromkeys(missing), **inputs}
+        return self.step_gathered(int(t_ns), int(dt_ns), inputs, on_unstable)
 
     def _check_inputs(self, t_ns: int, inputs: Any) -> None:
         """A :class:`SimulationError` unless ``inputs`` maps this component's input ports to messages

@@ -66,6 +66,31 @@ class SimulationError(CosimError):
         super().__init__(f"component {component!r} failed at t = {format_time(time_ns)}: {reason}")
 
 
+class StateRestoreError(CosimError):
+    """A component's ``set_state`` refused the state a checkpoint holds for it with a ValueError,
+    KeyError or TypeError: the state is not one it takes (a checkpoint of another scene, settings changed
+    by --set, or a set_state that reads what its get_state does not write). Names the component and
+    the error; a restart says it as its input's fault (exit 2). Any other error of a set_state is the
+    component's failure (:class:`SimulationError`)."""
+
+    exit_code = 2  # the checkpoint's (or the overrides') fault, not a failed run
+
+    def __init__(self, component: str, error: BaseException):
+        self.component = component
+        self.error = error
+        if isinstance(error, KeyError):
+            said = (f"it holds no {error.args[0]!r} for component {component!r}, whose set_state reads it (a "
+                    "component or setting changed by --set, or a set_state reading what its get_state does "
+                    "not write?)")
+        elif isinstance(error, ValueError) and repr(component) in str(error):
+            said = str(error)  # a refusal in the component's own words, naming it
+        elif isinstance(error, ValueError):
+            said = f"component {component!r} cannot take the state it holds: {error}"
+        else:
+            said = f"component {component!r} cannot take the state it holds: {type(error).__name__}: {error}"
+        super().__init__(readable_reason(said))
+
+
 ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
 REASON_MOST = 1000  # [characters] of a failure's reason kept in the one line, the status and the summary
 

@@ -109,15 +109,19 @@ class Message:
         type's members has (fault ``7 is not a Shape (0 disk, 1 sphere)``): the codecs would write
         it, and no reader could read it back. The fast path is :meth:`first_nonfinite`'s one
         generated expression, which checks the enum fields too; only a message it does not pass is
-        looked at field by field. Then an array field whose shape is not the one its :class:`Array`
-        declares (fault ``must have shape (3,), got (2,)``; a free dimension takes any length): the
-        codecs would write a message no reader could read back, or fail naming no component."""
+        looked at field by field. Then a field holding a value of another kind than its own, which
+        the codecs would write as something else than the receivers were given, or fail on naming no
+        component (:func:`_first_bad_kind`: an int field given 1.5 was recorded as 1, a bool field
+        given "no" as true, a list in an array field failed in its receiver). Then an array field
+        whose shape is not the one its :class:`Array` declares (fault ``must have shape (3,), got
+        (2,)``; a free dimension takes any length): the codecs would write a message no reader could
+        read back, or fail naming no component."""
         check = _CHECKS.get(type(self))  # (written out, not a helper's call: this runs for every output)
         if check is None:
             check = _CHECKS[type(self)] = _value_check(type(self))
         if check(self):
             return None
-        return _first_bad_number(self) or _first_bad_enum(self) or _first_bad_shape(self)
+        return _first_bad_number(self) or _first_bad_kind(self) or _first_bad_enum(self) or _first_bad_shape(self)
 
 
 NONFINITE = "non-finite"
@@ -146,6 +150,44 @@ def _first_bad_number(msg: Message) -> tuple[str, str] | None:
         except (TypeError, ValueError):  # texts, objects, or a ragged list, which numpy cannot test
             return name, f"must be an array of numbers, got {_array_kind(given)}"
     return None
+
+
+INT64_RANGE = (-(2 ** 63), 2 ** 63 - 1)  # an int field's values: the recording's sfixed64
+
+
+def _first_bad_kind(msg: Message) -> tuple[str, str] | None:
+    """(name, fault) of the first field holding a value of another kind than the field's, or None:
+    an int field a whole number within 64 bits (Python's or numpy's integers; a float, 1.5 or 2.0,
+    is refused: the recording would hold int(value), the receivers the float), a bool field true or
+    false (Python's or numpy's bool), a str field a text, an array field a numpy array whose dtype
+    the declared one takes without changing kind (an int64 array for float64, not a float array for
+    int32 nor a complex one for float64), not a list or a tuple."""
+    for spec in type(msg).__cosim_fields__:
+        value = getattr(msg, spec.name)
+        if spec.kind is FieldKind.INT:
+            if isinstance(value, float | np.floating) or not isinstance(value, int | np.integer):
+                return spec.name, f"must be an int (a whole number), got {_value_kind(value)}"
+            if not INT64_RANGE[0] <= value <= INT64_RANGE[1]:
+                return spec.name, f"must fit in 64 bits (-2^63 to 2^63 - 1), got {value}"
+        elif spec.kind is FieldKind.BOOL:
+            if not isinstance(value, bool | np.bool_):
+                return spec.name, f"must be true or false (a bool), got {_value_kind(value)}"
+        elif spec.kind is FieldKind.STR:
+            if not isinstance(value, str):
+                return spec.name, f"must be a str, got {_value_kind(value)}"
+        elif spec.kind is FieldKind.ARRAY and spec.array is not None:
+            declared = np.dtype(spec.array.dtype)
+            if not isinstance(value, np.ndarray):
+                return spec.name, f"must be a numpy array of {declared}, got {_value_kind(value)}"
+            if value.dtype != declared and not np.can_cast(value.dtype, declared, "same_kind"):
+                return spec.name, f"must be an array of {declared}, got an array of {value.dtype}"
+    return None
+
+
+def _value_kind(value: Any) -> str:
+    """A value for a fault: its type, and the value itself when it is short (``float 1.5``)."""
+    text = repr(value)
+    return f"{type(value).__name__} {text}" if len(text) <= 40 else type(value).__name__
 
 
 def _array_kind(given: Any) -> str:
@@ -255,6 +297,19 @@ def _value_check(message_type: type[Message]) -> typing.Callable[[Message], bool
             # by its equal value
             env[f"_members{i}"] = dict.fromkeys(spec.enum_type, 0.0)
             terms.append(f"_members{i}[m.{spec.name}]")
+        # each field of its own kind (_first_bad_kind): a term of 0.0 when it is, else None, whose sum
+        # fails; only the plain Python types pass here (numpy's scalars are looked at field by field)
+        elif spec.kind is FieldKind.INT:
+            terms.append(f"(0.0 if type(m.{spec.name}) is int and {INT64_RANGE[0]} <= m.{spec.name} <= "
+                         f"{INT64_RANGE[1]} else None)")
+        elif spec.kind is FieldKind.BOOL:
+            terms.append(f"(0.0 if type(m.{spec.name}) is bool else None)")
+        elif spec.kind is FieldKind.STR:
+            terms.append(f"(0.0 if type(m.{spec.name}) is str else None)")
+        elif spec.array is not None and spec.name not in arrays:
+            # a non-float array (a float one is summed above, which a list or a complex array fails)
+            env[f"_dtype{i}"] = np.dtype(spec.array.dtype)
+            terms.append(f"(0.0 if m.{spec.name}.dtype == _dtype{i} else None)")
     body = " + ".join(["0.0", *terms])
     # each array's shape as declared: a 2-vector where (3,) was declared sums to a finite number too
     shapes = "".join(f" and {_shape_term(s.name, s.array.shape)}" for s in message_type.__cosim_fields__

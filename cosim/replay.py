@@ -18,7 +18,7 @@ import numpy as np
 
 from cosim.codec.json_codec import codec_for
 from cosim.component import Component
-from cosim.errors import CosimError, RecordingError, counted, shortened
+from cosim.errors import CosimError, RecordingError, StateRestoreError, counted, shortened
 from cosim.messages import Message, first_difference
 from cosim.record.reader import Recording
 from cosim.record.recorder import selected, topic_of
@@ -268,7 +268,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         comp.begin(gather_start(plan))
     else:  # the component as the restart's checkpoint holds it, from its first step after it
         stamp, cp = restart
-        restore_component(comp, cp["components"][name])
+        restore_component(comp, cp["components"][name], stamp)
         first_tick = -(-(stamp // dt_ns) // every) * every
     steps = 0
     seconds = 0.0  # in the component's steps, the first one left out
@@ -523,6 +523,9 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     _refuse_start_only_overrides(sim, recorded, unread, overrides or [], stamp)
     try:
         sim.restore(cp)
+    except StateRestoreError as exc:  # a component's set_state refused the state it holds, named
+        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
+                             f"{exc}") from None
     except (ValueError, KeyError, TypeError) as exc:  # (TypeError: a component's state holding a wrong kind of value)
         why = (f"it holds no {exc.args[0]!r}, which this scene's components restore (a component or setting "
                "changed by --set?)" if isinstance(exc, KeyError) else str(exc))

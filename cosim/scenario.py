@@ -1305,9 +1305,11 @@ def scene_folder(source: str) -> Path:
 
 
 def loads(text: str, source: str = "<string>", overrides: list[str] | None = None,
-          base_dir: str | Path | None = None) -> Scene:
+          base_dir: str | Path | None = None, default_name: str | None = None) -> Scene:
     """Parse and validate a scene from YAML text; raises ScenarioError listing every problem.
-    ``base_dir``: the folder relative file names start from (default :func:`scene_folder`)."""
+    ``base_dir``: the folder relative file names start from (default :func:`scene_folder`);
+    ``default_name``: the name of a scene without ``name:`` (default :func:`default_scene_name` of
+    ``source``; a recording's scene keeps the name its run gave it, not its attachment's)."""
     overrides = list(overrides or [])
     folder = Path(base_dir).resolve() if base_dir is not None else scene_folder(source)
     if len(text) > MAX_SCENE_BYTES:
@@ -1318,7 +1320,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
     for key in data:
         if key not in TOP_KEYS:
             problems.append(f"{key}: unknown key (known: {', '.join(sorted(TOP_KEYS))})")
-    name = data.get("name", default_scene_name(source))
+    name = data.get("name", default_name or default_scene_name(source))
     if not isinstance(name, str):
         problems.append(f"name: must be a string (got {name!r})")
     elif "name" in data and (not SCENE_NAME_RE.fullmatch(name) or ".." in name):

@@ -35,7 +35,7 @@ from typing import Any, Protocol
 
 from cosim.codec.json_codec import codec_for, decode_state
 from cosim.component import Component, substep_count
-from cosim.errors import SimulationError
+from cosim.errors import SimulationError, StateRestoreError
 from cosim.jit_time import compile_timer
 from cosim.messages import Message
 from cosim.scenario import Connection, Scene
@@ -295,11 +295,15 @@ def _substeps_said(n: int) -> str:
     return f"{substep_count(n)} substep{'' if n == 1 else 's'}"
 
 
-def restore_component(comp: Component, saved: dict[str, Any]) -> None:
-    """Put ``comp`` back as a checkpoint saved it (``saved``: its entry under ``components``): its
-    state, its steps so far, the substeps its last step took (a restart said again that a component
-    substepping all along took 2 substeps) and a stop it asked for in the tick the checkpoint closes
-    (a restart from a stopped run's last checkpoint ran on past the stop)."""
+def restore_component(comp: Component, saved: dict[str, Any], time_ns: int) -> None:
+    """Put ``comp`` back as a checkpoint saved it (``saved``: its entry under ``components``; ``time_ns``:
+    the checkpoint's time): its state, its steps so far, the substeps its last step took (a restart
+    said again that a component substepping all along took 2 substeps) and a stop it asked for in the
+    tick the checkpoint closes (a restart from a stopped run's last checkpoint ran on past the stop).
+    Its ``set_state`` refusing the state (a ValueError, KeyError or TypeError) raises
+    :class:`StateRestoreError` naming the component; failing otherwise, it is the component's failure
+    at ``time_ns``, as its ``get_state`` failing is (a RuntimeError of a user's set_state was an
+    internal error, and a KeyError named no component)."""
     unsaved = saved.get("unsaved")
     if unsaved:
         # said, not refused: the attributes may be no state at all (a log of what it was given, a cache)
@@ -308,7 +312,17 @@ def restore_component(comp: Component, saved: dict[str, Any]) -> None:
                       f"not as it was, and the run from here differs from the original wherever those "
                       f"attributes decide its outputs", stacklevel=2)
     state = saved["state"]
-    comp.set_state(decode_state(state) if isinstance(state, (bytes, str)) else state)
+    state = decode_state(state) if isinstance(state, (bytes, str)) else state
+    try:
+        comp.set_state(state)
+    except (ValueError, KeyError, TypeError) as exc:  # the state is not one it takes
+        raise StateRestoreError(comp.name, exc) from exc
+    except (KeyboardInterrupt, SimulationError):
+        raise
+    except BaseException as exc:  # (sys.exit() too, as in a step)
+        comp.status = "failed"
+        raise SimulationError(comp.name, time_ns, f"restoring its saved state failed: {type(exc).__name__}: "
+                              f"{exc}") from exc
     comp.step_count = saved["step_count"]
     comp.last_substeps = int(saved.get("substeps", 1))  # (not in checkpoints of older recordings)
     comp.last_stable_step = float(saved.get("stable_step", math.inf))
@@ -606,7 +620,7 @@ class Simulation:
             saved = cp["components"].get(runner.name)
             if saved is None:
                 raise ValueError(f"checkpoint has no state for component {runner.name!r}")
-            restore_component(runner.comp, saved)
+            restore_component(runner.comp, saved, time_ns)
             runner.substeps_seen = runner.comp.last_substeps
             runner.most_substeps = int(saved.get("most_substeps", runner.comp.last_substeps))
             for port, slot in runner.slots.items():

@@ -245,3 +245,18 @@ connections:
     rest = next(k for k, row in enumerate(rows) if "/resting_st/stage: rest" in row)
     landing = next(k for k, row in enumerate(rows) if "/dropped_st/stage: ground" in row)
     assert times == sorted(times) and rest < landing and times[rest] < 0.002 < 0.01 < times[landing] < 0.02
+
+
+def test_a_restart_keeps_the_name_of_a_scene_without_one(tmp_path, capsys):
+    """A scene without ``name:`` is named after its file; a restart from its recording keeps that
+    name (it was named after the recording's attachment, 'c.mcap_scene', in what it said and wrote)."""
+    from cosim.record.reader import Recording
+
+    scene = tmp_path / "counter.yaml"
+    scene.write_text('dt: 0.001\nuntil: 0.02\ncomponents:\n  src: {type: "tests.toys:Source"}\n'
+                     "record: {checkpoint_every: 0.01}\n")
+    assert main(["run", str(scene), "-q", "-o", str(tmp_path / "c.mcap")]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path / "c.mcap"), "--from", "0.01", "-o", str(tmp_path / "d.mcap")]) == 0
+    assert "restarting 'counter' from the checkpoint at t = 0.01 s" in capsys.readouterr().out
+    assert Recording(tmp_path / "d.mcap").scene().name == "counter"

@@ -44,3 +44,37 @@ def test_none_is_an_empty_port():
     body = stone()
     out = body.step(0, MS, {"wrench": None})
     assert out["state"].position[2] < body.params.position[2]  # it falls: nothing pushed it
+
+
+def test_a_port_left_out_is_an_empty_one_as_the_scheduler_gives_it():
+    """Every input the scheduler gives (None for a port connected to nothing); by hand a port left
+    out is given None too (the toy counter of the audit failed with KeyError: 'x', and stayed failed)."""
+    alone, empty = stone(), stone()
+    out = alone.step(0, MS, {})["state"]
+    same = empty.step(0, MS, {port: None for port in empty.inputs})["state"]
+    assert np.array_equal(out.position, same.position) and np.array_equal(out.velocity, same.velocity)
+    assert alone.status == "running"
+
+
+def test_a_required_port_left_out_is_named():
+    from cosim.component import Component, Port
+
+    class Needs(Component):
+        inputs = {"body": Port(Wrench, required=True)}
+
+    with pytest.raises(SimulationError, match=r"was not given its required input 'body'"):
+        Needs("needs").step(0, MS, {})
+
+
+@pytest.mark.parametrize(("t_ns", "dt_ns", "said"), [
+    (0, 0.001, r"was given dt_ns = 0.001, not a whole number of nanoseconds \(step takes times in ns"),
+    (0.5, MS, r"was given t_ns = 0.5, not a whole number of nanoseconds"),
+    (0, True, r"was given dt_ns = True, not a whole number"),
+    (0, 0, r"was given dt_ns = 0, not a step: it must be > 0"),
+])
+def test_times_in_seconds_are_refused(t_ns, dt_ns, said):
+    """step takes integer nanoseconds; a dt in seconds ran a step of a picosecond without a word."""
+    body = stone()
+    with pytest.raises(SimulationError, match=said):
+        body.step(t_ns, dt_ns, {"wrench": push()})
+    assert body.status == "initialized" and body.step_count == 0

@@ -160,7 +160,9 @@ def _with_stone_state(cp: dict, **state: Any) -> dict:
                                                                "not [stamp, payload]"),
     (lambda cp: {**cp, "tick": 7}, "its time, tick 7 x dt_ns 1000000 = 0.007 s, is not the time it was recorded "
                                    "at, 0.02 s"),
-    (lambda cp: _with_stone_state(cp, orientation=5), "'int' object is not iterable"),  # the body's own state
+    # the body's own state, said naming it
+    (lambda cp: _with_stone_state(cp, orientation=5), "component 'stone' cannot take the state it holds: TypeError: "
+                                                      "'int' object is not iterable"),
 ])
 def test_a_checkpoint_of_the_wrong_form_is_bad_input_naming_what_is_wrong(body_path, tmp_path, capsys, change, said):
     """A valid payload holding a list, a text or `components: [1]` ended in an internal TypeError

@@ -126,8 +126,8 @@ def test_a_checkpoint_missing_what_a_component_restores_is_named(recording, monk
         return stamps, stamp, {**cp, "components": {**cp["components"], "acc": acc}}
 
     monkeypatch.setattr(Recording, "checkpoint_at_or_before", broken)
-    with pytest.raises(RecordingError, match=r"cannot restart from the checkpoint at 0\.06 s: it holds no 'total', "
-                                             r"which this scene's components restore"):
+    with pytest.raises(RecordingError, match=r"cannot restart from the checkpoint at 0\.06 s: it holds no 'total' "
+                                             r"for component 'acc', whose set_state reads it"):
         restart_simulation(recording, 60_000_000)
 
 

@@ -261,11 +261,12 @@ def test_a_wrong_array_shape_is_the_components_failure(tmp_path, capsys):
 
 
 def test_first_invalid_judges_shapes_as_declared():
-    """Each fixed dimension as declared; a list of the right length still passes; a free dimension
-    takes any length."""
+    """Each fixed dimension as declared; a free dimension takes any length. A list of the right length
+    is no array (it passed, and failed the component receiving it)."""
     body_wrench = _body_wrench()
     assert body_wrench(np.zeros(3), np.zeros(3)).first_invalid() is None
-    assert body_wrench([0.0, 1.0, 2.0], np.zeros(3)).first_invalid() is None
+    assert body_wrench([0.0, 1.0, 2.0], np.zeros(3)).first_invalid() == (
+        "force", "must be a numpy array of float64, got list [0.0, 1.0, 2.0]")
     assert body_wrench(np.zeros(3), np.zeros((3, 1))).first_invalid() == (
         "torque", "must have shape (3,), got (3, 1)")
     assert body_wrench(np.zeros(4), np.zeros(3)).first_nonfinite() is None  # (finiteness alone)
@@ -376,3 +377,132 @@ def test_a_users_hook_failing_as_the_scene_loads_is_said_on_its_key(tmp_path, ca
     scene.write_text(ON_A_BODY.format(push=f"{HERE}:{cls}", extra=extra, edge=edge))
     assert main(["validate", str(scene)]) == 2
     assert one_error_line(capsys.readouterr().err) == f"error: {scene}: {said}"
+
+
+@message
+class Report(Message):
+    """A user's report of every scalar kind and an int32 array."""
+
+    count: int
+    stretched: bool
+    label: str
+    idx: Annotated[np.ndarray, Array("int32", (None,))]
+
+
+class Reporter(Component):
+    """Publishes a Report; ``wrong`` names the field given a value of another kind than its own."""
+
+    @dataclass(frozen=True)
+    class Params:
+        wrong: str = param("", doc="the field given a wrong value (none: every field right)")
+
+    outputs: ClassVar[dict[str, Port]] = {"report": Port(Report)}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        values = {"count": 1, "stretched": True, "label": "a", "idx": np.zeros(2, np.int32)}
+        wrong = self.params.wrong
+        if wrong == "count":
+            values["count"] = 1.5
+        elif wrong == "huge":
+            values["count"] = 2 ** 70
+        elif wrong == "stretched":
+            values["stretched"] = "no"
+        elif wrong == "label":
+            values["label"] = 5
+        elif wrong == "idx":
+            values["idx"] = np.zeros(2)
+        elif wrong == "numpy":  # numpy's own scalars are right
+            values.update(count=np.int64(3), stretched=np.bool_(False))
+        return {"report": Report(**values)}
+
+
+class ListPush(Component):
+    """A push whose force is a list, not an array."""
+
+    outputs: ClassVar[dict[str, Port]] = {"wrench": Port(_body_wrench())}
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        return {"wrench": _body_wrench()([0.0, 0.0, 0.1], np.zeros(3))}
+
+
+@pytest.mark.parametrize(("wrong", "said"), [
+    # recorded as 1 while its receivers were given 1.5, and a replay said identical
+    ("count", "output 'report' field 'count': must be an int (a whole number), got float 1.5"),
+    ("huge", "output 'report' field 'count': must fit in 64 bits (-2^63 to 2^63 - 1), got "
+             "1180591620717411303424"),  # an internal ProtoError, naming no component
+    ("stretched", "output 'report' field 'stretched': must be true or false (a bool), got str 'no'"),  # recorded true
+    ("label", "output 'report' field 'label': must be a str, got int 5"),
+    ("idx", "output 'report' field 'idx': must be an array of int32, got an array of float64"),  # internal error
+    ("numpy", None),
+])
+def test_an_output_field_of_another_kind_is_the_components_failure(tmp_path, capsys, wrong, said):
+    """A field given a value of another kind than its own fails the component that published it,
+    naming its output and field, before the recording writes it as something else than its receivers
+    were given (or fails naming no component); numpy's integers and bools are ints and bools."""
+    scene = tmp_path / "r.yaml"
+    scene.write_text(f'dt: 0.001\nuntil: 0.003\ncomponents:\n  rep: {{type: "{HERE}:Reporter", wrong: "{wrong}"}}\n')
+    code = main(["run", str(scene), "-q", "-o", str(tmp_path / "r.mcap")])
+    err = capsys.readouterr().err
+    if said is None:
+        assert code == 0, err
+        return
+    assert code == 1 and one_error_line(err) == f"error: component 'rep' failed at t = 0 s: {said}"
+
+
+def test_a_list_in_an_array_field_is_the_publishers_failure_not_its_receivers(tmp_path, capsys):
+    """A force given as a list: the push fails naming its field (the body receiving it failed, with
+    "AttributeError: 'list' object has no attribute 'tolist'")."""
+    scene = tmp_path / "l.yaml"
+    scene.write_text(ON_A_BODY.format(push=f"{HERE}:ListPush", extra="", edge=""))
+    assert main(["run", str(scene), "-q", "--no-record"]) == 1
+    assert one_error_line(capsys.readouterr().err) == (
+        "error: component 'push' failed at t = 0 s: output 'wrench' field 'force': must be a numpy array of "
+        "float64, got list [0.0, 0.0, 0.1]")
+
+
+class Forgetful(Component):
+    """Counts its steps; its set_state fails with ``fault``."""
+
+    @dataclass(frozen=True)
+    class Params:
+        fault: str = param("key", doc="key: a KeyError, else a RuntimeError")
+
+    outputs: ClassVar[dict[str, Port]] = {"count": Port(Number)}
+
+    def setup(self) -> None:
+        self.count = 0
+
+    def _step_impl(self, t: float, dt: float, inputs: dict) -> dict:
+        self.count += 1
+        return {"count": Number(float(self.count))}
+
+    def get_state(self) -> dict:
+        return {"count": self.count}
+
+    def set_state(self, state: dict) -> None:
+        if self.params.fault == "key":
+            self.count = state["counter"]  # the user's own slip
+        raise RuntimeError("cannot restore")
+
+
+@pytest.mark.parametrize(("fault", "code", "said"), [
+    ("key", 2, "cannot restart from the checkpoint at 0.01 s: it holds no 'counter' for component 'c', whose "
+               "set_state reads it (a component or setting changed by --set, or a set_state reading what its "
+               "get_state does not write?)"),
+    ("runtime", 1, "component 'c' failed at t = 0.01 s: restoring its saved state failed: RuntimeError: cannot "
+                   "restore"),
+])
+def test_a_set_state_that_fails_is_said_on_its_component(tmp_path, capsys, fault, code, said):
+    """A restart whose component's own set_state raises: a KeyError (as a ValueError or a TypeError)
+    is the state's not being one it takes, said naming the component (it named none, and blamed
+    --set alone); any other error is the component's failure at the checkpoint's time (a
+    RuntimeError was an internal error)."""
+    scene = tmp_path / "f.yaml"
+    scene.write_text("name: f\ndt: 0.001\nuntil: 0.02\ncomponents:\n"
+                     f'  c: {{type: "{HERE}:Forgetful", fault: {fault}}}\nrecord: {{checkpoint_every: 0.01}}\n')
+    recording = tmp_path / "f.mcap"
+    assert main(["run", str(scene), "-q", "-o", str(recording)]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(recording), "--from", "0.01", "-q", "-o", str(tmp_path / "g.mcap")]) == code
+    where = f"{recording}: " if code == 2 else ""
+    assert one_error_line(capsys.readouterr().err) == f"error: {where}{said}"

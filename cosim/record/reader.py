@@ -261,8 +261,11 @@ class Recording:
         if not overrides and self._scene is not None:
             return self._scene
         try:
+            # (a scene without name: is named as its run named it, from its file: restarted, it was
+            # named after the recording's attachment, 'c.mcap_scene')
             scene = loads(self.scene_text, source=f"{self.path}:{SCENE_ATTACHMENT}",
-                          overrides=self.overrides + list(overrides or []), base_dir=self.metadata.get("base_dir"))
+                          overrides=self.overrides + list(overrides or []), base_dir=self.metadata.get("base_dir"),
+                          default_name=self.metadata.get("scene") or None)
         except ScenarioError:
             raise
         except Exception as exc:
