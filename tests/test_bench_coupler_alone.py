@@ -36,3 +36,12 @@ def test_the_coupler_alone_publishes_what_it_published_in_the_run(tmp_path):
         assert all(messages_equal(again[port], published[port]) for port in again), t_ns
         wet += "contact" in again and again["contact"].wetted
     assert wet > 1000  # the contacts and the glide were re-run, not only the flight
+
+
+def test_a_revision_that_is_none_is_said_before_anything_runs(capsys, monkeypatch):
+    """--against a revision the repository does not have: one line, exit 2, before the held skip is
+    run to capture its steps (it was said only after that run, a minute later on a busy machine)."""
+    tool = load_tool()
+    monkeypatch.setattr(tool, "capture", lambda path: (_ for _ in ()).throw(AssertionError("ran the skip")))
+    assert tool.main(["--against", "no-such-revision"]) == 2
+    assert capsys.readouterr().err.strip() == f"error: --against no-such-revision: not a revision of {tool.ROOT}"

@@ -148,6 +148,12 @@ def main(argv: list[str] | None = None) -> int:
         _import_from(Path(args.measure))
         print(json.dumps(measure(Path(args.steps), args.passes)))
         return 0
+    if args.against:  # a revision that is none is said before the held skip is run to capture its steps
+        known = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--verify", "--quiet",
+                                f"{args.against}^{{commit}}"], capture_output=True, text=True, check=False)
+        if known.returncode != 0:
+            print(f"error: --against {args.against}: not a revision of {ROOT}", file=sys.stderr)
+            return 2
     _import_from(ROOT)
     with tempfile.TemporaryDirectory() as tmp:
         steps_file = Path(tmp) / "steps.pickle"
