@@ -78,7 +78,7 @@ class StateRestoreError(CosimError):
     def __init__(self, component: str, error: BaseException):
         self.component = component
         self.error = error
-        if isinstance(error, KeyError):
+        if isinstance(error, KeyError) and error.args:
             said = (f"it holds no {error.args[0]!r} for component {component!r}, whose set_state reads it (a "
                     "component or setting changed by --set, or a set_state reading what its get_state does "
                     "not write?)")

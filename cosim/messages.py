@@ -88,10 +88,11 @@ class Message:
         """Name of the first float field (or array) holding NaN or infinity, or something that is no
         number at all (a text), or None.
 
-        Fast path (:func:`_value_check`, generated once per type): one sum over every float value
-        (an array's values or their squares, :func:`_array_sum`) is finite exactly when each value
-        is (barring an overflow of huge finite values, which the slow path then rules out field by
-        field).
+        Fast path (:func:`_value_check`, generated once per type, which also checks each field's
+        kind, enum members and shapes for :meth:`first_invalid`): one sum over every float value (an
+        array's values or their squares, :func:`_array_sum`) is finite exactly when each value is
+        (barring an overflow of huge finite values, which the slow path then rules out field by
+        field). A message it does not pass for another reason than a float is not finite: None.
         """
         check = _CHECKS.get(type(self))
         if check is None:
@@ -105,17 +106,17 @@ class Message:
         """(name, fault) of the first field holding a value no message may carry, or None; every
         output of a component is checked so. A float field or float array holding NaN or infinity
         comes first (fault :data:`NONFINITE`; one holding no number, such as a text, fault ``must be
-        a number, got str``), then an enum field holding a number that none of its
-        type's members has (fault ``7 is not a Shape (0 disk, 1 sphere)``): the codecs would write
-        it, and no reader could read it back. The fast path is :meth:`first_nonfinite`'s one
-        generated expression, which checks the enum fields too; only a message it does not pass is
-        looked at field by field. Then a field holding a value of another kind than its own, which
-        the codecs would write as something else than the receivers were given, or fail on naming no
+        a number, got str``). Then a field holding a value of another kind than its own, which the
+        codecs would write as something else than the receivers were given, or fail on naming no
         component (:func:`_first_bad_kind`: an int field given 1.5 was recorded as 1, a bool field
-        given "no" as true, a list in an array field failed in its receiver). Then an array field
+        given "no" as true, a list in an array field failed in its receiver). Then an enum field
+        holding a number that none of its type's members has (fault ``7 is not a Shape (0 disk, 1
+        sphere)``): the codecs would write it, and no reader could read it back. Then an array field
         whose shape is not the one its :class:`Array` declares (fault ``must have shape (3,), got
         (2,)``; a free dimension takes any length): the codecs would write a message no reader could
-        read back, or fail naming no component."""
+        read back, or fail naming no component. The fast path is :meth:`first_nonfinite`'s one
+        generated expression, which checks all of these for the usual values; only a message it does
+        not pass is looked at field by field."""
         check = _CHECKS.get(type(self))  # (written out, not a helper's call: this runs for every output)
         if check is None:
             check = _CHECKS[type(self)] = _value_check(type(self))
@@ -165,7 +166,8 @@ def _first_bad_kind(msg: Message) -> tuple[str, str] | None:
     for spec in type(msg).__cosim_fields__:
         value = getattr(msg, spec.name)
         if spec.kind is FieldKind.INT:
-            if isinstance(value, float | np.floating) or not isinstance(value, int | np.integer):
+            # (a bool is refused too: recorded as 1 while its receivers had True, and no decoder takes it)
+            if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
                 return spec.name, f"must be an int (a whole number), got {_value_kind(value)}"
             if not INT64_RANGE[0] <= value <= INT64_RANGE[1]:
                 return spec.name, f"must fit in 64 bits (-2^63 to 2^63 - 1), got {value}"
@@ -181,6 +183,14 @@ def _first_bad_kind(msg: Message) -> tuple[str, str] | None:
                 return spec.name, f"must be a numpy array of {declared}, got {_value_kind(value)}"
             if value.dtype != declared and not np.can_cast(value.dtype, declared, "same_kind"):
                 return spec.name, f"must be an array of {declared}, got an array of {value.dtype}"
+            if value.dtype != declared and not np.can_cast(value.dtype, declared, "safe"):
+                # a narrower type of the same kind (int64 for int32): the codecs cast it, its values
+                # wrapped (2**40 recorded as 0) unless each fits
+                with np.errstate(all="ignore"):
+                    fits = bool((value.astype(declared) == value).all()) if value.size else True
+                if not fits:
+                    return spec.name, (f"must be an array of {declared}, got an array of {value.dtype} holding "
+                                       f"values beyond {declared}'s range")
     return None
 
 
@@ -193,7 +203,7 @@ def _value_kind(value: Any) -> str:
 def _array_kind(given: Any) -> str:
     """What an array field was given, for its fault: an array's dtype (``an array of <U3``), else the
     value's type (``str``, ``list``)."""
-    return f"an array of {given.dtype}" if isinstance(given, np.ndarray) else type(given).__name__
+    return f"an array of {given.dtype}" if isinstance(given, np.ndarray) else _value_kind(given)
 
 
 def _first_bad_enum(msg: Message) -> tuple[str, str] | None:
@@ -275,16 +285,21 @@ def _finiteness_plan(message_type: type[Message]) -> tuple[tuple[str, ...], tupl
 
 def _value_check(message_type: type[Message]) -> typing.Callable[[Message], bool]:
     """A function generated for ``message_type``: whether the sum of all its float values (fields
-    and float arrays) is finite and each enum field holds one of its type's values, in one
-    expression, with no loop over the fields (it runs for every output of every step). A small fixed
-    1-D array (at most 16 values) is summed as Python floats, far cheaper than a numpy reduction,
-    any other by :func:`_array_sum`; an enum field adds the 0.0 its value finds in a dict of its
-    type's members (one lookup: an int that is none of theirs finds nothing). A value it cannot sum or
-    find so (a nested list, a scalar where an array was declared) makes it answer False, and
-    :meth:`Message.first_nonfinite` and :meth:`Message.first_invalid` look field by field."""
+    and float arrays) is finite, each enum field holds one of its type's values, each other field a
+    value of its own kind and each array its declared shape, in one expression, with no loop over
+    the fields (it runs for every output of every step). A small fixed 1-D array (at most 16 values)
+    is summed as Python floats, far cheaper than a numpy reduction, any other by :func:`_array_sum`;
+    an enum field adds the 0.0 its value finds in a dict of its type's members (one lookup: an int
+    that is none of theirs finds nothing); an int, bool or str field adds 0.0 when its value is of
+    its kind, else None, and a non-float array 0.0 when its dtype is the declared one. A value it
+    cannot sum or find so (a nested list, a scalar where an array was declared) makes it answer
+    False, and :meth:`Message.first_nonfinite` and :meth:`Message.first_invalid` look field by
+    field (:func:`_first_bad_kind` accepts some values this refuses: an int64 array whose values fit
+    an int32 field)."""
     floats, arrays = _finiteness_plan(message_type)
     specs = {s.name: s for s in message_type.__cosim_fields__}
-    env: dict[str, Any] = {"_isfinite": math.isfinite, "_array_sum": _array_sum}
+    env: dict[str, Any] = {"_isfinite": math.isfinite, "_array_sum": _array_sum, "_ints": (int, np.integer),
+                           "_bools": (bool, np.bool_)}
     terms = [f"m.{name}" for name in floats]
     for name in arrays:
         array = specs[name].array
@@ -298,12 +313,13 @@ def _value_check(message_type: type[Message]) -> typing.Callable[[Message], bool
             env[f"_members{i}"] = dict.fromkeys(spec.enum_type, 0.0)
             terms.append(f"_members{i}[m.{spec.name}]")
         # each field of its own kind (_first_bad_kind): a term of 0.0 when it is, else None, whose sum
-        # fails; only the plain Python types pass here (numpy's scalars are looked at field by field)
+        # fails; numpy's scalars pass here too (a bool set as depth > 0 is numpy's: looked at field by
+        # field, its message took 20 us a check instead of 1)
         elif spec.kind is FieldKind.INT:
-            terms.append(f"(0.0 if type(m.{spec.name}) is int and {INT64_RANGE[0]} <= m.{spec.name} <= "
-                         f"{INT64_RANGE[1]} else None)")
+            terms.append(f"(0.0 if isinstance(m.{spec.name}, _ints) and not isinstance(m.{spec.name}, _bools) "
+                         f"and {INT64_RANGE[0]} <= m.{spec.name} <= {INT64_RANGE[1]} else None)")
         elif spec.kind is FieldKind.BOOL:
-            terms.append(f"(0.0 if type(m.{spec.name}) is bool else None)")
+            terms.append(f"(0.0 if isinstance(m.{spec.name}, _bools) else None)")
         elif spec.kind is FieldKind.STR:
             terms.append(f"(0.0 if type(m.{spec.name}) is str else None)")
         elif spec.array is not None and spec.name not in arrays:

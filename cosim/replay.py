@@ -268,7 +268,11 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         comp.begin(gather_start(plan))
     else:  # the component as the restart's checkpoint holds it, from its first step after it
         stamp, cp = restart
-        restore_component(comp, cp["components"][name], stamp)
+        try:
+            restore_component(comp, cp["components"][name], stamp)
+        except StateRestoreError as exc:  # said as the restart of a whole scene says it, the checkpoint named
+            raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
+                                 f"{exc}") from None
         first_tick = -(-(stamp // dt_ns) // every) * every
     steps = 0
     seconds = 0.0  # in the component's steps, the first one left out

@@ -70,7 +70,9 @@ def test_a_required_port_left_out_is_named():
     (0, 0.001, r"was given dt_ns = 0.001, not a whole number of nanoseconds \(step takes times in ns"),
     (0.5, MS, r"was given t_ns = 0.5, not a whole number of nanoseconds"),
     (0, True, r"was given dt_ns = True, not a whole number"),
-    (0, 0, r"was given dt_ns = 0, not a step: it must be > 0"),
+    (0, 0, r"failed at t = 0 s: was given t_ns = 0 and dt_ns = 0: a step starts at t_ns >= 0 and lasts dt_ns > 0"),
+    (-MS, MS, r"was given t_ns = -1000000 and dt_ns = 1000000: a step starts at t_ns >= 0"),
+    (5 * MS, 0.001, r"failed at t = 0.005 s: was given dt_ns = 0.001"),  # said at the step's own time
 ])
 def test_times_in_seconds_are_refused(t_ns, dt_ns, said):
     """step takes integer nanoseconds; a dt in seconds ran a step of a picosecond without a word."""

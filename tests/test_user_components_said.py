@@ -411,8 +411,12 @@ class Reporter(Component):
             values["label"] = 5
         elif wrong == "idx":
             values["idx"] = np.zeros(2)
-        elif wrong == "numpy":  # numpy's own scalars are right
-            values.update(count=np.int64(3), stretched=np.bool_(False))
+        elif wrong == "numpy":  # numpy's own scalars are right, and an int64 array whose values fit int32
+            values.update(count=np.int64(3), stretched=np.bool_(False), idx=np.array([1, -2], np.int64))
+        elif wrong == "bool":
+            values["count"] = True
+        elif wrong == "wide":
+            values["idx"] = np.array([2 ** 40, -1], np.int64)
         return {"report": Report(**values)}
 
 
@@ -434,6 +438,11 @@ class ListPush(Component):
     ("label", "output 'report' field 'label': must be a str, got int 5"),
     ("idx", "output 'report' field 'idx': must be an array of int32, got an array of float64"),  # internal error
     ("numpy", None),
+    # recorded as 1 while its receivers had True (and no decoder takes a bool for an int)
+    ("bool", "output 'report' field 'count': must be an int (a whole number), got bool True"),
+    # cast by the codecs, 2**40 was recorded as 0
+    ("wide", "output 'report' field 'idx': must be an array of int32, got an array of int64 holding values "
+             "beyond int32's range"),
 ])
 def test_an_output_field_of_another_kind_is_the_components_failure(tmp_path, capsys, wrong, said):
     """A field given a value of another kind than its own fails the component that published it,
@@ -506,3 +515,11 @@ def test_a_set_state_that_fails_is_said_on_its_component(tmp_path, capsys, fault
     assert main(["replay", str(recording), "--from", "0.01", "-q", "-o", str(tmp_path / "g.mcap")]) == code
     where = f"{recording}: " if code == 2 else ""
     assert one_error_line(capsys.readouterr().err) == f"error: {where}{said}"
+
+
+def test_a_key_error_without_a_key_is_said_too():
+    """A set_state raising a bare KeyError: still said naming the component (it raised IndexError in
+    the saying, a traceback)."""
+    from cosim.errors import StateRestoreError
+
+    assert str(StateRestoreError("c", KeyError())) == "component 'c' cannot take the state it holds: KeyError: "
