@@ -704,3 +704,16 @@ def test_a_second_ctrl_c_as_a_finished_sweep_closes_interrupts_it():
             os.kill(os.getpid(), signal.SIGINT)
     with pytest.raises(KeyboardInterrupt), LateSignals("Ctrl-C"):
         os.kill(os.getpid(), signal.SIGINT)
+
+
+def test_a_dry_run_whose_first_point_is_invalid_lists_every_point(tmp_path, capsys):
+    """The first point making no scene was the sweep's refusal, naming that point alone; it is now a
+    point like the others: the dry run lists them all and names the invalid ones."""
+    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
+    path = tmp_path / "radii.yaml"
+    path.write_text(f"scene: {scene}\naxes:\n  r: [-0.01, 0.05, 0.04]\nderived: {{components.stone.radius: r}}\n"
+                    "output: r.csv\n")
+    assert main(["sweep", str(path), "--dry-run"]) == 2
+    out = capsys.readouterr().out
+    assert "  2 of 3 points checked make valid scenes" in out
+    assert "invalid #0 " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out

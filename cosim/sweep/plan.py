@@ -801,9 +801,9 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     # the first point whose derived values can be worked out (one of sqrt(v - 1) at v = 0.5 refused
     # the sweep, where the same failure at a later point was only a failed row: the order of an
     # axis's values decided whether the sweep ran)
-    worked_out = next((p for p in points if not p.problem), points[0])
-    metric_keys, kinds, notices = _first_point(worked_out, base[0], base[1], source)
-    problems += _invalid_axis_values(points, axes, len(fixed), base[0], base[1])
+    worked_out = [p for p in points if not p.problem] or points[:1]
+    valid, (metric_keys, kinds, notices) = _first_valid_point(worked_out, base[0], base[1], source)
+    problems += _invalid_axis_values(points, axes, len(fixed), base[0], base[1], valid)
     metrics = _select_metrics(metric_keys, metric_patterns, problems)
     sweep = Sweep(name=name, description=str(description), source=source, text=text, scene_text=base[0],
                   scene_source=base[1], mode=mode, axes=axes, derived=derived, fixed=fixed, metrics=metrics,
@@ -817,6 +817,27 @@ def loads_sweep(text: str, source: str = "<sweep>", base_dir: str | Path = ".",
     if problems:
         raise ScenarioError(problems, source)
     return sweep
+
+
+FIRST_POINT_TRIES = 20  # points whose scenes are loaded in turn for the first valid one
+
+
+def _first_valid_point(points: list[Point], scene_text: str, scene_source: str,
+                       source: str) -> tuple[Point, tuple[list[str], dict[str, str], list[str]]]:
+    """The first of ``points`` (up to :data:`FIRST_POINT_TRIES`) whose scene loads, and its
+    :func:`_first_point`: a point whose derived values make no scene is a row that fails (listed by a
+    dry run), and an override axis's value that makes none is the sweep file's mistake
+    (:func:`_invalid_axis_values`), not the sweep's refusal naming that point alone, which it was when
+    it came first. When none loads, the first one's failure refuses the sweep (a key path no scene
+    has, say)."""
+    first: ScenarioError | None = None
+    for point in points[:FIRST_POINT_TRIES]:
+        try:
+            return point, _first_point(point, scene_text, scene_source, source)
+        except ScenarioError as exc:
+            first = first or exc
+    assert first is not None
+    raise first
 
 
 def _first_point(point: Point, scene_text: str, scene_source: str,
@@ -841,7 +862,7 @@ def _first_point(point: Point, scene_text: str, scene_source: str,
 
 
 def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scene_text: str,
-                         scene_source: str) -> list[str]:
+                         scene_source: str, valid: Point) -> list[str]:
     """A problem for each value of an override axis that breaks its own key's rule (a radius of -1:
     ``components.stone.radius: must be > 0 m``), loaded with the other axes at the first point's
     values: such a value makes no scene in any point, and is the sweep file's mistake, said before
@@ -850,8 +871,9 @@ def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scen
     against its ground's, a step against a stable step the speed sets) may be valid beside the other
     axes' other values, so its points stay failed rows where they are invalid. One scene a value,
     not one a point; at most ``VALUES_CHECKED`` in all (:func:`_shares`). ``fixed``: how many of a
-    point's overrides come before its axes' (``set``, ``--set``)."""
-    first = points[0]
+    point's overrides come before its axes' (``set``, ``--set``); ``valid``: the point whose scene
+    was loaded (:func:`_first_valid_point`), whose values are the others' and are not checked again."""
+    first = valid
     checked: list[tuple[Axis, int, list[Any]]] = []  # an axis, its place in the overrides, its other values
     place = fixed
     for axis in axes:
@@ -866,7 +888,8 @@ def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scen
         checked.append((axis, place, values))
         place += 1
     problems = []
-    with_others = " (the other axes at their first values)" if len(axes) > 1 else ""
+    at = "their first values" if valid is points[0] else f"point {valid.index}'s values"
+    with_others = f" (the other axes at {at})" if len(axes) > 1 else ""
     shares = _shares([len(values) for _, _, values in checked], VALUES_CHECKED)
     for (axis, place, values), share in zip(checked, shares, strict=True):
         for value in _spread(values, share):
