@@ -546,18 +546,20 @@ def test_a_later_points_notice_is_said_once_after_the_sweep(tmp_path, capsys):
     assert err.rstrip().endswith("(point components.pine_water.displacement_mode=column, and any other like it)")
 
 
-def test_a_dry_run_loads_every_points_scene_and_names_the_invalid_ones(tmp_path, capsys):
+@pytest.mark.parametrize(("radii", "invalid"), [("0.05, 0.04, -0.01", 2), ("-0.01, 0.05, 0.04", 0)])
+def test_a_dry_run_loads_every_points_scene_and_names_the_invalid_ones(tmp_path, capsys, radii, invalid):
     """--dry-run said 'ok' for a sweep whose third point makes no scene, found only as a failed row
     when it ran; it now loads each point's scene and names the ones that are invalid (here a derived
-    value's: an override axis's own values are checked as the sweep loads)."""
+    value's: an override axis's own values are checked as the sweep loads). The first point too: it
+    was the sweep's refusal, naming that point alone."""
     scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
     path = tmp_path / "radii.yaml"
-    path.write_text(f"scene: {scene}\naxes:\n  r: [0.05, 0.04, -0.01]\nderived: {{components.stone.radius: r}}\n"
+    path.write_text(f"scene: {scene}\naxes:\n  r: [{radii}]\nderived: {{components.stone.radius: r}}\n"
                     "output: r.csv\n")
     assert main(["sweep", str(path), "--dry-run"]) == 2
     out = capsys.readouterr().out
     assert "  2 of 3 points checked make valid scenes" in out
-    assert "invalid #2 " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out
+    assert f"invalid #{invalid} " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out
 
 
 @pytest.mark.parametrize("dry_run", [[], ["--dry-run"]], ids=["run", "dry-run"])
@@ -704,16 +706,3 @@ def test_a_second_ctrl_c_as_a_finished_sweep_closes_interrupts_it():
             os.kill(os.getpid(), signal.SIGINT)
     with pytest.raises(KeyboardInterrupt), LateSignals("Ctrl-C"):
         os.kill(os.getpid(), signal.SIGINT)
-
-
-def test_a_dry_run_whose_first_point_is_invalid_lists_every_point(tmp_path, capsys):
-    """The first point making no scene was the sweep's refusal, naming that point alone; it is now a
-    point like the others: the dry run lists them all and names the invalid ones."""
-    scene = Path(__file__).resolve().parents[1] / "scenarios" / "held_skip.yaml"
-    path = tmp_path / "radii.yaml"
-    path.write_text(f"scene: {scene}\naxes:\n  r: [-0.01, 0.05, 0.04]\nderived: {{components.stone.radius: r}}\n"
-                    "output: r.csv\n")
-    assert main(["sweep", str(path), "--dry-run"]) == 2
-    out = capsys.readouterr().out
-    assert "  2 of 3 points checked make valid scenes" in out
-    assert "invalid #0 " in out and "invalid scene: components.stone.radius: must be > 0 m (got -0.01)" in out
