@@ -435,17 +435,17 @@ class Component:
         plan's, goes straight to :meth:`step_gathered`. An input port left out is given None, as the
         scheduler gives an unconnected one (a required one left out is the caller's error, named), and
         the times must be whole nanoseconds (a dt in seconds, 0.01, ran a step of 1e-11 s)."""
-        whole = [isinstance(value, int | np.integer) and not isinstance(value, bool) for value in (t_ns, dt_ns)]
-        at = int(t_ns) if whole[0] else 0  # (the time said with the refusal)
-        for name, value, ok in (("t_ns", t_ns, whole[0]), ("dt_ns", dt_ns, whole[1])):
-            if not ok:
+        at = 0  # the time said with a refusal: the step's own once it is a whole number
+        for name, value in (("t_ns", t_ns), ("dt_ns", dt_ns)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
                 raise SimulationError(self.name, at, f"was given {name} = {value!r}, not a whole number of "
                                       "nanoseconds (step takes times in ns; its _step_impl is given seconds)")
+            at = int(t_ns)
         if t_ns < 0 or dt_ns <= 0:
             raise SimulationError(self.name, at, f"was given t_ns = {t_ns} and dt_ns = {dt_ns}: a step starts at "
                                   "t_ns >= 0 and lasts dt_ns > 0")
         self._check_inputs(t_ns, inputs)
-        missing = [port for port, spec in self.inputs.items() if port not in inputs]
+        missing = [port for port in self.inputs if port not in inputs]
         if missing:
             required = [port for port in missing if self.inputs[port].required]
             if required:

@@ -181,14 +181,14 @@ def _first_bad_kind(msg: Message) -> tuple[str, str] | None:
             declared = np.dtype(spec.array.dtype)
             if not isinstance(value, np.ndarray):
                 return spec.name, f"must be a numpy array of {declared}, got {_value_kind(value)}"
-            if value.dtype != declared and not np.can_cast(value.dtype, declared, "same_kind"):
+            if value.dtype == declared or np.can_cast(value.dtype, declared, "safe"):
+                continue
+            if not np.can_cast(value.dtype, declared, "same_kind"):
                 return spec.name, f"must be an array of {declared}, got an array of {value.dtype}"
-            if value.dtype != declared and not np.can_cast(value.dtype, declared, "safe"):
-                # a narrower type of the same kind (int64 for int32): the codecs cast it, its values
-                # wrapped (2**40 recorded as 0) unless each fits
-                with np.errstate(all="ignore"):
-                    fits = bool((value.astype(declared) == value).all()) if value.size else True
-                if not fits:
+            # a narrower type of the same kind (int64 for int32): the codecs cast it, its values
+            # wrapped (2**40 recorded as 0) unless each fits
+            with np.errstate(all="ignore"):
+                if value.size and not (value.astype(declared) == value).all():
                     return spec.name, (f"must be an array of {declared}, got an array of {value.dtype} holding "
                                        f"values beyond {declared}'s range")
     return None

@@ -271,8 +271,7 @@ def replay_component(rec: Recording, name: str, component: Component | None = No
         try:
             restore_component(comp, cp["components"][name], stamp)
         except StateRestoreError as exc:  # said as the restart of a whole scene says it, the checkpoint named
-            raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
-                                 f"{exc}") from None
+            raise _cannot_restart(rec, stamp, str(exc)) from None
         first_tick = -(-(stamp // dt_ns) // every) * every
     steps = 0
     seconds = 0.0  # in the component's steps, the first one left out
@@ -352,6 +351,11 @@ def _check_recorded(rec: Recording, name: str, comp: Component, inputs: dict[str
                 f"{rec.path}: cannot replay {name!r} at t = {exact_seconds(start_ns)} s: its input {port!r} "
                 f"({topics[port]}) has no message recorded at or before then: the recording has a gap there "
                 "(a damaged chunk left out by repair); replay from a checkpoint after it (--from)")
+
+
+def _cannot_restart(rec: Recording, stamp: int, why: str) -> RecordingError:
+    """The checkpoint at ``stamp`` [ns] holds a state this scene's components do not take, ``why``."""
+    return RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: {why}")
 
 
 def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:
@@ -528,13 +532,11 @@ def restart_simulation(rec: Recording, from_ns: int, overrides: list[str] | None
     try:
         sim.restore(cp)
     except StateRestoreError as exc:  # a component's set_state refused the state it holds, named
-        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
-                             f"{exc}") from None
+        raise _cannot_restart(rec, stamp, str(exc)) from None
     except (ValueError, KeyError, TypeError) as exc:  # (TypeError: a component's state holding a wrong kind of value)
         why = (f"it holds no {exc.args[0]!r}, which this scene's components restore (a component or setting "
                "changed by --set?)" if isinstance(exc, KeyError) else str(exc))
-        raise RecordingError(f"{rec.path}: cannot restart from the checkpoint at {exact_seconds(stamp)} s: "
-                             f"{why}") from None
+        raise _cannot_restart(rec, stamp, why) from None
     _check_step_grids(rec, sim, recorded, cp, stamp)
     if any(not _same_run(o.partition("=")[0].strip()) for o in overrides or []):
         # another run from here: a stop the original asked for in the checkpoint's tick was asked under

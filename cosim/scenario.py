@@ -800,7 +800,8 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
                             "for any start of a run)")
             return None
         codec = codec_for(out_type)
-        fields = f"fields of {out_type.__name__}: {', '.join(s.name for s in codec.fields)}"
+        names = [spec.name for spec in codec.fields]
+        fields = f"fields of {out_type.__name__}: {', '.join(names)}"
         if not isinstance(initial_data, dict):
             problems.append(f"{path}.initial: expected a mapping of the message's fields ({fields}), got "
                             f"{show_value(initial_data)}")
@@ -808,7 +809,7 @@ def _connection(index: int, item: Any, components: dict[str, type[Component]], n
         # said here in the scene's words (each key on its path, the type as the scene's ports name it):
         # a key that was no text (5:, ~:) was an internal error, and the codec's own words named
         # 'cosim.Number'
-        strangers = [key for key in initial_data if key not in {s.name for s in codec.fields}]
+        strangers = [key for key in initial_data if key not in names]
         for key in strangers:
             spelled = json_kind(key) if key is None or isinstance(key, bool) else str(key)
             problems.append(f"{path}.initial.{spelled}: unknown key ({fields})")

@@ -842,10 +842,10 @@ def _first_valid_point(points: list[Point], scene_text: str, scene_source: str,
 
 def _first_point(point: Point, scene_text: str, scene_source: str,
                  source: str) -> tuple[list[str], dict[str, str], list[str]]:
-    """Validate the scene of ``point``, the first whose derived values could be worked out (so a wrong
-    key path is reported before anything runs), and return the metric keys its components report,
-    with their kinds (number or text), and its notices. When no point's could, the first one's
-    failure refuses the sweep."""
+    """Validate the scene of ``point`` (so a wrong key path is reported before anything runs), and
+    return the metric keys its components report, with their kinds (number or text), and its
+    notices; a ScenarioError naming the point when its derived values or its scene fail
+    (:func:`_first_valid_point` tries the points in turn)."""
     from cosim.runner import collect_metrics
     from cosim.scheduler import Simulation
 
@@ -873,7 +873,6 @@ def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scen
     not one a point; at most ``VALUES_CHECKED`` in all (:func:`_shares`). ``fixed``: how many of a
     point's overrides come before its axes' (``set``, ``--set``); ``valid``: the point whose scene
     was loaded (:func:`_first_valid_point`), whose values are the others' and are not checked again."""
-    first = valid
     checked: list[tuple[Axis, int, list[Any]]] = []  # an axis, its place in the overrides, its other values
     place = fixed
     for axis in axes:
@@ -881,7 +880,7 @@ def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scen
             continue
         held = axis.values if axis.sampler is None else [p.values[axis.name] for p in points]
         others = {_same_value(v): v for v in held}
-        others.pop(_same_value(first.values[axis.name]), None)
+        others.pop(_same_value(valid.values[axis.name]), None)
         values = list(others.values())
         if values and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
             values.sort()  # the ends (a bound the scene's rules set) among those checked
@@ -893,7 +892,7 @@ def _invalid_axis_values(points: list[Point], axes: list[Axis], fixed: int, scen
     shares = _shares([len(values) for _, _, values in checked], VALUES_CHECKED)
     for (axis, place, values), share in zip(checked, shares, strict=True):
         for value in _spread(values, share):
-            overrides = list(first.overrides)
+            overrides = list(valid.overrides)
             overrides[place] = f"{axis.name}={yaml_value(value)}"
             try:
                 loads(scene_text, scene_source, overrides)
