@@ -246,11 +246,15 @@ class FmuInstance:
         return key
 
     def _load(self, md: Any, common: dict[str, Any]) -> None:
-        """Load the FMU's binary (``common``: FMPy's slave arguments) and instantiate it."""
+        """Load the FMU's binary (``common``: FMPy's slave arguments) and instantiate it. A pythonfmu
+        binary's double release of its Python state at exit (:mod:`cosim.fmi.pythonfmu_exit`) is
+        headed off as soon as it is loaded: instantiate makes that state also when the model's
+        constructor then fails."""
         if self.fmi3:
             from fmpy.fmi3 import FMU3Slave
 
             self.fmu = FMU3Slave(**common)
+            release_at_exit(self.fmu.dll._name)
             self._call("instantiate", self.fmu.instantiate, loggingOn=True, logMessage=self._log3)
         else:
             from fmpy import calloc, free
@@ -263,6 +267,7 @@ class FmuInstance:
             from fmpy.logging import addLoggerProxy
 
             self.fmu = FMU2Slave(**common)
+            release_at_exit(self.fmu.dll._name)
             callbacks = fmi2CallbackFunctions()
             self._environment = 1 + max(_by_environment, default=0)
             _by_environment[self._environment] = self
@@ -273,8 +278,6 @@ class FmuInstance:
             addLoggerProxy(byref(callbacks))  # formats the FMU's printf-style messages before they reach us
             self._callbacks = callbacks  # kept alive as long as the FMU may call back
             self._call("instantiate", self.fmu.instantiate, callbacks=callbacks, loggingOn=True)
-            # a pythonfmu binary releases its Python state twice at exit unless let go first
-            release_at_exit(self.fmu.dll._name)
             self._call("setupExperiment", self.fmu.setupExperiment, startTime=0.0)
 
     # --- the FMU's log -------------------------------------------------------------------------
