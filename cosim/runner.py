@@ -243,6 +243,29 @@ def collect_metrics(sim: Simulation) -> dict[str, float | int | str]:
     return {f"{r.name}.{key}": value for r in sim.runners for key, value in r.comp.metrics().items()}
 
 
+def _stepped_before_failure(outcome: RunOutcome) -> dict[int, list[str]]:
+    """The components that took their step in the base step where a component failed, before it did
+    (the scheduler steps them in order), by the time [ns] their step reached: their summary lines
+    are of that time, past the simulated time the run reports. Empty if the run did not fail in a
+    component's step."""
+    sim, error = outcome.simulation, outcome.result.error
+    if sim is None or not isinstance(error, SimulationError) or error.time_ns != sim.time_ns:
+        return {}
+    names = [runner.name for runner in sim.runners]
+    if error.component not in names:
+        return {}
+    ahead: dict[int, list[str]] = {}
+    for runner in sim.runners[:names.index(error.component)]:
+        if sim.tick % runner.every == 0:
+            ahead.setdefault(sim.time_ns + runner.every * sim.dt_ns, []).append(runner.name)
+    return ahead
+
+
+def _listed(names: list[str]) -> str:
+    """``names`` in words: "a", "a and b", "a, b and c"."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+
+
 def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     """The closing summary printed by ``cosim run``."""
     r = outcome.result
@@ -265,6 +288,15 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
     if substepped:  # the stable step was shorter than the component's own: it took several in one
         lines.append(f"  substeps for stability (on_unstable: substep): {', '.join(substepped)} per step; a "
                      "smaller dt (or every) avoids them")
+    ahead = _stepped_before_failure(outcome)
+    if ahead and outcome.summary:
+        moved = ", and ".join(f"{_listed(names)}{' had stepped on' if i == 0 else ''} to {exact_seconds(end)} s"
+                              for i, (end, names) in enumerate(ahead.items()))
+        others = ("" if sum(map(len, ahead.values())) == len(outcome.simulation.runners) - 1 else
+                  f", the others' of {exact_seconds(r.error.time_ns)} s")
+        times = "those times" if len(ahead) > 1 else "that time"
+        lines.append(f"  (in the step from {exact_seconds(r.error.time_ns)} s, before {r.error.component!r} failed, "
+                     f"{moved}: their figures below are of {times}{others})")
     lines += [f"  {line}" for line in outcome.summary]
     if outcome.recording is not None:
         size = outcome.recording.stat().st_size

@@ -174,6 +174,34 @@ def test_a_failed_run_reports_the_time_it_ran():
     assert f"wall {result.wall_s:.3g} s" in format_summary(scene, outcome)
 
 
+def test_a_failed_run_says_which_figures_are_of_the_step_that_failed():
+    """A component that fails mid-step: those stepped before it in that step are one step on, and the
+    summary says so (the stone's line was of 0.0885 s under "simulated 0.088 s"). A free fall under
+    semi-implicit Euler: 11 steps of 1 ms give 11 g dt, 10 give 10 g dt."""
+    from cosim.runner import format_summary, run_scene
+    from cosim.scenario import loads
+
+    text = ("dt: 0.001\nuntil: 1\ncomponents:\n"
+            "  early: {type: RigidBody, shape: sphere, radius: 0.01, density: 1000}\n"
+            "  slow: {type: RigidBody, shape: sphere, radius: 0.01, density: 1000, every: 2}\n"
+            "  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n"
+            "  late: {type: RigidBody, shape: sphere, radius: 0.01, density: 1000}\n")
+    scene = loads(text)
+    lines = format_summary(scene, run_scene(scene, None, progress=False)).splitlines()
+    assert lines[1].startswith("  simulated 0.01 s in 10 steps")
+    assert lines[2] == ("  (in the step from 0.01 s, before 'bad' failed, early had stepped on to 0.011 s, and slow to "
+                        "0.012 s: their figures below are of those times, the others' of 0.01 s)")
+    speeds = {line.split(":")[0].strip(): line.split("speed ")[1].split(" ")[0] for line in lines[3:6]}
+    assert speeds == {"early": f"{11 * 9.81e-3:.4g}", "slow": f"{12 * 9.81e-3:.4g}", "late": f"{10 * 9.81e-3:.4g}"}
+    scene = loads(text.replace("fail_at: 0.01", "fail_at: 0.011"))  # slow does not step at 0.011 s
+    lines = format_summary(scene, run_scene(scene, None, progress=False)).splitlines()
+    assert lines[2] == ("  (in the step from 0.011 s, before 'bad' failed, early had stepped on to 0.012 s: their "
+                        "figures below are of that time, the others' of 0.011 s)")
+    scene = loads(text.replace("  early", "  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n  early", 1)
+                  .replace("  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n  late", "  late"))
+    assert "stepped on" not in format_summary(scene, run_scene(scene, None, progress=False))  # failed first
+
+
 def test_a_run_that_substeps_says_so_in_its_summary():
     """Substeps taken for stability (on_unstable: substep) are said in the summary, with the most one
     step took (they were only an event in the recording, invisible with --no-record); a run without
