@@ -121,6 +121,24 @@ def show_value(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+UNQUOTED_NAMES = ("YAML reads null, ~, yes/no, on/off, true/false and numbers as values; quote the name "
+                  "(e.g. 'off')")
+
+
+def as_written(name: Any) -> str:
+    """A name as a scene's YAML wrote it: a string quoted, a value YAML read from an unquoted word in
+    YAML's words (``true`` for ``on``, ``null`` for ``~``), a number as itself."""
+    if isinstance(name, bool) or name is None:
+        return {None: "null", True: "true", False: "false"}[name]
+    return show_value(name)
+
+
+def unquoted_hint(name: Any) -> str:
+    """For a name that is not a string (YAML read an unquoted word as a value): the words saying so,
+    to append to what is said of it; nothing for a string."""
+    return "" if isinstance(name, str) else f"; {as_written(name)} is a value, not a name: {UNQUOTED_NAMES}"
+
+
 def convert(tp: Any, value: Any, path: str, problems: list[str], rule: str = "") -> Any:
     """Convert plain data ``value`` to type ``tp``; append ``path: problem`` lines on failure.
     ``rule``: the field's declared bounds (``> 0 m``), said where a number is refused before they

@@ -38,7 +38,7 @@ from cosim.codec.json_codec import CodecError, codec_for, json_kind
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound, substep_count
 from cosim.errors import NO_ROOM, ScenarioError, one_line
 from cosim.messages import Message
-from cosim.params import beyond_float, build, number_text, show_value, whole_digits
+from cosim.params import UNQUOTED_NAMES, as_written, beyond_float, build, number_text, show_value, whole_digits
 from cosim.registry import COMPONENT_KEYS, UnknownComponentType, check_contract, resolve
 from cosim.timebase import NS_PER_S, exact_seconds, seconds_to_ns, ticks_reaching
 
@@ -1353,12 +1353,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         raw_components = {}
     for cname, spec in raw_components.items():
         if not isinstance(cname, str):
-            # YAML reads null, ~, true/false, yes/no, on/off and numbers as values, not names
-            read_as = {None: "null", True: "true", False: "false"}.get(cname, show_value(cname)) \
-                if isinstance(cname, bool | None) else show_value(cname)
-            problems.append(f"components: a component is named {read_as}, not a name: YAML reads "
-                            f"null, ~, yes/no, on/off, true/false and numbers as values; quote the name "
-                            f"(e.g. 'off')")
+            problems.append(f"components: a component is named {as_written(cname)}, not a name: {UNQUOTED_NAMES}")
             continue
         cfg = _component(str(cname), spec, dt_ns, default_unstable, problems, classes, folder)
         if cfg is not None:

@@ -154,6 +154,17 @@ BAD_MAPPINGS = [
     ("start: {peak_speed: 8.0", "start: {peak_speed: fast",
      r"start\.peak_speed: variable 'peak_speed' of FMU 'wind_gust\.py' is Real; got 'fast'"),
     ('"force[0]": Fx', '"forces[0]": Fx', r"fields\.forces\[0\]: Wrench has no field 'forces\[0\]'"),
+    # YAML reads an unquoted on, off, yes, no, ~ or a number as a value: said as such (it was "no variable True")
+    ("start: {peak_speed: 8.0", "start: {on: 8.0",
+     r"components\.gust\.start: a variable is named true, not a name: YAML reads null, ~, yes/no, on/off, "
+     r"true/false and numbers as values; quote the name \(e\.g\. 'off'\)"),
+    ('"force[0]": Fx', '"force[0]": off', r"fields\.force\[0\]: FMU 'wind_gust\.py' has no variable false "
+     r"\(outputs: Fx, Fy, Fz\); false is a value, not a name: YAML reads null, ~, yes/no"),
+    ('"force[0]": Fx', 'yes: Fx', r"outputs\.wrench\.fields: a field is named true, not a name: YAML reads null"),
+    ("wrench: {type", "~: {type", r"outputs: port names must be identifiers \(they become channel names; got "
+     r"null\); null is a value, not a name: YAML reads"),
+    ('body: {type: BodyState, fields: {"velocity[0]": vx, "velocity[1]": vy, "velocity[2]": vz}}', "body: 12",
+     r"inputs\.body: must be a variable name, or a mapping .* \(got 12\); 12 is a value, not a name"),
 ]
 
 

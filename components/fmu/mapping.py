@@ -27,6 +27,7 @@ import numpy as np
 
 from cosim.examples import Number
 from cosim.messages import FieldKind, FieldSpec, Message, fields_of
+from cosim.params import UNQUOTED_NAMES, as_written, unquoted_hint
 
 FIELD_RE = re.compile(r"^([A-Za-z_]\w*)(?:\[(\d+)\])?$")  # "speed" or "force[0]"
 PORT_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")  # a port name becomes a channel name
@@ -109,13 +110,15 @@ def parse_ports(data: Any, side: str, label: str, variables: dict[str, Any], pat
     for port, spec in data.items():
         at = f"{where}.{port}"
         if not isinstance(port, str) or not PORT_RE.fullmatch(port):
-            problems.append(f"{where}: port names must be identifiers (they become channel names; got {port!r})")
+            problems.append(f"{where}: port names must be identifiers (they become channel names; got "
+                            f"{as_written(port)}){unquoted_hint(port)}")
             continue
         if isinstance(spec, str):  # shorthand: a scalar port
             spec = {"type": "Number", "fields": {"value": spec}}
         if not isinstance(spec, dict) or set(spec) - {"type", "fields"} or "type" not in spec:
             problems.append(f"{at}: must be a variable name, or a mapping with 'type' (a message type) and "
-                            f"'fields' (message field -> FMU variable) (got {spec!r})")
+                            f"'fields' (message field -> FMU variable) (got {as_written(spec)})"
+                            f"{unquoted_hint(spec) if not isinstance(spec, dict | list) else ''}")
             continue
         msg_type = types.get(spec["type"]) if isinstance(spec["type"], str) else None
         if msg_type is None:
@@ -137,8 +140,11 @@ def parse_ports(data: Any, side: str, label: str, variables: dict[str, Any], pat
 def _binding(item: tuple[Any, Any], msg_type: type[Message], causality: str, label: str,
              variables: dict[str, Any], at: str, problems: list[str]) -> Binding | None:
     key, name = item
+    if not isinstance(key, str):
+        problems.append(f"{at}: a field is named {as_written(key)}, not a name: {UNQUOTED_NAMES}")
+        return None
     specs = {s.name: s for s in fields_of(msg_type)}
-    match = FIELD_RE.match(str(key))
+    match = FIELD_RE.match(key)
     if not match or match.group(1) not in specs:
         problems.append(f"{at}.{key}: {msg_type.__name__} has no field {key!r} "
                         f"(fields: {', '.join(specs)}; an array element as 'name[i]')")
@@ -160,8 +166,8 @@ def _binding(item: tuple[Any, Any], msg_type: type[Message], causality: str, lab
         return None
     if not isinstance(name, str) or name not in variables:
         names = sorted(n for n, v in variables.items() if v.causality == causality)
-        problems.append(f"{at}.{key}: FMU {label} has no variable {name!r} "
-                        f"({causality}s: {', '.join(names) or 'none'})")
+        problems.append(f"{at}.{key}: FMU {label} has no variable {as_written(name)} "
+                        f"({causality}s: {', '.join(names) or 'none'}){unquoted_hint(name)}")
         return None
     var = variables[name]
     if var.causality != causality:
@@ -238,7 +244,10 @@ def parse_start(data: Any, label: str, variables: dict[str, Any], path: str, pro
         var = variables.get(name) if isinstance(name, str) else None
         if var is None:
             settable = sorted(n for n, v in variables.items() if v.causality in START_CAUSALITIES)
-            problems.append(f"{at}.{name}: FMU {label} has no variable {name!r} ({_close(str(name), settable)})")
+            if not isinstance(name, str):
+                problems.append(f"{at}: a variable is named {as_written(name)}, not a name: {UNQUOTED_NAMES}")
+                continue
+            problems.append(f"{at}.{name}: FMU {label} has no variable {name!r} ({_close(name, settable)})")
             continue
         if var.causality not in START_CAUSALITIES or var.variability == "constant":
             problems.append(f"{at}.{name}: variable {name!r} of FMU {label} is a {var.variability} "
