@@ -145,6 +145,33 @@ def test_a_writer_that_stops_answering_once_it_has_everything_lets_the_run_stand
     assert status.status == "ok" and status.tick == 50
 
 
+def test_a_writer_killed_while_the_last_batch_is_sent_lets_the_run_stand(tmp_path, monkeypatch):
+    """The writer killed as the run, closing, sends its last batch: its recording is salvaged whole,
+    the run's ok status in it, and the run stands, said in a warning, as when the writer dies later
+    in closing (it was an error, exit 1, no summary, over a whole ok recording)."""
+    from cosim.record.writer import ProcessSink
+
+    send = ProcessSink._send
+
+    def killed_first(self, batch):
+        if self._closing and self._failed is None:
+            self._writer.proc.kill()
+            self._writer.proc.wait(WAIT_S)
+        send(self, batch)
+
+    monkeypatch.setattr(ProcessSink, "_send", killed_first)
+    out = tmp_path / "s.mcap"
+    scene = loads(DEMO_SCENE)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        outcome = run_scene(scene, out, progress=False)
+    assert outcome.result.status == "ok" and outcome.recording == out
+    (said,) = [str(w.message) for w in caught if "salvaged" in str(w.message)]
+    assert "the recording writer was killed (SIGKILL)" in said and "all the run had recorded" in said
+    status = Recording(out).status()
+    assert status.status == "ok" and status.tick == 50
+
+
 def test_the_private_files_of_another_target_are_not_taken_for_this_ones(tmp_path):
     """a.mcap.x.mcap's private file (a.mcap.x.mcap.<hex>.part) is not another run writing a.mcap, nor
     a leftover of a.mcap's: a.mcap is claimed without a word."""

@@ -1204,7 +1204,13 @@ class ProcessSink(_Sink):
         rescued: tuple[str, str] | None = None
         try:
             try:
-                self.flush()
+                try:
+                    self.flush()
+                except SinkError:
+                    # the writer failed as the last batch was sent: a salvage that kept it all is
+                    # said below, as a warning, as when it fails later in closing
+                    if not self._whole:
+                        raise
                 self._placement.anywhere()  # this process only waits from now on
             finally:
                 self.stage.view = memoryview(b"")  # the stage no longer writes into the ring
