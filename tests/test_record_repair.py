@@ -90,15 +90,27 @@ def test_a_whole_mcap_file_another_program_wrote_is_refused(tmp_path, capsys):
                           "recording")
 
 
-def test_a_whole_recording_damaged_in_its_header_is_refused(whole, tmp_path, capsys):
-    """One byte changed at offset 30, in the header's library name: every record after it is whole,
-    but the header cannot be read, so no copy of it reads either (it was 'repaired', 830 messages,
-    into a file as unreadable)."""
+@pytest.mark.parametrize(("at", "flip", "said"), [
+    (30, 0xFF, "its library is not UTF-8 text"),  # a byte of the library's name
+    (17, 0x40, "its profile's length runs past the record"),  # the profile's length
+])
+def test_a_whole_recording_damaged_in_its_header_has_the_header_written_anew(whole, tmp_path, capsys, at, flip,
+                                                                               said):
+    """The header (it has no CRC) damaged: every record after it is whole, and kept, the header
+    written anew and said in a warning. It was refused ("what it holds whole is not a readable MCAP
+    recording (... UnicodeDecodeError ...)"), a whole run's recording lost for one byte of its
+    writer's name."""
     data = bytearray(whole.read_bytes())
-    data[30] ^= 0xFF
+    data[at] ^= flip
     damaged = _written(tmp_path, "damaged.mcap", bytes(data))
-    _refused(damaged, capsys, "damaged (corrupt: the CRC of its data does not match (changed on disk?)), and what "
-                              "it holds whole is not a readable MCAP recording")
+    with pytest.warns(UserWarning) as given:
+        assert main(["repair", str(damaged), "-o", str(tmp_path / "mended.mcap")]) == 0
+    assert [str(w.message) for w in given] == [
+        f"{damaged}: its header record (byte 8) is damaged ({said}): written anew, naming 'cosim repair' as its writer"]
+    mended, original = Recording(tmp_path / "mended.mcap"), Recording(whole)
+    assert mended.library == "cosim repair" and repr(mended.status()) == repr(original.status())
+    assert {t: c.count for t, c in mended.channels.items()} == {t: c.count for t, c in original.channels.items()}
+    assert capsys.readouterr().out.startswith(f"wrote {tmp_path / 'mended.mcap'}: ")
 
 
 @pytest.mark.parametrize("size", [100, 1000])

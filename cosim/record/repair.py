@@ -18,6 +18,9 @@ the file's summary, when it is intact, says what that channel and its schema wer
 are written in the stretch's place, and the chunks after it kept (a closed recording damaged early
 on kept only what preceded the damage, though its summary defined every channel). Without an intact
 summary (a killed run's private file) the copy ends where the damage begins, and the warning says so.
+A header record whose text is damaged (it carries no CRC: its profile and library not UTF-8 text)
+is written anew, naming ``cosim repair`` as the file's writer, and said in a warning: the records
+after it are whole (the reader had refused the file, and the repair's copy, over the header alone).
 
 Refused (a RecordingError, bad input), with nothing written: a whole recording (nothing to repair),
 a whole MCAP file that is not a cosim recording, a file that is no MCAP file at all (it does not
@@ -47,7 +50,7 @@ from cosim.record.output import (
 )
 
 if TYPE_CHECKING:
-    from mcap.records import Channel, Schema
+    from mcap.records import Channel, Header, Schema
 
     from cosim.record.recorder import RunStatus
     from cosim.record.seal import Damage
@@ -194,7 +197,7 @@ def _copy_leaving_out(source: Path, target: Path, damage: list[Damage]) -> None:
     copy_file(source, target, pieces)
 
 
-def _records(records: tuple[Schema | Channel, ...]) -> bytes:
+def _records(records: tuple[Schema | Channel | Header, ...]) -> bytes:
     """The MCAP records ``records`` as a data section holds them."""
     from mcap.data_stream import RecordBuilder
 

@@ -24,7 +24,8 @@ inspect`` names them (:func:`cosim.record.reader.check_integrity`). A chunk afte
 may use a channel that was not defined before it (the damaged chunk may have defined it): when the
 file's summary is intact (its CRC given and matching), its schema and channel records say what
 they were, and the stretch carries them (:attr:`Damage.restores`) to be written in its place;
-without one, reading stops at that stretch. :func:`seal`, closing a file in place, keeps only what
+without one, reading stops at that stretch. A damaged header record is such a stretch too, carrying
+a header written anew (:attr:`Damage.mended`). :func:`seal`, closing a file in place, keeps only what
 precedes the first damage.
 """
 
@@ -49,6 +50,7 @@ from mcap.records import (
     ChunkIndex,
     DataEnd,
     Footer,
+    Header,
     Message,
     MessageIndex,
     MetadataIndex,
@@ -107,7 +109,8 @@ class Damage:
     chunk read whole. ``resumed``: reading went on at ``end`` (else nothing from ``start`` on is
     kept, ``why_stopped`` saying why, and ``kept_before`` counting the messages of the whole chunks
     before it); ``listed``: the messages its message index lists, and ``first_ns`` .. ``last_ns``
-    their log times (None when it has no readable index)."""
+    their log times (None when it has no readable index); ``restores``: records written in its place;
+    ``mended``: what was written in place of a record that is not left out (the header)."""
 
     start: int
     end: int
@@ -118,7 +121,8 @@ class Damage:
     last_ns: int = 0
     why_stopped: str = ""
     kept_before: int = 0
-    restores: tuple[Schema | Channel, ...] = ()
+    restores: tuple[Schema | Channel | Header, ...] = ()
+    mended: str = ""
 
     def lost(self) -> str:
         """What leaving it out loses: "the 20 messages its index lists (t = 0.123 .. 0.132 s)"."""
@@ -129,6 +133,8 @@ class Damage:
         return f"the {self.listed} message{'s' if self.listed != 1 else ''} its index lists (t = {times})"
 
     def __str__(self) -> str:
+        if self.mended:
+            return f"{self.what}: {self.mended}"
         if self.resumed:
             return f"{self.what}: left out, with {self.lost()}"
         return f"{self.what}: nothing from there on is kept ({self.why_stopped})"
@@ -189,6 +195,10 @@ def _scan(data: Any, skip: bool = False) -> _Scan:
         raise ValueError("its header is cut short")
     found = _Scan(start=at, start_crc=zlib.crc32(data[:at]))
     crc = found.start_crc
+    if skip and (problem := _header_problem(data, at)) is not None:
+        found.damage.append(Damage(len(MCAP_MAGIC), at, f"its header record (byte {len(MCAP_MAGIC)}) is damaged "
+                                   f"({problem})", True, restores=(Header(profile="", library=REPAIRED_BY),),
+                                   mended=f"written anew, naming {REPAIRED_BY!r} as its writer"))
     while at + _PREFIX.size <= size:
         op, length = _PREFIX.unpack_from(data, at)
         end = at + _PREFIX.size + length
@@ -367,6 +377,27 @@ def _has_crc(data: Any, at: int) -> bool:
     return _CHUNK_HEAD.unpack_from(data, at + _PREFIX.size)[3] != 0
 
 
+REPAIRED_BY = "cosim repair"  # the library a header written anew names (its own was damaged)
+
+
+def _header_problem(data: Any, end: int) -> str | None:
+    """What is wrong with the header record ending at ``end`` (its two strings, profile and library,
+    must fill it and be UTF-8 text; the header has no CRC of its own), or None."""
+    at = len(MCAP_MAGIC) + _PREFIX.size
+    for name in ("profile", "library"):
+        if at + 4 > end:
+            return f"its {name} is cut off"
+        (length,) = struct.unpack_from("<I", data, at)
+        if at + 4 + length > end:
+            return f"its {name}'s length runs past the record"
+        try:
+            bytes(data[at + 4:at + 4 + length]).decode("utf-8")
+        except UnicodeDecodeError:
+            return f"its {name} is not UTF-8 text"
+        at += 4 + length
+    return None if at == end else "it holds more than its profile and library"
+
+
 def _stop_where_channels_are_missing(found: _Scan, size: int, summary: _Definitions) -> None:
     """A chunk after a damaged stretch whose messages use a channel not defined before it (or one
     whose schema is not): the damaged chunk may have defined it. When the file's intact ``summary``
@@ -379,7 +410,7 @@ def _stop_where_channels_are_missing(found: _Scan, size: int, summary: _Definiti
         schemas |= {s.id for s in entry.schemas}
         known |= {c.id for c in entry.channels if c.schema_id in schemas}
         at = entry.index.chunk_start_offset
-        before = [d for d in found.damage if d.start < at]
+        before = [d for d in found.damage if d.start < at and not d.mended]
         missing = sorted(channel for channel in entry.counts if channel not in known)
         if not before or not missing:
             continue  # (a channel missing before any damage is the file's own: the reader says what it makes of it)
