@@ -4,6 +4,7 @@ them and leave when it is gone, and with them the pool's resource tracker."""
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import subprocess
@@ -69,3 +70,28 @@ def test_a_sweep_killed_with_sigkill_leaves_no_worker_or_tracker_running(tmp_pat
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 if alive(pid):
                     os.kill(pid, signal.SIGKILL)
+
+
+def test_the_resource_tracker_holds_only_its_pipe_and_warns_nothing_at_exit(tmp_path):
+    """The tracker a sweep starts (in a session of its own) keeps none of the starting process's
+    other descriptors open (a pipe of the caller's, kept open, outlived the sweep), and nothing of
+    it is said at the starting process's exit (a subprocess.Popen held for it warned "subprocess ...
+    is still running" at the end of every test session)."""
+    code = ("import json, os\n"
+            "from multiprocessing import resource_tracker\n"
+            "from cosim.sweep.backends import _start_resource_tracker\n"
+            "_start_resource_tracker()\n"
+            "pid = resource_tracker._resource_tracker._pid\n"
+            "held = sorted(os.readlink(f'/proc/{pid}/fd/{fd}') for fd in os.listdir(f'/proc/{pid}/fd'))\n"
+            "print(json.dumps([os.getsid(pid) != os.getsid(0), held]))\n")
+    read, write = os.pipe()  # inheritable in the child: a descriptor of the caller's, as a shell's may be
+    try:
+        done = subprocess.run([sys.executable, "-X", "dev", "-c", code], capture_output=True, text=True,
+                              env={**os.environ, "PYTHONPATH": str(ROOT)}, pass_fds=(write,), timeout=WAIT_S)
+    finally:
+        os.close(read)
+        os.close(write)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    own_session, held = json.loads(done.stdout)
+    assert own_session
+    assert held[:3] == [os.devnull] * 3 and len(held) == 4 and held[3].startswith("pipe:")  # its streams, its pipe

@@ -29,7 +29,6 @@ import platform
 import signal
 import socket
 import struct
-import subprocess
 import sys
 import threading
 import time
@@ -337,9 +336,23 @@ def _worker_init(parent: int | None = None, stop: Any = None) -> None:
     import cosim.runner  # noqa: F401  (import once per worker, not once per run)
 
 
-# the resource tracker this process started, held so that subprocess never reaps it behind the back of
-# multiprocessing, which waits for it by its pid
-_tracker: subprocess.Popen | None = None
+
+
+def _inheritable_descriptors() -> list[int]:
+    """This process's open file descriptors that a process it spawns would inherit (none listed where
+    /proc/self/fd is not there to list them)."""
+    try:
+        listed = [int(name) for name in os.listdir("/proc/self/fd")]
+    except OSError:
+        return []
+    kept = []
+    for fd in listed:
+        try:
+            if os.get_inheritable(fd):
+                kept.append(fd)
+        except OSError:  # the listing's own descriptor, closed since
+            pass
+    return kept
 
 
 def _start_resource_tracker() -> None:
@@ -354,7 +367,6 @@ def _start_resource_tracker() -> None:
 
     It is multiprocessing's own tracker (its ``main``), started as ``ensure_running`` would start it;
     a tracker already running in this process is kept."""
-    global _tracker
     from multiprocessing import resource_tracker, spawn
 
     tracker = resource_tracker._resource_tracker
@@ -364,16 +376,24 @@ def _start_resource_tracker() -> None:
     with tracker._lock:
         read, write = os.pipe()
         try:
-            _tracker = subprocess.Popen(
-                [spawn.get_executable(), "-c", f"from multiprocessing.resource_tracker import main; main({read})"],
-                pass_fds=(read,), start_new_session=True, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL)
+            # spawned by its pid alone, as multiprocessing spawns it: it outlives this process's use of
+            # it (it leaves once this process is gone), and multiprocessing waits for it by that pid (a
+            # subprocess.Popen held for it warned "subprocess ... is still running" at every exit)
+            os.set_inheritable(read, True)
+            executable = spawn.get_executable()
+            # its standard streams on /dev/null, and no other descriptor of this process kept open in it
+            # (one it holds keeps a pipe of the sweep's caller open after the sweep has ended)
+            actions = [(os.POSIX_SPAWN_OPEN, fd, os.devnull, os.O_RDWR, 0) for fd in (0, 1, 2)]
+            actions += [(os.POSIX_SPAWN_CLOSE, fd) for fd in _inheritable_descriptors() if fd > 2 and fd != read]
+            pid = os.posix_spawn(executable, [executable, "-c",
+                                              f"from multiprocessing.resource_tracker import main; main({read})"],
+                                 os.environ, file_actions=actions, setsid=True)
         except BaseException:
             os.close(write)
             raise
         finally:
             os.close(read)
-        tracker._fd, tracker._pid = write, _tracker.pid
+        tracker._fd, tracker._pid = write, pid
 
 
 class ProcessBackend:
