@@ -381,6 +381,26 @@ def test_a_thinned_recordings_contact_peaks_are_the_monitors(tmp_path):
         assert title.endswith(f", peak {record.peak_g:.1f} g"), (title, record.peak_g)
 
 
+def test_a_thinned_recordings_last_contact_going_on_at_the_end_is_said_to(tmp_path):
+    """The reference skip recorded one message in ten: the glide it ends in (sinking) still goes on
+    at the end, though the coupler's last kept report comes before the stone's last kept state; it
+    was titled as a contact that ended there ("1035.5 ms", where the whole recording says
+    "1039.5 ms+ (to the run's end)")."""
+    from components.analysis.plot import figure_contacts
+    from cosim.runner import run_scene
+    from cosim.scenario import load
+
+    path = tmp_path / "thin.mcap"
+    scene = load(Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml",
+                 overrides=["record.visual_rate=0", "record.every=10", "record.checkpoint_every=0"])
+    assert run_scene(scene, path, progress=False).result.status == "stopped"
+    thinned = load_run(path)
+    assert thinned.contacts[0].t[-1] < thinned.body.t[-1] and thinned.contacts[0].wetted[-1]
+    titles = [ax.get_title() for ax in figure_contacts(thinned).axes if ax.get_visible()]
+    assert len(titles) == len(thinned.skips) + 1 and "ms+ (to the run's end)" in titles[-1]
+    assert not any("+" in title for title in titles[:-1])
+
+
 def test_the_energy_budget_of_ground_bounces_closes_at_every_impact(tmp_path):
     """The ground's impulse reaches the body a step later, over a delayed edge: the energy the ground
     reports as dissipated is counted from the body's next state, and the total stays put through each

@@ -351,6 +351,22 @@ def _wetted_spans(run: RunData) -> list[tuple[float, float]]:
     return _as_the_monitor_counts(run, spans)
 
 
+def _still_going_on(run: RunData, end: float) -> bool:
+    """Whether a contact found to end at ``end`` [s] was still going on when the recording ends: it
+    lasts to the body's last state, or to the last report of the channel its spans are read from (the
+    first water coupler's, else the first ground's) while that still reports contact. A recording
+    that keeps one message in ten keeps each channel's last at a step of its own: a contact of the
+    coupler's last report, 3 ms before the stone's last state, was drawn as ended."""
+    if end >= run.body.t[-1] - 1e-9:
+        return True
+    source = ((run.contacts[0].t, run.contacts[0].wetted) if run.contacts else
+              (run.grounds[0].t, run.grounds[0].in_contact) if run.grounds else None)
+    if source is None or not len(source[0]):
+        return False
+    t, flags = source
+    return bool(flags[-1]) and end >= float(t[-1]) - 1e-9
+
+
 def _hit_start(run: RunData, dry: float, wet: float) -> float:
     """When the contact first reported wetted at ``wet`` [s], its last report before dry at ``dry``,
     began: the stage monitor's hit after ``dry`` and at or before ``wet`` (its stage changes are all
@@ -488,7 +504,7 @@ def figure_contacts(run: RunData) -> Figure | None:
                        label=f"{BOUNCE_G:g} M g: a disk bounces above about this (Tang et al. 2021)")
         peak_text = f", peak {peak:.1f} g" if run.contacts and weight > 0.0 else ""
         # a contact still going on when the recording ends lasted at least this long, not this long
-        going_on = end >= run.body.t[-1] - 1e-9
+        going_on = _still_going_on(run, end)
         ends = ("+ (cut off)" if run.cut_off else "+ (to the run's end)") if going_on else ""
         touchdown = run.touchdown_before if k == 0 and run.touchdown_before is not None and \
             start <= run.body.t[0] + run.step + 1e-9 else None
