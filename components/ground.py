@@ -98,7 +98,8 @@ Vec3Param = tuple[float, float, float]
 class SolidGroundParams:
     """Parameters of a SolidGround plane (SI units; angles in degrees)."""
 
-    point: Vec3Param = param((0.0, 0.0, 0.0), unit="m", doc="a point of the plane (a bottom: [0, 0, -depth])")
+    point: Vec3Param = param((0.0, 0.0, 0.0), unit="m", doc="a point of the plane (a bottom: [0, 0, -depth]; "
+                             "each coordinate within 1000 km of 0)")
     slope_deg: float = param(0.0, unit="deg", ge=0, lt=90, doc="angle of the plane from horizontal")
     downhill_deg: float = param(0.0, unit="deg", doc="azimuth of the downhill direction, from +x towards +y")
     restitution: float = param(0.5, ge=0, le=1, doc="normal coefficient of restitution e")

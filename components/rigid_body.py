@@ -111,7 +111,8 @@ class RigidBodyParams:
                            doc="sets the mass unless mass is given (at most 1e6: osmium is 22,590)")
     mass: float | None = param(None, unit="kg", gt=0,
                                doc="overrides the density (at most the mass the density's bound, 1e6 kg/m^3, gives)")
-    position: Vec3Param = param((0.0, 0.0, 0.1), unit="m", doc="initial centre of mass")
+    position: Vec3Param = param((0.0, 0.0, 0.1), unit="m",
+                                doc="initial centre of mass (each coordinate within 1000 km of 0)")
     velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="m/s", doc="initial velocity")
     angular_velocity: Vec3Param = param((0.0, 0.0, 0.0), unit="rad/s", doc="initial, world frame")
     spin: float = param(0.0, unit="rad/s",

@@ -685,11 +685,10 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
                             f"{_nearest_multiples(step, step_ns, dt_ns)}")
             return None
         return step_ns // dt_ns
-    every = spec.get("every", 1)
-    if isinstance(every, float) and every.is_integer() and abs(every) < 2**63:
-        every = int(every)  # a whole number written as a float (2.0, 1e3): it was refused as "non-integer"
+    every = _whole_number(spec.get("every", 1))
     if isinstance(every, bool) or not isinstance(every, int):
-        rounded = "; a non-integer rate ratio is not rounded" if isinstance(every, float) else ""
+        rounded = "; a non-integer rate ratio is not rounded" if isinstance(every, float) and math.isfinite(every) \
+            else ""
         problems.append(f"{path}.every: must be a whole number of base steps (got {every!r}){rounded}")
         return None
     if every < 1:
@@ -700,6 +699,13 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
                         f"{MAX_TIME_NS / NS_PER_S:.3g} s")
         return None
     return every
+
+
+def _whole_number(value: Any) -> Any:
+    """A count written as a float with no fraction (2.0, 1.0e+3; YAML reads a number with a point or an
+    exponent as a float) as the integer it is; any other value as it is. (Refused as "non-integer", 2.0
+    was; and 1e+19, past 2^63, too, where its range is what is wrong with it.)"""
+    return int(value) if isinstance(value, float) and value.is_integer() else value
 
 
 LARGEST_INITIAL = 1e15  # |value| of an edge's initial field beyond which it can only overflow the run
@@ -1389,13 +1395,15 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         record_problems_before = len(problems)
         # a time or rate beyond a float's range is refused by its own range below, not also as no float
         huge = {k for k in ("checkpoint_every", "visual_rate") if beyond_float(raw_record.get(k))}
-        built = build(RecordConfig, {k: v for k, v in raw_record.items() if k not in huge}, "record", problems)
+        # a whole number of messages written as a float is that number, as a component's every is
+        given = {k: _whole_number(v) if k == "every" else v for k, v in raw_record.items()}
+        built = build(RecordConfig, {k: v for k, v in given.items() if k not in huge}, "record", problems)
         typed = built is not None and len(problems) == record_problems_before and not huge
         if typed:
             record = built
         # the ranges, also of the values that are numbers when another record key is wrong (they were
         # said only once that one was mended)
-        values = record if typed else RecordConfig(**{k: v for k, v in raw_record.items()
+        values = record if typed else RecordConfig(**{k: v for k, v in given.items()
                                                       if k in RECORD_NUMBERS and _plain_number(v)
                                                       and (k != "every" or isinstance(v, int))})
         if values.every < 1:

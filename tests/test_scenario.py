@@ -244,3 +244,39 @@ def test_a_whole_every_written_as_a_float_is_that_whole_number(written):
     """`every: 2.0` was refused as "a non-integer rate ratio": a whole number, however YAML reads it."""
     scene = loads(scene_with(f'a: {{type: "tests.toys:Gain", every: {written}}}'))
     assert scene.components["a"].every == 2 and isinstance(scene.components["a"].every, int)
+
+
+@pytest.mark.parametrize(("written", "said"), [
+    ("1.0e+19", r"components\.a\.every: a step of 10000000000000000000 x dt is longer than 9\.22e\+09 s$"),
+    (".inf", r"components\.a\.every: must be a whole number of base steps \(got inf\)$"),
+])
+def test_a_whole_every_beyond_the_range_is_said_out_of_range_not_a_fraction(written, said):
+    """1.0e+19 is a whole number too: its range is what is wrong with it (it was said to be "a
+    non-integer rate ratio", which is not rounded); an infinite one is no number of steps at all."""
+    with pytest.raises(ScenarioError) as info:
+        loads(scene_with(f'a: {{type: "tests.toys:Gain", every: {written}}}'))
+    assert len(info.value.problems) == 1 and re.search(said, info.value.problems[0]), info.value.problems
+
+
+def test_a_whole_record_every_written_as_a_float_is_that_whole_number():
+    """record.every: 2.0 is 2, as a component's every: 2.0 is (it was "must be an integer (got 2.0)");
+    2.5 is still refused."""
+    text = scene_with('a: {type: "tests.toys:Gain"}')
+    assert loads(text + "record: {every: 2.0}\n").record.every == 2
+    with pytest.raises(ScenarioError) as info:
+        loads(text + "record: {every: 2.5}\n")
+    assert info.value.problems == ["record.every: must be an integer (got 2.5)"]
+
+
+@pytest.mark.parametrize(("rows", "why"), [
+    ("[[1, 2], [3]]", "its nested lists are not all of one length"),
+    ("[[1, 2], [3, x]]", "its values must be float64 numbers"),
+])
+def test_an_initial_array_that_is_no_array_is_said_in_the_scenes_words(rows, why):
+    """An edge's initial array of ragged rows, or of a word: said as the rule (it quoted numpy: "setting
+    an array element with a sequence. The requested array has an inhomogeneous shape ...")."""
+    text = (Path(__file__).resolve().parents[1] / "scenarios" / "skip.yaml").read_text()
+    assert "initial: {i0: 0, j0: 0, b: []}" in text
+    with pytest.raises(ScenarioError) as info:
+        loads(text.replace("initial: {i0: 0, j0: 0, b: []}", f"initial: {{i0: 0, j0: 0, b: {rows}}}"))
+    assert info.value.problems == [f"connections.4.initial: field 'b': bad array ({why})"]

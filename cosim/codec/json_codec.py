@@ -159,7 +159,11 @@ def _array_in(spec: Array, name: str) -> Callable[[Any], np.ndarray]:
                 return finish(np.array(value, dtype=dtype).reshape(
                     [0] * len(spec.shape) if not value or value == [[]] else np.shape(value)))
             except ValueError as exc:
-                raise CodecError(f"field {name!r}: bad array ({exc})") from None
+                # in the scene's words, not numpy's ("setting an array element with a sequence ...")
+                ragged = "inhomogeneous" in str(exc) or "sequence" in str(exc)
+                why = ("its nested lists are not all of one length" if ragged else
+                       f"its values must be {dtype.name} numbers")
+                raise CodecError(f"field {name!r}: bad array ({why})") from None
         try:
             raw = base64.b64decode(value["base64"], validate=True)
             arr = np.frombuffer(raw, dtype=np.dtype(value["dtype"])).reshape(value["shape"])
