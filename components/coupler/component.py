@@ -713,7 +713,9 @@ class WaterCoupler(Component):
         # wave another body raised; the body, far, asks for that crest alone: _far_request)
         z_bottom = float(pos[2]) - r_bound
         level = self.rest_level
-        reach = min(0.0, float(vel[2])) * 2.0 * dt
+        # (and over the longer time a slower water takes to answer its first request for columns: a
+        # stone on a water stepping every 50 ms fell 13 cm into it before its window came)
+        reach = min(0.0, float(vel[2])) * (2.0 * dt + self._water_lag(dt))
         if self.flags == 0 or z_bottom + reach > level + max(self.params.wave_allowance, self._crest):
             self.bound = math.inf
             self._prev = None
@@ -1071,7 +1073,8 @@ class WaterCoupler(Component):
         margin += math.hypot(vel[0], vel[1]) * dt  # the window lags one step
         # ahead along the motion, the window reaches as far as the body goes in `lookahead`, so that
         # the surface it meets during a contact was in the window before it touched down (met_surface)
-        return self._window(centre, half, vel, margin, p.lookahead if self._ring_on else 0.0, True)
+        return self._window(centre, half, vel, margin, p.lookahead if self._ring_on else 0.0, True,
+                            self._water_lag(dt))
 
     def _far_request(self, pos: np.ndarray, vel: np.ndarray, dt: float, r_bound: float) -> PatchRequest:
         """The window whose crest alone (``columns`` False) a body far above the water asks for: its
@@ -1083,7 +1086,16 @@ class WaterCoupler(Component):
             return self._empty_request
         vx, vy = float(vel[0]), float(vel[1])
         return self._window((float(pos[0]) + vx * dt, float(pos[1]) + vy * dt), (r_bound, r_bound), (vx, vy),
-                            self._margin_cells() + math.hypot(vx, vy) * dt, self.params.lookahead, False)
+                            self._margin_cells() + math.hypot(vx, vy) * dt, self.params.lookahead, False,
+                            self._water_lag(dt))
+
+    def _water_lag(self, dt: float) -> float:
+        """How much longer [s] than this component's step ``dt`` the water may take to answer a
+        request: a water stepping every W seconds takes a new request only at its next step's start,
+        up to W later, and publishes its window at that step's end, W after that (0 when the water's
+        step is not known: a coupler driven by hand)."""
+        water_step = self.source_steps.get("water", 0.0)
+        return max(0.0, 2.0 * water_step - dt) if water_step > 0.0 else 0.0
 
     def _margin_cells(self) -> float:
         """The request's margin of ``margin_cells`` columns [m], DEFAULT_MARGIN before the first patch
@@ -1091,19 +1103,26 @@ class WaterCoupler(Component):
         return self.params.margin_cells * self.cell if self.cell > 0 else DEFAULT_MARGIN
 
     def _window(self, centre: tuple[float, float], half: tuple[float, float], vel: tuple[float, float],
-                margin: float, lookahead: float, columns: bool) -> PatchRequest:
+                margin: float, lookahead: float, columns: bool, lag: float) -> PatchRequest:
         """The request of ``columns`` (or of the crest alone) over the body's outline, ``half`` [m]
         either side of ``centre`` [m], widened by ``margin`` [m] and reaching ahead along ``vel``
-        [m/s] as far as the body goes in ``lookahead`` [s]; the held request of the same kind while
-        it still covers the body, its margin less half the margin cells (which absorb a slower
-        water's lag)."""
+        [m/s] as far as the body goes in ``lookahead`` [s], or in the water's ``lag`` [s] (its
+        answer's delay beyond a step, :meth:`_water_lag`) if longer; the held request of the same kind
+        while it still covers the body, its margin less half the margin cells, and ahead of it as far
+        as the body goes before the water answers a new one. (Renewed only within half the margin
+        cells of its edge, a window on a water stepping every 15 ms ran out 15 ms before its answer
+        came: the stone, still 1.5 cm under the surface, was dry to the coupler.)"""
         cx, cy = centre
         held = self._held_request
         if held is not None and held.columns == columns and held.x_min <= held.x_max:
             need = margin - 0.5 * self._margin_cells()
-            if (held.x_min <= cx - half[0] - need and cx + half[0] + need <= held.x_max
-                    and held.y_min <= cy - half[1] - need and cy + half[1] + need <= held.y_max):
+            on_x, on_y = vel[0] * lag, vel[1] * lag
+            if (held.x_min <= cx - half[0] - need + min(on_x, 0.0)
+                    and cx + half[0] + need + max(on_x, 0.0) <= held.x_max
+                    and held.y_min <= cy - half[1] - need + min(on_y, 0.0)
+                    and cy + half[1] + need + max(on_y, 0.0) <= held.y_max):
                 return held
+        lookahead = max(lookahead, lag)
         ahead_x, ahead_y = vel[0] * lookahead, vel[1] * lookahead
         return PatchRequest(cx - half[0] - margin + min(ahead_x, 0.0), cx + half[0] + margin + max(ahead_x, 0.0),
                             cy - half[1] - margin + min(ahead_y, 0.0), cy + half[1] + margin + max(ahead_y, 0.0),
