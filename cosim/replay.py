@@ -361,8 +361,9 @@ def _cannot_restart(rec: Recording, stamp: int, why: str) -> RecordingError:
 def _no_checkpoint(rec: Recording, from_ns: int, stamps: list[int]) -> RecordingError:
     """Why there is no checkpoint at or before ``from_ns`` to restart from, and what to do."""
     times = ", ".join(f"{exact_seconds(s)}" for s in stamps[:10]) or "none"
-    if rec.restart_ns and from_ns < rec.restart_ns:
-        # a restart's recording begins at its checkpoint: what came before is in the one it came from
+    if rec.restart_ns and (from_ns < rec.restart_ns or not stamps):
+        # a restart's recording begins at its checkpoint: what came before is in the one it came from,
+        # and so are the checkpoints of one recorded without any
         began = f"{exact_seconds(rec.restart_ns)} s"
         if stamps:
             hint = (f"this recording is a restart from {began}: restart from the recording it came from, or "

@@ -217,7 +217,9 @@ def test_a_restart_whose_checkpoint_the_full_disk_lost_says_so(body_path, tmp_pa
 
 
 def test_a_restart_recorded_without_checkpoints_says_so(body_path, tmp_path, capsys):
-    """What the line said of every restart without its checkpoint is still said when it is true."""
+    """What the line said of every restart without its checkpoint is still said when it is true. And
+    --from it at or after its start points to the recording it came from too, as before its start
+    (it was told to "record with record.checkpoint_every > 0")."""
     restart = tmp_path / "from.mcap"
     assert main(["replay", str(body_path), "--from", "0.02", "-q", "-o", str(restart), "--set",
                  "record.checkpoint_every=0"]) == 0
@@ -226,6 +228,11 @@ def test_a_restart_recorded_without_checkpoints_says_so(body_path, tmp_path, cap
     assert one_error_line(capsys.readouterr().err) == (
         f"error: {restart}: cannot replay: a restart from t = 0.02 s, recorded without the checkpoint it started from "
         "(record.checkpoint_every 0): replay the recording it was restarted from")
+    for at in ("0.01", "0.02", "0.03"):
+        assert main(["replay", str(restart), "--from", at, "-q", "-o", str(tmp_path / "again.mcap")]) == 2
+        assert one_error_line(capsys.readouterr().err).endswith(
+            "this recording is a restart from 0.02 s, recorded without checkpoints: restart from the recording it "
+            "came from")
 
 
 def test_a_run_whose_checkpoints_the_full_disk_lost_is_not_told_to_record_them(body_path, tmp_path, capsys):
