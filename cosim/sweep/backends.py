@@ -336,8 +336,6 @@ def _worker_init(parent: int | None = None, stop: Any = None) -> None:
     import cosim.runner  # noqa: F401  (import once per worker, not once per run)
 
 
-
-
 def _inheritable_descriptors() -> list[int]:
     """This process's open file descriptors that a process it spawns would inherit (none listed where
     /proc/self/fd is not there to list them)."""
