@@ -165,3 +165,55 @@ def test_a_pages_section_keeps_the_pages_mode_and_a_read_only_page_is_refused(tm
     with pytest.raises(SystemExit):
         options.check_output(parser, page, "--write", text=True)
     page.chmod(0o644)
+
+
+BAD_SCENE = "dt: x\n"
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    (("tools/spin_regimes.py", "--figure", "{tmp}/x.txt"), "--figure {tmp}/x.txt: a figure's name ends in .png, "
+                                                           ".pdf, .svg (the format it is written as)"),
+    (("tools/spin_regimes.py", "--figure", "{tmp}/noext"), "--figure {tmp}/noext: a figure's name ends in"),
+    (("tools/bench_skip.py", "--scene", "{tmp}/bad.yaml"), "--scene {tmp}/bad.yaml: dt: must be a number of seconds "
+                                                           "(got 'x') (and 2 more: cosim validate {tmp}/bad.yaml)"),
+    (("tools/bench_skip.py", "--scene", "{tmp}"), "--scene {tmp}: a folder"),
+    (("tools/bench_water_paths.py", "--sizes", "1"), "--sizes: each at least 2 (got 1)"),
+    (("tools/spin_precession.py", "--figure", "{tmp}/a.png", "--markdown", "{tmp}/v.md"),
+     "--markdown rewrites the section of the thin slate's table, which --figure does not make"),
+])
+def test_what_a_tool_cannot_do_is_said_before_it_runs(tmp_path, args, said):
+    """A figure named in no format matplotlib writes (a traceback after the run; a name without an
+    ending was written as NAME.png while the tool said NAME), a scene that does not load (a
+    traceback), a grid of one column (a traceback), --markdown beside an option whose run writes no
+    section (the page was left as it was, without a word): one usage line, exit 2, nothing run."""
+    (tmp_path / "bad.yaml").write_text(BAD_SCENE)
+    done = _tool(*(a.format(tmp=tmp_path) for a in args))
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.splitlines()[-1].startswith(f"{Path(args[0]).name}: error: {said.format(tmp=tmp_path)}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml"]
+
+
+def test_a_figure_goes_into_a_folder_made_for_it(tmp_path):
+    """check_figure lets a folder that can be made pass; save_figure makes it (spin_regimes and
+    glide_water wrote into it without making it: a traceback after the run)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    path = tmp_path / "new" / "sub" / "x.png"
+    parser = argparse.ArgumentParser()
+    assert options.check_figure(parser, path, "--figure") == path
+    options.save_figure(Figure(), path)
+    assert path.read_bytes().startswith(b"\x89PNG")
+
+
+def test_bench_accuracy_refuses_a_read_only_page_before_its_study(tmp_path):
+    """The page's permission bits, which root's writes ignore: the study ran to its end, replaced the
+    figure, and only then refused the page (a new figure beside the old table)."""
+    from components.analysis.accuracy import output_folder_problem
+
+    page = tmp_path / "accuracy.md"
+    page.write_text("# page\n")
+    page.chmod(0o444)
+    assert output_folder_problem(tmp_path) == f"{page} is read-only; it is not replaced"

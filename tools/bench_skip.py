@@ -40,6 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from cosim.docsection import replace_section  # noqa: E402
+from cosim.errors import CosimError, ScenarioError, one_line  # noqa: E402
 from cosim.record import writer as writer_module  # noqa: E402
 from cosim.runner import run_scene  # noqa: E402
 from cosim.scenario import load  # noqa: E402
@@ -118,7 +119,14 @@ def main(argv: list[str] | None = None) -> None:
                         help="the scene to run (default: the reference skip; another one's figures are not written)")
     args = parser.parse_args(argv)
     if not args.scene.is_file():
-        parser.error(f"--scene {args.scene}: no such file")
+        parser.error(f"--scene {args.scene}: {'a folder' if args.scene.is_dir() else 'no such file'}")
+    try:  # a scene that does not load is said before anything runs, in its own words
+        load(args.scene)
+    except ScenarioError as exc:
+        more = f" (and {len(exc.problems) - 1} more: cosim validate {args.scene})" if len(exc.problems) > 1 else ""
+        parser.error(f"--scene {args.scene}: {exc.problems[0] if exc.problems else one_line(str(exc))}{more}")
+    except CosimError as exc:
+        parser.error(f"--scene {args.scene}: {one_line(str(exc))}")
     if args.write and args.scene.resolve() != SCENE:
         parser.error(f"--write updates the reference skip's sections; {args.scene} is another scene")
     check_output(parser, args.write, "--write", text=True,

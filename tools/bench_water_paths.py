@@ -155,6 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--write", metavar="MARKDOWN", help="update the water-paths section of this file")
     args = ap.parse_args(argv)
     check_output(ap, args.write, "--write", text=True, sections=("water-paths",))
+    if min(args.sizes) < 2:  # a grid needs two columns each way: refused before anything runs
+        ap.error(f"--sizes: each at least 2 (got {min(args.sizes)})")
     load = [os.getloadavg()[0]]
     rows = []
     worst = 0.0

@@ -32,7 +32,7 @@ from components.water import WaterSurface  # noqa: E402
 from components.water.grid import GRAVITY  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
-from tools.options import check_output, description  # noqa: E402
+from tools.options import check_figure, description, save_figure  # noqa: E402
 
 FINE = ("components.pond.cell=0.005", "components.pond.nx=2800", "components.pond.ny=700",
         "components.pond.every=2")
@@ -130,7 +130,7 @@ def figure(path: Path, traces: list[Trace], long_speed: float, ripple_speed: flo
     bottom.grid(alpha=0.3)
     bottom.legend(fontsize=7.5, loc="upper right")
     fig.tight_layout()
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--figure", type=Path, help="draw the runs into this PNG")
     args = parser.parse_args(argv)
-    check_output(parser, args.figure, "--figure")
+    check_figure(parser, args.figure, "--figure")
     traces = []
     print("| water | skips | end | largest surface speed after the skips [m/s] | when [s] | "
           "the stone's speed then [m/s] |")

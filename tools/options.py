@@ -10,6 +10,7 @@ import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from cosim.record.output import nearest_existing, refuse_read_only
 from cosim.scheduler import Simulation
@@ -123,6 +124,27 @@ def check_output(parser: argparse.ArgumentParser, path: str | Path | None, optio
     if not os.access(folder, os.W_OK | os.X_OK):
         parser.error(f"{option} {path}: cannot write in {folder}")
     return path
+
+
+FIGURE_FORMATS = ("png", "pdf", "svg")  # what the tools' figures are written as, by their file's ending
+
+
+def check_figure(parser: argparse.ArgumentParser, path: str | Path | None, option: str) -> Path | None:
+    """:func:`check_output` for a figure, whose name must also end in a format it can be written as
+    (FIGURE_FORMATS): matplotlib refused any other after the whole run, with a traceback, and wrote a
+    name without an ending as NAME.png while the tool said it wrote NAME."""
+    path = check_output(parser, path, option)
+    if path is not None and path.suffix.lower().lstrip(".") not in FIGURE_FORMATS:
+        endings = ", ".join(f".{f}" for f in FIGURE_FORMATS)
+        parser.error(f"{option} {path}: a figure's name ends in {endings} (the format it is written as)")
+    return path
+
+
+def save_figure(fig: Any, path: Path) -> None:
+    """Write the matplotlib figure ``fig`` to ``path``, making its folder first (:func:`check_output`
+    lets one be made)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
 
 
 def figure_beside(page: str | Path, name: str) -> Path:

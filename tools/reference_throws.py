@@ -24,7 +24,7 @@ if str(ROOT) not in sys.path:
 
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import Simulation  # noqa: E402
-from tools.options import check_output, description  # noqa: E402
+from tools.options import check_figure, description, save_figure  # noqa: E402
 from tools.validate_scenes import Watch  # noqa: E402
 
 SCENE = ROOT / "scenarios" / "skip.yaml"
@@ -91,8 +91,7 @@ def figure(path: Path, runs: list[Path3]) -> None:
     for ax in (side, above):
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -100,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--figure", type=Path, help="draw the three paths into this PNG")
     args = parser.parse_args(argv)
-    check_output(parser, args.figure, "--figure")
+    check_figure(parser, args.figure, "--figure")
     runs = [throw(overrides) for _, overrides in THROWS]
     print(table(runs))
     if args.figure is not None:

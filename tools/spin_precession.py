@@ -35,7 +35,7 @@ from components.rigid.quaternion import body_axis  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
 from cosim.scenario import load  # noqa: E402
 from cosim.scheduler import BaseObserver, Simulation  # noqa: E402
-from tools.options import check_output, description  # noqa: E402
+from tools.options import check_figure, check_output, description, save_figure  # noqa: E402
 
 SPINS = [10.0, 14.0, 20.0, 30.0, 45.0, 65.0]  # [rev/s]
 CONTACTS_SHOWN = 3
@@ -237,8 +237,7 @@ def figure(path: Path, spins: list[float] = FIGURE_SPINS) -> None:
     fig.suptitle("Thin slate thrown free (R = 5 cm, 6 mm, 8 m/s, attack 20 deg): the water's torque turns "
                  "the spin axis", fontsize=10)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -309,14 +308,20 @@ def survey(workers: int = 2) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=description(__doc__))
+    # one of four things per run: the table (and its section), the survey, the figure, the lake's table
     ap.add_argument("--markdown", type=Path, help="rewrite the spin-precession section of this page")
-    ap.add_argument("--throws", action="store_true", help="count the skips of the survey's free throws instead")
-    ap.add_argument("--figure", type=Path, help="draw the axis through the first contact into this PNG")
-    ap.add_argument("--lake", action="store_true",
-                    help="the same for the lake's throw, with every effect and with the pressure alone")
+    what = ap.add_mutually_exclusive_group()
+    what.add_argument("--throws", action="store_true", help="count the skips of the survey's free throws instead")
+    what.add_argument("--figure", type=Path, help="draw the axis through the first contact into this PNG instead")
+    what.add_argument("--lake", action="store_true",
+                      help="the same table for the lake's throw, with every effect and with the pressure alone, "
+                           "instead")
     args = ap.parse_args(argv)
+    if args.markdown and (args.throws or args.figure or args.lake):  # (it was left as it was, without a word)
+        other = "--throws" if args.throws else "--figure" if args.figure else "--lake"
+        ap.error(f"--markdown rewrites the section of the thin slate's table, which {other} does not make")
     check_output(ap, args.markdown, "--markdown", text=True, sections=("spin-precession",))
-    check_output(ap, args.figure, "--figure")
+    check_figure(ap, args.figure, "--figure")
     if args.lake:
         print(lake_table())
         return 0

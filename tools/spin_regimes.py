@@ -21,7 +21,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from components.analysis import experiments as ex  # noqa: E402
-from tools.options import check_output, description  # noqa: E402
+from tools.options import check_figure, description, save_figure  # noqa: E402
 
 SPEED = 3.5  # [m/s]
 IMPACT = 20.0  # [deg]
@@ -60,7 +60,7 @@ def figure(path: Path, runs: list[ex.AttackHistory]) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1, frameon=False)
     fig.tight_layout()
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--figure", type=Path, help="draw the three regimes into this PNG")
     args = parser.parse_args(argv)
-    check_output(parser, args.figure, "--figure")
+    check_figure(parser, args.figure, "--figure")
     runs = histories()
     print("| regime | published | attack min / end [deg] | outcome |")
     print("|---|---|---:|---|")

@@ -31,7 +31,7 @@ from components.analysis import experiments  # noqa: E402
 from components.coupler import WaterCoupler, WaterCouplerParams  # noqa: E402
 from components.coupler.fixtures import body, pitched, still_water  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
-from tools.options import check_output, description  # noqa: E402
+from tools.options import check_figure, check_output, description, save_figure  # noqa: E402
 
 RADIUS = 0.025  # [m] Clanet et al.'s aluminium disk
 THICKNESS = 0.00275  # [m]
@@ -137,8 +137,7 @@ def plot(path: Path, series: list[tuple[str, list[float], np.ndarray]]) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower center", ncol=1)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -185,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--figure", type=Path, help="also draw the curve in this PNG")
     parser.add_argument("--markdown", type=Path, help="rewrite the magic-angle table in this markdown file")
     args = parser.parse_args(argv)
-    check_output(parser, args.figure, "--figure")
+    check_figure(parser, args.figure, "--figure")
     check_output(parser, args.markdown, "--markdown", text=True, sections=("magic-angle",))
     alphas = QUICK_ALPHAS if args.quick else ALPHAS
     step = 0.2 if args.quick else 0.1

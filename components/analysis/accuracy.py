@@ -44,7 +44,7 @@ import numpy as np
 
 from cosim.cli import positive_int, run_until_ns
 from cosim.docsection import replace_section, section_problem
-from cosim.record.output import nearest_existing, output_folder, written_whole
+from cosim.record.output import nearest_existing, output_folder, refuse_read_only, written_whole
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 SECTION = "accuracy-table"
@@ -639,6 +639,10 @@ def output_folder_problem(out_dir: Path) -> str | None:
             return f"{made} is not a file"
         if made.is_file() and not os.access(made, os.W_OK):
             return f"{made} cannot be written: no permission"
+        try:  # by its permission bits too: root may write anything, and the study's end refused it then
+            refuse_read_only(made)
+        except PermissionError:
+            return f"{made} is read-only; it is not replaced"
     if page.is_file():
         try:
             misplaced = section_problem(page.read_text(encoding="utf-8"), SECTION)
