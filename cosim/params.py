@@ -121,6 +121,13 @@ def show_value(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def whole_number(value: Any) -> Any:
+    """A count written as a float with no fraction (2.0, 1.0e+3; YAML reads a number with a point or an
+    exponent as a float) as the integer it is; any other value as it is. (2.0 was refused as "not an
+    integer", and 1e+19, past 2^63, as "non-integer", where its range is what is wrong with it.)"""
+    return int(value) if isinstance(value, float) and value.is_integer() else value
+
+
 UNQUOTED_NAMES = ("YAML reads null, ~, yes/no, on/off, true/false and numbers as values; quote the name "
                   "(e.g. 'off')")
 
@@ -180,6 +187,7 @@ def convert(tp: Any, value: Any, path: str, problems: list[str], rule: str = "")
             problems.append(f"{path}: must be finite (got {value})")
         return float(value)
     if tp is int:
+        value = whole_number(value)
         if isinstance(value, bool) or not isinstance(value, int):
             problems.append(f"{path}: must be an integer (got {show_value(value)})")
         elif not -INT_LIMIT <= value < INT_LIMIT:  # counts and sizes reach numpy and the kernels as int64

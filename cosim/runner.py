@@ -244,21 +244,20 @@ def collect_metrics(sim: Simulation) -> dict[str, float | int | str]:
 
 
 def _stepped_before_failure(outcome: RunOutcome) -> dict[int, list[str]]:
-    """The components that took their step in the base step where a component failed, before it did
-    (the scheduler steps them in order), by the time [ns] their step reached: their summary lines
-    are of that time, past the simulated time the run reports. Empty if the run did not fail in a
-    component's step."""
+    """The components whose last step reached past the time a failed run simulated to (the start of
+    the step where a component failed), by the time [ns] they reached: those stepped before it in
+    that step (the scheduler steps them in order), and a slower one whose step begun earlier spans
+    it. Their summary lines are of that time. Empty unless a component failed."""
     sim, error = outcome.simulation, outcome.result.error
-    if sim is None or not isinstance(error, SimulationError) or error.time_ns != sim.time_ns:
-        return {}
-    names = [runner.name for runner in sim.runners]
-    if error.component not in names:
+    if sim is None or not isinstance(error, SimulationError):
         return {}
     ahead: dict[int, list[str]] = {}
-    for runner in sim.runners[:names.index(error.component)]:
-        if sim.tick % runner.every == 0:
-            ahead.setdefault(sim.time_ns + runner.every * sim.dt_ns, []).append(runner.name)
-    return ahead
+    for runner in sim.runners:
+        # (its steps counted from t = 0, a restart's brought back with its state)
+        reached = runner.comp.step_count * runner.every * sim.dt_ns
+        if runner.name != error.component and reached > sim.time_ns:
+            ahead.setdefault(reached, []).append(runner.name)
+    return dict(sorted(ahead.items()))
 
 
 def _listed(names: list[str]) -> str:
@@ -295,7 +294,7 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
         others = ("" if sum(map(len, ahead.values())) == len(outcome.simulation.runners) - 1 else
                   f", the others' of {exact_seconds(r.error.time_ns)} s")
         times = "those times" if len(ahead) > 1 else "that time"
-        lines.append(f"  (in the step from {exact_seconds(r.error.time_ns)} s, before {r.error.component!r} failed, "
+        lines.append(f"  (when {r.error.component!r} failed in the step from {exact_seconds(r.error.time_ns)} s, "
                      f"{moved}: their figures below are of {times}{others})")
     lines += [f"  {line}" for line in outcome.summary]
     if outcome.recording is not None:

@@ -38,7 +38,16 @@ from cosim.codec.json_codec import CodecError, codec_for, json_kind
 from cosim.component import MAX_SUBSTEPS, Component, OnUnstable, step_and_bound, substep_count
 from cosim.errors import NO_ROOM, ScenarioError, one_line
 from cosim.messages import Message
-from cosim.params import UNQUOTED_NAMES, as_written, beyond_float, build, number_text, show_value, whole_digits
+from cosim.params import (
+    UNQUOTED_NAMES,
+    as_written,
+    beyond_float,
+    build,
+    number_text,
+    show_value,
+    whole_digits,
+    whole_number,
+)
 from cosim.registry import COMPONENT_KEYS, UnknownComponentType, check_contract, resolve
 from cosim.timebase import NS_PER_S, exact_seconds, seconds_to_ns, ticks_reaching
 
@@ -685,7 +694,7 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
                             f"{_nearest_multiples(step, step_ns, dt_ns)}")
             return None
         return step_ns // dt_ns
-    every = _whole_number(spec.get("every", 1))
+    every = whole_number(spec.get("every", 1))
     if isinstance(every, bool) or not isinstance(every, int):
         rounded = "; a non-integer rate ratio is not rounded" if isinstance(every, float) and math.isfinite(every) \
             else ""
@@ -699,13 +708,6 @@ def _rate(path: str, spec: dict, dt_ns: int | None, problems: list[str]) -> int 
                         f"{MAX_TIME_NS / NS_PER_S:.3g} s")
         return None
     return every
-
-
-def _whole_number(value: Any) -> Any:
-    """A count written as a float with no fraction (2.0, 1.0e+3; YAML reads a number with a point or an
-    exponent as a float) as the integer it is; any other value as it is. (Refused as "non-integer", 2.0
-    was; and 1e+19, past 2^63, too, where its range is what is wrong with it.)"""
-    return int(value) if isinstance(value, float) and value.is_integer() else value
 
 
 LARGEST_INITIAL = 1e15  # |value| of an edge's initial field beyond which it can only overflow the run
@@ -1396,7 +1398,7 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         # a time or rate beyond a float's range is refused by its own range below, not also as no float
         huge = {k for k in ("checkpoint_every", "visual_rate") if beyond_float(raw_record.get(k))}
         # a whole number of messages written as a float is that number, as a component's every is
-        given = {k: _whole_number(v) if k == "every" else v for k, v in raw_record.items()}
+        given = {k: whole_number(v) if k == "every" else v for k, v in raw_record.items()}
         built = build(RecordConfig, {k: v for k, v in given.items() if k not in huge}, "record", problems)
         typed = built is not None and len(problems) == record_problems_before and not huge
         if typed:

@@ -175,9 +175,10 @@ def test_a_failed_run_reports_the_time_it_ran():
 
 
 def test_a_failed_run_says_which_figures_are_of_the_step_that_failed():
-    """A component that fails mid-step: those stepped before it in that step are one step on, and the
-    summary says so (the stone's line was of 0.0885 s under "simulated 0.088 s"). A free fall under
-    semi-implicit Euler: 11 steps of 1 ms give 11 g dt, 10 give 10 g dt."""
+    """A component that fails mid-step: those stepped before it in that step are one step on, and so
+    is a slower one whose step spans it, and the summary says so (the stone's line was of 0.0885 s
+    under "simulated 0.088 s"). A free fall under semi-implicit Euler: n steps of 1 ms give n g dt.
+    A failure before any step says nothing of it (it said every body had stepped on)."""
     from cosim.runner import format_summary, run_scene
     from cosim.scenario import loads
 
@@ -186,20 +187,32 @@ def test_a_failed_run_says_which_figures_are_of_the_step_that_failed():
             "  slow: {type: RigidBody, shape: sphere, radius: 0.01, density: 1000, every: 2}\n"
             "  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n"
             "  late: {type: RigidBody, shape: sphere, radius: 0.01, density: 1000}\n")
-    scene = loads(text)
-    lines = format_summary(scene, run_scene(scene, None, progress=False)).splitlines()
+
+    def summary(scene_text: str) -> list[str]:
+        scene = loads(scene_text)
+        return format_summary(scene, run_scene(scene, None, progress=False)).splitlines()
+
+    def speeds(lines: list[str]) -> dict[str, str]:
+        return {line.split(":")[0].strip(): line.split("speed ")[1].split(" ")[0] for line in lines if "speed " in line}
+
+    def fell(steps: int) -> str:
+        return f"{steps * 9.81e-3:.4g}"
+
+    lines = summary(text)
     assert lines[1].startswith("  simulated 0.01 s in 10 steps")
-    assert lines[2] == ("  (in the step from 0.01 s, before 'bad' failed, early had stepped on to 0.011 s, and slow to "
+    assert lines[2] == ("  (when 'bad' failed in the step from 0.01 s, early had stepped on to 0.011 s, and slow to "
                         "0.012 s: their figures below are of those times, the others' of 0.01 s)")
-    speeds = {line.split(":")[0].strip(): line.split("speed ")[1].split(" ")[0] for line in lines[3:6]}
-    assert speeds == {"early": f"{11 * 9.81e-3:.4g}", "slow": f"{12 * 9.81e-3:.4g}", "late": f"{10 * 9.81e-3:.4g}"}
-    scene = loads(text.replace("fail_at: 0.01", "fail_at: 0.011"))  # slow does not step at 0.011 s
-    lines = format_summary(scene, run_scene(scene, None, progress=False)).splitlines()
-    assert lines[2] == ("  (in the step from 0.011 s, before 'bad' failed, early had stepped on to 0.012 s: their "
-                        "figures below are of that time, the others' of 0.011 s)")
-    scene = loads(text.replace("  early", "  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n  early", 1)
-                  .replace("  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n  late", "  late"))
-    assert "stepped on" not in format_summary(scene, run_scene(scene, None, progress=False))  # failed first
+    assert speeds(lines) == {"early": fell(11), "slow": fell(12), "late": fell(10)}
+    lines = summary(text.replace("fail_at: 0.01", "fail_at: 0.011"))  # slow's step from 0.01 s spans it
+    assert lines[2] == ("  (when 'bad' failed in the step from 0.011 s, early and slow had stepped on to 0.012 s: "
+                        "their figures below are of that time, the others' of 0.011 s)")
+    assert speeds(lines) == {"early": fell(12), "slow": fell(12), "late": fell(11)}
+    for failing_first in (text.replace("  early", "  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n  early", 1)
+                          .replace("  bad: {type: \"tests.toys:Faulty\", fail_at: 0.01}\n  late", "  late"),
+                          text.replace("fail_at: 0.01}", "mode: start}")):
+        lines = summary(failing_first)
+        assert "stepped on" not in "\n".join(lines)
+        assert set(speeds(lines).values()) == ({fell(10)} if "mode" not in failing_first else {"0"})
 
 
 def test_a_run_that_substeps_says_so_in_its_summary():

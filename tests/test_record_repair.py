@@ -19,6 +19,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from cosim.cli import main
+from cosim.errors import RecordingError
 from cosim.record.output import MCAP_MAGIC
 from cosim.record.reader import Recording
 from cosim.record.repair import repair
@@ -103,6 +104,10 @@ def test_a_whole_recording_damaged_in_its_header_has_the_header_written_anew(who
     data = bytearray(whole.read_bytes())
     data[at] ^= flip
     damaged = _written(tmp_path, "damaged.mcap", bytes(data))
+    with pytest.raises(RecordingError) as refused:  # what inspect and replay say of it
+        Recording(damaged)
+    assert str(refused.value).endswith(f"its header record (byte 8) is damaged ({said}) (cosim repair makes it a "
+                                       "valid recording, its header written anew)")
     with pytest.warns(UserWarning) as given:
         assert main(["repair", str(damaged), "-o", str(tmp_path / "mended.mcap")]) == 0
     assert [str(w.message) for w in given] == [

@@ -258,19 +258,26 @@ def test_a_whole_every_beyond_the_range_is_said_out_of_range_not_a_fraction(writ
     assert len(info.value.problems) == 1 and re.search(said, info.value.problems[0]), info.value.problems
 
 
-def test_a_whole_record_every_written_as_a_float_is_that_whole_number():
-    """record.every: 2.0 is 2, as a component's every: 2.0 is (it was "must be an integer (got 2.0)");
-    2.5 is still refused."""
+def test_a_whole_count_written_as_a_float_is_that_whole_number():
+    """record.every: 2.0 is 2, and so is a component's count (a pond's nx: 20.0), as a component's
+    every: 2.0 is (each was "must be an integer (got 2.0)"); 2.5 is still refused."""
     text = scene_with('a: {type: "tests.toys:Gain"}')
     assert loads(text + "record: {every: 2.0}\n").record.every == 2
     with pytest.raises(ScenarioError) as info:
         loads(text + "record: {every: 2.5}\n")
     assert info.value.problems == ["record.every: must be an integer (got 2.5)"]
+    pond = scene_with("pond: {type: WaterSurface, nx: 20.0, ny: 1.2e+1}")
+    params = loads(pond).components["pond"].params
+    assert (params.nx, params.ny) == (20, 12) and isinstance(params.nx, int)
+    with pytest.raises(ScenarioError) as info:
+        loads(pond.replace("20.0", "20.5"))
+    assert info.value.problems == ["components.pond.nx: must be an integer (got 20.5)"]
 
 
 @pytest.mark.parametrize(("rows", "why"), [
-    ("[[1, 2], [3]]", "its nested lists are not all of one length"),
-    ("[[1, 2], [3, x]]", "its values must be float64 numbers"),
+    ("[[1, 2], [3]]", "bad array (its nested lists are not all of one length)"),
+    ("[[1, 2], [3, x]]", "bad array (its values must be float64 numbers)"),
+    ("[1, 2]", "shape (2,) does not match (None, None)"),  # an array, of the wrong shape: said as such
 ])
 def test_an_initial_array_that_is_no_array_is_said_in_the_scenes_words(rows, why):
     """An edge's initial array of ragged rows, or of a word: said as the rule (it quoted numpy: "setting
@@ -279,4 +286,4 @@ def test_an_initial_array_that_is_no_array_is_said_in_the_scenes_words(rows, why
     assert "initial: {i0: 0, j0: 0, b: []}" in text
     with pytest.raises(ScenarioError) as info:
         loads(text.replace("initial: {i0: 0, j0: 0, b: []}", f"initial: {{i0: 0, j0: 0, b: {rows}}}"))
-    assert info.value.problems == [f"connections.4.initial: field 'b': bad array ({why})"]
+    assert info.value.problems == [f"connections.4.initial: field 'b': {why}"]

@@ -136,7 +136,7 @@ def figure(path: Path, traces: list[Trace], long_speed: float, ripple_speed: flo
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
-    parser.add_argument("--figure", type=Path, help="draw the runs into this PNG")
+    parser.add_argument("--figure", type=Path, help="draw the runs into this figure (.png, .pdf or .svg)")
     args = parser.parse_args(argv)
     check_figure(parser, args.figure, "--figure")
     traces = []

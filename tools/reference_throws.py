@@ -97,7 +97,7 @@ def figure(path: Path, runs: list[Path3]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
-    parser.add_argument("--figure", type=Path, help="draw the three paths into this PNG")
+    parser.add_argument("--figure", type=Path, help="draw the three paths into this figure (.png, .pdf or .svg)")
     args = parser.parse_args(argv)
     check_figure(parser, args.figure, "--figure")
     runs = [throw(overrides) for _, overrides in THROWS]

@@ -312,7 +312,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--markdown", type=Path, help="rewrite the spin-precession section of this page")
     what = ap.add_mutually_exclusive_group()
     what.add_argument("--throws", action="store_true", help="count the skips of the survey's free throws instead")
-    what.add_argument("--figure", type=Path, help="draw the axis through the first contact into this PNG instead")
+    what.add_argument("--figure", type=Path,
+                      help="draw the axis through the first contact into this figure (.png, .pdf or .svg) instead")
     what.add_argument("--lake", action="store_true",
                       help="the same table for the lake's throw, with every effect and with the pressure alone, "
                            "instead")

@@ -66,7 +66,7 @@ def figure(path: Path, runs: list[ex.AttackHistory]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
-    parser.add_argument("--figure", type=Path, help="draw the three regimes into this PNG")
+    parser.add_argument("--figure", type=Path, help="draw the three regimes into this figure (.png, .pdf or .svg)")
     args = parser.parse_args(argv)
     check_figure(parser, args.figure, "--figure")
     runs = histories()

@@ -181,7 +181,7 @@ def table(series: list[tuple[str, list[float], tuple[np.ndarray, list[list[float
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=description(__doc__))
     parser.add_argument("--quick", action="store_true", help="fewer angles and a coarser search")
-    parser.add_argument("--figure", type=Path, help="also draw the curve in this PNG")
+    parser.add_argument("--figure", type=Path, help="also draw the curve in this figure (.png, .pdf or .svg)")
     parser.add_argument("--markdown", type=Path, help="rewrite the magic-angle table in this markdown file")
     args = parser.parse_args(argv)
     check_figure(parser, args.figure, "--figure")

@@ -133,6 +133,16 @@ def _array_out(spec: Array, name: str) -> Callable[[Any], Any]:
     return enc_b64
 
 
+def _not_an_array(value: list, dtype: np.dtype) -> str:
+    """Why the nested lists ``value`` make no array of ``dtype``: rows of different lengths (what
+    numpy leaves as lists inside an array of objects), else values that are no numbers of its kind."""
+    try:
+        ragged = any(isinstance(item, list) for item in np.array(value, dtype=object).ravel())
+    except ValueError:  # (lists nested to different depths that not even objects line up)
+        ragged = True
+    return "its nested lists are not all of one length" if ragged else f"its values must be {dtype.name} numbers"
+
+
 def _array_in(spec: Array, name: str) -> Callable[[Any], np.ndarray]:
     dtype = np.dtype(spec.dtype)
 
@@ -156,14 +166,11 @@ def _array_in(spec: Array, name: str) -> Callable[[Any], np.ndarray]:
     def dec_b64(value: Any) -> np.ndarray:
         if isinstance(value, list):  # plain nested lists, as written by hand in a scene's `initial`
             try:
-                return finish(np.array(value, dtype=dtype).reshape(
-                    [0] * len(spec.shape) if not value or value == [[]] else np.shape(value)))
-            except ValueError as exc:
+                arr = np.array(value, dtype=dtype)
+            except (ValueError, TypeError):
                 # in the scene's words, not numpy's ("setting an array element with a sequence ...")
-                ragged = "inhomogeneous" in str(exc) or "sequence" in str(exc)
-                why = ("its nested lists are not all of one length" if ragged else
-                       f"its values must be {dtype.name} numbers")
-                raise CodecError(f"field {name!r}: bad array ({why})") from None
+                raise CodecError(f"field {name!r}: bad array ({_not_an_array(value, dtype)})") from None
+            return finish(arr.reshape([0] * len(spec.shape) if not value or value == [[]] else np.shape(value)))
         try:
             raw = base64.b64decode(value["base64"], validate=True)
             arr = np.frombuffer(raw, dtype=np.dtype(value["dtype"])).reshape(value["shape"])

@@ -126,13 +126,18 @@ def _damage(path: Path) -> tuple[str, str]:
         # (a byte changed near its start: repair was said to make it a recording, then refused it)
         lost = "its run's description" if METADATA_NAME not in metadata else "its scene"
         return where, f"it takes {lost} with it, so cosim repair cannot make it a recording"
-    last, it = damage[-1], ("it" if len(damage) == 1 else "them")
+    last = damage[-1]
+    left_out = [d for d in damage if not d.mended]  # (a damaged header is written anew, not left out)
+    it = "it" if len(left_out) == 1 else "them"
     if not last.resumed:
         upto = "it" if len(damage) == 1 else "the last (leaving the others out)"
         if not last.kept_before:
             return where, f"no whole message precedes {upto}, so cosim repair keeps nothing: {last.why_stopped}"
         return where, f"cosim repair keeps only the {last.kept_before} messages before {upto}: {last.why_stopped}"
-    return where, f"cosim repair makes what it holds a valid recording, leaving {it} out"
+    if not left_out:
+        return where, "cosim repair makes it a valid recording, its header written anew"
+    mended = ", its header written anew" if len(left_out) < len(damage) else ""
+    return where, f"cosim repair makes what it holds a valid recording, leaving {it} out{mended}"
 
 
 @dataclass
