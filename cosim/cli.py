@@ -310,12 +310,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
         check_channel_patterns(scene, perf=True)  # (a run may add /perf/tick with --perf)
     print(f"{one_line(args.scene)}: ok - scene {scene.name!r}: {counted(len(scene.components), 'component')}, "
-          f"{counted(len(scene.connections), 'connection')}, dt = {scene.dt:g} s, "
+          f"{counted(len(scene.connections), 'connection')}, dt = {exact_seconds(scene.dt_ns)} s, "
           f"until = {exact_seconds(scene.until_ns)} s")
     print(f"  order within a tick: {' -> '.join(scene.order)}")
     for name in scene.order:
         cfg = scene.components[name]
-        print(f"  {name}: {cfg.type_name}, every {cfg.every} ({cfg.every * scene.dt:g} s), "
+        print(f"  {name}: {cfg.type_name}, every {cfg.every} ({exact_seconds(cfg.every * scene.dt_ns)} s), "
               f"on_unstable {cfg.on_unstable}")
     for conn in scene.connections:
         print(f"  {conn}")

@@ -214,6 +214,17 @@ def _bounds_text(meta: dict[str, Any]) -> str:
     return rule + unit if rule else ""
 
 
+def _beside_bound(value: float) -> str:
+    """A refused value as :g writes it where that is the value itself, else every digit it has: :g
+    wrote 1000001 as 1e+06, the very bound it was refused for."""
+    short = f"{value:g}"
+    if float(short) == value:
+        return short
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e16:
+        return str(int(value))  # (1000001, not 1000001.0: a whole number as it was written)
+    return repr(value)
+
+
 def _bounds(meta: dict[str, Any], value: Any, path: str, problems: list[str]) -> None:
     if not isinstance(value, (int, float)) or isinstance(value, bool):
         return
@@ -222,7 +233,7 @@ def _bounds(meta: dict[str, Any], value: Any, path: str, problems: list[str]) ->
                           ("lt", lambda v, b: v < b, "<"), ("le", lambda v, b: v <= b, "<=")):
         bound = meta.get(key)
         if bound is not None and not ok(value, bound):
-            problems.append(f"{path}: must be {word} {bound:g}{unit} (got {value:g})")
+            problems.append(f"{path}: must be {word} {bound:g}{unit} (got {_beside_bound(value)})")
 
 
 def build(cls: type, data: Any, path: str, problems: list[str], beside: tuple[str, ...] = ()) -> Any:

@@ -24,7 +24,7 @@ from cosim.record.recorder import PERF_TOPIC, Recorder, physics_topics
 from cosim.record.writer import SinkError
 from cosim.scenario import Scene
 from cosim.scheduler import RunResult, Simulation
-from cosim.timebase import exact_seconds
+from cosim.timebase import exact_milliseconds, exact_seconds
 
 COMPILE_NOTE_S = 0.05  # compiling shorter than this [s] goes unmentioned in the summary
 
@@ -278,7 +278,7 @@ def format_summary(scene: Scene, outcome: RunOutcome) -> str:
                  "load them from disk)" + (f"; {rate} (compiling left out)" if rate else ""))
     since = f" from t = {exact_seconds(r.start_ns)} s" if r.start_ns else ""
     lines.append(f"  simulated {exact_seconds(r.simulated_ns)} s{since} in {counted(r.steps, 'step')} of "
-                 f"{scene.dt * 1e3:g} ms ({counted(r.component_steps, 'component step')}); {speed}")
+                 f"{exact_milliseconds(scene.dt_ns)} ms ({counted(r.component_steps, 'component step')}); {speed}")
     if r.start_ns and outcome.summary:  # a restart: the components' counters came back with their state
         lines.append(f"  (the components' figures below count from t = 0: the checkpoint at "
                      f"{exact_seconds(r.start_ns)} s brought back their totals)")

@@ -57,6 +57,12 @@ def exact_seconds(ns: int) -> str:
     return f"{'-' if ns < 0 else ''}{whole}{'.' + digits if digits else ''}"
 
 
+def exact_milliseconds(ns: int) -> str:
+    """A time of ``ns`` whole nanoseconds in milliseconds, every digit it has and no more (``0.5``,
+    ``1.234567``), as :func:`exact_seconds` writes seconds."""
+    return exact_seconds(ns * 1000)
+
+
 def step_decimals(step_ns: int) -> int:
     """The decimals [of a second] a time on a grid of ``step_ns`` needs to be written exactly: 4 for
     0.5 ms, 5 for 0.25 ms, 3 for 1 ms, 0 for whole seconds."""

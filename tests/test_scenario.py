@@ -287,3 +287,30 @@ def test_an_initial_array_that_is_no_array_is_said_in_the_scenes_words(rows, why
     with pytest.raises(ScenarioError) as info:
         loads(text.replace("initial: {i0: 0, j0: 0, b: []}", f"initial: {{i0: 0, j0: 0, b: {rows}}}"))
     assert info.value.problems == [f"connections.4.initial: field 'b': {why}"]
+
+
+@pytest.mark.parametrize(("component", "said"), [
+    ("b: {type: RigidBody, density: 1000001}", "components.b.density: must be <= 1e+06 kg/m^3 (got 1000001)"),
+    ("pond: {type: WaterSurface, depth: 100000.4}", "components.pond.depth: must be <= 100000 m (got 100000.4)"),
+    ("b: {type: RigidBody, density: 0}", "components.b.density: must be > 0 kg/m^3 (got 0)"),
+])
+def test_a_value_beside_its_bound_is_said_as_written(component, said):
+    """:g wrote 1000001 as 1e+06, the very bound it was refused for ("must be <= 1e+06 kg/m^3 (got
+    1e+06)"); a value :g writes exactly is written so."""
+    with pytest.raises(ScenarioError) as info:
+        loads(scene_with(component))
+    assert said in info.value.problems
+
+
+def test_validate_and_the_run_summary_give_the_step_with_every_digit(tmp_path, capsys):
+    """dt = 0.001234567 s was "0.00123457 s" in validate (its until was exact beside it) and "steps
+    of 1.23457 ms" in the run's summary."""
+    from cosim.cli import main
+
+    scene = tmp_path / "s.yaml"
+    scene.write_text(scene_with('a: {type: "tests.toys:Gain", every: 2}').replace("dt: 0.001", "dt: 0.001234567"))
+    assert main(["validate", str(scene)]) == 0
+    said = capsys.readouterr().out
+    assert "dt = 0.001234567 s" in said and "a: tests.toys:Gain, every 2 (0.002469134 s)" in said
+    assert main(["run", str(scene), "--no-record", "--until", "0.01"]) == 0
+    assert " steps of 1.234567 ms " in capsys.readouterr().out
