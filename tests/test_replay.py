@@ -429,6 +429,20 @@ def test_restarts_from_checkpoints_apart_by_less_than_six_digits_are_named_apart
     assert sorted(p.name for p in tmp_path.glob("fine-from*.mcap")) == ["fine-from10.00004s.mcap", "fine-from10s.mcap"]
     assert "from t = 10.00004 s (a restart)" in describe_recording(Recording(tmp_path / "fine-from10.00004s.mcap"))
 
+def test_a_restarts_time_span_begins_where_its_messages_do(tmp_path):
+    """A restart recording only channels with nothing at its checkpoint's time: inspect gave its span
+    from the first message (0.999 s) but said it ran "from t = 1 s"; it says from where."""
+    from cosim.cli import main
+    from cosim.record.describe import describe_recording
+
+    run, restart = tmp_path / "pp.mcap", tmp_path / "pong.mcap"
+    assert main(["run", str(SCENES / "ping_pong.yaml"), "-q", "--until", "3", "-o", str(run)]) == 0
+    assert main(["replay", str(run), "--from", "1", "--until", "2", "-q", "--set", "record.checkpoint_every=0",
+                 "--set", "record.channels=[/pong/*]", "-o", str(restart)]) == 0
+    said = describe_recording(Recording(restart))
+    assert "  time span: 0.999 s from t = 1.001 s (a restart from t = 1 s), " in said
+
+
 def test_a_restart_decodes_only_its_checkpoint_and_a_damaged_one_elsewhere_does_not_stop_it(recording, tmp_path,
                                                                                              monkeypatch):
     """--from T decoded every checkpoint in the file to use one (as costly as reading the file), and

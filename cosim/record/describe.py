@@ -63,7 +63,12 @@ def describe_recording(rec: Recording) -> str:
     if rec.overrides:
         lines.append(f"  overrides: {one_line(', '.join(rec.overrides))}")
     span = exact_seconds((rec.end_ns or 0) - (rec.start_ns or 0))
-    since = f" from t = {exact_seconds(rec.restart_ns)} s (a restart)" if rec.restart_ns else ""
+    since = ""
+    if rec.restart_ns:
+        # the span is of its messages: one that recorded nothing at its restart's time begins later
+        first = rec.start_ns if rec.start_ns is not None and rec.start_ns > rec.restart_ns else rec.restart_ns
+        later = f" from t = {exact_seconds(rec.restart_ns)} s" if first != rec.restart_ns else ""
+        since = f" from t = {exact_seconds(first)} s (a restart{later})"
     status = rec.status()
     # a component stepping every few ticks stamps its outputs at its step's end, which can lie past the
     # tick the run stopped at: said, so that the two times do not read as a contradiction
