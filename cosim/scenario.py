@@ -1397,17 +1397,16 @@ def loads(text: str, source: str = "<string>", overrides: list[str] | None = Non
         record_problems_before = len(problems)
         # a time or rate beyond a float's range is refused by its own range below, not also as no float
         huge = {k for k in ("checkpoint_every", "visual_rate") if beyond_float(raw_record.get(k))}
-        # a whole number of messages written as a float is that number, as a component's every is
-        given = {k: whole_number(v) if k == "every" else v for k, v in raw_record.items()}
-        built = build(RecordConfig, {k: v for k, v in given.items() if k not in huge}, "record", problems)
+        built = build(RecordConfig, {k: v for k, v in raw_record.items() if k not in huge}, "record", problems)
         typed = built is not None and len(problems) == record_problems_before and not huge
         if typed:
             record = built
         # the ranges, also of the values that are numbers when another record key is wrong (they were
-        # said only once that one was mended)
-        values = record if typed else RecordConfig(**{k: v for k, v in given.items()
-                                                      if k in RECORD_NUMBERS and _plain_number(v)
-                                                      and (k != "every" or isinstance(v, int))})
+        # said only once that one was mended); every read as build reads an int (2.0 is 2)
+        numbers = {k: whole_number(v) if k == "every" else v for k, v in raw_record.items()
+                   if k in RECORD_NUMBERS and _plain_number(v)}
+        values = record if typed else RecordConfig(**{k: v for k, v in numbers.items()
+                                                      if k != "every" or isinstance(v, int)})
         if values.every < 1:
             problems.append(f"record.every: must be >= 1 (got {values.every})")
         if values.visual_rate < 0:

@@ -30,7 +30,7 @@ if str(ROOT) not in sys.path:
 from components.analysis import experiments as ex  # noqa: E402
 from components.coupler.forces import C_FRICTION, C_LIFT  # noqa: E402
 from cosim.docsection import replace_section  # noqa: E402
-from tools.options import check_output, command_line, description, figure_beside, positive_int  # noqa: E402
+from tools.options import check_output, command_line, description, figure_beside, positive_int, save_figure  # noqa: E402
 from tools.validate_scenes import skip_impulses  # noqa: E402
 
 ALPHAS = [5.0, 10.0, 15.0, 17.5, 20.0, 22.5, 25.0, 30.0, 35.0, 40.0, 45.0]  # [deg]
@@ -488,8 +488,7 @@ def _figure(path: Path, curves: dict[float, list[float]]) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower center")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
